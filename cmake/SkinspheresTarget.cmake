@@ -1,0 +1,28 @@
+# skinspheres_library(NAME <folder> DEPS <targets...>)
+# One library per top-level folder: sources are <folder>/src/*.cc, public headers live in
+# <folder>/include/skinspheres/<folder>/, exported as skinspheres::<folder>.
+function(skinspheres_warnings target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wno-maybe-uninitialized)
+  if(SKINSPHERES_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
+endfunction()
+
+function(skinspheres_library name)
+  cmake_parse_arguments(ARG "" "" "PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/src/*.cc)
+  add_library(skinspheres_${name} ${sources})
+  add_library(skinspheres::${name} ALIAS skinspheres_${name})
+  set_target_properties(skinspheres_${name} PROPERTIES OUTPUT_NAME skinspheres_${name} EXPORT_NAME ${name})
+  target_include_directories(skinspheres_${name} PUBLIC
+    $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  target_link_libraries(skinspheres_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+  target_compile_features(skinspheres_${name} PUBLIC cxx_std_20)
+  skinspheres_warnings(skinspheres_${name})
+  install(TARGETS skinspheres_${name} EXPORT skinspheresTargets
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+  install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+endfunction()

@@ -1,0 +1,1 @@
+#include "skinspheres/lib/raw_character.h"

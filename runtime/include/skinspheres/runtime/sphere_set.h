@@ -1,0 +1,89 @@
+// SphereSet: the fitted spheres of one character, the contract between the offline fitter
+// (skinspheres::lib writes it) and the runtime (reads it, never links Assimp).
+//
+// Everything is in the rest pose, in the world space of the source file (no rescaling, glTF +Y up).
+// Per-sphere data is stored as parallel arrays (structure of arrays) plus CSR lists:
+//   sphere s owns source vertices  vertices[vertex_offsets[s] .. vertex_offsets[s+1])
+//   and source triangles           triangles[triangle_offsets[s] .. triangle_offsets[s+1])
+// Vertex and triangle indices count the source file's own vertices and triangles, mesh by mesh
+// and primitive by primitive in file order, so an engine can pass its own skinned buffer.
+//
+// Fast refit (no vertex skinning) reads, per sphere, the joints that influence its vertices with
+// their blend weights, and radius_fast: the radius around center_rest that holds every copy of
+// every source vertex carried rigidly by each of its joints at rest (equal to the plain radius when
+// the file's rest pose is its bind pose).
+//
+// On disk: JSON, {"format":"skinspheres.sphere_set","version":1,...} (sphere_set_io.h).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "skinspheres/runtime/error.h"
+
+namespace skinspheres::runtime {
+
+inline constexpr const char* kSphereSetFormat = "skinspheres.sphere_set";
+inline constexpr int kSphereSetVersion = 1;
+
+enum class ExclusionReason : uint8_t {
+  kSameJoint = 0,       // both spheres belong to the same joint
+  kAdjacentJoints = 1,  // their joints are within the configured number of hops in the skeleton
+  kBindOverlap = 2,     // they already overlap in the rest pose
+};
+const char* ToString(ExclusionReason reason);
+std::optional<ExclusionReason> ExclusionReasonFromString(std::string_view text);
+
+struct ExcludedPair {
+  uint32_t i = 0;  // i < j
+  uint32_t j = 0;
+  ExclusionReason reason = ExclusionReason::kSameJoint;
+};
+
+struct SpherePart {
+  std::string name;                // "torso", "head", "arm_l", "arm_r", "leg_l", "leg_r", or chain names
+  std::vector<uint32_t> joints;    // skeleton joint indices
+};
+
+struct SphereSet {
+  // Where it came from.
+  std::string source_file;
+  uint32_t source_vertex_count = 0;
+  uint32_t source_triangle_count = 0;
+  std::string params_json = "{}";  // the fit parameters, as written by the fitter (JSON object text)
+
+  // The skeleton it was fitted on (for matching an instance's joints, and for fast refit).
+  std::vector<std::string> joint_names;
+  std::vector<int32_t> joint_parents;              // -1 for roots, parents[i] < i
+  std::vector<Eigen::Matrix4f> joint_rest_world;   // G_j at rest
+
+  std::vector<SpherePart> parts;
+
+  // Per sphere (all of size size()).
+  std::vector<Eigen::Vector3f> centers_rest;
+  std::vector<float> radii_rest;
+  std::vector<float> radii_fast;         // >= radii_rest; see the header comment
+  std::vector<uint16_t> sphere_part;     // index into parts
+  std::vector<uint16_t> sphere_joint;    // dominant joint of the owned triangles
+  std::vector<uint16_t> sphere_level;    // disk level within its part (paper §4.3)
+
+  // CSR lists (offsets have size()+1 entries).
+  std::vector<uint32_t> vertex_offsets, vertices;
+  std::vector<uint32_t> triangle_offsets, triangles;
+  std::vector<uint32_t> influence_offsets;
+  std::vector<uint16_t> influence_joints;
+  std::vector<float> influence_weights;  // sum to 1 per sphere
+
+  std::vector<ExcludedPair> excluded_pairs;  // sorted by (i, j), i < j, unique
+
+  size_t size() const { return centers_rest.size(); }
+  size_t joint_count() const { return joint_names.size(); }
+  // Every reason the set is inconsistent (sizes, offsets, index ranges, NaNs, pair order);
+  // std::nullopt when it is sound.
+  std::optional<Error> Validate() const;
+};
+
+}  // namespace skinspheres::runtime

@@ -1,0 +1,98 @@
+#include "skinspheres/runtime/sphere_set.h"
+
+#include <cmath>
+#include <string>
+
+namespace skinspheres::runtime {
+
+const char* ToString(ExclusionReason reason) {
+  switch (reason) {
+    case ExclusionReason::kSameJoint: return "same_joint";
+    case ExclusionReason::kAdjacentJoints: return "adjacent_joints";
+    case ExclusionReason::kBindOverlap: return "bind_overlap";
+  }
+  return "unknown";
+}
+
+std::optional<ExclusionReason> ExclusionReasonFromString(std::string_view text) {
+  if (text == "same_joint") return ExclusionReason::kSameJoint;
+  if (text == "adjacent_joints") return ExclusionReason::kAdjacentJoints;
+  if (text == "bind_overlap") return ExclusionReason::kBindOverlap;
+  return std::nullopt;
+}
+
+namespace {
+
+Error Invalid(const std::string& what) { return MakeError(ErrorCode::kInvalidData, what); }
+
+// Offsets of a CSR list: n+1 entries, starting at 0, non-decreasing, ending at the list's size.
+bool CsrOk(const std::vector<uint32_t>& offsets, size_t n, size_t list_size) {
+  if (offsets.size() != n + 1 || offsets.front() != 0 || offsets.back() != list_size) return false;
+  for (size_t s = 0; s < n; ++s) {
+    if (offsets[s] > offsets[s + 1]) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::optional<Error> SphereSet::Validate() const {
+  const size_t n = size();
+  const size_t joints = joint_count();
+  if (joint_parents.size() != joints || joint_rest_world.size() != joints) {
+    return Invalid("skeleton arrays disagree in size");
+  }
+  for (size_t j = 0; j < joints; ++j) {
+    if (joint_parents[j] < -1 || joint_parents[j] >= static_cast<int32_t>(j)) {
+      return Invalid("joint " + std::to_string(j) + " has parent " + std::to_string(joint_parents[j]) +
+                     " (parents must come first)");
+    }
+    if (!joint_rest_world[j].allFinite()) return Invalid("joint " + std::to_string(j) + " rest transform is not finite");
+  }
+  for (const auto& part : parts) {
+    for (uint32_t j : part.joints) {
+      if (j >= joints) return Invalid("part " + part.name + " names joint " + std::to_string(j) + " out of range");
+    }
+  }
+  if (radii_rest.size() != n || radii_fast.size() != n || sphere_part.size() != n ||
+      sphere_joint.size() != n || sphere_level.size() != n) {
+    return Invalid("per-sphere arrays disagree in size");
+  }
+  if (!CsrOk(vertex_offsets, n, vertices.size())) return Invalid("sphere vertex lists are malformed");
+  if (!CsrOk(triangle_offsets, n, triangles.size())) return Invalid("sphere triangle lists are malformed");
+  if (!CsrOk(influence_offsets, n, influence_joints.size()) || influence_weights.size() != influence_joints.size()) {
+    return Invalid("sphere influence lists are malformed");
+  }
+  for (size_t s = 0; s < n; ++s) {
+    const std::string id = "sphere " + std::to_string(s);
+    if (!centers_rest[s].allFinite() || !std::isfinite(radii_rest[s]) || radii_rest[s] < 0.0f) {
+      return Invalid(id + " has a non-finite centre or a negative radius");
+    }
+    if (!std::isfinite(radii_fast[s]) || radii_fast[s] < radii_rest[s]) {
+      return Invalid(id + " has a fast radius below its radius");
+    }
+    if (sphere_part[s] >= parts.size()) return Invalid(id + " names part " + std::to_string(sphere_part[s]) + " out of range");
+    if (sphere_joint[s] >= joints) return Invalid(id + " names joint " + std::to_string(sphere_joint[s]) + " out of range");
+  }
+  for (uint32_t v : vertices) {
+    if (v >= source_vertex_count) return Invalid("a sphere names vertex " + std::to_string(v) + " out of range");
+  }
+  for (uint32_t t : triangles) {
+    if (t >= source_triangle_count) return Invalid("a sphere names triangle " + std::to_string(t) + " out of range");
+  }
+  for (size_t k = 0; k < influence_joints.size(); ++k) {
+    if (influence_joints[k] >= joints) return Invalid("a sphere influence names joint out of range");
+    if (!(influence_weights[k] >= 0.0f) || !std::isfinite(influence_weights[k])) return Invalid("a sphere influence weight is negative or not finite");
+  }
+  for (size_t k = 0; k < excluded_pairs.size(); ++k) {
+    const auto& p = excluded_pairs[k];
+    if (p.i >= p.j || p.j >= n) return Invalid("excluded pair " + std::to_string(k) + " is not i < j < sphere count");
+    if (k > 0) {
+      const auto& q = excluded_pairs[k - 1];
+      if (q.i > p.i || (q.i == p.i && q.j >= p.j)) return Invalid("excluded pairs are not sorted and unique");
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace skinspheres::runtime

@@ -1,0 +1,32 @@
+// SkinnedMesh: what linear blend skinning reads for a set of vertices.
+//
+// A vertex is skinned as  p' = Σ_k w_k · (G_{joint(b_k)} · IBM_{b_k}) · p_bind  where b_k are
+// *bind entries*: a (joint, inverse bind matrix) pair. One glTF skin gives one entry per skin
+// joint; several skins that share a skeleton add entries only where their inverse bind matrices
+// differ; a rigid mesh hanging under a joint gets an entry with IBM = G_joint(rest)^-1 and its
+// vertices baked to world rest positions. Weights are normalised per vertex (sum 1).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+namespace skinspheres::skinning {
+
+struct BindEntry {
+  int32_t joint = -1;                                        // Skeleton joint index
+  Eigen::Matrix4f inverse_bind = Eigen::Matrix4f::Identity();
+};
+
+struct SkinnedMesh {
+  std::vector<Eigen::Vector3f> positions_bind;  // per vertex, in the space IBMs map from
+  std::vector<BindEntry> binds;
+  // Influences in CSR form: vertex v uses [influence_offsets[v], influence_offsets[v+1]).
+  std::vector<uint32_t> influence_offsets;      // vertex_count() + 1
+  std::vector<uint16_t> influence_binds;        // index into binds
+  std::vector<float> influence_weights;         // > 0, sum to 1 per vertex
+
+  size_t vertex_count() const { return positions_bind.size(); }
+};
+
+}  // namespace skinspheres::skinning

@@ -1,0 +1,25 @@
+// Helpers shared by the tests: where the shared characters are, temporary files.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace skinspheres::test {
+
+// The shared characters folder (../shared/assets from the project root), or empty when absent.
+std::filesystem::path AssetDir();
+// Full path of a shared character, or empty when it is not there.
+std::filesystem::path Asset(const std::string& file_name);
+// The four shared characters' file names.
+const std::vector<std::string>& SharedCharacters();
+// A fresh, empty folder under the build tree for this test's files.
+std::filesystem::path TempDir(const std::string& name);
+
+}  // namespace skinspheres::test
+
+// Skips the current test with a message when a shared character is missing.
+#define SKINSPHERES_REQUIRE_ASSET(path_var, file_name)                                   \
+  const std::filesystem::path path_var = ::skinspheres::test::Asset(file_name);          \
+  if (path_var.empty()) GTEST_SKIP() << "shared asset " << (file_name)                   \
+                                     << " not found under " SKINSPHERES_ASSET_DIR
