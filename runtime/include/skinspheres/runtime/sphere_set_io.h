@@ -1,0 +1,31 @@
+// Reading and writing a SphereSet as JSON (the versioned on-disk contract between the fitter
+// and the runtime). Runtime code reads it without Assimp.
+//
+// {"format":"skinspheres.sphere_set","version":1,
+//  "source":{"file","vertices","triangles"}, "params":{...},
+//  "skeleton":{"joints":[{"name","parent","rest_world":[16 floats, column-major]}]},
+//  "parts":[{"name","joints":[joint indices]}],
+//  "spheres":[{"id","part","joint","level","center":[x,y,z],"radius","radius_fast",
+//              "vertices":[...],"triangles":[...],"influences":[[joint,weight],...]}],
+//  "excluded_pairs":[[i,j,"same_joint"|"adjacent_joints"|"bind_overlap"],...]}
+// Everything in the rest pose, in the source file's world space. Sphere "id" is its index.
+// A reader refuses another format name, a newer version, a malformed or truncated file, or a set
+// that fails SphereSet::Validate(), with a message naming the file and the problem.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "skinspheres/runtime/error.h"
+#include "skinspheres/runtime/sphere_set.h"
+
+namespace skinspheres::runtime {
+
+std::string WriteSphereSetJson(const SphereSet& set);
+Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& source_name = "<memory>");
+
+// Files: errors name the path.
+std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path);
+Result<SphereSet> LoadSphereSet(const std::filesystem::path& path);
+
+}  // namespace skinspheres::runtime

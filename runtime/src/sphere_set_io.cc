@@ -1,0 +1,238 @@
+#include "skinspheres/runtime/sphere_set_io.h"
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace skinspheres::runtime {
+
+using nlohmann::json;
+
+std::string WriteSphereSetJson(const SphereSet& set) {
+  json j;
+  j["format"] = kSphereSetFormat;
+  j["version"] = kSphereSetVersion;
+  j["source"] = {{"file", set.source_file},
+                 {"vertices", set.source_vertex_count},
+                 {"triangles", set.source_triangle_count}};
+  json params = json::parse(set.params_json, nullptr, /*allow_exceptions=*/false);
+  j["params"] = params.is_object() ? params : json::object();
+
+  json joints = json::array();
+  for (size_t k = 0; k < set.joint_count(); ++k) {
+    const Eigen::Matrix4f& m = set.joint_rest_world[k];
+    joints.push_back({{"name", set.joint_names[k]},
+                      {"parent", set.joint_parents[k]},
+                      {"rest_world", std::vector<float>(m.data(), m.data() + 16)}});
+  }
+  j["skeleton"] = {{"joints", joints}};
+
+  json parts = json::array();
+  for (const auto& p : set.parts) parts.push_back({{"name", p.name}, {"joints", p.joints}});
+  j["parts"] = parts;
+
+  json spheres = json::array();
+  for (size_t s = 0; s < set.size(); ++s) {
+    const auto& c = set.centers_rest[s];
+    json influences = json::array();
+    for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
+      influences.push_back(json::array({set.influence_joints[k], set.influence_weights[k]}));
+    }
+    spheres.push_back({
+        {"id", s},
+        {"part", set.sphere_part[s]},
+        {"joint", set.sphere_joint[s]},
+        {"level", set.sphere_level[s]},
+        {"center", {c.x(), c.y(), c.z()}},
+        {"radius", set.radii_rest[s]},
+        {"radius_fast", set.radii_fast[s]},
+        {"vertices", std::vector<uint32_t>(set.vertices.begin() + set.vertex_offsets[s],
+                                           set.vertices.begin() + set.vertex_offsets[s + 1])},
+        {"triangles", std::vector<uint32_t>(set.triangles.begin() + set.triangle_offsets[s],
+                                            set.triangles.begin() + set.triangle_offsets[s + 1])},
+        {"influences", influences},
+    });
+  }
+  j["spheres"] = spheres;
+
+  json pairs = json::array();
+  for (const auto& p : set.excluded_pairs) pairs.push_back(json::array({p.i, p.j, ToString(p.reason)}));
+  j["excluded_pairs"] = pairs;
+  return j.dump();
+}
+
+namespace {
+
+// Reading: every access goes through these helpers, which throw a ReadError carrying the JSON
+// path of the offending field; ReadSphereSetJson turns it into an Error. Exceptions stay inside
+// this file.
+struct ReadError {
+  std::string what;
+};
+
+const json& Field(const json& obj, const char* key, const std::string& where) {
+  if (!obj.is_object()) throw ReadError{where + " is not an object"};
+  auto it = obj.find(key);
+  if (it == obj.end()) throw ReadError{where + "." + key + " is missing"};
+  return *it;
+}
+
+template <typename T>
+T Number(const json& v, const std::string& where) {
+  if (!v.is_number()) throw ReadError{where + " is not a number"};
+  if constexpr (std::is_integral_v<T>) {
+    if (!v.is_number_integer()) throw ReadError{where + " is not an integer"};
+    const auto x = v.get<int64_t>();
+    if (x < static_cast<int64_t>(std::numeric_limits<T>::min()) ||
+        x > static_cast<int64_t>(std::numeric_limits<T>::max())) {
+      throw ReadError{where + " is out of range"};
+    }
+    return static_cast<T>(x);
+  } else {
+    return v.get<T>();
+  }
+}
+
+const json& Array(const json& v, const std::string& where, size_t exact_size = 0) {
+  if (!v.is_array()) throw ReadError{where + " is not an array"};
+  if (exact_size && v.size() != exact_size) {
+    throw ReadError{where + " has " + std::to_string(v.size()) + " entries, expected " + std::to_string(exact_size)};
+  }
+  return v;
+}
+
+SphereSet Parse(const json& j) {
+  if (!j.is_object()) throw ReadError{"the top level is not an object"};
+  const json& format = Field(j, "format", "$");
+  if (!format.is_string() || format.get<std::string>() != kSphereSetFormat) {
+    throw ReadError{std::string("not a sphere set (format is not \"") + kSphereSetFormat + "\")"};
+  }
+  const int version = Number<int>(Field(j, "version", "$"), "$.version");
+  if (version != kSphereSetVersion) {
+    throw ReadError{"version " + std::to_string(version) + " is not supported (this build reads version " +
+                    std::to_string(kSphereSetVersion) + ")"};
+  }
+  SphereSet set;
+  const json& source = Field(j, "source", "$");
+  const json& file = Field(source, "file", "$.source");
+  if (!file.is_string()) throw ReadError{"$.source.file is not a string"};
+  set.source_file = file.get<std::string>();
+  set.source_vertex_count = Number<uint32_t>(Field(source, "vertices", "$.source"), "$.source.vertices");
+  set.source_triangle_count = Number<uint32_t>(Field(source, "triangles", "$.source"), "$.source.triangles");
+  const json& params = Field(j, "params", "$");
+  if (!params.is_object()) throw ReadError{"$.params is not an object"};
+  set.params_json = params.dump();
+
+  const json& joints = Array(Field(Field(j, "skeleton", "$"), "joints", "$.skeleton"), "$.skeleton.joints");
+  for (size_t k = 0; k < joints.size(); ++k) {
+    const std::string where = "$.skeleton.joints[" + std::to_string(k) + "]";
+    const json& name = Field(joints[k], "name", where);
+    if (!name.is_string()) throw ReadError{where + ".name is not a string"};
+    set.joint_names.push_back(name.get<std::string>());
+    set.joint_parents.push_back(Number<int32_t>(Field(joints[k], "parent", where), where + ".parent"));
+    const json& m = Array(Field(joints[k], "rest_world", where), where + ".rest_world", 16);
+    Eigen::Matrix4f mat;
+    for (int e = 0; e < 16; ++e) mat.data()[e] = Number<float>(m[e], where + ".rest_world");
+    set.joint_rest_world.push_back(mat);
+  }
+
+  const json& parts = Array(Field(j, "parts", "$"), "$.parts");
+  for (size_t k = 0; k < parts.size(); ++k) {
+    const std::string where = "$.parts[" + std::to_string(k) + "]";
+    SpherePart part;
+    const json& name = Field(parts[k], "name", where);
+    if (!name.is_string()) throw ReadError{where + ".name is not a string"};
+    part.name = name.get<std::string>();
+    for (const json& v : Array(Field(parts[k], "joints", where), where + ".joints")) {
+      part.joints.push_back(Number<uint32_t>(v, where + ".joints"));
+    }
+    set.parts.push_back(std::move(part));
+  }
+
+  const json& spheres = Array(Field(j, "spheres", "$"), "$.spheres");
+  set.vertex_offsets = {0};
+  set.triangle_offsets = {0};
+  set.influence_offsets = {0};
+  for (size_t s = 0; s < spheres.size(); ++s) {
+    const std::string where = "$.spheres[" + std::to_string(s) + "]";
+    const json& sp = spheres[s];
+    if (Number<uint32_t>(Field(sp, "id", where), where + ".id") != s) throw ReadError{where + ".id is not its index"};
+    set.sphere_part.push_back(Number<uint16_t>(Field(sp, "part", where), where + ".part"));
+    set.sphere_joint.push_back(Number<uint16_t>(Field(sp, "joint", where), where + ".joint"));
+    set.sphere_level.push_back(Number<uint16_t>(Field(sp, "level", where), where + ".level"));
+    const json& c = Array(Field(sp, "center", where), where + ".center", 3);
+    set.centers_rest.emplace_back(Number<float>(c[0], where + ".center"), Number<float>(c[1], where + ".center"),
+                                  Number<float>(c[2], where + ".center"));
+    set.radii_rest.push_back(Number<float>(Field(sp, "radius", where), where + ".radius"));
+    set.radii_fast.push_back(Number<float>(Field(sp, "radius_fast", where), where + ".radius_fast"));
+    for (const json& v : Array(Field(sp, "vertices", where), where + ".vertices")) {
+      set.vertices.push_back(Number<uint32_t>(v, where + ".vertices"));
+    }
+    set.vertex_offsets.push_back(static_cast<uint32_t>(set.vertices.size()));
+    for (const json& v : Array(Field(sp, "triangles", where), where + ".triangles")) {
+      set.triangles.push_back(Number<uint32_t>(v, where + ".triangles"));
+    }
+    set.triangle_offsets.push_back(static_cast<uint32_t>(set.triangles.size()));
+    for (const json& v : Array(Field(sp, "influences", where), where + ".influences")) {
+      const json& pair = Array(v, where + ".influences[]", 2);
+      set.influence_joints.push_back(Number<uint16_t>(pair[0], where + ".influences[][0]"));
+      set.influence_weights.push_back(Number<float>(pair[1], where + ".influences[][1]"));
+    }
+    set.influence_offsets.push_back(static_cast<uint32_t>(set.influence_joints.size()));
+  }
+
+  const json& pairs = Array(Field(j, "excluded_pairs", "$"), "$.excluded_pairs");
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const std::string where = "$.excluded_pairs[" + std::to_string(k) + "]";
+    const json& p = Array(pairs[k], where, 3);
+    if (!p[2].is_string()) throw ReadError{where + "[2] is not a reason string"};
+    auto reason = ExclusionReasonFromString(p[2].get<std::string>());
+    if (!reason) throw ReadError{where + " has unknown reason \"" + p[2].get<std::string>() + "\""};
+    set.excluded_pairs.push_back({Number<uint32_t>(p[0], where), Number<uint32_t>(p[1], where), *reason});
+  }
+  return set;
+}
+
+}  // namespace
+
+Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& source_name) {
+  json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded()) {
+    return MakeError(ErrorCode::kFormatRejected, source_name + ": not valid JSON (malformed or truncated)");
+  }
+  try {
+    SphereSet set = Parse(j);
+    if (auto err = set.Validate()) {
+      return MakeError(ErrorCode::kInvalidData, source_name + ": " + err->message);
+    }
+    return set;
+  } catch (const ReadError& e) {
+    const bool version = e.what.rfind("version", 0) == 0;
+    return MakeError(version ? ErrorCode::kVersionMismatch : ErrorCode::kInvalidData, source_name + ": " + e.what);
+  } catch (const json::exception& e) {
+    return MakeError(ErrorCode::kInvalidData, source_name + ": " + e.what());
+  }
+}
+
+std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": cannot open for writing");
+  out << WriteSphereSetJson(set) << '\n';
+  out.close();
+  if (!out) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": write failed");
+  return std::nullopt;
+}
+
+Result<SphereSet> LoadSphereSet(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    return MakeError(ErrorCode::kFileNotFound, path.string() + ": file not found");
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": cannot be read");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return ReadSphereSetJson(text.str(), path.string());
+}
+
+}  // namespace skinspheres::runtime

@@ -1,0 +1,33 @@
+// A small, valid SphereSet for runtime tests.
+#pragma once
+
+#include "skinspheres/runtime/sphere_set.h"
+
+namespace skinspheres::runtime {
+
+inline SphereSet TwoSpheres() {
+  SphereSet set;
+  set.source_vertex_count = 4;
+  set.source_triangle_count = 2;
+  set.joint_names = {"root"};
+  set.joint_parents = {-1};
+  set.joint_rest_world = {Eigen::Matrix4f::Identity()};
+  set.parts = {{"torso", {0}}};
+  set.centers_rest = {Eigen::Vector3f(0, 0, 0), Eigen::Vector3f(1, 0, 0)};
+  set.radii_rest = {1.0f, 1.0f};
+  set.radii_fast = {1.0f, 1.0f};
+  set.sphere_part = {0, 0};
+  set.sphere_joint = {0, 0};
+  set.sphere_level = {0, 1};
+  set.vertex_offsets = {0, 3, 6};
+  set.vertices = {0, 1, 2, 1, 2, 3};
+  set.triangle_offsets = {0, 1, 2};
+  set.triangles = {0, 1};
+  set.influence_offsets = {0, 1, 2};
+  set.influence_joints = {0, 0};
+  set.influence_weights = {1.0f, 1.0f};
+  set.excluded_pairs = {{0, 1, ExclusionReason::kSameJoint}};
+  return set;
+}
+
+}  // namespace skinspheres::runtime
