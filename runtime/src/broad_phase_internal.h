@@ -1,0 +1,34 @@
+// Arithmetic shared by the sort-and-sweep path and the all-pairs oracle (broad_phase.h): both must
+// evaluate the overlap test and the depth with the same float operations in the same order.
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+
+namespace skinspheres::runtime::internal {
+
+// True when the centre is finite and the radius finite and >= 0 (x - x == 0 fails for inf, NaN).
+inline bool SphereValuesOk(const Eigen::Vector4f& s) {
+  return (s.x() - s.x() == 0.0f) & (s.y() - s.y() == 0.0f) & (s.z() - s.z() == 0.0f) &
+         (s.w() - s.w() == 0.0f) & (s.w() >= 0.0f);
+}
+
+// |c_i - c_j|^2 as ((dx*dx + dy*dy) + dz*dz). The sign of d does not matter (negation is exact).
+inline float CenterDistanceSquared(const Eigen::Vector4f& a, const Eigen::Vector4f& b) {
+  const float dx = b.x() - a.x();
+  const float dy = b.y() - a.y();
+  const float dz = b.z() - a.z();
+  return (dx * dx + dy * dy) + dz * dz;
+}
+
+// Overlap or touch: d^2 <= (r_i + r_j)^2.
+inline bool SpheresTouch(float distance_squared, float radius_sum) {
+  return distance_squared <= radius_sum * radius_sum;
+}
+
+// Penetration depth r_i + r_j - |c_i - c_j|.
+inline float PenetrationDepth(const Eigen::Vector4f& a, const Eigen::Vector4f& b) {
+  return (a.w() + b.w()) - std::sqrt(CenterDistanceSquared(a, b));
+}
+
+}  // namespace skinspheres::runtime::internal
