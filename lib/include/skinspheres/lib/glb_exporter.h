@@ -1,0 +1,66 @@
+// ExportGlb: writes a RawCharacter (and optionally animated sphere meshes) to a binary glTF 2.0
+// file through Assimp's "glb2" exporter, so any glTF viewer can play it back.
+//
+// What is written:
+//  - the skeleton as the node tree (rest_local as each node's transform). When the skeleton has
+//    one root whose rest transform is the identity, that joint is the scene root; otherwise a
+//    node "Root" (identity) is added above the skeleton roots (and a re-import sees it as an
+//    extra joint).
+//  - one mesh per MeshRange, as a child node of the scene root, with one skin for all skinned
+//    meshes (Assimp writes one glTF skin): POSITION = skin.positions_bind, JOINTS_0 / WEIGHTS_0,
+//    inverse bind matrices = BindEntry::inverse_bind. Rigid ranges (skinned = false) hang under
+//    their rigid_joint (or the root) with vertices in that joint's rest space.
+//  - every clip as one glTF animation with the clip's name. Assimp's glTF writer only knows
+//    LINEAR, so STEP tracks are written as LINEAR with an extra key kStepBakeEpsilon_s before
+//    each change, and CUBICSPLINE tracks are sampled kCubicBakeSubdivisions times per key
+//    interval (exact at the keys, within the chord error in between). Every animated joint gets
+//    translation, rotation and scale channels (a missing channel is written as one key holding
+//    the rest value).
+//  - extras.spheres: one unit-sphere mesh node per AnimatedSphere ("sphere_<i>", under the scene
+//    root), animated by per-frame translation (x, y, z) and uniform scale (r) keys at
+//    extras.frame_times_s, all in one extra clip named extras.clip_name.
+//
+// Limits (Assimp 5.2.5's glTF2 writer): at most 4 influences per vertex survive (JOINTS_0 only;
+// the 4 largest are kept, weights renormalised); a joint may carry one inverse bind matrix (bind
+// entries that share a joint with different matrices are refused: kInvalidArgument); Assimp
+// joins identical vertices inside a mesh (a mesh without exact duplicate positions keeps its
+// vertex order and count). Errors: kInvalidArgument (inconsistent input, named), kFileUnreadable
+// (Assimp could not write the file; its message is included).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "skinspheres/lib/raw_character.h"
+#include "skinspheres/runtime/error.h"
+
+namespace skinspheres::lib {
+
+inline constexpr float kStepBakeEpsilon_s = 1e-4f;
+inline constexpr int kCubicBakeSubdivisions = 8;
+
+struct AnimatedSphere {
+  std::vector<Eigen::Vector4f> per_frame_xyzr;  // world centre and radius, one per frame time
+};
+
+struct GlbExtras {
+  std::vector<AnimatedSphere> spheres;
+  std::vector<float> frame_times_s;   // strictly increasing; each sphere has this many frames
+  std::string clip_name = "spheres";  // the clip that moves the spheres
+  int sphere_segments = 16;           // unit-sphere mesh: longitudes (>= 3)
+  int sphere_rings = 8;               // latitudes between the poles (>= 2)
+};
+
+struct GlbExportSummary {
+  uint32_t mesh_count = 0;       // character pieces + spheres
+  uint32_t node_count = 0;
+  uint32_t animation_count = 0;  // clips written (character clips + the sphere clip if any)
+};
+
+Result<GlbExportSummary> ExportGlb(const RawCharacter& character, const std::filesystem::path& path,
+                                   const GlbExtras& extras = {});
+
+}  // namespace skinspheres::lib

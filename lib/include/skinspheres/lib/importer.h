@@ -1,0 +1,52 @@
+// ImportCharacter: a skinned character file -> RawCharacter (rest pose, world space of the file).
+//
+// What comes out (see raw_character.h for the fields):
+//  - one indexed triangle mesh, every mesh of the scene in the rest pose: a skinned vertex at
+//    Σ_k w_k · G_j(k) · IBM_k · p_bind with G the node tree's own transforms (no clip applied),
+//    a rigid mesh at its node's world transform. The file's units and axes are kept (glTF is
+//    +Y up; nothing is rescaled). Where a file's rest pose is not its bind pose, this is still
+//    the pose (positions_bind keeps the raw data, positions_rest the character as it stands).
+//  - vertex and triangle indices count the file's own vertices and triangles: meshes in file
+//    order (glTF: `meshes[]` order; a mesh instanced by several scene nodes is emitted once per
+//    node, in node order; a mesh used by no scene node is not part of the character), primitives
+//    in file order, one MeshRange per primitive. Nothing is welded, reordered or dropped,
+//    degenerate triangles included. Triangle strips and fans become their n-2 triangles in
+//    order; point and line primitives are not part of the surface and are skipped entirely
+//    (their vertices are not stored, so later primitives' vertices shift down).
+//  - per-vertex influences of any count (all JOINTS_n/WEIGHTS_n sets), zero weights dropped,
+//    weights normalised to sum 1 (RobotExpressive's hands sum to 1.75 in the file).
+//  - the skeleton: every scene node on a path from the scene root to a joint, parents first.
+//    Joints are the skins' joints plus, in a skinned file, every rigid mesh's own node (so a
+//    rigid part follows the joint it hangs under, and its own animation where it has one:
+//    RobotExpressive's Head). A file without any skin is static: one identity joint "root",
+//    every mesh rigid on it at its world position.
+//  - bind entries: one per (skin, joint); entries with the same joint and an exactly equal IBM
+//    are shared across skins; a rigid mesh adds (its node's joint, G_node(rest)^-1) and its
+//    positions_bind are the world rest positions.
+//  - clips with times in seconds. For .gltf/.glb the file is read by our own glTF 2.0 reader
+//    (STEP/LINEAR/CUBICSPLINE kept; Assimp 5.2.5 does not expose the interpolation); other
+//    formats go through Assimp (ticks / ticksPerSecond, linear).
+//
+// Errors: one Error whose message is one line "<file>: <problem>":
+//   kFileNotFound (missing), kFileUnreadable (a directory, no permission, I/O failure),
+//   kFormatRejected (empty, not a format the readers accept, truncated GLB, bad JSON, glTF
+//   features we do not read: sparse accessors, Draco/meshopt compression),
+//   kInvalidData (no triangles, NaN/Inf positions or matrices, skin weights summing to zero or
+//   negative, joint index out of range (only where its weight is > 0), index out of range).
+// Never throws; never crashes on malformed input.
+#pragma once
+
+#include <filesystem>
+
+#include "skinspheres/lib/raw_character.h"
+#include "skinspheres/runtime/error.h"
+
+namespace skinspheres::lib {
+
+struct ImportOptions {
+  bool read_clips = true;  // false: skip animations (faster, clips stays empty)
+};
+
+Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const ImportOptions& options = {});
+
+}  // namespace skinspheres::lib

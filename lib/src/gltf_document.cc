@@ -1,0 +1,307 @@
+// glTF 2.0 container and accessor reading (spec sections 3.6 "Binary data storage" and 4.4 GLB).
+// Everything here treats the file as untrusted: every offset, stride and count is checked
+// against the buffer it points into before a byte is read.
+#include "gltf_document.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cstring>
+#include <fstream>
+#include <limits>
+
+namespace skinspheres::lib::detail {
+namespace {
+
+using nlohmann::json;
+
+constexpr uint32_t kGlbMagic = 0x46546C67;      // "glTF"
+constexpr uint32_t kChunkJson = 0x4E4F534A;     // "JSON"
+constexpr uint32_t kChunkBin = 0x004E4942;      // "BIN\0"
+
+Error Fail(ErrorCode code, const std::filesystem::path& file, const std::string& problem) {
+  return MakeError(code, file.string() + ": " + problem);
+}
+
+uint32_t ReadU32(const uint8_t* p) {
+  uint32_t v;
+  std::memcpy(&v, p, 4);
+  return v;  // GLB is little-endian, as is every platform we build for
+}
+
+// RFC 4648 base64; whitespace ignored, stops at '='. False on any other character.
+bool DecodeBase64(std::string_view in, std::vector<uint8_t>* out) {
+  out->clear();
+  out->reserve(in.size() / 4 * 3);
+  uint32_t acc = 0;
+  int bits = 0;
+  for (char c : in) {
+    int v;
+    if (c >= 'A' && c <= 'Z') v = c - 'A';
+    else if (c >= 'a' && c <= 'z') v = c - 'a' + 26;
+    else if (c >= '0' && c <= '9') v = c - '0' + 52;
+    else if (c == '+' || c == '-') v = 62;
+    else if (c == '/' || c == '_') v = 63;
+    else if (c == '=') break;
+    else if (c == ' ' || c == '\n' || c == '\r' || c == '\t') continue;
+    else return false;
+    acc = (acc << 6) | static_cast<uint32_t>(v);
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out->push_back(static_cast<uint8_t>((acc >> bits) & 0xFF));
+    }
+  }
+  return true;
+}
+
+std::string PercentDecode(const std::string& s) {
+  std::string out;
+  for (size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
+      out.push_back(static_cast<char>(std::stoi(s.substr(i + 1, 2), nullptr, 16)));
+      i += 2;
+    } else {
+      out.push_back(s[i]);
+    }
+  }
+  return out;
+}
+
+int ComponentsOf(const std::string& type) {
+  if (type == "SCALAR") return 1;
+  if (type == "VEC2") return 2;
+  if (type == "VEC3") return 3;
+  if (type == "VEC4") return 4;
+  if (type == "MAT2") return 4;
+  if (type == "MAT3") return 9;
+  if (type == "MAT4") return 16;
+  return 0;
+}
+
+int ComponentSize(int component_type) {
+  switch (component_type) {
+    case 5120: case 5121: return 1;  // BYTE, UNSIGNED_BYTE
+    case 5122: case 5123: return 2;  // SHORT, UNSIGNED_SHORT
+    case 5125: case 5126: return 4;  // UNSIGNED_INT, FLOAT
+    default: return 0;
+  }
+}
+
+// A validated view of one accessor: element e, component c is at base + e * stride + c * size.
+struct AccessorView {
+  const uint8_t* base = nullptr;  // nullptr: no bufferView, all zeros (glTF 3.6.2.3)
+  uint64_t count = 0;
+  uint64_t stride = 0;
+  int components = 0;
+  int component_type = 0;
+  bool normalized = false;
+};
+
+std::string OpenAccessor(const GltfDocument& doc, int64_t index, int components, AccessorView* view) {
+  const json& j = doc.json;
+  const std::string name = "accessor " + std::to_string(index);
+  if (!j.contains("accessors") || !j["accessors"].is_array() || index < 0 ||
+      index >= static_cast<int64_t>(j["accessors"].size())) {
+    return "accessor index " + std::to_string(index) + " is out of range";
+  }
+  const json& a = j["accessors"][static_cast<size_t>(index)];
+  if (a.contains("sparse")) return name + " is sparse (sparse accessors are not supported)";
+  const int type_components = ComponentsOf(a.value("type", std::string()));
+  if (type_components != components) {
+    return name + " has type " + a.value("type", std::string("?")) + ", expected " + std::to_string(components) +
+           " component(s)";
+  }
+  view->component_type = a.value("componentType", 0);
+  const int csize = ComponentSize(view->component_type);
+  if (csize == 0) return name + " has an unknown componentType " + std::to_string(view->component_type);
+  const int64_t count = a.value("count", int64_t{-1});
+  if (count < 0) return name + " has no valid count";
+  view->count = static_cast<uint64_t>(count);
+  view->components = components;
+  view->normalized = a.value("normalized", false);
+  const uint64_t elem_size = static_cast<uint64_t>(csize) * static_cast<uint64_t>(components);
+  if (!a.contains("bufferView")) {
+    if (view->count > (uint64_t{1} << 28)) return name + " has no bufferView and an implausible count";
+    view->base = nullptr;
+    view->stride = elem_size;
+    return {};
+  }
+  const int64_t bv_index = a["bufferView"].get<int64_t>();
+  if (!j.contains("bufferViews") || bv_index < 0 || bv_index >= static_cast<int64_t>(j["bufferViews"].size())) {
+    return name + " uses bufferView " + std::to_string(bv_index) + ", which does not exist";
+  }
+  const json& bv = j["bufferViews"][static_cast<size_t>(bv_index)];
+  const int64_t buffer = bv.value("buffer", int64_t{-1});
+  if (buffer < 0 || buffer >= static_cast<int64_t>(doc.buffers.size())) {
+    return "bufferView " + std::to_string(bv_index) + " uses buffer " + std::to_string(buffer) + ", which does not exist";
+  }
+  const std::vector<uint8_t>& data = doc.buffers[static_cast<size_t>(buffer)];
+  const int64_t bv_offset = bv.value("byteOffset", int64_t{0});
+  const int64_t bv_length = bv.value("byteLength", int64_t{-1});
+  const int64_t stride = bv.value("byteStride", int64_t{0});
+  const int64_t acc_offset = a.value("byteOffset", int64_t{0});
+  if (bv_offset < 0 || bv_length < 0 || stride < 0 || acc_offset < 0 ||
+      static_cast<uint64_t>(bv_offset) + static_cast<uint64_t>(bv_length) > data.size()) {
+    return "bufferView " + std::to_string(bv_index) + " lies outside its buffer (" + std::to_string(data.size()) +
+           " bytes)";
+  }
+  view->stride = stride > 0 ? static_cast<uint64_t>(stride) : elem_size;
+  if (view->stride > 4096) return "bufferView " + std::to_string(bv_index) + " has an implausible byteStride";
+  const uint64_t needed =
+      view->count == 0 ? 0 : static_cast<uint64_t>(acc_offset) + (view->count - 1) * view->stride + elem_size;
+  if (needed > static_cast<uint64_t>(bv_length)) {
+    return name + " (" + std::to_string(view->count) + " elements) runs past the end of bufferView " +
+           std::to_string(bv_index);
+  }
+  view->base = data.data() + bv_offset + acc_offset;
+  return {};
+}
+
+template <typename T>
+T Load(const uint8_t* p) {
+  T v;
+  std::memcpy(&v, p, sizeof(T));
+  return v;
+}
+
+float ComponentAsFloat(const uint8_t* p, int type, bool normalized) {
+  switch (type) {
+    case 5120: { const float v = Load<int8_t>(p); return normalized ? std::max(v / 127.0f, -1.0f) : v; }
+    case 5121: { const float v = Load<uint8_t>(p); return normalized ? v / 255.0f : v; }
+    case 5122: { const float v = Load<int16_t>(p); return normalized ? std::max(v / 32767.0f, -1.0f) : v; }
+    case 5123: { const float v = Load<uint16_t>(p); return normalized ? v / 65535.0f : v; }
+    case 5125: return static_cast<float>(Load<uint32_t>(p));
+    default: return Load<float>(p);
+  }
+}
+
+}  // namespace
+
+int64_t AccessorCount(const GltfDocument& doc, int64_t index) {
+  const json& j = doc.json;
+  if (!j.contains("accessors") || index < 0 || index >= static_cast<int64_t>(j["accessors"].size())) return -1;
+  return j["accessors"][static_cast<size_t>(index)].value("count", int64_t{-1});
+}
+
+std::string ReadAccessorFloats(const GltfDocument& doc, int64_t index, int components, std::vector<float>* out) {
+  AccessorView v;
+  if (std::string problem = OpenAccessor(doc, index, components, &v); !problem.empty()) return problem;
+  out->assign(v.count * static_cast<uint64_t>(components), 0.0f);
+  if (v.base == nullptr) return {};
+  const int csize = ComponentSize(v.component_type);
+  for (uint64_t e = 0; e < v.count; ++e) {
+    const uint8_t* p = v.base + e * v.stride;
+    for (int c = 0; c < components; ++c) {
+      (*out)[e * components + c] = ComponentAsFloat(p + c * csize, v.component_type, v.normalized);
+    }
+  }
+  return {};
+}
+
+std::string ReadAccessorUints(const GltfDocument& doc, int64_t index, int components, std::vector<uint32_t>* out) {
+  AccessorView v;
+  if (std::string problem = OpenAccessor(doc, index, components, &v); !problem.empty()) return problem;
+  if (v.component_type != 5121 && v.component_type != 5123 && v.component_type != 5125) {
+    return "accessor " + std::to_string(index) + " should hold unsigned integers, has componentType " +
+           std::to_string(v.component_type);
+  }
+  out->assign(v.count * static_cast<uint64_t>(components), 0u);
+  if (v.base == nullptr) return {};
+  const int csize = ComponentSize(v.component_type);
+  for (uint64_t e = 0; e < v.count; ++e) {
+    const uint8_t* p = v.base + e * v.stride;
+    for (int c = 0; c < components; ++c) {
+      const uint8_t* q = p + c * csize;
+      (*out)[e * components + c] = v.component_type == 5121   ? Load<uint8_t>(q)
+                                   : v.component_type == 5123 ? Load<uint16_t>(q)
+                                                              : Load<uint32_t>(q);
+    }
+  }
+  return {};
+}
+
+Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const uint8_t> bytes) {
+  GltfDocument doc;
+  std::span<const uint8_t> json_text = bytes;
+  std::span<const uint8_t> bin;
+  bool has_bin = false;
+  if (bytes.size() >= 4 && ReadU32(bytes.data()) == kGlbMagic) {
+    if (bytes.size() < 20) return Fail(ErrorCode::kFormatRejected, file, "truncated GLB: shorter than its 12-byte header and first chunk header");
+    const uint32_t version = ReadU32(bytes.data() + 4);
+    const uint32_t length = ReadU32(bytes.data() + 8);
+    if (version != 2) return Fail(ErrorCode::kFormatRejected, file, "GLB version " + std::to_string(version) + " (only 2 is read)");
+    if (length > bytes.size()) {
+      return Fail(ErrorCode::kFormatRejected, file, "truncated GLB: header says " + std::to_string(length) +
+                                                        " bytes, the file has " + std::to_string(bytes.size()));
+    }
+    size_t at = 12;
+    bool first = true;
+    while (at + 8 <= length) {
+      const uint32_t chunk_length = ReadU32(bytes.data() + at);
+      const uint32_t chunk_type = ReadU32(bytes.data() + at + 4);
+      if (static_cast<uint64_t>(at) + 8 + chunk_length > length) {
+        return Fail(ErrorCode::kFormatRejected, file, "truncated GLB: a chunk runs past the end of the file");
+      }
+      const std::span<const uint8_t> chunk = bytes.subspan(at + 8, chunk_length);
+      if (first && chunk_type != kChunkJson) return Fail(ErrorCode::kFormatRejected, file, "GLB does not start with a JSON chunk");
+      if (first) json_text = chunk;
+      else if (chunk_type == kChunkBin && !has_bin) { bin = chunk; has_bin = true; }
+      first = false;
+      at += 8 + ((chunk_length + 3u) & ~3u);
+    }
+    if (first) return Fail(ErrorCode::kFormatRejected, file, "truncated GLB: no JSON chunk");
+  }
+  doc.json = json::parse(json_text.begin(), json_text.end(), nullptr, /*allow_exceptions=*/false);
+  if (doc.json.is_discarded() || !doc.json.is_object()) {
+    return Fail(ErrorCode::kFormatRejected, file, "not a glTF file (the JSON does not parse)");
+  }
+  if (!doc.json.contains("asset")) return Fail(ErrorCode::kFormatRejected, file, "not a glTF file (no \"asset\")");
+  const std::string version = doc.json["asset"].value("version", std::string());
+  if (version.empty() || version[0] != '2') {
+    return Fail(ErrorCode::kFormatRejected, file, "glTF version \"" + version + "\" (only 2.x is read)");
+  }
+  for (const char* ext : {"KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression"}) {
+    if (doc.json.contains("extensionsRequired") && doc.json["extensionsRequired"].is_array()) {
+      for (const auto& e : doc.json["extensionsRequired"]) {
+        if (e.is_string() && e.get<std::string>() == ext) {
+          return Fail(ErrorCode::kFormatRejected, file, std::string("uses ") + ext + ", which is not supported");
+        }
+      }
+    }
+  }
+  if (doc.json.contains("buffers")) {
+    const json& buffers = doc.json["buffers"];
+    if (!buffers.is_array()) return Fail(ErrorCode::kFormatRejected, file, "\"buffers\" is not an array");
+    for (size_t b = 0; b < buffers.size(); ++b) {
+      const int64_t length = buffers[b].value("byteLength", int64_t{-1});
+      std::vector<uint8_t> data;
+      const std::string label = "buffer " + std::to_string(b);
+      if (!buffers[b].contains("uri")) {
+        if (b != 0 || !has_bin) return Fail(ErrorCode::kFormatRejected, file, label + " has no uri and there is no GLB BIN chunk");
+        data.assign(bin.begin(), bin.end());
+      } else {
+        const std::string uri = buffers[b]["uri"].get<std::string>();
+        if (uri.rfind("data:", 0) == 0) {
+          const size_t comma = uri.find(";base64,");
+          if (comma == std::string::npos || !DecodeBase64(std::string_view(uri).substr(comma + 8), &data)) {
+            return Fail(ErrorCode::kFormatRejected, file, label + " has a data: uri that is not valid base64");
+          }
+        } else {
+          const std::filesystem::path external = file.parent_path() / PercentDecode(uri);
+          std::ifstream in(external, std::ios::binary);
+          if (!in) return Fail(ErrorCode::kFileUnreadable, file, label + " file " + external.string() + " cannot be read");
+          data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+        }
+      }
+      if (length < 0 || static_cast<uint64_t>(length) > data.size()) {
+        return Fail(ErrorCode::kFormatRejected, file, label + " holds " + std::to_string(data.size()) +
+                                                          " bytes, fewer than its byteLength " + std::to_string(length));
+      }
+      doc.buffers.push_back(std::move(data));
+    }
+  }
+  return doc;
+}
+
+}  // namespace skinspheres::lib::detail

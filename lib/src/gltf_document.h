@@ -1,0 +1,37 @@
+// Private to the importer: a glTF 2.0 document (.gltf with external or data: buffers, or .glb)
+// and typed reads of its accessors, bounds-checked against the buffers (untrusted input).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "skinspheres/runtime/error.h"
+
+namespace skinspheres::lib::detail {
+
+struct GltfDocument {
+  nlohmann::json json;
+  std::vector<std::vector<uint8_t>> buffers;  // one per json["buffers"] entry
+};
+
+// Parses `bytes` (the whole file): GLB = 12-byte header + JSON chunk + optional BIN chunk;
+// otherwise JSON text. Buffers come from the BIN chunk, base64 data: URIs or files next to
+// `file`. Errors name the file: kFormatRejected (bad header, truncated, bad JSON, missing or
+// short buffer), kFileUnreadable (an external buffer file that cannot be read).
+Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const uint8_t> bytes);
+
+// Reads accessor `index` into `out` as count * components floats (normalised integers scaled
+// to [0,1] / [-1,1] as glTF defines, other integers converted). `components` must match the
+// accessor's type (SCALAR 1, VEC2 2, VEC3 3, VEC4 4, MAT4 16). Sparse accessors are refused.
+// Returns an empty string on success, else the problem (without the file name).
+std::string ReadAccessorFloats(const GltfDocument& doc, int64_t index, int components, std::vector<float>* out);
+// Same for unsigned integer accessors (indices, JOINTS_n): UNSIGNED_BYTE/SHORT/INT only.
+std::string ReadAccessorUints(const GltfDocument& doc, int64_t index, int components, std::vector<uint32_t>* out);
+// The accessor's element count, or -1 when `index` is not a valid accessor.
+int64_t AccessorCount(const GltfDocument& doc, int64_t index);
+
+}  // namespace skinspheres::lib::detail

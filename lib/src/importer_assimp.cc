@@ -1,0 +1,235 @@
+// Any format Assimp 5.2.5 reads (FBX, COLLADA, OBJ, ...) -> RawCharacter. glTF 2.0 does not come
+// here (importer_gltf.cc reads it directly). Only aiProcess_ValidateDataStructure is requested:
+// no post-process that welds, reorders or drops vertices or faces. Polygons are fanned into
+// triangles in order (n-2 each, degenerate ones kept); point and line faces are not surface and
+// are skipped (their vertices stay). Vertex order is Assimp's for these formats (some readers
+// split vertices per face corner). Clips: ticks / ticksPerSecond, linear (Assimp has no
+// interpolation field).
+#include <assimp/Importer.hpp>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <algorithm>
+#include <map>
+
+#include "importer_internal.h"
+
+namespace skinspheres::lib::detail {
+namespace {
+
+Eigen::Matrix4f ToEigen(const aiMatrix4x4& m) {
+  Eigen::Matrix4f e;
+  e << m.a1, m.a2, m.a3, m.a4, m.b1, m.b2, m.b3, m.b4, m.c1, m.c2, m.c3, m.c4, m.d1, m.d2, m.d3, m.d4;
+  return e;
+}
+
+}  // namespace
+
+Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::span<const uint8_t> /*bytes*/,
+                                      const ImportOptions& options) {
+  auto invalid = [&](const std::string& problem) { return ImportError(ErrorCode::kInvalidData, file, problem); };
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFile(file.string(), aiProcess_ValidateDataStructure);
+  if (scene == nullptr || scene->mRootNode == nullptr || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) != 0) {
+    std::string why = importer.GetErrorString();
+    if (why.empty()) why = "no scene";
+    return ImportError(ErrorCode::kFormatRejected, file, "rejected by Assimp: " + why);
+  }
+
+  // Nodes in preorder (parents first), with world transforms.
+  std::vector<const aiNode*> nodes;
+  std::vector<int32_t> parent;
+  std::map<const aiNode*, int32_t> index_of;
+  std::vector<std::pair<const aiNode*, int32_t>> stack = {{scene->mRootNode, -1}};
+  while (!stack.empty()) {
+    auto [n, p] = stack.back();
+    stack.pop_back();
+    if (n == nullptr || index_of.count(n)) continue;
+    index_of[n] = static_cast<int32_t>(nodes.size());
+    nodes.push_back(n);
+    parent.push_back(p);
+    for (unsigned c = n->mNumChildren; c-- > 0;) stack.push_back({n->mChildren[c], index_of[n]});
+  }
+  std::vector<skinning::Transform> local(nodes.size());
+  std::vector<Eigen::Matrix4f> world(nodes.size());
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const Eigen::Matrix4f m = ToEigen(nodes[i]->mTransformation);
+    if (!m.allFinite()) return invalid("node '" + std::string(nodes[i]->mName.C_Str()) + "' has a non-finite transform");
+    local[i] = skinning::Transform::FromMatrix(m);
+    const Eigen::Matrix4f l = local[i].ToMatrix();
+    world[i] = parent[i] >= 0 ? Eigen::Matrix4f(world[static_cast<size_t>(parent[i])] * l) : l;
+  }
+  auto node_named = [&](const aiString& name) -> int32_t {
+    const aiNode* n = scene->mRootNode->FindNode(name);
+    auto it = n ? index_of.find(n) : index_of.end();
+    return it == index_of.end() ? -1 : it->second;
+  };
+
+  // Mesh instances: mesh order, then node preorder.
+  std::vector<std::pair<unsigned, int32_t>> instances;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    for (size_t i = 0; i < nodes.size(); ++i) {
+      for (unsigned k = 0; k < nodes[i]->mNumMeshes; ++k) {
+        if (nodes[i]->mMeshes[k] == m) instances.push_back({m, static_cast<int32_t>(i)});
+      }
+    }
+  }
+  bool skinned_file = false;
+  std::vector<char> needed(nodes.size(), 0);
+  for (auto [m, n] : instances) {
+    const aiMesh* mesh = scene->mMeshes[m];
+    if (mesh->HasBones()) {
+      skinned_file = true;
+      for (unsigned b = 0; b < mesh->mNumBones; ++b) {
+        const int32_t bn = node_named(mesh->mBones[b]->mName);
+        if (bn < 0) return invalid("bone '" + std::string(mesh->mBones[b]->mName.C_Str()) + "' has no node in the scene");
+        needed[static_cast<size_t>(bn)] = 1;
+      }
+    }
+  }
+  if (skinned_file) {
+    for (auto [m, n] : instances) {
+      if (!scene->mMeshes[m]->HasBones()) needed[static_cast<size_t>(n)] = 1;
+    }
+    for (size_t i = nodes.size(); i-- > 0;) {  // preorder reversed: children before parents
+      if (needed[i] && parent[i] >= 0) needed[static_cast<size_t>(parent[i])] = 1;
+    }
+  }
+
+  RawCharacter c;
+  std::vector<int32_t> joint_of_node(nodes.size(), -1);
+  if (skinned_file) {
+    for (size_t i = 0; i < nodes.size(); ++i) {
+      if (!needed[i]) continue;
+      joint_of_node[i] = static_cast<int32_t>(c.skeleton.size());
+      c.skeleton.joint_names.emplace_back(nodes[i]->mName.C_Str());
+      c.skeleton.parents.push_back(parent[i] >= 0 ? joint_of_node[static_cast<size_t>(parent[i])] : -1);
+      c.skeleton.rest_local.push_back(local[i]);
+    }
+  } else {
+    c.skeleton.joint_names.push_back("root");
+    c.skeleton.parents.push_back(-1);
+    c.skeleton.rest_local.push_back(skinning::Transform{});
+  }
+
+  std::vector<Influence> influences;
+  for (auto [m, n] : instances) {
+    const aiMesh* mesh = scene->mMeshes[m];
+    const std::string where = "mesh '" + std::string(mesh->mName.C_Str()) + "'";
+    if ((mesh->mPrimitiveTypes & (aiPrimitiveType_TRIANGLE | aiPrimitiveType_POLYGON)) == 0) continue;
+    const bool skinned = mesh->HasBones();
+    const uint64_t first_vertex = c.skin.vertex_count();
+    if (first_vertex + mesh->mNumVertices >= static_cast<uint64_t>(INT32_MAX)) return invalid("more than 2^31 vertices");
+    std::vector<std::vector<Influence>> per_vertex(mesh->mNumVertices);
+    int32_t rigid_bind = -1;
+    Eigen::Matrix4f rigid_world = world[static_cast<size_t>(n)];
+    if (skinned) {
+      for (unsigned b = 0; b < mesh->mNumBones; ++b) {
+        const aiBone* bone = mesh->mBones[b];
+        const Eigen::Matrix4f ibm = ToEigen(bone->mOffsetMatrix);
+        if (!ibm.allFinite()) return invalid(where + " bone '" + bone->mName.C_Str() + "' has a non-finite offset matrix");
+        const int32_t bind = FindOrAddBind(c.skin, joint_of_node[static_cast<size_t>(node_named(bone->mName))], ibm);
+        if (bind < 0) return invalid("more than 65536 distinct bind entries");
+        for (unsigned w = 0; w < bone->mNumWeights; ++w) {
+          const aiVertexWeight& vw = bone->mWeights[w];
+          if (vw.mVertexId >= mesh->mNumVertices) {
+            return invalid(where + " bone '" + bone->mName.C_Str() + "' weights vertex " + std::to_string(vw.mVertexId) + ", out of range");
+          }
+          per_vertex[vw.mVertexId].push_back({static_cast<uint32_t>(bind), vw.mWeight});
+        }
+      }
+    } else {
+      Eigen::Matrix4f ibm = Eigen::Matrix4f::Identity();
+      int32_t joint = 0;
+      if (skinned_file) {
+        joint = joint_of_node[static_cast<size_t>(n)];
+        const float det = rigid_world.topLeftCorner<3, 3>().determinant();
+        if (!(std::abs(det) > 0.0f) || !std::isfinite(det)) return invalid(where + " has a singular world transform");
+        ibm = rigid_world.inverse();
+      }
+      rigid_bind = FindOrAddBind(c.skin, joint, ibm);
+      if (rigid_bind < 0) return invalid("more than 65536 distinct bind entries");
+    }
+    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+      const aiVector3D& a = mesh->mVertices[v];
+      const Eigen::Vector3f p(a.x, a.y, a.z);
+      if (!p.allFinite()) return invalid(where + " vertex " + std::to_string(v) + " position is NaN or infinite");
+      if (skinned) {
+        if (auto e = AppendVertex(c.skin, p, per_vertex[v])) return invalid(where + " vertex " + std::to_string(v) + ": " + *e);
+      } else {
+        influences.assign(1, Influence{static_cast<uint32_t>(rigid_bind), 1.0f});
+        if (auto e = AppendVertex(c.skin, (rigid_world * p.homogeneous()).head<3>(), influences)) return invalid(where + ": " + *e);
+      }
+    }
+    const uint32_t first_triangle = static_cast<uint32_t>(c.triangles.size());
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      for (unsigned k = 0; k < face.mNumIndices; ++k) {
+        if (face.mIndices[k] >= mesh->mNumVertices) return invalid(where + " face " + std::to_string(f) + " has an index out of range");
+      }
+      for (unsigned k = 1; k + 1 < face.mNumIndices; ++k) {  // fan; faces with < 3 indices add nothing
+        c.triangles.emplace_back(static_cast<int>(first_vertex + face.mIndices[0]), static_cast<int>(first_vertex + face.mIndices[k]),
+                                 static_cast<int>(first_vertex + face.mIndices[k + 1]));
+      }
+    }
+    MeshRange range;
+    range.name = mesh->mName.length > 0 ? mesh->mName.C_Str() : "mesh_" + std::to_string(m);
+    range.first_vertex = static_cast<uint32_t>(first_vertex);
+    range.vertex_count = mesh->mNumVertices;
+    range.first_triangle = first_triangle;
+    range.triangle_count = static_cast<uint32_t>(c.triangles.size() - first_triangle);
+    range.skinned = skinned;
+    range.rigid_joint = skinned ? -1 : (skinned_file ? joint_of_node[static_cast<size_t>(n)] : 0);
+    c.meshes.push_back(std::move(range));
+  }
+  if (c.skin.influence_offsets.empty()) c.skin.influence_offsets.push_back(0);
+
+  if (options.read_clips && skinned_file) {
+    for (unsigned a = 0; a < scene->mNumAnimations; ++a) {
+      const aiAnimation* anim = scene->mAnimations[a];
+      skinning::AnimationClip clip;
+      clip.name = anim->mName.length > 0 ? anim->mName.C_Str() : "animation_" + std::to_string(a);
+      const double tps = anim->mTicksPerSecond > 0.0 ? anim->mTicksPerSecond : 25.0;  // Assimp's default
+      clip.duration_s = static_cast<float>(anim->mDuration / tps);
+      for (unsigned ch = 0; ch < anim->mNumChannels; ++ch) {
+        const aiNodeAnim* na = anim->mChannels[ch];
+        const int32_t n = node_named(na->mNodeName);
+        // Channels on nodes outside the skeleton cannot move the character: dropped.
+        if (n < 0 || joint_of_node[static_cast<size_t>(n)] < 0) continue;
+        skinning::JointTrack track;
+        track.joint = joint_of_node[static_cast<size_t>(n)];
+        // Keys at the same time as the previous one replace it (times strictly increasing).
+        auto add = [&](auto& tr, double ticks, auto value) {
+          const float t = static_cast<float>(ticks / tps);
+          if (!std::isfinite(t)) return;
+          if (!tr.times_s.empty() && t <= tr.times_s.back()) {
+            if (t < tr.times_s.back()) return;  // out of order: ignore
+            tr.times_s.pop_back();
+            tr.values.pop_back();
+          }
+          tr.times_s.push_back(t);
+          tr.values.push_back(value);
+        };
+        for (unsigned k = 0; k < na->mNumPositionKeys; ++k) {
+          const aiVector3D& v = na->mPositionKeys[k].mValue;
+          add(track.translation, na->mPositionKeys[k].mTime, Eigen::Vector3f(v.x, v.y, v.z));
+        }
+        for (unsigned k = 0; k < na->mNumRotationKeys; ++k) {
+          const aiQuaternion& q = na->mRotationKeys[k].mValue;
+          add(track.rotation, na->mRotationKeys[k].mTime, Eigen::Quaternionf(q.w, q.x, q.y, q.z));
+        }
+        for (unsigned k = 0; k < na->mNumScalingKeys; ++k) {
+          const aiVector3D& v = na->mScalingKeys[k].mValue;
+          add(track.scale, na->mScalingKeys[k].mTime, Eigen::Vector3f(v.x, v.y, v.z));
+        }
+        clip.tracks.push_back(std::move(track));
+      }
+      std::sort(clip.tracks.begin(), clip.tracks.end(),
+                [](const skinning::JointTrack& x, const skinning::JointTrack& y) { return x.joint < y.joint; });
+      c.clips.push_back(std::move(clip));
+    }
+  }
+  return c;
+}
+
+}  // namespace skinspheres::lib::detail

@@ -1,0 +1,261 @@
+// Tests for ExportGlb: the written file is read back by Assimp (an independent reader) and by
+// ImportCharacter (the project's importer), and compared with what was exported.
+#include "skinspheres/lib/glb_exporter.h"
+
+#include <assimp/cimport.h>
+#include <assimp/scene.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+#include <set>
+
+#include "lib/clip_eval_for_tests.h"
+#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/importer.h"
+#include "test_support.h"
+
+namespace skinspheres::lib {
+namespace {
+
+using Eigen::Vector3f;
+
+const RawCharacter& Character() {
+  static const RawCharacter c = MakeBuiltinCharacter();
+  return c;
+}
+
+struct AiScene {
+  const aiScene* scene = nullptr;
+  explicit AiScene(const std::filesystem::path& p) : scene(aiImportFile(p.string().c_str(), 0)) {}
+  ~AiScene() { aiReleaseImport(scene); }
+  AiScene(const AiScene&) = delete;
+  AiScene& operator=(const AiScene&) = delete;
+};
+
+const aiAnimation* FindAnim(const aiScene* s, const std::string& name) {
+  for (unsigned i = 0; i < s->mNumAnimations; ++i) {
+    if (name == s->mAnimations[i]->mName.C_Str()) return s->mAnimations[i];
+  }
+  return nullptr;
+}
+
+const aiNodeAnim* FindChannel(const aiAnimation* a, const std::string& node) {
+  for (unsigned i = 0; i < a->mNumChannels; ++i) {
+    if (node == a->mChannels[i]->mNodeName.C_Str()) return a->mChannels[i];
+  }
+  return nullptr;
+}
+
+std::filesystem::path ExportBuiltin(const std::string& folder, const GlbExtras& extras = {}) {
+  const auto path = test::TempDir(folder) / "builtin.glb";
+  const auto r = ExportGlb(Character(), path, extras);
+  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
+  return path;
+}
+
+TEST(GlbExporter, AssimpReadsBackMeshesSkinAndClips) {
+  const RawCharacter& c = Character();
+  const auto path = ExportBuiltin("glb_exporter_assimp");
+  AiScene in(path);
+  ASSERT_NE(in.scene, nullptr) << aiGetErrorString();
+  const aiScene* s = in.scene;
+  ASSERT_EQ(s->mNumMeshes, c.meshes.size());
+  size_t triangles = 0;
+  std::set<std::string> bone_names;
+  for (unsigned m = 0; m < s->mNumMeshes; ++m) {
+    const aiMesh* mesh = s->mMeshes[m];
+    const MeshRange& range = c.meshes[m];
+    EXPECT_EQ(range.name, mesh->mName.C_Str());
+    ASSERT_EQ(mesh->mNumVertices, range.vertex_count) << range.name;
+    ASSERT_EQ(mesh->mNumFaces, range.triangle_count) << range.name;
+    triangles += mesh->mNumFaces;
+    for (unsigned f = 0; f < mesh->mNumFaces; f += 37) {
+      ASSERT_EQ(mesh->mFaces[f].mNumIndices, 3u);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(mesh->mFaces[f].mIndices[k] + range.first_vertex,
+                  static_cast<unsigned>(c.triangles[range.first_triangle + f][k]));
+      }
+    }
+    for (unsigned v = 0; v < mesh->mNumVertices; v += 17) {
+      const aiVector3D& p = mesh->mVertices[v];
+      EXPECT_LT((Vector3f(p.x, p.y, p.z) - c.positions_rest[range.first_vertex + v]).norm(), 1e-6f);
+    }
+    // Weights per (vertex, joint) equal the character's.
+    std::vector<std::map<std::string, float>> weights(mesh->mNumVertices);
+    for (unsigned b = 0; b < mesh->mNumBones; ++b) {
+      const aiBone* bone = mesh->mBones[b];
+      bone_names.insert(bone->mName.C_Str());
+      const int32_t j = c.skeleton.Find(bone->mName.C_Str());
+      ASSERT_GE(j, 0) << bone->mName.C_Str();
+      // Offset matrix = inverse bind matrix.
+      const auto& ibm = c.skin.binds[j].inverse_bind;
+      EXPECT_NEAR(bone->mOffsetMatrix.a4, ibm(0, 3), 1e-6f);
+      EXPECT_NEAR(bone->mOffsetMatrix.b4, ibm(1, 3), 1e-6f);
+      EXPECT_NEAR(bone->mOffsetMatrix.c4, ibm(2, 3), 1e-6f);
+      for (unsigned w = 0; w < bone->mNumWeights; ++w) {
+        if (bone->mWeights[w].mWeight > 0) weights[bone->mWeights[w].mVertexId][bone->mName.C_Str()] += bone->mWeights[w].mWeight;
+      }
+    }
+    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+      const uint32_t gv = range.first_vertex + v;
+      ASSERT_EQ(weights[v].size(), c.skin.influence_offsets[gv + 1] - c.skin.influence_offsets[gv]) << range.name << " " << v;
+      for (uint32_t k = c.skin.influence_offsets[gv]; k < c.skin.influence_offsets[gv + 1]; ++k) {
+        const std::string& joint = c.skeleton.joint_names[c.skin.binds[c.skin.influence_binds[k]].joint];
+        EXPECT_NEAR(weights[v][joint], c.skin.influence_weights[k], 1e-6f);
+      }
+    }
+  }
+  EXPECT_EQ(triangles, c.triangle_count());
+  EXPECT_GE(bone_names.size(), 20u);
+  for (const auto& name : c.skeleton.joint_names) {
+    EXPECT_NE(s->mRootNode->FindNode(name.c_str()), nullptr) << name;
+  }
+  // Clips: one animation per clip, with the clip's name and duration.
+  ASSERT_EQ(s->mNumAnimations, c.clips.size());
+  for (const auto& clip : c.clips) {
+    const aiAnimation* a = FindAnim(s, clip.name);
+    ASSERT_NE(a, nullptr) << clip.name;
+    const double tps = a->mTicksPerSecond > 0 ? a->mTicksPerSecond : 1.0;
+    EXPECT_NEAR(a->mDuration / tps, clip.duration_s, 1e-4) << clip.name;
+  }
+  // A rotation key of the touch clip: LeftArm at the chest key.
+  const auto& touch = c.clips[1];
+  const aiNodeAnim* ch = FindChannel(FindAnim(s, "touch"), "LeftArm");
+  ASSERT_NE(ch, nullptr);
+  ASSERT_EQ(ch->mNumRotationKeys, 6u);
+  for (const auto& tr : touch.tracks) {
+    if (c.skeleton.joint_names[tr.joint] != "LeftArm") continue;
+    const Eigen::Quaternionf q = tr.rotation.values[1];
+    const aiQuaternion& k = ch->mRotationKeys[1].mValue;
+    EXPECT_NEAR(std::abs(q.w() * k.w + q.x() * k.x + q.y() * k.y + q.z() * k.z), 1.0f, 1e-6f);
+  }
+}
+
+TEST(GlbExporter, RoundTripThroughImportCharacter) {
+  const RawCharacter& c = Character();
+  const auto path = ExportBuiltin("glb_exporter_roundtrip");
+  const auto imported = ImportCharacter(path);
+  ASSERT_TRUE(imported.ok()) << imported.error().message;
+  const RawCharacter& r = *imported;
+  EXPECT_EQ(r.skeleton.joint_names, c.skeleton.joint_names);
+  ASSERT_EQ(r.vertex_count(), c.vertex_count());
+  EXPECT_EQ(r.triangles, c.triangles);
+  Eigen::AlignedBox3f box;
+  for (const auto& p : c.positions_rest) box.extend(p);
+  const float tol = 1e-5f * box.sizes().maxCoeff();
+  for (size_t v = 0; v < c.vertex_count(); ++v) {
+    ASSERT_LT((r.positions_rest[v] - c.positions_rest[v]).norm(), tol) << v;
+  }
+  // Clips: same names; sampled local transforms of every joint (matched by name) agree, and so
+  // does the skinned shape. STEP keys are baked with a 1e-4 s hold and CUBICSPLINE with 8 chords
+  // per interval, hence the small tolerance on translations.
+  ASSERT_EQ(r.clips.size(), c.clips.size());
+  for (const auto& clip : c.clips) {
+    const skinning::AnimationClip* rc = nullptr;
+    for (const auto& k : r.clips) {
+      if (k.name == clip.name) rc = &k;
+    }
+    ASSERT_NE(rc, nullptr) << clip.name;
+    EXPECT_NEAR(rc->duration_s, clip.duration_s, 1e-5f);
+    for (int i = 0; i <= 40; ++i) {
+      const float t = clip.duration_s * static_cast<float>(i) / 40.0f + (i % 2 ? 0.0013f : 0.0f);
+      const auto a = test::SampleLocal(c, clip, t);
+      const auto b = test::SampleLocal(r, *rc, t);
+      for (size_t j = 0; j < a.size(); ++j) {
+        const int32_t jr = r.skeleton.Find(c.skeleton.joint_names[j]);
+        ASSERT_GE(jr, 0);
+        EXPECT_LT((a[j].translation - b[jr].translation).norm(), 1e-4f) << clip.name << " " << c.skeleton.joint_names[j] << " t=" << t;
+        EXPECT_GT(std::abs(a[j].rotation.dot(b[jr].rotation)), 1.0f - 1e-5f) << clip.name << " " << c.skeleton.joint_names[j] << " t=" << t;
+        EXPECT_LT((a[j].scale - b[jr].scale).norm(), 1e-5f);
+      }
+      const auto pa = test::PoseAt(c, clip, t), pb = test::PoseAt(r, *rc, t);
+      float worst = 0;
+      for (size_t v = 0; v < pa.size(); ++v) worst = std::max(worst, (pa[v] - pb[v]).norm());
+      EXPECT_LT(worst, 2e-4f) << clip.name << " t=" << t;
+    }
+  }
+}
+
+TEST(GlbExporter, AnimatedSpheresBecomeNodesWithTheirOwnClip) {
+  GlbExtras extras;
+  extras.frame_times_s = {0.0f, 0.5f, 1.0f};
+  for (int i = 0; i < 3; ++i) {
+    AnimatedSphere s;
+    for (int f = 0; f < 3; ++f) s.per_frame_xyzr.emplace_back(0.1f * i, 1.0f + 0.1f * f, -0.2f * f, 0.05f + 0.01f * i);
+    extras.spheres.push_back(s);
+  }
+  extras.sphere_segments = 12;
+  extras.sphere_rings = 6;
+  const auto path = ExportBuiltin("glb_exporter_spheres", extras);
+  AiScene in(path);
+  ASSERT_NE(in.scene, nullptr) << aiGetErrorString();
+  const aiScene* s = in.scene;
+  ASSERT_NE(FindAnim(s, "walk"), nullptr);
+  ASSERT_NE(FindAnim(s, "touch"), nullptr);
+  const aiAnimation* a = FindAnim(s, "spheres");
+  ASSERT_NE(a, nullptr);
+  for (int i = 0; i < 3; ++i) {
+    const std::string name = "sphere_" + std::to_string(i);
+    const aiNode* node = s->mRootNode->FindNode(name.c_str());
+    ASSERT_NE(node, nullptr);
+    ASSERT_EQ(node->mNumMeshes, 1u);
+    const aiMesh* mesh = s->mMeshes[node->mMeshes[0]];
+    EXPECT_EQ(mesh->mNumVertices, 12u * 6u + 2u);
+    EXPECT_EQ(mesh->mNumFaces, 2u * 12u * 6u - 2u * 12u + 2u * 12u);
+    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+      EXPECT_NEAR(Vector3f(mesh->mVertices[v].x, mesh->mVertices[v].y, mesh->mVertices[v].z).norm(), 1.0f, 1e-5f);
+    }
+    const aiNodeAnim* ch = FindChannel(a, name);
+    ASSERT_NE(ch, nullptr);
+    ASSERT_EQ(ch->mNumPositionKeys, 3u);
+    ASSERT_EQ(ch->mNumScalingKeys, 3u);
+    const double tps = a->mTicksPerSecond > 0 ? a->mTicksPerSecond : 1.0;
+    for (int f = 0; f < 3; ++f) {
+      const Eigen::Vector4f& e = extras.spheres[i].per_frame_xyzr[f];
+      EXPECT_NEAR(ch->mPositionKeys[f].mTime / tps, extras.frame_times_s[f], 1e-5);
+      EXPECT_NEAR(ch->mPositionKeys[f].mValue.x, e.x(), 1e-6f);
+      EXPECT_NEAR(ch->mPositionKeys[f].mValue.y, e.y(), 1e-6f);
+      EXPECT_NEAR(ch->mPositionKeys[f].mValue.z, e.z(), 1e-6f);
+      EXPECT_NEAR(ch->mScalingKeys[f].mValue.x, e.w(), 1e-6f);
+      EXPECT_NEAR(ch->mScalingKeys[f].mValue.z, e.w(), 1e-6f);
+    }
+  }
+}
+
+TEST(GlbExporter, RefusesInconsistentInputWithAMessage) {
+  RawCharacter c = MakeBuiltinCharacter();
+  c.skin.influence_offsets.pop_back();
+  const auto path = test::TempDir("glb_exporter_bad") / "bad.glb";
+  auto r = ExportGlb(c, path);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(r.error().message.find("bad.glb"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(path));
+
+  RawCharacter d = MakeBuiltinCharacter();
+  skinning::BindEntry extra = d.skin.binds[3];
+  extra.inverse_bind(0, 3) += 0.5f;
+  d.skin.binds.push_back(extra);
+  r = ExportGlb(d, path);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("Spine1"), std::string::npos) << r.error().message;
+
+  RawCharacter e = MakeBuiltinCharacter();
+  GlbExtras extras;
+  extras.frame_times_s = {0.0f, 1.0f};
+  extras.spheres.push_back(AnimatedSphere{{Eigen::Vector4f(0, 0, 0, 1)}});
+  r = ExportGlb(e, path, extras);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::kInvalidArgument);
+}
+
+TEST(GlbExporter, UnwritablePathIsAnErrorNotACrash) {
+  const auto r = ExportGlb(Character(), test::TempDir("glb_exporter_unwritable") / "no_such_dir" / "x.glb");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::kFileUnreadable);
+  EXPECT_NE(r.error().message.find("x.glb"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace skinspheres::lib
