@@ -1,3 +1,4 @@
+#include "eigen_abi.h"  // first: keeps Eigen's ABI under -mavx2
 #include "skinspheres/skinning/skeleton.h"
 
 #include <Eigen/SVD>

@@ -1,0 +1,16 @@
+// Linear blend skinning kernels, scalar level (see skinning_kernels.h).
+#include "eigen_abi.h"  // first: keeps Eigen's ABI under -mavx2
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+
+#include "skinning_kernels.h"
+
+
+
+#define SKS_NS scalar
+#define SKS_LEVEL 0
+#define SKS_TARGET 
+#include "skinning_kernel_body.inc"
+

@@ -1,0 +1,16 @@
+// Linear blend skinning kernels, sse2 level (see skinning_kernels.h).
+#include "eigen_abi.h"  // first: keeps Eigen's ABI under -mavx2
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+
+#include "skinning_kernels.h"
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define SKS_NS sse2
+#define SKS_LEVEL 1
+#define SKS_TARGET 
+#include "skinning_kernel_body.inc"
+#endif
