@@ -1,0 +1,130 @@
+// The engine-facing API: one CharacterAsset per fitted character (shared, read-only), one
+// CharacterInstance per character on screen (its own scratch), and a crowd helper.
+//
+//   auto asset = CharacterAsset::Create(LoadSphereSet("xbot.spheres.json").value());  // set-up
+//   if (auto err = (*asset)->Matches(my_joint_names, my_vertex_count)) { refuse(err->message); }
+//   auto instance = CharacterInstance::Create(*asset);                                 // set-up
+//   each frame:
+//     FrameStatus st = instance->UpdateFast(joint_world);        // or UpdateExact(skinned, joint_world)
+//     if (st.ok()) for (const Contact& c : instance->Query()) ...
+//
+// CharacterAsset holds the SphereSet, the refit's rest data (RefitRestData: G_j(rest)^-1 applied to
+// the centres) and the broad phase's PairFilter; immutable after Create, so any number of
+// instances on any threads share it through a shared_ptr.
+//
+// CharacterInstance: refitted spheres (refit_job.h) + the self-collision broad phase
+// (broad_phase.h). Its buffers are sized at Create; per frame nothing is allocated, except that the
+// contact list grows (geometrically) the first time a frame has more contacts than any before
+// (ReserveContacts pins it). Per-frame calls never throw; they return a FrameStatus whose message
+// is a static string (no allocation). A failed update (non-finite input, short spans) marks the
+// instance's spheres invalid, so Query() then returns no contacts and status() says why; other
+// instances are untouched. Not thread-safe per instance; distinct instances may run concurrently.
+//
+// UpdateAndQueryCrowd runs Update + Query for many instances under tbb::parallel_for; every
+// instance's spheres and contacts are identical to running it alone, serially.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "skinspheres/runtime/broad_phase.h"
+#include "skinspheres/runtime/error.h"
+#include "skinspheres/runtime/pair_filter.h"
+#include "skinspheres/runtime/refit_job.h"
+#include "skinspheres/runtime/sphere_set.h"
+
+namespace skinspheres::runtime {
+
+// Outcome of one per-frame call. message is a static string (never freed, never allocated).
+struct FrameStatus {
+  ErrorCode code = ErrorCode::kOk;
+  const char* message = "";
+  bool ok() const { return code == ErrorCode::kOk; }
+};
+
+class CharacterAsset {
+ public:
+  // Validates the set (SphereSet::Validate), inverts the rest transforms, builds the pair filter.
+  // Errors name the set's source file: kInvalidData (inconsistent set, singular rest transform).
+  static Result<std::shared_ptr<const CharacterAsset>> Create(SphereSet set);
+
+  // Whether the set was fitted on this character: same vertex count (source vertex indices) and
+  // the same joint names in the same order. std::nullopt when it matches; otherwise
+  // kMismatchedAsset with a message naming the set's file and the first difference.
+  std::optional<Error> Matches(std::span<const std::string> joint_names, size_t vertex_count) const;
+
+  const SphereSet& sphere_set() const { return set_; }
+  const RefitRestData& rest() const { return rest_; }
+  const PairFilter& filter() const { return filter_; }
+  size_t size() const { return set_.size(); }
+  size_t joint_count() const { return set_.joint_count(); }
+  size_t source_vertex_count() const { return set_.source_vertex_count; }
+
+ private:
+  CharacterAsset() = default;
+  SphereSet set_;
+  RefitRestData rest_;
+  PairFilter filter_;
+};
+
+class CharacterInstance {
+ public:
+  // Sizes every buffer for the asset (kInvalidArgument for a null asset).
+  static Result<CharacterInstance> Create(std::shared_ptr<const CharacterAsset> asset);
+
+  // Fast refit from G_j(t), one world matrix per skeleton joint (>= asset joint_count()).
+  FrameStatus UpdateFast(std::span<const Eigen::Matrix4f> joint_world);
+  // Exact refit from skinned positions indexed by source vertex (>= source_vertex_count()), with
+  // G_j(t) for the centres (may be empty: box-centre fallback, see refit_job.h).
+  FrameStatus UpdateExact(std::span<const Eigen::Vector3f> skinned_positions,
+                          std::span<const Eigen::Matrix4f> joint_world);
+  // Either of the above by mode (positions ignored in fast mode).
+  FrameStatus Update(RefitMode mode, std::span<const Eigen::Matrix4f> joint_world,
+                     std::span<const Eigen::Vector3f> skinned_positions);
+
+  // Self-collision contacts of the current spheres (broad_phase.h: pairs i < j sorted, depth,
+  // parts). Empty, with status() set, when the last update failed or none ran. The span stays
+  // valid until the next Query().
+  std::span<const Contact> Query();
+  std::span<const Contact> contacts() const { return contacts_; }
+
+  // The refitted spheres (xyz centre, w radius), one per asset sphere; meaningful when
+  // spheres_valid().
+  std::span<const Eigen::Vector4f> spheres() const { return spheres_; }
+  bool spheres_valid() const { return valid_; }
+  // Outcome of the last Update*/Query call.
+  FrameStatus status() const { return status_; }
+
+  void ReserveContacts(size_t count) { contacts_.reserve(count); }
+  const CharacterAsset& asset() const { return *asset_; }
+  const std::shared_ptr<const CharacterAsset>& shared_asset() const { return asset_; }
+
+ private:
+  CharacterInstance() = default;
+  std::shared_ptr<const CharacterAsset> asset_;
+  std::vector<Eigen::Vector4f> spheres_;
+  BroadPhaseContext context_;
+  std::vector<Contact> contacts_;
+  bool valid_ = false;
+  FrameStatus status_{ErrorCode::kInvalidArgument, "no update has run yet"};
+};
+
+// One frame's input for one instance (see CharacterInstance::Update).
+struct CharacterFrameInput {
+  std::span<const Eigen::Matrix4f> joint_world;
+  std::span<const Eigen::Vector3f> skinned_positions;  // exact mode only
+};
+
+// Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (tbb::parallel_for,
+// one instance per task). Returns kInvalidArgument (and runs nothing) when the spans differ in
+// size or an instance pointer is null (listing the same instance twice is a data race the caller
+// must avoid); kInvalidData when at least one instance failed (each instance's
+// status() says why; the others are fully updated); kOk otherwise.
+FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
+                                std::span<const CharacterFrameInput> inputs, RefitMode mode);
+
+}  // namespace skinspheres::runtime

@@ -1,0 +1,148 @@
+// CharacterAsset / CharacterInstance / UpdateAndQueryCrowd (character.h): set-up allocates and
+// reports Errors; per frame only jobs run (RefitJob, SelfCollisionJob) and FrameStatus comes back.
+#include "skinspheres/runtime/character.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <utility>
+
+namespace skinspheres::runtime {
+
+Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet set) {
+  auto rest = RefitRestData::Create(set);
+  if (!rest.ok()) return rest.error();
+  auto filter = PairFilter::FromSphereSet(set);
+  if (!filter.ok()) return filter.error();
+  std::shared_ptr<CharacterAsset> asset(new CharacterAsset());
+  asset->set_ = std::move(set);
+  asset->rest_ = std::move(rest).value();
+  asset->filter_ = std::move(filter).value();
+  return std::shared_ptr<const CharacterAsset>(std::move(asset));
+}
+
+std::optional<Error> CharacterAsset::Matches(std::span<const std::string> joint_names, size_t vertex_count) const {
+  const std::string who = "sphere set '" + set_.source_file + "'";
+  if (vertex_count != set_.source_vertex_count) {
+    return MakeError(ErrorCode::kMismatchedAsset, who + " was fitted on " + std::to_string(set_.source_vertex_count) +
+                                                      " vertices, the character has " + std::to_string(vertex_count));
+  }
+  if (joint_names.size() != set_.joint_names.size()) {
+    return MakeError(ErrorCode::kMismatchedAsset, who + " was fitted on " + std::to_string(set_.joint_names.size()) +
+                                                      " joints, the character has " + std::to_string(joint_names.size()));
+  }
+  for (size_t j = 0; j < joint_names.size(); ++j) {
+    if (joint_names[j] != set_.joint_names[j]) {
+      return MakeError(ErrorCode::kMismatchedAsset, who + ": joint " + std::to_string(j) + " is '" + set_.joint_names[j] +
+                                                        "' in the set but '" + joint_names[j] + "' in the character");
+    }
+  }
+  return std::nullopt;
+}
+
+Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const CharacterAsset> asset) {
+  if (!asset) return MakeError(ErrorCode::kInvalidArgument, "CharacterInstance: null asset");
+  CharacterInstance inst;
+  const size_t n = asset->size();
+  inst.spheres_.assign(n, Eigen::Vector4f::Zero());
+  inst.context_.Resize(n);
+  inst.contacts_.reserve(std::max<size_t>(64, 4 * n));
+  inst.asset_ = std::move(asset);
+  return inst;
+}
+
+FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Eigen::Matrix4f> joint_world,
+                                      std::span<const Eigen::Vector3f> skinned_positions) {
+  valid_ = false;
+  const SphereSet& set = asset_->sphere_set();
+  if (mode != RefitMode::kExact && mode != RefitMode::kFast) {
+    status_ = {ErrorCode::kInvalidArgument, "unknown refit mode"};
+    return status_;
+  }
+  if (mode == RefitMode::kFast || !joint_world.empty()) {
+    if (joint_world.size() < set.joint_count()) {
+      status_ = {ErrorCode::kInvalidArgument, "fewer joint matrices than the asset's joints"};
+      return status_;
+    }
+  }
+  if (mode == RefitMode::kExact && skinned_positions.size() < set.source_vertex_count) {
+    status_ = {ErrorCode::kInvalidArgument, "fewer skinned positions than the asset's source vertices"};
+    return status_;
+  }
+  RefitJob job;
+  job.mode = mode;
+  job.spheres = &set;
+  job.rest = &asset_->rest();
+  job.joint_world = joint_world;
+  job.positions = mode == RefitMode::kExact ? skinned_positions : std::span<const Eigen::Vector3f>();
+  job.out = spheres_;
+  if (!job.Validate()) {
+    status_ = {ErrorCode::kInvalidArgument, "refit job refused (inconsistent asset or inputs)"};
+    return status_;
+  }
+  if (!job.Run()) {
+    status_ = {ErrorCode::kInvalidData, "non-finite joint matrix or skinned position: spheres not updated"};
+    return status_;
+  }
+  valid_ = true;
+  status_ = {};
+  return status_;
+}
+
+FrameStatus CharacterInstance::UpdateFast(std::span<const Eigen::Matrix4f> joint_world) {
+  return Update(RefitMode::kFast, joint_world, {});
+}
+
+FrameStatus CharacterInstance::UpdateExact(std::span<const Eigen::Vector3f> skinned_positions,
+                                           std::span<const Eigen::Matrix4f> joint_world) {
+  return Update(RefitMode::kExact, joint_world, skinned_positions);
+}
+
+std::span<const Contact> CharacterInstance::Query() {
+  contacts_.clear();
+  if (!valid_) {
+    if (status_.ok()) status_ = {ErrorCode::kInvalidArgument, "no valid spheres to query"};
+    return {};
+  }
+  SelfCollisionJob job;
+  job.spheres = spheres_;
+  job.filter = &asset_->filter();
+  job.context = &context_;
+  job.out = &contacts_;
+  if (!job.Run()) {
+    contacts_.clear();
+    status_ = {ErrorCode::kInvalidData, "broad phase refused the spheres"};
+    return {};
+  }
+  status_ = {};
+  return contacts_;
+}
+
+FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
+                                std::span<const CharacterFrameInput> inputs, RefitMode mode) {
+  if (instances.size() != inputs.size()) {
+    return {ErrorCode::kInvalidArgument, "instances and inputs differ in count"};
+  }
+  for (CharacterInstance* inst : instances) {
+    if (inst == nullptr) return {ErrorCode::kInvalidArgument, "null instance"};
+  }
+  std::atomic<bool> all_ok{true};
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, instances.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      CharacterInstance& inst = *instances[i];
+      const FrameStatus st = inst.Update(mode, inputs[i].joint_world, inputs[i].skinned_positions);
+      if (!st.ok()) {
+        all_ok.store(false, std::memory_order_relaxed);
+        continue;
+      }
+      inst.Query();
+      if (!inst.status().ok()) all_ok.store(false, std::memory_order_relaxed);
+    }
+  });
+  if (!all_ok.load()) return {ErrorCode::kInvalidData, "at least one instance failed; see its status()"};
+  return {};
+}
+
+}  // namespace skinspheres::runtime

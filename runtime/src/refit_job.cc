@@ -1,0 +1,217 @@
+// Per-frame sphere refit (refit_job.h). Exact mode: centre c' = Σ w_j T_j c, radius = max distance
+// to the skinned source vertices. Fast mode: Kavan & Žára's bound r' = s_max·radius_fast +
+// max_j |T_j c - c'| (derivation in the header).
+#include "skinspheres/runtime/refit_job.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <atomic>
+#include <cfloat>
+#include <cmath>
+#include <string>
+
+namespace skinspheres::runtime {
+
+const char* ToString(RefitMode mode) {
+  switch (mode) {
+    case RefitMode::kExact:
+      return "exact";
+    case RefitMode::kFast:
+      return "fast";
+  }
+  return "unknown";
+}
+
+Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
+  if (auto err = set.Validate()) {
+    return MakeError(err->code, "RefitRestData: sphere set '" + set.source_file + "': " + err->message);
+  }
+  RefitRestData d;
+  d.sphere_count_ = set.size();
+  d.source_vertex_count_ = set.source_vertex_count;
+  const size_t joints = set.joint_count();
+  std::vector<Eigen::Matrix4d> inverse(joints);
+  d.rest_linear_inverse_.resize(joints);
+  for (size_t j = 0; j < joints; ++j) {
+    const Eigen::Matrix4d g = set.joint_rest_world[j].cast<double>();
+    const double det = g.topLeftCorner<3, 3>().determinant();
+    const double scale = g.topLeftCorner<3, 3>().cwiseAbs().maxCoeff();
+    if (!(std::abs(det) > 1e-12 * scale * scale * scale) || !std::isfinite(det)) {
+      return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file + "': rest transform of joint " +
+                                                    std::to_string(j) + " '" + set.joint_names[j] + "' is not invertible");
+    }
+    Eigen::Matrix4d inv = Eigen::Matrix4d::Identity();
+    const Eigen::Matrix3d li = g.topLeftCorner<3, 3>().inverse();
+    inv.topLeftCorner<3, 3>() = li;
+    inv.topRightCorner<3, 1>() = -li * g.topRightCorner<3, 1>();
+    inverse[j] = inv;
+    d.rest_linear_inverse_[j] = li.cast<float>();
+  }
+  d.center_in_joint_.resize(set.influence_joints.size());
+  d.weights_.resize(set.influence_joints.size());
+  for (size_t s = 0; s < set.size(); ++s) {
+    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
+    if (k0 == k1) {
+      return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file + "': sphere " +
+                                                    std::to_string(s) + " has no joint influence");
+    }
+    double wsum = 0.0;
+    for (uint32_t k = k0; k < k1; ++k) wsum += set.influence_weights[k];
+    if (!(wsum > 0.0)) {
+      return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file + "': sphere " +
+                                                    std::to_string(s) + " has influence weights summing to 0");
+    }
+    const Eigen::Vector4d c(set.centers_rest[s].x(), set.centers_rest[s].y(), set.centers_rest[s].z(), 1.0);
+    for (uint32_t k = k0; k < k1; ++k) {
+      d.center_in_joint_[k] = (inverse[set.influence_joints[k]] * c).head<3>().cast<float>();
+      d.weights_[k] = static_cast<float>(set.influence_weights[k] / wsum);
+    }
+  }
+  return d;
+}
+
+bool RefitJob::Validate() const {
+  if (spheres == nullptr) return false;
+  const size_t n = spheres->size();
+  if (out.size() < n) return false;
+  if (spheres->vertex_offsets.size() != n + 1 || spheres->influence_offsets.size() != n + 1) return false;
+  const bool need_joints = mode == RefitMode::kFast || !joint_world.empty();
+  if (need_joints) {
+    if (rest == nullptr) return false;
+    if (rest->sphere_count() != n || rest->joint_count() != spheres->joint_count() ||
+        rest->influence_count() != spheres->influence_joints.size() ||
+        spheres->influence_weights.size() != spheres->influence_joints.size() ||
+        spheres->radii_fast.size() != n) {
+      return false;
+    }
+    if (joint_world.size() < spheres->joint_count()) return false;
+  }
+  if (mode == RefitMode::kExact) {
+    if (positions.size() < spheres->source_vertex_count) return false;
+    // The set's vertex indices were checked against source_vertex_count when the rest data was
+    // built; without rest data check the CSR end at least (O(1)).
+    if (spheres->vertex_offsets[n] > spheres->vertices.size()) return false;
+    if (rest != nullptr && rest->source_vertex_count() != spheres->source_vertex_count) return false;
+  } else if (mode != RefitMode::kFast) {
+    return false;
+  }
+  return true;
+}
+
+namespace {
+
+// 16 ulps of the coordinates: covers float rounding of c', the distances and the caller's skinning.
+inline float Margin(const Eigen::Vector3f& c, float r) {
+  return 16.0f * FLT_EPSILON * (c.cwiseAbs().maxCoeff() + r);
+}
+
+inline Eigen::Vector3f Apply(const Eigen::Matrix4f& g, const Eigen::Vector3f& p) {
+  return g.topLeftCorner<3, 3>() * p + g.topRightCorner<3, 1>();
+}
+
+// c' = Σ_k w_k G_j(k)(t) · (G_j(k)(rest)^-1 c); also returns k0, k1.
+inline Eigen::Vector3f BlendedCentre(const RefitJob& job, size_t s) {
+  const auto& set = *job.spheres;
+  const auto q = job.rest->center_in_joint();
+  const auto w = job.rest->weights();
+  Eigen::Vector3f c = Eigen::Vector3f::Zero();
+  for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
+    c += w[k] * Apply(job.joint_world[set.influence_joints[k]], q[k]);
+  }
+  return c;
+}
+
+bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
+  const auto& set = *job.spheres;
+  const bool joints = !job.joint_world.empty();
+  bool ok = true;
+  for (size_t s = begin; s < end; ++s) {
+    const uint32_t v0 = set.vertex_offsets[s], v1 = set.vertex_offsets[s + 1];
+    Eigen::Vector3f c;
+    if (joints) {
+      c = BlendedCentre(job, s);
+    } else if (v0 == v1) {
+      c = set.centers_rest[s];
+    } else {
+      Eigen::Vector3f lo = job.positions[set.vertices[v0]], hi = lo;
+      for (uint32_t k = v0 + 1; k < v1; ++k) {
+        const Eigen::Vector3f& p = job.positions[set.vertices[k]];
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+      c = 0.5f * (lo + hi);
+    }
+    float d2max = 0.0f;
+    bool finite = c.allFinite();
+    for (uint32_t k = v0; k < v1; ++k) {
+      const float d2 = (job.positions[set.vertices[k]] - c).squaredNorm();
+      finite &= d2 <= FLT_MAX;  // false for NaN and Inf (std::max would drop a NaN)
+      d2max = std::max(d2max, d2);
+    }
+    const float r = std::sqrt(d2max);
+    const float radius = r + Margin(c, r);
+    job.out[s] = Eigen::Vector4f(c.x(), c.y(), c.z(), radius);
+    ok &= finite && std::isfinite(radius);
+  }
+  return ok;
+}
+
+bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
+  const auto& set = *job.spheres;
+  const auto q = job.rest->center_in_joint();
+  const auto rinv = job.rest->rest_linear_inverse();
+  bool ok = true;
+  for (size_t s = begin; s < end; ++s) {
+    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
+    const Eigen::Vector3f c = BlendedCentre(job, s);
+    float spread2 = 0.0f;  // max_j |T_j c - c'|^2
+    float s2 = 0.0f;       // s_max^2 = max_j max_i Σ_k |(A_jᵀ A_j)_ik|
+    bool finite = true;
+    for (uint32_t k = k0; k < k1; ++k) {
+      const uint16_t j = set.influence_joints[k];
+      const Eigen::Matrix4f& g = job.joint_world[j];
+      const float d2 = (Apply(g, q[k]) - c).squaredNorm();
+      const Eigen::Matrix3f a = g.topLeftCorner<3, 3>() * rinv[j];  // A_j = linear(G_j(t) G_j(rest)^-1)
+      const Eigen::Matrix3f ata = a.transpose() * a;
+      const float row = ata.cwiseAbs().rowwise().sum().maxCoeff();
+      finite &= (d2 <= FLT_MAX) & (row <= FLT_MAX);
+      spread2 = std::max(spread2, d2);
+      s2 = std::max(s2, row);
+    }
+    const float r = std::sqrt(s2) * set.radii_fast[s] + std::sqrt(spread2);
+    const float radius = r + Margin(c, r);
+    job.out[s] = Eigen::Vector4f(c.x(), c.y(), c.z(), radius);
+    ok &= finite && c.allFinite() && std::isfinite(radius);
+  }
+  return ok;
+}
+
+}  // namespace
+
+bool RefitJob::RunRange(size_t begin, size_t end) const {
+  if (!Validate() || begin > end || end > spheres->size()) return false;
+  return mode == RefitMode::kExact ? RefitExact(*this, begin, end) : RefitFast(*this, begin, end);
+}
+
+bool RefitJob::Run() const {
+  if (!Validate()) return false;
+  return RunRange(0, spheres->size());
+}
+
+bool RefitParallel(const RefitJob& job, size_t grain) {
+  if (!job.Validate()) return false;
+  std::atomic<bool> ok{true};
+  const size_t n = job.spheres->size();
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, std::max<size_t>(grain, 1)),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      const bool good = job.mode == RefitMode::kExact ? RefitExact(job, r.begin(), r.end())
+                                                                      : RefitFast(job, r.begin(), r.end());
+                      if (!good) ok.store(false, std::memory_order_relaxed);
+                    });
+  return ok.load();
+}
+
+}  // namespace skinspheres::runtime

@@ -1,0 +1,105 @@
+// Test helpers for the refit and character tests: fit a character with default settings (cached
+// per process), pose it (clip frames, random poses with optional non-uniform scale) with the
+// independent test oracle of tests/lib/clip_eval_for_tests.h (naive sampler, FK, LBS).
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <map>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "lib/clip_eval_for_tests.h"
+#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/sphere_fitter.h"
+#include "test_support.h"
+
+namespace skinspheres::test {
+
+struct FittedCharacter {
+  lib::RawCharacter character;
+  runtime::SphereSet set;
+};
+
+// nullptr (with a gtest failure) when import or fit fails. "builtin" = MakeBuiltinCharacter().
+inline std::shared_ptr<const FittedCharacter> LoadFitted(const std::string& name) {
+  static std::map<std::string, std::shared_ptr<const FittedCharacter>> cache;
+  auto it = cache.find(name);
+  if (it != cache.end()) return it->second;
+  auto fitted = std::make_shared<FittedCharacter>();
+  if (name == "builtin") {
+    fitted->character = lib::MakeBuiltinCharacter();
+  } else {
+    auto raw = lib::ImportCharacter(Asset(name));
+    if (!raw.ok()) {
+      ADD_FAILURE() << raw.error().message;
+      return nullptr;
+    }
+    fitted->character = std::move(raw).value();
+  }
+  auto parts = lib::SplitBodyParts(fitted->character);
+  if (!parts.ok()) {
+    ADD_FAILURE() << name << ": " << parts.error().message;
+    return nullptr;
+  }
+  auto fit = lib::FitSpheres(fitted->character, *parts, lib::FitSettings{});
+  if (!fit.ok()) {
+    ADD_FAILURE() << name << ": " << fit.error().message;
+    return nullptr;
+  }
+  fitted->set = std::move(fit->spheres);
+  cache[name] = fitted;
+  return fitted;
+}
+
+// Rest locals with every joint rotated by a random angle in [0, max_deg] about a random axis and,
+// when scale_probability > 0, that fraction of joints scaled non-uniformly by factors in [0.6, 1.5].
+inline std::vector<skinning::Transform> RandomLocal(const lib::RawCharacter& c, std::mt19937& rng, float max_deg,
+                                                    float scale_probability) {
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f), unit(0.0f, 1.0f), sc(0.6f, 1.5f);
+  std::vector<skinning::Transform> local = c.skeleton.rest_local;
+  for (auto& t : local) {
+    Eigen::Vector3f axis(u(rng), u(rng), u(rng));
+    if (axis.norm() < 1e-3f) axis = Eigen::Vector3f::UnitX();
+    const float angle = unit(rng) * max_deg * 3.14159265f / 180.0f;
+    t.rotation = (t.rotation * Eigen::Quaternionf(Eigen::AngleAxisf(angle, axis.normalized()))).normalized();
+    if (unit(rng) < scale_probability) t.scale = t.scale.cwiseProduct(Eigen::Vector3f(sc(rng), sc(rng), sc(rng)));
+  }
+  return local;
+}
+
+// A pose: G_j(t) per joint and every vertex skinned by the naive LBS.
+struct Pose {
+  std::string label;
+  std::vector<Eigen::Matrix4f> world;
+  std::vector<Eigen::Vector3f> positions;
+};
+
+inline Pose MakePose(const lib::RawCharacter& c, const std::vector<skinning::Transform>& local, std::string label) {
+  Pose p;
+  p.label = std::move(label);
+  p.world = WorldOf(c, local);
+  p.positions = Skin(c, p.world);
+  return p;
+}
+
+// Every clip at 30 fps, keeping at most max_frames_per_clip evenly spaced frames.
+inline std::vector<Pose> ClipPoses(const lib::RawCharacter& c, int max_frames_per_clip) {
+  std::vector<Pose> poses;
+  for (const auto& clip : c.clips) {
+    const int frames = std::max(1, static_cast<int>(clip.duration_s * 30.0f) + 1);
+    const int stride = std::max(1, (frames + max_frames_per_clip - 1) / max_frames_per_clip);
+    for (int f = 0; f < frames; f += stride) {
+      const float t = std::min(clip.duration_s, f / 30.0f);
+      poses.push_back(MakePose(c, SampleLocal(c, clip, t), clip.name + "@" + std::to_string(t)));
+    }
+  }
+  return poses;
+}
+
+}  // namespace skinspheres::test

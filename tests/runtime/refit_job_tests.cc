@@ -1,0 +1,341 @@
+// RefitJob: conservativeness on the built-in and shared characters (clip frames and random poses
+// with non-uniform scale, against a naive LBS of every vertex), exact radius = brute-force max
+// distance, fast >= exact, analytic single-joint cases, 1 vs 2 threads, Validate() refusals, NaN.
+#include "skinspheres/runtime/refit_job.h"
+
+#include <gtest/gtest.h>
+#include <tbb/task_arena.h>
+
+#include <cfloat>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "posed_characters.h"
+#include "runtime/sample_sphere_set.h"
+
+namespace skinspheres::runtime {
+namespace {
+
+using test::FittedCharacter;
+using test::Pose;
+
+struct Refits {
+  std::vector<Eigen::Vector4f> exact, exact_box, fast;
+};
+
+Refits RunAll(const SphereSet& set, const RefitRestData& rest, const Pose& pose) {
+  Refits r;
+  r.exact.assign(set.size(), Eigen::Vector4f::Zero());
+  r.exact_box = r.fast = r.exact;
+  RefitJob job;
+  job.spheres = &set;
+  job.rest = &rest;
+  job.mode = RefitMode::kExact;
+  job.joint_world = pose.world;
+  job.positions = pose.positions;
+  job.out = r.exact;
+  EXPECT_TRUE(job.Run()) << pose.label;
+  job.joint_world = {};
+  job.out = r.exact_box;
+  EXPECT_TRUE(job.Run()) << pose.label;
+  job.mode = RefitMode::kFast;
+  job.joint_world = pose.world;
+  job.positions = {};
+  job.out = r.fast;
+  EXPECT_TRUE(job.Run()) << pose.label;
+  return r;
+}
+
+// Every vertex of every owned triangle inside (in double, 1e-5 relative tolerance); exact radius =
+// brute-force max distance over the source vertices; fast radius >= exact radius (same centre).
+// Returns the number of failures found (stops reporting after a few).
+double g_sum_exact = 0, g_sum_fast = 0;  // radius sums over the poses checked, for the printout
+
+int CheckPose(const FittedCharacter& fc, const RefitRestData& rest, const Pose& pose) {
+  const SphereSet& set = fc.set;
+  const Refits r = RunAll(set, rest, pose);
+  for (size_t s = 0; s < set.size(); ++s) {
+    g_sum_exact += r.exact[s].w();
+    g_sum_fast += r.fast[s].w();
+  }
+  int failures = 0;
+  auto fail = [&](const std::string& what) {
+    if (++failures <= 5) ADD_FAILURE() << fc.character.source_file << " " << pose.label << ": " << what;
+  };
+  auto inside = [&](const Eigen::Vector4f& sph, const Eigen::Vector3f& p) {
+    const double d = (p.cast<double>() - sph.head<3>().cast<double>()).norm();
+    return d <= sph.w() * (1.0 + 1e-5);
+  };
+  for (size_t s = 0; s < set.size(); ++s) {
+    for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
+      const Eigen::Vector3i& tri = fc.character.triangles[set.triangles[k]];
+      for (int c = 0; c < 3; ++c) {
+        const Eigen::Vector3f& p = pose.positions[tri[c]];
+        if (!inside(r.exact[s], p)) fail("exact sphere " + std::to_string(s) + " misses a vertex");
+        if (!inside(r.exact_box[s], p)) fail("exact (box centre) sphere " + std::to_string(s) + " misses a vertex");
+        if (!inside(r.fast[s], p)) fail("fast sphere " + std::to_string(s) + " misses a vertex");
+      }
+    }
+    // Oracle: the max distance from the exact centre to the source vertices.
+    double dmax = 0.0;
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+      dmax = std::max(dmax, (pose.positions[set.vertices[k]].cast<double>() - r.exact[s].head<3>().cast<double>()).norm());
+    }
+    const double coord = r.exact[s].head<3>().cwiseAbs().maxCoeff();
+    if (!(r.exact[s].w() >= dmax * (1 - 1e-6) && r.exact[s].w() <= dmax + 4e-6 * (coord + dmax) + 1e-30)) {
+      fail("exact radius " + std::to_string(r.exact[s].w()) + " != max distance " + std::to_string(dmax));
+    }
+    if (r.fast[s].head<3>() != r.exact[s].head<3>()) fail("fast and exact centres differ");
+    // fast >= exact up to the rounding margin (both add ~2e-6 of the coordinates, refit_job.h).
+    if (!(r.fast[s].w() >= r.exact[s].w() - 4e-6 * (coord + dmax))) {
+      fail("fast radius " + std::to_string(r.fast[s].w()) + " below exact radius " + std::to_string(r.exact[s].w()));
+    }
+  }
+  return failures;
+}
+
+void CheckCharacter(const std::string& name, int frames_per_clip, int random_poses) {
+  auto fc = test::LoadFitted(name);
+  ASSERT_TRUE(fc);
+  auto rest = RefitRestData::Create(fc->set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  int failures = 0, poses = 0;
+  g_sum_exact = g_sum_fast = 0;
+  for (const Pose& pose : test::ClipPoses(fc->character, frames_per_clip)) {
+    failures += CheckPose(*fc, *rest, pose);
+    ++poses;
+  }
+  std::mt19937 rng(12345);
+  for (int i = 0; i < random_poses; ++i) {
+    const float scale_probability = (i % 2) ? 0.3f : 0.0f;  // odd poses: non-uniform scales
+    failures += CheckPose(*fc, *rest,
+                          test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, scale_probability),
+                                         "random#" + std::to_string(i)));
+    ++poses;
+  }
+  EXPECT_EQ(failures, 0);
+  EXPECT_GT(poses, random_poses - 1);
+  const double posed_ratio = g_sum_fast / g_sum_exact;
+  // Tightness figure, for the record: at the rest pose exact radii equal the fitted radii.
+  const Pose rest_pose = test::MakePose(fc->character, fc->character.skeleton.rest_local, "rest");
+  const Refits r = RunAll(fc->set, *rest, rest_pose);
+  double sum_exact = 0, sum_fast = 0, sum_fit = 0;
+  for (size_t s = 0; s < fc->set.size(); ++s) {
+    sum_exact += r.exact[s].w();
+    sum_fast += r.fast[s].w();
+    sum_fit += fc->set.radii_rest[s];
+    EXPECT_NEAR(r.exact[s].w(), fc->set.radii_rest[s], 1e-4 * (fc->set.radii_rest[s] + fc->set.centers_rest[s].norm()));
+  }
+  std::printf("%s: %zu spheres, %d poses; rest pose sum of radii exact/fit %.4f fast/fit %.4f; posed fast/exact %.3f\n",
+              name.c_str(), fc->set.size(), poses, sum_exact / sum_fit, sum_fast / sum_fit, posed_ratio);
+}
+
+TEST(RefitJobTest, BuiltinCharacterIsCoveredInBothModes) { CheckCharacter("builtin", 1000, 100); }
+
+class SharedCharacterRefit : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(SharedCharacterRefit, IsCoveredInBothModes) {
+  SKINSPHERES_REQUIRE_ASSET(path, GetParam());
+  (void)path;
+  CheckCharacter(GetParam(), 30, 40);
+}
+
+INSTANTIATE_TEST_SUITE_P(Assets, SharedCharacterRefit, ::testing::ValuesIn(test::SharedCharacters()),
+                         [](const auto& param_info) {
+                           std::string n = param_info.param;
+                           return n.substr(0, n.find('.'));
+                         });
+
+// One joint, one sphere: analytic answers for rigid motion, uniform and non-uniform scale.
+SphereSet OneJointSet(const Eigen::Matrix4f& rest_world) {
+  SphereSet set = TwoSpheres();
+  set.joint_rest_world = {rest_world};
+  set.radii_fast = {1.5f, 1.0f};
+  set.source_vertex_count = 4;
+  return set;
+}
+
+TEST(RefitJobTest, FastModeSingleJointAnalytic) {
+  Eigen::Matrix4f rest_world = Eigen::Matrix4f::Identity();
+  rest_world.topRightCorner<3, 1>() = Eigen::Vector3f(0.5f, -1.0f, 2.0f);
+  const SphereSet set = OneJointSet(rest_world);
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::vector<Eigen::Vector4f> out(2);
+  RefitJob job{RefitMode::kFast, &set, &*rest, {}, {}, out};
+
+  Eigen::Affine3f motion = Eigen::Translation3f(3, 4, 5) * Eigen::AngleAxisf(0.7f, Eigen::Vector3f(1, 2, 3).normalized());
+  auto expect = [&](const Eigen::Matrix4f& t, float s_max, const char* what) {
+    const Eigen::Matrix4f g = t * rest_world;  // G(t) = T · G(rest)
+    job.joint_world = std::span<const Eigen::Matrix4f>(&g, 1);
+    ASSERT_TRUE(job.Run()) << what;
+    for (int s = 0; s < 2; ++s) {
+      const Eigen::Vector3f c = (t * set.centers_rest[s].homogeneous()).head<3>();
+      EXPECT_LT((out[s].head<3>() - c).norm(), 1e-5f) << what;
+      EXPECT_NEAR(out[s].w(), s_max * set.radii_fast[s], 1e-4f) << what;
+    }
+  };
+  expect(motion.matrix(), 1.0f, "rigid");
+  expect((motion * Eigen::Scaling(2.0f)).matrix(), 2.0f, "uniform scale");
+  // Non-uniform diag(3, 1, 1), unrotated so the bound is exact: AᵀA = diag(9, 1, 1), largest row
+  // sum 9, s_max = 3.
+  expect(Eigen::Matrix4f(Eigen::Affine3f(Eigen::Translation3f(1, 0, 0) * Eigen::Scaling(Eigen::Vector3f(3, 1, 1))).matrix()),
+         3.0f, "non-uniform scale");
+}
+
+TEST(RefitJobTest, TwoJointSpreadTermIsAdded) {
+  // A sphere at the origin half on joint 0, half on joint 1; joint 1 moves by (2, 0, 0):
+  // c' = (1, 0, 0), spread = 1, radius = 1 · radius_fast + 1.
+  SphereSet set = TwoSpheres();
+  set.joint_names = {"a", "b"};
+  set.joint_parents = {-1, 0};
+  set.joint_rest_world = {Eigen::Matrix4f::Identity(), Eigen::Matrix4f::Identity()};
+  set.influence_offsets = {0, 2, 3};
+  set.influence_joints = {0, 1, 0};
+  set.influence_weights = {0.5f, 0.5f, 1.0f};
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::vector<Eigen::Matrix4f> world(2, Eigen::Matrix4f::Identity());
+  world[1](0, 3) = 2.0f;
+  std::vector<Eigen::Vector4f> out(2);
+  RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
+  ASSERT_TRUE(job.Run());
+  EXPECT_NEAR(out[0].x(), 1.0f, 1e-6f);
+  EXPECT_NEAR(out[0].w(), set.radii_fast[0] + 1.0f, 1e-5f);
+}
+
+TEST(RefitJobTest, SameOutputForOneAndTwoThreads) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  auto rest = RefitRestData::Create(fc->set);
+  ASSERT_TRUE(rest.ok());
+  std::mt19937 rng(7);
+  const Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, 0.3f), "random");
+  for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
+    std::vector<Eigen::Vector4f> serial(fc->set.size()), one(fc->set.size()), two(fc->set.size());
+    RefitJob job{mode, &fc->set, &*rest, pose.world, pose.positions, serial};
+    ASSERT_TRUE(job.Run());
+    job.out = one;
+    tbb::task_arena(1).execute([&] { EXPECT_TRUE(RefitParallel(job, 1)); });
+    job.out = two;
+    tbb::task_arena(2).execute([&] { EXPECT_TRUE(RefitParallel(job, 1)); });
+    // Split by hand too: any range split gives the same bits.
+    std::vector<Eigen::Vector4f> split(fc->set.size());
+    job.out = split;
+    for (size_t b = 0; b < fc->set.size(); b += 7) EXPECT_TRUE(job.RunRange(b, std::min(b + 7, fc->set.size())));
+    for (size_t s = 0; s < fc->set.size(); ++s) {
+      EXPECT_EQ(serial[s], one[s]) << ToString(mode) << " sphere " << s;
+      EXPECT_EQ(serial[s], two[s]) << ToString(mode) << " sphere " << s;
+      EXPECT_EQ(serial[s], split[s]) << ToString(mode) << " sphere " << s;
+    }
+  }
+}
+
+TEST(RefitJobTest, ValidateRefusesBadJobs) {
+  EXPECT_FALSE(RefitJob{}.Validate());
+  EXPECT_FALSE(RefitJob{}.Run());
+  const SphereSet set = TwoSpheres();
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok());
+  std::vector<Eigen::Matrix4f> world(1, Eigen::Matrix4f::Identity());
+  std::vector<Eigen::Vector3f> pos(4, Eigen::Vector3f::Zero());
+  std::vector<Eigen::Vector4f> out(2);
+  const RefitJob good_fast{RefitMode::kFast, &set, &*rest, world, {}, out};
+  const RefitJob good_exact{RefitMode::kExact, &set, &*rest, world, pos, out};
+  EXPECT_TRUE(good_fast.Validate());
+  EXPECT_TRUE(good_exact.Validate());
+  RefitJob j = good_exact;
+  j.rest = nullptr;
+  j.joint_world = {};
+  EXPECT_TRUE(j.Validate()) << "exact mode without joints needs no rest data";
+  j = good_exact;
+  j.rest = nullptr;
+  EXPECT_FALSE(j.Validate()) << "exact mode with joints needs rest data";
+  j = good_fast;
+  j.rest = nullptr;
+  EXPECT_FALSE(j.Validate());
+  j = good_fast;
+  j.joint_world = {};
+  EXPECT_FALSE(j.Validate()) << "fast mode needs joints";
+  j = good_fast;
+  j.out = std::span<Eigen::Vector4f>(out).first(1);
+  EXPECT_FALSE(j.Validate()) << "short output";
+  j = good_exact;
+  j.positions = std::span<const Eigen::Vector3f>(pos).first(3);
+  EXPECT_FALSE(j.Validate()) << "short positions";
+  j = good_fast;
+  j.mode = static_cast<RefitMode>(7);
+  EXPECT_FALSE(j.Validate()) << "unknown mode";
+  // Rest data of another set.
+  SphereSet other = TwoSpheres();
+  other.centers_rest.push_back(Eigen::Vector3f::Zero());
+  other.radii_rest.push_back(1);
+  other.radii_fast.push_back(1);
+  other.sphere_part.push_back(0);
+  other.sphere_joint.push_back(0);
+  other.sphere_level.push_back(2);
+  other.vertex_offsets.push_back(6);
+  other.triangle_offsets.push_back(2);
+  other.influence_offsets = {0, 1, 2, 3};
+  other.influence_joints = {0, 0, 0};
+  other.influence_weights = {1, 1, 1};
+  ASSERT_FALSE(other.Validate().has_value()) << other.Validate()->message;
+  j = good_fast;
+  j.spheres = &other;
+  std::vector<Eigen::Vector4f> out3(3);
+  j.out = out3;
+  EXPECT_FALSE(j.Validate()) << "rest data from another set";
+  // Ranges.
+  EXPECT_FALSE(good_fast.RunRange(1, 3));
+  EXPECT_FALSE(good_fast.RunRange(2, 1));
+  EXPECT_TRUE(good_fast.RunRange(1, 2));
+  // Bad sets are refused when the rest data is built, naming the file.
+  SphereSet bad = TwoSpheres();
+  bad.source_file = "broken.json";
+  bad.radii_fast.pop_back();
+  auto r = RefitRestData::Create(bad);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("broken.json"), std::string::npos) << r.error().message;
+  bad = TwoSpheres();
+  bad.source_file = "singular.json";
+  bad.joint_rest_world[0] = Eigen::Matrix4f::Zero();
+  bad.joint_rest_world[0](3, 3) = 1;
+  r = RefitRestData::Create(bad);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("not invertible"), std::string::npos) << r.error().message;
+}
+
+TEST(RefitJobTest, NonFiniteInputFailsWithoutCrashing) {
+  const SphereSet set = TwoSpheres();
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok());
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  std::vector<Eigen::Vector4f> out(2);
+  for (float bad : {nan, inf}) {
+    std::vector<Eigen::Matrix4f> world(1, Eigen::Matrix4f::Identity());
+    std::vector<Eigen::Vector3f> pos(4, Eigen::Vector3f::Ones());
+    RefitJob fast{RefitMode::kFast, &set, &*rest, world, {}, out};
+    RefitJob exact{RefitMode::kExact, &set, &*rest, world, pos, out};
+    RefitJob box{RefitMode::kExact, &set, &*rest, {}, pos, out};
+    EXPECT_TRUE(fast.Run());
+    EXPECT_TRUE(exact.Run());
+    EXPECT_TRUE(box.Run());
+    world[0](1, 1) = bad;  // linear part only: centre may stay finite, the scale bound may not
+    EXPECT_FALSE(fast.Run());
+    EXPECT_FALSE(RefitParallel(fast, 1));
+    world[0] = Eigen::Matrix4f::Identity();
+    world[0](0, 3) = bad;
+    EXPECT_FALSE(fast.Run());
+    EXPECT_FALSE(exact.Run());
+    world[0] = Eigen::Matrix4f::Identity();
+    pos[3].y() = bad;  // a vertex of the second sphere only (vertex 3)
+    EXPECT_FALSE(exact.Run());
+    EXPECT_FALSE(box.Run());
+    EXPECT_TRUE(exact.RunRange(0, 1)) << "the first sphere does not read vertex 3";
+    EXPECT_TRUE(fast.Run()) << "fast mode reads no positions";
+  }
+}
+
+}  // namespace
+}  // namespace skinspheres::runtime
