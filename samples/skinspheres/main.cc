@@ -1,7 +1,26 @@
-// skinspheres: the command-line tool (fit, demo, play, export-builtin).
-#include <cstdio>
+// skinspheres: the command-line tool.
+//   skinspheres fit INPUT -o OUT.json [...]      fit a sphere set (see fit_command.cc)
+//   skinspheres play INPUT [...]                 play a clip: sample, skin, refit, query (play_command.cc)
+//   skinspheres demo                             fit and play the built-in character
+//   skinspheres export-builtin OUT.glb           write the built-in character as glTF
+#include <CLI/CLI.hpp>
+#include <iostream>
 
-int main() {
-  std::puts("skinspheres: nothing here yet");
-  return 0;
+#include "playback.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"skinspheres: sphere approximation and self-collision for skinned characters"};
+  app.require_subcommand(1);
+  int exit_code = 0;
+  skinspheres::tool::AddFitCommand(app, &exit_code);
+  skinspheres::tool::AddPlayCommand(app, &exit_code);
+  skinspheres::tool::AddDemoCommand(app, &exit_code);
+  skinspheres::tool::AddExportBuiltinCommand(app, &exit_code);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : skinspheres::tool::kExitBadInput;
+  }
+  return exit_code;
 }

@@ -1,0 +1,47 @@
+// The subcommands of the skinspheres tool. Each returns the process exit code:
+// 0 success, 1 a failed check (a triangle outside its sphere), 2 bad input (one line on stderr
+// naming the file and the problem).
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <optional>
+#include <string>
+
+#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/raw_character.h"
+#include "skinspheres/lib/sphere_fitter.h"
+
+namespace skinspheres::tool {
+
+inline constexpr int kExitBadInput = 2;
+
+// Prints "skinspheres: <message>" on stderr and returns kExitBadInput.
+int Fail(const std::string& message);
+
+// A character to work on: a file (any format Assimp reads) or, with an empty path, the built-in one.
+struct LoadedCharacter {
+  lib::RawCharacter character;
+  lib::BodyParts parts;
+  double import_seconds = 0.0;
+};
+Result<LoadedCharacter> LoadCharacter(const std::string& input, const std::string& parts_file);
+
+// Options shared by `fit`, `play` (fitting on the fly) and `demo`.
+struct FitOptions {
+  lib::FitSettings settings;
+  std::string method = "m1a";
+  std::string parts_file;
+  int hops = 1;
+  bool no_bind_overlap = false;
+  void AddTo(CLI::App& app);
+  std::optional<std::string> Resolve();  // fills settings; an error message when refused
+};
+
+// Prints the fit summary (parts, spheres per part, triangles covered, growth, F, time).
+void PrintFitSummary(const lib::FitResult& fit, double import_seconds);
+
+void AddFitCommand(CLI::App& app, int* exit_code);
+void AddExportBuiltinCommand(CLI::App& app, int* exit_code);
+void AddDemoCommand(CLI::App& app, int* exit_code);
+
+}  // namespace skinspheres::tool

@@ -1,0 +1,88 @@
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+
+#include "commands.h"
+#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/importer.h"
+
+namespace skinspheres::tool {
+
+int Fail(const std::string& message) {
+  std::cerr << "skinspheres: " << message << "\n";
+  return kExitBadInput;
+}
+
+Result<LoadedCharacter> LoadCharacter(const std::string& input, const std::string& parts_file) {
+  LoadedCharacter out;
+  const auto start = std::chrono::steady_clock::now();
+  if (input.empty()) {
+    out.character = lib::MakeBuiltinCharacter();
+  } else {
+    auto imported = lib::ImportCharacter(input);
+    if (!imported.ok()) return imported.error();
+    out.character = std::move(imported).value();
+  }
+  out.import_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::optional<lib::PartOverrides> overrides;
+  if (!parts_file.empty()) {
+    auto loaded = lib::LoadPartOverrides(parts_file, &out.character.skeleton);
+    if (!loaded.ok()) return loaded.error();
+    overrides = std::move(loaded).value();
+  }
+  auto parts = lib::SplitBodyParts(out.character, overrides ? &*overrides : nullptr);
+  if (!parts.ok()) return parts.error();
+  out.parts = std::move(parts).value();
+  return out;
+}
+
+void FitOptions::AddTo(CLI::App& app) {
+  app.add_option("--rays", settings.rays, "rays per disk, Nr (alpha = 360/Nr)")->capture_default_str();
+  app.add_option("--per-level", settings.per_level, "spheres per disk level for the torso: 1, 2 or 4")->capture_default_str();
+  app.add_option("--method", method, "sphere per group: m1 (centroid), m2 (Welzl minimum ball), m1a (M1 adjusted)")
+      ->capture_default_str();
+  app.add_option("--overlap", settings.overlap, "penetration depth PD between levels, in [0, 1)")->capture_default_str();
+  app.add_option("--step", settings.step, "disk step delta, as a fraction of each part's length")->capture_default_str();
+  app.add_option("--parts", parts_file, "JSON file mapping joint names to part names (overrides)");
+  app.add_option("--hops", hops, "exclude pairs whose joints are at most this many bones apart: 0, 1, 2")->capture_default_str();
+  app.add_option("--refine", settings.refine_iterations, "tightening rounds after ownership (0: the paper's centres)")
+      ->capture_default_str();
+  app.add_flag("--no-bind-overlap", no_bind_overlap, "keep pairs that already overlap in the rest pose");
+}
+
+std::optional<std::string> FitOptions::Resolve() {
+  if (method == "m1") {
+    settings.method = lib::SphereMethod::kM1;
+  } else if (method == "m2") {
+    settings.method = lib::SphereMethod::kM2;
+  } else if (method == "m1a") {
+    settings.method = lib::SphereMethod::kM1A;
+  } else {
+    return "--method must be m1, m2 or m1a (got " + method + ")";
+  }
+  settings.adjacent_hops = hops;
+  settings.exclude_bind_overlaps = !no_bind_overlap;
+  if (std::string why = settings.Validate(); !why.empty()) return why;
+  return std::nullopt;
+}
+
+void PrintFitSummary(const lib::FitResult& fit, double import_seconds) {
+  const auto& r = fit.report;
+  const auto& set = fit.spheres;
+  std::printf("parts:\n");
+  std::printf("  %-10s %8s %8s %7s %9s %9s\n", "part", "triangles", "spheres", "levels", "F mean", "F max");
+  for (const auto& p : r.parts) {
+    std::printf("  %-10s %8d %8d %7d %9.5f %9.5f\n", p.name.c_str(), p.triangles, p.spheres, p.levels_kept, p.f_mean, p.f_max);
+  }
+  size_t excluded[3] = {0, 0, 0};
+  for (const auto& p : set.excluded_pairs) ++excluded[static_cast<int>(p.reason)];
+  std::printf("spheres: %zu   excluded pairs: %zu (same joint %zu, adjacent joints %zu, rest overlap %zu)\n",
+              set.size(), set.excluded_pairs.size(), excluded[0], excluded[1], excluded[2]);
+  std::printf("triangles covered: %d of %u (bind-pose check)\n", r.triangles_covered, set.source_triangle_count);
+  std::printf("growth: %d spheres grew to hold their triangles, by %.4f of body height on average, %.4f at most; %d shrank; %d dropped\n",
+              r.spheres_grown, r.growth_mean, r.growth_max, r.spheres_shrunk, r.spheres_dropped);
+  std::printf("F (paper): mean %.6f, max %.6f (body height %.4f)\n", r.f_mean, r.f_max, r.body_height);
+  std::printf("time: import %.1f ms, fit %.1f ms\n", import_seconds * 1e3, r.seconds * 1e3);
+}
+
+}  // namespace skinspheres::tool
