@@ -28,8 +28,18 @@ int RunPlay(PlayArgs& a) {
   if (auto why = a.fit.Resolve()) return Fail(*why);
   auto loaded = LoadCharacter(a.input, a.fit.parts_file);
   if (!loaded.ok()) return Fail(loaded.error().message);
-  auto clip = FindClip(loaded->character, a.clip);
-  if (!clip.ok()) return Fail(clip.error().message);
+  std::vector<size_t> clips;
+  if (a.clip == "all") {
+    for (size_t k = 0; k < loaded->character.clips.size(); ++k) clips.push_back(k);
+    if (clips.empty()) return Fail(loaded->character.source_file + ": has no animation clips");
+    if (!a.dump.empty() || !a.export_glb.empty() || !a.report.empty()) {
+      return Fail("--clip all plays every clip for checking; --dump, --report and --export-glb take one clip");
+    }
+  } else {
+    auto clip = FindClip(loaded->character, a.clip);
+    if (!clip.ok()) return Fail(clip.error().message);
+    clips.push_back(*clip);
+  }
   runtime::SphereSet set;
   if (!a.spheres.empty()) {
     auto read = runtime::LoadSphereSet(a.spheres);
@@ -47,7 +57,18 @@ int RunPlay(PlayArgs& a) {
   opts.verify = a.verify;
   opts.progress = isatty(STDERR_FILENO);
   opts.keep_spheres = !a.dump.empty() || !a.export_glb.empty();
-  auto played = PlayClip(*loaded, set, *clip, opts);
+  if (clips.size() > 1) {
+    size_t outside = 0;
+    for (size_t k : clips) {
+      auto played = PlayClip(*loaded, set, k, opts);
+      if (!played.ok()) return Fail(played.error().message);
+      PrintPlaySummary(*played, set, a.fps);
+      outside += played->triangles_outside;
+    }
+    if (a.verify) std::printf("verify: %zu triangle-frames outside their sphere over %zu clips\n", outside, clips.size());
+    return outside ? 1 : 0;
+  }
+  auto played = PlayClip(*loaded, set, clips[0], opts);
   if (!played.ok()) return Fail(played.error().message);
   PrintPlaySummary(*played, set, a.fps);
 
@@ -102,7 +123,7 @@ void AddPlayCommand(CLI::App& app, int* exit_code) {
   CLI::App* cmd = app.add_subcommand("play", "play a clip: sample, skin, refit, query every frame");
   cmd->add_option("input", a->input, "character file")->required();
   cmd->add_option("--spheres", a->spheres, "sphere set to use (default: fit on the fly)");
-  cmd->add_option("--clip", a->clip, "clip name or index")->capture_default_str();
+  cmd->add_option("--clip", a->clip, "clip name or index, or all")->capture_default_str();
   cmd->add_option("--fps", a->fps, "frames per second")->capture_default_str();
   cmd->add_option("--frames", a->frames, "number of frames (default: the whole clip)");
   cmd->add_option("--mode", a->mode, "refit mode: exact (skinned source vertices) or fast (joint transforms)")->capture_default_str();

@@ -18,7 +18,10 @@
 //    Parts: torso = P .. C plus weighted joints above P; head = C's upward child subtree;
 //    arm = clavicle/shoulder subtree; leg = thigh subtree. Weighted subtrees that hang
 //    elsewhere (RobotExpressive's IK feet under the root, a prop bone) join the part whose bones
-//    are nearest in the rest pose.
+//    are nearest in the rest pose. Among several (P, C, head, arms, legs) choices the one with
+//    the best mirror symmetry, limb similarity, spine-along-up and share of the weighted vertices
+//    wins. The pelvis must be an ancestor of the spine (a rig rooted at the chest is not
+//    recognised and falls back to chains).
 //  - Not humanoid: one part per chain of the weighted tree, split at branch points (a branch
 //    joint ends the chain that reaches it; each of its weighted children starts a new chain),
 //    named chain_<k> in depth-first order.
@@ -52,7 +55,8 @@ struct BodyPart {
   std::vector<int32_t> joints;
   // The main bone chain the disk follows, parent to child: torso = pelvis .. top of the spine
   // (neck base); head = neck .. head (end joint if present); limbs = clavicle/shoulder or thigh
-  // .. wrist/ankle and on to the farthest tip (middle finger / toe) where present. A detached
+  // .. wrist/ankle and on, at each fork, towards the joint farthest from the chain's start
+  // (the middle finger on Mixamo hands, the toe end) where present. A detached
   // weighted chain that continues a limb's tip (an IK foot) is appended.
   std::vector<int32_t> chain;
   std::vector<uint32_t> triangles;  // ascending triangle indices

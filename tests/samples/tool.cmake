@@ -1,0 +1,35 @@
+# The command-line tool runs headless in CTest.
+set(tool $<TARGET_FILE:skinspheres>)
+
+add_test(NAME tool.demo COMMAND ${tool} demo)
+set_tests_properties(tool.demo PROPERTIES
+  PASS_REGULAR_EXPRESSION "hands on the chest: [0-9]+ frames.*hands on the head: [0-9]+ frames"
+  FAIL_REGULAR_EXPRESSION "outside their sphere \\(first")
+
+add_test(NAME tool.export_builtin_refit
+  COMMAND ${CMAKE_COMMAND} -DTOOL=${tool} -DDIR=${PROJECT_BINARY_DIR}/test_tmp/export_builtin
+          -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/export_builtin_same_fit.cmake)
+
+# Bad input: exit code 2 and one line naming the file.
+add_test(NAME tool.missing_file COMMAND ${tool} fit ${PROJECT_BINARY_DIR}/no_such_file.glb)
+set_tests_properties(tool.missing_file PROPERTIES WILL_FAIL TRUE)
+add_test(NAME tool.missing_file_message COMMAND ${tool} fit ${PROJECT_BINARY_DIR}/no_such_file.glb)
+set_tests_properties(tool.missing_file_message PROPERTIES
+  PASS_REGULAR_EXPRESSION "no_such_file.glb: file not found|no_such_file.glb: .*not")
+
+# Every clip of every shared character plays with --verify clean, in both refit modes.
+foreach(asset CesiumMan RobotExpressive Soldier Xbot)
+  set(file ${SKINSPHERES_ASSET_DIR}/${asset}.glb)
+  foreach(mode exact fast)
+    add_test(NAME tool.verify.${asset}.${mode}
+      COMMAND ${tool} play ${file} --clip all --verify --mode ${mode} --fps 15)
+    set_tests_properties(tool.verify.${asset}.${mode} PROPERTIES
+      PASS_REGULAR_EXPRESSION "verify: 0 triangle-frames outside"
+      SKIP_REGULAR_EXPRESSION "file not found"
+      TIMEOUT 600)
+  endforeach()
+  add_test(NAME tool.fit.${asset} COMMAND ${tool} fit ${file} -o ${PROJECT_BINARY_DIR}/test_tmp/${asset}.spheres.json)
+  set_tests_properties(tool.fit.${asset} PROPERTIES
+    PASS_REGULAR_EXPRESSION "triangles covered: [0-9]+ of [0-9]+ [(]bind-pose check[)]"
+    SKIP_REGULAR_EXPRESSION "file not found")
+endforeach()
