@@ -33,3 +33,8 @@ foreach(asset CesiumMan RobotExpressive Soldier Xbot)
     PASS_REGULAR_EXPRESSION "triangles covered: [0-9]+ of [0-9]+ [(]bind-pose check[)]"
     SKIP_REGULAR_EXPRESSION "file not found")
 endforeach()
+
+if(TARGET hello_world)
+  add_test(NAME sample.hello_world COMMAND hello_world)
+  set_tests_properties(sample.hello_world PROPERTIES PASS_REGULAR_EXPRESSION "t=1.2 s: [1-9][0-9]* pairs.*torso")
+endif()
