@@ -35,6 +35,8 @@ std::string FitSettings::Validate() const {
   if (!(step > 0.0f && step <= 1.0f)) return "step must be in (0, 1], a fraction of each part's length (got " + std::to_string(step) + ")";
   if (adjacent_hops < 0 || adjacent_hops > 2) return "adjacent hops must be 0, 1 or 2 (got " + std::to_string(adjacent_hops) + ")";
   if (refine_iterations < 0 || refine_iterations > 16) return "refine iterations must be in 0..16 (got " + std::to_string(refine_iterations) + ")";
+  if (!(split_volume >= 0.0f && split_volume <= 1.0f)) return "split volume must be in [0, 1] (got " + std::to_string(split_volume) + ")";
+  if (max_spheres < 1 || max_spheres > 8192) return "max spheres must be in 1..8192 (got " + std::to_string(max_spheres) + ")";
   return "";
 }
 
@@ -47,7 +49,9 @@ std::string FitSettings::ToJson() const {
                       {"step", step},
                       {"adjacent_hops", adjacent_hops},
                       {"exclude_bind_overlaps", exclude_bind_overlaps},
-                      {"refine_iterations", refine_iterations}};
+                      {"refine_iterations", refine_iterations},
+                      {"split_volume", split_volume},
+                      {"max_spheres", max_spheres}};
   return j.dump();
 }
 
@@ -253,6 +257,118 @@ std::vector<std::vector<int>> JointHops(const std::vector<int32_t>& parents) {
   return hops;
 }
 
+
+Ball BallOf(const RawCharacter& ch, const std::vector<uint32_t>& tris) {
+  std::vector<Eigen::Vector3f> pts;
+  pts.reserve(tris.size() * 3);
+  for (uint32_t t : tris) {
+    for (int v = 0; v < 3; ++v) pts.push_back(ch.positions_rest[ch.triangles[t][v]]);
+  }
+  return MinimumBall(pts);
+}
+
+// Splits `tris` in two halves across the principal axis of their centroids (median cut), then
+// two rounds of "each triangle to the half whose ball needs the least growth, re-ball".
+bool SplitTriangles(const RawCharacter& ch, const std::vector<uint32_t>& tris, std::vector<uint32_t>* a,
+                    std::vector<uint32_t>* b) {
+  if (tris.size() < 2) return false;
+  std::vector<Eigen::Vector3f> cen(tris.size());
+  Eigen::Vector3f mean = Eigen::Vector3f::Zero();
+  for (size_t k = 0; k < tris.size(); ++k) {
+    const auto& tri = ch.triangles[tris[k]];
+    cen[k] = (ch.positions_rest[tri[0]] + ch.positions_rest[tri[1]] + ch.positions_rest[tri[2]]) / 3.0f;
+    mean += cen[k];
+  }
+  mean /= static_cast<float>(tris.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& c : cen) cov += (c - mean).cast<double>() * (c - mean).cast<double>().transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  const Eigen::Vector3f axis = eig.eigenvectors().col(2).cast<float>();
+  std::vector<std::pair<float, uint32_t>> order(tris.size());
+  for (size_t k = 0; k < tris.size(); ++k) order[k] = {(cen[k] - mean).dot(axis), static_cast<uint32_t>(k)};
+  std::sort(order.begin(), order.end());
+  a->clear();
+  b->clear();
+  for (size_t k = 0; k < order.size(); ++k) (2 * k < order.size() ? a : b)->push_back(tris[order[k].second]);
+  for (int round = 0; round < 2; ++round) {
+    const Ball ba = BallOf(ch, *a), bb = BallOf(ch, *b);
+    std::vector<uint32_t> na, nb;
+    for (uint32_t t : tris) {
+      float need_a = 0.0f, need_b = 0.0f;
+      for (int v = 0; v < 3; ++v) {
+        const Eigen::Vector3f& p = ch.positions_rest[ch.triangles[t][v]];
+        need_a = std::max(need_a, (p - ba.center).norm() - ba.radius);
+        need_b = std::max(need_b, (p - bb.center).norm() - bb.radius);
+      }
+      (need_a <= need_b ? na : nb).push_back(t);
+    }
+    if (na.empty() || nb.empty()) break;
+    *a = std::move(na);
+    *b = std::move(nb);
+  }
+  return !a->empty() && !b->empty();
+}
+
+
+// Beyond the paper (tightness): a sphere is split in two (SplitTriangles, each half then gets its
+// minimum ball) when the two halves' balls hold at most split_volume of its volume; the split that
+// saves the most volume goes first, while the set has fewer than max_spheres. Tubes cut across
+// their axis save little and stay whole; spread fingers, feet, boxy heads and flat torso sides
+// save a lot. Children take their parent's place, so spheres stay grouped by part and level.
+void SplitLooseSpheres(const RawCharacter& ch, const FitSettings& settings, std::vector<CandidateSphere>* cand,
+                       std::vector<uint16_t>* cand_part, std::vector<std::vector<uint32_t>>* owned) {
+  struct Node {
+    CandidateSphere sphere;
+    uint16_t part = 0;
+    std::vector<uint32_t> tris;
+    // The tentative split and the volume it saves (0: not worth it).
+    std::vector<uint32_t> a, b;
+    double saving = 0.0;
+  };
+  auto cube = [](double r) { return r * r * r; };
+  auto evaluate = [&](Node& n) {
+    n.saving = 0.0;
+    n.sphere.ball = n.tris.empty() ? n.sphere.ball : BallOf(ch, n.tris);
+    if (n.tris.size() < 2 || !SplitTriangles(ch, n.tris, &n.a, &n.b)) return;
+    const double before = cube(n.sphere.ball.radius);
+    const double after = cube(BallOf(ch, n.a).radius) + cube(BallOf(ch, n.b).radius);
+    if (after <= settings.split_volume * before) n.saving = before - after;
+  };
+  std::vector<Node> nodes(cand->size());
+  size_t live = 0;
+  tbb::parallel_for(size_t{0}, cand->size(), [&](size_t s) {
+    nodes[s].sphere = (*cand)[s];
+    nodes[s].part = (*cand_part)[s];
+    nodes[s].tris = std::move((*owned)[s]);
+    evaluate(nodes[s]);
+  });
+  for (const auto& n : nodes) live += n.tris.empty() ? 0 : 1;
+  while (live < static_cast<size_t>(settings.max_spheres)) {
+    size_t best = nodes.size();
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      if (nodes[k].saving > 0.0 && (best == nodes.size() || nodes[k].saving > nodes[best].saving)) best = k;
+    }
+    if (best == nodes.size()) break;
+    Node second;
+    second.sphere = nodes[best].sphere;
+    second.part = nodes[best].part;
+    second.tris = std::move(nodes[best].b);
+    nodes[best].tris = std::move(nodes[best].a);
+    evaluate(nodes[best]);
+    evaluate(second);
+    nodes.insert(nodes.begin() + static_cast<std::ptrdiff_t>(best) + 1, std::move(second));
+    ++live;
+  }
+  cand->clear();
+  cand_part->clear();
+  owned->clear();
+  for (auto& n : nodes) {
+    cand->push_back(n.sphere);
+    cand_part->push_back(n.part);
+    owned->push_back(std::move(n.tris));
+  }
+}
+
 }  // namespace
 
 int CountUncoveredTriangles(const RawCharacter& ch, const runtime::SphereSet& set, int* first_bad) {
@@ -364,12 +480,12 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   for (size_t s = 0; s < cand.size(); ++s) {
     if (balls[s].radius >= 0.0f) cand[s].ball.center = balls[s].center;  // radius: see below
   }
-
   std::vector<std::vector<uint32_t>> owned(cand.size());
   for (size_t t = 0; t < owner.size(); ++t) {
     if (owner[t] < 0) return MakeError(ErrorCode::kInvalidData, name + ": triangle " + std::to_string(t) + " belongs to no part");
     owned[owner[t]].push_back(static_cast<uint32_t>(t));
   }
+  SplitLooseSpheres(ch, settings, &cand, &cand_part, &owned);
 
   FitResult out;
   runtime::SphereSet& set = out.spheres;

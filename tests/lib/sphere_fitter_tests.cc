@@ -159,3 +159,30 @@ TEST(SphereFitterTest, ExclusionsFollowTheSkeleton) {
 
 }  // namespace
 }  // namespace skinspheres::lib
+
+namespace skinspheres::lib {
+namespace {
+
+TEST(SphereFitterTest, SplittingKeepsCoverageAndTheSphereBudget) {
+  // A long tube with a disk step as long as the tube: two levels, each sphere owning half the tube,
+  // which splitting cuts into rounder pieces.
+  RawCharacter ch = test::EllipticPrism(0.1f, 0.1f, 0.0f, 2.0f);
+  BodyParts parts = test::MakeSinglePart(ch, 0.0f, 2.0f, PartKind::kChain);
+  FitSettings settings;
+  settings.step = 1.0f;
+  const size_t plain = Fit(ch, parts, settings).spheres.size();
+  settings.split_volume = 0.95f;
+  settings.max_spheres = static_cast<int>(plain) + 5;
+  const FitResult split = Fit(ch, parts, settings);
+  ExpectEveryTriangleCovered(ch, split.spheres);
+  EXPECT_GT(split.spheres.size(), plain);
+  EXPECT_LE(split.spheres.size(), plain + 5);
+  double v_plain = 0.0, v_split = 0.0;
+  settings.split_volume = 0.0f;
+  for (float r : Fit(ch, parts, settings).spheres.radii_rest) v_plain += double(r) * r * r;
+  for (float r : split.spheres.radii_rest) v_split += double(r) * r * r;
+  EXPECT_LT(v_split, v_plain);  // each split keeps at most 95% of the parent's volume
+}
+
+}  // namespace
+}  // namespace skinspheres::lib
