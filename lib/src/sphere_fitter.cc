@@ -424,7 +424,8 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
     if (f.error.code != ErrorCode::kOk) return MakeError(f.error.code, name + ": " + f.error.message);
   }
 
-  // 4: ownership. Each triangle goes to the sphere of its part needing the least growth.
+  // 4: ownership. Each triangle goes to the sphere of its part whose centre is nearest to its
+  // farthest vertex (the sphere that holds it with the smallest radius; ties: lowest index).
   std::vector<uint32_t> part_first(parts.parts.size() + 1, 0);
   std::vector<CandidateSphere> cand;
   std::vector<uint16_t> cand_part;
@@ -451,7 +452,6 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
           if (b.radius < 0.0f) continue;  // dropped
           float need = 0.0f;
           for (int v = 0; v < 3; ++v) need = std::max(need, (ch.positions_rest[ch.triangles[t][v]] - b.center).norm());
-          need -= b.radius;
           if (need < best) {
             best = need;
             best_s = static_cast<int32_t>(s);

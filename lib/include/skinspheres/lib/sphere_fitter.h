@@ -14,8 +14,9 @@
 //     satisfies d >= (1 - PD)(r̄_prev + r̄_new), r̄ the mean radius of a level's spheres (PD = 0:
 //     spheres just touch; 0.5: they overlap by half). The path's last level is always kept.
 //  4. Beyond the paper, safety (ownership): every triangle of a part is owned by exactly one sphere
-//     of that part, the one that needs the least growth to contain its three vertices (ties: lowest
-//     index); each sphere's radius becomes the largest distance from its centre to the vertices
+//     of that part, the nearest: the one whose centre is closest to the triangle's farthest vertex
+//     (ties: lowest index; preferring least growth instead lets one large sphere swallow its
+//     neighbours' triangles and measured looser on every character); each sphere's radius becomes the largest distance from its centre to the vertices
 //     of its owned triangles (growing where the paper's sphere left part of its patch outside,
 //     Figure 23, and shrinking where it was larger than its patch); spheres that own nothing are
 //     dropped. Then `refine_iterations` rounds move each sphere to the minimum ball of the vertices
