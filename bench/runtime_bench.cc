@@ -1,0 +1,742 @@
+// Runtime speed per character per frame, and for crowds, on the REAL Xbot character (issue 3 §7).
+//
+// Set-up (untimed, once per fit): SKINSPHERES_ASSET_DIR/Xbot.glb -> ImportCharacter
+// -> SplitBodyParts -> FitSpheres (default FitSettings) -> CharacterAsset. Every benchmark
+// SkipWithError()s with a message when the asset is absent or a stage fails. Rows with a `fit`
+// argument run on two fits: fit:0 the default FitSettings, fit:1 the same with sphere splitting
+// disabled (see DisableSplitting): the split set against the paper's own sphere count; the
+// `spheres` counter says how many. The per-character rows run on one thread.
+//
+// Motion: Xbot's only clip is a held T-pose (0.067 s), so the bench drives the skeleton with a
+// deterministic procedural loop of kFrames frames: arms lowered from the T-pose towards the body
+// with a swing and an elbow bend (hands reach the torso and the thighs), legs walking with knee
+// bend, spine twisting and bending, head nodding, plus a small wobble (fixed seed 42) on every
+// other joint. Rotations are given about the body's axes (BodyParts up / left / forward) and
+// applied at each joint's own origin, so no joint name is assumed. Poses change every frame and
+// contacts happen (see the `contacts` counter). The per-frame inputs (joint-local transforms, and
+// for the stages after the pose, G_j(t), skinning matrices and skinned source vertices) are
+// precomputed at set-up; each iteration is one new frame of the loop.
+//
+// Per character per frame (one thread; each row times only its own stage):
+//   BM_XbotSampleClip        SamplingJob on Xbot's own clip (65 joints), for reference
+//   BM_XbotPose              LocalToModelJob + SkinningMatricesJob (the pose the runtime needs)
+//   BM_XbotSkinSources/prepared:0  SkinningJob, CSR influences + subset = the spheres' source vertices
+//   BM_XbotSkinSources/prepared:1  the same with PreparedInfluences (the fast layout), SIMD auto
+//   BM_XbotRefitExact        CharacterInstance::UpdateExact (RefitJob, exact radii); the frame's
+//                            skinned positions are copied (untimed) into one hot buffer first
+//   BM_XbotRefitFast         CharacterInstance::UpdateFast (RefitJob, Kavan-Žára radii)
+//   BM_XbotQuery/fast:0|1    SelfCollisionJob (sort and sweep) on the exact- or fast-refitted spheres
+//   BM_XbotAllPairs/fast:0|1 SelfCollisionAllPairs on the same spheres (the naive reference)
+//   BM_XbotFrameExact        pose + skin sources (prepared) + UpdateExact + Query
+//   BM_XbotFrameFast         pose + UpdateFast + Query
+//   BM_XbotSetup             no timing: fit time, sphere / vertex counts, mean contacts per frame
+// The query rows check, before timing, that sort-and-sweep equals all-pairs on every frame.
+//
+// Crowd (shared CharacterAsset, one CharacterInstance each, instance k plays the loop 7k frames
+// ahead), at 1 and 2 threads (tbb::global_control):
+//   BM_CrowdFast             UpdateAndQueryCrowd(kFast): fast refit + query. G_j(t) per instance
+//                            is precomputed per frame OUTSIDE the timed region.
+//   BM_CrowdPose             the separate row for that input: LocalToModelJob per instance under
+//                            tbb::parallel_for (what an engine's animation system would do).
+//
+// Peers (only when built with SKINSPHERES_HAVE_PEERS=1 and Bullet + FCL, by hand: see
+// docs/PERFORMANCE.md): BM_XbotPeerBulletDbvt and BM_XbotPeerFclDynamicTree on the same per-frame
+// Xbot spheres as BM_XbotQuery, checked equal to all-pairs on every frame before timing.
+#include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/runtime/broad_phase.h"
+#include "skinspheres/runtime/character.h"
+#include "skinspheres/skinning/local_to_model_job.h"
+#include "skinspheres/skinning/prepared_influences.h"
+#include "skinspheres/skinning/sampling_job.h"
+#include "skinspheres/skinning/skinning_job.h"
+#include "skinspheres/skinning/skinning_matrices_job.h"
+
+#if SKINSPHERES_HAVE_PEERS
+#include <btBulletCollisionCommon.h>
+
+#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
+#include <fcl/geometry/shape/sphere.h>
+#include <fcl/narrowphase/collision_object.h>
+#endif
+
+namespace {
+
+namespace lib = skinspheres::lib;
+namespace rt = skinspheres::runtime;
+namespace sk = skinspheres::skinning;
+
+constexpr int kFrames = 64;  // one loop of the procedural motion (about 2 s at 30 fps)
+
+struct Xbot {
+  std::string error;  // non-empty: set-up failed, every benchmark skips with this message
+  lib::RawCharacter ch;
+  lib::BodyParts parts;
+  rt::SphereSet set;
+  std::shared_ptr<const rt::CharacterAsset> asset;
+  double fit_ms = 0.0;
+
+  std::vector<uint32_t> sources;  // sorted unique source vertices of all spheres
+  sk::PreparedInfluences prepared;
+
+  // Per frame (kFrames): joint-local TRS, G_j(t), skinning matrices, skinned positions (source
+  // vertices filled, others zero), refitted spheres of each mode, all-pairs contact counts.
+  std::vector<std::vector<sk::Transform>> locals;
+  std::vector<std::vector<Eigen::Matrix4f>> joint_world;
+  std::vector<std::vector<Eigen::Matrix4f>> bind_matrices;
+  std::vector<std::vector<Eigen::Vector3f>> skinned;
+  std::vector<std::vector<Eigen::Vector4f>> spheres_exact, spheres_fast;
+  double contacts_exact = 0.0, contacts_fast = 0.0;  // mean per frame
+};
+
+std::span<const float> Floats(const std::vector<Eigen::Vector3f>& v) {
+  return {reinterpret_cast<const float*>(v.data()), v.size() * 3};
+}
+std::span<float> Floats(std::vector<Eigen::Vector3f>& v) { return {reinterpret_cast<float*>(v.data()), v.size() * 3}; }
+
+// The procedural pose of frame f: rest locals with world-axis rotations applied at the joints.
+void MakeLocals(const Xbot& x, const std::vector<Eigen::Matrix4f>& rest_world, int f,
+                std::vector<sk::Transform>* out) {
+  const sk::Skeleton& skel = x.ch.skeleton;
+  const size_t n = skel.size();
+  *out = skel.rest_local;
+  const float phi = 2.0f * float(M_PI) * float(f) / float(kFrames);
+  const Eigen::Vector3f up = x.parts.up, left = x.parts.left, forward = left.cross(up).normalized();
+  // Per joint, the world-space rotation to apply at the joint (identity = rest).
+  std::vector<Eigen::Quaternionf> world(n, Eigen::Quaternionf::Identity());
+  auto aa = [](float angle, const Eigen::Vector3f& axis) { return Eigen::Quaternionf(Eigen::AngleAxisf(angle, axis)); };
+  // Every joint: a small wobble with a seeded amplitude, axis and phase (same for every frame).
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (size_t j = 0; j < n; ++j) {
+    const Eigen::Vector3f axis = Eigen::Vector3f(u(rng), u(rng), u(rng)).normalized();
+    const float amp = 0.05f * (1.0f + u(rng)) * 0.5f, phase = float(M_PI) * u(rng);
+    world[j] = aa(amp * std::sin(phi + phase), axis);
+  }
+  for (const lib::BodyPart& part : x.parts.parts) {
+    const auto& c = part.chain;
+    const bool is_left = part.kind == lib::PartKind::kArmLeft || part.kind == lib::PartKind::kLegLeft;
+    const float sgn = is_left ? -1.0f : 1.0f;
+    const float side_phase = is_left ? 0.0f : float(M_PI);
+    switch (part.kind) {
+      case lib::PartKind::kArmLeft:
+      case lib::PartKind::kArmRight:
+        if (c.size() >= 3) {
+          // Upper arm (chain[1], after the clavicle): lowered from the T-pose about forward, then
+          // swung forward and back about left. Forearm: elbow bend bringing the hand to the front.
+          const float down = 1.2f + 0.25f * std::sin(phi + side_phase);
+          const float swing = 0.45f * std::sin(phi + side_phase);
+          world[c[1]] = aa(swing, left) * aa(sgn * down, forward);
+          const float elbow = 0.9f + 0.7f * std::sin(2.0f * phi + side_phase);
+          world[c[2]] = aa(sgn * elbow, up);
+        }
+        break;
+      case lib::PartKind::kLegLeft:
+      case lib::PartKind::kLegRight:
+        if (c.size() >= 2) {
+          const float s = std::sin(phi + side_phase);
+          world[c[0]] = aa(-0.5f * s, left) * aa(-0.04f * sgn, forward);  // hip swing, slight abduction
+          world[c[1]] = aa(0.35f * (1.0f - s), left);                     // knee bend (shin backwards)
+        }
+        break;
+      case lib::PartKind::kTorso:
+        for (size_t k = 1; k < c.size(); ++k) {
+          world[c[k]] = aa(0.08f * std::sin(phi), up) * aa(0.06f * (1.0f + std::sin(2.0f * phi)), left);
+        }
+        break;
+      case lib::PartKind::kHead:
+        if (!c.empty()) world[c[0]] = aa(0.15f * std::sin(2.0f * phi), left);
+        break;
+      default:
+        break;
+    }
+  }
+  // A world rotation about the joint's own origin becomes a local one by conjugating with the
+  // rotation of G_j(rest) (uniform scale assumed; Xbot's armature scale is uniform).
+  for (size_t j = 0; j < n; ++j) {
+    const Eigen::Matrix3f rw = Eigen::Affine3f(rest_world[j]).rotation();
+    const Eigen::Quaternionf qr(rw);
+    const Eigen::Quaternionf local_delta = qr.conjugate() * world[j] * qr;
+    (*out)[j].rotation = ((*out)[j].rotation * local_delta).normalized();
+  }
+}
+
+void Fail(Xbot* x, std::string message) { x->error = std::move(message); }
+
+// Fit variants: 0 = default FitSettings (whatever the fitter's defaults are at build time);
+// 1 = the same without sphere splitting (FitSettings::split_volume = 0, or split_slack huge in
+// builds that call it that), i.e. the paper's spheres after ownership and refinement only: fewer,
+// looser spheres. The `spheres` counter of every row says how many there are.
+template <class Settings>
+bool DisableSplitting(Settings* s) {
+  if constexpr (requires { s->split_volume; }) {
+    s->split_volume = 0.0f;  // 0: never split
+    return true;
+  } else if constexpr (requires { s->split_slack; }) {
+    s->split_slack = 1e9f;  // no sphere stands off its triangles by 1e9 body heights
+    return true;
+  } else {
+    return false;
+  }
+}
+
+// Fills *x, or sets x->error and returns at the first failure.
+void Load(Xbot* x, int variant) {
+  const std::filesystem::path file = std::filesystem::path(SKINSPHERES_ASSET_DIR) / "Xbot.glb";
+  if (!std::filesystem::exists(file)) {
+    x->error = file.string() + ": not found (the shared test characters are not installed); Xbot benchmarks skipped";
+    return;
+  }
+  auto ch = lib::ImportCharacter(file);
+  if (!ch.ok()) return Fail(x, ch.error().message);
+  x->ch = std::move(*ch);
+  auto parts = lib::SplitBodyParts(x->ch);
+  if (!parts.ok()) return Fail(x, parts.error().message);
+  x->parts = std::move(*parts);
+  if (!x->parts.humanoid) return Fail(x, file.string() + ": not split as a humanoid; the motion needs limbs");
+  const auto t0 = std::chrono::steady_clock::now();
+  lib::FitSettings settings;
+  if (variant == 1 && !DisableSplitting(&settings)) {
+    return Fail(x, "this build's FitSettings cannot disable splitting: variant fit:1 would equal fit:0");
+  }
+  auto fit = lib::FitSpheres(x->ch, x->parts, settings);
+  x->fit_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (!fit.ok()) return Fail(x, fit.error().message);
+  x->set = std::move(fit->spheres);
+  auto asset = rt::CharacterAsset::Create(x->set);
+  if (!asset.ok()) return Fail(x, asset.error().message);
+  x->asset = *asset;
+
+  x->sources.assign(x->set.vertices.begin(), x->set.vertices.end());
+  std::sort(x->sources.begin(), x->sources.end());
+  x->sources.erase(std::unique(x->sources.begin(), x->sources.end()), x->sources.end());
+  const sk::SkinnedMesh& skin = x->ch.skin;
+  std::string why;
+  if (!x->prepared.Build(skin.vertex_count(), skin.influence_offsets, skin.influence_binds, skin.influence_weights,
+                         x->sources, &why)) {
+    return Fail(x, "PreparedInfluences::Build: " + why);
+  }
+
+  // The frames.
+  const size_t joints = x->ch.skeleton.size();
+  std::vector<Eigen::Matrix4f> rest_world(joints);
+  x->ch.skeleton.RestWorld(rest_world);
+  auto instance = rt::CharacterInstance::Create(x->asset);
+  if (!instance.ok()) return Fail(x, instance.error().message);
+  x->locals.resize(kFrames);
+  x->joint_world.assign(kFrames, std::vector<Eigen::Matrix4f>(joints));
+  x->bind_matrices.assign(kFrames, std::vector<Eigen::Matrix4f>(skin.binds.size()));
+  x->skinned.assign(kFrames, std::vector<Eigen::Vector3f>(skin.vertex_count(), Eigen::Vector3f::Zero()));
+  x->spheres_exact.resize(kFrames);
+  x->spheres_fast.resize(kFrames);
+  std::vector<rt::Contact> contacts;
+  size_t total_exact = 0, total_fast = 0;
+  for (int f = 0; f < kFrames; ++f) {
+    MakeLocals(*x, rest_world, f, &x->locals[f]);
+    sk::LocalToModelJob l2m;
+    l2m.skeleton = &x->ch.skeleton;
+    l2m.input = x->locals[f];
+    l2m.output = x->joint_world[f];
+    sk::SkinningMatricesJob mats{skin.binds, x->joint_world[f], x->bind_matrices[f]};
+    sk::SkinningJob job;
+    job.joint_matrices = x->bind_matrices[f];
+    job.vertex_count = skin.vertex_count();
+    job.in_positions = Floats(skin.positions_bind);
+    job.out_positions = Floats(x->skinned[f]);
+    job.prepared = &x->prepared;
+    if (!l2m.Run() || !mats.Run() || !job.Run()) return Fail(x, "posing or skinning frame failed");
+    if (!instance->UpdateExact(x->skinned[f], x->joint_world[f]).ok()) return Fail(x, instance->status().message);
+    x->spheres_exact[f].assign(instance->spheres().begin(), instance->spheres().end());
+    if (!rt::SelfCollisionAllPairs(x->spheres_exact[f], x->asset->filter(), &contacts)) return Fail(x, "all-pairs failed");
+    total_exact += contacts.size();
+    if (!instance->UpdateFast(x->joint_world[f]).ok()) return Fail(x, instance->status().message);
+    x->spheres_fast[f].assign(instance->spheres().begin(), instance->spheres().end());
+    if (!rt::SelfCollisionAllPairs(x->spheres_fast[f], x->asset->filter(), &contacts)) return Fail(x, "all-pairs failed");
+    total_fast += contacts.size();
+  }
+  x->contacts_exact = double(total_exact) / kFrames;
+  x->contacts_fast = double(total_fast) / kFrames;
+}
+
+std::unique_ptr<Xbot> LoadXbot(int variant) {
+  auto x = std::make_unique<Xbot>();
+  Load(x.get(), variant);
+  return x;
+}
+
+// variant: see DisableSplitting. Loaded once per variant, on first use.
+const Xbot* GetXbot(benchmark::State& state, int variant = 0) {
+  static std::unique_ptr<Xbot> cache[2];
+  std::unique_ptr<Xbot>& xbot = cache[variant];
+  if (!xbot) xbot = LoadXbot(variant);
+  if (!xbot->error.empty()) {
+    state.SkipWithError(xbot->error.c_str());
+    return nullptr;
+  }
+  return xbot.get();
+}
+
+void SphereCounters(benchmark::State& state, const Xbot& x) {
+  state.counters["spheres"] = double(x.set.size());
+  state.counters["source_vertices"] = double(x.sources.size());
+}
+
+// ------------------------------------------------------------------- per character per frame
+
+void BM_XbotSampleClip(benchmark::State& state) {
+  const Xbot* x = GetXbot(state);
+  if (!x) return;
+  if (x->ch.clips.empty()) return state.SkipWithError("Xbot has no clip");
+  const sk::AnimationClip& clip = x->ch.clips[0];
+  std::vector<sk::Transform> locals(x->ch.skeleton.size());
+  size_t frame = 0;
+  for (auto _ : state) {
+    const float t = sk::LoopTime(float(frame) / 30.0f, clip.duration_s);
+    benchmark::DoNotOptimize(sk::SamplingJob{&clip, &x->ch.skeleton, t, locals}.Run());
+    benchmark::ClobberMemory();
+    ++frame;
+  }
+  state.counters["joints"] = double(x->ch.skeleton.size());
+  state.counters["tracks"] = double(clip.tracks.size());
+}
+BENCHMARK(BM_XbotSampleClip)->Unit(benchmark::kMicrosecond);
+
+void BM_XbotPose(benchmark::State& state) {
+  const Xbot* x = GetXbot(state);
+  if (!x) return;
+  std::vector<Eigen::Matrix4f> world(x->ch.skeleton.size()), mats(x->ch.skin.binds.size());
+  size_t frame = 0;
+  for (auto _ : state) {
+    sk::LocalToModelJob l2m;
+    l2m.skeleton = &x->ch.skeleton;
+    l2m.input = x->locals[frame % kFrames];
+    l2m.output = world;
+    const bool ok = l2m.Run() && sk::SkinningMatricesJob{x->ch.skin.binds, world, mats}.Run();
+    benchmark::DoNotOptimize(ok);
+    benchmark::ClobberMemory();
+    ++frame;
+  }
+  state.counters["joints"] = double(x->ch.skeleton.size());
+  state.counters["binds"] = double(x->ch.skin.binds.size());
+}
+BENCHMARK(BM_XbotPose)->Unit(benchmark::kMicrosecond);
+
+// range(0): 0 CSR + subset, 1 prepared.
+void BM_XbotSkinSources(benchmark::State& state) {
+  const Xbot* x = GetXbot(state);
+  if (!x) return;
+  const sk::SkinnedMesh& skin = x->ch.skin;
+  std::vector<Eigen::Vector3f> out(skin.vertex_count(), Eigen::Vector3f::Zero());
+  sk::SkinningJob job;
+  job.vertex_count = skin.vertex_count();
+  job.in_positions = Floats(skin.positions_bind);
+  job.out_positions = Floats(out);
+  if (state.range(0)) {
+    job.prepared = &x->prepared;
+  } else {
+    job.influence_offsets = skin.influence_offsets;
+    job.influence_binds = skin.influence_binds;
+    job.influence_weights = skin.influence_weights;
+    job.subset = x->sources;
+  }
+  size_t frame = 0;
+  for (auto _ : state) {
+    job.joint_matrices = x->bind_matrices[frame % kFrames];
+    benchmark::DoNotOptimize(job.Run());
+    benchmark::ClobberMemory();
+    ++frame;
+  }
+  state.SetLabel(std::string(state.range(0) ? "prepared " : "csr ") +
+                 sk::SimdLevelName(sk::ResolveSimdLevel(sk::SimdLevel::kAuto)));
+  SphereCounters(state, *x);
+  state.counters["mesh_vertices"] = double(skin.vertex_count());
+  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(job.WorkSize()));
+}
+BENCHMARK(BM_XbotSkinSources)->Arg(0)->Arg(1)->ArgName("prepared")->Unit(benchmark::kMicrosecond);
+
+void BM_XbotRefitExact(benchmark::State& state) {
+  const Xbot* x = GetXbot(state, int(state.range(0)));
+  if (!x) return;
+  auto instance = rt::CharacterInstance::Create(x->asset);
+  // The refit runs right after skinning, so its input is in cache: each frame's positions are
+  // copied (untimed) into one buffer rather than read cold from 64 frames' worth (~22 MB).
+  std::vector<Eigen::Vector3f> hot(x->skinned[0].size());
+  size_t frame = 0;
+  for (auto _ : state) {
+    const int f = int(frame % kFrames);
+    state.PauseTiming();
+    std::copy(x->skinned[f].begin(), x->skinned[f].end(), hot.begin());
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(instance->UpdateExact(hot, x->joint_world[f]).ok());
+    benchmark::ClobberMemory();
+    ++frame;
+  }
+  SphereCounters(state, *x);
+}
+BENCHMARK(BM_XbotRefitExact)->Arg(0)->Arg(1)->ArgName("fit")->Unit(benchmark::kMicrosecond);
+
+void BM_XbotRefitFast(benchmark::State& state) {
+  const Xbot* x = GetXbot(state, int(state.range(0)));
+  if (!x) return;
+  auto instance = rt::CharacterInstance::Create(x->asset);
+  size_t frame = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(instance->UpdateFast(x->joint_world[frame % kFrames]).ok());
+    benchmark::ClobberMemory();
+    ++frame;
+  }
+  SphereCounters(state, *x);
+  state.counters["influences"] = double(x->set.influence_joints.size());
+}
+BENCHMARK(BM_XbotRefitFast)->Arg(0)->Arg(1)->ArgName("fit")->Unit(benchmark::kMicrosecond);
+
+// range(0): fit variant; range(1): 0 exact spheres, 1 fast spheres.
+void BM_XbotQuery(benchmark::State& state) {
+  const Xbot* x = GetXbot(state, int(state.range(0)));
+  if (!x) return;
+  const auto& frames = state.range(1) ? x->spheres_fast : x->spheres_exact;
+  const rt::PairFilter& filter = x->asset->filter();
+  rt::BroadPhaseContext ctx(x->set.size());
+  std::vector<rt::Contact> out, oracle;
+  out.reserve(8 * x->set.size());
+  for (int f = 0; f < kFrames; ++f) {
+    rt::SelfCollisionAllPairs(frames[f], filter, &oracle);
+    if (!rt::SelfCollisionJob{frames[f], &filter, &ctx, &out}.Run() || out != oracle) {
+      return state.SkipWithError("sort and sweep differs from all-pairs on Xbot");
+    }
+  }
+  size_t frame = 0, contacts = 0, candidates = 0;
+  for (auto _ : state) {
+    rt::SelfCollisionJob{frames[frame % kFrames], &filter, &ctx, &out}.Run();
+    contacts += out.size();
+    candidates += ctx.last_candidate_count();
+    benchmark::DoNotOptimize(out.data());
+    ++frame;
+  }
+  state.SetLabel(state.range(1) ? "fast spheres" : "exact spheres");
+  SphereCounters(state, *x);
+  state.counters["contacts"] = frame ? double(contacts) / double(frame) : 0.0;
+  state.counters["candidates"] = frame ? double(candidates) / double(frame) : 0.0;
+  state.counters["excluded_pairs"] = double(filter.excluded_pair_count());
+}
+BENCHMARK(BM_XbotQuery)->ArgsProduct({{0, 1}, {0, 1}})->ArgNames({"fit", "fast"})->Unit(benchmark::kMicrosecond);
+
+void BM_XbotAllPairs(benchmark::State& state) {
+  const Xbot* x = GetXbot(state, int(state.range(0)));
+  if (!x) return;
+  const auto& frames = state.range(1) ? x->spheres_fast : x->spheres_exact;
+  std::vector<rt::Contact> out;
+  out.reserve(8 * x->set.size());
+  size_t frame = 0, contacts = 0;
+  for (auto _ : state) {
+    rt::SelfCollisionAllPairs(frames[frame % kFrames], x->asset->filter(), &out);
+    contacts += out.size();
+    benchmark::DoNotOptimize(out.data());
+    ++frame;
+  }
+  state.SetLabel(state.range(1) ? "fast spheres" : "exact spheres");
+  SphereCounters(state, *x);
+  state.counters["contacts"] = frame ? double(contacts) / double(frame) : 0.0;
+}
+BENCHMARK(BM_XbotAllPairs)->ArgsProduct({{0, 1}, {0, 1}})->ArgNames({"fit", "fast"})->Unit(benchmark::kMicrosecond);
+
+// The whole frame of one character, exact mode: pose, skin the source vertices, refit, query.
+void BM_XbotFrameExact(benchmark::State& state) {
+  const Xbot* x = GetXbot(state, int(state.range(0)));
+  if (!x) return;
+  const sk::SkinnedMesh& skin = x->ch.skin;
+  auto instance = rt::CharacterInstance::Create(x->asset);
+  instance->ReserveContacts(8 * x->set.size());
+  std::vector<Eigen::Matrix4f> world(x->ch.skeleton.size()), mats(skin.binds.size());
+  std::vector<Eigen::Vector3f> skinned(skin.vertex_count(), Eigen::Vector3f::Zero());
+  sk::SkinningJob job;
+  job.joint_matrices = mats;
+  job.vertex_count = skin.vertex_count();
+  job.in_positions = Floats(skin.positions_bind);
+  job.out_positions = Floats(skinned);
+  job.prepared = &x->prepared;
+  size_t frame = 0, contacts = 0;
+  for (auto _ : state) {
+    sk::LocalToModelJob l2m;
+    l2m.skeleton = &x->ch.skeleton;
+    l2m.input = x->locals[frame % kFrames];
+    l2m.output = world;
+    const bool ok = l2m.Run() && sk::SkinningMatricesJob{skin.binds, world, mats}.Run() && job.Run() &&
+                    instance->UpdateExact(skinned, world).ok();
+    if (!ok) return state.SkipWithError("frame failed");
+    contacts += instance->Query().size();
+    ++frame;
+  }
+  SphereCounters(state, *x);
+  state.counters["contacts"] = frame ? double(contacts) / double(frame) : 0.0;
+}
+BENCHMARK(BM_XbotFrameExact)->Arg(0)->Arg(1)->ArgName("fit")->Unit(benchmark::kMicrosecond);
+
+// The whole frame of one character, fast mode: pose, refit from G_j(t), query.
+void BM_XbotFrameFast(benchmark::State& state) {
+  const Xbot* x = GetXbot(state, int(state.range(0)));
+  if (!x) return;
+  auto instance = rt::CharacterInstance::Create(x->asset);
+  instance->ReserveContacts(8 * x->set.size());
+  std::vector<Eigen::Matrix4f> world(x->ch.skeleton.size());
+  size_t frame = 0, contacts = 0;
+  for (auto _ : state) {
+    sk::LocalToModelJob l2m;
+    l2m.skeleton = &x->ch.skeleton;
+    l2m.input = x->locals[frame % kFrames];
+    l2m.output = world;
+    if (!l2m.Run() || !instance->UpdateFast(world).ok()) return state.SkipWithError("frame failed");
+    contacts += instance->Query().size();
+    ++frame;
+  }
+  SphereCounters(state, *x);
+  state.counters["contacts"] = frame ? double(contacts) / double(frame) : 0.0;
+}
+BENCHMARK(BM_XbotFrameFast)->Arg(0)->Arg(1)->ArgName("fit")->Unit(benchmark::kMicrosecond);
+
+// ---------------------------------------------------------------------------------- crowds
+
+constexpr size_t kPhaseShift = 7;  // instance k plays the loop 7k frames ahead
+
+// range(0) fit variant, range(1) instances, range(2) threads. Fast-mode refit + query for every instance; G_j(t) of each
+// instance precomputed (per frame, outside the timed region).
+void BM_CrowdFast(benchmark::State& state) {
+  const Xbot* x = GetXbot(state, int(state.range(0)));
+  if (!x) return;
+  const size_t count = size_t(state.range(1));
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(state.range(2)));
+  std::vector<rt::CharacterInstance> instances;
+  std::vector<rt::CharacterInstance*> pointers;
+  instances.reserve(count);
+  for (size_t k = 0; k < count; ++k) {
+    instances.push_back(rt::CharacterInstance::Create(x->asset).value());
+    instances.back().ReserveContacts(8 * x->set.size());
+  }
+  for (auto& i : instances) pointers.push_back(&i);
+  // inputs[f][k]: instance k's input at loop frame f.
+  std::vector<std::vector<rt::CharacterFrameInput>> inputs(kFrames, std::vector<rt::CharacterFrameInput>(count));
+  for (int f = 0; f < kFrames; ++f)
+    for (size_t k = 0; k < count; ++k) inputs[f][k].joint_world = x->joint_world[(f + kPhaseShift * k) % kFrames];
+  size_t frame = 0;
+  for (auto _ : state) {
+    if (!rt::UpdateAndQueryCrowd(pointers, inputs[frame % kFrames], rt::RefitMode::kFast).ok()) {
+      return state.SkipWithError("crowd update failed");
+    }
+    ++frame;
+  }
+  size_t contacts = 0;
+  for (const auto& i : instances) contacts += i.contacts().size();
+  state.counters["contacts_last_frame"] = double(contacts);
+  state.counters["spheres_total"] = double(count * x->set.size());
+  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(count));  // characters per second
+}
+BENCHMARK(BM_CrowdFast)
+    ->ArgsProduct({{0, 1}, {1, 10, 100, 1000}, {1, 2}})
+    ->ArgNames({"fit", "instances", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// The crowd's pose input as its own row: LocalToModelJob for every instance (phase-shifted).
+void BM_CrowdPose(benchmark::State& state) {
+  const Xbot* x = GetXbot(state);
+  if (!x) return;
+  const size_t count = size_t(state.range(0));
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(state.range(1)));
+  std::vector<std::vector<Eigen::Matrix4f>> world(count, std::vector<Eigen::Matrix4f>(x->ch.skeleton.size()));
+  size_t frame = 0;
+  for (auto _ : state) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 8), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t k = r.begin(); k < r.end(); ++k) {
+        sk::LocalToModelJob l2m;
+        l2m.skeleton = &x->ch.skeleton;
+        l2m.input = x->locals[(frame + kPhaseShift * k) % kFrames];
+        l2m.output = world[k];
+        l2m.Run();
+      }
+    });
+    benchmark::ClobberMemory();
+    ++frame;
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(count));
+}
+BENCHMARK(BM_CrowdPose)
+    ->ArgsProduct({{1000}, {1, 2}})
+    ->ArgNames({"instances", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// Prints the set-up facts once, before the table (fit time, sphere count, contacts per frame).
+void BM_XbotSetup(benchmark::State& state) {
+  const Xbot* x = GetXbot(state, int(state.range(0)));
+  if (!x) return;
+  for (auto _ : state) benchmark::DoNotOptimize(x);
+  state.counters["fit_ms"] = x->fit_ms;
+  state.counters["spheres"] = double(x->set.size());
+  state.counters["vertices"] = double(x->ch.vertex_count());
+  state.counters["source_vertices"] = double(x->sources.size());
+  state.counters["vertex_entries"] = double(x->set.vertices.size());  // what the exact refit reads
+  state.counters["contacts_exact"] = x->contacts_exact;
+  state.counters["contacts_fast"] = x->contacts_fast;
+  state.counters["excluded_pairs"] = double(x->asset->filter().excluded_pair_count());
+}
+BENCHMARK(BM_XbotSetup)->Arg(0)->Arg(1)->ArgName("fit")->Iterations(1);
+
+#if SKINSPHERES_HAVE_PEERS
+// ------------------------------------------------------------ peers on the same Xbot spheres
+// Compiled only when SKINSPHERES_HAVE_PEERS=1 and Bullet + FCL are on the include and link line.
+// bench/CMakeLists.txt does that for broad_phase_bench only, so this section is built by hand
+// (docs/PERFORMANCE.md gives the command). The peers follow broad_phase_bench.cc: every sphere's
+// box is moved every frame (their update cost is counted), candidate pairs go through the same
+// exclusions (PairFilter) and the same float sphere test, contacts are sorted; before timing,
+// every frame's result must equal SelfCollisionAllPairs, else the row is skipped with an error.
+
+inline void PeerSphereTest(const Eigen::Vector4f& a, const Eigen::Vector4f& b, uint32_t i, uint32_t j,
+                           const rt::PairFilter& f, std::vector<rt::Contact>* out) {
+  if (i > j) std::swap(i, j);  // squares and sums do not depend on the operand order
+  const float dx = b.x() - a.x(), dy = b.y() - a.y(), dz = b.z() - a.z();
+  const float d2 = (dx * dx + dy * dy) + dz * dz;
+  const float rsum = a.w() + b.w();
+  if (d2 <= rsum * rsum) out->push_back(rt::Contact{i, j, rsum - std::sqrt(d2), f.part(i), f.part(j)});
+}
+
+void SortContacts(std::vector<rt::Contact>* out) {
+  std::sort(out->begin(), out->end(),
+            [](const rt::Contact& p, const rt::Contact& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; });
+}
+
+struct BulletExclusion : btOverlapFilterCallback {
+  const rt::PairFilter* filter = nullptr;
+  bool needBroadphaseCollision(btBroadphaseProxy* p0, btBroadphaseProxy* p1) const override {
+    return !filter->excluded(uint32_t(reinterpret_cast<uintptr_t>(p0->m_clientObject)),
+                             uint32_t(reinterpret_cast<uintptr_t>(p1->m_clientObject)));
+  }
+};
+
+struct BulletWorld {
+  btDefaultCollisionConfiguration config;
+  btCollisionDispatcher dispatcher{&config};
+  btDbvtBroadphase broadphase;
+  BulletExclusion exclusion;
+  std::vector<btBroadphaseProxy*> proxies;
+  const rt::PairFilter* filter;
+
+  BulletWorld(const std::vector<Eigen::Vector4f>& s, const rt::PairFilter& f) : filter(&f) {
+    exclusion.filter = &f;
+    broadphase.getOverlappingPairCache()->setOverlapFilterCallback(&exclusion);
+    for (size_t i = 0; i < s.size(); ++i) {
+      const btVector3 c(s[i].x(), s[i].y(), s[i].z()), r(s[i].w(), s[i].w(), s[i].w());
+      proxies.push_back(broadphase.createProxy(c - r, c + r, SPHERE_SHAPE_PROXYTYPE,
+                                               reinterpret_cast<void*>(uintptr_t(i)), 1, -1, &dispatcher));
+    }
+  }
+  void Frame(const std::vector<Eigen::Vector4f>& s, std::vector<rt::Contact>* out) {
+    for (size_t i = 0; i < s.size(); ++i) {
+      const btVector3 c(s[i].x(), s[i].y(), s[i].z()), r(s[i].w(), s[i].w(), s[i].w());
+      broadphase.setAabb(proxies[i], c - r, c + r, &dispatcher);
+    }
+    broadphase.calculateOverlappingPairs(&dispatcher);
+    out->clear();
+    btBroadphasePairArray& pairs = broadphase.getOverlappingPairCache()->getOverlappingPairArray();
+    for (int k = 0; k < pairs.size(); ++k) {
+      const auto i = uint32_t(reinterpret_cast<uintptr_t>(pairs[k].m_pProxy0->m_clientObject));
+      const auto j = uint32_t(reinterpret_cast<uintptr_t>(pairs[k].m_pProxy1->m_clientObject));
+      PeerSphereTest(s[i], s[j], i, j, *filter, out);
+    }
+    SortContacts(out);
+  }
+};
+
+struct FclWorld {
+  std::vector<std::shared_ptr<fcl::Sphered>> shapes;
+  std::vector<std::unique_ptr<fcl::CollisionObjectd>> objects;
+  fcl::DynamicAABBTreeCollisionManagerd manager;
+  const rt::PairFilter* filter;
+  struct Data {
+    const std::vector<Eigen::Vector4f>* spheres;
+    const rt::PairFilter* filter;
+    std::vector<rt::Contact>* out;
+  };
+  FclWorld(const std::vector<Eigen::Vector4f>& s, const rt::PairFilter& f) : filter(&f) {
+    for (size_t i = 0; i < s.size(); ++i) {
+      shapes.push_back(std::make_shared<fcl::Sphered>(double(s[i].w())));
+      auto o = std::make_unique<fcl::CollisionObjectd>(shapes.back());
+      o->setTranslation(s[i].head<3>().cast<double>());
+      o->computeAABB();
+      o->setUserData(reinterpret_cast<void*>(uintptr_t(i)));
+      manager.registerObject(o.get());
+      objects.push_back(std::move(o));
+    }
+    manager.setup();
+  }
+  static bool Callback(fcl::CollisionObjectd* a, fcl::CollisionObjectd* b, void* data) {
+    const Data& d = *static_cast<const Data*>(data);
+    const auto i = uint32_t(reinterpret_cast<uintptr_t>(a->getUserData()));
+    const auto j = uint32_t(reinterpret_cast<uintptr_t>(b->getUserData()));
+    if (!d.filter->excluded(i, j)) PeerSphereTest((*d.spheres)[i], (*d.spheres)[j], i, j, *d.filter, d.out);
+    return false;
+  }
+  // Radii change every frame (refit): the sphere geometry's radius is updated too.
+  void Frame(const std::vector<Eigen::Vector4f>& s, std::vector<rt::Contact>* out) {
+    for (size_t i = 0; i < s.size(); ++i) {
+      shapes[i]->radius = double(s[i].w());
+      shapes[i]->computeLocalAABB();
+      objects[i]->setTranslation(s[i].head<3>().cast<double>());
+      objects[i]->computeAABB();
+    }
+    manager.update();
+    out->clear();
+    Data data{&s, filter, out};
+    manager.collide(&data, &FclWorld::Callback);
+    SortContacts(out);
+  }
+};
+
+// range(0) fit variant, range(1) 0 exact / 1 fast spheres.
+template <class World>
+void PeerBenchmark(benchmark::State& state, const char* name) {
+  const Xbot* x = GetXbot(state, int(state.range(0)));
+  if (!x) return;
+  const auto& frames = state.range(1) ? x->spheres_fast : x->spheres_exact;
+  const rt::PairFilter& filter = x->asset->filter();
+  World world(frames[0], filter);
+  std::vector<rt::Contact> out, oracle;
+  out.reserve(8 * x->set.size());
+  for (int f = 0; f < kFrames; ++f) {
+    world.Frame(frames[f], &out);
+    rt::SelfCollisionAllPairs(frames[f], filter, &oracle);
+    if (out != oracle) return state.SkipWithError((std::string(name) + " differs from all-pairs on Xbot").c_str());
+  }
+  size_t frame = 0, contacts = 0;
+  for (auto _ : state) {
+    world.Frame(frames[frame % kFrames], &out);
+    contacts += out.size();
+    ++frame;
+  }
+  state.SetLabel(state.range(1) ? "fast spheres" : "exact spheres");
+  SphereCounters(state, *x);
+  state.counters["contacts"] = frame ? double(contacts) / double(frame) : 0.0;
+}
+void BM_XbotPeerBulletDbvt(benchmark::State& state) { PeerBenchmark<BulletWorld>(state, "Bullet"); }
+void BM_XbotPeerFclDynamicTree(benchmark::State& state) { PeerBenchmark<FclWorld>(state, "FCL"); }
+BENCHMARK(BM_XbotPeerBulletDbvt)->ArgsProduct({{0, 1}, {0, 1}})->ArgNames({"fit", "fast"})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_XbotPeerFclDynamicTree)->ArgsProduct({{0, 1}, {0, 1}})->ArgNames({"fit", "fast"})->Unit(benchmark::kMicrosecond);
+#endif  // SKINSPHERES_HAVE_PEERS
+
+}  // namespace
+
+BENCHMARK_MAIN();
