@@ -186,3 +186,40 @@ TEST(SphereFitterTest, SplittingKeepsCoverageAndTheSphereBudget) {
 
 }  // namespace
 }  // namespace skinspheres::lib
+
+#include "skinspheres/lib/importer.h"
+#include "test_support.h"
+
+namespace skinspheres::lib {
+namespace {
+
+class SharedCharacterFit : public ::testing::TestWithParam<std::string> {};
+
+// Every triangle covered, each owned once, and the same set with 1 and 2 threads.
+TEST_P(SharedCharacterFit, CoversEveryTriangleAndIsThreadIndependent) {
+  SKINSPHERES_REQUIRE_ASSET(path, GetParam());
+  auto ch = ImportCharacter(path);
+  ASSERT_TRUE(ch.ok()) << ch.error().message;
+  auto parts = SplitBodyParts(*ch);
+  ASSERT_TRUE(parts.ok()) << parts.error().message;
+  std::string one, two;
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+    const FitResult fit = Fit(*ch, *parts, FitSettings{});
+    ExpectEveryTriangleCovered(*ch, fit.spheres);
+    EXPECT_LE(fit.spheres.size(), 300u);
+    one = runtime::WriteSphereSetJson(fit.spheres);
+  }
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+    two = runtime::WriteSphereSetJson(Fit(*ch, *parts, FitSettings{}).spheres);
+  }
+  EXPECT_EQ(one, two);
+}
+
+INSTANTIATE_TEST_SUITE_P(Assets, SharedCharacterFit,
+                         ::testing::Values("CesiumMan.glb", "RobotExpressive.glb", "Soldier.glb", "Xbot.glb"),
+                         [](const auto& p) { return p.param.substr(0, p.param.find('.')); });
+
+}  // namespace
+}  // namespace skinspheres::lib

@@ -134,36 +134,54 @@ TEST(CharacterInstanceTest, UpdatesMatchTheJobAndQueryMatchesAllPairs) {
 
 // The touch clip puts both hands into the chest (t in [0.8, 1.6] s): a conservative refit must
 // report an arm-torso contact in both modes (never miss a contact).
-TEST(CharacterInstanceTest, TouchClipHandOnChestIsReported) {
+TEST(CharacterInstanceTest, TouchClipHandsOnChestAndHeadAreReportedAndNotAtRest) {
   std::shared_ptr<const test::FittedCharacter> fc;
   auto asset = BuiltinAsset(&fc);
   ASSERT_TRUE(asset);
   const auto& set = asset->sphere_set();
-  int torso = -1;
-  std::vector<int> arms;
+  int torso = -1, head = -1;
   for (size_t p = 0; p < set.parts.size(); ++p) {
     if (set.parts[p].name == "torso") torso = static_cast<int>(p);
-    if (set.parts[p].name == "arm_l" || set.parts[p].name == "arm_r") arms.push_back(static_cast<int>(p));
+    if (set.parts[p].name == "head") head = static_cast<int>(p);
   }
   ASSERT_GE(torso, 0);
-  ASSERT_EQ(arms.size(), 2u);
+  ASSERT_GE(head, 0);
+  // A hand sphere: its dominant joint is LeftHand or RightHand (the built-in character's names).
+  auto hand_side = [&](uint32_t s) -> int {
+    const std::string& j = set.joint_names[set.sphere_joint[s]];
+    if (j.rfind("LeftHand", 0) == 0) return 0;
+    if (j.rfind("RightHand", 0) == 0) return 1;
+    return -1;
+  };
   const skinning::AnimationClip* touch = nullptr;
+  const skinning::AnimationClip* walk = nullptr;
   for (const auto& clip : fc->character.clips) {
     if (clip.name == "touch") touch = &clip;
+    if (clip.name == "walk") walk = &clip;
   }
   ASSERT_NE(touch, nullptr);
+  ASSERT_NE(walk, nullptr);
   CharacterInstance inst = MakeInstance(asset);
-  for (float t : {0.9f, 1.2f, 1.5f}) {
-    const test::Pose pose = test::MakePose(fc->character, test::SampleLocal(fc->character, *touch, t), "touch");
-    for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
-      ASSERT_TRUE(inst.Update(mode, pose.world, pose.positions).ok());
-      std::set<int> arms_touching;
-      for (const Contact& c : inst.Query()) {
-        for (int a : arms) {
-          if ((c.part_i == torso && c.part_j == a) || (c.part_j == torso && c.part_i == a)) arms_touching.insert(a);
-        }
+  // Which hands touch `target` at time t of `clip`, in `mode`.
+  auto hands_on = [&](const skinning::AnimationClip& clip, float t, RefitMode mode, int target) {
+    const test::Pose pose = test::MakePose(fc->character, test::SampleLocal(fc->character, clip, t), clip.name);
+    EXPECT_TRUE(inst.Update(mode, pose.world, pose.positions).ok());
+    std::set<int> sides;
+    for (const Contact& c : inst.Query()) {
+      if (c.part_j == target && hand_side(c.i) >= 0) sides.insert(hand_side(c.i));
+      if (c.part_i == target && hand_side(c.j) >= 0) sides.insert(hand_side(c.j));
+    }
+    return sides.size();
+  };
+  for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
+    for (float t : {0.9f, 1.2f, 1.5f}) EXPECT_EQ(hands_on(*touch, t, mode, torso), 2u) << "chest, t=" << t << " " << ToString(mode);
+    for (float t : {2.5f, 2.8f, 3.1f}) EXPECT_EQ(hands_on(*touch, t, mode, head), 2u) << "head, t=" << t << " " << ToString(mode);
+    // Rest pose (the clip's start) and the whole walk: hands touch neither.
+    for (int target : {torso, head}) {
+      EXPECT_EQ(hands_on(*touch, 0.0f, mode, target), 0u) << "rest " << ToString(mode);
+      for (float t = 0.0f; t <= walk->duration_s; t += 0.1f) {
+        EXPECT_EQ(hands_on(*walk, t, mode, target), 0u) << "walk t=" << t << " " << ToString(mode);
       }
-      EXPECT_EQ(arms_touching.size(), 2u) << "t=" << t << " " << ToString(mode);
     }
   }
 }
