@@ -38,3 +38,15 @@ if(TARGET hello_world)
   add_test(NAME sample.hello_world COMMAND hello_world)
   set_tests_properties(sample.hello_world PROPERTIES PASS_REGULAR_EXPRESSION "t=1.2 s: [1-9][0-9]* pairs.*torso")
 endif()
+
+# A clip that is not there: exit 2 and the list of clips.
+add_test(NAME tool.unknown_clip COMMAND ${tool} play ${SKINSPHERES_ASSET_DIR}/Soldier.glb --clip Dance)
+set_tests_properties(tool.unknown_clip PROPERTIES
+  PASS_REGULAR_EXPRESSION "Soldier.glb: no clip \"Dance\"; clips: 0:.*Walk"
+  SKIP_REGULAR_EXPRESSION "file not found")
+
+# --dump writes one JSON line per frame with spheres and pairs; --report a JSON summary.
+add_test(NAME tool.play_dump
+  COMMAND ${CMAKE_COMMAND} -DTOOL=${tool} -DASSET=${SKINSPHERES_ASSET_DIR}/CesiumMan.glb
+          -DDIR=${PROJECT_BINARY_DIR}/test_tmp/play_dump -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/play_dump.cmake)
+set_tests_properties(tool.play_dump PROPERTIES SKIP_REGULAR_EXPRESSION "asset absent")
