@@ -545,6 +545,7 @@ Result<FitMetrics> MeasureFit(const FitMetricsInput& in, const FitMetricsSetting
   const float strict = float(1e-6 * height);
   std::vector<Eigen::Vector3f> samples;
   std::vector<double> weights;
+  std::vector<uint32_t> owners;
   for (size_t s = 0; s < in.centers.size(); ++s) {
     const float r = in.radii[s];
     if (!(r > 0)) continue;
@@ -563,6 +564,7 @@ Result<FitMetrics> MeasureFit(const FitMetricsInput& in, const FitMetricsSetting
       if (covered) continue;
       samples.push_back(q);
       weights.push_back(w);
+      owners.push_back(static_cast<uint32_t>(s));
     }
   }
   m.boundary_samples = samples.size();
@@ -570,11 +572,14 @@ Result<FitMetrics> MeasureFit(const FitMetricsInput& in, const FitMetricsSetting
     std::vector<float> dist(samples.size());
     MeshDistances(in.positions, in.triangles, samples, dist);
     double sum = 0, wsum = 0, mx = 0;
+    m.sphere_boundary_distance.assign(in.centers.size(), 0.0);
     for (size_t i = 0; i < samples.size(); ++i) {
+      m.sphere_boundary_distance[owners[i]] += weights[i] * dist[i];
       sum += weights[i] * dist[i];
       wsum += weights[i];
       mx = std::max(mx, double(dist[i]));
     }
+    for (double& d : m.sphere_boundary_distance) d /= wsum;
     m.boundary_distance_mean = sum / wsum;
     m.boundary_distance_max = mx;
     m.boundary_distance_mean_rel = m.boundary_distance_mean / height;

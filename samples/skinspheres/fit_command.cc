@@ -1,6 +1,7 @@
 // skinspheres fit INPUT -o OUT.json [--rays N] [--per-level 1|2|4] [--method m1|m2|m1a]
 //   [--overlap PD] [--step delta] [--parts parts.json] [--hops H] [--no-bind-overlap]
 //   [--compare] [--metrics]
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 
@@ -90,6 +91,21 @@ int PrintMetrics(const LoadedCharacter& loaded, const lib::FitResult& fit) {
               m->boundary_distance_max_rel, m->uncovered_triangles);
   std::printf("  (voxel grid %dx%dx%d, body volume %.6g, body covered %.4f, ambiguous voxels %.4f)\n", m->grid_dims.x(),
               m->grid_dims.y(), m->grid_dims.z(), m->body_volume, m->body_covered_fraction, m->body_ambiguous_fraction);
+  // Where the boundary stands off most: the spheres with the largest share of the mean distance.
+  std::vector<size_t> order(set.size());
+  for (size_t s = 0; s < order.size(); ++s) order[s] = s;
+  const auto& share = m->sphere_boundary_distance;
+  if (share.size() == set.size()) {
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return share[a] > share[b]; });
+    std::printf("  largest shares of the boundary distance:");
+    for (size_t k = 0; k < std::min<size_t>(5, order.size()); ++k) {
+      const size_t s = order[k];
+      std::printf(" #%zu %s/%s %.0f%%", s, set.parts[set.sphere_part[s]].name.c_str(),
+                  set.joint_names[set.sphere_joint[s]].c_str(),
+                  m->boundary_distance_mean > 0 ? 100.0 * share[s] / m->boundary_distance_mean : 0.0);
+    }
+    std::printf("\n");
+  }
   return m->uncovered_triangles == 0 ? 0 : 1;
 }
 

@@ -106,6 +106,8 @@ struct FitMetrics {
   double boundary_distance_max = 0.0;
   double boundary_distance_mean_rel = 0.0;  // divided by body_height
   double boundary_distance_max_rel = 0.0;
+  // Each sphere's share of boundary_distance_mean (sums to it): where the union stands off most.
+  std::vector<double> sphere_boundary_distance;
 
   // 3. Coverage.
   size_t uncovered_triangles = 0;            // inside no single sphere
