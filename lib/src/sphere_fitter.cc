@@ -258,12 +258,18 @@ std::vector<std::vector<int>> JointHops(const std::vector<int32_t>& parents) {
 }
 
 
+// Minimum ball of the vertices of `tris`, each vertex once (sorted, unique: ~6x fewer points on a
+// closed mesh than one copy per triangle corner; the ball of a set does not depend on repeats).
 Ball BallOf(const RawCharacter& ch, const std::vector<uint32_t>& tris) {
-  std::vector<Eigen::Vector3f> pts;
-  pts.reserve(tris.size() * 3);
+  std::vector<int32_t> ids;
+  ids.reserve(tris.size() * 3);
   for (uint32_t t : tris) {
-    for (int v = 0; v < 3; ++v) pts.push_back(ch.positions_rest[ch.triangles[t][v]]);
+    for (int v = 0; v < 3; ++v) ids.push_back(ch.triangles[t][v]);
   }
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  std::vector<Eigen::Vector3f> pts(ids.size());
+  for (size_t k = 0; k < ids.size(); ++k) pts[k] = ch.positions_rest[ids[k]];
   return MinimumBall(pts);
 }
 
@@ -329,6 +335,7 @@ void SplitLooseSpheres(const RawCharacter& ch, const FitSettings& settings, std:
   auto evaluate = [&](Node& n) {
     n.saving = 0.0;
     n.sphere.ball = n.tris.empty() ? n.sphere.ball : BallOf(ch, n.tris);
+    if (!(settings.split_volume > 0.0f)) return;  // 0: never split, so no tentative split either
     if (n.tris.size() < 2 || !SplitTriangles(ch, n.tris, &n.a, &n.b)) return;
     const double before = cube(n.sphere.ball.radius);
     const double after = cube(BallOf(ch, n.a).radius) + cube(BallOf(ch, n.b).radius);
@@ -445,13 +452,18 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   auto assign = [&] {
     tbb::parallel_for(size_t{0}, parts.parts.size(), [&](size_t k) {
       for (uint32_t t : parts.parts[k].triangles) {
+        const Eigen::Vector3f& p0 = ch.positions_rest[ch.triangles[t][0]];
+        const Eigen::Vector3f& p1 = ch.positions_rest[ch.triangles[t][1]];
+        const Eigen::Vector3f& p2 = ch.positions_rest[ch.triangles[t][2]];
         float best = std::numeric_limits<float>::infinity();
         int32_t best_s = -1;
         for (uint32_t s = part_first[k]; s < part_first[k + 1]; ++s) {
           const Ball& b = balls[s];
           if (b.radius < 0.0f) continue;  // dropped
-          float need = 0.0f;
-          for (int v = 0; v < 3; ++v) need = std::max(need, (ch.positions_rest[ch.triangles[t][v]] - b.center).norm());
+          // max_v |p_v - c| with one sqrt: sqrt is monotonic and correctly rounded, so this is
+          // bit-identical to the max of the three norms.
+          const float need = std::sqrt(std::max({(p0 - b.center).squaredNorm(), (p1 - b.center).squaredNorm(),
+                                                 (p2 - b.center).squaredNorm()}));
           if (need < best) {
             best = need;
             best_s = static_cast<int32_t>(s);
@@ -463,10 +475,29 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   };
   assign();
   for (int round = 0; round < settings.refine_iterations; ++round) {
-    std::vector<std::vector<Eigen::Vector3f>> pts(cand.size());
+    // Each sphere's owned vertices, once each (a closed mesh lists a vertex in ~6 triangles, so
+    // MinimumBall sees ~6x fewer points; the minimum ball of a set does not depend on repeats).
+    // Triangles grouped by owner (counting sort, ascending t), then a stamp per vertex.
+    std::vector<uint32_t> first(cand.size() + 1, 0);
+    for (int32_t o : owner) {
+      if (o >= 0) ++first[o + 1];
+    }
+    for (size_t s = 0; s < cand.size(); ++s) first[s + 1] += first[s];
+    std::vector<uint32_t> by_owner(first.back()), fill(first.begin(), first.end() - 1);
     for (size_t t = 0; t < owner.size(); ++t) {
-      if (owner[t] < 0) continue;
-      for (int v = 0; v < 3; ++v) pts[owner[t]].push_back(ch.positions_rest[ch.triangles[t][v]]);
+      if (owner[t] >= 0) by_owner[fill[owner[t]]++] = static_cast<uint32_t>(t);
+    }
+    std::vector<std::vector<Eigen::Vector3f>> pts(cand.size());
+    std::vector<int32_t> vertex_stamp(ch.vertex_count(), -1);
+    for (size_t s = 0; s < cand.size(); ++s) {
+      for (uint32_t k = first[s]; k < first[s + 1]; ++k) {
+        for (int v = 0; v < 3; ++v) {
+          const int32_t vi = ch.triangles[by_owner[k]][v];
+          if (vertex_stamp[vi] == static_cast<int32_t>(s)) continue;
+          vertex_stamp[vi] = static_cast<int32_t>(s);
+          pts[s].push_back(ch.positions_rest[vi]);
+        }
+      }
     }
     tbb::parallel_for(size_t{0}, cand.size(), [&](size_t s) {
       if (pts[s].empty()) {
