@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace skinspheres::lib {
@@ -58,7 +59,19 @@ DiskPath BuildDiskPath(std::span<const Eigen::Vector3f> chain, std::span<const E
     for (const auto& v : verts) mean += v;
     mean /= static_cast<float>(verts.size());
     const Eigen::Vector3f axis = PrincipalAxis(verts, mean);
-    pts = {mean - axis * 1e-3f, mean + axis * 1e-3f};
+    // Along the principal axis over the vertices' extent (never shorter than float can resolve
+    // at these coordinates, so the path keeps a direction far from the origin too).
+    float tmin = 0.0f, tmax = 0.0f;
+    for (const auto& v : verts) {
+      tmin = std::min(tmin, (v - mean).dot(axis));
+      tmax = std::max(tmax, (v - mean).dot(axis));
+    }
+    const float floor = std::max(1e-3f * (hi - lo).norm(), 64.0f * std::numeric_limits<float>::epsilon() * mean.cwiseAbs().maxCoeff());
+    if (tmax - tmin < floor) {
+      tmin = -floor;
+      tmax = floor;
+    }
+    pts = {mean + axis * tmin, mean + axis * tmax};
   }
   // Extend both ends along the end segments to the extreme projections of the part's vertices.
   const Eigen::Vector3f d0 = (pts[1] - pts[0]).normalized();
@@ -83,6 +96,7 @@ std::vector<DiskLevel> TraverseDisk(const TriangleBvh& bvh, const DiskPath& path
   std::vector<DiskLevel> levels;
   if (path.points.size() < 2 || settings.rays < 3 || !(settings.step > 0.0f)) return levels;
   const float length = path.length();
+  if (!(length > 0.0f) || !std::isfinite(length)) return levels;
   const int steps = std::max(1, static_cast<int>(std::ceil(length / settings.step)));
   const float alpha = 2.0f * std::numbers::pi_v<float> / static_cast<float>(settings.rays);  // α = 360°/Nr
   std::vector<Eigen::Vector2f> ray_dir(settings.rays);

@@ -32,7 +32,7 @@ std::string FitSettings::Validate() const {
   if (rays < 3 || rays > 65535) return "rays must be in 3..65535 (got " + std::to_string(rays) + ")";
   if (per_level != 1 && per_level != 2 && per_level != 4) return "per-level must be 1, 2 or 4 (got " + std::to_string(per_level) + ")";
   if (!(overlap >= 0.0f && overlap < 1.0f)) return "overlap (PD) must be in [0, 1) (got " + std::to_string(overlap) + ")";
-  if (!(step > 0.0f && step <= 1.0f)) return "step must be in (0, 1], a fraction of each part's length (got " + std::to_string(step) + ")";
+  if (!(step >= 1e-4f && step <= 1.0f)) return "step must be in [0.0001, 1], a fraction of each part's length (got " + std::to_string(step) + ")";
   if (adjacent_hops < 0 || adjacent_hops > 2) return "adjacent hops must be 0, 1 or 2 (got " + std::to_string(adjacent_hops) + ")";
   if (refine_iterations < 0 || refine_iterations > 16) return "refine iterations must be in 0..16 (got " + std::to_string(refine_iterations) + ")";
   if (!(split_volume >= 0.0f && split_volume <= 1.0f)) return "split volume must be in [0, 1] (got " + std::to_string(split_volume) + ")";
@@ -332,12 +332,13 @@ void SplitLooseSpheres(const RawCharacter& ch, const FitSettings& settings, std:
     double saving = 0.0;
   };
   auto cube = [](double r) { return r * r * r; };
+  // The sphere itself is left as fitted (centre from the paper or the refine rounds, the paper's
+  // radius for the growth report); only a sphere that is actually split becomes two minimum balls.
   auto evaluate = [&](Node& n) {
     n.saving = 0.0;
-    n.sphere.ball = n.tris.empty() ? n.sphere.ball : BallOf(ch, n.tris);
     if (!(settings.split_volume > 0.0f)) return;  // 0: never split, so no tentative split either
     if (n.tris.size() < 2 || !SplitTriangles(ch, n.tris, &n.a, &n.b)) return;
-    const double before = cube(n.sphere.ball.radius);
+    const double before = cube(BallOf(ch, n.tris).radius);
     const double after = cube(BallOf(ch, n.a).radius) + cube(BallOf(ch, n.b).radius);
     if (after <= settings.split_volume * before) n.saving = before - after;
   };
@@ -361,6 +362,8 @@ void SplitLooseSpheres(const RawCharacter& ch, const FitSettings& settings, std:
     second.part = nodes[best].part;
     second.tris = std::move(nodes[best].b);
     nodes[best].tris = std::move(nodes[best].a);
+    nodes[best].sphere.ball = BallOf(ch, nodes[best].tris);
+    second.sphere.ball = BallOf(ch, second.tris);
     evaluate(nodes[best]);
     evaluate(second);
     nodes.insert(nodes.begin() + static_cast<std::ptrdiff_t>(best) + 1, std::move(second));
@@ -417,6 +420,26 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   for (const auto& tri : ch.triangles) {
     if ((tri.array() < 0).any() || (tri.array() >= static_cast<int>(ch.vertex_count())).any()) {
       return MakeError(ErrorCode::kInvalidData, name + ": a triangle index is out of range");
+    }
+  }
+  // The parts must partition the triangles and name joints that exist (parts run in parallel:
+  // a triangle in two parts would make the result depend on the threads).
+  for (size_t t = 0; t < ch.triangle_count(); ++t) {
+    if (parts.triangle_joint[t] < 0 || parts.triangle_joint[t] >= static_cast<int32_t>(joints)) {
+      return MakeError(ErrorCode::kInvalidData, name + ": body parts give triangle " + std::to_string(t) + " no valid joint");
+    }
+  }
+  for (size_t k = 0; k < parts.parts.size(); ++k) {
+    for (uint32_t t : parts.parts[k].triangles) {
+      if (t >= ch.triangle_count() || parts.triangle_part[t] != static_cast<int32_t>(k)) {
+        return MakeError(ErrorCode::kInvalidData, name + ": body part " + parts.parts[k].name + " lists triangle " +
+                                                      std::to_string(t) + " that is not its own");
+      }
+    }
+    for (int32_t j : parts.parts[k].chain) {
+      if (j < 0 || j >= static_cast<int32_t>(joints)) {
+        return MakeError(ErrorCode::kInvalidData, name + ": body part " + parts.parts[k].name + " names joint " + std::to_string(j));
+      }
     }
   }
   std::vector<Eigen::Matrix4f> rest_world(joints);
@@ -674,7 +697,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   int first_bad = -1;
   const int uncovered = CountUncoveredTriangles(ch, set, &first_bad);
   if (uncovered) {
-    return MakeError(ErrorCode::kInvalidData, name + ": bind-pose check failed: " + std::to_string(uncovered) +
+    return MakeError(ErrorCode::kCheckFailed, name + ": bind-pose check failed: " + std::to_string(uncovered) +
                                                   " triangles outside their sphere (first: " + std::to_string(first_bad) + ")");
   }
   rep.triangles_covered = static_cast<int>(ch.triangle_count());

@@ -145,6 +145,20 @@ TEST(SphereFitterTest, BadSettingsAreRefused) {
   EXPECT_FALSE(FitSpheres(ch, parts, s).ok());
 }
 
+TEST(SphereFitterTest, PartsThatDoNotPartitionTheMeshAreRefused) {
+  RawCharacter ch = test::EllipticPrism(0.1f, 0.1f, 0.0f, 1.0f);
+  BodyParts parts = test::MakeSinglePart(ch, 0.0f, 1.0f, PartKind::kChain);
+  BodyParts twice = parts;
+  twice.parts.push_back(parts.parts[0]);  // every triangle in two parts
+  EXPECT_EQ(FitSpheres(ch, twice, FitSettings{}).error().code, ErrorCode::kInvalidData);
+  BodyParts bad_joint = parts;
+  bad_joint.triangle_joint[3] = 7;
+  EXPECT_EQ(FitSpheres(ch, bad_joint, FitSettings{}).error().code, ErrorCode::kInvalidData);
+  BodyParts bad_chain = parts;
+  bad_chain.parts[0].chain.push_back(9);
+  EXPECT_EQ(FitSpheres(ch, bad_chain, FitSettings{}).error().code, ErrorCode::kInvalidData);
+}
+
 TEST(SphereFitterTest, ExclusionsFollowTheSkeleton) {
   RawCharacter ch = test::EllipticPrism(0.1f, 0.1f, 0.0f, 1.0f);
   BodyParts parts = test::MakeSinglePart(ch, 0.0f, 1.0f, PartKind::kChain);
