@@ -58,7 +58,9 @@ std::string WriteSphereSetJson(const SphereSet& set) {
   json pairs = json::array();
   for (const auto& p : set.excluded_pairs) pairs.push_back(json::array({p.i, p.j, ToString(p.reason)}));
   j["excluded_pairs"] = pairs;
-  return j.dump();
+  // Names that are not valid UTF-8 (paths are bytes; FBX names may be Latin-1) are written with
+  // U+FFFD instead of aborting; such a set then refuses to match its character by name.
+  return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 namespace {
@@ -82,6 +84,9 @@ T Number(const json& v, const std::string& where) {
   if (!v.is_number()) throw ReadError{where + " is not a number"};
   if constexpr (std::is_integral_v<T>) {
     if (!v.is_number_integer()) throw ReadError{where + " is not an integer"};
+    if (v.is_number_unsigned() && v.get<uint64_t>() > static_cast<uint64_t>(std::numeric_limits<int64_t>::max())) {
+      throw ReadError{where + " is out of range"};
+    }
     const auto x = v.get<int64_t>();
     if (x < static_cast<int64_t>(std::numeric_limits<T>::min()) ||
         x > static_cast<int64_t>(std::numeric_limits<T>::max())) {

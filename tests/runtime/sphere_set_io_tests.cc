@@ -103,6 +103,8 @@ TEST(SphereSetIoTest, WrongContentIsRefusedWithItsPlace) {
       {"reason", [](json& j) { j["excluded_pairs"][0][2] = "because"; }, ErrorCode::kInvalidData, "because"},
       {"pair order", [](json& j) { j["excluded_pairs"][0] = {1, 0, "same_joint"}; }, ErrorCode::kInvalidData, "i < j"},
       {"id", [](json& j) { j["spheres"][1]["id"] = 5; }, ErrorCode::kInvalidData, "id is not its index"},
+      {"huge unsigned", [](json& j) { j["skeleton"]["joints"][0]["parent"] = 18446744073709551615ull; },
+       ErrorCode::kInvalidData, "parent is out of range"},
   };
   for (const auto& c : cases) {
     json j = good;

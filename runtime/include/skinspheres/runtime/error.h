@@ -18,6 +18,7 @@ enum class ErrorCode {
   kMismatchedAsset,     // a sphere set made for another character
   kInvalidArgument,
   kNotFound,            // a named thing (clip, joint) is not there
+  kCheckFailed,         // a self-check failed (a triangle outside its sphere): a bug, not bad input
 };
 
 struct Error {
