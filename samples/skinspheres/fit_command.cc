@@ -114,7 +114,10 @@ int RunFit(FitArgs& args) {
   auto loaded = LoadCharacter(args.input, args.fit.parts_file);
   if (!loaded.ok()) return Fail(loaded.error().message);
   auto fit = lib::FitSpheres(loaded->character, loaded->parts, args.fit.settings);
-  if (!fit.ok()) return Fail(fit.error().message);
+  if (!fit.ok()) {
+    const int code = Fail(fit.error().message);
+    return fit.error().code == ErrorCode::kCheckFailed ? 1 : code;
+  }
   std::printf("%s: %zu vertices, %zu triangles, %zu joints, %zu clips\n",
               args.input.empty() ? "built-in character" : args.input.c_str(), loaded->character.vertex_count(),
               loaded->character.triangle_count(), loaded->character.skeleton.size(), loaded->character.clips.size());

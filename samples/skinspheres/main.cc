@@ -4,6 +4,7 @@
 //   skinspheres demo                             fit and play the built-in character
 //   skinspheres export-builtin OUT.glb           write the built-in character as glTF
 #include <CLI/CLI.hpp>
+#include <exception>
 #include <iostream>
 
 #include "playback.h"
@@ -21,6 +22,10 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);
     return code == 0 ? 0 : skinspheres::tool::kExitBadInput;
+  } catch (const std::exception& e) {
+    // Last line of defence (out of memory, a library throwing): one line, never an abort.
+    std::cerr << "skinspheres: " << e.what() << "\n";
+    return skinspheres::tool::kExitBadInput;
   }
   return exit_code;
 }

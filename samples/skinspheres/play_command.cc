@@ -83,7 +83,7 @@ int RunPlay(PlayArgs& a) {
       for (const auto& c : fr.contacts) pairs.push_back({c.i, c.j});
       line["spheres"] = std::move(spheres);
       line["pairs"] = std::move(pairs);
-      out << line.dump() << '\n';
+      out << line.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
     }
     std::printf("wrote %s\n", a.dump.c_str());
   }
@@ -106,7 +106,7 @@ int RunPlay(PlayArgs& a) {
     rep["pairs_per_frame"] = per_frame;
     std::ofstream out(a.report);
     if (!out) return Fail(a.report + ": cannot open for writing");
-    out << rep.dump(2) << '\n';
+    out << rep.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
   }
   if (a.verify) {
     std::printf("verify: %zu triangle-frames outside their sphere%s\n", played->triangles_outside,

@@ -1,6 +1,7 @@
 #include "playback.h"
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -38,10 +39,9 @@ Result<size_t> FindClip(const lib::RawCharacter& ch, const std::string& key) {
     if (ch.clips[k].name == key) return k;
     names += (k ? ", " : "") + std::to_string(k) + ":" + ch.clips[k].name;
   }
-  if (!key.empty() && std::all_of(key.begin(), key.end(), [](char c) { return c >= '0' && c <= '9'; })) {
-    const size_t k = std::stoul(key);
-    if (k < ch.clips.size()) return k;
-  }
+  size_t k = 0;
+  const auto [end, ec] = std::from_chars(key.data(), key.data() + key.size(), k);
+  if (!key.empty() && ec == std::errc() && end == key.data() + key.size() && k < ch.clips.size()) return k;
   const std::string file = ch.source_file.empty() ? "built-in character" : ch.source_file;
   if (ch.clips.empty()) return MakeError(ErrorCode::kNotFound, file + ": has no animation clips");
   return MakeError(ErrorCode::kNotFound, file + ": no clip \"" + key + "\"; clips: " + names);
@@ -55,6 +55,26 @@ Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::Sphere
   if (!asset.ok()) return asset.error();
   if (auto err = (*asset)->Matches(ch.skeleton.joint_names, ch.vertex_count())) {
     return MakeError(err->code, file + ": " + err->message);
+  }
+  // A set read from a file is checked once against this mesh: same triangle count, and every
+  // vertex of every owned triangle among its sphere's source vertices (what exact refit reads).
+  if (set.source_triangle_count != ch.triangle_count()) {
+    return MakeError(ErrorCode::kMismatchedAsset, file + ": the sphere set was fitted on " + std::to_string(set.source_triangle_count) +
+                                                      " triangles, this character has " + std::to_string(ch.triangle_count()));
+  }
+  for (size_t s = 0; s < set.size(); ++s) {
+    const auto first = set.vertices.begin() + set.vertex_offsets[s], last = set.vertices.begin() + set.vertex_offsets[s + 1];
+    const bool sorted = std::is_sorted(first, last);
+    for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
+      for (int v = 0; v < 3; ++v) {
+        const uint32_t vi = static_cast<uint32_t>(ch.triangles[set.triangles[k]][v]);
+        const bool listed = sorted ? std::binary_search(first, last, vi) : std::find(first, last, vi) != last;
+        if (!listed) {
+          return MakeError(ErrorCode::kInvalidData, file + ": sphere " + std::to_string(s) + " owns triangle " +
+                                                        std::to_string(set.triangles[k]) + " but not its vertex " + std::to_string(vi));
+        }
+      }
+    }
   }
   auto created = runtime::CharacterInstance::Create(*asset);
   if (!created.ok()) return created.error();
@@ -83,8 +103,14 @@ Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::Sphere
 
   PlayResult result;
   result.clip = clip.name;
-  const int frames = options.frames > 0 ? options.frames
-                                        : std::max(1, static_cast<int>(std::floor(clip.duration_s * options.fps + 1e-3f)) + 1);
+  // Frame count in double, capped: a clip of a million seconds must not overflow or exhaust memory.
+  constexpr double kMaxFrames = 1e6;
+  const double wanted = options.frames > 0 ? options.frames : std::floor(double(clip.duration_s) * options.fps + 1e-3) + 1.0;
+  if (!(wanted <= kMaxFrames)) {
+    return MakeError(ErrorCode::kInvalidArgument, file + ": clip \"" + clip.name + "\" would play " + std::to_string(wanted) +
+                                                      " frames (at most 1000000)");
+  }
+  const int frames = std::max(1, static_cast<int>(wanted));
   result.frames.resize(frames);
   for (int f = 0; f < frames; ++f) {
     const float t = f / options.fps;

@@ -50,3 +50,14 @@ add_test(NAME tool.play_dump
   COMMAND ${CMAKE_COMMAND} -DTOOL=${tool} -DASSET=${SKINSPHERES_ASSET_DIR}/CesiumMan.glb
           -DDIR=${PROJECT_BINARY_DIR}/test_tmp/play_dump -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/play_dump.cmake)
 set_tests_properties(tool.play_dump PROPERTIES SKIP_REGULAR_EXPRESSION "asset absent")
+
+# Out-of-range numbers are refused with one line, never an abort.
+foreach(case "clip_index;--clip;99999999999999999999999" "frames;--frames;2000000000")
+  list(GET case 0 name)
+  list(GET case 1 flag)
+  list(GET case 2 value)
+  add_test(NAME tool.refuses_${name} COMMAND ${tool} play ${SKINSPHERES_ASSET_DIR}/CesiumMan.glb ${flag} ${value})
+  set_tests_properties(tool.refuses_${name} PROPERTIES
+    PASS_REGULAR_EXPRESSION "skinspheres: .*CesiumMan.glb: (no clip|clip .* would play)"
+    SKIP_REGULAR_EXPRESSION "file not found")
+endforeach()
