@@ -539,6 +539,13 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
     if (owner[t] < 0) return MakeError(ErrorCode::kInvalidData, name + ": triangle " + std::to_string(t) + " belongs to no part");
     owned[owner[t]].push_back(static_cast<uint32_t>(t));
   }
+  if (settings.refine_iterations > 0) {
+    // The last refine round reassigned triangles after moving the spheres: centre each sphere
+    // once more on what it now owns (its radius stays the paper's, for the growth report).
+    tbb::parallel_for(size_t{0}, cand.size(), [&](size_t s) {
+      if (!owned[s].empty()) cand[s].ball.center = BallOf(ch, owned[s]).center;
+    });
+  }
   SplitLooseSpheres(ch, settings, &cand, &cand_part, &owned);
 
   FitResult out;
