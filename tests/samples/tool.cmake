@@ -61,3 +61,9 @@ foreach(case "clip_index;--clip;99999999999999999999999" "frames;--frames;200000
     PASS_REGULAR_EXPRESSION "skinspheres: .*CesiumMan.glb: (no clip|clip .* would play)"
     SKIP_REGULAR_EXPRESSION "file not found")
 endforeach()
+
+# play --export-glb writes the character plus one animated sphere per fitted sphere.
+add_test(NAME tool.play_export_glb
+  COMMAND ${CMAKE_COMMAND} -DTOOL=${tool} -DASSET=${SKINSPHERES_ASSET_DIR}/CesiumMan.glb
+          -DDIR=${PROJECT_BINARY_DIR}/test_tmp/play_export -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/play_export_glb.cmake)
+set_tests_properties(tool.play_export_glb PROPERTIES SKIP_REGULAR_EXPRESSION "asset absent")
