@@ -179,13 +179,13 @@ void MakeLocals(const Xbot& x, const std::vector<Eigen::Matrix4f>& rest_world, i
 void Fail(Xbot* x, std::string message) { x->error = std::move(message); }
 
 // Fit variants: 0 = default FitSettings (whatever the fitter's defaults are at build time);
-// 1 = the same without sphere splitting (FitSettings::split_volume = 0, or split_slack huge in
+// 1 = the same without sphere splitting (FitSettings::split_gain = 0, or split_slack huge in
 // builds that call it that), i.e. the paper's spheres after ownership and refinement only: fewer,
 // looser spheres. The `spheres` counter of every row says how many there are.
 template <class Settings>
 bool DisableSplitting(Settings* s) {
-  if constexpr (requires { s->split_volume; }) {
-    s->split_volume = 0.0f;  // 0: never split
+  if constexpr (requires { s->split_gain; }) {
+    s->split_gain = 0.0f;  // 0: never split
     return true;
   } else if constexpr (requires { s->split_slack; }) {
     s->split_slack = 1e9f;  // no sphere stands off its triangles by 1e9 body heights

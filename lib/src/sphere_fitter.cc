@@ -35,7 +35,7 @@ std::string FitSettings::Validate() const {
   if (!(step >= 1e-4f && step <= 1.0f)) return "step must be in [0.0001, 1], a fraction of each part's length (got " + std::to_string(step) + ")";
   if (adjacent_hops < 0 || adjacent_hops > 2) return "adjacent hops must be 0, 1 or 2 (got " + std::to_string(adjacent_hops) + ")";
   if (refine_iterations < 0 || refine_iterations > 16) return "refine iterations must be in 0..16 (got " + std::to_string(refine_iterations) + ")";
-  if (!(split_volume >= 0.0f && split_volume <= 1.0f)) return "split volume must be in [0, 1] (got " + std::to_string(split_volume) + ")";
+  if (!(split_gain >= 0.0f && split_gain <= 1.0f)) return "split gain must be in [0, 1] (got " + std::to_string(split_gain) + ")";
   if (max_spheres < 1 || max_spheres > 8192) return "max spheres must be in 1..8192 (got " + std::to_string(max_spheres) + ")";
   return "";
 }
@@ -50,7 +50,7 @@ std::string FitSettings::ToJson() const {
                       {"adjacent_hops", adjacent_hops},
                       {"exclude_bind_overlaps", exclude_bind_overlaps},
                       {"refine_iterations", refine_iterations},
-                      {"split_volume", split_volume},
+                      {"split_gain", split_gain},
                       {"max_spheres", max_spheres}};
   return j.dump();
 }
@@ -317,10 +317,12 @@ bool SplitTriangles(const RawCharacter& ch, const std::vector<uint32_t>& tris, s
 
 
 // Beyond the paper (tightness): a sphere is split in two (SplitTriangles, each half then gets its
-// minimum ball) when the two halves' balls hold at most split_volume of its volume; the split that
-// saves the most volume goes first, while the set has fewer than max_spheres. Tubes cut across
-// their axis save little and stay whole; spread fingers, feet, boxy heads and flat torso sides
-// save a lot. Children take their parent's place, so spheres stay grouped by part and level.
+// minimum ball) when the halves' exposure is at most split_gain of its own; the split that saves
+// the most exposure goes first, while the set has fewer than max_spheres. Exposure is the area of
+// a sphere's surface inside no other sphere, weighted by its distance to the nearest vertex the
+// sphere covers: a cheap stand-in for the union-boundary distance fit_metrics measures (cutting a
+// tube across its axis or a flat side into patches that leave a hollow does not pay; spread
+// fingers, feet and boxy pieces do). Children take their parent's place in the order.
 void SplitLooseSpheres(const RawCharacter& ch, const FitSettings& settings, std::vector<CandidateSphere>* cand,
                        std::vector<uint16_t>* cand_part, std::vector<std::vector<uint32_t>>* owned) {
   struct Node {
@@ -331,25 +333,65 @@ void SplitLooseSpheres(const RawCharacter& ch, const FitSettings& settings, std:
     std::vector<uint32_t> a, b;
     double saving = 0.0;
   };
-  auto cube = [](double r) { return r * r * r; };
+  // Exposure of a ball: the area of its surface inside no other sphere, weighted by how far that
+  // surface stands from the nearest vertex it covers (a cheap stand-in for the union boundary's
+  // distance to the mesh that fit_metrics measures). `skip` spheres do not cover (the parent).
+  constexpr int kSamples = 48;
+  static const std::vector<Eigen::Vector3f> unit = [] {
+    std::vector<Eigen::Vector3f> u(kSamples);
+    const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+    for (int k = 0; k < kSamples; ++k) {
+      const double y = 1.0 - (2.0 * k + 1.0) / kSamples, rr = std::sqrt(std::max(0.0, 1.0 - y * y));
+      u[k] = Eigen::Vector3f(float(rr * std::cos(golden * k)), float(y), float(rr * std::sin(golden * k)));
+    }
+    return u;
+  }();
+  std::vector<Ball> held(cand->size());  // each sphere as it will be: centre, radius holding its triangles
+  auto holding = [&](const Eigen::Vector3f& c, const std::vector<uint32_t>& tris) {
+    float r2 = 0.0f;
+    for (uint32_t t : tris) {
+      for (int v = 0; v < 3; ++v) r2 = std::max(r2, (ch.positions_rest[ch.triangles[t][v]] - c).squaredNorm());
+    }
+    return Ball{c, std::sqrt(r2)};
+  };
+  auto exposure = [&](const Ball& b, const std::vector<uint32_t>& tris, size_t skip, const Ball* sibling) {
+    double cost = 0.0;
+    const double area = 4.0 * std::numbers::pi * double(b.radius) * b.radius / kSamples;
+    for (const auto& u : unit) {
+      const Eigen::Vector3f q = b.center + b.radius * u;
+      bool covered = sibling && (q - sibling->center).squaredNorm() < sibling->radius * sibling->radius;
+      for (size_t o = 0; o < held.size() && !covered; ++o) {
+        if (o != skip && held[o].radius > 0.0f) covered = (q - held[o].center).squaredNorm() < held[o].radius * held[o].radius;
+      }
+      if (covered) continue;
+      float d2 = std::numeric_limits<float>::infinity();
+      for (uint32_t t : tris) {
+        for (int v = 0; v < 3; ++v) d2 = std::min(d2, (ch.positions_rest[ch.triangles[t][v]] - q).squaredNorm());
+      }
+      cost += area * std::sqrt(d2);
+    }
+    return cost;
+  };
   // The sphere itself is left as fitted (centre from the paper or the refine rounds, the paper's
   // radius for the growth report); only a sphere that is actually split becomes two minimum balls.
-  auto evaluate = [&](Node& n) {
+  auto evaluate = [&](Node& n, size_t index) {
     n.saving = 0.0;
-    if (!(settings.split_volume > 0.0f)) return;  // 0: never split, so no tentative split either
+    if (!(settings.split_gain > 0.0f)) return;  // 0: never split, so no tentative split either
     if (n.tris.size() < 2 || !SplitTriangles(ch, n.tris, &n.a, &n.b)) return;
-    const double before = cube(BallOf(ch, n.tris).radius);
-    const double after = cube(BallOf(ch, n.a).radius) + cube(BallOf(ch, n.b).radius);
-    if (after <= settings.split_volume * before) n.saving = before - after;
+    const double before = exposure(held[index], n.tris, index, nullptr);
+    const Ball ba = holding(BallOf(ch, n.a).center, n.a), bb = holding(BallOf(ch, n.b).center, n.b);
+    const double after = exposure(ba, n.a, index, &bb) + exposure(bb, n.b, index, &ba);
+    if (after <= settings.split_gain * before) n.saving = before - after;
   };
   std::vector<Node> nodes(cand->size());
   size_t live = 0;
-  tbb::parallel_for(size_t{0}, cand->size(), [&](size_t s) {
+  for (size_t s = 0; s < cand->size(); ++s) {
     nodes[s].sphere = (*cand)[s];
     nodes[s].part = (*cand_part)[s];
     nodes[s].tris = std::move((*owned)[s]);
-    evaluate(nodes[s]);
-  });
+    held[s] = nodes[s].tris.empty() ? Ball{Eigen::Vector3f::Zero(), -1.0f} : holding(nodes[s].sphere.ball.center, nodes[s].tris);
+  }
+  tbb::parallel_for(size_t{0}, cand->size(), [&](size_t s) { evaluate(nodes[s], s); });
   for (const auto& n : nodes) live += n.tris.empty() ? 0 : 1;
   while (live < static_cast<size_t>(settings.max_spheres)) {
     size_t best = nodes.size();
@@ -364,9 +406,11 @@ void SplitLooseSpheres(const RawCharacter& ch, const FitSettings& settings, std:
     nodes[best].tris = std::move(nodes[best].a);
     nodes[best].sphere.ball = BallOf(ch, nodes[best].tris);
     second.sphere.ball = BallOf(ch, second.tris);
-    evaluate(nodes[best]);
-    evaluate(second);
+    held[best] = holding(nodes[best].sphere.ball.center, nodes[best].tris);
+    held.insert(held.begin() + static_cast<std::ptrdiff_t>(best) + 1, holding(second.sphere.ball.center, second.tris));
     nodes.insert(nodes.begin() + static_cast<std::ptrdiff_t>(best) + 1, std::move(second));
+    evaluate(nodes[best], best);
+    evaluate(nodes[best + 1], best + 1);
     ++live;
   }
   cand->clear();

@@ -47,8 +47,8 @@ void FitOptions::AddTo(CLI::App& app) {
   app.add_option("--hops", hops, "exclude pairs whose joints are at most this many bones apart: 0, 1, 2")->capture_default_str();
   app.add_option("--refine", settings.refine_iterations, "tightening rounds after ownership (0: the paper's centres)")
       ->capture_default_str();
-  app.add_option("--split-volume", settings.split_volume,
-                 "split a sphere when its two halves hold at most this fraction of its volume (0: never)")
+  app.add_option("--split-gain", settings.split_gain,
+                 "split a sphere when its halves' exposure is at most this fraction of its own (0: never)")
       ->capture_default_str();
   app.add_option("--max-spheres", settings.max_spheres, "upper bound on the number of spheres")->capture_default_str();
   app.add_flag("--no-bind-overlap", no_bind_overlap, "keep pairs that already overlap in the rest pose");
