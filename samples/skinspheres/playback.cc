@@ -9,6 +9,7 @@
 
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/skinning/local_to_model_job.h"
+#include "skinspheres/skinning/prepared_influences.h"
 #include "skinspheres/skinning/sampling_job.h"
 #include "skinspheres/skinning/skinning_job.h"
 #include "skinspheres/skinning/skinning_matrices_job.h"
@@ -90,16 +91,28 @@ Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::Sphere
   std::sort(sources.begin(), sources.end());
   sources.erase(std::unique(sources.begin(), sources.end()), sources.end());
 
+  // Every frame skins only the source vertices, through the prepared (SIMD) layout built once;
+  // --verify skins every vertex from the plain influence lists.
+  skinning::SkinningJob skin_all;
+  skin_all.joint_matrices = bind_matrices;
+  skin_all.vertex_count = ch.vertex_count();
+  skin_all.in_positions = Floats(ch.skin.positions_bind);
+  skin_all.out_positions = Floats(skinned);
+  skin_all.influence_offsets = ch.skin.influence_offsets;
+  skin_all.influence_binds = ch.skin.influence_binds;
+  skin_all.influence_weights = ch.skin.influence_weights;
+  skinning::PreparedInfluences prepared;
+  std::string why;
+  if (!prepared.Build(ch.vertex_count(), ch.skin.influence_offsets, ch.skin.influence_binds, ch.skin.influence_weights,
+                      sources, &why)) {
+    return MakeError(ErrorCode::kInvalidData, file + ": " + why);
+  }
   skinning::SkinningJob skin;
   skin.joint_matrices = bind_matrices;
   skin.vertex_count = ch.vertex_count();
-  skin.in_positions = Floats(ch.skin.positions_bind);
-  skin.out_positions = Floats(skinned);
-  skin.influence_offsets = ch.skin.influence_offsets;
-  skin.influence_binds = ch.skin.influence_binds;
-  skin.influence_weights = ch.skin.influence_weights;
-  skinning::SkinningJob skin_all = skin;
-  skin.subset = sources;
+  skin.in_positions = skin_all.in_positions;
+  skin.out_positions = skin_all.out_positions;
+  skin.prepared = &prepared;
 
   PlayResult result;
   result.clip = clip.name;
