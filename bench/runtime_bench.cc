@@ -39,8 +39,8 @@
 //   BM_CrowdPose             the separate row for that input: LocalToModelJob per instance under
 //                            tbb::parallel_for (what an engine's animation system would do).
 //
-// Peers (only when built with SKINSPHERES_HAVE_PEERS=1 and Bullet + FCL, by hand: see
-// docs/PERFORMANCE.md): BM_XbotPeerBulletDbvt and BM_XbotPeerFclDynamicTree on the same per-frame
+// Peers (built when CMake finds Bullet and FCL, which defines SKINSPHERES_HAVE_PEERS=1; see
+// bench/CMakeLists.txt): BM_XbotPeerBulletDbvt and BM_XbotPeerFclDynamicTree on the same per-frame
 // Xbot spheres as BM_XbotQuery, checked equal to all-pairs on every frame before timing.
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
