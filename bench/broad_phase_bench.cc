@@ -27,13 +27,7 @@
 
 #include "skinspheres/runtime/broad_phase.h"
 
-#if SKINSPHERES_HAVE_PEERS
-#include <btBulletCollisionCommon.h>
-
-#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
-#include <fcl/geometry/shape/sphere.h>
-#include <fcl/narrowphase/collision_object.h>
-#endif
+#include "peer_broad_phases.h"
 
 namespace {
 
@@ -142,21 +136,6 @@ std::vector<Contact> Oracle(const Humanoid& h, int frame) {
   return out;
 }
 
-void SortContacts(std::vector<Contact>* out) {
-  std::sort(out->begin(), out->end(),
-            [](const Contact& p, const Contact& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; });
-}
-
-// The contact the peers report for a candidate pair (same float arithmetic as the runtime).
-inline void SphereTest(const Eigen::Vector4f& a, const Eigen::Vector4f& b, uint32_t i, uint32_t j,
-                       const PairFilter& f, std::vector<Contact>* out) {
-  if (i > j) std::swap(i, j);
-  const float dx = b.x() - a.x(), dy = b.y() - a.y(), dz = b.z() - a.z();
-  const float d2 = (dx * dx + dy * dy) + dz * dz;
-  const float rsum = a.w() + b.w();
-  if (d2 <= rsum * rsum) out->push_back(Contact{i, j, rsum - std::sqrt(d2), f.part(i), f.part(j)});
-}
-
 void AddCounters(benchmark::State& state, const Humanoid& h, size_t contacts_total, size_t frames) {
   state.counters["spheres"] = double(h.frames[0].size());
   state.counters["contacts"] = frames ? double(contacts_total) / double(frames) : 0.0;
@@ -206,58 +185,17 @@ void BM_AllPairs(benchmark::State& state) {
 BENCHMARK(BM_AllPairs)->Arg(150)->Arg(300);
 
 #if SKINSPHERES_HAVE_PEERS
-// ------------------------------------------------------------------------------------- Bullet
-
-struct BulletExclusion : btOverlapFilterCallback {
-  const PairFilter* filter = nullptr;
-  bool needBroadphaseCollision(btBroadphaseProxy* p0, btBroadphaseProxy* p1) const override {
-    const auto i = uint32_t(reinterpret_cast<uintptr_t>(p0->m_clientObject));
-    const auto j = uint32_t(reinterpret_cast<uintptr_t>(p1->m_clientObject));
-    return !filter->excluded(i, j);
-  }
-};
-
-struct BulletWorld {
-  btDefaultCollisionConfiguration config;
-  btCollisionDispatcher dispatcher{&config};
-  btDbvtBroadphase broadphase;
-  BulletExclusion exclusion;
-  std::vector<btBroadphaseProxy*> proxies;
-
-  explicit BulletWorld(const Humanoid& h) {
-    exclusion.filter = &h.filter;
-    broadphase.getOverlappingPairCache()->setOverlapFilterCallback(&exclusion);
-    const auto& s = h.frames[0];
-    for (size_t i = 0; i < s.size(); ++i) {
-      const btVector3 c(s[i].x(), s[i].y(), s[i].z()), r(s[i].w(), s[i].w(), s[i].w());
-      proxies.push_back(broadphase.createProxy(c - r, c + r, SPHERE_SHAPE_PROXYTYPE,
-                                               reinterpret_cast<void*>(uintptr_t(i)), 1, -1, &dispatcher));
-    }
-  }
-  void Frame(const std::vector<Eigen::Vector4f>& s, const PairFilter& f, std::vector<Contact>* out) {
-    for (size_t i = 0; i < s.size(); ++i) {
-      const btVector3 c(s[i].x(), s[i].y(), s[i].z()), r(s[i].w(), s[i].w(), s[i].w());
-      broadphase.setAabb(proxies[i], c - r, c + r, &dispatcher);
-    }
-    broadphase.calculateOverlappingPairs(&dispatcher);
-    out->clear();
-    btBroadphasePairArray& pairs = broadphase.getOverlappingPairCache()->getOverlappingPairArray();
-    for (int k = 0; k < pairs.size(); ++k) {
-      const auto i = uint32_t(reinterpret_cast<uintptr_t>(pairs[k].m_pProxy0->m_clientObject));
-      const auto j = uint32_t(reinterpret_cast<uintptr_t>(pairs[k].m_pProxy1->m_clientObject));
-      SphereTest(s[i], s[j], i, j, f, out);
-    }
-    SortContacts(out);
-  }
-};
+// ----------------------------------------------------------------------- Bullet and FCL (peers)
+using skinspheres::bench::BulletWorld;
+using skinspheres::bench::FclWorld;
 
 void BM_BulletDbvt(benchmark::State& state) {
   const Humanoid& h = GetHumanoid(int(state.range(0)));
-  BulletWorld world(h);
+  BulletWorld world(h.frames[0], h.filter);
   std::vector<Contact> out;
   out.reserve(4 * h.frames[0].size());
   for (int f = 0; f < kFrames; ++f) {
-    world.Frame(h.frames[f], h.filter, &out);
+    world.Frame(h.frames[f], &out);
     if (out != Oracle(h, f)) {
       state.SkipWithError("Bullet differs from all-pairs");
       return;
@@ -265,7 +203,7 @@ void BM_BulletDbvt(benchmark::State& state) {
   }
   size_t frame = 0, contacts = 0;
   for (auto _ : state) {
-    world.Frame(h.frames[frame % kFrames], h.filter, &out);
+    world.Frame(h.frames[frame % kFrames], &out);
     contacts += out.size();
     ++frame;
   }
@@ -273,56 +211,13 @@ void BM_BulletDbvt(benchmark::State& state) {
 }
 BENCHMARK(BM_BulletDbvt)->Arg(150)->Arg(300);
 
-// ---------------------------------------------------------------------------------------- FCL
-
-struct FclWorld {
-  std::vector<std::unique_ptr<fcl::CollisionObjectd>> objects;
-  fcl::DynamicAABBTreeCollisionManagerd manager;
-  struct Data {
-    const std::vector<Eigen::Vector4f>* spheres;
-    const PairFilter* filter;
-    std::vector<Contact>* out;
-  };
-
-  explicit FclWorld(const Humanoid& h) {
-    const auto& s = h.frames[0];
-    for (size_t i = 0; i < s.size(); ++i) {
-      auto o = std::make_unique<fcl::CollisionObjectd>(std::make_shared<fcl::Sphered>(double(s[i].w())));
-      o->setTranslation(s[i].head<3>().cast<double>());
-      o->computeAABB();
-      o->setUserData(reinterpret_cast<void*>(uintptr_t(i)));
-      manager.registerObject(o.get());
-      objects.push_back(std::move(o));
-    }
-    manager.setup();
-  }
-  static bool Callback(fcl::CollisionObjectd* a, fcl::CollisionObjectd* b, void* data) {
-    const Data& d = *static_cast<const Data*>(data);
-    const auto i = uint32_t(reinterpret_cast<uintptr_t>(a->getUserData()));
-    const auto j = uint32_t(reinterpret_cast<uintptr_t>(b->getUserData()));
-    if (!d.filter->excluded(i, j)) SphereTest((*d.spheres)[i], (*d.spheres)[j], i, j, *d.filter, d.out);
-    return false;  // keep going
-  }
-  void Frame(const std::vector<Eigen::Vector4f>& s, const PairFilter& f, std::vector<Contact>* out) {
-    for (size_t i = 0; i < s.size(); ++i) {
-      objects[i]->setTranslation(s[i].head<3>().cast<double>());
-      objects[i]->computeAABB();
-    }
-    manager.update();
-    out->clear();
-    Data data{&s, &f, out};
-    manager.collide(&data, &FclWorld::Callback);
-    SortContacts(out);
-  }
-};
-
 void BM_FclDynamicTree(benchmark::State& state) {
   const Humanoid& h = GetHumanoid(int(state.range(0)));
-  FclWorld world(h);
+  FclWorld world(h.frames[0], h.filter);
   std::vector<Contact> out;
   out.reserve(4 * h.frames[0].size());
   for (int f = 0; f < kFrames; ++f) {
-    world.Frame(h.frames[f], h.filter, &out);
+    world.Frame(h.frames[f], &out);
     if (out != Oracle(h, f)) {
       state.SkipWithError("FCL differs from all-pairs");
       return;
@@ -330,7 +225,7 @@ void BM_FclDynamicTree(benchmark::State& state) {
   }
   size_t frame = 0, contacts = 0;
   for (auto _ : state) {
-    world.Frame(h.frames[frame % kFrames], h.filter, &out);
+    world.Frame(h.frames[frame % kFrames], &out);
     contacts += out.size();
     ++frame;
   }

@@ -67,13 +67,7 @@
 #include "skinspheres/skinning/skinning_job.h"
 #include "skinspheres/skinning/skinning_matrices_job.h"
 
-#if SKINSPHERES_HAVE_PEERS
-#include <btBulletCollisionCommon.h>
-
-#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
-#include <fcl/geometry/shape/sphere.h>
-#include <fcl/narrowphase/collision_object.h>
-#endif
+#include "peer_broad_phases.h"
 
 namespace {
 
@@ -598,113 +592,10 @@ BENCHMARK(BM_XbotSetup)->Arg(0)->Arg(1)->ArgName("fit")->Iterations(1);
 
 #if SKINSPHERES_HAVE_PEERS
 // ------------------------------------------------------------ peers on the same Xbot spheres
-// Compiled only when SKINSPHERES_HAVE_PEERS=1 and Bullet + FCL are on the include and link line.
-// bench/CMakeLists.txt does that for broad_phase_bench only, so this section is built by hand
-// (docs/PERFORMANCE.md gives the command). The peers follow broad_phase_bench.cc: every sphere's
-// box is moved every frame (their update cost is counted), candidate pairs go through the same
-// exclusions (PairFilter) and the same float sphere test, contacts are sorted; before timing,
-// every frame's result must equal SelfCollisionAllPairs, else the row is skipped with an error.
-
-inline void PeerSphereTest(const Eigen::Vector4f& a, const Eigen::Vector4f& b, uint32_t i, uint32_t j,
-                           const rt::PairFilter& f, std::vector<rt::Contact>* out) {
-  if (i > j) std::swap(i, j);  // squares and sums do not depend on the operand order
-  const float dx = b.x() - a.x(), dy = b.y() - a.y(), dz = b.z() - a.z();
-  const float d2 = (dx * dx + dy * dy) + dz * dz;
-  const float rsum = a.w() + b.w();
-  if (d2 <= rsum * rsum) out->push_back(rt::Contact{i, j, rsum - std::sqrt(d2), f.part(i), f.part(j)});
-}
-
-void SortContacts(std::vector<rt::Contact>* out) {
-  std::sort(out->begin(), out->end(),
-            [](const rt::Contact& p, const rt::Contact& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; });
-}
-
-struct BulletExclusion : btOverlapFilterCallback {
-  const rt::PairFilter* filter = nullptr;
-  bool needBroadphaseCollision(btBroadphaseProxy* p0, btBroadphaseProxy* p1) const override {
-    return !filter->excluded(uint32_t(reinterpret_cast<uintptr_t>(p0->m_clientObject)),
-                             uint32_t(reinterpret_cast<uintptr_t>(p1->m_clientObject)));
-  }
-};
-
-struct BulletWorld {
-  btDefaultCollisionConfiguration config;
-  btCollisionDispatcher dispatcher{&config};
-  btDbvtBroadphase broadphase;
-  BulletExclusion exclusion;
-  std::vector<btBroadphaseProxy*> proxies;
-  const rt::PairFilter* filter;
-
-  BulletWorld(const std::vector<Eigen::Vector4f>& s, const rt::PairFilter& f) : filter(&f) {
-    exclusion.filter = &f;
-    broadphase.getOverlappingPairCache()->setOverlapFilterCallback(&exclusion);
-    for (size_t i = 0; i < s.size(); ++i) {
-      const btVector3 c(s[i].x(), s[i].y(), s[i].z()), r(s[i].w(), s[i].w(), s[i].w());
-      proxies.push_back(broadphase.createProxy(c - r, c + r, SPHERE_SHAPE_PROXYTYPE,
-                                               reinterpret_cast<void*>(uintptr_t(i)), 1, -1, &dispatcher));
-    }
-  }
-  void Frame(const std::vector<Eigen::Vector4f>& s, std::vector<rt::Contact>* out) {
-    for (size_t i = 0; i < s.size(); ++i) {
-      const btVector3 c(s[i].x(), s[i].y(), s[i].z()), r(s[i].w(), s[i].w(), s[i].w());
-      broadphase.setAabb(proxies[i], c - r, c + r, &dispatcher);
-    }
-    broadphase.calculateOverlappingPairs(&dispatcher);
-    out->clear();
-    btBroadphasePairArray& pairs = broadphase.getOverlappingPairCache()->getOverlappingPairArray();
-    for (int k = 0; k < pairs.size(); ++k) {
-      const auto i = uint32_t(reinterpret_cast<uintptr_t>(pairs[k].m_pProxy0->m_clientObject));
-      const auto j = uint32_t(reinterpret_cast<uintptr_t>(pairs[k].m_pProxy1->m_clientObject));
-      PeerSphereTest(s[i], s[j], i, j, *filter, out);
-    }
-    SortContacts(out);
-  }
-};
-
-struct FclWorld {
-  std::vector<std::shared_ptr<fcl::Sphered>> shapes;
-  std::vector<std::unique_ptr<fcl::CollisionObjectd>> objects;
-  fcl::DynamicAABBTreeCollisionManagerd manager;
-  const rt::PairFilter* filter;
-  struct Data {
-    const std::vector<Eigen::Vector4f>* spheres;
-    const rt::PairFilter* filter;
-    std::vector<rt::Contact>* out;
-  };
-  FclWorld(const std::vector<Eigen::Vector4f>& s, const rt::PairFilter& f) : filter(&f) {
-    for (size_t i = 0; i < s.size(); ++i) {
-      shapes.push_back(std::make_shared<fcl::Sphered>(double(s[i].w())));
-      auto o = std::make_unique<fcl::CollisionObjectd>(shapes.back());
-      o->setTranslation(s[i].head<3>().cast<double>());
-      o->computeAABB();
-      o->setUserData(reinterpret_cast<void*>(uintptr_t(i)));
-      manager.registerObject(o.get());
-      objects.push_back(std::move(o));
-    }
-    manager.setup();
-  }
-  static bool Callback(fcl::CollisionObjectd* a, fcl::CollisionObjectd* b, void* data) {
-    const Data& d = *static_cast<const Data*>(data);
-    const auto i = uint32_t(reinterpret_cast<uintptr_t>(a->getUserData()));
-    const auto j = uint32_t(reinterpret_cast<uintptr_t>(b->getUserData()));
-    if (!d.filter->excluded(i, j)) PeerSphereTest((*d.spheres)[i], (*d.spheres)[j], i, j, *d.filter, d.out);
-    return false;
-  }
-  // Radii change every frame (refit): the sphere geometry's radius is updated too.
-  void Frame(const std::vector<Eigen::Vector4f>& s, std::vector<rt::Contact>* out) {
-    for (size_t i = 0; i < s.size(); ++i) {
-      shapes[i]->radius = double(s[i].w());
-      shapes[i]->computeLocalAABB();
-      objects[i]->setTranslation(s[i].head<3>().cast<double>());
-      objects[i]->computeAABB();
-    }
-    manager.update();
-    out->clear();
-    Data data{&s, filter, out};
-    manager.collide(&data, &FclWorld::Callback);
-    SortContacts(out);
-  }
-};
+// Bullet and FCL (peer_broad_phases.h) on the same per-frame spheres; before timing, every
+// frame's result must equal SelfCollisionAllPairs, else the row is skipped with an error.
+using skinspheres::bench::BulletWorld;
+using skinspheres::bench::FclWorld;
 
 // range(0) fit variant, range(1) 0 exact / 1 fast spheres.
 template <class World>
