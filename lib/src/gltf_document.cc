@@ -122,7 +122,8 @@ std::string OpenAccessor(const GltfDocument& doc, int64_t index, int components,
   view->normalized = a.value("normalized", false);
   const uint64_t elem_size = static_cast<uint64_t>(csize) * static_cast<uint64_t>(components);
   if (!a.contains("bufferView")) {
-    if (view->count > (uint64_t{1} << 28)) return name + " has no bufferView and an implausible count";
+    // All zeros (sparse accessors are refused). Cap it so a 200-byte file cannot ask for gigabytes.
+    if (view->count > (uint64_t{1} << 20)) return name + " has no bufferView and an implausible count";
     view->base = nullptr;
     view->stride = elem_size;
     return {};
@@ -148,9 +149,12 @@ std::string OpenAccessor(const GltfDocument& doc, int64_t index, int components,
   }
   view->stride = stride > 0 ? static_cast<uint64_t>(stride) : elem_size;
   if (view->stride > 4096) return "bufferView " + std::to_string(bv_index) + " has an implausible byteStride";
-  const uint64_t needed =
-      view->count == 0 ? 0 : static_cast<uint64_t>(acc_offset) + (view->count - 1) * view->stride + elem_size;
-  if (needed > static_cast<uint64_t>(bv_length)) {
+  // (count - 1) * stride + size must fit after the accessor's offset; checked by division so a
+  // huge count cannot wrap the product around.
+  const uint64_t avail = static_cast<uint64_t>(bv_length), off = static_cast<uint64_t>(acc_offset);
+  const bool fits = off <= avail && (view->count == 0 || (elem_size <= avail - off &&
+                                                          view->count - 1 <= (avail - off - elem_size) / view->stride));
+  if (!fits) {
     return name + " (" + std::to_string(view->count) + " elements) runs past the end of bufferView " +
            std::to_string(bv_index);
   }
@@ -288,10 +292,26 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
             return Fail(ErrorCode::kFormatRejected, file, label + " has a data: uri that is not valid base64");
           }
         } else {
-          const std::filesystem::path external = file.parent_path() / PercentDecode(uri);
+          // Only a regular file beside (or below) the glTF, never a device, a pipe or "..": a
+          // file must not make the reader hang or read elsewhere.
+          const std::filesystem::path relative = std::filesystem::path(PercentDecode(uri)).lexically_normal();
+          if (relative.is_absolute() || relative.empty() || *relative.begin() == "..") {
+            return Fail(ErrorCode::kFormatRejected, file, label + " uri \"" + uri + "\" is not a path beside the file");
+          }
+          const std::filesystem::path external = file.parent_path() / relative;
+          std::error_code ec;
+          if (!std::filesystem::is_regular_file(external, ec)) {
+            return Fail(ErrorCode::kFileUnreadable, file, label + " file " + external.string() + " is not a readable file");
+          }
+          const auto size = std::filesystem::file_size(external, ec);
+          if (ec || length < 0 || size < static_cast<uint64_t>(length)) {
+            return Fail(ErrorCode::kFormatRejected, file, label + " file " + external.string() + " is shorter than its byteLength");
+          }
           std::ifstream in(external, std::ios::binary);
           if (!in) return Fail(ErrorCode::kFileUnreadable, file, label + " file " + external.string() + " cannot be read");
-          data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+          data.resize(static_cast<size_t>(length));
+          in.read(reinterpret_cast<char*>(data.data()), length);
+          if (!in) return Fail(ErrorCode::kFileUnreadable, file, label + " file " + external.string() + " cannot be read");
         }
       }
       if (length < 0 || static_cast<uint64_t>(length) > data.size()) {

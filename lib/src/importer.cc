@@ -112,8 +112,10 @@ bool LooksLikeGltf2(const std::filesystem::path& file, std::span<const uint8_t> 
   // glTF 1.0 JSON goes to Assimp; anything else that says .gltf is ours (errors included).
   const auto json = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false);
   if (json.is_object() && json.contains("asset") && json["asset"].is_object()) {
-    const auto& version = json["asset"]["version"];
-    if (version.is_string() && !version.get<std::string>().empty() && version.get<std::string>()[0] == '1') return false;
+    const auto it = json["asset"].find("version");
+    if (it != json["asset"].end() && it->is_string() && !it->get<std::string>().empty() && it->get<std::string>()[0] == '1') {
+      return false;
+    }
   }
   return true;
 }

@@ -585,6 +585,25 @@ TEST(ImporterBadInput, EachProblemGivesItsError) {
   json overrun = MakeTiny({});
   overrun["accessors"][0]["count"] = 1000000;
   ExpectError(Write(dir, "overrun.gltf", overrun.dump()), ErrorCode::kFormatRejected, "runs past");
+  // A count whose byte size wraps 64 bits must not pass the bounds check (it crashed once).
+  json wrap = MakeTiny({});
+  wrap["accessors"][0]["count"] = 6148914691236517206ll;
+  ExpectError(Write(dir, "wrap.gltf", wrap.dump()), ErrorCode::kFormatRejected, "runs past");
+  // An accessor with no bufferView is zeros; a huge one must not allocate gigabytes.
+  json no_view = MakeTiny({});
+  no_view["accessors"][0].erase("bufferView");
+  no_view["accessors"][0]["count"] = 268435456;
+  ExpectError(Write(dir, "no_view.gltf", no_view.dump()), ErrorCode::kFormatRejected, "implausible count");
+  // A buffer uri that is a device, absolute, or outside the file's folder is refused (never read).
+  for (const char* uri : {"/dev/zero", "../elsewhere.bin", "/etc/hostname"}) {
+    json outside = MakeTiny({});
+    outside["buffers"][0]["uri"] = uri;
+    ExpectError(Write(dir, "outside.gltf", outside.dump()), ErrorCode::kFormatRejected, "not a path beside the file");
+  }
+  // An "asset" without "version".
+  json no_version = MakeTiny({});
+  no_version["asset"].erase("version");
+  ExpectError(Write(dir, "no_version.gltf", no_version.dump()), ErrorCode::kFormatRejected);
 }
 
 TEST(ImporterBadInput, EveryPrefixOfAGlbIsRefusedWithoutCrashing) {
