@@ -135,12 +135,16 @@ bool SelfCollisionJob::Run() const {
 
   // 1. Keys in the previous order, with the value check.
   // v - v is 0 for finite values and NaN otherwise (cmpneq is true for NaN); w must be >= 0.
+  // |v| > kMaxMagnitude is refused too (as by SphereValuesOk), so no interval end overflows.
   const __m128 zero = _mm_setzero_ps();
+  const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+  const __m128 limit = _mm_set1_ps(internal::kMaxMagnitude);
   __m128 not_finite = zero, negative = zero;
   for (size_t k = 0; k < n; ++k) {
     const Eigen::Vector4f& s = spheres[order[k].sphere];
     const __m128 v = _mm_loadu_ps(s.data());
     not_finite = _mm_or_ps(not_finite, _mm_cmpneq_ps(_mm_sub_ps(v, v), zero));
+    not_finite = _mm_or_ps(not_finite, _mm_cmpgt_ps(_mm_and_ps(v, abs_mask), limit));
     negative = _mm_or_ps(negative, _mm_cmplt_ps(v, zero));
     const float c = s[axis];
     order[k].key = c - s.w() - IntervalPad(c, s.w());

@@ -409,8 +409,10 @@ TEST(BroadPhaseTest, BadValuesAreRefusedAndClearTheOutput) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const float inf = std::numeric_limits<float>::infinity();
   for (int field = 0; field < 4; ++field) {
-    for (float bad_value : {nan, inf, -inf, -0.5f}) {
+    // 3e38: finite, but c + r overflows to infinity (an interval end past every padding lane).
+    for (float bad_value : {nan, inf, -inf, -0.5f, 3e38f, -3e38f}) {
       if (field < 3 && bad_value == -0.5f) continue;  // negative coordinates are fine
+      if (field == 3 && bad_value == -3e38f) continue;  // (a negative radius is covered by -0.5)
       Spheres s = good;
       s[17][field] = bad_value;
       out.assign(3, Contact{});
