@@ -334,12 +334,25 @@ class Splitter {
     for (int32_t j = 0; j < n_; ++j) {
       if (wchildren_[j].size() >= 3) branch_nodes.push_back(j);
     }
+    // Only the kMaxCandidates heaviest weighted children of a branch (by skinned vertices below
+    // them) can be a leg, the spine, an arm or the head: the search is O(K^5) in the children, and
+    // rigs with skirt or hair bones under the pelvis or chest have dozens of light ones.
+    constexpr size_t kMaxCandidates = 6;
+    std::vector<std::vector<int32_t>> top(n_);
+    for (int32_t b : branch_nodes) {
+      std::vector<int32_t> kids = wchildren_[b];
+      std::stable_sort(kids.begin(), kids.end(),
+                       [&](int32_t x, int32_t y) { return subtree_vertices_[x] > subtree_vertices_[y]; });
+      if (kids.size() > kMaxCandidates) kids.resize(kMaxCandidates);
+      std::sort(kids.begin(), kids.end());  // back to index order: ties still go to the lowest indices
+      top[b] = std::move(kids);
+    }
     for (int32_t p : branch_nodes) {
-      for (int32_t s : wchildren_[p]) {
+      for (int32_t s : top[p]) {
         for (int32_t c : branch_nodes) {
           if (c == p || !IsAncestor(s, c)) continue;
-          const auto& pc = wchildren_[p];
-          const auto& cc = wchildren_[c];
+          const auto& pc = top[p];
+          const auto& cc = top[c];
           for (int32_t h : cc) {
             for (size_t a0 = 0; a0 < cc.size(); ++a0) {
               for (size_t a1 = a0 + 1; a1 < cc.size(); ++a1) {

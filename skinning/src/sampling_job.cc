@@ -49,7 +49,8 @@ V Sample(const Track<V>& track, float t) {
   if (n == 1 || !(t > times.front())) return KeyValue(track, 0);
   if (t >= times.back()) return KeyValue(track, n - 1);
   // k: last key with times[k] <= t; t < times[k + 1].
-  const size_t k = static_cast<size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1;
+  // min: a NaN last key (a clip that skipped ValidateClip) must not index past the end.
+  const size_t k = std::min(static_cast<size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1, n - 2);
   const float dt = times[k + 1] - times[k];
   const float s = dt > 0.0f ? std::clamp((t - times[k]) / dt, 0.0f, 1.0f) : 0.0f;
   switch (track.interpolation) {
