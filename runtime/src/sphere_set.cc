@@ -68,6 +68,10 @@ std::optional<Error> SphereSet::Validate() const {
     if (!centers_rest[s].allFinite() || !std::isfinite(radii_rest[s]) || radii_rest[s] < 0.0f) {
       return Invalid(id + " has a non-finite centre or a negative radius");
     }
+    // The broad phase refuses magnitudes beyond 1e18 (its sums must stay finite): say so here.
+    if (centers_rest[s].cwiseAbs().maxCoeff() > 1e18f || radii_fast[s] > 1e18f) {
+      return Invalid(id + " lies beyond 1e18 units from the origin or is larger than that");
+    }
     if (!std::isfinite(radii_fast[s]) || radii_fast[s] < radii_rest[s]) {
       return Invalid(id + " has a fast radius below its radius");
     }
