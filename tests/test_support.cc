@@ -1,5 +1,7 @@
 #include "test_support.h"
 
+#include <gtest/gtest.h>
+
 #include <system_error>
 
 namespace skinspheres::test {
@@ -25,7 +27,16 @@ const std::vector<std::string>& SharedCharacters() {
 }
 
 std::filesystem::path TempDir(const std::string& name) {
-  auto dir = std::filesystem::path(SKINSPHERES_BINARY_DIR) / "test_tmp" / name;
+  // One folder per test: CTest runs the tests of one executable in parallel processes, and two
+  // tests sharing a helper's folder name must not delete each other's files.
+  std::string test = "no_test";
+  if (const auto* info = ::testing::UnitTest::GetInstance()->current_test_info()) {
+    test = std::string(info->test_suite_name()) + "." + info->name();
+    for (char& c : test) {
+      if (c == '/') c = '_';
+    }
+  }
+  auto dir = std::filesystem::path(SKINSPHERES_BINARY_DIR) / "test_tmp" / test / name;
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
   std::filesystem::create_directories(dir);

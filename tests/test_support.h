@@ -13,7 +13,7 @@ std::filesystem::path AssetDir();
 std::filesystem::path Asset(const std::string& file_name);
 // The four shared characters' file names.
 const std::vector<std::string>& SharedCharacters();
-// A fresh, empty folder under the build tree for this test's files.
+// A fresh, empty folder under the build tree for this test's files (one per running test).
 std::filesystem::path TempDir(const std::string& name);
 
 }  // namespace skinspheres::test
