@@ -198,10 +198,16 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
         if (n < 0 || joint_of_node[static_cast<size_t>(n)] < 0) continue;
         skinning::JointTrack track;
         track.joint = joint_of_node[static_cast<size_t>(n)];
+        bool bad_key = false;  // a NaN/Inf key value: the file is refused (as the glTF reader does)
         // Keys at the same time as the previous one replace it (times strictly increasing).
         auto add = [&](auto& tr, double ticks, auto value) {
           const float t = static_cast<float>(ticks / tps);
           if (!std::isfinite(t)) return;
+          if constexpr (requires { value.coeffs(); }) {
+            if (!value.coeffs().allFinite()) bad_key = true;
+          } else {
+            if (!value.allFinite()) bad_key = true;
+          }
           if (!tr.times_s.empty() && t <= tr.times_s.back()) {
             if (t < tr.times_s.back()) return;  // out of order: ignore
             tr.times_s.pop_back();
@@ -221,6 +227,9 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
         for (unsigned k = 0; k < na->mNumScalingKeys; ++k) {
           const aiVector3D& v = na->mScalingKeys[k].mValue;
           add(track.scale, na->mScalingKeys[k].mTime, Eigen::Vector3f(v.x, v.y, v.z));
+        }
+        if (bad_key) {
+          return invalid("clip \"" + clip.name + "\" has a key value that is NaN or infinite on node " + na->mNodeName.C_Str());
         }
         clip.tracks.push_back(std::move(track));
       }
