@@ -68,8 +68,11 @@ add_test(NAME tool.play_export_glb
           -DDIR=${PROJECT_BINARY_DIR}/test_tmp/play_export -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/play_export_glb.cmake)
 set_tests_properties(tool.play_export_glb PROPERTIES SKIP_REGULAR_EXPRESSION "asset absent")
 
-# The installed package: find_package(skinspheres) and skinspheres::runtime alone.
+# The installed package: find_package(skinspheres) and skinspheres::runtime alone (not in a
+# sanitizer build: the consumer is built without the sanitizer runtime).
+if(NOT SKINSPHERES_SANITIZE)
 add_test(NAME package.find_package_consumer
   COMMAND ${CMAKE_COMMAND} -DBUILD=${PROJECT_BINARY_DIR} -DSOURCE=${CMAKE_CURRENT_SOURCE_DIR}/install_consumer
           -DDIR=${PROJECT_BINARY_DIR}/test_tmp/install_consumer -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/install_consumer.cmake)
 set_tests_properties(package.find_package_consumer PROPERTIES TIMEOUT 300)
+endif()
