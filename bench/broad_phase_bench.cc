@@ -21,6 +21,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -189,15 +190,17 @@ BENCHMARK(BM_AllPairs)->Arg(150)->Arg(300);
 using skinspheres::bench::BulletWorld;
 using skinspheres::bench::FclWorld;
 
-void BM_BulletDbvt(benchmark::State& state) {
+// One peer over the synthetic humanoid: checked against all-pairs on every frame, then timed.
+template <class World>
+void PeerBenchmark(benchmark::State& state, const char* name) {
   const Humanoid& h = GetHumanoid(int(state.range(0)));
-  BulletWorld world(h.frames[0], h.filter);
+  World world(h.frames[0], h.filter);
   std::vector<Contact> out;
   out.reserve(4 * h.frames[0].size());
   for (int f = 0; f < kFrames; ++f) {
     world.Frame(h.frames[f], &out);
     if (out != Oracle(h, f)) {
-      state.SkipWithError("Bullet differs from all-pairs");
+      state.SkipWithError((std::string(name) + " differs from all-pairs").c_str());
       return;
     }
   }
@@ -209,28 +212,9 @@ void BM_BulletDbvt(benchmark::State& state) {
   }
   AddCounters(state, h, contacts, frame);
 }
+void BM_BulletDbvt(benchmark::State& state) { PeerBenchmark<BulletWorld>(state, "Bullet"); }
+void BM_FclDynamicTree(benchmark::State& state) { PeerBenchmark<FclWorld>(state, "FCL"); }
 BENCHMARK(BM_BulletDbvt)->Arg(150)->Arg(300);
-
-void BM_FclDynamicTree(benchmark::State& state) {
-  const Humanoid& h = GetHumanoid(int(state.range(0)));
-  FclWorld world(h.frames[0], h.filter);
-  std::vector<Contact> out;
-  out.reserve(4 * h.frames[0].size());
-  for (int f = 0; f < kFrames; ++f) {
-    world.Frame(h.frames[f], &out);
-    if (out != Oracle(h, f)) {
-      state.SkipWithError("FCL differs from all-pairs");
-      return;
-    }
-  }
-  size_t frame = 0, contacts = 0;
-  for (auto _ : state) {
-    world.Frame(h.frames[frame % kFrames], &out);
-    contacts += out.size();
-    ++frame;
-  }
-  AddCounters(state, h, contacts, frame);
-}
 BENCHMARK(BM_FclDynamicTree)->Arg(150)->Arg(300);
 #endif  // SKINSPHERES_HAVE_PEERS
 
