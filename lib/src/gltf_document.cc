@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <memory>
 
 namespace skinspheres::lib::detail {
 namespace {
@@ -88,15 +89,151 @@ int ComponentSize(int component_type) {
   }
 }
 
+template <typename T>
+T Load(const uint8_t* p) {
+  T v;
+  std::memcpy(&v, p, sizeof(T));
+  return v;
+}
+
 // A validated view of one accessor: element e, component c is at base + e * stride + c * size.
+// Dense accessors point straight into the document's buffers (zero copy); sparse accessors are
+// materialised into `owned` (tightly packed) and `base` points into it, so a copy of the view
+// keeps its bytes alive.
 struct AccessorView {
-  const uint8_t* base = nullptr;  // nullptr: no bufferView, all zeros (glTF 3.6.2.3)
+  const uint8_t* base = nullptr;  // nullptr: no bufferView and not sparse, all zeros (glTF 3.6.2.3)
   uint64_t count = 0;
   uint64_t stride = 0;
   int components = 0;
   int component_type = 0;
   bool normalized = false;
+  std::shared_ptr<const std::vector<uint8_t>> owned;  // the materialised sparse accessor, else empty
 };
+
+// An accessor may ask for this many elements without a bufferView (all zeros, or a sparse
+// accessor's zero base): a 200-byte file must not allocate gigabytes.
+constexpr uint64_t kMaxZeroFilledCount = uint64_t{1} << 20;
+
+// `key` of `obj` as an integer: false when present but not an integer (absent gives `fallback`).
+bool IntField(const json& obj, const char* key, int64_t fallback, int64_t* out) {
+  if (!obj.contains(key)) {
+    *out = fallback;
+    return true;
+  }
+  const json& v = obj[key];
+  if (!v.is_number_integer()) return false;
+  // An unsigned value above INT64_MAX is implausible anyway: map it to -1 (rejected as negative).
+  *out = v.is_number_unsigned() && v.get<uint64_t>() > static_cast<uint64_t>(std::numeric_limits<int64_t>::max())
+             ? -1
+             : v.get<int64_t>();
+  return true;
+}
+
+// The bytes of bufferView `bv_index` (checked to lie inside its buffer) and its byteStride (0
+// when absent). Returns the problem, empty on success.
+std::string OpenBufferView(const GltfDocument& doc, int64_t bv_index, std::span<const uint8_t>* bytes, int64_t* stride) {
+  const json& j = doc.json;
+  if (!j.contains("bufferViews") || !j["bufferViews"].is_array() || bv_index < 0 ||
+      bv_index >= static_cast<int64_t>(j["bufferViews"].size())) {
+    return "bufferView " + std::to_string(bv_index) + " does not exist";
+  }
+  const json& bv = j["bufferViews"][static_cast<size_t>(bv_index)];
+  const int64_t buffer = bv.value("buffer", int64_t{-1});
+  if (buffer < 0 || buffer >= static_cast<int64_t>(doc.buffers.size())) {
+    return "bufferView " + std::to_string(bv_index) + " uses buffer " + std::to_string(buffer) + ", which does not exist";
+  }
+  const std::vector<uint8_t>& data = doc.buffers[static_cast<size_t>(buffer)];
+  const int64_t bv_offset = bv.value("byteOffset", int64_t{0});
+  const int64_t bv_length = bv.value("byteLength", int64_t{-1});
+  *stride = bv.value("byteStride", int64_t{0});
+  if (bv_offset < 0 || bv_length < 0 || *stride < 0 || static_cast<uint64_t>(bv_offset) > data.size() ||
+      static_cast<uint64_t>(bv_length) > data.size() - static_cast<uint64_t>(bv_offset)) {
+    return "bufferView " + std::to_string(bv_index) + " lies outside its buffer (" + std::to_string(data.size()) +
+           " bytes)";
+  }
+  *bytes = std::span<const uint8_t>(data.data() + bv_offset, static_cast<size_t>(bv_length));
+  return {};
+}
+
+// One tightly packed array of a sparse block (`what` is "indices" or "values"): `count`
+// elements of `elem_size` bytes at sparse.<what>.byteOffset in sparse.<what>.bufferView.
+std::string OpenSparseArray(const GltfDocument& doc, const json& sparse, const std::string& name, const char* what,
+                            uint64_t count, uint64_t elem_size, const uint8_t** out) {
+  const std::string label = name + " sparse " + what;
+  if (!sparse.contains(what) || !sparse[what].is_object()) return label + " is missing (or not an object)";
+  const json& s = sparse[what];
+  int64_t bv_index = -1, offset = 0;
+  if (!s.contains("bufferView") || !IntField(s, "bufferView", -1, &bv_index)) {
+    return label + " has no valid bufferView";
+  }
+  if (!IntField(s, "byteOffset", 0, &offset) || offset < 0) return label + " has an invalid byteOffset";
+  std::span<const uint8_t> bytes;
+  int64_t stride = 0;
+  if (std::string p = OpenBufferView(doc, bv_index, &bytes, &stride); !p.empty()) return label + ": " + p;
+  // glTF: these bufferViews MUST NOT define byteStride; one equal to the packed size is harmless.
+  if (stride != 0 && static_cast<uint64_t>(stride) != elem_size) {
+    return label + " bufferView " + std::to_string(bv_index) + " has a byteStride (sparse data must be tightly packed)";
+  }
+  // offset + count * elem_size <= length, by division so a huge count cannot wrap the product.
+  const uint64_t avail = bytes.size(), off = static_cast<uint64_t>(offset);
+  if (off > avail || count > (avail - off) / elem_size) {
+    return label + " (" + std::to_string(count) + " elements at byteOffset " + std::to_string(off) +
+           ") runs past the end of bufferView " + std::to_string(bv_index);
+  }
+  *out = bytes.data() + off;
+  return {};
+}
+
+// glTF 3.6.2.3: copies the base elements (or zeros) into a tightly packed buffer and substitutes
+// element indices[i] by values[i]. `view` is the validated dense part (base may be nullptr).
+std::string MaterialiseSparse(const GltfDocument& doc, const json& a, const std::string& name, AccessorView* view) {
+  const json& sparse = a["sparse"];
+  if (!sparse.is_object()) return name + " has a sparse entry that is not an object";
+  int64_t count = -1;
+  if (!sparse.contains("count") || !IntField(sparse, "count", -1, &count)) return name + " sparse block has no valid count";
+  if (count < 1 || static_cast<uint64_t>(count) > view->count) {
+    return name + " sparse count " + std::to_string(count) + " is not in 1.." + std::to_string(view->count) +
+           " (the accessor's count)";
+  }
+  const uint64_t n = static_cast<uint64_t>(count);
+  if (!sparse.contains("indices") || !sparse["indices"].is_object()) return name + " sparse indices are missing (or not an object)";
+  int64_t index_type = 0;
+  if (!IntField(sparse["indices"], "componentType", 0, &index_type) ||
+      (index_type != 5121 && index_type != 5123 && index_type != 5125)) {
+    return name + " sparse indices have no valid componentType (UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT)";
+  }
+  const uint64_t index_size = static_cast<uint64_t>(ComponentSize(static_cast<int>(index_type)));
+  const uint64_t elem_size = static_cast<uint64_t>(ComponentSize(view->component_type)) * static_cast<uint64_t>(view->components);
+  const uint8_t* indices = nullptr;
+  const uint8_t* values = nullptr;
+  if (std::string p = OpenSparseArray(doc, sparse, name, "indices", n, index_size, &indices); !p.empty()) return p;
+  if (std::string p = OpenSparseArray(doc, sparse, name, "values", n, elem_size, &values); !p.empty()) return p;
+
+  // The dense base is bounded by the file (it lies in a bufferView) or by kMaxZeroFilledCount.
+  auto owned = std::make_shared<std::vector<uint8_t>>(view->count * elem_size, uint8_t{0});
+  if (view->base != nullptr) {
+    for (uint64_t e = 0; e < view->count; ++e) std::memcpy(owned->data() + e * elem_size, view->base + e * view->stride, elem_size);
+  }
+  uint64_t previous = 0;
+  for (uint64_t i = 0; i < n; ++i) {
+    const uint8_t* q = indices + i * index_size;
+    const uint64_t target = index_type == 5121 ? Load<uint8_t>(q) : index_type == 5123 ? Load<uint16_t>(q) : Load<uint32_t>(q);
+    if (target >= view->count) {
+      return name + " sparse index " + std::to_string(target) + " (entry " + std::to_string(i) + ") is out of range (count " +
+             std::to_string(view->count) + ")";
+    }
+    if (i > 0 && target <= previous) {
+      return name + " sparse indices are not strictly increasing (entry " + std::to_string(i) + ": " + std::to_string(target) +
+             " after " + std::to_string(previous) + ")";
+    }
+    previous = target;
+    std::memcpy(owned->data() + target * elem_size, values + i * elem_size, elem_size);
+  }
+  view->base = owned->data();
+  view->stride = elem_size;
+  view->owned = std::move(owned);
+  return {};
+}
 
 std::string OpenAccessor(const GltfDocument& doc, int64_t index, int components, AccessorView* view) {
   const json& j = doc.json;
@@ -106,7 +243,7 @@ std::string OpenAccessor(const GltfDocument& doc, int64_t index, int components,
     return "accessor index " + std::to_string(index) + " is out of range";
   }
   const json& a = j["accessors"][static_cast<size_t>(index)];
-  if (a.contains("sparse")) return name + " is sparse (sparse accessors are not supported)";
+  const bool sparse = a.contains("sparse");
   const int type_components = ComponentsOf(a.value("type", std::string()));
   if (type_components != components) {
     return name + " has type " + a.value("type", std::string("?")) + ", expected " + std::to_string(components) +
@@ -122,51 +259,39 @@ std::string OpenAccessor(const GltfDocument& doc, int64_t index, int components,
   view->normalized = a.value("normalized", false);
   const uint64_t elem_size = static_cast<uint64_t>(csize) * static_cast<uint64_t>(components);
   if (!a.contains("bufferView")) {
-    // All zeros (sparse accessors are refused). Cap it so a 200-byte file cannot ask for gigabytes.
-    if (view->count > (uint64_t{1} << 20)) return name + " has no bufferView and an implausible count";
+    // All zeros (then the sparse substitutions, if any). Cap it so a 200-byte file cannot ask for gigabytes.
+    if (view->count > kMaxZeroFilledCount) {
+      return name + (sparse ? " is sparse with" : " has") + " no bufferView and an implausible count";
+    }
     view->base = nullptr;
     view->stride = elem_size;
-    return {};
+    return sparse ? MaterialiseSparse(doc, a, name, view) : std::string();
   }
   const int64_t bv_index = a["bufferView"].get<int64_t>();
-  if (!j.contains("bufferViews") || bv_index < 0 || bv_index >= static_cast<int64_t>(j["bufferViews"].size())) {
-    return name + " uses bufferView " + std::to_string(bv_index) + ", which does not exist";
-  }
-  const json& bv = j["bufferViews"][static_cast<size_t>(bv_index)];
-  const int64_t buffer = bv.value("buffer", int64_t{-1});
-  if (buffer < 0 || buffer >= static_cast<int64_t>(doc.buffers.size())) {
-    return "bufferView " + std::to_string(bv_index) + " uses buffer " + std::to_string(buffer) + ", which does not exist";
-  }
-  const std::vector<uint8_t>& data = doc.buffers[static_cast<size_t>(buffer)];
-  const int64_t bv_offset = bv.value("byteOffset", int64_t{0});
-  const int64_t bv_length = bv.value("byteLength", int64_t{-1});
-  const int64_t stride = bv.value("byteStride", int64_t{0});
+  std::span<const uint8_t> bytes;
+  int64_t stride = 0;
+  if (std::string p = OpenBufferView(doc, bv_index, &bytes, &stride); !p.empty()) return name + ": " + p;
   const int64_t acc_offset = a.value("byteOffset", int64_t{0});
-  if (bv_offset < 0 || bv_length < 0 || stride < 0 || acc_offset < 0 ||
-      static_cast<uint64_t>(bv_offset) + static_cast<uint64_t>(bv_length) > data.size()) {
-    return "bufferView " + std::to_string(bv_index) + " lies outside its buffer (" + std::to_string(data.size()) +
-           " bytes)";
-  }
+  if (acc_offset < 0) return name + " has a negative byteOffset";
   view->stride = stride > 0 ? static_cast<uint64_t>(stride) : elem_size;
   if (view->stride > 4096) return "bufferView " + std::to_string(bv_index) + " has an implausible byteStride";
+  // glTF 3.6.2.4: elements must not overlap (a stride below the element size would read each
+  // byte many times over, and make a sparse copy many times the file's size).
+  if (view->stride < elem_size) {
+    return name + ": bufferView " + std::to_string(bv_index) + " has a byteStride of " + std::to_string(view->stride) +
+           ", below the " + std::to_string(elem_size) + "-byte element";
+  }
   // (count - 1) * stride + size must fit after the accessor's offset; checked by division so a
   // huge count cannot wrap the product around.
-  const uint64_t avail = static_cast<uint64_t>(bv_length), off = static_cast<uint64_t>(acc_offset);
+  const uint64_t avail = bytes.size(), off = static_cast<uint64_t>(acc_offset);
   const bool fits = off <= avail && (view->count == 0 || (elem_size <= avail - off &&
                                                           view->count - 1 <= (avail - off - elem_size) / view->stride));
   if (!fits) {
     return name + " (" + std::to_string(view->count) + " elements) runs past the end of bufferView " +
            std::to_string(bv_index);
   }
-  view->base = data.data() + bv_offset + acc_offset;
-  return {};
-}
-
-template <typename T>
-T Load(const uint8_t* p) {
-  T v;
-  std::memcpy(&v, p, sizeof(T));
-  return v;
+  view->base = bytes.data() + off;
+  return sparse ? MaterialiseSparse(doc, a, name, view) : std::string();
 }
 
 float ComponentAsFloat(const uint8_t* p, int type, bool normalized) {

@@ -1,5 +1,8 @@
 // Private to the importer: a glTF 2.0 document (.gltf with external or data: buffers, or .glb)
 // and typed reads of its accessors, bounds-checked against the buffers (untrusted input).
+// Dense and sparse accessors (glTF 2.0 §3.6.2.3) are both read: a sparse accessor is
+// materialised (base bufferView elements, or zeros without one, then element indices[i] replaced
+// by values[i]); a malformed sparse block is an error naming the accessor and "sparse".
 #pragma once
 
 #include <cstdint>
@@ -26,10 +29,14 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
 
 // Reads accessor `index` into `out` as count * components floats (normalised integers scaled
 // to [0,1] / [-1,1] as glTF defines, other integers converted). `components` must match the
-// accessor's type (SCALAR 1, VEC2 2, VEC3 3, VEC4 4, MAT4 16). Sparse accessors are refused.
+// accessor's type (SCALAR 1, VEC2 2, VEC3 3, VEC4 4, MAT4 16). Sparse accessors are applied:
+// sparse.count in 1..count, indices UNSIGNED_BYTE/SHORT/INT strictly increasing and < count,
+// indices and values tightly packed inside their bufferViews (else an error). Without a
+// bufferView (zeros, sparse or not) count is capped at 2^20 so a tiny file cannot ask for gigabytes.
 // Returns an empty string on success, else the problem (without the file name).
 std::string ReadAccessorFloats(const GltfDocument& doc, int64_t index, int components, std::vector<float>* out);
-// Same for unsigned integer accessors (indices, JOINTS_n): UNSIGNED_BYTE/SHORT/INT only.
+// Same for unsigned integer accessors (indices, JOINTS_n): UNSIGNED_BYTE/SHORT/INT only
+// (sparse ones included).
 std::string ReadAccessorUints(const GltfDocument& doc, int64_t index, int components, std::vector<uint32_t>* out);
 // The accessor's element count, or -1 when `index` is not a valid accessor.
 int64_t AccessorCount(const GltfDocument& doc, int64_t index);

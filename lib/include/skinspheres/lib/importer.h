@@ -29,8 +29,9 @@
 //
 // Errors: one Error whose message is one line "<file>: <problem>":
 //   kFileNotFound (missing), kFileUnreadable (a directory, no permission, I/O failure),
-//   kFormatRejected (empty, not a format the readers accept, truncated GLB, bad JSON, glTF
-//   features we do not read: sparse accessors, Draco/meshopt compression),
+//   kFormatRejected (empty, not a format the readers accept, truncated GLB, bad JSON, a
+//   malformed mesh or skin accessor, its sparse block included (sparse accessors are read),
+//   glTF features we do not read: Draco/meshopt compression),
 //   kInvalidData (no triangles, NaN/Inf positions or matrices, skin weights summing to zero or
 //   negative, joint index out of range (only where its weight is > 0), index out of range).
 // Never throws; never crashes on malformed input.
