@@ -3,8 +3,8 @@
 // Set-up (untimed, once per fit): SKINSPHERES_ASSET_DIR/Xbot.glb -> ImportCharacter
 // -> SplitBodyParts -> FitSpheres (default FitSettings) -> CharacterAsset. Every benchmark
 // SkipWithError()s with a message when the asset is absent or a stage fails. Rows with a `fit`
-// argument run on two fits: fit:0 the default FitSettings, fit:1 the same with sphere splitting
-// disabled (see DisableSplitting): the split set against the paper's own sphere count; the
+// argument run on two fits: fit:0 the default FitSettings, fit:1 the same without the tightening
+// pass (FitSettings::tighten = false): the tight set against the paper's own spheres; the
 // `spheres` counter says how many. The per-character rows run on one thread.
 //
 // Motion: Xbot's only clip is a held T-pose (0.067 s), so the bench drives the skeleton with a
@@ -172,23 +172,9 @@ void MakeLocals(const Xbot& x, const std::vector<Eigen::Matrix4f>& rest_world, i
 
 void Fail(Xbot* x, std::string message) { x->error = std::move(message); }
 
-// Fit variants: 0 = default FitSettings (whatever the fitter's defaults are at build time);
-// 1 = the same without sphere splitting (FitSettings::split_gain = 0, or split_slack huge in
-// builds that call it that), i.e. the paper's spheres after ownership and refinement only: fewer,
-// looser spheres. The `spheres` counter of every row says how many there are.
-template <class Settings>
-bool DisableSplitting(Settings* s) {
-  if constexpr (requires { s->split_gain; }) {
-    s->split_gain = 0.0f;  // 0: never split
-    return true;
-  } else if constexpr (requires { s->split_slack; }) {
-    s->split_slack = 1e9f;  // no sphere stands off its triangles by 1e9 body heights
-    return true;
-  } else {
-    return false;
-  }
-}
-
+// Fit variants: 0 = default FitSettings (tightening on: centre search, hand-over, splitting up
+// to max_spheres); 1 = FitSettings::tighten = false, the paper's spheres after ownership and
+// refinement only: fewer, looser spheres. The `spheres` counter of every row says how many.
 // Fills *x, or sets x->error and returns at the first failure.
 void Load(Xbot* x, int variant) {
   const std::filesystem::path file = std::filesystem::path(SKINSPHERES_ASSET_DIR) / "Xbot.glb";
@@ -205,9 +191,7 @@ void Load(Xbot* x, int variant) {
   if (!x->parts.humanoid) return Fail(x, file.string() + ": not split as a humanoid; the motion needs limbs");
   const auto t0 = std::chrono::steady_clock::now();
   lib::FitSettings settings;
-  if (variant == 1 && !DisableSplitting(&settings)) {
-    return Fail(x, "this build's FitSettings cannot disable splitting: variant fit:1 would equal fit:0");
-  }
+  if (variant == 1) settings.tighten = false;
   auto fit = lib::FitSpheres(x->ch, x->parts, settings);
   x->fit_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   if (!fit.ok()) return Fail(x, fit.error().message);
@@ -273,7 +257,7 @@ std::unique_ptr<Xbot> LoadXbot(int variant) {
   return x;
 }
 
-// variant: see DisableSplitting. Loaded once per variant, on first use.
+// variant: see "Fit variants" above. Loaded once per variant, on first use.
 const Xbot* GetXbot(benchmark::State& state, int variant = 0) {
   static std::unique_ptr<Xbot> cache[2];
   std::unique_ptr<Xbot>& xbot = cache[variant];

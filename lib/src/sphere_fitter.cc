@@ -15,6 +15,7 @@
 
 #include "skinspheres/lib/disk_traversal.h"
 #include "skinspheres/lib/enclosing_sphere.h"
+#include "skinspheres/lib/sphere_tightener.h"
 #include "skinspheres/lib/triangle_bvh.h"
 
 namespace skinspheres::lib {
@@ -36,6 +37,9 @@ std::string FitSettings::Validate() const {
   if (adjacent_hops < 0 || adjacent_hops > 2) return "adjacent hops must be 0, 1 or 2 (got " + std::to_string(adjacent_hops) + ")";
   if (refine_iterations < 0 || refine_iterations > 16) return "refine iterations must be in 0..16 (got " + std::to_string(refine_iterations) + ")";
   if (!(split_gain >= 0.0f && split_gain <= 1.0f)) return "split gain must be in [0, 1] (got " + std::to_string(split_gain) + ")";
+  if (!(target_standoff >= 0.0f && target_standoff <= 1.0f)) {
+    return "target standoff must be in [0, 1] (got " + std::to_string(target_standoff) + ")";
+  }
   if (max_spheres < 1 || max_spheres > 8192) return "max spheres must be in 1..8192 (got " + std::to_string(max_spheres) + ")";
   return "";
 }
@@ -50,8 +54,10 @@ std::string FitSettings::ToJson() const {
                       {"adjacent_hops", adjacent_hops},
                       {"exclude_bind_overlaps", exclude_bind_overlaps},
                       {"refine_iterations", refine_iterations},
+                      {"tighten", tighten},
                       {"split_gain", split_gain},
-                      {"max_spheres", max_spheres}};
+                      {"max_spheres", max_spheres},
+                      {"target_standoff", target_standoff}};
   return j.dump();
 }
 
@@ -273,156 +279,6 @@ Ball BallOf(const RawCharacter& ch, const std::vector<uint32_t>& tris) {
   return MinimumBall(pts);
 }
 
-// Splits `tris` in two halves across the principal axis of their centroids (median cut), then
-// two rounds of "each triangle to the half whose ball needs the least growth, re-ball".
-bool SplitTriangles(const RawCharacter& ch, const std::vector<uint32_t>& tris, std::vector<uint32_t>* a,
-                    std::vector<uint32_t>* b) {
-  if (tris.size() < 2) return false;
-  std::vector<Eigen::Vector3f> cen(tris.size());
-  Eigen::Vector3f mean = Eigen::Vector3f::Zero();
-  for (size_t k = 0; k < tris.size(); ++k) {
-    const auto& tri = ch.triangles[tris[k]];
-    cen[k] = (ch.positions_rest[tri[0]] + ch.positions_rest[tri[1]] + ch.positions_rest[tri[2]]) / 3.0f;
-    mean += cen[k];
-  }
-  mean /= static_cast<float>(tris.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const auto& c : cen) cov += (c - mean).cast<double>() * (c - mean).cast<double>().transpose();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-  const Eigen::Vector3f axis = eig.eigenvectors().col(2).cast<float>();
-  std::vector<std::pair<float, uint32_t>> order(tris.size());
-  for (size_t k = 0; k < tris.size(); ++k) order[k] = {(cen[k] - mean).dot(axis), static_cast<uint32_t>(k)};
-  std::sort(order.begin(), order.end());
-  a->clear();
-  b->clear();
-  for (size_t k = 0; k < order.size(); ++k) (2 * k < order.size() ? a : b)->push_back(tris[order[k].second]);
-  for (int round = 0; round < 2; ++round) {
-    const Ball ba = BallOf(ch, *a), bb = BallOf(ch, *b);
-    std::vector<uint32_t> na, nb;
-    for (uint32_t t : tris) {
-      float need_a = 0.0f, need_b = 0.0f;
-      for (int v = 0; v < 3; ++v) {
-        const Eigen::Vector3f& p = ch.positions_rest[ch.triangles[t][v]];
-        need_a = std::max(need_a, (p - ba.center).norm() - ba.radius);
-        need_b = std::max(need_b, (p - bb.center).norm() - bb.radius);
-      }
-      (need_a <= need_b ? na : nb).push_back(t);
-    }
-    if (na.empty() || nb.empty()) break;
-    *a = std::move(na);
-    *b = std::move(nb);
-  }
-  return !a->empty() && !b->empty();
-}
-
-
-// Beyond the paper (tightness): a sphere is split in two (SplitTriangles, each half then gets its
-// minimum ball) when the halves' exposure is at most split_gain of its own; the split that saves
-// the most exposure goes first, while the set has fewer than max_spheres. Exposure is the area of
-// a sphere's surface inside no other sphere, weighted by its distance to the nearest vertex the
-// sphere covers: a cheap stand-in for the union-boundary distance fit_metrics measures (cutting a
-// tube across its axis or a flat side into patches that leave a hollow does not pay; spread
-// fingers, feet and boxy pieces do). Children take their parent's place in the order.
-void SplitLooseSpheres(const RawCharacter& ch, const FitSettings& settings, std::vector<CandidateSphere>* cand,
-                       std::vector<uint16_t>* cand_part, std::vector<std::vector<uint32_t>>* owned) {
-  struct Node {
-    CandidateSphere sphere;
-    uint16_t part = 0;
-    std::vector<uint32_t> tris;
-    // The tentative split and the volume it saves (0: not worth it).
-    std::vector<uint32_t> a, b;
-    double saving = 0.0;
-  };
-  // Exposure of a ball: the area of its surface inside no other sphere, weighted by how far that
-  // surface stands from the nearest vertex it covers (a cheap stand-in for the union boundary's
-  // distance to the mesh that fit_metrics measures). `skip` spheres do not cover (the parent).
-  constexpr int kSamples = 48;
-  static const std::vector<Eigen::Vector3f> unit = [] {
-    std::vector<Eigen::Vector3f> u(kSamples);
-    const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
-    for (int k = 0; k < kSamples; ++k) {
-      const double y = 1.0 - (2.0 * k + 1.0) / kSamples, rr = std::sqrt(std::max(0.0, 1.0 - y * y));
-      u[k] = Eigen::Vector3f(float(rr * std::cos(golden * k)), float(y), float(rr * std::sin(golden * k)));
-    }
-    return u;
-  }();
-  std::vector<Ball> held(cand->size());  // each sphere as it will be: centre, radius holding its triangles
-  auto holding = [&](const Eigen::Vector3f& c, const std::vector<uint32_t>& tris) {
-    float r2 = 0.0f;
-    for (uint32_t t : tris) {
-      for (int v = 0; v < 3; ++v) r2 = std::max(r2, (ch.positions_rest[ch.triangles[t][v]] - c).squaredNorm());
-    }
-    return Ball{c, std::sqrt(r2)};
-  };
-  auto exposure = [&](const Ball& b, const std::vector<uint32_t>& tris, size_t skip, const Ball* sibling) {
-    double cost = 0.0;
-    const double area = 4.0 * std::numbers::pi * double(b.radius) * b.radius / kSamples;
-    for (const auto& u : unit) {
-      const Eigen::Vector3f q = b.center + b.radius * u;
-      bool covered = sibling && (q - sibling->center).squaredNorm() < sibling->radius * sibling->radius;
-      for (size_t o = 0; o < held.size() && !covered; ++o) {
-        if (o != skip && held[o].radius > 0.0f) covered = (q - held[o].center).squaredNorm() < held[o].radius * held[o].radius;
-      }
-      if (covered) continue;
-      float d2 = std::numeric_limits<float>::infinity();
-      for (uint32_t t : tris) {
-        for (int v = 0; v < 3; ++v) d2 = std::min(d2, (ch.positions_rest[ch.triangles[t][v]] - q).squaredNorm());
-      }
-      cost += area * std::sqrt(d2);
-    }
-    return cost;
-  };
-  // The sphere itself is left as fitted (centre from the paper or the refine rounds, the paper's
-  // radius for the growth report); only a sphere that is actually split becomes two minimum balls.
-  auto evaluate = [&](Node& n, size_t index) {
-    n.saving = 0.0;
-    if (!(settings.split_gain > 0.0f)) return;  // 0: never split, so no tentative split either
-    if (n.tris.size() < 2 || !SplitTriangles(ch, n.tris, &n.a, &n.b)) return;
-    const double before = exposure(held[index], n.tris, index, nullptr);
-    const Ball ba = holding(BallOf(ch, n.a).center, n.a), bb = holding(BallOf(ch, n.b).center, n.b);
-    const double after = exposure(ba, n.a, index, &bb) + exposure(bb, n.b, index, &ba);
-    if (after <= settings.split_gain * before) n.saving = before - after;
-  };
-  std::vector<Node> nodes(cand->size());
-  size_t live = 0;
-  for (size_t s = 0; s < cand->size(); ++s) {
-    nodes[s].sphere = (*cand)[s];
-    nodes[s].part = (*cand_part)[s];
-    nodes[s].tris = std::move((*owned)[s]);
-    held[s] = nodes[s].tris.empty() ? Ball{Eigen::Vector3f::Zero(), -1.0f} : holding(nodes[s].sphere.ball.center, nodes[s].tris);
-  }
-  tbb::parallel_for(size_t{0}, cand->size(), [&](size_t s) { evaluate(nodes[s], s); });
-  for (const auto& n : nodes) live += n.tris.empty() ? 0 : 1;
-  while (live < static_cast<size_t>(settings.max_spheres)) {
-    size_t best = nodes.size();
-    for (size_t k = 0; k < nodes.size(); ++k) {
-      if (nodes[k].saving > 0.0 && (best == nodes.size() || nodes[k].saving > nodes[best].saving)) best = k;
-    }
-    if (best == nodes.size()) break;
-    Node second;
-    second.sphere = nodes[best].sphere;
-    second.part = nodes[best].part;
-    second.tris = std::move(nodes[best].b);
-    nodes[best].tris = std::move(nodes[best].a);
-    nodes[best].sphere.ball = BallOf(ch, nodes[best].tris);
-    second.sphere.ball = BallOf(ch, second.tris);
-    held[best] = holding(nodes[best].sphere.ball.center, nodes[best].tris);
-    held.insert(held.begin() + static_cast<std::ptrdiff_t>(best) + 1, holding(second.sphere.ball.center, second.tris));
-    nodes.insert(nodes.begin() + static_cast<std::ptrdiff_t>(best) + 1, std::move(second));
-    evaluate(nodes[best], best);
-    evaluate(nodes[best + 1], best + 1);
-    ++live;
-  }
-  cand->clear();
-  cand_part->clear();
-  owned->clear();
-  for (auto& n : nodes) {
-    cand->push_back(n.sphere);
-    cand_part->push_back(n.part);
-    owned->push_back(std::move(n.tris));
-  }
-}
-
 }  // namespace
 
 int CountUncoveredTriangles(const RawCharacter& ch, const runtime::SphereSet& set, int* first_bad) {
@@ -590,11 +446,53 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
       if (!owned[s].empty()) cand[s].ball.center = BallOf(ch, owned[s]).center;
     });
   }
-  SplitLooseSpheres(ch, settings, &cand, &cand_part, &owned);
+  // Beyond the paper (tightness): centre search, hand-over and splitting (sphere_tightener.h).
+  int dropped_before_tighten = 0;
+  TightenReport tighten_report;
+  if (settings.tighten) {
+    std::vector<TightSphere> tight;
+    for (size_t s = 0; s < cand.size(); ++s) {
+      if (owned[s].empty()) {
+        ++dropped_before_tighten;
+        continue;
+      }
+      TightSphere t;
+      t.center = cand[s].ball.center;
+      t.reference_radius = cand[s].ball.radius;
+      t.part = cand_part[s];
+      t.origin = static_cast<uint32_t>(s);
+      t.triangles = std::move(owned[s]);
+      tight.push_back(std::move(t));
+    }
+    TightenSettings ts;
+    ts.max_spheres = settings.max_spheres;
+    ts.split_gain = settings.split_gain;
+    ts.target_standoff = settings.target_standoff;
+    tighten_report = TightenSpheres(ch, ts, &tight);
+    std::vector<CandidateSphere> next;
+    std::vector<uint16_t> next_part;
+    owned.clear();
+    for (auto& t : tight) {
+      CandidateSphere c = cand[t.origin];
+      c.ball.center = t.center;
+      c.ball.radius = t.reference_radius;
+      next.push_back(c);
+      next_part.push_back(t.part);
+      owned.push_back(std::move(t.triangles));
+    }
+    cand = std::move(next);
+    cand_part = std::move(next_part);
+  }
 
   FitResult out;
   runtime::SphereSet& set = out.spheres;
   FitReport& rep = out.report;
+  rep.spheres_dropped = dropped_before_tighten + tighten_report.dropped;
+  rep.spheres_split = tighten_report.splits;
+  rep.triangles_handed_over = tighten_report.triangles_handed_over;
+  rep.spheres_merged = tighten_report.merges;
+  rep.standoff_before = static_cast<float>(tighten_report.standoff_before);
+  rep.standoff_after = static_cast<float>(tighten_report.standoff_after);
   set.source_file = ch.source_file;
   set.source_vertex_count = static_cast<uint32_t>(ch.vertex_count());
   set.source_triangle_count = static_cast<uint32_t>(ch.triangle_count());

@@ -45,12 +45,21 @@ void FitOptions::AddTo(CLI::App& app) {
   app.add_option("--step", settings.step, "disk step delta, as a fraction of each part's length")->capture_default_str();
   app.add_option("--parts", parts_file, "JSON file mapping joint names to part names (overrides)");
   app.add_option("--hops", hops, "exclude pairs whose joints are at most this many bones apart: 0, 1, 2")->capture_default_str();
-  app.add_option("--refine", settings.refine_iterations, "tightening rounds after ownership (0: the paper's centres)")
+  app.add_option("--refine", settings.refine_iterations,
+                 "minimum-ball rounds after ownership (0: keep the paper's centres)")
       ->capture_default_str();
+  app.add_flag("--no-tighten", no_tighten,
+               "skip the tightening pass (centre search, hand-over, splitting): the paper's spheres after ownership");
   app.add_option("--split-gain", settings.split_gain,
-                 "split a sphere when its halves' exposure is at most this fraction of its own (0: never)")
+                 "tightening: split a sphere when its halves expose at most this fraction of what it exposes (0: never)")
       ->capture_default_str();
-  app.add_option("--max-spheres", settings.max_spheres, "upper bound on the number of spheres")->capture_default_str();
+  app.add_option("--target-standoff", settings.target_standoff,
+                 "tightening: stop splitting once the union stands off the body by this fraction of its height on "
+                 "average (0: split while it pays)")
+      ->capture_default_str();
+  app.add_option("--max-spheres", settings.max_spheres,
+                 "tightening: splitting stops at this many spheres (the paper's own spheres are never merged)")
+      ->capture_default_str();
   app.add_flag("--no-bind-overlap", no_bind_overlap, "keep pairs that already overlap in the rest pose");
 }
 
@@ -66,6 +75,7 @@ std::optional<std::string> FitOptions::Resolve() {
   }
   settings.adjacent_hops = hops;
   settings.exclude_bind_overlaps = !no_bind_overlap;
+  settings.tighten = !no_tighten;
   if (std::string why = settings.Validate(); !why.empty()) return why;
   return std::nullopt;
 }
@@ -85,6 +95,12 @@ void PrintFitSummary(const lib::FitResult& fit, double import_seconds) {
   std::printf("triangles covered: %d of %u (bind-pose check)\n", r.triangles_covered, set.source_triangle_count);
   std::printf("growth: %d spheres grew to hold their triangles, by %.4f of body height on average, %.4f at most; %d shrank; %d dropped\n",
               r.spheres_grown, r.growth_mean, r.growth_max, r.spheres_shrunk, r.spheres_dropped);
+  if (r.standoff_before > 0.0f) {
+    std::printf("tightening: mean standoff %.2f%% -> %.2f%% of body height (estimated); %d spheres added by splits, "
+                "%d merged, %d triangles handed over to a sphere that already held them\n",
+                100.0 * r.standoff_before, 100.0 * r.standoff_after, r.spheres_split, r.spheres_merged,
+                r.triangles_handed_over);
+  }
   std::printf("F (paper): mean %.6f, max %.6f (body height %.4f)\n", r.f_mean, r.f_max, r.body_height);
   std::printf("time: import %.1f ms, fit %.1f ms\n", import_seconds * 1e3, r.seconds * 1e3);
 }

@@ -1,5 +1,6 @@
 // skinspheres fit INPUT -o OUT.json [--rays N] [--per-level 1|2|4] [--method m1|m2|m1a]
 //   [--overlap PD] [--step delta] [--parts parts.json] [--hops H] [--no-bind-overlap]
+//   [--refine N] [--no-tighten] [--split-gain G] [--target-standoff F] [--max-spheres N]
 //   [--compare] [--metrics]
 #include <algorithm>
 #include <cstdio>

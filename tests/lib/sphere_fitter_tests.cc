@@ -1,6 +1,8 @@
 #include "skinspheres/lib/sphere_fitter.h"
 
 #include <gtest/gtest.h>
+
+#include <limits>
 #include <tbb/global_control.h>
 
 #include "lib/analytic_shapes.h"
@@ -77,6 +79,7 @@ TEST(SphereFitterTest, EllipticPrismTwoAndFourSpheresPerLevelBeatOneOnMeanF) {
     size_t count[5] = {};
     for (int p : {1, 2, 4}) {
       FitSettings settings;
+      settings.tighten = false;  // the paper's spheres (§4.2-4.3): counts per level, not the pass
       settings.per_level = p;
       settings.method = method;
       const FitResult fit = Fit(ch, parts, settings);
@@ -106,6 +109,7 @@ TEST(SphereFitterTest, MoreOverlapGivesMoreLevels) {
   RawCharacter ch = test::EllipticPrism(0.1f, 0.1f, 0.0f, 1.0f);
   BodyParts parts = test::MakeSinglePart(ch, 0.0f, 1.0f, PartKind::kChain);
   FitSettings settings;
+  settings.tighten = false;  // §4.3 levels, before the tightening pass re-splits them
   settings.overlap = 0.0f;
   const size_t loose = Fit(ch, parts, settings).spheres.size();
   settings.overlap = 0.6f;
@@ -143,6 +147,12 @@ TEST(SphereFitterTest, BadSettingsAreRefused) {
   s = FitSettings{};
   s.step = 0.0f;
   EXPECT_FALSE(FitSpheres(ch, parts, s).ok());
+  s = FitSettings{};
+  s.target_standoff = -0.01f;
+  EXPECT_FALSE(FitSpheres(ch, parts, s).ok());
+  s = FitSettings{};
+  s.split_gain = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_FALSE(FitSpheres(ch, parts, s).ok());
 }
 
 TEST(SphereFitterTest, PartsThatDoNotPartitionTheMeshAreRefused) {
@@ -177,25 +187,35 @@ TEST(SphereFitterTest, ExclusionsFollowTheSkeleton) {
 namespace skinspheres::lib {
 namespace {
 
-TEST(SphereFitterTest, SplittingKeepsCoverageAndTheSphereBudget) {
+TEST(SphereFitterTest, TighteningKeepsCoverageAndTheSphereBudget) {
   // A long tube with a disk step as long as the tube: two levels, each sphere owning half the tube,
-  // which splitting cuts into rounder pieces.
+  // which the tightening pass cuts into rounder pieces.
   RawCharacter ch = test::EllipticPrism(0.1f, 0.1f, 0.0f, 2.0f);
   BodyParts parts = test::MakeSinglePart(ch, 0.0f, 2.0f, PartKind::kChain);
   FitSettings settings;
   settings.step = 1.0f;
-  const size_t plain = Fit(ch, parts, settings).spheres.size();
+  settings.tighten = false;
+  const FitResult plain = Fit(ch, parts, settings);
+  settings.tighten = true;
+  settings.target_standoff = 0.0f;  // split while it pays
   settings.split_gain = 0.95f;
-  settings.max_spheres = static_cast<int>(plain) + 5;
+  settings.max_spheres = static_cast<int>(plain.spheres.size()) + 5;
   const FitResult split = Fit(ch, parts, settings);
   ExpectEveryTriangleCovered(ch, split.spheres);
-  EXPECT_GT(split.spheres.size(), plain);
-  EXPECT_LE(split.spheres.size(), plain + 5);
+  EXPECT_GT(split.spheres.size(), plain.spheres.size());
+  EXPECT_LE(split.spheres.size(), plain.spheres.size() + 5);
+  EXPECT_GT(split.report.spheres_split, 0);
   double v_plain = 0.0, v_split = 0.0;
-  settings.split_gain = 0.0f;
-  for (float r : Fit(ch, parts, settings).spheres.radii_rest) v_plain += double(r) * r * r;
+  for (float r : plain.spheres.radii_rest) v_plain += double(r) * r * r;
   for (float r : split.spheres.radii_rest) v_split += double(r) * r * r;
-  EXPECT_LT(v_split, v_plain);  // halves of a long tube are much smaller balls
+  EXPECT_LT(v_split, v_plain);  // pieces of a long tube are much smaller balls
+  EXPECT_LT(split.report.standoff_after, split.report.standoff_before);
+  // split_gain 0 never splits; the centre search and hand-over still run.
+  settings.split_gain = 0.0f;
+  const FitResult unsplit = Fit(ch, parts, settings);
+  EXPECT_EQ(unsplit.report.spheres_split, 0);
+  EXPECT_LE(unsplit.spheres.size(), plain.spheres.size());
+  ExpectEveryTriangleCovered(ch, unsplit.spheres);
 }
 
 }  // namespace
