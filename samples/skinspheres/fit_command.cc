@@ -22,7 +22,8 @@ struct FitArgs {
 };
 
 // The paper's comparison (§6): per part, F mean and max for M1, M2, M1-A at p = 1, 2, 4
-// (p applied to every part), with sphere counts.
+// (p applied to every part), with sphere counts: the paper's spheres after ownership, without the
+// tightening pass (which would re-cut them the same way whatever p was).
 void PrintComparison(const LoadedCharacter& loaded, lib::FitSettings base) {
   std::printf("\ncomparison (F = |r - |c - v_i||, over the kept levels' contact points; p applied to every part)\n");
   std::printf("%-10s %2s %-4s %8s %10s %10s\n", "part", "p", "meth", "spheres", "F mean", "F max");
@@ -33,6 +34,7 @@ void PrintComparison(const LoadedCharacter& loaded, lib::FitSettings base) {
       s.per_level = p;
       s.per_level_all_parts = true;
       s.method = method;
+      s.tighten = false;
       auto fit = lib::FitSpheres(loaded.character, loaded.parts, s);
       if (!fit.ok()) {
         std::printf("  p=%d %s: %s\n", p, lib::ToString(method), fit.error().message.c_str());
