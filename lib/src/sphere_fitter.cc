@@ -322,6 +322,15 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
       return MakeError(ErrorCode::kInvalidData, name + ": a triangle index is out of range");
     }
   }
+  // The sphere-set format refuses coordinates beyond 1e18 (runtime/sphere_set.h); say so up front
+  // rather than after fitting (squared distances of such spreads overflow float).
+  for (size_t v = 0; v < ch.vertex_count(); ++v) {
+    const Eigen::Vector3f& p = ch.positions_rest[v];
+    if (!p.allFinite() || p.cwiseAbs().maxCoeff() > 1e18f) {
+      return MakeError(ErrorCode::kInvalidData, name + ": vertex " + std::to_string(v) +
+                                                    " is not finite or lies beyond 1e18 units; nothing can be fitted");
+    }
+  }
   // The parts must partition the triangles and name joints that exist (parts run in parallel:
   // a triangle in two parts would make the result depend on the threads).
   for (size_t t = 0; t < ch.triangle_count(); ++t) {

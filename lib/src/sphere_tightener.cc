@@ -121,6 +121,7 @@ class Tightener {
         }
       }
       sp_[s].triangles.swap(keep);
+      Refresh(s);  // at once: later spheres must not hand triangles back to its old, larger radius
     }
     // Radii become the holding radii of what each sphere now owns: a receiving sphere held its new
     // triangles already, so it does not grow; a giving one may shrink.
@@ -209,9 +210,15 @@ class Tightener {
         exposure.resize(sp_.size(), 0.0);
         area.resize(sp_.size(), 0.0);
         accurate.resize(sp_.size(), 0.0);
+        // The spheres whose exposure the split can change: those meeting the old sphere or a piece.
+        auto meets = [&](size_t o, const Eigen::Vector3f& c, float r) {
+          const float lim = sp_[o].radius + r;
+          return (sp_[o].center - c).squaredNorm() < lim * lim;
+        };
         for (size_t o = 0; o < sp_.size(); ++o) {
-          const float lim = sp_[o].radius + old.r;
-          if (o == best || o >= count_before || (sp_[o].center - old.c).squaredNorm() < lim * lim) {
+          bool touched = o == best || o >= count_before || meets(o, old.c, old.r) || meets(o, sp_[best].center, sp_[best].radius);
+          for (size_t n = count_before; n < sp_.size() && !touched; ++n) touched = meets(o, sp_[n].center, sp_[n].radius);
+          if (touched) {
             double a = 0.0, x = 0.0;
             const double e = ExposureOf(o, &a, &x);
             // A sphere the split left more exposed is worth another try.

@@ -58,7 +58,7 @@ void FitOptions::AddTo(CLI::App& app) {
                  "average (0: split while it pays)")
       ->capture_default_str();
   app.add_option("--max-spheres", settings.max_spheres,
-                 "tightening: splitting stops at this many spheres (the paper's own spheres are never merged)")
+                 "tightening: splitting stops at this many spheres (spheres are not merged to meet it)")
       ->capture_default_str();
   app.add_flag("--no-bind-overlap", no_bind_overlap, "keep pairs that already overlap in the rest pose");
 }

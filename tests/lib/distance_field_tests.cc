@@ -114,5 +114,45 @@ TEST(DistanceField, ADegenerateTriangleIsStillASurface) {
   EXPECT_TRUE(std::isnan(f.TriangleDistance(Eigen::Vector3f(0.0f, std::nanf(""), 0.0f))));
 }
 
+TEST(DistanceField, AnyQueryIsClampedToTheGrid) {
+  const std::vector<Eigen::Vector3f> pos = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  const std::vector<Eigen::Vector3i> tri = {{0, 1, 2}};
+  const DistanceField f = DistanceField::Build(pos, tri);
+  for (float big : {1e30f, -1e30f, std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity()}) {
+    for (int axis = 0; axis < 3; ++axis) {
+      Eigen::Vector3f q(0.2f, 0.2f, 0.0f);
+      q[axis] = big;
+      EXPECT_GE(f.Distance(q), 1e29f);  // reads a real voxel: the distance is huge, not a crash
+      EXPECT_GE(f.TriangleDistance(q), 1e29f);
+    }
+  }
+}
+
+TEST(DistanceField, AMeshCollapsedToOnePointIsStillAnswered) {
+  const std::vector<Eigen::Vector3f> pos = {{1, 1, 1}, {1, 1, 1}, {1, 1, 1}};
+  const std::vector<Eigen::Vector3i> tri = {{0, 1, 2}};
+  const DistanceField f = DistanceField::Build(pos, tri);
+  EXPECT_GT(f.voxel_size(), 0.0f);
+  EXPECT_NEAR(f.Distance(Eigen::Vector3f(2, 1, 1)), 1.0f, 1e-5f);
+  EXPECT_NEAR(f.TriangleDistance(Eigen::Vector3f(1, 3, 1)), 2.0f, 1e-5f);
+}
+
+TEST(DistanceField, AStrayTriangleFarAwayDoesNotCoarsenTheBody) {
+  RawCharacter ch = MakeBuiltinCharacter();
+  const float body_voxel = DistanceField::Build(ch.positions_rest, ch.triangles, 64).voxel_size();
+  const int base = static_cast<int>(ch.positions_rest.size());
+  for (const Eigen::Vector3f& p : {Eigen::Vector3f(200, 0, 0), Eigen::Vector3f(200.01f, 0, 0), Eigen::Vector3f(200, 0.01f, 0)}) {
+    ch.positions_rest.push_back(p);
+  }
+  ch.triangles.emplace_back(base, base + 1, base + 2);
+  const DistanceField f = DistanceField::Build(ch.positions_rest, ch.triangles, 64);
+  EXPECT_LT(f.voxel_size(), 1.1f * body_voxel);
+  // Still never below the exact distance, also near the stray triangle (outside the grid).
+  const auto q = RandomPointsAround(ch, 500, 0.0f, 5);
+  const Errors e = Compare(ch, q, [&](const Eigen::Vector3f& x) { return f.TriangleDistance(x); });
+  EXPECT_GE(e.min, -1e-4);
+  EXPECT_GE(f.Distance(Eigen::Vector3f(200.0f, 0.5f, 0.0f)), 0.49f);
+}
+
 }  // namespace
 }  // namespace skinspheres::lib

@@ -155,6 +155,18 @@ TEST(SphereFitterTest, BadSettingsAreRefused) {
   EXPECT_FALSE(FitSpheres(ch, parts, s).ok());
 }
 
+TEST(SphereFitterTest, HugeOrNonFinitePositionsAreRefusedByName) {
+  for (float bad : {3e19f, std::numeric_limits<float>::infinity(), std::numeric_limits<float>::quiet_NaN()}) {
+    RawCharacter ch = test::EllipticPrism(0.1f, 0.1f, 0.0f, 1.0f);
+    BodyParts parts = test::MakeSinglePart(ch, 0.0f, 1.0f, PartKind::kChain);
+    ch.positions_rest[7].x() = bad;
+    const auto fit = FitSpheres(ch, parts, FitSettings{});
+    ASSERT_FALSE(fit.ok());
+    EXPECT_EQ(fit.error().code, ErrorCode::kInvalidData);
+    EXPECT_NE(fit.error().message.find("vertex 7"), std::string::npos) << fit.error().message;
+  }
+}
+
 TEST(SphereFitterTest, PartsThatDoNotPartitionTheMeshAreRefused) {
   RawCharacter ch = test::EllipticPrism(0.1f, 0.1f, 0.0f, 1.0f);
   BodyParts parts = test::MakeSinglePart(ch, 0.0f, 1.0f, PartKind::kChain);

@@ -130,6 +130,29 @@ TEST_F(TightenBuiltin, StopsAtTheTargetStandoff) {
   EXPECT_GT(rb.standoff_after, 0.0);
 }
 
+TEST_F(TightenBuiltin, AStrayTriangleFarAwayDoesNotInflateTheSet) {
+  std::vector<TightSphere> plain = input_;
+  TightenSpheres(ch_, TightenSettings{}, &plain);
+  // The same character with one small triangle 200 units away, owned by its own sphere.
+  RawCharacter stray = ch_;
+  BodyParts stray_parts = parts_;
+  const int base = static_cast<int>(stray.positions_rest.size());
+  for (const Eigen::Vector3f& p : {Eigen::Vector3f(200, 0, 0), Eigen::Vector3f(200.01f, 0, 0), Eigen::Vector3f(200, 0.01f, 0)}) {
+    stray.positions_rest.push_back(p);
+  }
+  stray.triangles.emplace_back(base, base + 1, base + 2);
+  stray_parts.triangle_part.push_back(0);
+  std::vector<TightSphere> spheres = input_;
+  TightSphere lone;
+  lone.center = Eigen::Vector3f(200, 0, 0);
+  lone.part = 0;
+  lone.triangles = {static_cast<uint32_t>(stray.triangle_count() - 1)};
+  spheres.push_back(lone);
+  TightenSpheres(stray, TightenSettings{}, &spheres);
+  ExpectExactOwnership(stray, stray_parts, spheres);
+  EXPECT_LE(spheres.size(), plain.size() + 3);  // not a flood of splits chasing a coarse field
+}
+
 TEST_F(TightenBuiltin, IsDeterministic) {
   std::vector<TightSphere> a = input_, b = input_;
   TightenSpheres(ch_, TightenSettings{}, &a);

@@ -3,9 +3,12 @@
 // pass (sphere_tightener.h) to score where a sphere's surface stands off the body.
 //
 // Contract:
-// * Build(positions, triangles, resolution, padding): cubic voxels over the mesh's bounding box
-//   grown by `padding` (relative to its largest extent) on every side, `resolution` voxels along
-//   the largest extent of that box. Each voxel stores a point ON the mesh:
+// * Build(positions, triangles, resolution, padding): cubic voxels over the body's box grown by
+//   `padding` (relative to its largest extent) on every side, `resolution` voxels along the
+//   largest extent of that box. The body's box spans the 0.5% to 99.5% quantiles of the triangle
+//   centroids on each axis, so a few stray triangles far away do not make the voxels coarse
+//   (triangles outside the grid seed its boundary voxels, and queries beyond the grid also measure
+//   them directly). Each voxel stores a point ON the mesh:
 //     1. seeding: every voxel centre within one voxel of a triangle's bounding box gets the exact
 //        closest point of that triangle (Ericson §5.1.5, in float), the nearest kept;
 //     2. propagation: two raster sweeps (forward, then backward) pass closest points on to the 26
@@ -15,7 +18,8 @@
 //   the mesh, Distance(q) >= the exact distance d(q) (never an under-estimate, up to float
 //   rounding), and for q inside the grid it is at most d(q) + sqrt(3)·voxel + the propagation's
 //   error (zero near the surface, where seeding is exact; measured against the exact distance in
-//   tests/lib/distance_field_tests.cc).
+//   tests/lib/distance_field_tests.cc). Any query is safe: huge, infinite or NaN coordinates are
+//   clamped to the grid in float (a NaN query answers NaN).
 // * Degenerate triangles are seeded like any other (their closest point is on an edge). An empty
 //   mesh gives an empty field whose Distance() is +inf.
 // Cost: O(triangles · voxels per triangle + voxels · 26); one thread; deterministic.
@@ -31,7 +35,15 @@ namespace skinspheres::lib {
 
 class DistanceField {
  public:
-  // resolution in [2, 1024]; padding >= 0 (0.15 leaves room for spheres that stand off the body).
+  DistanceField() = default;
+  DistanceField(const DistanceField&) = delete;
+  DistanceField& operator=(const DistanceField&) = delete;
+  DistanceField(DistanceField&&) = default;
+  DistanceField& operator=(DistanceField&&) = default;
+
+  // resolution in [2, 256] (clamped); padding >= 0 (0.15 leaves room for spheres that stand off
+  // the body). The field keeps views of positions and triangles (TriangleDistance reads them):
+  // they must outlive it, hence no copies.
   static DistanceField Build(std::span<const Eigen::Vector3f> positions, std::span<const Eigen::Vector3i> triangles,
                              int resolution = 64, float padding = 0.15f);
 
@@ -48,6 +60,7 @@ class DistanceField {
 
  private:
   size_t Nearest(const Eigen::Vector3f& q) const;  // index of the voxel nearest q (clamped)
+  float OutsideDistance(const Eigen::Vector3f& q, float d) const;  // min(d, outside triangles) beyond the grid
   size_t Index(int x, int y, int z) const {
     return (static_cast<size_t>(z) * dims_.y() + static_cast<size_t>(y)) * dims_.x() + static_cast<size_t>(x);
   }
@@ -57,6 +70,8 @@ class DistanceField {
   Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
   std::vector<Eigen::Vector3f> closest_;  // per voxel: a point on the mesh (nearest found)
   std::vector<int32_t> closest_triangle_;  // per voxel: the triangle that point lies on
+  std::vector<int32_t> outside_;           // triangles not wholly inside the grid
+  Eigen::Vector3f grid_hi_ = Eigen::Vector3f::Zero();  // centre of the last voxel
   std::span<const Eigen::Vector3f> positions_;
   std::span<const Eigen::Vector3i> triangles_;
 };

@@ -65,8 +65,8 @@ struct FitSettings {
   int refine_iterations = 2;
   // The tightening pass (sphere_tightener.h): centre search, hand-over, then splitting. A sphere is
   // split when its searched halves expose at most split_gain of what it exposes (0: never split),
-  // the most exposed sphere first, until there are max_spheres spheres (the paper's own spheres
-  // are never merged, so a smaller budget than their count only stops splitting). false: the
+  // the most exposed sphere first, until there are max_spheres spheres (a budget only stops
+  // splitting: spheres are not merged to meet it, so the paper's count can exceed it). false: the
   // paper's spheres after ownership and refine only (docs/FIT_REPORT.md compares both).
   // Splitting stops early once the union stands off the body by target_standoff of the body height
   // on average (as the pass estimates it; 0: split while it pays): tight enough for the issue's
