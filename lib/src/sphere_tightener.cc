@@ -7,9 +7,9 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <span>
 #include <tuple>
 #include <utility>
-#include <span>
 
 #include "skinspheres/lib/distance_field.h"
 #include "skinspheres/lib/enclosing_sphere.h"
@@ -18,8 +18,8 @@ namespace skinspheres::lib {
 namespace {
 
 constexpr float kRimFraction = 0.9f;  // hand-over looks at triangles beyond this share of the radius
-constexpr float kMergeSlack = 1.05f;
-constexpr int kPatches = 6;            // a shell that a cut in two does not help is cut into this many  // merge two spheres of a part whose joint ball is this close
+constexpr float kMergeSlack = 1.05f;  // merge two spheres of a part whose joint ball is this close
+constexpr int kPatches = 6;           // a shell that a cut in two does not help is cut into this many
 
 // The 14 pattern-search directions: the 6 axes and the 8 diagonals.
 const std::vector<Eigen::Vector3f>& SearchDirections() {
@@ -305,7 +305,6 @@ class Tightener {
     out->pad();
   }
 
-  // E(c, r); *exposed_area (optional) gets the area of its surface inside no neighbour.
   // E(c, r) from the fast distance lookup. Optionally *exposed_area gets the area of its surface
   // inside no neighbour, and *accurate the same E with the closer TriangleDistance.
   double Exposure(const Eigen::Vector3f& c, float r, const Nbrs& nbrs, double* exposed_area = nullptr,
@@ -407,10 +406,9 @@ class Tightener {
     for (const auto& c : cen) cov += (c.cast<double>() - mean) * (c.cast<double>() - mean).transpose();
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
 
-    // Each principal axis gives a median cut; both halves start as minimum balls and are
-    // centre-searched against each other; the cut whose halves expose least is taken if it pays.
-    // The three median cuts, as minimum balls; the `searched_cuts` whose halves expose least are
-    // centre-searched.
+    // Each principal axis gives a median cut. The `searched_cuts` cuts whose halves, as minimum
+    // balls, expose least have both halves centre-searched against each other; the best is taken
+    // if it pays and its halves are not stacked.
     struct Cut {
       std::vector<uint32_t> a, b;
       std::vector<Eigen::Vector3f> pa, pb;
