@@ -24,10 +24,7 @@ double MaxDistance(const Vec3d& c, std::span<const Eigen::Vector3f> points) {
 Ball Finalize(const Vec3d& center_d, std::span<const Eigen::Vector3f> points) {
   Ball b;
   b.center = center_d.cast<float>();
-  const double r = MaxDistance(b.center.cast<double>(), points) * (1.0 + kBallRadiusPad);
-  float rf = static_cast<float>(r);
-  if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
-  b.radius = rf;
+  b.radius = RoundUpRadius(MaxDistance(b.center.cast<double>(), points) * (1.0 + kBallRadiusPad));
   return b;
 }
 
@@ -170,6 +167,12 @@ Eval Evaluate(const Vec3d& c, std::span<const Eigen::Vector3f> points) {
 }
 
 }  // namespace
+
+float RoundUpRadius(double r) {
+  float rf = static_cast<float>(r);
+  if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
+  return rf;
+}
 
 FitErrorStats FitError(const Ball& ball, std::span<const Eigen::Vector3f> points) {
   FitErrorStats s;

@@ -77,14 +77,9 @@ struct PartResult {
   Error error;
 };
 
-// Radius that holds every point of `pts` around `c`: computed in double, rounded up to float.
-float HoldingRadius(const Eigen::Vector3f& c, double max_sq) {
-  const double r = std::sqrt(max_sq) * (1.0 + 1e-6);
-  float rf = static_cast<float>(r);
-  if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
-  (void)c;
-  return rf;
-}
+// Radius that holds every point whose largest squared distance to the centre is max_sq (computed
+// in double): padded like every Ball (enclosing_sphere.h), rounded up to float.
+float HoldingRadius(double max_sq) { return RoundUpRadius(std::sqrt(max_sq) * (1.0 + kBallRadiusPad)); }
 
 Ball MakeBall(SphereMethod method, std::span<const Eigen::Vector3f> pts, const Eigen::Vector3f& disk_center,
               const Eigen::Vector3f& n0, const Eigen::Vector3f& n1) {
@@ -560,7 +555,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
     std::sort(vlist.begin(), vlist.end());
     double max_sq = 0.0;
     for (uint32_t v : vlist) max_sq = std::max(max_sq, (ch.positions_rest[v].cast<double>() - c.cast<double>()).squaredNorm());
-    const float radius = HoldingRadius(c, max_sq);
+    const float radius = HoldingRadius(max_sq);
     const float fit_r = cand[s].ball.radius;
     if (radius > fit_r * (1.0f + 1e-5f)) {
       ++rep.spheres_grown;
@@ -609,7 +604,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
 
     set.centers_rest.push_back(c);
     set.radii_rest.push_back(radius);
-    set.radii_fast.push_back(std::max(radius, HoldingRadius(c, fast_sq)));
+    set.radii_fast.push_back(std::max(radius, HoldingRadius(fast_sq)));
     set.sphere_part.push_back(cand_part[s]);
     set.sphere_joint.push_back(static_cast<uint16_t>(dom));
     set.sphere_level.push_back(cand[s].level);

@@ -275,10 +275,7 @@ class Tightener {
   static float Hold(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c) {
     double m = 0.0;
     for (const auto& p : pts) m = std::max(m, (p.cast<double>() - c.cast<double>()).squaredNorm());
-    const double r = std::sqrt(m);
-    float rf = static_cast<float>(r);
-    if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
-    return rf;
+    return RoundUpRadius(std::sqrt(m));
   }
 
   // Spheres (other than skip_a / skip_b) whose surface a ball within `reach` of c can meet, as

@@ -19,6 +19,9 @@ namespace skinspheres::lib {
 // Relative outward enlargement of every returned radius (a few float ulps).
 inline constexpr double kBallRadiusPad = 1e-6;
 
+// The smallest float >= r: a radius computed in double, stored in float without losing a point.
+float RoundUpRadius(double r);
+
 struct Ball {
   Eigen::Vector3f center = Eigen::Vector3f::Zero();
   float radius = 0.0f;
