@@ -42,7 +42,7 @@ using skinspheres::runtime::SelfCollisionJob;
 constexpr int kFrames = 64;
 
 struct Humanoid {
-  std::vector<std::vector<Eigen::Vector4f>> frames;  // kFrames x n
+  std::vector<std::vector<skinspheres::Vec4f>> frames;  // kFrames x n
   PairFilter filter;
 };
 
@@ -64,7 +64,7 @@ Humanoid MakeHumanoid(int n) {
     chains.push_back({{0.2f * s, 1.45f, 0}, {0.24f * s, 0.8f, 0}, 22 * m, 0.045f * rs, uint16_t(s < 0 ? 2 : 3)});
     chains.push_back({{0.1f * s, 0.9f, 0}, {0.1f * s, 0.05f, 0}, 28 * m, 0.07f * rs, uint16_t(s < 0 ? 4 : 5)});
   }
-  std::vector<Eigen::Vector4f> rest;
+  std::vector<skinspheres::Vec4f> rest;
   std::vector<uint16_t> parts;
   std::vector<int> chain_of, index_in_chain;
   for (size_t c = 0; c < chains.size(); ++c) {
@@ -92,7 +92,7 @@ Humanoid MakeHumanoid(int n) {
     const float theta = 2.0f * float(M_PI) * float(f) / float(kFrames);
     const float s = std::sin(theta);
     const Eigen::AngleAxisf twist(0.1f * s, Eigen::Vector3f::UnitY());
-    std::vector<Eigen::Vector4f>& out = h.frames[f];
+    std::vector<skinspheres::Vec4f>& out = h.frames[f];
     out.resize(rest.size());
     for (size_t i = 0; i < rest.size(); ++i) {
       const Chain& ch = chains[chain_of[i]];

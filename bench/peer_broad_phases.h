@@ -25,7 +25,7 @@ namespace skinspheres::bench {
 
 namespace rt = skinspheres::runtime;
 
-inline void PeerSphereTest(const Eigen::Vector4f& a, const Eigen::Vector4f& b, uint32_t i, uint32_t j,
+inline void PeerSphereTest(const skinspheres::Vec4f& a, const skinspheres::Vec4f& b, uint32_t i, uint32_t j,
                            const rt::PairFilter& f, std::vector<rt::Contact>* out) {
   if (i > j) std::swap(i, j);  // squares and sums do not depend on the operand order
   const float dx = b.x() - a.x(), dy = b.y() - a.y(), dz = b.z() - a.z();
@@ -55,7 +55,7 @@ struct BulletWorld {
   std::vector<btBroadphaseProxy*> proxies;
   const rt::PairFilter* filter;
 
-  BulletWorld(const std::vector<Eigen::Vector4f>& s, const rt::PairFilter& f) : filter(&f) {
+  BulletWorld(const std::vector<skinspheres::Vec4f>& s, const rt::PairFilter& f) : filter(&f) {
     exclusion.filter = &f;
     broadphase.getOverlappingPairCache()->setOverlapFilterCallback(&exclusion);
     for (size_t i = 0; i < s.size(); ++i) {
@@ -64,7 +64,7 @@ struct BulletWorld {
                                                reinterpret_cast<void*>(uintptr_t(i)), 1, -1, &dispatcher));
     }
   }
-  void Frame(const std::vector<Eigen::Vector4f>& s, std::vector<rt::Contact>* out) {
+  void Frame(const std::vector<skinspheres::Vec4f>& s, std::vector<rt::Contact>* out) {
     for (size_t i = 0; i < s.size(); ++i) {
       const btVector3 c(s[i].x(), s[i].y(), s[i].z()), r(s[i].w(), s[i].w(), s[i].w());
       broadphase.setAabb(proxies[i], c - r, c + r, &dispatcher);
@@ -87,11 +87,11 @@ struct FclWorld {
   fcl::DynamicAABBTreeCollisionManagerd manager;
   const rt::PairFilter* filter;
   struct Data {
-    const std::vector<Eigen::Vector4f>* spheres;
+    const std::vector<skinspheres::Vec4f>* spheres;
     const rt::PairFilter* filter;
     std::vector<rt::Contact>* out;
   };
-  FclWorld(const std::vector<Eigen::Vector4f>& s, const rt::PairFilter& f) : filter(&f) {
+  FclWorld(const std::vector<skinspheres::Vec4f>& s, const rt::PairFilter& f) : filter(&f) {
     for (size_t i = 0; i < s.size(); ++i) {
       shapes.push_back(std::make_shared<fcl::Sphered>(double(s[i].w())));
       auto o = std::make_unique<fcl::CollisionObjectd>(shapes.back());
@@ -111,7 +111,7 @@ struct FclWorld {
     return false;
   }
   // Radii change every frame (refit): the sphere geometry's radius is updated too.
-  void Frame(const std::vector<Eigen::Vector4f>& s, std::vector<rt::Contact>* out) {
+  void Frame(const std::vector<skinspheres::Vec4f>& s, std::vector<rt::Contact>* out) {
     for (size_t i = 0; i < s.size(); ++i) {
       shapes[i]->radius = double(s[i].w());
       shapes[i]->computeLocalAABB();

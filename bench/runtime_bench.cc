@@ -91,10 +91,10 @@ struct Xbot {
   // Per frame (kFrames): joint-local TRS, G_j(t), skinning matrices, skinned positions (source
   // vertices filled, others zero), refitted spheres of each mode, all-pairs contact counts.
   std::vector<std::vector<sk::Transform>> locals;
-  std::vector<std::vector<Eigen::Matrix4f>> joint_world;
-  std::vector<std::vector<Eigen::Matrix4f>> bind_matrices;
+  std::vector<std::vector<skinspheres::Mat4f>> joint_world;
+  std::vector<std::vector<skinspheres::Mat4f>> bind_matrices;
   std::vector<std::vector<Eigen::Vector3f>> skinned;
-  std::vector<std::vector<Eigen::Vector4f>> spheres_exact, spheres_fast;
+  std::vector<std::vector<skinspheres::Vec4f>> spheres_exact, spheres_fast;
   double contacts_exact = 0.0, contacts_fast = 0.0;  // mean per frame
 };
 
@@ -104,7 +104,7 @@ std::span<const float> Floats(const std::vector<Eigen::Vector3f>& v) {
 std::span<float> Floats(std::vector<Eigen::Vector3f>& v) { return {reinterpret_cast<float*>(v.data()), v.size() * 3}; }
 
 // The procedural pose of frame f: rest locals with world-axis rotations applied at the joints.
-void MakeLocals(const Xbot& x, const std::vector<Eigen::Matrix4f>& rest_world, int f,
+void MakeLocals(const Xbot& x, const std::vector<skinspheres::Mat4f>& rest_world, int f,
                 std::vector<sk::Transform>* out) {
   const sk::Skeleton& skel = x.ch.skeleton;
   const size_t n = skel.size();
@@ -112,8 +112,8 @@ void MakeLocals(const Xbot& x, const std::vector<Eigen::Matrix4f>& rest_world, i
   const float phi = 2.0f * float(M_PI) * float(f) / float(kFrames);
   const Eigen::Vector3f up = x.parts.up, left = x.parts.left, forward = left.cross(up).normalized();
   // Per joint, the world-space rotation to apply at the joint (identity = rest).
-  std::vector<Eigen::Quaternionf> world(n, Eigen::Quaternionf::Identity());
-  auto aa = [](float angle, const Eigen::Vector3f& axis) { return Eigen::Quaternionf(Eigen::AngleAxisf(angle, axis)); };
+  std::vector<skinspheres::Quatf> world(n, skinspheres::Quatf::Identity());
+  auto aa = [](float angle, const Eigen::Vector3f& axis) { return skinspheres::Quatf(Eigen::AngleAxisf(angle, axis)); };
   // Every joint: a small wobble with a seeded amplitude, axis and phase (same for every frame).
   std::mt19937 rng(42);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
@@ -164,8 +164,8 @@ void MakeLocals(const Xbot& x, const std::vector<Eigen::Matrix4f>& rest_world, i
   // rotation of G_j(rest) (uniform scale assumed; Xbot's armature scale is uniform).
   for (size_t j = 0; j < n; ++j) {
     const Eigen::Matrix3f rw = Eigen::Affine3f(rest_world[j]).rotation();
-    const Eigen::Quaternionf qr(rw);
-    const Eigen::Quaternionf local_delta = qr.conjugate() * world[j] * qr;
+    const skinspheres::Quatf qr(rw);
+    const skinspheres::Quatf local_delta = qr.conjugate() * world[j] * qr;
     (*out)[j].rotation = ((*out)[j].rotation * local_delta).normalized();
   }
 }
@@ -212,13 +212,13 @@ void Load(Xbot* x, int variant) {
 
   // The frames.
   const size_t joints = x->ch.skeleton.size();
-  std::vector<Eigen::Matrix4f> rest_world(joints);
+  std::vector<skinspheres::Mat4f> rest_world(joints);
   x->ch.skeleton.RestWorld(rest_world);
   auto instance = rt::CharacterInstance::Create(x->asset);
   if (!instance.ok()) return Fail(x, instance.error().message);
   x->locals.resize(kFrames);
-  x->joint_world.assign(kFrames, std::vector<Eigen::Matrix4f>(joints));
-  x->bind_matrices.assign(kFrames, std::vector<Eigen::Matrix4f>(skin.binds.size()));
+  x->joint_world.assign(kFrames, std::vector<skinspheres::Mat4f>(joints));
+  x->bind_matrices.assign(kFrames, std::vector<skinspheres::Mat4f>(skin.binds.size()));
   x->skinned.assign(kFrames, std::vector<Eigen::Vector3f>(skin.vertex_count(), Eigen::Vector3f::Zero()));
   x->spheres_exact.resize(kFrames);
   x->spheres_fast.resize(kFrames);
@@ -297,7 +297,7 @@ BENCHMARK(BM_XbotSampleClip)->Unit(benchmark::kMicrosecond);
 void BM_XbotPose(benchmark::State& state) {
   const Xbot* x = GetXbot(state);
   if (!x) return;
-  std::vector<Eigen::Matrix4f> world(x->ch.skeleton.size()), mats(x->ch.skin.binds.size());
+  std::vector<skinspheres::Mat4f> world(x->ch.skeleton.size()), mats(x->ch.skin.binds.size());
   size_t frame = 0;
   for (auto _ : state) {
     sk::LocalToModelJob l2m;
@@ -440,7 +440,7 @@ void BM_XbotFrameExact(benchmark::State& state) {
   const sk::SkinnedMesh& skin = x->ch.skin;
   auto instance = rt::CharacterInstance::Create(x->asset);
   instance->ReserveContacts(8 * x->set.size());
-  std::vector<Eigen::Matrix4f> world(x->ch.skeleton.size()), mats(skin.binds.size());
+  std::vector<skinspheres::Mat4f> world(x->ch.skeleton.size()), mats(skin.binds.size());
   std::vector<Eigen::Vector3f> skinned(skin.vertex_count(), Eigen::Vector3f::Zero());
   sk::SkinningJob job;
   job.joint_matrices = mats;
@@ -471,7 +471,7 @@ void BM_XbotFrameFast(benchmark::State& state) {
   if (!x) return;
   auto instance = rt::CharacterInstance::Create(x->asset);
   instance->ReserveContacts(8 * x->set.size());
-  std::vector<Eigen::Matrix4f> world(x->ch.skeleton.size());
+  std::vector<skinspheres::Mat4f> world(x->ch.skeleton.size());
   size_t frame = 0, contacts = 0;
   for (auto _ : state) {
     sk::LocalToModelJob l2m;
@@ -535,7 +535,7 @@ void BM_CrowdPose(benchmark::State& state) {
   if (!x) return;
   const size_t count = size_t(state.range(0));
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(state.range(1)));
-  std::vector<std::vector<Eigen::Matrix4f>> world(count, std::vector<Eigen::Matrix4f>(x->ch.skeleton.size()));
+  std::vector<std::vector<skinspheres::Mat4f>> world(count, std::vector<skinspheres::Mat4f>(x->ch.skeleton.size()));
   size_t frame = 0;
   for (auto _ : state) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 8), [&](const tbb::blocked_range<size_t>& r) {

@@ -28,7 +28,7 @@ struct Mesh {
   std::vector<uint16_t> binds;
   std::vector<float> weights;
   std::vector<uint32_t> subset;
-  std::vector<Eigen::Matrix4f> matrices;
+  std::vector<skinspheres::Mat4f> matrices;
   std::vector<float> out;
   PreparedInfluences prepared_full, prepared_subset;
 };
@@ -81,8 +81,8 @@ void BM_Naive(benchmark::State& state) {
   for (auto _ : state) {
     for (size_t i = 0; i < items; ++i) {
       const size_t v = sub ? m.subset[i] : i;
-      const Eigen::Vector4f p(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2], 1.0f);
-      Eigen::Vector4f acc = Eigen::Vector4f::Zero();
+      const skinspheres::Vec4f p(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2], 1.0f);
+      skinspheres::Vec4f acc = skinspheres::Vec4f::Zero();
       for (uint32_t k = m.offsets[v]; k < m.offsets[v + 1]; ++k) {
         acc += m.weights[k] * (m.matrices[m.binds[k]] * p);
       }

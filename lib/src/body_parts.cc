@@ -205,7 +205,7 @@ class Splitter {
     for (int32_t j = 0; j < n_; ++j) {
       if (parent_[j] >= 0) children_[parent_[j]].push_back(j);
     }
-    std::vector<Eigen::Matrix4f> world(n_);
+    std::vector<Mat4f> world(n_);
     sk.RestWorld(world);
     jpos_.resize(n_);
     for (int32_t j = 0; j < n_; ++j) jpos_[j] = world[j].topRightCorner<3, 1>().cast<double>();

@@ -16,8 +16,6 @@ namespace skinspheres::lib {
 namespace {
 
 using Eigen::Matrix3f;
-using Eigen::Matrix4f;
-using Eigen::Quaternionf;
 using Eigen::Vector3f;
 using skinning::Interpolation;
 using skinning::JointTrack;
@@ -25,12 +23,12 @@ using skinning::JointTrack;
 constexpr float kPi = std::numbers::pi_v<float>;
 float Deg(float d) { return d * kPi / 180.0f; }
 
-Quaternionf AxisAngle(float radians, const Vector3f& axis) {
-  return Quaternionf(Eigen::AngleAxisf(radians, axis.normalized()));
+Quatf AxisAngle(float radians, const Vector3f& axis) {
+  return Quatf(Eigen::AngleAxisf(radians, axis.normalized()));
 }
-Quaternionf Rx(float deg) { return AxisAngle(Deg(deg), Vector3f::UnitX()); }
-Quaternionf Ry(float deg) { return AxisAngle(Deg(deg), Vector3f::UnitY()); }
-Quaternionf Rz(float deg) { return AxisAngle(Deg(deg), Vector3f::UnitZ()); }
+Quatf Rx(float deg) { return AxisAngle(Deg(deg), Vector3f::UnitX()); }
+Quatf Ry(float deg) { return AxisAngle(Deg(deg), Vector3f::UnitY()); }
+Quatf Rz(float deg) { return AxisAngle(Deg(deg), Vector3f::UnitZ()); }
 
 // ---------------------------------------------------------------------------------------------
 // Skeleton
@@ -276,13 +274,13 @@ std::vector<PieceDef> PieceDefs() {
 // ---------------------------------------------------------------------------------------------
 // Clips
 
-std::vector<Matrix4f> RestWorld(const skinning::Skeleton& sk) {
-  std::vector<Matrix4f> w(sk.size());
+std::vector<Mat4f> RestWorld(const skinning::Skeleton& sk) {
+  std::vector<Mat4f> w(sk.size());
   sk.RestWorld(w);
   return w;
 }
 
-JointTrack RotationTrack(int32_t joint, std::vector<float> times, std::vector<Quaternionf> values,
+JointTrack RotationTrack(int32_t joint, std::vector<float> times, std::vector<Quatf> values,
                          Interpolation interp = Interpolation::kLinear) {
   JointTrack t;
   t.joint = joint;
@@ -300,7 +298,7 @@ skinning::AnimationClip MakeWalk(const skinning::Skeleton& sk) {
   std::vector<float> times;
   for (int k = 0; k < kKeys; ++k) times.push_back(kWalkDuration_s * static_cast<float>(k) / (kKeys - 1));
   auto track = [&](const char* joint, auto&& fn) {
-    std::vector<Quaternionf> v;
+    std::vector<Quatf> v;
     for (int k = 0; k < kKeys; ++k) {
       const float ph = 2.0f * kPi * static_cast<float>(k % (kKeys - 1)) / (kKeys - 1);  // exact loop
       v.push_back(fn(ph).normalized());
@@ -344,7 +342,7 @@ skinning::AnimationClip MakeWalk(const skinning::Skeleton& sk) {
 // rotations are the rest ones, i.e. identity) so that the wrist lands on `wrist`, the elbow bends
 // toward `pole`, the hand points along `hand_dir` and its thickness axis (local Y) along
 // `palm_back` (the palm, local -Y, faces -palm_back).
-std::array<Quaternionf, 3> SolveArm(const Vector3f& shoulder, float l1, float l2, float side,
+std::array<Quatf, 3> SolveArm(const Vector3f& shoulder, float l1, float l2, float side,
                                     const Vector3f& wrist, const Vector3f& pole, const Vector3f& hand_dir,
                                     const Vector3f& palm_back) {
   const Vector3f sw = wrist - shoulder;
@@ -388,8 +386,8 @@ std::array<Quaternionf, 3> SolveArm(const Vector3f& shoulder, float l1, float l2
   const Matrix3f r3 = f3 * rest.transpose();
   // The bend-axis convention above can flip y; the bone direction is what matters for f1/f2,
   // but f3's y must be palm_back, which holds by construction.
-  return {Quaternionf(r1).normalized(), Quaternionf(Matrix3f(r1.transpose() * r2)).normalized(),
-          Quaternionf(Matrix3f(r2.transpose() * r3)).normalized()};
+  return {Quatf(r1).normalized(), Quatf(Matrix3f(r1.transpose() * r2)).normalized(),
+          Quatf(Matrix3f(r2.transpose() * r3)).normalized()};
 }
 
 // Half-depth of the torso surface at (x, y): z of the front surface point.
@@ -400,7 +398,7 @@ float ChestFrontZ(float x, float y) {
 }
 
 skinning::AnimationClip MakeTouch(const skinning::Skeleton& sk) {
-  const std::vector<Matrix4f> world = RestWorld(sk);
+  const std::vector<Mat4f> world = RestWorld(sk);
   skinning::AnimationClip clip;
   clip.name = "touch";
   clip.duration_s = kTouchDuration_s;
@@ -429,7 +427,7 @@ skinning::AnimationClip MakeTouch(const skinning::Skeleton& sk) {
     const Vector3f head_wrist = head_center - kHandCenterOffset * hand_dir_head;
     const auto head = SolveArm(shoulder, l1, l2, side, head_wrist, Vector3f(side * 1.0f, 0.0f, 0.6f), hand_dir_head,
                                Vector3f(side, 0.0f, 0.0f));
-    const Quaternionf id = Quaternionf::Identity();
+    const Quatf id = Quatf::Identity();
     const int32_t joints[3] = {arm, fore, hand};
     for (int b = 0; b < 3; ++b) {
       clip.tracks.push_back(RotationTrack(joints[b], times, {id, chest[b], chest[b], head[b], head[b], id}));
@@ -437,7 +435,7 @@ skinning::AnimationClip MakeTouch(const skinning::Skeleton& sk) {
   }
   // A STEP track on a joint no vertex depends on (exercises STEP in readers and the exporter).
   clip.tracks.push_back(RotationTrack(sk.Find("HeadTop_End"), {0.0f, 2.0f, kTouchDuration_s},
-                                      {Quaternionf::Identity(), Ry(10.0f), Ry(10.0f)}, Interpolation::kStep));
+                                      {Quatf::Identity(), Ry(10.0f), Ry(10.0f)}, Interpolation::kStep));
   return clip;
 }
 
@@ -447,7 +445,7 @@ RawCharacter MakeBuiltinCharacter() {
   RawCharacter c;
   c.source_file = "<builtin>";
   c.skeleton = MakeSkeleton();
-  const std::vector<Matrix4f> world = RestWorld(c.skeleton);
+  const std::vector<Mat4f> world = RestWorld(c.skeleton);
 
   MeshBuilder mb;
   for (const PieceDef& p : PieceDefs()) AddPiece(p, c.skeleton, mb);
@@ -472,8 +470,8 @@ RawCharacter MakeBuiltinCharacter() {
   // positions_rest = LBS at rest: Σ w_k · G_j · IBM_k · p_bind.
   c.positions_rest.resize(mb.positions.size());
   for (size_t v = 0; v < mb.positions.size(); ++v) {
-    Eigen::Vector4f acc = Eigen::Vector4f::Zero();
-    const Eigen::Vector4f p = mb.positions[v].homogeneous();
+    Vec4f acc = Vec4f::Zero();
+    const Vec4f p = mb.positions[v].homogeneous();
     for (uint32_t k = skin.influence_offsets[v]; k < skin.influence_offsets[v + 1]; ++k) {
       const skinning::BindEntry& b = skin.binds[skin.influence_binds[k]];
       acc += skin.influence_weights[k] * (world[b.joint] * b.inverse_bind * p);

@@ -21,12 +21,10 @@
 namespace skinspheres::lib {
 namespace {
 
-using Eigen::Matrix4f;
-using Eigen::Quaternionf;
 using Eigen::Vector3f;
 using skinning::Interpolation;
 
-aiMatrix4x4 ToAi(const Matrix4f& m) {
+aiMatrix4x4 ToAi(const Mat4f& m) {
   return aiMatrix4x4(m(0, 0), m(0, 1), m(0, 2), m(0, 3), m(1, 0), m(1, 1), m(1, 2), m(1, 3), m(2, 0), m(2, 1),
                      m(2, 2), m(2, 3), m(3, 0), m(3, 1), m(3, 2), m(3, 3));
 }
@@ -43,10 +41,10 @@ V CubicValue(const skinning::Track<V>& tr, size_t i, float u) {
   const float dt = tr.times_s[i + 1] - tr.times_s[i];
   const float u2 = u * u, u3 = u2 * u;
   const float h00 = 2 * u3 - 3 * u2 + 1, h10 = u3 - 2 * u2 + u, h01 = -2 * u3 + 3 * u2, h11 = u3 - u2;
-  if constexpr (std::is_same_v<V, Quaternionf>) {
-    const Eigen::Vector4f c = h00 * tr.values[3 * i + 1].coeffs() + h10 * dt * tr.values[3 * i + 2].coeffs() +
+  if constexpr (std::is_same_v<V, Quatf>) {
+    const Vec4f c = h00 * tr.values[3 * i + 1].coeffs() + h10 * dt * tr.values[3 * i + 2].coeffs() +
                               h01 * tr.values[3 * (i + 1) + 1].coeffs() + h11 * dt * tr.values[3 * (i + 1)].coeffs();
-    return Quaternionf(c.normalized());
+    return Quatf(c.normalized());
   } else {
     return h00 * tr.values[3 * i + 1] + h10 * dt * tr.values[3 * i + 2] + h01 * tr.values[3 * (i + 1) + 1] +
            h11 * dt * tr.values[3 * (i + 1)];
@@ -86,7 +84,7 @@ std::vector<std::pair<float, V>> BakeLinear(const skinning::Track<V>& tr) {
 }
 
 aiVector3D ToAi(const Vector3f& v) { return aiVector3D(v.x(), v.y(), v.z()); }
-aiQuaternion ToAi(const Quaternionf& q) { return aiQuaternion(q.w(), q.x(), q.y(), q.z()); }
+aiQuaternion ToAi(const Quatf& q) { return aiQuaternion(q.w(), q.x(), q.y(), q.z()); }
 
 template <typename Key, typename V>
 Key* MakeKeys(const std::vector<std::pair<float, V>>& keys) {
@@ -99,7 +97,7 @@ Key* MakeKeys(const std::vector<std::pair<float, V>>& keys) {
 }
 
 aiNodeAnim* MakeChannel(const std::string& node, const std::vector<std::pair<float, Vector3f>>& t,
-                        const std::vector<std::pair<float, Quaternionf>>& r,
+                        const std::vector<std::pair<float, Quatf>>& r,
                         const std::vector<std::pair<float, Vector3f>>& s) {
   auto* ch = new aiNodeAnim();
   ch->mNodeName = aiString(node);
@@ -138,7 +136,7 @@ std::optional<Error> Validate(const RawCharacter& c, const GlbExtras& e, const s
       return Invalid(path, "influence weight is negative or not finite");
     }
   }
-  std::map<int32_t, Matrix4f> ibm;
+  std::map<int32_t, Mat4f> ibm;
   for (const auto& b : s.binds) {
     if (b.joint < 0 || static_cast<size_t>(b.joint) >= sk.size()) return Invalid(path, "bind entry joint out of range");
     if (!b.inverse_bind.allFinite()) return Invalid(path, "inverse bind matrix is not finite");
@@ -273,7 +271,7 @@ aiMesh* UnitSphereMesh(int segments, int rings) {
 Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem::path& path, const GlbExtras& extras) {
   if (auto err = Validate(c, extras, path)) return *err;
   const auto& sk = c.skeleton;
-  std::vector<Matrix4f> rest_world(sk.size());
+  std::vector<Mat4f> rest_world(sk.size());
   sk.RestWorld(rest_world);
 
   auto scene = std::make_unique<aiScene>();
@@ -386,10 +384,10 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
       root_children.push_back(node);
     } else {
       // Rigid: vertices in the followed joint's rest space, node under that joint.
-      const Matrix4f to_local = range.rigid_joint >= 0 ? Matrix4f(rest_world[range.rigid_joint].inverse())
-                                                       : Matrix4f(Matrix4f::Identity());
+      const Mat4f to_local = range.rigid_joint >= 0 ? Mat4f(rest_world[range.rigid_joint].inverse())
+                                                       : Mat4f(Mat4f::Identity());
       for (uint32_t v = 0; v < range.vertex_count; ++v) {
-        const Eigen::Vector4f p = to_local * c.positions_rest[range.first_vertex + v].homogeneous();
+        const Vec4f p = to_local * c.positions_rest[range.first_vertex + v].homogeneous();
         mesh->mVertices[v] = ToAi(Vector3f(p.head<3>()));
       }
       if (range.rigid_joint >= 0) {
@@ -409,7 +407,7 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
       const std::string name = unique_name("sphere_" + std::to_string(i));
       sphere_nodes.push_back(name);
       auto* node = new aiNode(name);
-      const Eigen::Vector4f& f = extras.spheres[i].per_frame_xyzr.front();
+      const Vec4f& f = extras.spheres[i].per_frame_xyzr.front();
       node->mTransformation = aiMatrix4x4(f.w(), 0, 0, f.x(), 0, f.w(), 0, f.y(), 0, 0, f.w(), f.z(), 0, 0, 0, 1);
       node->mNumMeshes = 1;
       node->mMeshes = new unsigned int[1]{sphere_mesh};
@@ -450,7 +448,7 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
       const auto& rest = sk.rest_local[joint];
       auto t = tr.translation.empty() ? std::vector<std::pair<float, Vector3f>>{{0.0f, rest.translation}}
                                       : BakeLinear(tr.translation);
-      auto r = tr.rotation.empty() ? std::vector<std::pair<float, Quaternionf>>{{0.0f, rest.rotation}}
+      auto r = tr.rotation.empty() ? std::vector<std::pair<float, Quatf>>{{0.0f, rest.rotation}}
                                    : BakeLinear(tr.rotation);
       auto s = tr.scale.empty() ? std::vector<std::pair<float, Vector3f>>{{0.0f, rest.scale}} : BakeLinear(tr.scale);
       channels.push_back(MakeChannel(sk.joint_names[joint], t, r, s));
@@ -469,11 +467,11 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
     for (size_t i = 0; i < extras.spheres.size(); ++i) {
       std::vector<std::pair<float, Vector3f>> t, s;
       for (size_t f = 0; f < extras.frame_times_s.size(); ++f) {
-        const Eigen::Vector4f& xyzr = extras.spheres[i].per_frame_xyzr[f];
+        const Vec4f& xyzr = extras.spheres[i].per_frame_xyzr[f];
         t.emplace_back(extras.frame_times_s[f], xyzr.head<3>());
         s.emplace_back(extras.frame_times_s[f], Vector3f::Constant(xyzr.w()));
       }
-      channels.push_back(MakeChannel(sphere_nodes[i], t, {{extras.frame_times_s.front(), Quaternionf::Identity()}}, s));
+      channels.push_back(MakeChannel(sphere_nodes[i], t, {{extras.frame_times_s.front(), Quatf::Identity()}}, s));
     }
     auto* anim = new aiAnimation();
     anim->mName = aiString(extras.clip_name);

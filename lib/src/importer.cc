@@ -23,7 +23,7 @@ Error ImportError(ErrorCode code, const std::filesystem::path& file, const std::
   return MakeError(code, std::move(message));
 }
 
-int32_t FindOrAddBind(skinning::SkinnedMesh& skin, int32_t joint, const Eigen::Matrix4f& ibm) {
+int32_t FindOrAddBind(skinning::SkinnedMesh& skin, int32_t joint, const Mat4f& ibm) {
   for (size_t b = 0; b < skin.binds.size(); ++b) {
     if (skin.binds[b].joint == joint && skin.binds[b].inverse_bind == ibm) return static_cast<int32_t>(b);
   }
@@ -68,9 +68,9 @@ std::optional<Error> FinishCharacter(RawCharacter& c, const std::filesystem::pat
   if (skin.influence_offsets.size() != skin.vertex_count() + 1) {
     return ImportError(ErrorCode::kInvalidData, file, "internal: influence table does not match the vertices");
   }
-  std::vector<Eigen::Matrix4f> world(skeleton.size());
+  std::vector<Mat4f> world(skeleton.size());
   skeleton.RestWorld(world);
-  std::vector<Eigen::Matrix4f> skinning_matrices(skin.binds.size());  // G_j · IBM_b
+  std::vector<Mat4f> skinning_matrices(skin.binds.size());  // G_j · IBM_b
   for (size_t b = 0; b < skin.binds.size(); ++b) {
     const int32_t j = skin.binds[b].joint;
     if (j < 0 || j >= static_cast<int32_t>(skeleton.size())) {
@@ -80,8 +80,8 @@ std::optional<Error> FinishCharacter(RawCharacter& c, const std::filesystem::pat
   }
   c.positions_rest.resize(skin.vertex_count());
   for (size_t v = 0; v < skin.vertex_count(); ++v) {
-    Eigen::Vector4f p = Eigen::Vector4f::Zero();
-    const Eigen::Vector4f p_bind = skin.positions_bind[v].homogeneous();
+    Vec4f p = Vec4f::Zero();
+    const Vec4f p_bind = skin.positions_bind[v].homogeneous();
     for (uint32_t k = skin.influence_offsets[v]; k < skin.influence_offsets[v + 1]; ++k) {
       p += skin.influence_weights[k] * (skinning_matrices[skin.influence_binds[k]] * p_bind);
     }

@@ -17,8 +17,8 @@
 namespace skinspheres::lib::detail {
 namespace {
 
-Eigen::Matrix4f ToEigen(const aiMatrix4x4& m) {
-  Eigen::Matrix4f e;
+Mat4f ToEigen(const aiMatrix4x4& m) {
+  Mat4f e;
   e << m.a1, m.a2, m.a3, m.a4, m.b1, m.b2, m.b3, m.b4, m.c1, m.c2, m.c3, m.c4, m.d1, m.d2, m.d3, m.d4;
   return e;
 }
@@ -51,13 +51,13 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
     for (unsigned c = n->mNumChildren; c-- > 0;) stack.push_back({n->mChildren[c], index_of[n]});
   }
   std::vector<skinning::Transform> local(nodes.size());
-  std::vector<Eigen::Matrix4f> world(nodes.size());
+  std::vector<Mat4f> world(nodes.size());
   for (size_t i = 0; i < nodes.size(); ++i) {
-    const Eigen::Matrix4f m = ToEigen(nodes[i]->mTransformation);
+    const Mat4f m = ToEigen(nodes[i]->mTransformation);
     if (!m.allFinite()) return invalid("node '" + std::string(nodes[i]->mName.C_Str()) + "' has a non-finite transform");
     local[i] = skinning::Transform::FromMatrix(m);
-    const Eigen::Matrix4f l = local[i].ToMatrix();
-    world[i] = parent[i] >= 0 ? Eigen::Matrix4f(world[static_cast<size_t>(parent[i])] * l) : l;
+    const Mat4f l = local[i].ToMatrix();
+    world[i] = parent[i] >= 0 ? Mat4f(world[static_cast<size_t>(parent[i])] * l) : l;
   }
   auto node_named = [&](const aiString& name) -> int32_t {
     const aiNode* n = scene->mRootNode->FindNode(name);
@@ -122,11 +122,11 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
     if (first_vertex + mesh->mNumVertices >= static_cast<uint64_t>(INT32_MAX)) return invalid("more than 2^31 vertices");
     std::vector<std::vector<Influence>> per_vertex(mesh->mNumVertices);
     int32_t rigid_bind = -1;
-    Eigen::Matrix4f rigid_world = world[static_cast<size_t>(n)];
+    Mat4f rigid_world = world[static_cast<size_t>(n)];
     if (skinned) {
       for (unsigned b = 0; b < mesh->mNumBones; ++b) {
         const aiBone* bone = mesh->mBones[b];
-        const Eigen::Matrix4f ibm = ToEigen(bone->mOffsetMatrix);
+        const Mat4f ibm = ToEigen(bone->mOffsetMatrix);
         if (!ibm.allFinite()) return invalid(where + " bone '" + bone->mName.C_Str() + "' has a non-finite offset matrix");
         const int32_t bind = FindOrAddBind(c.skin, joint_of_node[static_cast<size_t>(node_named(bone->mName))], ibm);
         if (bind < 0) return invalid("more than 65536 distinct bind entries");
@@ -139,7 +139,7 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
         }
       }
     } else {
-      Eigen::Matrix4f ibm = Eigen::Matrix4f::Identity();
+      Mat4f ibm = Mat4f::Identity();
       int32_t joint = 0;
       if (skinned_file) {
         joint = joint_of_node[static_cast<size_t>(n)];
@@ -222,7 +222,7 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
         }
         for (unsigned k = 0; k < na->mNumRotationKeys; ++k) {
           const aiQuaternion& q = na->mRotationKeys[k].mValue;
-          add(track.rotation, na->mRotationKeys[k].mTime, Eigen::Quaternionf(q.w, q.x, q.y, q.z));
+          add(track.rotation, na->mRotationKeys[k].mTime, Quatf(q.w, q.x, q.y, q.z));
         }
         for (unsigned k = 0; k < na->mNumScalingKeys; ++k) {
           const aiVector3D& v = na->mScalingKeys[k].mValue;

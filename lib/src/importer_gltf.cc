@@ -55,7 +55,7 @@ std::string ReadNodes(const json& j, std::vector<Node>* nodes) {
     if (jn.contains("matrix")) {
       const auto& m = jn["matrix"];
       if (!m.is_array() || m.size() != 16) return "node " + std::to_string(i) + " has a matrix without 16 numbers";
-      Eigen::Matrix4f mat;
+      Mat4f mat;
       for (int k = 0; k < 16; ++k) mat(k % 4, k / 4) = m[static_cast<size_t>(k)].get<float>();  // column-major
       if (!mat.allFinite()) return "node " + std::to_string(i) + " has a non-finite matrix";
       node.local = Transform::FromMatrix(mat);
@@ -68,7 +68,7 @@ std::string ReadNodes(const json& j, std::vector<Node>* nodes) {
       if (jn.contains("rotation")) {
         const auto& r = jn["rotation"];  // x, y, z, w
         if (!r.is_array() || r.size() != 4) return "node " + std::to_string(i) + " has a bad rotation";
-        node.local.rotation = Eigen::Quaternionf(r[3].get<float>(), r[0].get<float>(), r[1].get<float>(), r[2].get<float>());
+        node.local.rotation = Quatf(r[3].get<float>(), r[0].get<float>(), r[1].get<float>(), r[2].get<float>());
       }
       if (jn.contains("scale")) {
         const auto& s = jn["scale"];
@@ -197,8 +197,8 @@ std::string ReadClips(const GltfDocument& doc, const std::vector<int32_t>& joint
       skinning::JointTrack& track = clip.tracks[it->second];
       std::string problem;
       if (path == "rotation") {
-        std::vector<Eigen::Quaternionf> q(out.size() / 4);
-        for (size_t k = 0; k < q.size(); ++k) q[k] = Eigen::Quaternionf(out[4 * k + 3], out[4 * k], out[4 * k + 1], out[4 * k + 2]);
+        std::vector<Quatf> q(out.size() / 4);
+        for (size_t k = 0; k < q.size(); ++k) q[k] = Quatf(out[4 * k + 3], out[4 * k], out[4 * k + 1], out[4 * k + 2]);
         problem = FillTrack(interpolation, times, q, &track.rotation);
       } else {
         std::vector<Eigen::Vector3f> v(out.size() / 3);
@@ -316,14 +316,14 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
     c.skeleton.parents.push_back(-1);
     c.skeleton.rest_local.push_back(Transform{});
   }
-  std::vector<Eigen::Matrix4f> joint_world(c.skeleton.size());
+  std::vector<Mat4f> joint_world(c.skeleton.size());
   c.skeleton.RestWorld(joint_world);
   // World transform of any node, from the node tree (for rigid meshes of a static file).
-  std::vector<Eigen::Matrix4f> node_world(nodes.size());
+  std::vector<Mat4f> node_world(nodes.size());
   for (int32_t n : preorder) {
     const Node& node = nodes[static_cast<size_t>(n)];
-    const Eigen::Matrix4f local = node.local.ToMatrix();
-    node_world[static_cast<size_t>(n)] = node.parent >= 0 ? Eigen::Matrix4f(node_world[static_cast<size_t>(node.parent)] * local) : local;
+    const Mat4f local = node.local.ToMatrix();
+    node_world[static_cast<size_t>(n)] = node.parent >= 0 ? Mat4f(node_world[static_cast<size_t>(node.parent)] * local) : local;
   }
 
   // Bind entries of the skins: skin_bind[s][k] for the skin's k-th joint.
@@ -339,8 +339,8 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
       if (ibm.size() < 16 * n_joints) return invalid("skin " + std::to_string(s) + " has fewer inverse bind matrices than joints");
     }
     for (size_t k = 0; k < n_joints; ++k) {
-      Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
-      if (!ibm.empty()) m = Eigen::Map<const Eigen::Matrix4f>(ibm.data() + 16 * k);  // column-major, as Eigen
+      Mat4f m = Mat4f::Identity();
+      if (!ibm.empty()) m = Eigen::Map<const Mat4f>(ibm.data() + 16 * k);  // column-major, as Eigen
       if (!m.allFinite()) return invalid("skin " + std::to_string(s) + " has a non-finite inverse bind matrix");
       const int32_t b = FindOrAddBind(c.skin, joint_of_node[static_cast<size_t>(skin_joints[s][k])], m);
       if (b < 0) return invalid("more than 65536 distinct bind entries");
@@ -360,11 +360,11 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
     const json& prims = ArrayOrEmpty(mesh, "primitives");
     const bool skinned = node.skin >= 0;
     int32_t rigid_bind = -1;
-    Eigen::Matrix4f rigid_world = Eigen::Matrix4f::Identity();
+    Mat4f rigid_world = Mat4f::Identity();
     if (!skinned) {
       const int32_t joint = skinned_file ? joint_of_node[static_cast<size_t>(inst.node)] : 0;
       rigid_world = skinned_file ? joint_world[static_cast<size_t>(joint)] : node_world[static_cast<size_t>(inst.node)];
-      Eigen::Matrix4f ibm = Eigen::Matrix4f::Identity();
+      Mat4f ibm = Mat4f::Identity();
       if (skinned_file) {
         const float det = rigid_world.topLeftCorner<3, 3>().determinant();
         if (!(std::abs(det) > 0.0f) || !std::isfinite(det)) return invalid(NodeLabel(nodes, inst.node) + " has a singular world transform");

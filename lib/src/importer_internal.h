@@ -24,7 +24,7 @@ struct Influence {
 
 // Index of the bind entry (joint, ibm) in skin.binds, adding it when no entry has the same joint
 // and an exactly equal matrix. -1 when the uint16_t influence index space (65536) is exhausted.
-int32_t FindOrAddBind(skinning::SkinnedMesh& skin, int32_t joint, const Eigen::Matrix4f& ibm);
+int32_t FindOrAddBind(skinning::SkinnedMesh& skin, int32_t joint, const Mat4f& ibm);
 
 // Appends one vertex to skin: merges repeated binds, drops zero weights, normalises the rest to
 // sum 1. Returns a problem text (weights negative, non-finite or summing to zero) or nullopt.

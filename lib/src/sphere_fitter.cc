@@ -139,7 +139,7 @@ float MeanRadius(const std::vector<CandidateSphere>& spheres) {
   return spheres.empty() ? 0.0f : r / static_cast<float>(spheres.size());
 }
 
-PartResult FitPart(const RawCharacter& ch, const BodyPart& part, const std::vector<Eigen::Matrix4f>& rest_world,
+PartResult FitPart(const RawCharacter& ch, const BodyPart& part, const std::vector<Mat4f>& rest_world,
                    const FitSettings& settings) {
   PartResult result;
   result.report.name = part.name;
@@ -346,7 +346,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
       }
     }
   }
-  std::vector<Eigen::Matrix4f> rest_world(joints);
+  std::vector<Mat4f> rest_world(joints);
   ch.skeleton.RestWorld(rest_world);
 
   // 1-3: the paper's spheres, part by part (in parallel; each part writes its own slot).

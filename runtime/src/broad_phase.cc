@@ -64,9 +64,9 @@ constexpr float kPadAbsolute = 1e-30f;
 inline float IntervalPad(float c, float r) { return (std::fabs(c) + r) * kPadRelative + kPadAbsolute; }
 
 // Variance of the centres along each axis (double sums: only used to pick an axis).
-Eigen::Vector3d CenterVariance(std::span<const Eigen::Vector4f> spheres) {
+Eigen::Vector3d CenterVariance(std::span<const Vec4f> spheres) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero(), sum2 = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector4f& s : spheres) {
+  for (const Vec4f& s : spheres) {
     const Eigen::Vector3d c = s.head<3>().cast<double>();
     sum += c;
     sum2 += c.cwiseProduct(c);
@@ -141,7 +141,7 @@ bool SelfCollisionJob::Run() const {
   const __m128 limit = _mm_set1_ps(internal::kMaxMagnitude);
   __m128 not_finite = zero, negative = zero;
   for (size_t k = 0; k < n; ++k) {
-    const Eigen::Vector4f& s = spheres[order[k].sphere];
+    const Vec4f& s = spheres[order[k].sphere];
     const __m128 v = _mm_loadu_ps(s.data());
     not_finite = _mm_or_ps(not_finite, _mm_cmpneq_ps(_mm_sub_ps(v, v), zero));
     not_finite = _mm_or_ps(not_finite, _mm_cmpgt_ps(_mm_and_ps(v, abs_mask), limit));
@@ -185,7 +185,7 @@ bool SelfCollisionJob::Run() const {
   uint32_t* sphere = ctx.sphere_.data();
   for (size_t k = 0; k < n; ++k) {
     const uint32_t s_index = order[k].sphere;
-    const Eigen::Vector4f& s = spheres[s_index];
+    const Vec4f& s = spheres[s_index];
     x[k] = s.x();
     y[k] = s.y();
     z[k] = s.z();

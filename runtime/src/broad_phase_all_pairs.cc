@@ -5,12 +5,12 @@
 
 namespace skinspheres::runtime {
 
-bool SelfCollisionAllPairs(std::span<const Eigen::Vector4f> spheres, const PairFilter& filter,
+bool SelfCollisionAllPairs(std::span<const Vec4f> spheres, const PairFilter& filter,
                            std::vector<Contact>* out) {
   if (out == nullptr) return false;
   out->clear();
   if (spheres.size() != filter.size()) return false;
-  for (const Eigen::Vector4f& s : spheres) {
+  for (const Vec4f& s : spheres) {
     if (!internal::SphereValuesOk(s)) return false;
   }
   const uint32_t n = static_cast<uint32_t>(spheres.size());

@@ -46,14 +46,14 @@ Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const Charac
   if (!asset) return MakeError(ErrorCode::kInvalidArgument, "CharacterInstance: null asset");
   CharacterInstance inst;
   const size_t n = asset->size();
-  inst.spheres_.assign(n, Eigen::Vector4f::Zero());
+  inst.spheres_.assign(n, Vec4f::Zero());
   inst.context_.Resize(n);
   inst.contacts_.reserve(std::max<size_t>(64, 4 * n));
   inst.asset_ = std::move(asset);
   return inst;
 }
 
-FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Eigen::Matrix4f> joint_world,
+FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joint_world,
                                       std::span<const Eigen::Vector3f> skinned_positions) {
   valid_ = false;
   const SphereSet& set = asset_->sphere_set();
@@ -91,12 +91,12 @@ FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Eigen::Mat
   return status_;
 }
 
-FrameStatus CharacterInstance::UpdateFast(std::span<const Eigen::Matrix4f> joint_world) {
+FrameStatus CharacterInstance::UpdateFast(std::span<const Mat4f> joint_world) {
   return Update(RefitMode::kFast, joint_world, {});
 }
 
 FrameStatus CharacterInstance::UpdateExact(std::span<const Eigen::Vector3f> skinned_positions,
-                                           std::span<const Eigen::Matrix4f> joint_world) {
+                                           std::span<const Mat4f> joint_world) {
   return Update(RefitMode::kExact, joint_world, skinned_positions);
 }
 

@@ -15,6 +15,10 @@
 
 namespace skinspheres::runtime {
 
+// Unaligned double types (math_types.h: no Eigen type of 32 bytes or more is aligned here).
+using Mat4d = Eigen::Matrix<double, 4, 4, Eigen::ColMajor | Eigen::DontAlign>;
+using Vec4d = Eigen::Matrix<double, 4, 1, Eigen::ColMajor | Eigen::DontAlign>;
+
 const char* ToString(RefitMode mode) {
   switch (mode) {
     case RefitMode::kExact:
@@ -33,17 +37,17 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
   d.sphere_count_ = set.size();
   d.source_vertex_count_ = set.source_vertex_count;
   const size_t joints = set.joint_count();
-  std::vector<Eigen::Matrix4d> inverse(joints);
+  std::vector<Mat4d> inverse(joints);
   d.rest_linear_inverse_.resize(joints);
   for (size_t j = 0; j < joints; ++j) {
-    const Eigen::Matrix4d g = set.joint_rest_world[j].cast<double>();
+    const Mat4d g = set.joint_rest_world[j].cast<double>();
     const double det = g.topLeftCorner<3, 3>().determinant();
     const double scale = g.topLeftCorner<3, 3>().cwiseAbs().maxCoeff();
     if (!(std::abs(det) > 1e-12 * scale * scale * scale) || !std::isfinite(det)) {
       return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file + "': rest transform of joint " +
                                                     std::to_string(j) + " '" + set.joint_names[j] + "' is not invertible");
     }
-    Eigen::Matrix4d inv = Eigen::Matrix4d::Identity();
+    Mat4d inv = Mat4d::Identity();
     const Eigen::Matrix3d li = g.topLeftCorner<3, 3>().inverse();
     inv.topLeftCorner<3, 3>() = li;
     inv.topRightCorner<3, 1>() = -li * g.topRightCorner<3, 1>();
@@ -64,7 +68,7 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
       return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file + "': sphere " +
                                                     std::to_string(s) + " has influence weights summing to 0");
     }
-    const Eigen::Vector4d c(set.centers_rest[s].x(), set.centers_rest[s].y(), set.centers_rest[s].z(), 1.0);
+    const Vec4d c(set.centers_rest[s].x(), set.centers_rest[s].y(), set.centers_rest[s].z(), 1.0);
     for (uint32_t k = k0; k < k1; ++k) {
       d.center_in_joint_[k] = (inverse[set.influence_joints[k]] * c).head<3>().cast<float>();
       d.weights_[k] = static_cast<float>(set.influence_weights[k] / wsum);
@@ -108,7 +112,7 @@ inline float Margin(const Eigen::Vector3f& c, float r) {
   return 16.0f * FLT_EPSILON * (c.cwiseAbs().maxCoeff() + r);
 }
 
-inline Eigen::Vector3f Apply(const Eigen::Matrix4f& g, const Eigen::Vector3f& p) {
+inline Eigen::Vector3f Apply(const Mat4f& g, const Eigen::Vector3f& p) {
   return g.topLeftCorner<3, 3>() * p + g.topRightCorner<3, 1>();
 }
 
@@ -153,7 +157,7 @@ bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
     }
     const float r = std::sqrt(d2max);
     const float radius = r + Margin(c, r);
-    job.out[s] = Eigen::Vector4f(c.x(), c.y(), c.z(), radius);
+    job.out[s] = Vec4f(c.x(), c.y(), c.z(), radius);
     ok &= finite && std::isfinite(radius);
   }
   return ok;
@@ -172,7 +176,7 @@ bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
     bool finite = true;
     for (uint32_t k = k0; k < k1; ++k) {
       const uint16_t j = set.influence_joints[k];
-      const Eigen::Matrix4f& g = job.joint_world[j];
+      const Mat4f& g = job.joint_world[j];
       const float d2 = (Apply(g, q[k]) - c).squaredNorm();
       const Eigen::Matrix3f a = g.topLeftCorner<3, 3>() * rinv[j];  // A_j = linear(G_j(t) G_j(rest)^-1)
       const Eigen::Matrix3f ata = a.transpose() * a;
@@ -183,7 +187,7 @@ bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
     }
     const float r = std::sqrt(s2) * set.radii_fast[s] + std::sqrt(spread2);
     const float radius = r + Margin(c, r);
-    job.out[s] = Eigen::Vector4f(c.x(), c.y(), c.z(), radius);
+    job.out[s] = Vec4f(c.x(), c.y(), c.z(), radius);
     ok &= finite && c.allFinite() && std::isfinite(radius);
   }
   return ok;

@@ -20,7 +20,7 @@ std::string WriteSphereSetJson(const SphereSet& set) {
 
   json joints = json::array();
   for (size_t k = 0; k < set.joint_count(); ++k) {
-    const Eigen::Matrix4f& m = set.joint_rest_world[k];
+    const Mat4f& m = set.joint_rest_world[k];
     joints.push_back({{"name", set.joint_names[k]},
                       {"parent", set.joint_parents[k]},
                       {"rest_world", std::vector<float>(m.data(), m.data() + 16)}});
@@ -136,7 +136,7 @@ SphereSet Parse(const json& j) {
     set.joint_names.push_back(name.get<std::string>());
     set.joint_parents.push_back(Number<int32_t>(Field(joints[k], "parent", where), where + ".parent"));
     const json& m = Array(Field(joints[k], "rest_world", where), where + ".rest_world", 16);
-    Eigen::Matrix4f mat;
+    Mat4f mat;
     for (int e = 0; e < 16; ++e) mat.data()[e] = Number<float>(m[e], where + ".rest_world");
     set.joint_rest_world.push_back(mat);
   }

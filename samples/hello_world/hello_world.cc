@@ -38,7 +38,7 @@ int main() {
   // Your animation system gives joint world transforms; here the built-in "touch" clip does.
   const skinning::AnimationClip& clip = character.clips.back();
   std::vector<skinning::Transform> locals(character.skeleton.size());
-  std::vector<Eigen::Matrix4f> joint_world(character.skeleton.size());
+  std::vector<skinspheres::Mat4f> joint_world(character.skeleton.size());
   for (int frame = 0; frame <= 40; frame += 4) {
     const float t = frame / 10.0f;
     skinning::SamplingJob{&clip, &character.skeleton, t, locals}.Run();

@@ -83,7 +83,7 @@ Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::Sphere
   const skinning::AnimationClip& clip = ch.clips.at(clip_index);
   const size_t joints = ch.skeleton.size();
   std::vector<skinning::Transform> locals(joints);
-  std::vector<Eigen::Matrix4f> joint_world(joints), bind_matrices(ch.skin.binds.size());
+  std::vector<skinspheres::Mat4f> joint_world(joints), bind_matrices(ch.skin.binds.size());
   std::vector<Eigen::Vector3f> skinned(ch.vertex_count(), Eigen::Vector3f::Zero());
 
   // The vertices the exact refit reads: every sphere's source vertices.

@@ -22,7 +22,7 @@ struct PlayOptions {
 struct FramePairs {
   float time_s = 0.0f;
   std::vector<runtime::Contact> contacts;
-  std::vector<Eigen::Vector4f> spheres;  // only with keep_spheres
+  std::vector<skinspheres::Vec4f> spheres;  // only with keep_spheres
 };
 
 struct StageTimes {

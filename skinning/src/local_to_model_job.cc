@@ -1,4 +1,3 @@
-#include "eigen_abi.h"  // first: keeps Eigen's ABI under -mavx2
 
 #include "skinspheres/skinning/local_to_model_job.h"
 
@@ -13,7 +12,7 @@ bool LocalToModelJob::Run() const {
   if (!Validate()) return false;
   const size_t n = skeleton->size();
   for (size_t i = 0; i < n; ++i) {
-    const Eigen::Matrix4f local = input[i].ToMatrix();
+    const Mat4f local = input[i].ToMatrix();
     const int32_t parent = skeleton->parents[i];
     // G_i = G_parent · L_i; parents[i] < i, so G_parent is already final.
     output[i] = (parent < 0 ? root : output[static_cast<size_t>(parent)]) * local;

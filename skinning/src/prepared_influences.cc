@@ -1,4 +1,3 @@
-#include "eigen_abi.h"  // first: keeps Eigen's ABI under -mavx2
 
 #include "skinspheres/skinning/prepared_influences.h"
 

@@ -1,4 +1,3 @@
-#include "eigen_abi.h"  // first: keeps Eigen's ABI under -mavx2
 
 #include "skinspheres/skinning/sampling_job.h"
 
@@ -28,17 +27,17 @@ const V& KeyValue(const Track<V>& track, size_t k) {
 inline Eigen::Vector3f Lerp(const Eigen::Vector3f& a, const Eigen::Vector3f& b, float s) {
   return a + (b - a) * s;
 }
-inline Eigen::Quaternionf Lerp(const Eigen::Quaternionf& a, const Eigen::Quaternionf& b, float s) {
+inline Quatf Lerp(const Quatf& a, const Quatf& b, float s) {
   return a.slerp(s, b).normalized();  // Eigen's slerp takes the shortest arc
 }
 
-inline Eigen::Vector4f Coeffs(const Eigen::Vector3f& v) { return Eigen::Vector4f(v.x(), v.y(), v.z(), 0.0f); }
-inline Eigen::Vector4f Coeffs(const Eigen::Quaternionf& q) { return q.coeffs(); }
-inline void FromCoeffs(const Eigen::Vector4f& c, Eigen::Vector3f* v) { *v = c.head<3>(); }
-inline void FromCoeffs(const Eigen::Vector4f& c, Eigen::Quaternionf* q) {
-  *q = Eigen::Quaternionf(c[3], c[0], c[1], c[2]);
+inline Vec4f Coeffs(const Eigen::Vector3f& v) { return Vec4f(v.x(), v.y(), v.z(), 0.0f); }
+inline Vec4f Coeffs(const Quatf& q) { return q.coeffs(); }
+inline void FromCoeffs(const Vec4f& c, Eigen::Vector3f* v) { *v = c.head<3>(); }
+inline void FromCoeffs(const Vec4f& c, Quatf* q) {
+  *q = Quatf(c[3], c[0], c[1], c[2]);
   const float n = q->norm();
-  *q = n > 0.0f ? Eigen::Quaternionf(q->coeffs() / n) : Eigen::Quaternionf::Identity();
+  *q = n > 0.0f ? Quatf(q->coeffs() / n) : Quatf(Quatf::Identity());
 }
 
 // Samples one track at t (already clamped to the clip). Keys must be non-empty.
@@ -60,12 +59,12 @@ V Sample(const Track<V>& track, float t) {
       return Lerp(track.values[k], track.values[k + 1], s);
     case Interpolation::kCubicSpline: {
       // values: [a_k, v_k, b_k] per key (in-tangent, value, out-tangent).
-      const Eigen::Vector4f v0 = Coeffs(track.values[3 * k + 1]);
-      const Eigen::Vector4f b0 = Coeffs(track.values[3 * k + 2]);
-      const Eigen::Vector4f a1 = Coeffs(track.values[3 * (k + 1)]);
-      const Eigen::Vector4f v1 = Coeffs(track.values[3 * (k + 1) + 1]);
+      const Vec4f v0 = Coeffs(track.values[3 * k + 1]);
+      const Vec4f b0 = Coeffs(track.values[3 * k + 2]);
+      const Vec4f a1 = Coeffs(track.values[3 * (k + 1)]);
+      const Vec4f v1 = Coeffs(track.values[3 * (k + 1) + 1]);
       const float s2 = s * s, s3 = s2 * s;
-      const Eigen::Vector4f p = (2 * s3 - 3 * s2 + 1) * v0 + (s3 - 2 * s2 + s) * dt * b0 +
+      const Vec4f p = (2 * s3 - 3 * s2 + 1) * v0 + (s3 - 2 * s2 + s) * dt * b0 +
                                 (-2 * s3 + 3 * s2) * v1 + (s3 - s2) * dt * a1;
       V out;
       FromCoeffs(p, &out);

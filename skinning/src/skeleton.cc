@@ -1,18 +1,17 @@
-#include "eigen_abi.h"  // first: keeps Eigen's ABI under -mavx2
 #include "skinspheres/skinning/skeleton.h"
 
 #include <Eigen/SVD>
 
 namespace skinspheres::skinning {
 
-Eigen::Matrix4f Transform::ToMatrix() const {
-  Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
+Mat4f Transform::ToMatrix() const {
+  Mat4f m = Mat4f::Identity();
   m.topLeftCorner<3, 3>() = rotation.normalized().toRotationMatrix() * scale.asDiagonal();
   m.topRightCorner<3, 1>() = translation;
   return m;
 }
 
-Transform Transform::FromMatrix(const Eigen::Matrix4f& m) {
+Transform Transform::FromMatrix(const Mat4f& m) {
   Transform t;
   t.translation = m.topRightCorner<3, 1>();
   const Eigen::Matrix3f a = m.topLeftCorner<3, 3>();
@@ -29,7 +28,7 @@ Transform Transform::FromMatrix(const Eigen::Matrix4f& m) {
     u.col(2) = -u.col(2);
     q = u * svd.matrixV().transpose();
   }
-  t.rotation = Eigen::Quaternionf(q).normalized();
+  t.rotation = Quatf(q).normalized();
   t.scale = s;
   return t;
 }
@@ -49,10 +48,10 @@ bool Skeleton::Validate() const {
   return true;
 }
 
-void Skeleton::RestWorld(std::span<Eigen::Matrix4f> out) const {
+void Skeleton::RestWorld(std::span<Mat4f> out) const {
   for (size_t i = 0; i < size(); ++i) {
-    const Eigen::Matrix4f local = rest_local[i].ToMatrix();
-    out[i] = parents[i] < 0 ? local : Eigen::Matrix4f(out[parents[i]] * local);
+    const Mat4f local = rest_local[i].ToMatrix();
+    out[i] = parents[i] < 0 ? local : Mat4f(out[parents[i]] * local);
   }
 }
 

@@ -1,4 +1,3 @@
-#include "eigen_abi.h"  // first: keeps Eigen's ABI under -mavx2
 
 #include "skinspheres/skinning/skinning_job.h"
 
@@ -14,7 +13,7 @@
 namespace skinspheres::skinning {
 namespace {
 
-static_assert(sizeof(Eigen::Matrix4f) == 64 && alignof(Eigen::Matrix4f) <= 16,
+static_assert(sizeof(Mat4f) == 64 && alignof(Mat4f) <= 16,
               "kernels read Matrix4f as 16 column-major floats; Eigen's ABI must match the users'");
 
 bool CpuHasAvx2Fma() {
@@ -190,8 +189,8 @@ bool SkinReference(const SkinningJob& job) {
   for (size_t i = 0; i < items; ++i) {
     const size_t v = job.subset.empty() ? i : job.subset[i];
     const float* p = reinterpret_cast<const float*>(in + v * job.in_stride_bytes);
-    const Eigen::Vector4f p_bind(p[0], p[1], p[2], 1.0f);
-    Eigen::Vector4f acc = Eigen::Vector4f::Zero();
+    const Vec4f p_bind(p[0], p[1], p[2], 1.0f);
+    Vec4f acc = Vec4f::Zero();
     for (uint32_t k = job.influence_offsets[v]; k < job.influence_offsets[v + 1]; ++k) {
       acc += job.influence_weights[k] * (job.joint_matrices[job.influence_binds[k]] * p_bind);
     }

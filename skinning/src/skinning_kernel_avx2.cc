@@ -1,5 +1,4 @@
 // Linear blend skinning kernels, avx2 level (see skinning_kernels.h).
-#include "eigen_abi.h"  // first: keeps Eigen's ABI under -mavx2
 
 #include <algorithm>
 #include <cstddef>

@@ -9,12 +9,13 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/prepared_influences.h"
 
 namespace skinspheres::skinning::kernels {
 
 struct Buffers {
-  const float* matrices = nullptr;  // Eigen::Matrix4f array (column-major, 16 floats each)
+  const float* matrices = nullptr;  // Mat4f array (column-major, 16 floats each)
   const char* in = nullptr;
   size_t in_stride = 0;
   char* out = nullptr;

@@ -8,6 +8,8 @@
 #include "skinspheres/lib/body_parts.h"
 #include "skinspheres/lib/raw_character.h"
 
+#include "skinspheres/skinning/math_types.h"
+
 namespace skinspheres::test {
 
 // A closed tube along +Y from y0 to y1 whose section at angle φ is (a cos φ, b sin φ) (a = b: a
@@ -70,7 +72,7 @@ inline lib::BodyParts MakeSinglePart(lib::RawCharacter& ch, float y0, float y1, 
   ch.skeleton.rest_local[0].translation = Eigen::Vector3f(0, y0, 0);
   ch.skeleton.rest_local[1].translation = Eigen::Vector3f(0, y1 - y0, 0);
   ch.skin.positions_bind = ch.positions_rest;
-  ch.skin.binds = {{0, Eigen::Matrix4f::Identity()}};  // rest world of joint 0: a translation by y0
+  ch.skin.binds = {{0, skinspheres::Mat4f::Identity()}};  // rest world of joint 0: a translation by y0
   ch.skin.binds[0].inverse_bind(1, 3) = -y0;
   ch.skin.influence_offsets.clear();
   for (size_t v = 0; v <= ch.positions_rest.size(); ++v) ch.skin.influence_offsets.push_back(static_cast<uint32_t>(v));

@@ -177,7 +177,7 @@ Built Build(const Model& model, uint32_t seed, const Eigen::Affine3f& world_from
     }
     sk.rest_local.push_back(t);
   }
-  std::vector<Eigen::Matrix4f> world(n);
+  std::vector<skinspheres::Mat4f> world(n);
   sk.RestWorld(world);
   for (int k = 0; k < n; ++k) {
     skinning::BindEntry e;
@@ -625,7 +625,7 @@ TEST(BodyPartsRealTest, SharedCharactersSplitIntoSixParts) {
     EXPECT_EQ(part_of(rc.left_thigh), "leg_l");
     EXPECT_EQ(part_of(rc.right_thigh), "leg_r");
     // The left arm stands on the character's left: left = up x forward, forward from the toes.
-    std::vector<Eigen::Matrix4f> world(sk.size());
+    std::vector<skinspheres::Mat4f> world(sk.size());
     sk.RestWorld(world);
     Eigen::Vector3f forward = Eigen::Vector3f::UnitZ();
     if (!rc.left_toe.empty()) {

@@ -170,7 +170,7 @@ TEST(BuiltinCharacter, WeightsNormalisedAtMostFourInfluences) {
 
 TEST(BuiltinCharacter, RestPositionsEqualLbsAtRestAndBindEqualsRest) {
   const RawCharacter& c = Character();
-  std::vector<Eigen::Matrix4f> rest(c.skeleton.size());
+  std::vector<skinspheres::Mat4f> rest(c.skeleton.size());
   c.skeleton.RestWorld(rest);
   const auto skinned = test::Skin(c, rest);
   for (size_t v = 0; v < c.vertex_count(); ++v) {

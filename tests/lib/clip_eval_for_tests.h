@@ -8,6 +8,8 @@
 
 #include "skinspheres/lib/raw_character.h"
 
+#include "skinspheres/skinning/math_types.h"
+
 namespace skinspheres::test {
 
 // Finds the key interval of t: i with times[i] <= t < times[i+1] (clamped), and the fraction u.
@@ -49,7 +51,7 @@ inline Eigen::Vector3f SampleVec(const skinning::Track<Eigen::Vector3f>& tr, flo
   return (1 - u) * value(i) + u * value(i + 1);
 }
 
-inline Eigen::Quaternionf SampleQuat(const skinning::Track<Eigen::Quaternionf>& tr, float t) {
+inline skinspheres::Quatf SampleQuat(const skinning::Track<skinspheres::Quatf>& tr, float t) {
   size_t i;
   float u;
   FindKey(tr.times_s, t, i, u);
@@ -60,11 +62,11 @@ inline Eigen::Quaternionf SampleQuat(const skinning::Track<Eigen::Quaternionf>& 
   if (cubic) {
     const float dt = tr.times_s[i + 1] - tr.times_s[i];
     const float u2 = u * u, u3 = u2 * u;
-    const Eigen::Vector4f p0 = tr.values[3 * i + 1].coeffs(), m0 = tr.values[3 * i + 2].coeffs();
-    const Eigen::Vector4f p1 = tr.values[3 * (i + 1) + 1].coeffs(), m1 = tr.values[3 * (i + 1)].coeffs();
-    const Eigen::Vector4f c =
+    const skinspheres::Vec4f p0 = tr.values[3 * i + 1].coeffs(), m0 = tr.values[3 * i + 2].coeffs();
+    const skinspheres::Vec4f p1 = tr.values[3 * (i + 1) + 1].coeffs(), m1 = tr.values[3 * (i + 1)].coeffs();
+    const skinspheres::Vec4f c =
         (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * dt * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * dt * m1;
-    return Eigen::Quaternionf(c.normalized());
+    return skinspheres::Quatf(c.normalized());
   }
   return value(i).normalized().slerp(u, value(i + 1).normalized());
 }
@@ -81,21 +83,21 @@ inline std::vector<skinning::Transform> SampleLocal(const lib::RawCharacter& c, 
   return local;
 }
 
-inline std::vector<Eigen::Matrix4f> WorldOf(const lib::RawCharacter& c, const std::vector<skinning::Transform>& local) {
-  std::vector<Eigen::Matrix4f> w(local.size());
+inline std::vector<skinspheres::Mat4f> WorldOf(const lib::RawCharacter& c, const std::vector<skinning::Transform>& local) {
+  std::vector<skinspheres::Mat4f> w(local.size());
   for (size_t j = 0; j < local.size(); ++j) {
-    const Eigen::Matrix4f m = local[j].ToMatrix();
-    w[j] = c.skeleton.parents[j] < 0 ? m : Eigen::Matrix4f(w[c.skeleton.parents[j]] * m);
+    const skinspheres::Mat4f m = local[j].ToMatrix();
+    w[j] = c.skeleton.parents[j] < 0 ? m : skinspheres::Mat4f(w[c.skeleton.parents[j]] * m);
   }
   return w;
 }
 
 // p' = Σ w_k · G_joint(b_k) · IBM_k · p_bind for every vertex.
-inline std::vector<Eigen::Vector3f> Skin(const lib::RawCharacter& c, const std::vector<Eigen::Matrix4f>& world) {
+inline std::vector<Eigen::Vector3f> Skin(const lib::RawCharacter& c, const std::vector<skinspheres::Mat4f>& world) {
   const auto& s = c.skin;
   std::vector<Eigen::Vector3f> out(s.vertex_count());
   for (size_t v = 0; v < s.vertex_count(); ++v) {
-    Eigen::Vector4f acc = Eigen::Vector4f::Zero();
+    skinspheres::Vec4f acc = skinspheres::Vec4f::Zero();
     for (uint32_t k = s.influence_offsets[v]; k < s.influence_offsets[v + 1]; ++k) {
       const auto& b = s.binds[s.influence_binds[k]];
       acc += s.influence_weights[k] * (world[b.joint] * b.inverse_bind * s.positions_bind[v].homogeneous());

@@ -10,6 +10,8 @@
 #include <random>
 #include <vector>
 
+#include "skinspheres/skinning/math_types.h"
+
 namespace skinspheres::lib {
 namespace {
 
@@ -187,7 +189,7 @@ struct Frame {
 
 Frame RandomFrame(std::mt19937& rng) {
   std::normal_distribution<float> g;
-  const Eigen::Quaternionf q = Eigen::Quaternionf(g(rng), g(rng), g(rng), g(rng)).normalized();
+  const skinspheres::Quatf q = skinspheres::Quatf(g(rng), g(rng), g(rng), g(rng)).normalized();
   return Frame{V(g(rng), g(rng), g(rng)) * 3.0f, q * V(1, 0, 0), q * V(0, 1, 0)};
 }
 

@@ -335,7 +335,7 @@ TEST(FitMetrics, CharacterAndSphereSetOverload) {
   ASSERT_FALSE(bad.ok());
   EXPECT_EQ(bad.error().code, ErrorCode::kMismatchedAsset);
   // The RawCharacter baseline: the joint of each vertex's largest weight.
-  c.skin.binds = {{2, Eigen::Matrix4f::Identity()}, {5, Eigen::Matrix4f::Identity()}};
+  c.skin.binds = {{2, skinspheres::Mat4f::Identity()}, {5, skinspheres::Mat4f::Identity()}};
   c.skin.influence_offsets.push_back(0);
   for (const auto& p : m.positions) {
     c.skin.influence_binds.push_back(0);

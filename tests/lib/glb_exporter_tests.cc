@@ -126,7 +126,7 @@ TEST(GlbExporter, AssimpReadsBackMeshesSkinAndClips) {
   ASSERT_EQ(ch->mNumRotationKeys, 6u);
   for (const auto& tr : touch.tracks) {
     if (c.skeleton.joint_names[tr.joint] != "LeftArm") continue;
-    const Eigen::Quaternionf q = tr.rotation.values[1];
+    const skinspheres::Quatf q = tr.rotation.values[1];
     const aiQuaternion& k = ch->mRotationKeys[1].mValue;
     EXPECT_NEAR(std::abs(q.w() * k.w + q.x() * k.x + q.y() * k.y + q.z() * k.z), 1.0f, 1e-6f);
   }
@@ -212,7 +212,7 @@ TEST(GlbExporter, AnimatedSpheresBecomeNodesWithTheirOwnClip) {
     ASSERT_EQ(ch->mNumScalingKeys, 3u);
     const double tps = a->mTicksPerSecond > 0 ? a->mTicksPerSecond : 1.0;
     for (int f = 0; f < 3; ++f) {
-      const Eigen::Vector4f& e = extras.spheres[i].per_frame_xyzr[f];
+      const skinspheres::Vec4f& e = extras.spheres[i].per_frame_xyzr[f];
       EXPECT_NEAR(ch->mPositionKeys[f].mTime / tps, extras.frame_times_s[f], 1e-5);
       EXPECT_NEAR(ch->mPositionKeys[f].mValue.x, e.x(), 1e-6f);
       EXPECT_NEAR(ch->mPositionKeys[f].mValue.y, e.y(), 1e-6f);
@@ -244,7 +244,7 @@ TEST(GlbExporter, RefusesInconsistentInputWithAMessage) {
   RawCharacter e = MakeBuiltinCharacter();
   GlbExtras extras;
   extras.frame_times_s = {0.0f, 1.0f};
-  extras.spheres.push_back(AnimatedSphere{{Eigen::Vector4f(0, 0, 0, 1)}});
+  extras.spheres.push_back(AnimatedSphere{{skinspheres::Vec4f(0, 0, 0, 1)}});
   r = ExportGlb(e, path, extras);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, ErrorCode::kInvalidArgument);

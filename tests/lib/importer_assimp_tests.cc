@@ -383,13 +383,13 @@ TEST(ImporterAssimp, FbxAsciiRigidMeshUnderAJointFollowsThatJoint) {
   ASSERT_NE(clip, nullptr);
   const skinning::AnimationClip* bclip = FindClip(b, "walk");
   const int32_t bhead = b.skeleton.Find("Head");
-  std::vector<Eigen::Matrix4f> rest(b.skeleton.size());
+  std::vector<skinspheres::Mat4f> rest(b.skeleton.size());
   b.skeleton.RestWorld(rest);
   float worst_pose = 0.0f, moved = 0.0f;
   for (float t : {0.0f, 0.125f, 0.25f, 0.375f, 0.5f, 0.625f, 0.75f, 0.875f, 1.0f}) {
     const auto pc = test::PoseAt(c, *clip, t);
     const auto world = test::WorldOf(b, test::SampleLocal(b, *bclip, t));
-    const Eigen::Matrix4f rigid = world[static_cast<size_t>(bhead)] * rest[static_cast<size_t>(bhead)].inverse();
+    const skinspheres::Mat4f rigid = world[static_cast<size_t>(bhead)] * rest[static_cast<size_t>(bhead)].inverse();
     for (uint32_t v = head->first_vertex; v < head->first_vertex + head->vertex_count; ++v) {
       const Vector3f expected = (rigid * b.positions_rest[static_cast<size_t>(match[v])].homogeneous()).head<3>();
       worst_pose = std::max(worst_pose, (pc[v] - expected).norm());
@@ -429,7 +429,7 @@ TEST(ImporterAssimp, ColladaRestPoseDiffersFromBindPose) {
   const RawCharacter& b = Builtin();
   std::vector<skinning::Transform> local = b.skeleton.rest_local;
   const int32_t fore = b.skeleton.Find("LeftForeArm");
-  local[static_cast<size_t>(fore)].rotation = Eigen::Quaternionf(Eigen::AngleAxisf(angle, Vector3f::UnitZ()));
+  local[static_cast<size_t>(fore)].rotation = skinspheres::Quatf(Eigen::AngleAxisf(angle, Vector3f::UnitZ()));
   const auto expected = test::Skin(b, test::WorldOf(b, local));
   const std::vector<int32_t> match = CornerMatch(c);
   float worst = 0.0f, moved = 0.0f;

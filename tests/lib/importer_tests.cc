@@ -183,13 +183,13 @@ TEST_P(SharedCharacter, MatchesTheFileAccessorsAndRestPose) {
   EXPECT_LT(worst, tol) << "largest rest-position difference";
 
   // And against the importer's own skeleton and binds: Σ w·(G·IBM)·p_bind.
-  std::vector<Eigen::Matrix4f> G(c.skeleton.size());
+  std::vector<skinspheres::Mat4f> G(c.skeleton.size());
   ASSERT_TRUE(c.skeleton.Validate());
   c.skeleton.RestWorld(G);
   ASSERT_EQ(c.skin.influence_offsets.size(), c.vertex_count() + 1);
   for (size_t v = 0; v < c.vertex_count(); ++v) {
     double sum = 0;
-    Eigen::Vector4f p = Eigen::Vector4f::Zero();
+    skinspheres::Vec4f p = skinspheres::Vec4f::Zero();
     for (uint32_t k = c.skin.influence_offsets[v]; k < c.skin.influence_offsets[v + 1]; ++k) {
       const float w = c.skin.influence_weights[k];
       ASSERT_GT(w, 0.0f);
@@ -311,7 +311,7 @@ TEST(ImporterAssets, RobotExpressiveRigidPartsFollowJoints) {
   std::set<std::string> names;
   for (const auto& clip : c.clips) names.insert(clip.name);
   for (const char* n : {"Dance", "Punch", "Wave", "Idle", "Walking"}) EXPECT_TRUE(names.count(n)) << n;
-  std::vector<Eigen::Matrix4f> G(c.skeleton.size());
+  std::vector<skinspheres::Mat4f> G(c.skeleton.size());
   c.skeleton.RestWorld(G);
   size_t rigid = 0;
   for (const MeshRange& m : c.meshes) {

@@ -44,7 +44,7 @@ void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
 namespace skinspheres::runtime {
 namespace {
 
-using Spheres = std::vector<Eigen::Vector4f>;
+using Spheres = std::vector<skinspheres::Vec4f>;
 
 // Random exclusions: each pair with probability p, listed in random order (i > j allowed).
 std::vector<ExcludedPair> RandomExclusions(size_t n, double p, std::mt19937& rng) {
@@ -74,7 +74,7 @@ Spheres RandomSpheres(size_t n, int kind, std::mt19937& rng) {
   std::uniform_int_distribution<int> grid(-3, 3), coin(0, 3);
   Spheres s(n);
   for (size_t k = 0; k < n; ++k) {
-    Eigen::Vector4f& v = s[k];
+    skinspheres::Vec4f& v = s[k];
     switch (kind) {
       case 0:  // uniform
         v = {u(rng), u(rng), u(rng), ur(rng)};
@@ -267,7 +267,7 @@ TEST(BroadPhaseTest, FrameSequenceMatchesAllPairsEveryFrame) {
     const size_t n = 150 + 30 * seed;
     Spheres s = RandomSpheres(n, 0, rng);
     const PairFilter f = MakeFilter(n, 0.1, rng);
-    std::vector<Eigen::Vector4f> velocity(n);
+    std::vector<skinspheres::Vec4f> velocity(n);
     std::normal_distribution<float> g(0.0f, 0.01f);
     for (auto& v : velocity) v = {g(rng), g(rng), g(rng), 0.0f};
     BroadPhaseContext ctx(n);

@@ -117,7 +117,7 @@ TEST(CharacterInstanceTest, UpdatesMatchTheJobAndQueryMatchesAllPairs) {
   EXPECT_TRUE(inst.Query().empty()) << "no update yet";
   EXPECT_FALSE(inst.status().ok());
   std::vector<Contact> oracle;
-  std::vector<Eigen::Vector4f> expected(asset->size());
+  std::vector<skinspheres::Vec4f> expected(asset->size());
   size_t total_contacts = 0;
   for (const test::Pose& pose : test::ClipPoses(fc->character, 20)) {
     for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
@@ -201,7 +201,7 @@ TEST(CharacterInstanceTest, BadInputFailsThatUpdateOnly) {
   ASSERT_TRUE(inst.UpdateFast(pose.world).ok());
   EXPECT_TRUE(inst.spheres_valid());
   // Short spans.
-  FrameStatus st = inst.UpdateFast(std::span<const Eigen::Matrix4f>(pose.world).first(pose.world.size() - 1));
+  FrameStatus st = inst.UpdateFast(std::span<const skinspheres::Mat4f>(pose.world).first(pose.world.size() - 1));
   EXPECT_EQ(st.code, ErrorCode::kInvalidArgument);
   EXPECT_FALSE(inst.spheres_valid());
   EXPECT_TRUE(inst.Query().empty());
@@ -209,7 +209,7 @@ TEST(CharacterInstanceTest, BadInputFailsThatUpdateOnly) {
   st = inst.UpdateExact(std::span<const Eigen::Vector3f>(pose.positions).first(10), pose.world);
   EXPECT_EQ(st.code, ErrorCode::kInvalidArgument);
   // NaN joint matrix / position.
-  std::vector<Eigen::Matrix4f> world = pose.world;
+  std::vector<skinspheres::Mat4f> world = pose.world;
   world[5](0, 0) = std::numeric_limits<float>::quiet_NaN();
   st = inst.UpdateFast(world);
   EXPECT_EQ(st.code, ErrorCode::kInvalidData);

@@ -19,6 +19,8 @@
 #include "skinspheres/lib/sphere_fitter.h"
 #include "test_support.h"
 
+#include "skinspheres/skinning/math_types.h"
+
 namespace skinspheres::test {
 
 struct FittedCharacter {
@@ -67,7 +69,7 @@ inline std::vector<skinning::Transform> RandomLocal(const lib::RawCharacter& c, 
     Eigen::Vector3f axis(u(rng), u(rng), u(rng));
     if (axis.norm() < 1e-3f) axis = Eigen::Vector3f::UnitX();
     const float angle = unit(rng) * max_deg * 3.14159265f / 180.0f;
-    t.rotation = (t.rotation * Eigen::Quaternionf(Eigen::AngleAxisf(angle, axis.normalized()))).normalized();
+    t.rotation = (t.rotation * skinspheres::Quatf(Eigen::AngleAxisf(angle, axis.normalized()))).normalized();
     if (unit(rng) < scale_probability) t.scale = t.scale.cwiseProduct(Eigen::Vector3f(sc(rng), sc(rng), sc(rng)));
   }
   return local;
@@ -76,7 +78,7 @@ inline std::vector<skinning::Transform> RandomLocal(const lib::RawCharacter& c, 
 // A pose: G_j(t) per joint and every vertex skinned by the naive LBS.
 struct Pose {
   std::string label;
-  std::vector<Eigen::Matrix4f> world;
+  std::vector<skinspheres::Mat4f> world;
   std::vector<Eigen::Vector3f> positions;
 };
 

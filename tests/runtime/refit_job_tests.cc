@@ -21,12 +21,12 @@ using test::FittedCharacter;
 using test::Pose;
 
 struct Refits {
-  std::vector<Eigen::Vector4f> exact, exact_box, fast;
+  std::vector<skinspheres::Vec4f> exact, exact_box, fast;
 };
 
 Refits RunAll(const SphereSet& set, const RefitRestData& rest, const Pose& pose) {
   Refits r;
-  r.exact.assign(set.size(), Eigen::Vector4f::Zero());
+  r.exact.assign(set.size(), skinspheres::Vec4f::Zero());
   r.exact_box = r.fast = r.exact;
   RefitJob job;
   job.spheres = &set;
@@ -63,7 +63,7 @@ int CheckPose(const FittedCharacter& fc, const RefitRestData& rest, const Pose& 
   auto fail = [&](const std::string& what) {
     if (++failures <= 5) ADD_FAILURE() << fc.character.source_file << " " << pose.label << ": " << what;
   };
-  auto inside = [&](const Eigen::Vector4f& sph, const Eigen::Vector3f& p) {
+  auto inside = [&](const skinspheres::Vec4f& sph, const Eigen::Vector3f& p) {
     const double d = (p.cast<double>() - sph.head<3>().cast<double>()).norm();
     return d <= sph.w() * (1.0 + 1e-5);
   };
@@ -148,7 +148,7 @@ INSTANTIATE_TEST_SUITE_P(Assets, SharedCharacterRefit, ::testing::ValuesIn(test:
                          });
 
 // One joint, one sphere: analytic answers for rigid motion, uniform and non-uniform scale.
-SphereSet OneJointSet(const Eigen::Matrix4f& rest_world) {
+SphereSet OneJointSet(const skinspheres::Mat4f& rest_world) {
   SphereSet set = TwoSpheres();
   set.joint_rest_world = {rest_world};
   set.radii_fast = {1.5f, 1.0f};
@@ -157,18 +157,18 @@ SphereSet OneJointSet(const Eigen::Matrix4f& rest_world) {
 }
 
 TEST(RefitJobTest, FastModeSingleJointAnalytic) {
-  Eigen::Matrix4f rest_world = Eigen::Matrix4f::Identity();
+  skinspheres::Mat4f rest_world = skinspheres::Mat4f::Identity();
   rest_world.topRightCorner<3, 1>() = Eigen::Vector3f(0.5f, -1.0f, 2.0f);
   const SphereSet set = OneJointSet(rest_world);
   auto rest = RefitRestData::Create(set);
   ASSERT_TRUE(rest.ok()) << rest.error().message;
-  std::vector<Eigen::Vector4f> out(2);
+  std::vector<skinspheres::Vec4f> out(2);
   RefitJob job{RefitMode::kFast, &set, &*rest, {}, {}, out};
 
   Eigen::Affine3f motion = Eigen::Translation3f(3, 4, 5) * Eigen::AngleAxisf(0.7f, Eigen::Vector3f(1, 2, 3).normalized());
-  auto expect = [&](const Eigen::Matrix4f& t, float s_max, const char* what) {
-    const Eigen::Matrix4f g = t * rest_world;  // G(t) = T · G(rest)
-    job.joint_world = std::span<const Eigen::Matrix4f>(&g, 1);
+  auto expect = [&](const skinspheres::Mat4f& t, float s_max, const char* what) {
+    const skinspheres::Mat4f g = t * rest_world;  // G(t) = T · G(rest)
+    job.joint_world = std::span<const skinspheres::Mat4f>(&g, 1);
     ASSERT_TRUE(job.Run()) << what;
     for (int s = 0; s < 2; ++s) {
       const Eigen::Vector3f c = (t * set.centers_rest[s].homogeneous()).head<3>();
@@ -180,7 +180,7 @@ TEST(RefitJobTest, FastModeSingleJointAnalytic) {
   expect((motion * Eigen::Scaling(2.0f)).matrix(), 2.0f, "uniform scale");
   // Non-uniform diag(3, 1, 1), unrotated so the bound is exact: AᵀA = diag(9, 1, 1), largest row
   // sum 9, s_max = 3.
-  expect(Eigen::Matrix4f(Eigen::Affine3f(Eigen::Translation3f(1, 0, 0) * Eigen::Scaling(Eigen::Vector3f(3, 1, 1))).matrix()),
+  expect(skinspheres::Mat4f(Eigen::Affine3f(Eigen::Translation3f(1, 0, 0) * Eigen::Scaling(Eigen::Vector3f(3, 1, 1))).matrix()),
          3.0f, "non-uniform scale");
 }
 
@@ -190,15 +190,15 @@ TEST(RefitJobTest, TwoJointSpreadTermIsAdded) {
   SphereSet set = TwoSpheres();
   set.joint_names = {"a", "b"};
   set.joint_parents = {-1, 0};
-  set.joint_rest_world = {Eigen::Matrix4f::Identity(), Eigen::Matrix4f::Identity()};
+  set.joint_rest_world = {skinspheres::Mat4f::Identity(), skinspheres::Mat4f::Identity()};
   set.influence_offsets = {0, 2, 3};
   set.influence_joints = {0, 1, 0};
   set.influence_weights = {0.5f, 0.5f, 1.0f};
   auto rest = RefitRestData::Create(set);
   ASSERT_TRUE(rest.ok()) << rest.error().message;
-  std::vector<Eigen::Matrix4f> world(2, Eigen::Matrix4f::Identity());
+  std::vector<skinspheres::Mat4f> world(2, skinspheres::Mat4f::Identity());
   world[1](0, 3) = 2.0f;
-  std::vector<Eigen::Vector4f> out(2);
+  std::vector<skinspheres::Vec4f> out(2);
   RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
   ASSERT_TRUE(job.Run());
   EXPECT_NEAR(out[0].x(), 1.0f, 1e-6f);
@@ -213,7 +213,7 @@ TEST(RefitJobTest, SameOutputForOneAndTwoThreads) {
   std::mt19937 rng(7);
   const Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, 0.3f), "random");
   for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
-    std::vector<Eigen::Vector4f> serial(fc->set.size()), one(fc->set.size()), two(fc->set.size());
+    std::vector<skinspheres::Vec4f> serial(fc->set.size()), one(fc->set.size()), two(fc->set.size());
     RefitJob job{mode, &fc->set, &*rest, pose.world, pose.positions, serial};
     ASSERT_TRUE(job.Run());
     job.out = one;
@@ -221,7 +221,7 @@ TEST(RefitJobTest, SameOutputForOneAndTwoThreads) {
     job.out = two;
     tbb::task_arena(2).execute([&] { EXPECT_TRUE(RefitParallel(job, 1)); });
     // Split by hand too: any range split gives the same bits.
-    std::vector<Eigen::Vector4f> split(fc->set.size());
+    std::vector<skinspheres::Vec4f> split(fc->set.size());
     job.out = split;
     for (size_t b = 0; b < fc->set.size(); b += 7) EXPECT_TRUE(job.RunRange(b, std::min(b + 7, fc->set.size())));
     for (size_t s = 0; s < fc->set.size(); ++s) {
@@ -238,9 +238,9 @@ TEST(RefitJobTest, ValidateRefusesBadJobs) {
   const SphereSet set = TwoSpheres();
   auto rest = RefitRestData::Create(set);
   ASSERT_TRUE(rest.ok());
-  std::vector<Eigen::Matrix4f> world(1, Eigen::Matrix4f::Identity());
+  std::vector<skinspheres::Mat4f> world(1, skinspheres::Mat4f::Identity());
   std::vector<Eigen::Vector3f> pos(4, Eigen::Vector3f::Zero());
-  std::vector<Eigen::Vector4f> out(2);
+  std::vector<skinspheres::Vec4f> out(2);
   const RefitJob good_fast{RefitMode::kFast, &set, &*rest, world, {}, out};
   const RefitJob good_exact{RefitMode::kExact, &set, &*rest, world, pos, out};
   EXPECT_TRUE(good_fast.Validate());
@@ -259,7 +259,7 @@ TEST(RefitJobTest, ValidateRefusesBadJobs) {
   j.joint_world = {};
   EXPECT_FALSE(j.Validate()) << "fast mode needs joints";
   j = good_fast;
-  j.out = std::span<Eigen::Vector4f>(out).first(1);
+  j.out = std::span<skinspheres::Vec4f>(out).first(1);
   EXPECT_FALSE(j.Validate()) << "short output";
   j = good_exact;
   j.positions = std::span<const Eigen::Vector3f>(pos).first(3);
@@ -283,7 +283,7 @@ TEST(RefitJobTest, ValidateRefusesBadJobs) {
   ASSERT_FALSE(other.Validate().has_value()) << other.Validate()->message;
   j = good_fast;
   j.spheres = &other;
-  std::vector<Eigen::Vector4f> out3(3);
+  std::vector<skinspheres::Vec4f> out3(3);
   j.out = out3;
   EXPECT_FALSE(j.Validate()) << "rest data from another set";
   // Ranges.
@@ -299,7 +299,7 @@ TEST(RefitJobTest, ValidateRefusesBadJobs) {
   EXPECT_NE(r.error().message.find("broken.json"), std::string::npos) << r.error().message;
   bad = TwoSpheres();
   bad.source_file = "singular.json";
-  bad.joint_rest_world[0] = Eigen::Matrix4f::Zero();
+  bad.joint_rest_world[0] = skinspheres::Mat4f::Zero();
   bad.joint_rest_world[0](3, 3) = 1;
   r = RefitRestData::Create(bad);
   ASSERT_FALSE(r.ok());
@@ -311,9 +311,9 @@ TEST(RefitJobTest, NonFiniteInputFailsWithoutCrashing) {
   auto rest = RefitRestData::Create(set);
   ASSERT_TRUE(rest.ok());
   const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
-  std::vector<Eigen::Vector4f> out(2);
+  std::vector<skinspheres::Vec4f> out(2);
   for (float bad : {nan, inf}) {
-    std::vector<Eigen::Matrix4f> world(1, Eigen::Matrix4f::Identity());
+    std::vector<skinspheres::Mat4f> world(1, skinspheres::Mat4f::Identity());
     std::vector<Eigen::Vector3f> pos(4, Eigen::Vector3f::Ones());
     RefitJob fast{RefitMode::kFast, &set, &*rest, world, {}, out};
     RefitJob exact{RefitMode::kExact, &set, &*rest, world, pos, out};
@@ -324,11 +324,11 @@ TEST(RefitJobTest, NonFiniteInputFailsWithoutCrashing) {
     world[0](1, 1) = bad;  // linear part only: centre may stay finite, the scale bound may not
     EXPECT_FALSE(fast.Run());
     EXPECT_FALSE(RefitParallel(fast, 1));
-    world[0] = Eigen::Matrix4f::Identity();
+    world[0] = skinspheres::Mat4f::Identity();
     world[0](0, 3) = bad;
     EXPECT_FALSE(fast.Run());
     EXPECT_FALSE(exact.Run());
-    world[0] = Eigen::Matrix4f::Identity();
+    world[0] = skinspheres::Mat4f::Identity();
     pos[3].y() = bad;  // a vertex of the second sphere only (vertex 3)
     EXPECT_FALSE(exact.Run());
     EXPECT_FALSE(box.Run());

@@ -11,7 +11,7 @@ inline SphereSet TwoSpheres() {
   set.source_triangle_count = 2;
   set.joint_names = {"root"};
   set.joint_parents = {-1};
-  set.joint_rest_world = {Eigen::Matrix4f::Identity()};
+  set.joint_rest_world = {skinspheres::Mat4f::Identity()};
   set.parts = {{"torso", {0}}};
   set.centers_rest = {Eigen::Vector3f(0, 0, 0), Eigen::Vector3f(1, 0, 0)};
   set.radii_rest = {1.0f, 1.0f};

@@ -75,4 +75,10 @@ add_test(NAME package.find_package_consumer
   COMMAND ${CMAKE_COMMAND} -DBUILD=${PROJECT_BINARY_DIR} -DSOURCE=${CMAKE_CURRENT_SOURCE_DIR}/install_consumer
           -DDIR=${PROJECT_BINARY_DIR}/test_tmp/install_consumer -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/install_consumer.cmake)
 set_tests_properties(package.find_package_consumer PROPERTIES TIMEOUT 300)
+# The same package, consumed by programs built for AVX2 and for this machine: same layouts, same
+# results, no crash.
+add_test(NAME package.abi_consumers
+  COMMAND ${CMAKE_COMMAND} -DBUILD=${PROJECT_BINARY_DIR} -DSOURCE=${CMAKE_CURRENT_SOURCE_DIR}/abi_consumer
+          -DDIR=${PROJECT_BINARY_DIR}/test_tmp/abi_consumers -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/abi_consumers.cmake)
+set_tests_properties(package.abi_consumers PROPERTIES TIMEOUT 900)
 endif()

@@ -21,16 +21,16 @@ Skeleton RandomSkeleton(size_t n, uint32_t seed) {
     s.parents.push_back(i == 0 || rng() % 9 == 0 ? -1 : static_cast<int32_t>(rng() % i));
     Transform t;
     t.translation = Eigen::Vector3f(u(rng), u(rng), u(rng));
-    t.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(3 * u(rng), Eigen::Vector3f(u(rng), u(rng), 2).normalized()));
+    t.rotation = skinspheres::Quatf(Eigen::AngleAxisf(3 * u(rng), Eigen::Vector3f(u(rng), u(rng), 2).normalized()));
     t.scale = Eigen::Vector3f(1 + 0.2f * u(rng), 1 + 0.2f * u(rng), 1 + 0.2f * u(rng));
     s.rest_local.push_back(t);
   }
   return s;
 }
 
-Eigen::Matrix4f NaiveWorld(const Skeleton& s, std::span<const Transform> locals, const Eigen::Matrix4f& root, int i) {
-  const Eigen::Matrix4f l = locals[i].ToMatrix();
-  return s.parents[i] < 0 ? Eigen::Matrix4f(root * l) : Eigen::Matrix4f(NaiveWorld(s, locals, root, s.parents[i]) * l);
+skinspheres::Mat4f NaiveWorld(const Skeleton& s, std::span<const Transform> locals, const skinspheres::Mat4f& root, int i) {
+  const skinspheres::Mat4f l = locals[i].ToMatrix();
+  return s.parents[i] < 0 ? skinspheres::Mat4f(root * l) : skinspheres::Mat4f(NaiveWorld(s, locals, root, s.parents[i]) * l);
 }
 
 TEST(LocalToModelJob, MatchesNaiveRecursiveProduct) {
@@ -38,10 +38,10 @@ TEST(LocalToModelJob, MatchesNaiveRecursiveProduct) {
   std::mt19937 rng(8);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   std::vector<Transform> pose = s.rest_local;
-  for (Transform& t : pose) t.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(u(rng), Eigen::Vector3f::UnitY())) * t.rotation;
-  Eigen::Matrix4f root = Eigen::Matrix4f::Identity();
+  for (Transform& t : pose) t.rotation = skinspheres::Quatf(Eigen::AngleAxisf(u(rng), Eigen::Vector3f::UnitY())) * t.rotation;
+  skinspheres::Mat4f root = skinspheres::Mat4f::Identity();
   root.topRightCorner<3, 1>() = Eigen::Vector3f(10, 0, -5);
-  std::vector<Eigen::Matrix4f> out(s.size());
+  std::vector<skinspheres::Mat4f> out(s.size());
   LocalToModelJob job;
   job.skeleton = &s;
   job.root = root;
@@ -49,14 +49,14 @@ TEST(LocalToModelJob, MatchesNaiveRecursiveProduct) {
   job.output = out;
   ASSERT_TRUE(job.Run());
   for (size_t i = 0; i < s.size(); ++i) {
-    const Eigen::Matrix4f expected = NaiveWorld(s, pose, root, static_cast<int>(i));
+    const skinspheres::Mat4f expected = NaiveWorld(s, pose, root, static_cast<int>(i));
     EXPECT_LT((out[i] - expected).cwiseAbs().maxCoeff(), 1e-4f) << "joint " << i;
   }
 }
 
 TEST(LocalToModelJob, RestPoseMatchesRestWorld) {
   const Skeleton s = RandomSkeleton(25, 5);
-  std::vector<Eigen::Matrix4f> rest(s.size()), out(s.size());
+  std::vector<skinspheres::Mat4f> rest(s.size()), out(s.size());
   s.RestWorld(rest);
   LocalToModelJob job;
   job.skeleton = &s;
@@ -69,14 +69,14 @@ TEST(LocalToModelJob, RestPoseMatchesRestWorld) {
 TEST(LocalToModelJob, RefusesBadJobs) {
   EXPECT_FALSE(LocalToModelJob().Validate());
   Skeleton s = RandomSkeleton(5, 1);
-  std::vector<Eigen::Matrix4f> out(5);
+  std::vector<skinspheres::Mat4f> out(5);
   LocalToModelJob job;
   job.skeleton = &s;
   job.input = s.rest_local;
   job.output = out;
   EXPECT_TRUE(job.Validate());
   LocalToModelJob j = job;
-  j.output = std::span<Eigen::Matrix4f>(out).first(4);
+  j.output = std::span<skinspheres::Mat4f>(out).first(4);
   EXPECT_FALSE(j.Run());
   j = job;
   j.input = std::span<const Transform>(s.rest_local).first(4);

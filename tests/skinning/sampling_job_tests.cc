@@ -18,7 +18,7 @@ Skeleton ThreeJoints() {
   s.rest_local.resize(3);
   for (int i = 0; i < 3; ++i) {
     s.rest_local[i].translation = Eigen::Vector3f(1.0f * i, 2.0f, 3.0f);
-    s.rest_local[i].rotation = Eigen::Quaternionf(Eigen::AngleAxisf(0.1f * (i + 1), Eigen::Vector3f::UnitX()));
+    s.rest_local[i].rotation = skinspheres::Quatf(Eigen::AngleAxisf(0.1f * (i + 1), Eigen::Vector3f::UnitX()));
     s.rest_local[i].scale = Eigen::Vector3f(1.0f, 1.0f + i, 1.0f);
   }
   return s;
@@ -35,7 +35,7 @@ struct Sampler {
   }
 };
 
-float AngleBetween(const Eigen::Quaternionf& a, const Eigen::Quaternionf& b) { return a.angularDistance(b); }
+float AngleBetween(const skinspheres::Quatf& a, const skinspheres::Quatf& b) { return a.angularDistance(b); }
 
 TEST(SamplingJob, StepHoldsKeys) {
   Sampler s;
@@ -79,13 +79,13 @@ TEST(SamplingJob, LinearRotationSlerpsShortestArc) {
   JointTrack t;
   t.joint = 0;
   t.rotation.times_s = {0.0f, 1.0f};
-  const Eigen::Quaternionf q0 = Eigen::Quaternionf::Identity();
-  const Eigen::Quaternionf q1(Eigen::AngleAxisf(1.2f, Eigen::Vector3f(1, 2, 3).normalized()));
-  t.rotation.values = {q0, Eigen::Quaternionf(-q1.coeffs())};  // same rotation, opposite sign
+  const skinspheres::Quatf q0 = skinspheres::Quatf::Identity();
+  const skinspheres::Quatf q1(Eigen::AngleAxisf(1.2f, Eigen::Vector3f(1, 2, 3).normalized()));
+  t.rotation.values = {q0, skinspheres::Quatf(-q1.coeffs())};  // same rotation, opposite sign
   s.clip.tracks.push_back(t);
   for (float u : {0.0f, 0.25f, 0.5f, 0.9f, 1.0f}) {
-    const Eigen::Quaternionf expected(Eigen::AngleAxisf(1.2f * u, Eigen::Vector3f(1, 2, 3).normalized()));
-    const Eigen::Quaternionf got = s.At(u, 0).rotation;
+    const skinspheres::Quatf expected(Eigen::AngleAxisf(1.2f * u, Eigen::Vector3f(1, 2, 3).normalized()));
+    const skinspheres::Quatf got = s.At(u, 0).rotation;
     EXPECT_NEAR(got.norm(), 1.0f, 1e-6f);
     EXPECT_LT(AngleBetween(got, expected), 1e-5f) << "u = " << u;
   }
@@ -137,14 +137,14 @@ TEST(SamplingJob, CubicSplineRotationIsNormalised) {
   t.joint = 1;
   t.rotation.interpolation = Interpolation::kCubicSpline;
   t.rotation.times_s = {0.0f, 1.0f};
-  const Eigen::Quaternionf zero(0, 0, 0, 0);
-  const Eigen::Quaternionf q1(Eigen::AngleAxisf(1.5f, Eigen::Vector3f::UnitZ()));
-  t.rotation.values = {zero, Eigen::Quaternionf::Identity(), zero, zero, q1, zero};
+  const skinspheres::Quatf zero(0, 0, 0, 0);
+  const skinspheres::Quatf q1(Eigen::AngleAxisf(1.5f, Eigen::Vector3f::UnitZ()));
+  t.rotation.values = {zero, skinspheres::Quatf::Identity(), zero, zero, q1, zero};
   s.clip.tracks.push_back(t);
-  const Eigen::Quaternionf mid = s.At(0.5f).rotation;
+  const skinspheres::Quatf mid = s.At(0.5f).rotation;
   EXPECT_NEAR(mid.norm(), 1.0f, 1e-6f);
   // Zero tangents: equal blend of two unit quaternions, renormalised = the half-angle rotation.
-  EXPECT_LT(AngleBetween(mid, Eigen::Quaternionf(Eigen::AngleAxisf(0.75f, Eigen::Vector3f::UnitZ()))), 1e-5f);
+  EXPECT_LT(AngleBetween(mid, skinspheres::Quatf(Eigen::AngleAxisf(0.75f, Eigen::Vector3f::UnitZ()))), 1e-5f);
 }
 
 TEST(SamplingJob, SingleKeyIsConstantAndUntouchedJointsKeepRest) {
@@ -231,7 +231,7 @@ TEST(SamplingJob, ValidateClipExplainsProblems) {
   JointTrack t;
   t.joint = 0;
   t.rotation.times_s = {0.0f, 0.5f, 0.5f};
-  t.rotation.values.assign(3, Eigen::Quaternionf::Identity());
+  t.rotation.values.assign(3, skinspheres::Quatf::Identity());
   clip.tracks.push_back(t);
   std::string error;
   EXPECT_FALSE(ValidateClip(clip, skeleton, &error));

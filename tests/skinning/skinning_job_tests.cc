@@ -76,7 +76,7 @@ TEST(SkinningJob, RigidTransformIsExactForAnyWeights) {
   // All matrices equal T: p' = Σ w_k T p = T p when Σ w_k = 1 (analytic, independent of the reference).
   SyntheticMesh m = MakeSyntheticMesh(500, 12, 1, 8, 1);
   std::mt19937 rng(5);
-  const Eigen::Matrix4f t = test::RandomAffine(rng, false);
+  const skinspheres::Mat4f t = test::RandomAffine(rng, false);
   std::fill(m.matrices.begin(), m.matrices.end(), t);
   for (SimdLevel level : SupportedLevels()) {
     std::vector<float> out(m.positions.size(), 0.0f);
@@ -84,7 +84,7 @@ TEST(SkinningJob, RigidTransformIsExactForAnyWeights) {
     job.simd = level;
     ASSERT_TRUE(job.Run()) << SimdLevelName(level);
     for (size_t v = 0; v < m.vertex_count; ++v) {
-      const Eigen::Vector4f p = t * Eigen::Vector4f(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2], 1);
+      const skinspheres::Vec4f p = t * skinspheres::Vec4f(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2], 1);
       for (int c = 0; c < 3; ++c) ASSERT_NEAR(out[3 * v + c], p[c], 1e-5f) << SimdLevelName(level) << " vertex " << v;
     }
   }
@@ -297,7 +297,7 @@ TEST_F(SkinningJobValidate, RefusesBadInfluences) {
   j.influence_weights = std::span<const float>(m.weights).first(m.weights.size() - 1);
   ExpectRefused(j, "weights shorter than the last offset");
   j = Good();
-  j.joint_matrices = std::span<const Eigen::Matrix4f>(m.matrices).first(m.matrices.size() - 1);
+  j.joint_matrices = std::span<const skinspheres::Mat4f>(m.matrices).first(m.matrices.size() - 1);
   const uint16_t max_bind = *std::max_element(m.binds.begin(), m.binds.end());
   ASSERT_EQ(max_bind, m.matrices.size() - 1);
   ExpectRefused(j, "bind index past the matrices");
@@ -337,7 +337,7 @@ TEST_F(SkinningJobValidate, RefusesBadPreparedJobs) {
   j.influence_weights = {};
   EXPECT_TRUE(j.Validate());
   SkinningJob k = j;
-  k.joint_matrices = std::span<const Eigen::Matrix4f>(m.matrices).first(m.matrices.size() - 1);
+  k.joint_matrices = std::span<const skinspheres::Mat4f>(m.matrices).first(m.matrices.size() - 1);
   ExpectRefused(k, "prepared needs more matrices");
   k = j;
   k.vertex_count = m.vertex_count - 1;

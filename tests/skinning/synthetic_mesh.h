@@ -7,6 +7,8 @@
 #include <random>
 #include <vector>
 
+#include "skinspheres/skinning/math_types.h"
+
 namespace skinspheres::test {
 
 struct SyntheticMesh {
@@ -15,10 +17,10 @@ struct SyntheticMesh {
   std::vector<uint32_t> offsets;
   std::vector<uint16_t> binds;
   std::vector<float> weights;
-  std::vector<Eigen::Matrix4f> matrices;
+  std::vector<skinspheres::Mat4f> matrices;
 };
 
-inline Eigen::Matrix4f RandomAffine(std::mt19937& rng, bool with_scale = true) {
+inline skinspheres::Mat4f RandomAffine(std::mt19937& rng, bool with_scale = true) {
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   const Eigen::Vector3f axis = Eigen::Vector3f(u(rng), u(rng), u(rng) + 2.5f).normalized();
   Eigen::Affine3f a = Eigen::Translation3f(2 * u(rng), 2 * u(rng), 2 * u(rng)) * Eigen::AngleAxisf(3.0f * u(rng), axis);

@@ -34,6 +34,7 @@
 #include <string>
 #include <vector>
 
+#include "skinspheres/skinning/math_types.h"
 #include "skinspheres/lib/raw_character.h"
 #include "skinspheres/runtime/error.h"
 
@@ -43,7 +44,7 @@ inline constexpr float kStepBakeEpsilon_s = 1e-4f;
 inline constexpr int kCubicBakeSubdivisions = 8;
 
 struct AnimatedSphere {
-  std::vector<Eigen::Vector4f> per_frame_xyzr;  // world centre and radius, one per frame time
+  std::vector<Vec4f> per_frame_xyzr;  // world centre and radius, one per frame time
 };
 
 struct GlbExtras {

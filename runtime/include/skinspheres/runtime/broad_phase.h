@@ -30,6 +30,7 @@
 #include <span>
 #include <vector>
 
+#include "skinspheres/skinning/math_types.h"
 #include "skinspheres/runtime/pair_filter.h"
 
 namespace skinspheres::runtime {
@@ -91,7 +92,7 @@ class BroadPhaseContext {
 };
 
 struct SelfCollisionJob {
-  std::span<const Eigen::Vector4f> spheres;  // xyz centre, w radius (>= 0); size == filter->size()
+  std::span<const Vec4f> spheres;  // xyz centre, w radius (>= 0); size == filter->size()
   const PairFilter* filter = nullptr;
   BroadPhaseContext* context = nullptr;      // max_spheres() >= spheres.size()
   std::vector<Contact>* out = nullptr;       // cleared, then filled, sorted by (i, j)
@@ -114,7 +115,7 @@ bool RunSelfCollisionJobs(std::span<const SelfCollisionJob> jobs);
 // The obvious O(n^2) loop over i < j: the test oracle and the benchmark baseline. Same rules and
 // arithmetic as the fast path; out cleared then filled in (i, j) order. False (out cleared) when
 // spheres.size() != filter.size() or a value is not finite or a radius negative.
-bool SelfCollisionAllPairs(std::span<const Eigen::Vector4f> spheres, const PairFilter& filter,
+bool SelfCollisionAllPairs(std::span<const Vec4f> spheres, const PairFilter& filter,
                            std::vector<Contact>* out);
 
 }  // namespace skinspheres::runtime

@@ -31,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include "skinspheres/skinning/math_types.h"
 #include "skinspheres/runtime/broad_phase.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/runtime/pair_filter.h"
@@ -77,13 +78,13 @@ class CharacterInstance {
   static Result<CharacterInstance> Create(std::shared_ptr<const CharacterAsset> asset);
 
   // Fast refit from G_j(t), one world matrix per skeleton joint (>= asset joint_count()).
-  FrameStatus UpdateFast(std::span<const Eigen::Matrix4f> joint_world);
+  FrameStatus UpdateFast(std::span<const Mat4f> joint_world);
   // Exact refit from skinned positions indexed by source vertex (>= source_vertex_count()), with
   // G_j(t) for the centres (may be empty: box-centre fallback, see refit_job.h).
   FrameStatus UpdateExact(std::span<const Eigen::Vector3f> skinned_positions,
-                          std::span<const Eigen::Matrix4f> joint_world);
+                          std::span<const Mat4f> joint_world);
   // Either of the above by mode (positions ignored in fast mode).
-  FrameStatus Update(RefitMode mode, std::span<const Eigen::Matrix4f> joint_world,
+  FrameStatus Update(RefitMode mode, std::span<const Mat4f> joint_world,
                      std::span<const Eigen::Vector3f> skinned_positions);
 
   // Self-collision contacts of the current spheres (broad_phase.h: pairs i < j sorted, depth,
@@ -94,7 +95,7 @@ class CharacterInstance {
 
   // The refitted spheres (xyz centre, w radius), one per asset sphere; meaningful when
   // spheres_valid().
-  std::span<const Eigen::Vector4f> spheres() const { return spheres_; }
+  std::span<const Vec4f> spheres() const { return spheres_; }
   bool spheres_valid() const { return valid_; }
   // Outcome of the last Update*/Query call.
   FrameStatus status() const { return status_; }
@@ -106,7 +107,7 @@ class CharacterInstance {
  private:
   CharacterInstance() = default;
   std::shared_ptr<const CharacterAsset> asset_;
-  std::vector<Eigen::Vector4f> spheres_;
+  std::vector<Vec4f> spheres_;
   BroadPhaseContext context_;
   std::vector<Contact> contacts_;
   bool valid_ = false;
@@ -115,7 +116,7 @@ class CharacterInstance {
 
 // One frame's input for one instance (see CharacterInstance::Update).
 struct CharacterFrameInput {
-  std::span<const Eigen::Matrix4f> joint_world;
+  std::span<const Mat4f> joint_world;
   std::span<const Eigen::Vector3f> skinned_positions;  // exact mode only
 };
 

@@ -1,5 +1,5 @@
 // RefitJob: the per-frame sphere refit. SphereSet (rest pose) + this frame's pose -> one bounding
-// sphere per fitted sphere, written as Eigen::Vector4f (xyz centre, w radius), ready for the broad
+// sphere per fitted sphere, written as Vec4f (xyz centre, w radius), ready for the broad
 // phase (broad_phase.h). Both modes are CONSERVATIVE: every vertex of every triangle a sphere owns
 // (sphere_set.h, `triangles`) is inside the refitted sphere, for any pose linear blend skinning
 // can produce from the given joint transforms.
@@ -67,6 +67,7 @@
 #include <span>
 #include <vector>
 
+#include "skinspheres/skinning/math_types.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/runtime/sphere_set.h"
 
@@ -116,11 +117,11 @@ struct RefitJob {
                                           // without joint_world
   // G_j(t) per skeleton joint, >= spheres->joint_count(). Required in fast mode; optional in exact
   // mode (empty: box-centre fallback). Affine; the last row is ignored.
-  std::span<const Eigen::Matrix4f> joint_world;
+  std::span<const Mat4f> joint_world;
   // Exact mode: skinned positions indexed by source vertex, >= spheres->source_vertex_count.
   // Only the spheres' source vertices are read. Ignored (may be empty) in fast mode.
   std::span<const Eigen::Vector3f> positions;
-  std::span<Eigen::Vector4f> out;         // >= spheres->size(): xyz centre, w radius
+  std::span<Vec4f> out;         // >= spheres->size(): xyz centre, w radius
 
   // Every reason the job is refused: null pointers, short spans, rest data from another set.
   bool Validate() const;

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "skinspheres/skinning/math_types.h"
 #include "skinspheres/runtime/error.h"
 
 namespace skinspheres::runtime {
@@ -58,7 +59,7 @@ struct SphereSet {
   // The skeleton it was fitted on (for matching an instance's joints, and for fast refit).
   std::vector<std::string> joint_names;
   std::vector<int32_t> joint_parents;              // -1 for roots, parents[i] < i
-  std::vector<Eigen::Matrix4f> joint_rest_world;   // G_j at rest
+  std::vector<Mat4f> joint_rest_world;   // G_j at rest
 
   std::vector<SpherePart> parts;
 

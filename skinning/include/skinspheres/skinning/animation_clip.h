@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "skinspheres/skinning/math_types.h"
+
 namespace skinspheres::skinning {
 
 enum class Interpolation : uint8_t { kStep, kLinear, kCubicSpline };
@@ -25,7 +27,7 @@ struct Track {
 struct JointTrack {
   int32_t joint = -1;  // index into the Skeleton
   Track<Eigen::Vector3f> translation;
-  Track<Eigen::Quaternionf> rotation;
+  Track<Quatf> rotation;
   Track<Eigen::Vector3f> scale;
 };
 

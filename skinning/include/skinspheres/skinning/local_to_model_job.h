@@ -10,15 +10,16 @@
 #include <Eigen/Core>
 #include <span>
 
+#include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/skeleton.h"
 
 namespace skinspheres::skinning {
 
 struct LocalToModelJob {
   const Skeleton* skeleton = nullptr;
-  Eigen::Matrix4f root = Eigen::Matrix4f::Identity();  // applied to every root joint
+  Mat4f root = Mat4f::Identity();  // applied to every root joint
   std::span<const Transform> input;                   // >= skeleton->size(), joint-local TRS
-  std::span<Eigen::Matrix4f> output;                  // >= skeleton->size(), model space
+  std::span<Mat4f> output;                  // >= skeleton->size(), model space
 
   bool Validate() const;
   bool Run() const;

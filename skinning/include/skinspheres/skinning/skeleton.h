@@ -12,18 +12,20 @@
 #include <string>
 #include <vector>
 
+#include "skinspheres/skinning/math_types.h"
+
 namespace skinspheres::skinning {
 
 // A decomposed local transform: M = T * R * S (glTF's node TRS order).
 struct Transform {
   Eigen::Vector3f translation = Eigen::Vector3f::Zero();
-  Eigen::Quaternionf rotation = Eigen::Quaternionf::Identity();
+  Quatf rotation = Quatf::Identity();
   Eigen::Vector3f scale = Eigen::Vector3f::Ones();
 
-  Eigen::Matrix4f ToMatrix() const;
+  Mat4f ToMatrix() const;
   // Decomposes an affine matrix (no shear expected; shear is folded into the scale/rotation
   // by a polar decomposition).
-  static Transform FromMatrix(const Eigen::Matrix4f& m);
+  static Transform FromMatrix(const Mat4f& m);
 };
 
 struct Skeleton {
@@ -37,7 +39,7 @@ struct Skeleton {
   // True when the arrays agree in size and parents are ordered (parents[i] < i).
   bool Validate() const;
   // World (model) transforms of the rest pose: out.size() >= size().
-  void RestWorld(std::span<Eigen::Matrix4f> out) const;
+  void RestWorld(std::span<Mat4f> out) const;
 };
 
 }  // namespace skinspheres::skinning

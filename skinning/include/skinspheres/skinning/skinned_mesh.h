@@ -11,11 +11,13 @@
 #include <cstdint>
 #include <vector>
 
+#include "skinspheres/skinning/math_types.h"
+
 namespace skinspheres::skinning {
 
 struct BindEntry {
   int32_t joint = -1;                                        // Skeleton joint index
-  Eigen::Matrix4f inverse_bind = Eigen::Matrix4f::Identity();
+  Mat4f inverse_bind = Mat4f::Identity();
 };
 
 struct SkinnedMesh {

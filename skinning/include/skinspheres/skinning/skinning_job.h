@@ -33,6 +33,7 @@
 #include <cstdint>
 #include <span>
 
+#include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/prepared_influences.h"
 
 namespace skinspheres::skinning {
@@ -46,7 +47,7 @@ SimdLevel ResolveSimdLevel(SimdLevel level);
 const char* SimdLevelName(SimdLevel level);
 
 struct SkinningJob {
-  std::span<const Eigen::Matrix4f> joint_matrices;  // M_b per bind entry, > every bind index used
+  std::span<const Mat4f> joint_matrices;  // M_b per bind entry, > every bind index used
 
   size_t vertex_count = 0;                          // vertices addressable in the buffers
   std::span<const float> in_positions;              // see the size rule above

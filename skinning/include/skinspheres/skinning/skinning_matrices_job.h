@@ -10,14 +10,15 @@
 #include <Eigen/Core>
 #include <span>
 
+#include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/skinned_mesh.h"
 
 namespace skinspheres::skinning {
 
 struct SkinningMatricesJob {
   std::span<const BindEntry> binds;               // e.g. SkinnedMesh::binds
-  std::span<const Eigen::Matrix4f> joint_model;   // G_j per skeleton joint
-  std::span<Eigen::Matrix4f> output;              // >= binds.size(): M_b
+  std::span<const Mat4f> joint_model;   // G_j per skeleton joint
+  std::span<Mat4f> output;              // >= binds.size(): M_b
 
   bool Validate() const;
   bool Run() const;

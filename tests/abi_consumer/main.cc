@@ -1,0 +1,175 @@
+// Runs one frame of every public job through the installed package and prints what the library
+// computed, plus the size of every public struct as this program sees it. Built once with the
+// library's own flags and again with wider ones (-mavx2 -mfma, -march=native): the outputs must be
+// identical, and nothing may crash. Before the public math types were made layout-stable
+// (skinning/math_types.h) the -mavx2 build crashed in LocalToModelJob::Run.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <span>
+#include <vector>
+
+#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/runtime/broad_phase.h"
+#include "skinspheres/runtime/character.h"
+#include "skinspheres/runtime/refit_job.h"
+#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/skinning/local_to_model_job.h"
+#include "skinspheres/skinning/prepared_influences.h"
+#include "skinspheres/skinning/sampling_job.h"
+#include "skinspheres/skinning/skinning_job.h"
+#include "skinspheres/skinning/skinning_matrices_job.h"
+
+using namespace skinspheres;
+
+namespace {
+
+int failures = 0;
+void Check(bool ok, const char* what) {
+  std::printf("%s: %s\n", what, ok ? "ok" : "FAILED");
+  if (!ok) ++failures;
+}
+
+std::span<const float> Floats(const std::vector<Eigen::Vector3f>& v) { return {v.data()->data(), 3 * v.size()}; }
+std::span<float> Floats(std::vector<Eigen::Vector3f>& v) { return {v.data()->data(), 3 * v.size()}; }
+
+void PrintContacts(const char* what, std::span<const runtime::Contact> contacts) {
+  std::printf("%s: %zu contacts", what, contacts.size());
+  for (const runtime::Contact& c : contacts) std::printf(" %u-%u:%.5f", c.i, c.j, c.depth);
+  std::printf("\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // To stderr, so the compared output stays the same: proof that the flags reached the compiler.
+#if defined(__AVX512F__)
+  std::fprintf(stderr, "consumer instruction set: avx512f\n");
+#elif defined(__AVX2__)
+  std::fprintf(stderr, "consumer instruction set: avx2\n");
+#else
+  std::fprintf(stderr, "consumer instruction set: baseline\n");
+#endif
+  // Layouts as this program sees them (compared across builds by the test script).
+  std::printf("sizeof Transform %zu BindEntry %zu LocalToModelJob %zu SkinningMatricesJob %zu SamplingJob %zu "
+              "SkinningJob %zu RefitJob %zu SelfCollisionJob %zu Contact %zu SphereSet %zu CharacterFrameInput %zu "
+              "FrameStatus %zu JointTrack %zu\n",
+              sizeof(skinning::Transform), sizeof(skinning::BindEntry), sizeof(skinning::LocalToModelJob),
+              sizeof(skinning::SkinningMatricesJob), sizeof(skinning::SamplingJob), sizeof(skinning::SkinningJob),
+              sizeof(runtime::RefitJob), sizeof(runtime::SelfCollisionJob), sizeof(runtime::Contact),
+              sizeof(runtime::SphereSet), sizeof(runtime::CharacterFrameInput), sizeof(runtime::FrameStatus),
+              sizeof(skinning::JointTrack));
+
+  // Offline API: the built-in character, its parts and its fit, saved and loaded back.
+  const lib::RawCharacter ch = lib::MakeBuiltinCharacter();
+  auto parts = lib::SplitBodyParts(ch);
+  if (!parts.ok()) return std::printf("%s\n", parts.error().message.c_str()), 1;
+  auto fit = lib::FitSpheres(ch, *parts, lib::FitSettings{});
+  if (!fit.ok()) return std::printf("%s\n", fit.error().message.c_str()), 1;
+  const std::filesystem::path path = argc > 1 ? argv[1] : "abi_consumer.spheres.json";
+  if (auto err = runtime::SaveSphereSet(fit->spheres, path)) return std::printf("%s\n", err->message.c_str()), 1;
+  auto loaded = runtime::LoadSphereSet(path);
+  if (!loaded.ok()) return std::printf("%s\n", loaded.error().message.c_str()), 1;
+  auto asset = runtime::CharacterAsset::Create(std::move(loaded).value());
+  if (!asset.ok()) return std::printf("%s\n", asset.error().message.c_str()), 1;
+  const runtime::SphereSet& set = (*asset)->sphere_set();
+  std::printf("spheres %zu joints %zu excluded %zu\n", set.size(), set.joint_count(), set.excluded_pairs.size());
+  Check(!(*asset)->Matches(ch.skeleton.joint_names, ch.vertex_count()).has_value(), "asset matches the character");
+
+  // Pose: the "touch" clip with both hands on the chest, the character placed in the world.
+  const skinning::AnimationClip& clip = ch.clips.back();
+  const size_t joints = ch.skeleton.size();
+  std::vector<skinning::Transform> locals(joints);
+  Check(skinning::SamplingJob{&clip, &ch.skeleton, 1.2f, locals}.Run(), "SamplingJob");
+  std::vector<Mat4f> world(joints);
+  skinning::LocalToModelJob l2m;
+  l2m.skeleton = &ch.skeleton;
+  l2m.root(0, 3) = 2.0f;  // a non-identity root exercises the struct's Mat4f member
+  l2m.input = locals;
+  l2m.output = world;
+  Check(l2m.Run(), "LocalToModelJob");
+  std::vector<Mat4f> skin_matrices(ch.skin.binds.size());
+  skinning::SkinningMatricesJob matrices_job;
+  matrices_job.binds = ch.skin.binds;
+  matrices_job.joint_model = world;
+  matrices_job.output = skin_matrices;
+  Check(matrices_job.Run(), "SkinningMatricesJob");
+
+  // Skinning: prepared (SIMD) in parallel, CSR, and the reference loop.
+  const size_t n = ch.vertex_count();
+  std::vector<Eigen::Vector3f> fast(n), csr(n), reference(n);
+  skinning::PreparedInfluences prepared;
+  Check(prepared.Build(n, ch.skin.influence_offsets, ch.skin.influence_binds, ch.skin.influence_weights), "PreparedInfluences");
+  skinning::SkinningJob skin;
+  skin.joint_matrices = skin_matrices;
+  skin.vertex_count = n;
+  skin.in_positions = Floats(ch.skin.positions_bind);
+  skin.out_positions = Floats(fast);
+  skin.prepared = &prepared;
+  Check(skinning::SkinParallel(skin), "SkinningJob prepared, SkinParallel");
+  skinning::SkinningJob skin_csr = skin;
+  skin_csr.prepared = nullptr;
+  skin_csr.influence_offsets = ch.skin.influence_offsets;
+  skin_csr.influence_binds = ch.skin.influence_binds;
+  skin_csr.influence_weights = ch.skin.influence_weights;
+  skin_csr.out_positions = Floats(csr);
+  Check(skin_csr.Run(), "SkinningJob CSR");
+  skin_csr.out_positions = Floats(reference);
+  Check(skinning::SkinReference(skin_csr), "SkinReference");
+  float worst = 0.0f;
+  for (size_t v = 0; v < n; ++v) worst = std::max({worst, (fast[v] - reference[v]).norm(), (csr[v] - reference[v]).norm()});
+  Check(worst < 1e-4f, "skinning paths agree with the reference");
+
+  // Refit, both modes, serial and parallel.
+  std::vector<Vec4f> exact(set.size()), exact_parallel(set.size()), fast_spheres(set.size());
+  runtime::RefitJob refit;
+  refit.mode = runtime::RefitMode::kExact;
+  refit.spheres = &set;
+  refit.rest = &(*asset)->rest();
+  refit.joint_world = world;
+  refit.positions = reference;
+  refit.out = exact;
+  Check(refit.Run(), "RefitJob exact");
+  refit.out = exact_parallel;
+  Check(runtime::RefitParallel(refit), "RefitParallel exact");
+  Check(std::equal(exact.begin(), exact.end(), exact_parallel.begin()), "RefitParallel is bit-identical");
+  refit.mode = runtime::RefitMode::kFast;
+  refit.positions = {};
+  refit.out = fast_spheres;
+  Check(refit.Run(), "RefitJob fast");
+
+  // Broad phase: the job, the crowd runners and the oracle.
+  runtime::BroadPhaseContext context_a(set.size()), context_b(set.size());
+  std::vector<runtime::Contact> out_a, out_b, oracle;
+  runtime::SelfCollisionJob jobs[2];
+  jobs[0] = {exact, &(*asset)->filter(), &context_a, &out_a};
+  jobs[1] = {fast_spheres, &(*asset)->filter(), &context_b, &out_b};
+  Check(jobs[0].Run(), "SelfCollisionJob");
+  Check(runtime::RunSelfCollisionJobs(jobs), "RunSelfCollisionJobs");
+  Check(runtime::RunSelfCollisionJobRange(jobs, 0, 2), "RunSelfCollisionJobRange");
+  Check(runtime::SelfCollisionAllPairs(exact, (*asset)->filter(), &oracle), "SelfCollisionAllPairs");
+  Check(oracle == out_a, "sweep == all pairs");
+  PrintContacts("exact spheres", out_a);
+  PrintContacts("fast spheres", out_b);
+
+  // Engine API: instances, both modes, and the crowd call.
+  auto one = runtime::CharacterInstance::Create(*asset);
+  auto two = runtime::CharacterInstance::Create(*asset);
+  if (!one.ok() || !two.ok()) return std::printf("instance: failed\n"), 1;
+  Check(one->UpdateExact(reference, world).ok(), "CharacterInstance::UpdateExact");
+  Check(std::vector<runtime::Contact>(one->Query().begin(), one->Query().end()) == out_a, "Query == SelfCollisionJob (exact)");
+  Check(one->UpdateFast(world).ok(), "CharacterInstance::UpdateFast");
+  const auto queried = one->Query();
+  Check(std::vector<runtime::Contact>(queried.begin(), queried.end()) == out_b, "Query == SelfCollisionJob (fast)");
+  runtime::CharacterInstance* crowd[2] = {&*one, &*two};
+  const runtime::CharacterFrameInput inputs[2] = {{world, {}}, {world, {}}};
+  Check(runtime::UpdateAndQueryCrowd(crowd, inputs, runtime::RefitMode::kFast).ok(), "UpdateAndQueryCrowd");
+  Check(std::equal(one->contacts().begin(), one->contacts().end(), out_b.begin(), out_b.end()) &&
+            std::equal(two->contacts().begin(), two->contacts().end(), out_b.begin(), out_b.end()),
+        "crowd == single instance");
+  std::printf("%s\n", failures ? "FAILED" : "all jobs ran");
+  return failures ? 1 : 0;
+}
