@@ -59,6 +59,10 @@ FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joi
     status_ = {ErrorCode::kInvalidArgument, "unknown refit mode"};
     return status_;
   }
+  if (mode == RefitMode::kExact && set.fast_only) {
+    status_ = {ErrorCode::kInvalidArgument, "exact mode needs the full sphere set; this one was loaded fast-only"};
+    return status_;
+  }
   if (mode == RefitMode::kFast || !joint_world.empty()) {
     if (joint_world.size() < set.joint_count()) {
       status_ = {ErrorCode::kInvalidArgument, "fewer joint matrices than the asset's joints"};

@@ -161,6 +161,9 @@ std::optional<Error> SphereSet::Validate() const {
       if (q.i > p.i || (q.i == p.i && q.j >= p.j)) return Invalid("excluded pairs are not sorted and unique");
     }
   }
+  if (fast_only && (!vertices.empty() || !triangles.empty() || has_mesh())) {
+    return Invalid("a fast-only set has vertex or triangle lists or a mesh");
+  }
   return ValidateMesh(*this);
 }
 

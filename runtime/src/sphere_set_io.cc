@@ -2,7 +2,8 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
+
+#include "skinspheres/runtime/sphere_set_binary.h"
 
 namespace skinspheres::runtime {
 
@@ -267,6 +268,7 @@ Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& so
     if (auto err = set.Validate()) {
       return MakeError(ErrorCode::kInvalidData, source_name + ": " + err->message);
     }
+    set.loaded_from = source_name;
     return set;
   } catch (const ReadError& e) {
     const bool version = e.what.rfind("version", 0) == 0;
@@ -276,7 +278,21 @@ Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& so
   }
 }
 
-std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path) {
+std::optional<SphereSetFileFormat> SphereSetFormatForPath(const std::filesystem::path& path) {
+  const std::string ext = path.extension().string();
+  if (ext == ".json") return SphereSetFileFormat::kJson;
+  if (ext == ".ssb") return SphereSetFileFormat::kBinary;
+  return std::nullopt;
+}
+
+std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path, SphereSetFileFormat format) {
+  if (format == SphereSetFileFormat::kBinary) return SaveSphereSetBinary(set, path);
+  if (format == SphereSetFileFormat::kBinaryFastOnly) return SaveSphereSetBinary(set, path, SphereSetBinaryContent::kFastOnly);
+  if (set.fast_only) {
+    return MakeError(ErrorCode::kInvalidArgument, path.string() + ": a fast-only sphere set (" +
+                                                      (set.loaded_from.empty() ? "no vertex lists" : set.loaded_from) +
+                                                      ") cannot be written as JSON, which holds the whole set");
+  }
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": cannot open for writing");
   out << WriteSphereSetJson(set) << '\n';
@@ -285,16 +301,19 @@ std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::
   return std::nullopt;
 }
 
+std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path) {
+  return SaveSphereSet(set, path, SphereSetFormatForPath(path).value_or(SphereSetFileFormat::kJson));
+}
+
+Result<SphereSet> ReadSphereSet(std::span<const std::byte> bytes, const std::string& source_name) {
+  if (IsSphereSetBinary(bytes)) return ReadSphereSetBinary(bytes, source_name);
+  return ReadSphereSetJson(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), source_name);
+}
+
 Result<SphereSet> LoadSphereSet(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    return MakeError(ErrorCode::kFileNotFound, path.string() + ": file not found");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": cannot be read");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return ReadSphereSetJson(text.str(), path.string());
+  auto bytes = ReadFileBytes(path);
+  if (!bytes.ok()) return bytes.error();
+  return ReadSphereSet(*bytes, path.string());
 }
 
 }  // namespace skinspheres::runtime
