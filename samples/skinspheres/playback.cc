@@ -52,6 +52,10 @@ Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::Sphere
                             const PlayOptions& options) {
   const lib::RawCharacter& ch = loaded.character;
   const std::string file = ch.source_file.empty() ? "built-in character" : ch.source_file;
+  if (set.fast_only && (!options.fast || options.verify)) {  // no triangle lists to skin or check
+    return MakeError(ErrorCode::kInvalidArgument, set.loaded_from + ": a fast-only sphere set plays in fast mode only, "
+                                                                    "without --verify (convert the full set instead)");
+  }
   auto asset = runtime::CharacterAsset::Create(set);
   if (!asset.ok()) return asset.error();
   if (auto err = (*asset)->Matches(ch.skeleton.joint_names, ch.vertex_count())) {
