@@ -1,12 +1,24 @@
+// DefaultParallelFor: TBB's parallel_for when built with SKINSPHERES_WITH_TBB, otherwise the
+// serial loop (the library then never references TBB). SerialFor: the calling thread.
 #include "skinspheres/skinning/parallel_for.h"
 
+#if SKINSPHERES_WITH_TBB
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#endif
 
 #include <algorithm>
 
 namespace skinspheres {
 
+const ParallelFor& SerialFor() {
+  static const ParallelFor serial = [](size_t count, size_t, RangeBody body) {
+    if (count > 0) body(0, count);
+  };
+  return serial;
+}
+
+#if SKINSPHERES_WITH_TBB
 const ParallelFor& DefaultParallelFor() {
   static const ParallelFor tbb_for = [](size_t count, size_t grain, RangeBody body) {
     if (count == 0) return;
@@ -15,12 +27,10 @@ const ParallelFor& DefaultParallelFor() {
   };
   return tbb_for;
 }
-
-const ParallelFor& SerialFor() {
-  static const ParallelFor serial = [](size_t count, size_t, RangeBody body) {
-    if (count > 0) body(0, count);
-  };
-  return serial;
-}
+bool DefaultParallelForUsesTbb() { return true; }
+#else
+const ParallelFor& DefaultParallelFor() { return SerialFor(); }
+bool DefaultParallelForUsesTbb() { return false; }
+#endif
 
 }  // namespace skinspheres

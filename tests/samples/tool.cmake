@@ -95,4 +95,10 @@ add_test(NAME package.abi_consumers
   COMMAND ${CMAKE_COMMAND} -DBUILD=${PROJECT_BINARY_DIR} -DSOURCE=${CMAKE_CURRENT_SOURCE_DIR}/abi_consumer
           -DDIR=${PROJECT_BINARY_DIR}/test_tmp/abi_consumers -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/abi_consumers.cmake)
 set_tests_properties(package.abi_consumers PROPERTIES TIMEOUT 900)
+# Components: COMPONENTS runtime configures with Assimp and nlohmann_json disabled; COMPONENTS c
+# from a C-only project with Eigen, TBB and Assimp disabled; both load a set and agree.
+add_test(NAME package.component_consumers
+  COMMAND ${CMAKE_COMMAND} -DBUILD=${PROJECT_BINARY_DIR} -DTOOL=${tool} -DSOURCE=${CMAKE_CURRENT_SOURCE_DIR}
+          -DDIR=${PROJECT_BINARY_DIR}/test_tmp/component_consumers -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/component_consumers.cmake)
+set_tests_properties(package.component_consumers PROPERTIES TIMEOUT 600)
 endif()
