@@ -99,6 +99,7 @@ set_tests_properties(package.abi_consumers PROPERTIES TIMEOUT 900)
 # from a C-only project with Eigen, TBB and Assimp disabled; both load a set and agree.
 add_test(NAME package.component_consumers
   COMMAND ${CMAKE_COMMAND} -DBUILD=${PROJECT_BINARY_DIR} -DTOOL=${tool} -DSOURCE=${CMAKE_CURRENT_SOURCE_DIR}
-          -DDIR=${PROJECT_BINARY_DIR}/test_tmp/component_consumers -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/component_consumers.cmake)
+          -DWITH_TBB=${SKINSPHERES_WITH_TBB} -DDIR=${PROJECT_BINARY_DIR}/test_tmp/component_consumers
+          -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/component_consumers.cmake)
 set_tests_properties(package.component_consumers PROPERTIES TIMEOUT 600)
 endif()
