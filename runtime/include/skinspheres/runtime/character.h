@@ -63,6 +63,8 @@ class CharacterAsset {
   // the engine's own list, e.g. a glTF skin's joints without their `Armature` ancestor, matches).
   // std::nullopt when it matches; otherwise kMismatchedAsset with a message naming the loaded set
   // file, the character it was fitted on, and the difference (vertex counts, missing joint names).
+  // A match says nothing of the order: unless the list is the set's own, in order, create the
+  // instances with MapJoints' mapping so that they read matrices in the list's order.
   std::optional<Error> Matches(std::span<const std::string> joint_names, size_t vertex_count) const;
 
   const SphereSet& sphere_set() const { return set_; }
