@@ -339,9 +339,10 @@
         action.play();
         mixer.setTime(info.clip_time[ui.frame]);
       }
-    } else {
-      character.root.traverse(function (o) { if (o.isSkinnedMesh) o.skeleton.pose(); });
     }
+    // Without a clip the nodes keep the file's own transforms: the rest pose the spheres were
+    // fitted to (stopping the actions restores them; Skeleton.pose() would not: it ignores
+    // non-bone parents such as a scaled armature node).
   }
 
   // Shows `triangles` (source triangle indices, any order, repeats allowed) on the highlight

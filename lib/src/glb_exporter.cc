@@ -159,11 +159,6 @@ aiNodeAnim* MakeChannel(const std::string& node, const std::vector<std::pair<flo
 std::optional<Error> Validate(const RawCharacter& c, const GlbExtras& e, const std::filesystem::path& path) {
   const auto& sk = c.skeleton;
   if (sk.size() == 0 || !sk.Validate()) return Invalid(path, "skeleton is empty or its arrays/parents are inconsistent");
-  std::set<std::string> names;
-  for (const auto& n : sk.joint_names) {
-    if (n.empty()) return Invalid(path, "a joint has an empty name (glTF nodes are matched by name)");
-    if (!names.insert(n).second) return Invalid(path, "joint name '" + n + "' is used twice");
-  }
   const auto& s = c.skin;
   const size_t nv = c.positions_rest.size();
   if (s.positions_bind.size() != nv) return Invalid(path, "skin.positions_bind size differs from positions_rest");
@@ -326,12 +321,26 @@ Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path
   auto scene = std::make_unique<aiScene>();
   GlbExportSummary summary;
 
+  // Node names: Assimp's writer binds bones and channels by name, so every joint gets a unique,
+  // non-empty one (a repeated name, which glTF allows, gets "_2", "_3", ...).
+  std::vector<std::string> joint_names(sk.size());
+  {
+    std::set<std::string> taken(sk.joint_names.begin(), sk.joint_names.end()), given;
+    for (size_t j = 0; j < sk.size(); ++j) {
+      const std::string base = sk.joint_names[j].empty() ? "joint_" + std::to_string(j) : sk.joint_names[j];
+      std::string n = base;
+      for (int k = 2; given.count(n) || (n != sk.joint_names[j] && taken.count(n)); ++k) n = base + "_" + std::to_string(k);
+      given.insert(n);
+      joint_names[j] = n;
+    }
+  }
+
   // ---- node tree from the skeleton
   std::vector<aiNode*> joint_nodes(sk.size());
   std::vector<std::vector<aiNode*>> children(sk.size());
   std::vector<aiNode*> roots;
   for (size_t j = 0; j < sk.size(); ++j) {
-    joint_nodes[j] = new aiNode(sk.joint_names[j]);
+    joint_nodes[j] = new aiNode(joint_names[j]);
     joint_nodes[j]->mTransformation = ToAi(sk.rest_local[j].ToMatrix());
   }
   for (size_t j = 0; j < sk.size(); ++j) {
@@ -349,7 +358,7 @@ Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path
   const bool joint_is_root = roots.size() == 1 && sk.parents[0] < 0 && rest_world[0].isIdentity(1e-6f) && !root_animated;
   aiNode* root = joint_is_root ? joint_nodes[0] : new aiNode("Root");
   std::vector<aiNode*> root_children = joint_is_root ? children[0] : roots;
-  std::set<std::string> used(sk.joint_names.begin(), sk.joint_names.end());
+  std::set<std::string> used(joint_names.begin(), joint_names.end());
   if (!joint_is_root) used.insert("Root");
   auto unique_name = [&](std::string base) {
     if (base.empty()) base = "mesh";
@@ -418,7 +427,7 @@ Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path
         for (size_t i = 0; i < order.size(); ++i) {
           const int32_t joint = order[i];
           auto* bone = new aiBone();
-          bone->mName = aiString(sk.joint_names[joint]);
+          bone->mName = aiString(joint_names[joint]);
           const auto ibm = std::find_if(c.skin.binds.begin(), c.skin.binds.end(),
                                         [&](const auto& b) { return b.joint == joint; });
           bone->mOffsetMatrix = ToAi(ibm->inverse_bind);
@@ -505,7 +514,7 @@ Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path
       auto r = tr.rotation.empty() ? std::vector<std::pair<float, Quatf>>{{0.0f, rest.rotation}}
                                    : BakeLinear(tr.rotation);
       auto s = tr.scale.empty() ? std::vector<std::pair<float, Vector3f>>{{0.0f, rest.scale}} : BakeLinear(tr.scale);
-      channels.push_back(MakeChannel(sk.joint_names[joint], t, r, s));
+      channels.push_back(MakeChannel(joint_names[joint], t, r, s));
     }
     auto* anim = new aiAnimation();
     anim->mName = aiString(clip.name);

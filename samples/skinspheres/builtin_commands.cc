@@ -1,6 +1,7 @@
 // skinspheres demo / skinspheres export-builtin OUT.glb|OUT.fbx [--no-mesh] [--no-clips] [--joint-prefix P]
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -17,10 +18,48 @@ namespace {
 struct ExportBuiltinArgs {
   std::string output, joint_prefix;
   bool no_mesh = false, no_clips = false;
+  float armature_scale = 1.0f;
 };
 
+// The same character as a rig in other units: the root joint scaled by s, every other joint's
+// translations (rest and keys) divided by s, inverse bind matrices from the new rest pose. The
+// world shape and motion do not change (as Mixamo's centimetre rigs under a 0.01 armature).
+void ScaleArmature(lib::RawCharacter& ch, float s) {
+  auto& sk = ch.skeleton;
+  for (size_t j = 0; j < sk.size(); ++j) {
+    if (sk.parents[j] < 0) {
+      sk.rest_local[j].scale *= s;
+    } else {
+      sk.rest_local[j].translation /= s;
+    }
+  }
+  for (auto& clip : ch.clips) {
+    for (auto& tr : clip.tracks) {
+      if (sk.parents[static_cast<size_t>(tr.joint)] >= 0) {
+        for (auto& v : tr.translation.values) v /= s;
+      }
+    }
+  }
+  std::vector<Mat4f> world(sk.size());
+  sk.RestWorld(world);
+  for (auto& b : ch.skin.binds) b.inverse_bind = world[static_cast<size_t>(b.joint)].inverse();
+  // The scaled root binds no vertex: drop its bind entry, so it is a plain node above the skin's
+  // joints (as an armature node is), not a joint of the skin.
+  auto& skin = ch.skin;
+  for (size_t b = skin.binds.size(); b-- > 0;) {
+    if (sk.parents[static_cast<size_t>(skin.binds[b].joint)] >= 0) continue;
+    if (std::find(skin.influence_binds.begin(), skin.influence_binds.end(), b) != skin.influence_binds.end()) continue;
+    skin.binds.erase(skin.binds.begin() + static_cast<std::ptrdiff_t>(b));
+    for (auto& k : skin.influence_binds) k = static_cast<uint16_t>(k > b ? k - 1 : k);
+  }
+}
+
 int RunExportBuiltin(const ExportBuiltinArgs& a) {
+  if (!(a.armature_scale > 0.0f) || !std::isfinite(a.armature_scale)) {
+    return Fail("--armature-scale must be a positive number (got " + std::to_string(a.armature_scale) + ")");
+  }
   lib::RawCharacter ch = lib::MakeBuiltinCharacter();
+  if (a.armature_scale != 1.0f) ScaleArmature(ch, a.armature_scale);
   if (a.no_mesh) ch = lib::WithoutMesh(std::move(ch));  // an animation-only file, as Mixamo's "without skin"
   if (a.no_clips) ch.clips.clear();
   for (auto& name : ch.skeleton.joint_names) name = a.joint_prefix + name;
@@ -49,6 +88,9 @@ void AddExportBuiltinCommand(CLI::App& app, int* exit_code) {
   cmd->add_flag("--no-mesh", args->no_mesh, "write the skeleton and clips only (an animation-only file, for play --clips)");
   cmd->add_flag("--no-clips", args->no_clips, "write no animations (a character without clips)");
   cmd->add_option("--joint-prefix", args->joint_prefix, "put this before every joint name (e.g. mixamorig:)");
+  cmd->add_option("--armature-scale", args->armature_scale,
+                  "scale the root joint by this and divide bone translations by it: the same shape as a rig in "
+                  "other units (0.01: centimetres under a metre armature)");
   cmd->callback([args, exit_code] { *exit_code = RunExportBuiltin(*args); });
 }
 

@@ -351,6 +351,25 @@ TEST(GlbExporter, SkeletonAndClipsWithoutAMesh) {
   for (const auto& name : c.skeleton.joint_names) EXPECT_NE(in.scene->mRootNode->FindNode(name.c_str()), nullptr) << name;
 }
 
+// Repeated joint names (glTF allows them) get a suffix, and the file still plays the same.
+TEST(GlbExporter, RepeatedJointNamesAreMadeUnique) {
+  RawCharacter c = MakeBuiltinCharacter();
+  c.skeleton.joint_names[static_cast<size_t>(c.skeleton.Find("LeftFoot"))] = "RightFoot";
+  const auto path = test::TempDir("glb_exporter_repeated_names") / "twice.glb";
+  const auto r = ExportGlb(c, path);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const auto back = ImportCharacter(path);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_GE(back->skeleton.Find("RightFoot"), 0);
+  EXPECT_GE(back->skeleton.Find("RightFoot_2"), 0);
+  const auto& walk = c.clips[0];
+  const auto a = test::PoseAt(c, walk, 0.3f), b = test::PoseAt(*back, back->clips[0], 0.3f);
+  ASSERT_EQ(a.size(), b.size());
+  float worst = 0.0f;
+  for (size_t v = 0; v < a.size(); ++v) worst = std::max(worst, (a[v] - b[v]).norm());
+  EXPECT_LT(worst, 2e-4f);
+}
+
 TEST(GlbExporter, RefusesInconsistentInputWithAMessage) {
   RawCharacter c = MakeBuiltinCharacter();
   c.skin.influence_offsets.pop_back();

@@ -62,6 +62,7 @@ expect_bad_input("[^\n]*no_such_dir/p.html: cannot open for writing" play ${DIR}
 expect_bad_input("[^\n]*no_such_dir/f.html: cannot open for writing" fit ${DIR}/builtin.glb --html ${DIR}/no_such_dir/f.html)
 expect_bad_input("[^\n]*no_such_dir/d.html: cannot open for writing" demo --html ${DIR}/no_such_dir/d.html)
 expect_bad_input("[^\n]*x.obj: export-builtin writes .glb or .fbx" export-builtin ${DIR}/x.obj)
+expect_bad_input("--armature-scale must be a positive number" export-builtin ${DIR}/y.glb --armature-scale 0)
 expect_ok("page: [^\n]*demo.html" demo --html ${DIR}/demo.html)
 
 # --export-glb: the spheres move in the played clip's own animation.

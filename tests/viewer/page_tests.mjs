@@ -6,8 +6,9 @@
 //          clicking a sphere selects it; intersecting triangles (data generated here, injected
 //          into a copy of the page) show in their colour where those triangles are, and only on
 //          the frame that has them.
-//   fit    fit.html (a character file with no clip): loads with no console error, the bind pose
-//          is drawn, the loosest spheres are marked, the transport is disabled.
+//   fit    fit.html (a character file with no clip, its bones in centimetres under a 0.01
+//          armature): loads with no console error, the bind pose is drawn inside its spheres, the
+//          loosest spheres are marked, the transport is disabled.
 //   clips  clips.html (clips from an animation-only FBX, joints "mixamorig:<name>"): the same
 //          contacts as the character's own clips, and the contact colour on the chest.
 // Pixel checks count exact colours: the contact markers and the intersecting triangles are unlit,
@@ -64,6 +65,45 @@ async function countOnView(browser, image, color, box = null) {
   return countColor(image, color, region, 10) - inLegend;
 }
 
+// Sets the hash (every display parameter spelled out) and waits for the page to draw it.
+async function setHash(browser, hash) {
+  const before = Number(await browser.evaluate('document.getElementById("ss-state").dataset.rendered || 0'));
+  await browser.evaluate(`location.hash = ${JSON.stringify(hash)}`);
+  await browser.waitFor(`Number(document.getElementById("ss-state").dataset.rendered) > ${before}`);
+  await browser.settle();
+}
+
+// The character drawn by three.js (skinned on the GPU from the GLB) lies inside the spheres drawn
+// from the runtime's per-frame data, pixel for pixel: every triangle is inside its sphere, so on
+// screen every mesh pixel is covered by a sphere pixel. Catches a mesh posed, placed or scaled
+// differently from the spheres. `where`: "clip=...&frame=..." or "" (bind pose).
+async function meshInsideSpheres(browser, where) {
+  const view = await browser.evaluate(`(() => {
+    const c = document.getElementById('ss-canvas').getBoundingClientRect(), l = document.getElementById('ss-legend').getBoundingClientRect();
+    return { c: [c.left, c.top, c.right, c.bottom], l: [l.left, l.top, l.right, l.bottom] };
+  })()`);
+  const off = (image, x, y) => {
+    const i = 4 * (y * image.width + x);
+    return Math.max(Math.abs(image.rgba[i] - BACKGROUND[0]), Math.abs(image.rgba[i + 1] - BACKGROUND[1]), Math.abs(image.rgba[i + 2] - BACKGROUND[2])) > 4;
+  };
+  const prefix = where ? `${where}&` : '';
+  await setHash(browser, `#${prefix}mesh=off&spheres=1&contacts=0&loosest=0`);
+  const spheres = (await browser.screenshot()).image;
+  await setHash(browser, `#${prefix}mesh=solid&spheres=0&contacts=0&loosest=0`);
+  const mesh = (await browser.screenshot()).image;
+  let meshPixels = 0, outside = 0;
+  for (let y = Math.ceil(view.c[1]); y < Math.floor(view.c[3]); ++y) {
+    for (let x = Math.ceil(view.c[0]); x < Math.floor(view.c[2]); ++x) {
+      if (x >= view.l[0] && x < view.l[2] && y >= view.l[1] && y < view.l[3]) continue;
+      if (!off(mesh, x, y)) continue;
+      ++meshPixels;
+      if (!off(spheres, x, y)) ++outside;
+    }
+  }
+  check(meshPixels > 2000 && outside <= 0.005 * meshPixels,
+    `${where || 'bind pose'}: the drawn mesh (${meshPixels} pixels) lies inside the drawn spheres (${outside} pixels outside)`);
+}
+
 async function open(browser, file, hash) {
   await browser.navigate(`file://${file}${hash}`);
   await browser.waitFor('document.getElementById("ss-state").dataset.ready === "1"');
@@ -118,6 +158,8 @@ async function restAndChest(browser, file) {
   check(Number(st.pairs) > 0, `frame ${f}: ${st.pairs} sphere pairs in contact`);
   check(inChest >= 150, `frame ${f}: ${inChest} contact-colour pixels near the chest (>= 150)`);
   check(inChest >= 0.8 * all, `frame ${f}: most contact-colour pixels are near the chest (${inChest} of ${all})`);
+  await meshInsideSpheres(browser, `clip=${encodeURIComponent(touch.name)}&frame=${f}`);
+  await setHash(browser, `#clip=${encodeURIComponent(touch.name)}&frame=${f}&mesh=solid&spheres=1&contacts=1&loosest=0`);
   return { data, touch, chestFrame: f };
 }
 
@@ -211,6 +253,7 @@ async function caseFit(browser) {
   check(data.metrics.loosest.length === 5 && orange >= 50, `${data.metrics.loosest.length} loosest spheres marked (${orange} marker pixels)`);
   const rows = await browser.evaluate('document.querySelectorAll("#ss-loose-body .link").length');
   check(rows === data.metrics.loosest.length, `the panel lists them (${rows})`);
+  await meshInsideSpheres(browser, '');
 }
 
 async function caseClips(browser) {

@@ -3,7 +3,9 @@
 // the same bytes in memory; ExportFbxAscii: the same scene as ASCII FBX 7.4).
 //
 // What is written:
-//  - the skeleton as the node tree (rest_local as each node's transform). When the skeleton has
+//  - the skeleton as the node tree (rest_local as each node's transform), one node per joint named
+//    as the joint; a name used by an earlier joint (glTF allows repeats: RobotExpressive has two
+//    "Foot.L") gets "_2", "_3", ..., an empty one "joint_<index>". When the skeleton has
 //    one root whose rest transform is the identity, that joint is the scene root; otherwise a
 //    node "Root" (identity) is added above the skeleton roots (and a re-import sees it as an
 //    extra joint).
