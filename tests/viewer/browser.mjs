@@ -32,7 +32,14 @@ export class Browser {
       '--remote-debugging-pipe', 'about:blank'];
     const child = spawn(executable, args, { stdio: ['ignore', 'ignore', 'pipe', 'pipe', 'pipe'] });
     const browser = new Browser(child, profile, width, height);
-    await browser._attach();
+    try {
+      await Promise.race([browser._attach(), new Promise((_, reject) => setTimeout(() => reject(new Error(
+        `chromium did not answer within 60 s\n${browser.stderr.slice(-2000)}`)), 60000).unref())]);
+    } catch (e) {
+      child.kill('SIGKILL');
+      rmSync(profile, { recursive: true, force: true });
+      throw e;
+    }
     return browser;
   }
 

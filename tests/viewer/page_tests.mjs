@@ -292,7 +292,15 @@ if (!cases[caseName] || !dir) {
   console.error(`usage: page_tests.mjs ${Object.keys(cases).join('|')} DIR`);
   process.exit(2);
 }
-const browser = await Browser.launch(chromium);
+// A hung browser must not hang CTest: give up (and end chromium) after 150 s.
+let browser = null;
+const watchdog = setTimeout(() => {
+  console.log('FAIL the page test did not finish within 150 s');
+  if (browser) browser.child.kill('SIGKILL');
+  process.exit(1);
+}, 150000);
+watchdog.unref();
+browser = await Browser.launch(chromium);
 const messages = browser.collectConsole();
 try {
   await cases[caseName](browser);
