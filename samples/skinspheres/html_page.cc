@@ -282,14 +282,14 @@ std::optional<Error> WriteViewerPage(const ViewerPageInput& in, const std::strin
   json clips = json::array();
   for (const ViewClip& vc : in.clips) {
     auto c = ClipJson(vc, ch, set.size());
-    if (!c.ok()) return c.error();
+    if (!c.ok()) return MakeError(c.error().code, path + ": " + c.error().message);
     clips.push_back(std::move(*c));
   }
   data["clips"] = std::move(clips);
 
   namespace va = viewer_assets;
   for (std::string_view script : {va::kThreeJs, va::kGltfLoaderJs, va::kOrbitControlsJs, va::kViewerJs}) {
-    if (HoldsScriptEnd(script)) return MakeError(ErrorCode::kInvalidArgument, "viewer page: an inlined script holds \"</script\"");
+    if (HoldsScriptEnd(script)) return MakeError(ErrorCode::kInvalidArgument, path + ": an inlined script holds \"</script\"");
   }
   const std::string title = EscapeHtml(label);
   const std::string data_text = ScriptSafeJson(data);
@@ -305,7 +305,7 @@ std::optional<Error> WriteViewerPage(const ViewerPageInput& in, const std::strin
                                             {"VIEWER_JS", va::kViewerJs},
                                             {"DATA", data_text},
                                             {"GLB", glb_text}});
-  if (!page.ok()) return page.error();
+  if (!page.ok()) return MakeError(page.error().code, path + ": " + page.error().message);
   std::ofstream out(path, std::ios::binary);
   if (!out) return MakeError(ErrorCode::kFileUnreadable, path + ": cannot open for writing");
   out.write(page->data(), static_cast<std::streamsize>(page->size()));
