@@ -237,6 +237,9 @@ async function caseFit(browser) {
   const { data } = pageData(file);
   check(data.clips.length === 0 && data.character.clips.length === 0, 'the fit page of a character without clips has no clip');
   await open(browser, file, '');
+  const shown = await browser.evaluate('[document.getElementById("ss-file").textContent, document.title]');
+  check(data.character.file.endsWith("cm rig <!-- <script><b>&'x'.glb") && shown[0] === data.character.file &&
+    shown[1] === `skinspheres: ${data.character.file}`, `a file name with markup is shown as text: ${shown[0]}`);
   const st = await state(browser);
   check(st.errors === '0' && !st.error, `page reports no error (errors=${st.errors}${st.error ? ', ' + st.error : ''})`);
   check(st.clip === '' && st.pairs === '0', 'no clip, no contact');
