@@ -12,6 +12,7 @@
 #include <system_error>
 
 #include "importer_internal.h"
+#include "skinspheres/runtime/file_io.h"
 
 namespace skinspheres::lib {
 namespace detail {
@@ -65,6 +66,17 @@ std::optional<Error> FinishCharacter(RawCharacter& c, const std::filesystem::pat
     return ImportError(ErrorCode::kInvalidData, file, "the skeleton is empty or not ordered parents-first");
   }
   if (c.triangles.empty()) return ImportError(ErrorCode::kInvalidData, file, "no triangles (no triangle primitive in the scene)");
+  // The limits of importer.h, for every reader (the glTF reader checks them before allocating).
+  if (skeleton.size() > kMaxJoints) {
+    return ImportError(ErrorCode::kInvalidData, file, "the skeleton has " + std::to_string(skeleton.size()) + " joints; at most " +
+                                                          std::to_string(kMaxJoints) + " are read");
+  }
+  if (skin.vertex_count() > kMaxVertices || c.triangles.size() > kMaxTriangles) {
+    return ImportError(ErrorCode::kInvalidData, file, std::to_string(skin.vertex_count()) + " vertices and " +
+                                                          std::to_string(c.triangles.size()) + " triangles; at most " +
+                                                          std::to_string(kMaxVertices) + " and " + std::to_string(kMaxTriangles) +
+                                                          " are read");
+  }
   if (skin.influence_offsets.size() != skin.vertex_count() + 1) {
     return ImportError(ErrorCode::kInvalidData, file, "internal: influence table does not match the vertices");
   }
@@ -109,7 +121,10 @@ bool LooksLikeGltf2(const std::filesystem::path& file, std::span<const uint8_t> 
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
   if (ext == ".glb") return true;  // not GLB magic: our reader reports what is wrong
   if (ext != ".gltf") return false;
-  // glTF 1.0 JSON goes to Assimp; anything else that says .gltf is ours (errors included).
+  // glTF 1.0 JSON goes to Assimp; anything else that says .gltf is ours (errors included). Text
+  // too deep or too large to parse safely is ours too: our reader refuses it, naming the limit.
+  const runtime::JsonShape shape = runtime::ScanJson(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+  if (shape.depth > runtime::kMaxJsonDepth || shape.values > kMaxGltfJsonValues) return true;
   const auto json = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false);
   if (json.is_object() && json.contains("asset") && json["asset"].is_object()) {
     const auto it = json["asset"].find("version");
@@ -124,17 +139,15 @@ bool LooksLikeGltf2(const std::filesystem::path& file, std::span<const uint8_t> 
 
 Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const ImportOptions& options) {
   using detail::ImportError;
-  std::error_code ec;
-  const auto status = std::filesystem::status(file, ec);
-  if (!std::filesystem::exists(status)) return ImportError(ErrorCode::kFileNotFound, file, "file not found");
-  if (std::filesystem::is_directory(status)) return ImportError(ErrorCode::kFileUnreadable, file, "is a directory, not a file");
-  std::ifstream in(file, std::ios::binary);
-  if (!in) return ImportError(ErrorCode::kFileUnreadable, file, "cannot be opened for reading");
-  std::vector<uint8_t> bytes;
+  // (ReadRegularFile's messages are "<file>: <problem>"; ImportError puts the file back on one line.)
+  // Regular files only (a FIFO would block, /dev/zero never ends), at most kMaxCharacterFileBytes,
+  // refused from the size before anything is allocated (runtime/file_io.h).
+  Result<std::string> read = runtime::ReadRegularFile(file, kMaxCharacterFileBytes, "character file");
+  if (!read.ok()) return ImportError(read.error().code, file, read.error().message.substr(file.string().size() + 2));
   try {
-    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    if (in.bad()) return ImportError(ErrorCode::kFileUnreadable, file, "read error");
-    if (bytes.empty()) return ImportError(ErrorCode::kFormatRejected, file, "the file is empty");
+    const std::string& text = *read;
+    if (text.empty()) return ImportError(ErrorCode::kFormatRejected, file, "the file is empty");
+    const std::span<const uint8_t> bytes(reinterpret_cast<const uint8_t*>(text.data()), text.size());
     Result<RawCharacter> result = detail::LooksLikeGltf2(file, bytes)
                                       ? detail::ImportGltf(file, bytes, options)
                                       : detail::ImportWithAssimp(file, bytes, options);
