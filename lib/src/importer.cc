@@ -137,18 +137,16 @@ bool LooksLikeGltf2(const std::filesystem::path& file, std::span<const uint8_t> 
 
 }  // namespace detail
 
-Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const ImportOptions& options) {
+namespace {
+
+// Reads `bytes` (the whole file, named `file`) with the reader `gltf` picks, then the final pass;
+// every exception a reader lets out becomes one Error naming the file.
+Result<RawCharacter> ImportBytes(const std::filesystem::path& file, std::span<const uint8_t> bytes,
+                                 const ImportOptions& options, bool gltf_only) {
   using detail::ImportError;
-  // (ReadRegularFile's messages are "<file>: <problem>"; ImportError puts the file back on one line.)
-  // Regular files only (a FIFO would block, /dev/zero never ends), at most kMaxCharacterFileBytes,
-  // refused from the size before anything is allocated (runtime/file_io.h).
-  Result<std::string> read = runtime::ReadRegularFile(file, kMaxCharacterFileBytes, "character file");
-  if (!read.ok()) return ImportError(read.error().code, file, read.error().message.substr(file.string().size() + 2));
   try {
-    const std::string& text = *read;
-    if (text.empty()) return ImportError(ErrorCode::kFormatRejected, file, "the file is empty");
-    const std::span<const uint8_t> bytes(reinterpret_cast<const uint8_t*>(text.data()), text.size());
-    Result<RawCharacter> result = detail::LooksLikeGltf2(file, bytes)
+    if (bytes.empty()) return ImportError(ErrorCode::kFormatRejected, file, "the file is empty");
+    Result<RawCharacter> result = gltf_only || detail::LooksLikeGltf2(file, bytes)
                                       ? detail::ImportGltf(file, bytes, options)
                                       : detail::ImportWithAssimp(file, bytes, options);
     if (!result.ok()) return result;
@@ -163,6 +161,31 @@ Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const Im
   } catch (const std::exception& e) {
     return ImportError(ErrorCode::kFormatRejected, file, std::string("cannot be read: ") + e.what());
   }
+}
+
+}  // namespace
+
+Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const ImportOptions& options) {
+  // Regular files only (a FIFO would block, /dev/zero never ends), at most kMaxCharacterFileBytes,
+  // refused from the size before anything is allocated (runtime/file_io.h). Its messages are
+  // "<file>: <problem>"; ImportError keeps them on one line.
+  Result<std::string> read = runtime::ReadRegularFile(file, kMaxCharacterFileBytes, "character file");
+  if (!read.ok()) {
+    return detail::ImportError(read.error().code, file, read.error().message.substr(file.string().size() + 2));
+  }
+  const std::string& text = *read;
+  return ImportBytes(file, std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(text.data()), text.size()), options,
+                     /*gltf_only=*/false);
+}
+
+Result<RawCharacter> ImportGltfBytes(std::span<const uint8_t> bytes, const std::filesystem::path& name,
+                                     const ImportOptions& options) {
+  if (bytes.size() > kMaxCharacterFileBytes) {
+    return detail::ImportError(ErrorCode::kFormatRejected, name, "is " + std::to_string(bytes.size()) +
+                                                                     " bytes; a character file may be at most " +
+                                                                     std::to_string(kMaxCharacterFileBytes) + " bytes");
+  }
+  return ImportBytes(name, bytes, options, /*gltf_only=*/true);
 }
 
 }  // namespace skinspheres::lib

@@ -45,6 +45,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <span>
 
 #include "skinspheres/lib/raw_character.h"
 #include "skinspheres/runtime/error.h"
@@ -72,5 +73,11 @@ struct ImportOptions {
 };
 
 Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const ImportOptions& options = {});
+
+// The same for a glTF 2.0 / GLB file already in memory (a pack file, a fuzzer): our glTF reader
+// only (Assimp's readers open their own files). `name` names the file in messages, and external
+// buffer uris are looked for beside it.
+Result<RawCharacter> ImportGltfBytes(std::span<const uint8_t> bytes, const std::filesystem::path& name,
+                                     const ImportOptions& options = {});
 
 }  // namespace skinspheres::lib
