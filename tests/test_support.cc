@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <system_error>
+#include <thread>
 
 namespace skinspheres::test {
 
@@ -41,6 +44,24 @@ std::filesystem::path TempDir(const std::string& name) {
   std::filesystem::remove_all(dir, ec);
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+ParallelFor EngineStyleFor(int threads) {
+  return [threads](size_t count, size_t grain, RangeBody body) {
+    grain = std::max<size_t>(grain, 1);
+    const size_t ranges = (count + grain - 1) / grain;
+    std::atomic<size_t> next{0};
+    auto worker = [&] {
+      for (size_t k = next++; k < ranges; k = next++) {
+        const size_t r = ranges - 1 - k;  // last range first
+        body(r * grain, std::min(count, (r + 1) * grain));
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+    worker();
+    for (auto& t : pool) t.join();
+  };
 }
 
 }  // namespace skinspheres::test

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "skinspheres/skinning/parallel_for.h"
+
 namespace skinspheres::test {
 
 // The shared characters folder (../shared/assets from the project root), or empty when absent.
@@ -15,6 +17,9 @@ std::filesystem::path Asset(const std::string& file_name);
 const std::vector<std::string>& SharedCharacters();
 // A fresh, empty folder under the build tree for this test's files (one per running test).
 std::filesystem::path TempDir(const std::string& name);
+// A stand-in for an engine's job system: splits [0, count) into ranges of `grain` items and runs
+// them on `threads` std::threads, last range first, so no code can depend on TBB or on the order.
+ParallelFor EngineStyleFor(int threads);
 
 }  // namespace skinspheres::test
 

@@ -1,9 +1,6 @@
-// Crowds: many characters' self-collision jobs, one after the other or under tbb::parallel_for.
+// Crowds: many characters' self-collision jobs, one after the other or through a ParallelFor.
 // Each job touches only its own context and output, so the result does not depend on the
 // scheduling (ENGINEERING.md §4: threading stays outside the job body).
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <atomic>
 
 #include "skinspheres/runtime/broad_phase.h"
@@ -17,14 +14,11 @@ bool RunSelfCollisionJobRange(std::span<const SelfCollisionJob> jobs, size_t beg
   return ok;
 }
 
-bool RunSelfCollisionJobs(std::span<const SelfCollisionJob> jobs) {
+bool RunSelfCollisionJobs(std::span<const SelfCollisionJob> jobs, const ParallelFor& parallel_for) {
   std::atomic<bool> ok{true};
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, jobs.size(), 1),
-                    [&](const tbb::blocked_range<size_t>& range) {
-                      if (!RunSelfCollisionJobRange(jobs, range.begin(), range.end())) {
-                        ok.store(false, std::memory_order_relaxed);
-                      }
-                    });
+  parallel_for(jobs.size(), 1, [&](size_t begin, size_t end) {
+    if (!RunSelfCollisionJobRange(jobs, begin, end)) ok.store(false, std::memory_order_relaxed);
+  });
   return ok.load();
 }
 

@@ -2,8 +2,6 @@
 // reports Errors; per frame only jobs run (RefitJob, SelfCollisionJob) and FrameStatus comes back.
 #include "skinspheres/runtime/character.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <atomic>
@@ -121,7 +119,8 @@ std::span<const Contact> CharacterInstance::Query() {
 }
 
 FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
-                                std::span<const CharacterFrameInput> inputs, RefitMode mode) {
+                                std::span<const CharacterFrameInput> inputs, RefitMode mode,
+                                const ParallelFor& parallel_for) {
   if (instances.size() != inputs.size()) {
     return {ErrorCode::kInvalidArgument, "instances and inputs differ in count"};
   }
@@ -129,8 +128,8 @@ FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
     if (inst == nullptr) return {ErrorCode::kInvalidArgument, "null instance"};
   }
   std::atomic<bool> all_ok{true};
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, instances.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i < r.end(); ++i) {
+  parallel_for(instances.size(), 1, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
       CharacterInstance& inst = *instances[i];
       const FrameStatus st = inst.Update(mode, inputs[i].joint_world, inputs[i].skinned_positions);
       if (!st.ok()) {

@@ -3,8 +3,6 @@
 // max_j |T_j c - c'| (derivation in the header).
 #include "skinspheres/runtime/refit_job.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <Eigen/LU>
 #include <algorithm>
@@ -205,16 +203,13 @@ bool RefitJob::Run() const {
   return RunRange(0, spheres->size());
 }
 
-bool RefitParallel(const RefitJob& job, size_t grain) {
+bool RefitParallel(const RefitJob& job, size_t grain, const ParallelFor& parallel_for) {
   if (!job.Validate()) return false;
   std::atomic<bool> ok{true};
-  const size_t n = job.spheres->size();
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, std::max<size_t>(grain, 1)),
-                    [&](const tbb::blocked_range<size_t>& r) {
-                      const bool good = job.mode == RefitMode::kExact ? RefitExact(job, r.begin(), r.end())
-                                                                      : RefitFast(job, r.begin(), r.end());
-                      if (!good) ok.store(false, std::memory_order_relaxed);
-                    });
+  parallel_for(job.spheres->size(), std::max<size_t>(grain, 1), [&](size_t begin, size_t end) {
+    const bool good = job.mode == RefitMode::kExact ? RefitExact(job, begin, end) : RefitFast(job, begin, end);
+    if (!good) ok.store(false, std::memory_order_relaxed);
+  });
   return ok.load();
 }
 

@@ -1,8 +1,6 @@
 
 #include "skinspheres/skinning/skinning_job.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -174,10 +172,10 @@ bool SkinningJob::RunRange(size_t begin, size_t end) const {
   return true;
 }
 
-bool SkinParallel(const SkinningJob& job, size_t grain) {
+bool SkinParallel(const SkinningJob& job, size_t grain, const ParallelFor& parallel_for) {
   if (!job.Validate()) return false;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, job.WorkSize(), std::max<size_t>(grain, 1)),
-                    [&job](const tbb::blocked_range<size_t>& r) { RunUnchecked(job, r.begin(), r.end()); });
+  parallel_for(job.WorkSize(), std::max<size_t>(grain, 1),
+               [&job](size_t begin, size_t end) { RunUnchecked(job, begin, end); });
   return true;
 }
 

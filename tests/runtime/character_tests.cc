@@ -247,15 +247,21 @@ TEST(CharacterCrowdTest, CrowdEqualsSerialAndNaNFailsOnlyItsInstance) {
       serial.back().Update(mode, poses[i].world, poses[i].positions);
       serial.back().Query();
     }
-    for (int threads : {1, 2}) {
+    // TBB with 1 and 2 threads, then an engine's own job system (3 threads, reversed order).
+    for (int threads : {1, 2, 3}) {
       std::vector<CharacterInstance> crowd;
       for (int i = 0; i < kCount; ++i) crowd.push_back(MakeInstance(asset));
       std::vector<CharacterInstance*> ptrs;
       for (auto& c : crowd) ptrs.push_back(&c);
       FrameStatus st;
+      const ParallelFor engine = test::EngineStyleFor(threads);
       // Two frames: the second exercises the broad phase's frame-to-frame memory.
       for (int frame = 0; frame < 2; ++frame) {
-        tbb::task_arena(threads).execute([&] { st = UpdateAndQueryCrowd(ptrs, inputs, mode); });
+        if (threads == 3) {
+          st = UpdateAndQueryCrowd(ptrs, inputs, mode, engine);
+        } else {
+          tbb::task_arena(threads).execute([&] { st = UpdateAndQueryCrowd(ptrs, inputs, mode); });
+        }
       }
       EXPECT_EQ(st.code, ErrorCode::kInvalidData);
       for (int i = 0; i < kCount; ++i) {

@@ -21,7 +21,8 @@
 // vector has held the largest contact count seen (reserve it at set-up to be sure).
 //
 // Crowds: one SelfCollisionJob per character (each with its own context and output), run by
-// RunSelfCollisionJobs under tbb::parallel_for, or by RunSelfCollisionJobRange on any scheduler.
+// RunSelfCollisionJobs through a ParallelFor (TBB by default, or the engine's job system), or by
+// RunSelfCollisionJobRange.
 #pragma once
 
 #include <Eigen/Core>
@@ -31,6 +32,7 @@
 #include <vector>
 
 #include "skinspheres/skinning/math_types.h"
+#include "skinspheres/skinning/parallel_for.h"
 #include "skinspheres/runtime/pair_filter.h"
 
 namespace skinspheres::runtime {
@@ -108,9 +110,10 @@ struct SelfCollisionJob {
 // others still run). For engines that schedule work themselves.
 bool RunSelfCollisionJobRange(std::span<const SelfCollisionJob> jobs, size_t begin, size_t end);
 
-// Runs every job under tbb::parallel_for (in the current task arena). Every job must have its
-// own context and output. Output is identical to running them one by one.
-bool RunSelfCollisionJobs(std::span<const SelfCollisionJob> jobs);
+// Runs every job through parallel_for (parallel_for.h; TBB in the current task arena by default).
+// Every job must have its own context and output. Output is identical to running them one by one.
+bool RunSelfCollisionJobs(std::span<const SelfCollisionJob> jobs,
+                          const ParallelFor& parallel_for = DefaultParallelFor());
 
 // The obvious O(n^2) loop over i < j: the test oracle and the benchmark baseline. Same rules and
 // arithmetic as the fast path; out cleared then filled in (i, j) order. False (out cleared) when

@@ -20,7 +20,8 @@
 // instance's spheres invalid, so Query() then returns no contacts and status() says why; other
 // instances are untouched. Not thread-safe per instance; distinct instances may run concurrently.
 //
-// UpdateAndQueryCrowd runs Update + Query for many instances under tbb::parallel_for; every
+// UpdateAndQueryCrowd runs Update + Query for many instances through a ParallelFor (parallel_for.h:
+// TBB by default, or the engine's job system); every
 // instance's spheres and contacts are identical to running it alone, serially.
 #pragma once
 
@@ -32,6 +33,7 @@
 #include <vector>
 
 #include "skinspheres/skinning/math_types.h"
+#include "skinspheres/skinning/parallel_for.h"
 #include "skinspheres/runtime/broad_phase.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/runtime/pair_filter.h"
@@ -120,12 +122,13 @@ struct CharacterFrameInput {
   std::span<const Eigen::Vector3f> skinned_positions;  // exact mode only
 };
 
-// Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (tbb::parallel_for,
-// one instance per task). Returns kInvalidArgument (and runs nothing) when the spans differ in
+// Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (parallel_for, grain
+// 1 instance). Returns kInvalidArgument (and runs nothing) when the spans differ in
 // size or an instance pointer is null (listing the same instance twice is a data race the caller
 // must avoid); kInvalidData when at least one instance failed (each instance's
 // status() says why; the others are fully updated); kOk otherwise.
 FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
-                                std::span<const CharacterFrameInput> inputs, RefitMode mode);
+                                std::span<const CharacterFrameInput> inputs, RefitMode mode,
+                                const ParallelFor& parallel_for = DefaultParallelFor());
 
 }  // namespace skinspheres::runtime

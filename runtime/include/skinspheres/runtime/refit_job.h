@@ -56,7 +56,7 @@
 // Jobs (ENGINEERING.md §3-5): spans in, spans out; Validate() is O(1) (sizes and pointers; the
 // SphereSet's indices were checked when RefitRestData was built from it); Run()/RunRange() never
 // allocate nor throw; RunRange(begin, end) refits spheres [begin, end), each sphere computed by the
-// same instructions whatever the split, so RefitParallel (tbb::parallel_for) gives bit-identical
+// same instructions whatever the split, so RefitParallel (any ParallelFor) gives bit-identical
 // output for any thread count. Non-finite input (NaN/Inf joint matrices or positions) makes
 // Run() return false; the spheres it touched then hold unspecified (possibly NaN) values.
 #pragma once
@@ -68,6 +68,7 @@
 #include <vector>
 
 #include "skinspheres/skinning/math_types.h"
+#include "skinspheres/skinning/parallel_for.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/runtime/sphere_set.h"
 
@@ -131,8 +132,8 @@ struct RefitJob {
   bool RunRange(size_t begin, size_t end) const;
 };
 
-// Validates once, then runs RunRange over [0, size) under tbb::parallel_for in chunks of >= grain
-// spheres. Output bit-identical to Run().
-bool RefitParallel(const RefitJob& job, size_t grain = 32);
+// Validates once, then refits [0, size) through parallel_for (parallel_for.h; TBB by default) in
+// chunks of >= grain spheres. Output bit-identical to Run().
+bool RefitParallel(const RefitJob& job, size_t grain = 32, const ParallelFor& parallel_for = DefaultParallelFor());
 
 }  // namespace skinspheres::runtime

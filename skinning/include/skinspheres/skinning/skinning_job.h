@@ -16,8 +16,8 @@
 //      fields and subset must then be empty. The CSR path is for one-off use: it re-checks every
 //      influence it reads and runs ~1.2-1.3x the plain loop.
 // Work: WorkSize() items (subset entries, vertices, or prepared slots). RunRange(begin, end) skins
-// items [begin, end) so any scheduler can split the job; SkinParallel() does it with
-// tbb::parallel_for. Each vertex is computed by the same instructions whatever the split, so
+// items [begin, end) so any scheduler can split the job; SkinParallel() does it through a
+// ParallelFor (an engine's job system, or TBB). Each vertex is computed by the same instructions whatever the split, so
 // results are bit-identical for any thread count and grain.
 // Validate() refuses every job that could read or write out of bounds (null or short spans, bad
 // strides, bind or subset indices out of range, decreasing CSR offsets, ...). It is O(1) for a
@@ -34,6 +34,7 @@
 #include <span>
 
 #include "skinspheres/skinning/math_types.h"
+#include "skinspheres/skinning/parallel_for.h"
 #include "skinspheres/skinning/prepared_influences.h"
 
 namespace skinspheres::skinning {
@@ -72,8 +73,10 @@ struct SkinningJob {
   bool RunRange(size_t begin, size_t end) const;
 };
 
-// Validates once, then runs [0, WorkSize()) under tbb::parallel_for in chunks of >= grain items.
-bool SkinParallel(const SkinningJob& job, size_t grain = 2048);
+// Validates once, then runs [0, WorkSize()) through parallel_for (parallel_for.h; TBB by default) in
+// chunks of >= grain items.
+bool SkinParallel(const SkinningJob& job, size_t grain = 2048,
+                  const ParallelFor& parallel_for = DefaultParallelFor());
 
 // The oracle: the plain loop (per vertex, per influence, Matrix4f · Vector4f, accumulate
 // weighted), for CSR jobs only (prepared jobs are refused). Validates like SkinningJob.
