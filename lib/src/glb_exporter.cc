@@ -18,6 +18,8 @@
 #include <utility>
 #include <vector>
 
+#include "skinspheres/runtime/file_io.h"
+
 namespace skinspheres::lib {
 namespace {
 
@@ -492,10 +494,19 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
   summary.animation_count = static_cast<uint32_t>(anims.size());
   summary.node_count = static_cast<uint32_t>(sk.size() + c.meshes.size() + extras.spheres.size() + (joint_is_root ? 0 : 1));
 
+  // Exported to memory, then written and checked through the close (runtime/file_io.h): Assimp's
+  // own file writer does not check its close, so a full disk went unnoticed.
   Assimp::Exporter exporter;
-  if (exporter.Export(scene.get(), "glb2", path.string()) != aiReturn_SUCCESS) {
+  const aiExportDataBlob* blob = exporter.ExportToBlob(scene.get(), "glb2");
+  if (blob == nullptr) {
     return MakeError(ErrorCode::kFileUnreadable,
                      "ExportGlb " + path.string() + ": Assimp could not write the file: " + exporter.GetErrorString());
+  }
+  if (blob->next != nullptr) {
+    return MakeError(ErrorCode::kFileUnreadable, "ExportGlb " + path.string() + ": Assimp made more than one file of a GLB");
+  }
+  if (auto err = runtime::WriteWholeFile(path, std::string_view(static_cast<const char*>(blob->data), blob->size))) {
+    return *err;
   }
   return summary;
 }

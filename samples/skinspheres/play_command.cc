@@ -3,12 +3,12 @@
 #include <unistd.h>
 
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "playback.h"
 #include "skinspheres/lib/glb_exporter.h"
+#include "skinspheres/runtime/file_io.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 
 namespace skinspheres::tool {
@@ -72,10 +72,11 @@ int RunPlay(PlayArgs& a) {
   if (!played.ok()) return Fail(played.error().message);
   PrintPlaySummary(*played, set, a.fps);
 
+  // Every write is checked through the close (runtime/file_io.h): a failed one is one line,
+  // exit 2, and no "wrote".
   if (!a.dump.empty()) {
-    std::ofstream out(a.dump);
-    if (!out) return Fail(a.dump + ": cannot open for writing");
-    for (size_t f = 0; f < played->frames.size(); ++f) {
+    runtime::CheckedFileWriter out(a.dump);
+    for (size_t f = 0; f < played->frames.size() && out.ok(); ++f) {
       const auto& fr = played->frames[f];
       nlohmann::json line = {{"frame", f}, {"time", fr.time_s}};
       nlohmann::json spheres = nlohmann::json::array(), pairs = nlohmann::json::array();
@@ -83,8 +84,9 @@ int RunPlay(PlayArgs& a) {
       for (const auto& c : fr.contacts) pairs.push_back({c.i, c.j});
       line["spheres"] = std::move(spheres);
       line["pairs"] = std::move(pairs);
-      out << line.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
+      out.Write(line.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + '\n');
     }
+    if (auto err = out.Close()) return Fail(err->message);
     std::printf("wrote %s\n", a.dump.c_str());
   }
   if (!a.export_glb.empty()) {
@@ -104,9 +106,10 @@ int RunPlay(PlayArgs& a) {
     nlohmann::json per_frame = nlohmann::json::array();
     for (const auto& fr : played->frames) per_frame.push_back(fr.contacts.size());
     rep["pairs_per_frame"] = per_frame;
-    std::ofstream out(a.report);
-    if (!out) return Fail(a.report + ": cannot open for writing");
-    out << rep.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
+    if (auto err = runtime::WriteWholeFile(a.report, rep.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + '\n')) {
+      return Fail(err->message);
+    }
+    std::printf("wrote %s\n", a.report.c_str());
   }
   if (a.verify) {
     std::printf("verify: %zu triangle-frames outside their sphere%s\n", played->triangles_outside,
