@@ -12,6 +12,7 @@
 #include <system_error>
 
 #include "importer_internal.h"
+#include "skinspheres/lib/clip_import.h"
 #include "skinspheres/runtime/file_io.h"
 
 namespace skinspheres::lib {
@@ -135,12 +136,23 @@ bool LooksLikeGltf2(const std::filesystem::path& file, std::span<const uint8_t> 
   return true;
 }
 
+Result<std::vector<uint8_t>> ReadFileBytes(const std::filesystem::path& file) {
+  // Regular files only (a FIFO would block, /dev/zero never ends), at most kMaxCharacterFileBytes,
+  // refused from the size before anything is allocated (runtime/file_io.h). Its messages are
+  // "<file>: <problem>"; ImportError keeps them on one line.
+  Result<std::string> read = runtime::ReadRegularFile(file, kMaxCharacterFileBytes, "character file");
+  if (!read.ok()) return ImportError(read.error().code, file, read.error().message.substr(file.string().size() + 2));
+  if (read->empty()) return ImportError(ErrorCode::kFormatRejected, file, "the file is empty");
+  return std::vector<uint8_t>(read->begin(), read->end());
+}
+
 }  // namespace detail
 
 namespace {
 
-// Reads `bytes` (the whole file, named `file`) with the reader `gltf` picks, then the final pass;
-// every exception a reader lets out becomes one Error naming the file.
+// Reads `bytes` (the whole file, named `file`) with the reader `gltf_only` or the bytes pick, then
+// the final pass; every exception a reader lets out becomes one Error naming the file. Bytes from
+// memory (gltf_only) never make it open `file`.
 Result<RawCharacter> ImportBytes(const std::filesystem::path& file, std::span<const uint8_t> bytes,
                                  const ImportOptions& options, bool gltf_only) {
   using detail::ImportError;
@@ -149,9 +161,13 @@ Result<RawCharacter> ImportBytes(const std::filesystem::path& file, std::span<co
     Result<RawCharacter> result = gltf_only || detail::LooksLikeGltf2(file, bytes)
                                       ? detail::ImportGltf(file, bytes, options)
                                       : detail::ImportWithAssimp(file, bytes, options);
-    if (!result.ok()) return result;
+    std::optional<Error> error = result.ok() ? detail::FinishCharacter(*result, file) : result.error();
+    if (error && !gltf_only && (error->code == ErrorCode::kFormatRejected || error->code == ErrorCode::kInvalidData)) {
+      // Say what the file is when it is an animation without a mesh (clip_import.h).
+      if (std::string what = DescribeAnimationOnlyFile(file); !what.empty()) return ImportError(ErrorCode::kFormatRejected, file, what);
+    }
+    if (error) return *error;
     result->source_file = file.string();
-    if (auto error = detail::FinishCharacter(*result, file)) return *error;
     return result;
   } catch (const nlohmann::json::exception& e) {
     // A field of the wrong JSON type (e.g. a string where a number belongs).
@@ -166,16 +182,9 @@ Result<RawCharacter> ImportBytes(const std::filesystem::path& file, std::span<co
 }  // namespace
 
 Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const ImportOptions& options) {
-  // Regular files only (a FIFO would block, /dev/zero never ends), at most kMaxCharacterFileBytes,
-  // refused from the size before anything is allocated (runtime/file_io.h). Its messages are
-  // "<file>: <problem>"; ImportError keeps them on one line.
-  Result<std::string> read = runtime::ReadRegularFile(file, kMaxCharacterFileBytes, "character file");
-  if (!read.ok()) {
-    return detail::ImportError(read.error().code, file, read.error().message.substr(file.string().size() + 2));
-  }
-  const std::string& text = *read;
-  return ImportBytes(file, std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(text.data()), text.size()), options,
-                     /*gltf_only=*/false);
+  auto read = detail::ReadFileBytes(file);
+  if (!read.ok()) return read.error();
+  return ImportBytes(file, *read, options, /*gltf_only=*/false);
 }
 
 Result<RawCharacter> ImportGltfBytes(std::span<const uint8_t> bytes, const std::filesystem::path& name,
