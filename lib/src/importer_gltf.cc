@@ -568,7 +568,9 @@ std::string ReadGltfNodeTree(const GltfDocument& doc, skinning::Skeleton* out, s
 
 std::string ReadGltfClips(const GltfDocument& doc, const std::vector<int32_t>& joint_of_node,
                           std::vector<skinning::AnimationClip>* clips) {
-  return ReadClips(doc, joint_of_node, clips);
+  std::vector<Node> nodes;  // which nodes have a matrix (a TRS channel on one is refused)
+  if (std::string p = ReadNodes(doc.json, &nodes); !p.empty()) return p;
+  return ReadClips(doc, nodes, joint_of_node, clips);
 }
 
 }  // namespace skinspheres::lib::detail
