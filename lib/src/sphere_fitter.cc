@@ -2,8 +2,6 @@
 // and fast-refit data. See sphere_fitter.h for the stages.
 #include "skinspheres/lib/sphere_fitter.h"
 
-#include <tbb/parallel_for.h>
-
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
@@ -17,6 +15,7 @@
 #include "skinspheres/lib/enclosing_sphere.h"
 #include "skinspheres/lib/sphere_tightener.h"
 #include "skinspheres/lib/triangle_bvh.h"
+#include "skinspheres/skinning/parallel_for.h"
 
 namespace skinspheres::lib {
 
@@ -62,6 +61,15 @@ std::string FitSettings::ToJson() const {
 }
 
 namespace {
+
+// f(k) for every k in [0, n), in parallel through the library's ParallelFor (TBB by default; a
+// ThreadSanitizer build swaps in threads the checker can see). Each call writes only its own slots.
+template <typename F>
+void ParallelIndices(size_t n, F f) {
+  DefaultParallelFor()(n, 1, [&f](size_t begin, size_t end) {
+    for (size_t k = begin; k < end; ++k) f(k);
+  });
+}
 
 // One sphere of a part before ownership.
 struct CandidateSphere {
@@ -408,7 +416,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
 
   // 1-3: the paper's spheres, part by part (in parallel; each part writes its own slot).
   std::vector<PartResult> fitted(parts.parts.size());
-  tbb::parallel_for(size_t{0}, parts.parts.size(), [&](size_t k) {
+  ParallelIndices(parts.parts.size(), [&](size_t k) {
     fitted[k] = FitPart(ch, parts.parts[k], rest_world, settings);
   });
   for (const auto& f : fitted) {
@@ -434,7 +442,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   std::vector<Ball> balls(cand.size());
   for (size_t s = 0; s < cand.size(); ++s) balls[s] = cand[s].ball;
   auto assign = [&] {
-    tbb::parallel_for(size_t{0}, parts.parts.size(), [&](size_t k) {
+    ParallelIndices(parts.parts.size(), [&](size_t k) {
       for (uint32_t t : parts.parts[k].triangles) {
         const Eigen::Vector3f& p0 = ch.positions_rest[ch.triangles[t][0]];
         const Eigen::Vector3f& p1 = ch.positions_rest[ch.triangles[t][1]];
@@ -483,7 +491,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
         }
       }
     }
-    tbb::parallel_for(size_t{0}, cand.size(), [&](size_t s) {
+    ParallelIndices(cand.size(), [&](size_t s) {
       if (pts[s].empty()) {
         balls[s].radius = -1.0f;  // owns nothing: out of the next assignment
       } else {
@@ -503,7 +511,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   if (settings.refine_iterations > 0) {
     // The last refine round reassigned triangles after moving the spheres: centre each sphere
     // once more on what it now owns (its radius stays the paper's, for the growth report).
-    tbb::parallel_for(size_t{0}, cand.size(), [&](size_t s) {
+    ParallelIndices(cand.size(), [&](size_t s) {
       if (!owned[s].empty()) cand[s].ball.center = BallOf(ch, owned[s]).center;
     });
   }
