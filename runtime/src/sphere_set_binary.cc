@@ -10,6 +10,9 @@
 #include <limits>
 #include <memory>
 
+#include "skinspheres/runtime/file_io.h"
+#include "skinspheres/runtime/sphere_set_io.h"
+
 namespace skinspheres::runtime {
 
 static_assert(std::endian::native == std::endian::little,
@@ -502,40 +505,19 @@ Result<SphereSet> ReadSphereSetBinary(std::span<const std::byte> bytes, const st
   return view->ToSphereSet();
 }
 
-Result<std::vector<std::byte>> ReadFileBytes(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) return MakeError(ErrorCode::kFileNotFound, path.string() + ": file not found");
-  if (std::filesystem::is_directory(path, ec)) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": is a directory");
-  std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
-  if (!f) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": cannot be read");
-  // Read what the size says in one call, then on to the real end (the file may have grown).
-  const auto size = std::filesystem::file_size(path, ec);
-  std::vector<std::byte> bytes(ec ? 0 : static_cast<size_t>(size));
-  size_t used = std::fread(bytes.data(), 1, bytes.size(), f.get());
-  while (used == bytes.size()) {
-    std::byte more[4096];
-    const size_t got = std::fread(more, 1, sizeof more, f.get());
-    if (got == 0) break;
-    bytes.insert(bytes.end(), more, more + got);
-    used = bytes.size();
-  }
-  if (std::ferror(f.get())) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": read failed");
-  bytes.resize(used);
-  return bytes;
+Result<std::vector<std::byte>> ReadSphereSetFile(const std::filesystem::path& path) {
+  return ReadRegularFileBytes(path, kMaxSphereSetBytes, "sphere set");
 }
 
 std::optional<Error> SaveSphereSetBinary(const SphereSet& set, const std::filesystem::path& path,
                                          SphereSetBinaryContent content) {
   const std::vector<std::byte> bytes = WriteSphereSetBinary(set, content);
-  std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
-  if (!f) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": cannot open for writing");
-  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f.get()) == bytes.size();
-  if (!written || std::fclose(f.release()) != 0) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": write failed");
-  return std::nullopt;
+  // Checked through the close (file_io.h): a full disk is an error, never a truncated set.
+  return WriteWholeFile(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 Result<SphereSet> LoadSphereSetBinary(const std::filesystem::path& path) {
-  auto bytes = ReadFileBytes(path);
+  auto bytes = ReadSphereSetFile(path);
   if (!bytes.ok()) return bytes.error();
   return ReadSphereSetBinary(*bytes, path.string());
 }

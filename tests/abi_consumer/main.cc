@@ -184,7 +184,7 @@ int main(int argc, char** argv) {
   if (auto err = runtime::SaveSphereSet(set, binary_path)) return std::printf("%s\n", err->message.c_str()), 1;
   auto binary = runtime::LoadSphereSet(binary_path);
   Check(binary.ok() && runtime::WriteSphereSetJson(*binary) == runtime::WriteSphereSetJson(set), "binary set == JSON set");
-  auto bytes = runtime::ReadFileBytes(binary_path);
+  auto bytes = runtime::ReadSphereSetFile(binary_path);
   Check(bytes.ok() && runtime::SphereSetBinaryView::Open(*bytes, "abi.ssb").ok(), "SphereSetBinaryView::Open");
 
   // Joint mapping: matrices in an engine's order (the set's reversed) give the same contacts.

@@ -9,6 +9,7 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/mman.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstring>
@@ -19,6 +20,7 @@
 #include "posed_characters.h"
 #include "runtime/sample_sphere_set.h"
 #include "skinspheres/runtime/character.h"
+#include "skinspheres/runtime/file_io.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 #include "test_support.h"
 
@@ -132,7 +134,7 @@ TEST(SphereSetBinaryTest, FilesAreReadByContentWhateverTheirName) {
   EXPECT_EQ(SphereSetFormatForPath(dir / "x.ssb"), SphereSetFileFormat::kBinary);
   EXPECT_EQ(SphereSetFormatForPath(dir / "x.json"), SphereSetFileFormat::kJson);
   EXPECT_FALSE(SphereSetFormatForPath(dir / "x.txt").has_value());
-  auto json_bytes = ReadFileBytes(dir / "x.json");
+  auto json_bytes = ReadSphereSetFile(dir / "x.json");
   ASSERT_TRUE(json_bytes.ok());
   EXPECT_FALSE(IsSphereSetBinary(*json_bytes));
   for (const char* name : {"x.ssb", "x.json", "binary.json"}) {
@@ -148,6 +150,54 @@ TEST(SphereSetBinaryTest, FilesAreReadByContentWhateverTheirName) {
   auto directory = LoadSphereSet(dir);
   ASSERT_FALSE(directory.ok());
   EXPECT_NE(directory.error().message.find(dir.string()), std::string::npos);
+}
+
+// The binary reader opens files as the JSON one does (file_io.h): only a regular file, never a
+// FIFO (which would block), a device (/dev/zero never ends) or a directory; a file over
+// kMaxSphereSetBytes is refused from its size, before anything is allocated; writes are checked
+// through the close (/dev/full fails at the flush).
+TEST(SphereSetBinaryTest, OnlyRegularFilesWithinTheSizeLimitAreReadAndEveryWriteIsChecked) {
+  const auto dir = test::TempDir("sphere_set_binary_hostile");
+  const auto fifo = dir / "fifo.ssb";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const auto huge = dir / "huge.ssb";  // the magic, then a sparse file one byte over the limit
+  ASSERT_FALSE(WriteWholeFile(huge, std::string_view(reinterpret_cast<const char*>(kSphereSetBinaryMagic), 8)));
+  ASSERT_EQ(::truncate(huge.c_str(), static_cast<off_t>(kMaxSphereSetBytes + 1)), 0);
+  struct Case {
+    std::filesystem::path path;
+    ErrorCode code;
+    std::string needle;
+  };
+  const Case cases[] = {
+      {fifo, ErrorCode::kFileUnreadable, "is a FIFO"},
+      {"/dev/zero", ErrorCode::kFileUnreadable, "is a device"},
+      {dir, ErrorCode::kFileUnreadable, "is a directory"},
+      {huge, ErrorCode::kFormatRejected, "a sphere set may be at most 536870912 bytes"},
+  };
+  using Loader = std::function<Result<SphereSet>(const std::filesystem::path&)>;
+  const Loader loaders[] = {[](const auto& p) { return LoadSphereSetBinary(p); },
+                            [](const auto& p) { return LoadSphereSet(p); }};
+  for (const Case& c : cases) {
+    for (const Loader& load : loaders) {
+      test::AllocationCounter counter;
+      // A blocking open of the FIFO would hang here (no writer ever comes): the test would time out.
+      auto read = load(c.path);
+      EXPECT_LT(counter.largest(), size_t{1} << 20) << c.path;  // nothing near the file's size
+      ASSERT_FALSE(read.ok()) << c.path;
+      EXPECT_EQ(read.error().code, c.code) << read.error().message;
+      EXPECT_EQ(read.error().message.rfind(c.path.string() + ": ", 0), 0u) << read.error().message;
+      EXPECT_NE(read.error().message.find(c.needle), std::string::npos) << read.error().message;
+      EXPECT_EQ(read.error().message.find('\n'), std::string::npos) << read.error().message;
+    }
+  }
+  for (const SphereSetFileFormat format : {SphereSetFileFormat::kBinary, SphereSetFileFormat::kBinaryFastOnly}) {
+    const auto err = SaveSphereSet(Small(), "/dev/full", format);
+    ASSERT_TRUE(err.has_value());
+    EXPECT_EQ(err->message.rfind("/dev/full: write failed (", 0), 0u) << err->message;
+  }
+  const auto err = SaveSphereSetBinary(Small(), dir / "no_such_dir" / "x.ssb");
+  ASSERT_TRUE(err.has_value());
+  EXPECT_NE(err->message.find("cannot open for writing"), std::string::npos) << err->message;
 }
 
 TEST(SphereSetBinaryTest, FastOnlyGivesTheSameFastSpheresAndRefusesExactMode) {
@@ -363,7 +413,7 @@ TEST(SphereSetBinaryTest, AbsurdHeadersAndTablesAreRefusedByName) {
       {"vertex out of range (Validate)", [&](Bytes& b) { Put32(b, Get64(b, EntryOf(b, S::kVertices) + 8), 99); },
        ErrorCode::kInvalidData, "vertex 99 out of range"},
       {"nan radius (Validate)", [&](Bytes& b) { Put32(b, Get64(b, radii + 8), 0x7FC00000u); }, ErrorCode::kInvalidData,
-       "non-finite centre or a negative radius"},
+       "non-finite centre or radius"},
   };
   for (const Case& c : cases) {
     Bytes bad = good;

@@ -205,12 +205,16 @@ class SphereSetBinaryView {
 // Decodes a binary set at any address (copies first when misaligned); errors name source_name.
 Result<SphereSet> ReadSphereSetBinary(std::span<const std::byte> bytes, const std::string& source_name = "<memory>");
 
-// Files. Errors name the path.
+// Files, hardened as LoadSphereSet/SaveSphereSet (sphere_set_io.h). Errors name the path.
+// Saving checks every write through the close (file_io.h): a full disk is an error.
 std::optional<Error> SaveSphereSetBinary(const SphereSet& set, const std::filesystem::path& path,
                                          SphereSetBinaryContent content = SphereSetBinaryContent::kFull);
 Result<SphereSet> LoadSphereSetBinary(const std::filesystem::path& path);
 
-// The whole file in memory, in a 16-byte aligned buffer (what Open wants); errors name the path.
-Result<std::vector<std::byte>> ReadFileBytes(const std::filesystem::path& path);
+// The whole of a sphere-set file (either format) in memory, in a 16-byte aligned buffer (what
+// SphereSetBinaryView::Open wants). Only a regular file (a FIFO, device, socket or directory is
+// refused without reading) of at most kMaxSphereSetBytes (sphere_set_io.h), refused from its
+// size before anything is allocated; errors name the path (file_io.h: ReadRegularFile).
+Result<std::vector<std::byte>> ReadSphereSetFile(const std::filesystem::path& path);
 
 }  // namespace skinspheres::runtime

@@ -46,9 +46,16 @@ std::optional<SphereSetFileFormat> SphereSetFormatForPath(const std::filesystem:
 // Either format, told apart by content (the binary magic number); errors name source_name.
 Result<SphereSet> ReadSphereSet(std::span<const std::byte> bytes, const std::string& source_name = "<memory>");
 
-// Files: errors name the path. Load reads either format (by content) and sets loaded_from to the
-// path. Save writes `format`, or without it the format of the extension (JSON when unknown); a
-// fast-only set cannot be written as JSON (kInvalidArgument).
+// Files: errors name the path. Load reads either format (told apart by content) and sets
+// loaded_from to the path. Save writes `format`, or without it the format of the extension (JSON
+// when unknown); a fast-only set cannot be written as JSON (kInvalidArgument). Saving checks every
+// write through the close (file_io.h), in both formats. Loading reads only a regular file (a FIFO
+// or device is refused without reading) of at most kMaxSphereSetBytes, refused from its size
+// before anything is allocated, in both formats; JSON nested deeper than kMaxJsonDepth (file_io.h)
+// is refused before parsing. Reading JSON streams the spheres, pairs and mesh arrays out of the
+// parsed document as they complete: it peaks at about the text plus the set (docs/LIMITS.md has
+// the figures); reading binary peaks at the file plus the set.
+inline constexpr uint64_t kMaxSphereSetBytes = uint64_t{512} << 20;  // 512 MiB
 std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path);
 std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path, SphereSetFileFormat format);
 Result<SphereSet> LoadSphereSet(const std::filesystem::path& path);
