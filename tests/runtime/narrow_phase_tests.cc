@@ -16,6 +16,7 @@
 
 #include "allocation_counter.h"
 #include "posed_characters.h"
+#include "skinspheres/lib/builtin_character.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/runtime/triangle_contact.h"
 #include "skinspheres/skinning/skinning_job.h"
@@ -177,6 +178,65 @@ TEST_P(NarrowPhaseShared, MatchesTheOracle) {
 
 INSTANTIATE_TEST_SUITE_P(SharedCharacters, NarrowPhaseShared, ::testing::ValuesIn(test::SharedCharacters()),
                          [](const auto& param_info) { return param_info.param.substr(0, param_info.param.find('.')); });
+
+// ------------------------------------------------------------------ the built-in character
+
+// The largest weight of one of triangle t's vertices is on a joint whose name contains `name`.
+bool OnJoint(const lib::RawCharacter& c, uint32_t t, const std::string& name) {
+  for (int k = 0; k < 3; ++k) {
+    const int v = c.triangles[t][k];
+    float best = 0;
+    int32_t joint = -1;
+    for (uint32_t i = c.skin.influence_offsets[v]; i < c.skin.influence_offsets[v + 1]; ++i) {
+      if (c.skin.influence_weights[i] > best) best = c.skin.influence_weights[i], joint = c.skin.binds[c.skin.influence_binds[i]].joint;
+    }
+    if (c.skeleton.joint_names[joint].find(name) != std::string::npos) return true;
+  }
+  return false;
+}
+
+TEST(NarrowPhase, BuiltinWalkTouchesNothingAndTouchOnlyWithTheHands) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  auto asset = CharacterAsset::Create(fc->set);
+  ASSERT_TRUE(asset.ok());
+  auto inst = CharacterInstance::Create(*asset);
+  const auto& set = fc->set;
+  const lib::RawCharacter& c = fc->character;
+  for (const auto& clip : c.clips) {
+    int contact_frames = 0;
+    for (int f = 0; f <= int(clip.duration_s * 30.0f + 1e-3f); ++f) {
+      const float t = f / 30.0f;
+      const test::Pose pose = test::MakePose(c, test::SampleLocal(c, clip, t), clip.name);
+      for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
+        ASSERT_TRUE(inst->Update(mode, pose.world, pose.positions).ok());
+        ASSERT_TRUE(inst->FindContacts(mode == RefitMode::kExact ? std::span<const Vector3f>(pose.positions)
+                                                                 : std::span<const Vector3f>())
+                        .ok());
+        const FrameContacts& out = inst->frame_contacts();
+        if (clip.name == "walk") {
+          ASSERT_TRUE(out.empty()) << "walk t=" << t << ": " << set.parts[out.parts[0].part_a].name << " - "
+                                   << set.parts[out.parts[0].part_b].name;
+          continue;
+        }
+        for (const PartContact& p : out.parts) {
+          const std::string a = set.parts[p.part_a].name, b = set.parts[p.part_b].name;
+          ASSERT_TRUE((a == "torso" || a == "head") && b.rfind("arm_", 0) == 0) << "touch t=" << t << ": " << a << " - " << b;
+          EXPECT_GT(p.depth, 0.0f);
+          EXPECT_LT(p.depth, 0.06f) << "the hands sink at most a few cm";
+          for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
+            ASSERT_TRUE(OnJoint(c, out.triangle_pairs[k].u, "Hand")) << "touch t=" << t << ": arm triangle "
+                                                                     << out.triangle_pairs[k].u << " is not the hand's";
+          }
+        }
+        contact_frames += !out.empty() && mode == RefitMode::kExact;
+      }
+    }
+    if (clip.name == "touch") {
+      EXPECT_GE(contact_frames, 50) << "hands on the chest and on the head for 0.8 s each";
+    }
+  }
+}
 
 // ------------------------------------------------------------------ lazy skinning, threads
 
