@@ -111,6 +111,7 @@ struct TrianglePairContact {
   // twice). Within margin: the closest points, on t and on u.
   float on_t[3] = {0, 0, 0};
   float on_u[3] = {0, 0, 0};
+  friend bool operator==(const TrianglePairContact&, const TrianglePairContact&) = default;
 };
 
 struct SpherePair {
@@ -131,6 +132,7 @@ struct PartContact {
   float min_distance = 0.0f;         // 0 with intersections, else the smallest within-margin distance
   float normal[3] = {0, 0, 0};       // contact normal, from part_b towards part_a (0 without intersections)
   float center[3] = {0, 0, 0};       // contact centre C (with intersections), else the closest pair's point
+  friend bool operator==(const PartContact&, const PartContact&) = default;
 };
 
 struct FrameContacts {
@@ -146,6 +148,7 @@ struct FrameContacts {
   bool empty() const { return parts.empty(); }
   // Set-up: room for this many triangle pairs (and as many part and sphere pairs) without allocating.
   void Reserve(size_t triangle_pairs_capacity);
+  friend bool operator==(const FrameContacts&, const FrameContacts&) = default;
 };
 
 // What the narrow phase derives once from a sphere set (allocates; immutable afterwards, shared by
