@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cfloat>
 #include <cstring>
+#include <map>
 #include <string>
 #include <unordered_map>
 
@@ -18,9 +19,6 @@
 #include "skinspheres/skinning/skinning_matrices_job.h"
 
 namespace skinspheres::runtime {
-
-// Unaligned double types (math_types.h: no Eigen type of 32 bytes or more is aligned here).
-using Mat4d = Eigen::Matrix<double, 4, 4, Eigen::ColMajor | Eigen::DontAlign>;
 
 const char* ToString(TriangleContactKind kind) {
   switch (kind) {
@@ -68,7 +66,6 @@ struct NarrowPhaseAccess {
     bool rest_rule;                    // apply rule 3 (false while rule 3 itself is being computed)
     const Box* cluster_box = nullptr;  // this frame's cluster boxes (set for the spheres in pairs)
     const Box* sphere_box = nullptr;   // and the unions of each sphere's cluster boxes
-    const Vec4f* cluster_ball = nullptr;  // mode (b): two balls per cluster (rest and bind bounds)
   };
 
   static float Slack(float margin) { return margin * (1.0f + 1e-5f); }
@@ -145,7 +142,7 @@ struct NarrowPhaseAccess {
 
   // ----------------------------------------------------------------- cluster boxes
 
-  // Mode (a): the box of the cluster's skinned vertices. False when one is not finite.
+  // The box of the cluster's skinned vertices. False when one is not finite.
   static bool PositionBox(const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t c, Box* box) {
     Eigen::Vector3f lo = Eigen::Vector3f::Constant(INFINITY), hi = Eigen::Vector3f::Constant(-INFINITY);
     bool finite = true;
@@ -163,96 +160,16 @@ struct NarrowPhaseAccess {
     return finite;
   }
 
-  static Eigen::Vector3f Apply(const Mat4f& g, const Eigen::Vector3f& p) {
-    return g.topLeftCorner<3, 3>() * p + g.topRightCorner<3, 1>();
-  }
-
-  // s_max^2 of a 3x3 linear map: max_i sum_k |(A^T A)_ik| (refit_job.h).
-  static float Scale2(const Eigen::Matrix3f& a) { return (a.transpose() * a).cwiseAbs().rowwise().sum().maxCoeff(); }
-
-  // Per joint, s_max^2 of A_j = linear(G_j(t)) G_j(rest)^-1; per bind entry, of linear(M_b(t)).
-  static void Scales(const NarrowPhaseData& d, std::span<const Mat4f> joint_world, std::span<const Mat4f> bind_matrices,
-                     NarrowPhaseContext& ctx) {
-    for (size_t j = 0; j < d.rest_linear_inverse_.size(); ++j) {
-      ctx.joint_scale2_[j] = Scale2(joint_world[j].topLeftCorner<3, 3>() * d.rest_linear_inverse_[j]);
-    }
-    for (size_t b = 0; b < bind_matrices.size(); ++b) ctx.bind_scale2_[b] = Scale2(bind_matrices[b].topLeftCorner<3, 3>());
-  }
-
-  // The Kavan-Zara bound (refit_job.h) of points carried by several affine maps:
-  //   r' = s_max radius + max_k |X_k q_k - c'|,  c' = sum_k w_k X_k q_k
-  // plus 16 ulps of the coordinates for rounding, as the refit adds. Returns (c', r').
-  template <class Map, class Point, class Scale>
-  static Vec4f Bound(uint32_t k0, uint32_t k1, const float* weights, float radius, Map&& map, Point&& point, Scale&& scale) {
-    Eigen::Vector3f centre = Eigen::Vector3f::Zero();
-    for (uint32_t k = k0; k < k1; ++k) centre += weights[k] * Apply(map(k), point(k));
-    float spread2 = 0.0f, s2 = 0.0f;
-    for (uint32_t k = k0; k < k1; ++k) {
-      spread2 = std::max(spread2, (Apply(map(k), point(k)) - centre).squaredNorm());
-      s2 = std::max(s2, scale(k));
-    }
-    float r = std::sqrt(s2) * radius + std::sqrt(spread2);
-    r += 16.0f * FLT_EPSILON * (centre.cwiseAbs().maxCoeff() + r);
-    return Vec4f(centre.x(), centre.y(), centre.z(), r);
-  }
-
-  // Mode (b): the box of the cluster from the joints alone: the intersection of the boxes of two
-  // valid bounds, one about the rest pose (joints' motion from rest, rest copies of the vertices, as
-  // the fast refit), one about the bind pose (the skinning matrices, bind positions). False when
-  // not finite.
-  static bool JointBox(const NarrowPhaseData& d, uint32_t c, std::span<const Mat4f> joint_world,
-                       std::span<const Mat4f> bind_matrices, const NarrowPhaseContext& ctx, Box* box, Vec4f* balls) {
-    box->id = c;
-    if (std::isinf(d.cluster_radius_fast_[c])) {  // a vertex without influences: unbounded
-      for (int k = 0; k < 3; ++k) box->lo[k] = -INFINITY, box->hi[k] = INFINITY;
-      balls[0] = balls[1] = Vec4f(0, 0, 0, INFINITY);
-      return true;
-    }
-    const Vec4f rest = Bound(
-        d.cluster_influence_offsets_[c], d.cluster_influence_offsets_[c + 1], d.cluster_influence_weights_.data(),
-        d.cluster_radius_fast_[c], [&](uint32_t k) -> const Mat4f& { return joint_world[d.cluster_influence_joints_[k]]; },
-        [&](uint32_t k) -> const Eigen::Vector3f& { return d.cluster_center_in_joint_[k]; },
-        [&](uint32_t k) { return ctx.joint_scale2_[d.cluster_influence_joints_[k]]; });
-    const Vec4f bind = Bound(
-        d.cluster_bind_offsets_[c], d.cluster_bind_offsets_[c + 1], d.cluster_bind_weights_.data(), d.cluster_radius_bind_[c],
-        [&](uint32_t k) -> const Mat4f& { return bind_matrices[d.cluster_binds_[k]]; },
-        [&](uint32_t) -> const Eigen::Vector3f& { return d.cluster_center_bind_[c]; },
-        [&](uint32_t k) { return ctx.bind_scale2_[d.cluster_binds_[k]]; });
-    for (int k = 0; k < 3; ++k) {
-      // Rounded outwards: each box must hold its ball.
-      box->lo[k] = std::max(std::nextafter(rest[k] - rest.w(), -INFINITY), std::nextafter(bind[k] - bind.w(), -INFINITY));
-      box->hi[k] = std::min(std::nextafter(rest[k] + rest.w(), INFINITY), std::nextafter(bind[k] + bind.w(), INFINITY));
-    }
-    balls[0] = rest;
-    balls[1] = bind;
-    return rest.allFinite() && bind.allFinite();
-  }
-
   // ----------------------------------------------------------------- per sphere pair
 
   // The clusters of sphere s whose box reaches into sphere `other` (grown by the margin).
-  // (Mode b: and whose two balls both do.)
   static size_t Reaching(const Frame& f, uint32_t s, const Vec4f& other, uint32_t* out) {
     const NarrowPhaseData& d = f.data;
     size_t n = 0;
     for (uint32_t c = d.cluster_offsets_[s]; c < d.cluster_offsets_[s + 1]; ++c) {
-      if (!BoxReachesSphere(f.cluster_box[c], other, f.margin)) continue;
-      if (f.cluster_ball != nullptr && (!SpheresMeet(f.cluster_ball[2 * c], other, f.margin) ||
-                                        !SpheresMeet(f.cluster_ball[2 * c + 1], other, f.margin))) {
-        continue;
-      }
-      out[n++] = c;
+      if (BoxReachesSphere(f.cluster_box[c], other, f.margin)) out[n++] = c;
     }
     return n;
-  }
-
-  // Mode b: every ball of cluster a meets every ball of cluster b (each pair is a necessary condition).
-  static bool BallsMeet(const Frame& f, uint32_t a, uint32_t b) {
-    if (f.cluster_ball == nullptr) return true;
-    const Vec4f* x = &f.cluster_ball[2 * a];
-    const Vec4f* y = &f.cluster_ball[2 * b];
-    return SpheresMeet(x[0], y[0], f.margin) && SpheresMeet(x[0], y[1], f.margin) && SpheresMeet(x[1], y[0], f.margin) &&
-           SpheresMeet(x[1], y[1], f.margin);
   }
 
   // Calls fn(a, b) for every pair of clusters (a of sphere i, b of sphere j) whose boxes meet,
@@ -270,7 +187,7 @@ struct NarrowPhaseAccess {
     for (size_t x = 0; x < na; ++x) {
       for (size_t y = 0; y < nb; ++y) {
         ++*tested;
-        if (BoxesMeet(f.cluster_box[ka[x]], f.cluster_box[kb[y]], slack) && BallsMeet(f, ka[x], kb[y])) fn(ka[x], kb[y]);
+        if (BoxesMeet(f.cluster_box[ka[x]], f.cluster_box[kb[y]], slack)) fn(ka[x], kb[y]);
       }
     }
   }
@@ -553,15 +470,9 @@ struct NarrowPhaseAccess {
     return ok;
   }
 
-  // Cuts each sphere's triangles into clusters of at most settings.cluster_triangles by median splits of
-  // their rest centroids along the longest axis, and computes each cluster's fast-bound data: its
-  // joints (of its vertices' bind entries) with weights summed per joint, the centre of the box of
-  // the rest copies of its vertices (M_b(rest) p_bind for every bind entry b of a vertex), that
-  // centre in each joint's rest frame, and radius_fast, the largest distance from it to a copy.
-  static bool BuildClusters(const SphereSet& set, const std::vector<Mat4d>& rest_inverse, NarrowPhaseData* d) {
-    const skinning::SkinnedMesh& mesh = set.mesh;
-    std::vector<Mat4f> matrices(mesh.binds.size());
-    if (!skinning::SkinningMatricesJob{mesh.binds, set.joint_rest_world, matrices}.Run()) return false;
+  // Cuts each sphere's triangles into clusters of at most settings.cluster_triangles by median
+  // splits of their rest centroids along the longest axis; each cluster lists its vertices.
+  static void BuildClusters(const SphereSet& set, NarrowPhaseData* d) {
     const auto& rest = d->rest_positions_;
     auto centroid = [&](uint32_t t) {
       return (rest[set.triangle_vertices[3 * size_t{t}]] + rest[set.triangle_vertices[3 * size_t{t} + 1]] +
@@ -570,10 +481,7 @@ struct NarrowPhaseAccess {
     d->cluster_offsets_.assign(1, 0);
     d->cluster_triangle_offsets_.assign(1, 0);
     d->cluster_vertex_offsets_.assign(1, 0);
-    d->cluster_influence_offsets_.assign(1, 0);
-    d->cluster_bind_offsets_.assign(1, 0);
     std::vector<uint32_t> tris, verts;
-    std::vector<std::pair<uint16_t, double>> joint_weight, bind_weight;
     struct Range {
       size_t begin, end;
     };
@@ -612,142 +520,85 @@ struct NarrowPhaseAccess {
         std::sort(verts.begin(), verts.end());
         verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
         d->cluster_vertices_.insert(d->cluster_vertices_.end(), verts.begin(), verts.end());
-        // Rest copies, their box centre and the largest distance to it; joints with summed weights.
-        Eigen::AlignedBox3d box;
-        joint_weight.clear();
-        auto each_copy = [&](auto&& fn) {
-          for (uint32_t v : verts) {
-            for (uint32_t k = mesh.influence_offsets[v]; k < mesh.influence_offsets[v + 1]; ++k) {
-              const uint16_t b = mesh.influence_binds[k];
-              fn(Apply(matrices[b], mesh.positions_bind[v]).cast<double>(), uint16_t(mesh.binds[b].joint),
-                 double(mesh.influence_weights[k]));
-            }
-          }
-        };
-        each_copy([&](const Eigen::Vector3d& p, uint16_t joint, double w) {
-          box.extend(p);
-          auto it = std::find_if(joint_weight.begin(), joint_weight.end(), [joint](const auto& e) { return e.first == joint; });
-          if (it == joint_weight.end()) {
-            joint_weight.emplace_back(joint, w);
-          } else {
-            it->second += w;
-          }
-        });
-        const Eigen::Vector3d centre = box.isEmpty() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : Eigen::Vector3d(box.center());
-        double r2 = 0.0;
-        each_copy([&](const Eigen::Vector3d& p, uint16_t, double) { r2 = std::max(r2, (p - centre).squaredNorm()); });
-        // A vertex without influences skins to the origin, which no joint carries: such a cluster
-        // gets an unbounded radius (always kept).
-        bool unbound = false;
-        for (uint32_t v : verts) unbound |= mesh.influence_offsets[v] == mesh.influence_offsets[v + 1];
-        d->cluster_radius_fast_.push_back(unbound ? INFINITY : std::nextafter(float(std::sqrt(r2)), INFINITY));
-        std::sort(joint_weight.begin(), joint_weight.end());
-        double total = 0.0;
-        for (const auto& e : joint_weight) total += e.second;
-        for (const auto& [joint, w] : joint_weight) {
-          d->cluster_influence_joints_.push_back(joint);
-          d->cluster_influence_weights_.push_back(total > 0.0 ? float(w / total) : 1.0f / float(joint_weight.size()));
-          const Eigen::Vector3d local =
-              rest_inverse[joint].topLeftCorner<3, 3>() * centre + rest_inverse[joint].topRightCorner<3, 1>();
-          d->cluster_center_in_joint_.push_back(local.cast<float>());
-        }
-        if (joint_weight.empty()) {  // a vertex without influences skins to the origin: bound it there
-          d->cluster_influence_joints_.push_back(0);
-          d->cluster_influence_weights_.push_back(1.0f);
-          d->cluster_center_in_joint_.push_back(Eigen::Vector3f::Zero());
-        }
-        // The bind-space bound: box centre of the bind positions, largest distance, entries.
-        Eigen::AlignedBox3d bind_box;
-        bind_weight.clear();
-        for (uint32_t v : verts) {
-          bind_box.extend(mesh.positions_bind[v].cast<double>());
-          for (uint32_t k = mesh.influence_offsets[v]; k < mesh.influence_offsets[v + 1]; ++k) {
-            const uint16_t b = mesh.influence_binds[k];
-            auto it = std::find_if(bind_weight.begin(), bind_weight.end(), [b](const auto& e) { return e.first == b; });
-            if (it == bind_weight.end()) {
-              bind_weight.emplace_back(b, double(mesh.influence_weights[k]));
-            } else {
-              it->second += mesh.influence_weights[k];
-            }
-          }
-        }
-        const Eigen::Vector3d bind_centre = bind_box.isEmpty() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : Eigen::Vector3d(bind_box.center());
-        double rb2 = 0.0;
-        for (uint32_t v : verts) rb2 = std::max(rb2, (mesh.positions_bind[v].cast<double>() - bind_centre).squaredNorm());
-        d->cluster_center_bind_.push_back(bind_centre.cast<float>());
-        d->cluster_radius_bind_.push_back(unbound ? INFINITY : std::nextafter(float(std::sqrt(rb2)), INFINITY));
-        std::sort(bind_weight.begin(), bind_weight.end());
-        double bind_total = 0.0;
-        for (const auto& e : bind_weight) bind_total += e.second;
-        for (const auto& [b, w] : bind_weight) {
-          d->cluster_binds_.push_back(b);
-          d->cluster_bind_weights_.push_back(bind_total > 0.0 ? float(w / bind_total) : 1.0f / float(bind_weight.size()));
-        }
-        if (bind_weight.empty()) {
-          d->cluster_binds_.push_back(0);
-          d->cluster_bind_weights_.push_back(1.0f);
-        }
-        d->cluster_bind_offsets_.push_back(uint32_t(d->cluster_binds_.size()));
         d->cluster_triangle_offsets_.push_back(uint32_t(d->cluster_triangles_.size()));
         d->cluster_vertex_offsets_.push_back(uint32_t(d->cluster_vertices_.size()));
-        d->cluster_influence_offsets_.push_back(uint32_t(d->cluster_influence_joints_.size()));
       }
-      d->cluster_offsets_.push_back(uint32_t(d->cluster_radius_fast_.size()));
+      d->cluster_offsets_.push_back(uint32_t(d->cluster_vertex_offsets_.size() - 1));
+    }
+  }
+
+  // Mode (b) skins the vertices of the spheres in pairs, each vertex once: the vertices are grouped
+  // by the set of spheres whose triangles use them (a sphere's inside, the border it shares with a
+  // neighbour, ...), each group with its own prepared influences (the SIMD skinning layout), and
+  // each sphere lists its groups. False when the influences are inconsistent.
+  static bool BuildVertexGroups(const SphereSet& set, NarrowPhaseData* d) {
+    const size_t vertices = set.source_vertex_count;
+    std::vector<std::vector<uint32_t>> spheres_of(vertices);
+    for (uint32_t s = 0; s < set.size(); ++s) {
+      for (uint32_t k = d->sphere_vertex_offsets_[s]; k < d->sphere_vertex_offsets_[s + 1]; ++k) {
+        spheres_of[d->sphere_vertices_[k]].push_back(s);  // ascending s
+      }
+    }
+    std::map<std::vector<uint32_t>, uint32_t> group_of;
+    std::vector<std::vector<uint32_t>> members;
+    for (uint32_t v = 0; v < vertices; ++v) {
+      if (spheres_of[v].empty()) continue;
+      auto [it, added] = group_of.emplace(spheres_of[v], uint32_t(members.size()));
+      if (added) members.emplace_back();
+      members[it->second].push_back(v);
+    }
+    const skinning::SkinnedMesh& mesh = set.mesh;
+    d->groups_.resize(members.size());
+    for (size_t g = 0; g < members.size(); ++g) {
+      if (!d->groups_[g].Build(mesh.vertex_count(), mesh.influence_offsets, mesh.influence_binds, mesh.influence_weights,
+                               members[g])) {
+        return false;
+      }
+    }
+    std::vector<std::vector<uint32_t>> groups_of(set.size());
+    for (const auto& [spheres, g] : group_of) {
+      for (uint32_t s : spheres) groups_of[s].push_back(g);
+    }
+    d->sphere_group_offsets_.assign(1, 0);
+    for (auto& list : groups_of) {
+      std::sort(list.begin(), list.end());
+      d->sphere_groups_.insert(d->sphere_groups_.end(), list.begin(), list.end());
+      d->sphere_group_offsets_.push_back(uint32_t(d->sphere_groups_.size()));
     }
     return true;
   }
 
-  // Per frame, before the pairs are tested: the boxes of the clusters of every sphere in a pair
-  // (mode a: from the positions; mode b: from the joints, then the vertices of every cluster in a
-  // cluster pair whose boxes meet go to `skinner`). False on non-finite input.
-  template <class Skinner>
-  static bool PrepareClusters(const Frame& f, std::span<const Vec4f> spheres, std::span<const Contact> pairs,
-                              std::span<const Mat4f> joint_world, NarrowPhaseContext& ctx, Skinner* skinner,
-                              const ParallelFor& parallel_for) {
-    const NarrowPhaseData& d = f.data;
-    const uint32_t stamp = ctx.frame_stamp_;
+  // The spheres in this frame's pairs, once each (ctx.involved_).
+  static void Involved(std::span<const Contact> pairs, NarrowPhaseContext& ctx) {
     ctx.involved_.clear();
     for (const Contact& p : pairs) {
       for (uint32_t s : {p.i, p.j}) {
-        if (ctx.sphere_bounded_[s] != stamp) {
-          ctx.sphere_bounded_[s] = stamp;
+        if (ctx.sphere_seen_[s] != ctx.frame_stamp_) {
+          ctx.sphere_seen_[s] = ctx.frame_stamp_;
           ctx.involved_.push_back(s);
-          ctx.stats_.clusters_bounded += d.cluster_offsets_[s + 1] - d.cluster_offsets_[s];
         }
       }
     }
-    if (skinner != nullptr) Scales(d, joint_world, ctx.bind_matrices_, ctx);
+  }
+
+  // The boxes of the clusters of every involved sphere, and the spheres' unions of them. False on a
+  // non-finite position.
+  static bool PrepareClusters(const Frame& f, NarrowPhaseContext& ctx, const ParallelFor& parallel_for) {
+    const NarrowPhaseData& d = f.data;
     std::atomic<bool> ok{true};
     parallel_for(ctx.involved_.size(), 4, [&](size_t begin, size_t end) {
       bool good = true;
       for (size_t k = begin; k < end; ++k) {
         const uint32_t s = ctx.involved_[k];
         for (uint32_t c = d.cluster_offsets_[s]; c < d.cluster_offsets_[s + 1]; ++c) {
-          good &= skinner != nullptr ? JointBox(d, c, joint_world, ctx.bind_matrices_, ctx, &ctx.cluster_box_[c],
-                                                &ctx.cluster_ball_[2 * size_t{c}])
-                                     : PositionBox(d, f.pos, c, &ctx.cluster_box_[c]);
+          good &= PositionBox(d, f.pos, c, &ctx.cluster_box_[c]);
         }
+        UniteClusters(d, s, ctx);
       }
       if (!good) ok.store(false, std::memory_order_relaxed);
     });
-    if (!ok.load()) return false;
-    for (uint32_t s : ctx.involved_) UniteClusters(d, s, ctx);
-    if (skinner == nullptr) return true;
-    Chunk& scratch = ctx.chunks_[0];
-    size_t tested = 0;
-    for (const Contact& p : pairs) {
-      ClusterPairs(f, p.i, p.j, spheres[p.i], spheres[p.j], scratch.ka.data(), scratch.kb.data(), &tested,
-                   [&](uint32_t a, uint32_t b) {
-                     for (uint32_t c : {a, b}) {
-                       if (ctx.cluster_mark_[c] == stamp) continue;
-                       ctx.cluster_mark_[c] = stamp;
-                       ++ctx.stats_.clusters_skinned;
-                       const uint32_t v0 = d.cluster_vertex_offsets_[c], v1 = d.cluster_vertex_offsets_[c + 1];
-                       skinner->Add(std::span<const uint32_t>(d.cluster_vertices_).subspan(v0, v1 - v0));
-                     }
-                   });
-    }
-    return true;
+    for (uint32_t s : ctx.involved_) ctx.stats_.clusters_bounded += d.cluster_offsets_[s + 1] - d.cluster_offsets_[s];
+    return ok.load();
   }
 
   // A sphere's box: the union of its clusters' boxes.
@@ -762,16 +613,52 @@ struct NarrowPhaseAccess {
     ctx.sphere_box_[s] = all;
   }
 
-  // Mode (b), once skinned: the skinned clusters' boxes from their positions, exact (they only
-  // shrink, so no cluster pair is gained and none that meets is lost), and the spheres' unions.
-  static void TightenSkinnedClusters(const Frame& f, NarrowPhaseContext& ctx) {
-    for (uint32_t s : ctx.involved_) {
-      for (uint32_t c = f.data.cluster_offsets_[s]; c < f.data.cluster_offsets_[s + 1]; ++c) {
-        if (ctx.cluster_mark_[c] == ctx.frame_stamp_) PositionBox(f.data, f.pos, c, &ctx.cluster_box_[c]);
+  // Mode (b): skins the vertex groups of the spheres asked for, each group once per frame, through
+  // its prepared influences (bit-identical to skinning the whole mesh with SkinningJob).
+  struct LazySkinner {
+    const SphereSet& set;
+    const NarrowPhaseData& data;
+    NarrowPhaseContext& ctx;
+    std::span<const Mat4f> matrices;
+    bool ok = true;
+
+    void Collect(uint32_t sphere) {
+      const auto offsets = data.sphere_group_offsets();
+      for (uint32_t k = offsets[sphere]; k < offsets[sphere + 1]; ++k) {
+        const uint32_t g = data.sphere_groups()[k];
+        if (ctx.group_mark_[g] != ctx.frame_stamp_) {
+          ctx.group_mark_[g] = ctx.frame_stamp_;
+          ctx.group_list_.push_back(g);
+        }
       }
-      UniteClusters(f.data, s, ctx);
     }
-  }
+    bool Skin(const ParallelFor& parallel_for) {
+      std::atomic<bool> good{true};
+      parallel_for(ctx.group_list_.size(), 1, [&](size_t begin, size_t end) {
+        for (size_t k = begin; k < end; ++k) {
+          const skinning::PreparedInfluences& group = data.group(ctx.group_list_[k]);
+          skinning::SkinningJob job;
+          job.joint_matrices = matrices;
+          job.vertex_count = set.mesh.vertex_count();
+          job.in_positions = {reinterpret_cast<const float*>(set.mesh.positions_bind.data()), 3 * set.mesh.vertex_count()};
+          job.out_positions = {reinterpret_cast<float*>(ctx.skinned_.data()), 3 * ctx.skinned_.size()};
+          job.prepared = &group;
+          bool fine = job.Run();
+          for (uint32_t v : group.vertices()) fine &= ctx.skinned_[v].allFinite();
+          if (!fine) good.store(false, std::memory_order_relaxed);
+        }
+      });
+      for (uint32_t g : ctx.group_list_) ctx.stats_.skinned_vertices += data.group(g).size();
+      ctx.group_list_.clear();
+      ok &= good.load();
+      return good.load();
+    }
+    // The depth estimate's on-demand call: one sphere, on this thread.
+    void operator()(uint32_t sphere) {
+      Collect(sphere);
+      Skin(SerialFor());
+    }
+  };
 
   // Rest positions: the mesh skinned with the rest transforms.
   static bool RestPositions(const SphereSet& set, std::vector<Eigen::Vector3f>* out) {
@@ -815,7 +702,6 @@ Result<NarrowPhaseData> NarrowPhaseData::Create(const SphereSet& set, const Pair
   }
   NarrowPhaseData d;
   d.settings_ = settings;
-  d.bind_count_ = set.mesh.binds.size();
   if (!Access::RestPositions(set, &d.rest_positions_)) {
     return MakeError(ErrorCode::kInvalidData, who + ": the mesh cannot be skinned at rest (bind entries and skeleton disagree)");
   }
@@ -861,27 +747,9 @@ Result<NarrowPhaseData> NarrowPhaseData::Create(const SphereSet& set, const Pair
     d.max_sphere_triangles_ = std::max<size_t>(d.max_sphere_triangles_, set.triangle_offsets[s + 1] - set.triangle_offsets[s]);
   }
 
-  // Per joint, the linear part of G_j(rest)^-1; per cluster, its fast-bound data.
-  const size_t joints = set.joint_count();
-  std::vector<Mat4d> rest_inverse(joints);
-  d.rest_linear_inverse_.resize(joints);
-  for (size_t j = 0; j < joints; ++j) {
-    const Mat4d g = set.joint_rest_world[j].cast<double>();
-    const Eigen::Matrix3d l = g.topLeftCorner<3, 3>();
-    const double det = l.determinant(), scale = l.cwiseAbs().maxCoeff();
-    if (!(std::abs(det) > 1e-12 * scale * scale * scale) || !std::isfinite(det)) {
-      return MakeError(ErrorCode::kInvalidData, who + ": rest transform of joint " + std::to_string(j) + " '" +
-                                                    set.joint_names[j] + "' is not invertible");
-    }
-    const Eigen::Matrix3d li = l.inverse();
-    Mat4d inv = Mat4d::Identity();
-    inv.topLeftCorner<3, 3>() = li;
-    inv.topRightCorner<3, 1>() = -li * g.topRightCorner<3, 1>();
-    rest_inverse[j] = inv;
-    d.rest_linear_inverse_[j] = li.cast<float>();
-  }
-  if (!Access::BuildClusters(set, rest_inverse, &d)) {
-    return MakeError(ErrorCode::kInvalidData, who + ": the mesh cannot be skinned at rest (bind entries and skeleton disagree)");
+  Access::BuildClusters(set, &d);
+  if (!Access::BuildVertexGroups(set, &d)) {
+    return MakeError(ErrorCode::kInvalidData, who + ": the mesh's influences do not fit its bind entries");
   }
   for (size_t s = 0; s < n; ++s) {
     d.max_sphere_clusters_ = std::max<size_t>(d.max_sphere_clusters_, d.cluster_offsets_[s + 1] - d.cluster_offsets_[s]);
@@ -954,28 +822,20 @@ void NarrowPhaseContext::Resize(const NarrowPhaseData& data, bool lazy_skinning)
   sphere_mark_.assign(data.sphere_count(), 0);
   queue_.assign(data.sphere_count(), 0);
   sphere_stamp_ = 0;
-  sphere_bounded_.assign(data.sphere_count(), 0);
+  sphere_seen_.assign(data.sphere_count(), 0);
   involved_.reserve(data.sphere_count());
   cluster_box_.assign(data.cluster_count(), Box{});
   sphere_box_.assign(data.sphere_count(), Box{});
   frame_stamp_ = 0;
   if (lazy_skinning) {
     skinned_.assign(data.vertex_count(), Eigen::Vector3f::Zero());
-    vertex_mark_.assign(data.vertex_count(), 0);
-    subset_.reserve(data.vertex_count());
-    joint_scale2_.assign(data.joint_count(), 0.0f);
-    bind_scale2_.assign(data.bind_count(), 0.0f);
-    cluster_mark_.assign(data.cluster_count(), 0);
-    cluster_ball_.assign(2 * data.cluster_count(), Vec4f::Zero());
+    group_mark_.assign(data.group_count(), 0);
+    group_list_.reserve(data.group_count());
   } else {
-    cluster_ball_.clear();
-    cluster_ball_.shrink_to_fit();
-    for (auto* v : {&vertex_mark_, &subset_, &cluster_mark_}) {
-      v->clear();
-      v->shrink_to_fit();
-    }
     skinned_.clear();
     skinned_.shrink_to_fit();
+    group_mark_.clear();
+    group_mark_.shrink_to_fit();
   }
 }
 
@@ -993,56 +853,6 @@ bool NarrowPhaseJob::Validate() const {
 }
 
 namespace {
-
-// Mode (b): skins the listed vertices that this frame has not skinned yet.
-struct LazySkinner {
-  const SphereSet& set;
-  const NarrowPhaseData& data;
-  std::vector<Eigen::Vector3f>& skinned;
-  std::vector<uint32_t>& mark;
-  std::vector<uint32_t>& subset;
-  std::span<const Mat4f> matrices;
-  uint32_t stamp;
-  size_t* counted;
-  bool ok = true;
-
-  void Add(std::span<const uint32_t> vertices) {
-    for (uint32_t v : vertices) {
-      if (mark[v] != stamp) {
-        mark[v] = stamp;
-        subset.push_back(v);
-      }
-    }
-  }
-  void Collect(uint32_t sphere) {
-    const auto offsets = data.sphere_vertex_offsets();
-    Add(data.sphere_vertices().subspan(offsets[sphere], offsets[sphere + 1] - offsets[sphere]));
-  }
-  bool Skin(const ParallelFor& parallel_for) {
-    if (subset.empty()) return true;
-    const skinning::SkinnedMesh& mesh = set.mesh;
-    skinning::SkinningJob job;
-    job.joint_matrices = matrices;
-    job.vertex_count = mesh.vertex_count();
-    job.in_positions = {reinterpret_cast<const float*>(mesh.positions_bind.data()), 3 * mesh.vertex_count()};
-    job.out_positions = {reinterpret_cast<float*>(skinned.data()), 3 * skinned.size()};
-    job.influence_offsets = mesh.influence_offsets;
-    job.influence_binds = mesh.influence_binds;
-    job.influence_weights = mesh.influence_weights;
-    job.subset = subset;
-    bool good = skinning::SkinParallel(job, 1024, parallel_for);
-    for (uint32_t v : subset) good &= skinned[v].allFinite();
-    *counted += subset.size();
-    subset.clear();
-    ok &= good;
-    return good;
-  }
-  // The depth estimate's on-demand call: one sphere, on this thread.
-  void operator()(uint32_t sphere) {
-    Collect(sphere);
-    Skin(SerialFor());
-  }
-};
 
 struct NoSkinning {
   void operator()(uint32_t) const {}
@@ -1062,30 +872,25 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
   const bool lazy = positions.empty();
   if (lazy && !ctx.has_lazy_skinning()) ctx.Resize(*data, true);  // first mode-(b) run: warm-up allocation
   if (++ctx.frame_stamp_ == 0) {
-    for (auto* v : {&ctx.vertex_mark_, &ctx.sphere_bounded_, &ctx.cluster_mark_}) std::fill(v->begin(), v->end(), 0u);
+    for (auto* v : {&ctx.sphere_seen_, &ctx.group_mark_}) std::fill(v->begin(), v->end(), 0u);
     ctx.frame_stamp_ = 1;
   }
+  Access::Involved(pairs, ctx);
   Access::Frame frame{*set,  *data, positions.data(), data->margin(), /*rest_rule=*/true, ctx.cluster_box_.data(),
                       ctx.sphere_box_.data()};
-  // Positions: the caller's (mode a), or skinned here, cluster by cluster (mode b).
-  std::optional<LazySkinner> skinner;
+  // Positions: the caller's (mode a), or skinned here, the involved spheres' vertices only (mode b).
+  std::optional<Access::LazySkinner> skinner;
   if (lazy) {
     ctx.bind_matrices_.resize(set->mesh.binds.size());
     if (!skinning::SkinningMatricesJob{set->mesh.binds, joint_world.first(set->joint_count()), ctx.bind_matrices_}.Run()) {
       return false;
     }
-    skinner.emplace(LazySkinner{*set, *data, ctx.skinned_, ctx.vertex_mark_, ctx.subset_, ctx.bind_matrices_,
-                                ctx.frame_stamp_, &ctx.stats_.skinned_vertices});
-    frame.pos = ctx.skinned_.data();
-    frame.cluster_ball = ctx.cluster_ball_.data();
-  }
-  if (!Access::PrepareClusters(frame, spheres, pairs, joint_world, ctx, lazy ? &*skinner : nullptr, parallel_for)) {
-    return false;
-  }
-  if (lazy) {
+    skinner.emplace(Access::LazySkinner{*set, *data, ctx, ctx.bind_matrices_});
+    for (uint32_t s : ctx.involved_) skinner->Collect(s);
     if (!skinner->Skin(parallel_for)) return false;
-    Access::TightenSkinnedClusters(frame, ctx);
+    frame.pos = ctx.skinned_.data();
   }
+  if (!Access::PrepareClusters(frame, ctx, parallel_for)) return false;
   const size_t chunks = std::min(pairs.size(), NarrowPhaseContext::kChunks);
   for (size_t c = 0; c < chunks; ++c) {
     ctx.chunks_[c].hits.clear();

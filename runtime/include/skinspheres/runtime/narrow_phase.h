@@ -22,23 +22,24 @@
 // How it is found. Each triangle lies in the sphere that owns it, so an intersecting or near pair
 // of a sphere pair (i, j) lies in both spheres. Under each sphere its triangles are grouped at
 // set-up into CLUSTERS of neighbouring triangles (NarrowPhaseSettings::cluster_triangles at most).
-// Per frame every cluster of a sphere in a pair gets a box: in mode (a) the box of its skinned
-// vertices; in mode (b) the box of two balls bounded from the joint matrices alone (the fast
-// refit's Kavan-Zara bound of refit_job.h per cluster, once about the rest pose and once about the
-// bind pose), narrowed to the exact box once the cluster is skinned. Then, per sphere pair:
-//   the two spheres' boxes (unions of their clusters') must meet;
-//   clusters of i whose box (and, mode b, balls) reach into sphere j, clusters of j into sphere i;
-//   pairs of those clusters whose boxes (and balls) meet;
+// Per frame every cluster of a sphere in a pair gets the box of its skinned vertices, and each such
+// sphere the union of its clusters' boxes (much tighter than a fast-refit sphere). Then, per
+// sphere pair:
+//   the two spheres' boxes must meet (grown by the margin);
+//   clusters of i whose box reaches into sphere j, clusters of j whose box reaches into sphere i;
+//   pairs of those clusters whose boxes meet;
 //   in each such cluster pair, the triangles whose box meets the other cluster's box, paired by box;
 //   the exclusion rules, then the exact triangle test.
 // Every step only drops what cannot meet, so nothing is lost with exact or fast spheres.
+//
 // Positions, two ways (NarrowPhaseJob):
 //  (a) the caller's skinned positions, indexed by source vertex (what UpdateExact refits from; the
 //      positions must be those the spheres hold, i.e. the same buffer, or the LBS of the same joint
 //      matrices in fast mode);
-//  (b) joint matrices only: the job skins just the vertices of the clusters in a cluster pair whose
-//      bounds meet (and, for the depth estimate, of the spheres it examines) with SkinningJob's CSR
-//      path and a subset, so a fast-mode frame skins only what it tests. The positions are
+//  (b) joint matrices only: the job skins just the vertices of the spheres in this frame's pairs
+//      (and of the spheres the depth estimate visits), each vertex once: the vertices are grouped
+//      at set-up by the spheres that use them, each group with prepared influences (the SIMD
+//      skinning path). A fast-mode frame thus never skins a vertex no pair needs. The positions are
 //      bit-identical to skinning the whole mesh with SkinningJob.
 // Both need the mesh of a version-2 sphere set (SphereSet::has_mesh()): triangle indices, rest
 // positions and influences. A version-1 set (no mesh) is refused by NarrowPhaseData::Create with
@@ -68,9 +69,10 @@
 //  mode give the same value. Part pairs with only within-margin pairs have depth 0.
 //
 // Cost and memory: per frame no allocation once the outputs and scratch have held the largest
-// frame so far (FrameContacts::Reserve and NarrowPhaseContext sizes pin them), no exception. Mode
-// (b) keeps a skinned-position buffer of 12 bytes per mesh vertex in the context (allocated by
-// Resize(data, true), or by the first mode-(b) run). Output is identical for any ParallelFor and
+// frame so far (FrameContacts::Reserve and NarrowPhaseContext sizes pin them), no exception. The
+// shared NarrowPhaseData holds about what the mesh holds (welded indices, clusters, prepared
+// influences per vertex group). Mode (b) keeps a skinned-position buffer of 12 bytes per mesh
+// vertex in the context (allocated by Resize(data, true), or by the first mode-(b) run). Output is identical for any ParallelFor and
 // thread count: work is split into a fixed number of chunks of sphere pairs whose results are
 // merged in order, and everything is sorted by indices.
 #pragma once
@@ -83,6 +85,7 @@
 
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/parallel_for.h"
+#include "skinspheres/skinning/prepared_influences.h"
 #include "skinspheres/runtime/broad_phase.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/runtime/pair_filter.h"
@@ -186,36 +189,26 @@ class NarrowPhaseData {
   std::span<const uint32_t> neighbours() const { return neighbours_; }
   // The rest-pose positions (mesh skinned with the rest transforms), per source vertex.
   std::span<const Eigen::Vector3f> rest_positions() const { return rest_positions_; }
-  size_t cluster_count() const { return cluster_radius_fast_.size(); }
-  size_t joint_count() const { return rest_linear_inverse_.size(); }
-  size_t bind_count() const { return bind_count_; }
+  size_t cluster_count() const { return cluster_vertex_offsets_.empty() ? 0 : cluster_vertex_offsets_.size() - 1; }
+  size_t group_count() const { return groups_.size(); }
+  const skinning::PreparedInfluences& group(uint32_t g) const { return groups_[g]; }
+  std::span<const uint32_t> sphere_group_offsets() const { return sphere_group_offsets_; }
+  std::span<const uint32_t> sphere_groups() const { return sphere_groups_; }
 
  private:
   friend struct NarrowPhaseAccess;
   NarrowPhaseSettings settings_;
+  size_t max_sphere_triangles_ = 0;
+  size_t max_sphere_clusters_ = 0;
   // Clusters: sphere s has clusters [cluster_offsets_[s], cluster_offsets_[s + 1]); cluster c has
-  // triangles cluster_triangles_[cluster_triangle_offsets_[c] ..), vertices likewise, and joint
-  // influences (joint, weight, rest centre in the joint's rest frame) for its fast bound.
+  // triangles cluster_triangles_[cluster_triangle_offsets_[c] ..), and vertices likewise.
   std::vector<uint32_t> cluster_offsets_;
   std::vector<uint32_t> cluster_triangle_offsets_, cluster_triangles_;
   std::vector<uint32_t> cluster_vertex_offsets_, cluster_vertices_;
-  std::vector<uint32_t> cluster_influence_offsets_;
-  std::vector<uint16_t> cluster_influence_joints_;
-  std::vector<float> cluster_influence_weights_;
-  std::vector<Eigen::Vector3f> cluster_center_in_joint_;
-  std::vector<float> cluster_radius_fast_;
-  // The same bound in bind space, from the skinning matrices M_b(t) (tighter where the file's rest
-  // pose is not its bind pose): the centre of the box of the bind positions, the largest distance to
-  // it, and the cluster's bind entries with weights summed per entry.
-  std::vector<Eigen::Vector3f> cluster_center_bind_;
-  std::vector<float> cluster_radius_bind_;
-  std::vector<uint32_t> cluster_bind_offsets_;
-  std::vector<uint16_t> cluster_binds_;
-  std::vector<float> cluster_bind_weights_;
-  std::vector<Eigen::Matrix3f> rest_linear_inverse_;  // per joint: linear part of G_j(rest)^-1
-  size_t max_sphere_triangles_ = 0;
-  size_t max_sphere_clusters_ = 0;
-  size_t bind_count_ = 0;
+  // Mode (b): vertex groups (vertices used by the same spheres) with their prepared influences;
+  // sphere s uses groups sphere_groups_[sphere_group_offsets_[s] ..).
+  std::vector<skinning::PreparedInfluences> groups_;
+  std::vector<uint32_t> sphere_group_offsets_, sphere_groups_;
   std::vector<uint32_t> welded_;
   std::vector<uint64_t> rest_excluded_;
   std::vector<uint32_t> sphere_vertex_offsets_, sphere_vertices_;
@@ -235,13 +228,12 @@ class NarrowPhaseContext {
   // Set-up only (allocates). lazy_skinning: also the mode-(b) buffers (skinned positions, marks).
   void Resize(const NarrowPhaseData& data, bool lazy_skinning);
   bool sized_for(const NarrowPhaseData& data) const { return sized_for_ == &data; }
-  bool has_lazy_skinning() const { return !skinned_.empty(); }
+  bool has_lazy_skinning() const { return !group_mark_.empty() || skinned_.size() > 0; }
 
   struct Stats {
     size_t sphere_pairs = 0;         // pairs examined
-    size_t clusters_bounded = 0;     // clusters of the spheres in pairs, bounded this frame
+    size_t clusters_bounded = 0;     // clusters of the spheres in pairs, boxed this frame
     size_t cluster_pairs = 0;        // cluster pairs compared (clusters that reached into the other sphere)
-    size_t clusters_skinned = 0;     // mode (b): clusters in a meeting cluster pair, skinned
     size_t culled_triangles = 0;     // triangles that reached the other cluster's box (both sides)
     size_t box_tests = 0;            // triangle box pairs compared
     size_t triangle_tests = 0;       // exact triangle-triangle tests run
@@ -280,20 +272,16 @@ class NarrowPhaseContext {
   std::vector<uint32_t> sphere_mark_;      // per sphere: the depth estimate's visits
   std::vector<uint32_t> queue_;            // per sphere
   uint32_t sphere_stamp_ = 0;
-  std::vector<uint32_t> sphere_bounded_;   // per sphere: frame stamp when its clusters were bounded
+  std::vector<uint32_t> sphere_seen_;      // per sphere: frame stamp when it was listed in involved_
   std::vector<uint32_t> involved_;         // the spheres in this frame's pairs
   std::vector<Box> cluster_box_;           // per cluster: this frame's box
   std::vector<Box> sphere_box_;            // per sphere: the union of its clusters' boxes
   uint32_t frame_stamp_ = 0;
   // Mode (b).
   std::vector<Eigen::Vector3f> skinned_;   // per vertex
-  std::vector<uint32_t> vertex_mark_;      // per vertex: frame stamp when it was skinned
-  std::vector<uint32_t> subset_;           // per vertex (capacity)
+  std::vector<uint32_t> group_mark_;       // per vertex group: frame stamp when it was skinned
+  std::vector<uint32_t> group_list_;       // the groups to skin
   std::vector<Mat4f> bind_matrices_;       // per bind entry
-  std::vector<float> joint_scale2_;        // per joint: s_max^2 of G_j(t) G_j(rest)^-1
-  std::vector<float> bind_scale2_;         // per bind entry: s_max^2 of M_b(t)
-  std::vector<uint32_t> cluster_mark_;     // per cluster: frame stamp when it was skinned
-  std::vector<Vec4f> cluster_ball_;        // per cluster: its two bounding balls from the joints
   Stats stats_;
 };
 
