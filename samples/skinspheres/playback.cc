@@ -354,8 +354,8 @@ void PrintPlaySummary(const PlayResult& r, const runtime::SphereSet& set, float 
     std::printf("sphere pairs (broad phase) by part pair:\n");
     if (r.sphere_pairs.empty()) std::printf("  none\n");
     for (const PartPairSummary& e : r.sphere_pairs) {
-      std::printf("  %s - %s: frames %s\n", PartName(set, e.part_a).c_str(), PartName(set, e.part_b).c_str(),
-                  e.frames.ToString().c_str());
+      std::printf("  %s - %s: frames %s (%zu frames)\n", PartName(set, e.part_a).c_str(), PartName(set, e.part_b).c_str(),
+                  e.frames.ToString().c_str(), e.frames.frames());
     }
   }
   auto stage = [](const char* name, const StageTime& v) {
