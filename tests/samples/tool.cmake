@@ -61,6 +61,11 @@ add_test(NAME tool.play_memory_flat
           -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/play_memory.cmake)
 set_tests_properties(tool.play_memory_flat PROPERTIES TIMEOUT 600)
 
+# A version-1 sphere set plays, with the character's mesh for the triangle tests.
+add_test(NAME tool.play_v1_set
+  COMMAND ${CMAKE_COMMAND} -DTOOL=${tool} -DDIR=${PROJECT_BINARY_DIR}/test_tmp/play_v1
+          -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/play_v1_set.cmake)
+
 # --verify checks every triangle of the mesh, owned or not.
 add_test(NAME tool.verify_unowned_triangle
   COMMAND ${CMAKE_COMMAND} -DTOOL=${tool} -DDIR=${PROJECT_BINARY_DIR}/test_tmp/verify_unowned
