@@ -1,6 +1,6 @@
-// skinspheres play INPUT [--spheres S.json | fit on the fly] [--clip NAME|INDEX|all] [--fps 30]
-//   [--frames N] [--mode exact|fast] [--margin D] [--sphere-pairs] [--report R.json] [--dump F.jsonl]
-//   [--export-glb V.glb] [--verify]
+// skinspheres play INPUT [--spheres S.json | fit on the fly] [--clip NAME|INDEX|all] [--clips FILE]...
+//   [--fps 30] [--frames N] [--mode exact|fast] [--margin D] [--sphere-pairs] [--report R.json]
+//   [--dump F.jsonl] [--export-glb V.glb] [--html V.html] [--verify]
 #include <unistd.h>
 
 #include <cstdio>
@@ -8,6 +8,8 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "clip_files.h"
+#include "html_page.h"
 #include "playback.h"
 #include "skinspheres/lib/glb_exporter.h"
 #include "skinspheres/runtime/sphere_set_io.h"
@@ -16,7 +18,8 @@ namespace skinspheres::tool {
 namespace {
 
 struct PlayArgs {
-  std::string input, spheres, clip = "0", mode = "exact", report, dump, export_glb;
+  std::string input, spheres, clip = "0", mode = "exact", report, dump, export_glb, html;
+  std::vector<std::string> clip_files;
   float fps = 30.0f;
   float margin = 0.0f;
   int frames = 0;
@@ -61,6 +64,9 @@ int RunPlay(PlayArgs& a) {
   if (auto why = a.fit.Resolve()) return Fail(*why);
   auto loaded = LoadCharacter(a.input, a.fit.parts_file);
   if (!loaded.ok()) return Fail(loaded.error().message);
+  std::vector<std::string> notes;
+  if (auto why = AddClipFiles(*loaded, a.clip_files, &notes)) return Fail(*why);
+  for (const auto& note : notes) std::printf("%s\n", note.c_str());
   std::vector<size_t> clips;
   if (a.clip == "all") {
     for (size_t k = 0; k < loaded->character.clips.size(); ++k) clips.push_back(k);
@@ -74,6 +80,7 @@ int RunPlay(PlayArgs& a) {
     clips.push_back(*clip);
   }
   runtime::SphereSet set;
+  double fit_seconds = -1.0;
   if (!a.spheres.empty()) {
     auto read = runtime::LoadSphereSet(a.spheres);
     if (!read.ok()) return Fail(read.error().message);
@@ -85,6 +92,7 @@ int RunPlay(PlayArgs& a) {
   } else {
     auto fit = lib::FitSpheres(loaded->character, loaded->parts, a.fit.settings);
     if (!fit.ok()) return Fail(fit.error().message);
+    fit_seconds = fit->report.seconds;
     set = std::move(fit->spheres);
   }
   PlayOptions opts;
@@ -94,28 +102,47 @@ int RunPlay(PlayArgs& a) {
   opts.verify = a.verify;
   opts.margin = a.margin;
   opts.progress = isatty(STDERR_FILENO);
+  // --html: one page with every clip played; its per-frame data is kept for it (RecordFrames).
+  std::vector<PlayResult> kept;
+  std::vector<std::vector<FrameRecord>> recorded;
+  recorded.reserve(clips.size());
+  auto write_page = [&]() -> int {
+    if (a.html.empty()) return 0;
+    ViewerPageInput page{&*loaded, &set, fit_seconds, {}, notes};
+    for (size_t k = 0; k < kept.size(); ++k) page.clips.push_back(ViewClip{&kept[k], &recorded[k], clips[k], a.fps, opts.fast});
+    if (auto err = WriteViewerPage(page, a.html)) return Fail(err->message);
+    std::printf("wrote %s\n", a.html.c_str());
+    return 0;
+  };
   if (a.clip == "all") {
     bool all_verified = true;
     size_t outside = 0, mismatches = 0;
     for (size_t k : clips) {
-      auto played = PlayClip(*loaded, set, k, opts);
+      FrameSink record;
+      if (!a.html.empty()) {
+        recorded.emplace_back();
+        record = RecordFrames(&recorded.back());
+      }
+      auto played = PlayClip(*loaded, set, k, opts, record);
       if (!played.ok()) return Fail(played.error().message);
       PrintPlaySummary(*played, set, a.fps, a.sphere_pairs, a.verify);
       all_verified &= played->verified();
       outside += played->triangles_outside;
       mismatches += played->narrow_mismatches;
+      if (!a.html.empty()) kept.push_back(std::move(*played));
     }
     if (a.verify) {
       std::printf("verify: %zu triangle-frames outside their sphere over %zu clips; narrow phase differs from the oracle in "
                   "%zu frames\n",
                   outside, clips.size(), mismatches);
     }
+    if (const int code = write_page()) return code;
     std::printf("memory: peak %ld KiB\n", PeakRssKiB());
     return a.verify && !all_verified ? 1 : 0;
   }
 
   // Outputs are written frame by frame as the clip plays (nothing per frame is kept in memory,
-  // except the spheres --export-glb has to write at the end).
+  // except what --export-glb and --html have to write at the end).
   std::ofstream dump, report;
   if (!a.dump.empty()) {
     dump.open(a.dump);
@@ -126,15 +153,28 @@ int RunPlay(PlayArgs& a) {
     if (!report) return Fail(a.report + ": cannot open for writing");
     report << "{\"pairs_per_frame\":[";
   }
+  // --export-glb: the spheres' keys go into the played clip's own animation, at the clip times
+  // sampled (one pass of the clip: frames past its end, which loop, are left out).
   lib::GlbExtras extras;
-  if (!a.export_glb.empty()) extras.spheres.resize(set.size());
+  bool extras_looped = false;
+  if (!a.export_glb.empty()) {
+    extras.spheres.resize(set.size());
+    extras.clip_name = loaded->character.clips[clips[0]].name;
+  }
+  if (!a.html.empty()) recorded.emplace_back();
+  FrameSink record = a.html.empty() ? FrameSink() : RecordFrames(&recorded.back());
   FrameSink sink = [&](const FrameView& fr) {
+    if (record) record(fr);
     if (dump.is_open()) {
       dump << DumpLine(fr, set, a.margin > 0.0f).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
     }
     if (report.is_open()) report << (fr.index ? "," : "") << fr.sphere_pairs.size();
-    if (!a.export_glb.empty()) {
-      extras.frame_times_s.push_back(fr.time_s);
+    if (!a.export_glb.empty() && !extras_looped) {
+      if (!extras.frame_times_s.empty() && !(fr.clip_time_s > extras.frame_times_s.back())) {
+        extras_looped = true;
+        return;
+      }
+      extras.frame_times_s.push_back(fr.clip_time_s);
       for (size_t s = 0; s < set.size(); ++s) extras.spheres[s].per_frame_xyzr.push_back(fr.spheres[s]);
     }
   };
@@ -150,7 +190,8 @@ int RunPlay(PlayArgs& a) {
   if (!a.export_glb.empty()) {
     auto written = lib::ExportGlb(loaded->character, a.export_glb, extras);
     if (!written.ok()) return Fail(written.error().message);
-    std::printf("wrote %s (character and %zu animated spheres)\n", a.export_glb.c_str(), set.size());
+    std::printf("wrote %s (character and %zu animated spheres, in clip \"%s\")\n", a.export_glb.c_str(), set.size(),
+                extras.clip_name.c_str());
   }
   if (report.is_open()) {
     nlohmann::json contacts = nlohmann::json::array();
@@ -175,6 +216,8 @@ int RunPlay(PlayArgs& a) {
     report.close();
     if (!report) return Fail(a.report + ": write failed");
   }
+  if (!a.html.empty()) kept.push_back(std::move(*played));
+  if (const int code = write_page()) return code;
   std::printf("memory: peak %ld KiB\n", PeakRssKiB());
   if (a.verify && !played->verified()) return 1;
   return 0;
@@ -197,7 +240,12 @@ void AddPlayCommand(CLI::App& app, int* exit_code) {
   cmd->add_flag("--sphere-pairs", a->sphere_pairs, "also list the broad phase's sphere pairs by body-part pair");
   cmd->add_option("--report", a->report, "write a JSON report");
   cmd->add_option("--dump", a->dump, "write one JSON line per frame: spheres, sphere pairs, contacts");
-  cmd->add_option("--export-glb", a->export_glb, "write the animated character with its spheres as GLB");
+  cmd->add_option("--export-glb", a->export_glb, "write the animated character with its spheres (in the clip's animation) as GLB");
+  cmd->add_option("--html", a->html, "write the viewer page: one self-contained HTML file (with --clip all, every clip)");
+  cmd->add_option("--clips", a->clip_files,
+                  "add the clips of an animation file (glTF, GLB, FBX, ...; joints matched by name); repeatable")
+      ->take_all()
+      ->allow_extra_args(false);
   cmd->add_flag("--verify", a->verify,
                 "skin every vertex: check every triangle is owned and inside its sphere, and the narrow phase "
                 "against the brute-force oracle");

@@ -87,6 +87,21 @@ double StageTime::Percentile(double q) const {
   return 0.0;
 }
 
+FrameSink RecordFrames(std::vector<FrameRecord>* out, FrameSink next) {
+  return [out, next = std::move(next)](const FrameView& fr) {
+    FrameRecord r;
+    r.time_s = fr.time_s;
+    r.clip_time_s = fr.clip_time_s;
+    r.spheres.assign(fr.spheres.begin(), fr.spheres.end());
+    r.sphere_pairs.assign(fr.sphere_pairs.begin(), fr.sphere_pairs.end());
+    for (const runtime::TrianglePairContact& c : fr.contacts->triangle_pairs) {
+      if (c.kind == runtime::TriangleContactKind::kIntersecting) r.triangle_pairs.push_back({c.t, c.u});
+    }
+    out->push_back(std::move(r));
+    if (next) next(fr);
+  };
+}
+
 long PeakRssKiB() {
   rusage usage{};
   return getrusage(RUSAGE_SELF, &usage) == 0 ? usage.ru_maxrss : 0;

@@ -40,6 +40,20 @@ struct FrameView {
 };
 using FrameSink = std::function<void(const FrameView&)>;
 
+// One played frame kept for what needs every frame at the end (the viewer page, a GLB export):
+// its times, refitted spheres, sphere pairs and intersecting triangle pairs (source-triangle
+// indices, t of part_a then u of part_b).
+struct FrameRecord {
+  float time_s = 0.0f;
+  float clip_time_s = 0.0f;
+  std::vector<skinspheres::Vec4f> spheres;
+  std::vector<runtime::Contact> sphere_pairs;
+  std::vector<std::array<uint32_t, 2>> triangle_pairs;
+};
+// A sink that appends every frame to *out (memory grows with the clip: only for such outputs),
+// then hands it to `next` when given.
+FrameSink RecordFrames(std::vector<FrameRecord>* out, FrameSink next = {});
+
 // Frame numbers collected as ranges "3-7, 12": at most kMaxRanges ranges are kept, later ones are
 // only counted.
 class FrameRanges {

@@ -3,7 +3,7 @@ set(tool $<TARGET_FILE:skinspheres>)
 
 # demo: the walk touches nothing; in the touch clip the hands (real triangle contacts) reach the
 # chest and then the head; --verify is clean.
-add_test(NAME tool.demo COMMAND ${tool} demo)
+add_test(NAME tool.demo COMMAND ${tool} demo --html ${PROJECT_BINARY_DIR}/tool_demo.html)
 set_tests_properties(tool.demo PROPERTIES
   PASS_REGULAR_EXPRESSION "clip \"walk\"[^\n]*\n  no contacts.*hands on the chest: [0-9]+ frames.*hands on the head: [0-9]+ frames"
   FAIL_REGULAR_EXPRESSION "outside their sphere \\(first|differs from the brute-force oracle|[1-9][0-9]* triangles owned by no sphere")
