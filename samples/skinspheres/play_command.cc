@@ -4,14 +4,16 @@
 #include <unistd.h>
 
 #include <cstdio>
-#include <fstream>
 #include <memory>
+#include <optional>
+#include <string>
 #include <nlohmann/json.hpp>
 
 #include "clip_files.h"
 #include "html_page.h"
 #include "playback.h"
 #include "skinspheres/lib/glb_exporter.h"
+#include "skinspheres/runtime/file_io.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 
 namespace skinspheres::tool {
@@ -142,16 +144,13 @@ int RunPlay(PlayArgs& a) {
   }
 
   // Outputs are written frame by frame as the clip plays (nothing per frame is kept in memory,
-  // except what --export-glb and --html have to write at the end).
-  std::ofstream dump, report;
-  if (!a.dump.empty()) {
-    dump.open(a.dump);
-    if (!dump) return Fail(a.dump + ": cannot open for writing");
-  }
+  // except what --export-glb and --html have to write at the end). Every write is checked through
+  // the close (runtime/file_io.h): a failed one is one line, exit 2, and no "wrote".
+  std::optional<runtime::CheckedFileWriter> dump, report;
+  if (!a.dump.empty()) dump.emplace(a.dump);
   if (!a.report.empty()) {
-    report.open(a.report);
-    if (!report) return Fail(a.report + ": cannot open for writing");
-    report << "{\"pairs_per_frame\":[";
+    report.emplace(a.report);
+    report->Write("{\"pairs_per_frame\":[");
   }
   // --export-glb: the spheres' keys go into the played clip's own animation, at the clip times
   // sampled (one pass of the clip: frames past its end, which loop, are left out).
@@ -165,10 +164,10 @@ int RunPlay(PlayArgs& a) {
   FrameSink record = a.html.empty() ? FrameSink() : RecordFrames(&recorded.back());
   FrameSink sink = [&](const FrameView& fr) {
     if (record) record(fr);
-    if (dump.is_open()) {
-      dump << DumpLine(fr, set, a.margin > 0.0f).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
+    if (dump && dump->ok()) {
+      dump->Write(DumpLine(fr, set, a.margin > 0.0f).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + '\n');
     }
-    if (report.is_open()) report << (fr.index ? "," : "") << fr.sphere_pairs.size();
+    if (report) report->Write((fr.index ? "," : "") + std::to_string(fr.sphere_pairs.size()));
     if (!a.export_glb.empty() && !extras_looped) {
       if (!extras.frame_times_s.empty() && !(fr.clip_time_s > extras.frame_times_s.back())) {
         extras_looped = true;
@@ -182,9 +181,8 @@ int RunPlay(PlayArgs& a) {
   if (!played.ok()) return Fail(played.error().message);
   PrintPlaySummary(*played, set, a.fps, a.sphere_pairs, a.verify);
 
-  if (dump.is_open()) {
-    dump.close();
-    if (!dump) return Fail(a.dump + ": write failed");
+  if (dump) {
+    if (auto err = dump->Close()) return Fail(err->message);
     std::printf("wrote %s\n", a.dump.c_str());
   }
   if (!a.export_glb.empty()) {
@@ -193,7 +191,7 @@ int RunPlay(PlayArgs& a) {
     std::printf("wrote %s (character and %zu animated spheres, in clip \"%s\")\n", a.export_glb.c_str(), set.size(),
                 extras.clip_name.c_str());
   }
-  if (report.is_open()) {
+  if (report) {
     nlohmann::json contacts = nlohmann::json::array();
     for (const PartPairSummary& e : played->contacts) {
       contacts.push_back({{"parts", {set.parts[e.part_a].name, set.parts[e.part_b].name}},
@@ -212,9 +210,9 @@ int RunPlay(PlayArgs& a) {
                                  {"triangles_outside", played->triangles_outside},
                                  {"contacts", std::move(contacts)}};
     const std::string tail = rest.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-    report << "]," << tail.substr(1) << '\n';  // the summary's members after the streamed array
-    report.close();
-    if (!report) return Fail(a.report + ": write failed");
+    report->Write("]," + tail.substr(1) + '\n');  // the summary's members after the streamed array
+    if (auto err = report->Close()) return Fail(err->message);
+    std::printf("wrote %s\n", a.report.c_str());
   }
   if (!a.html.empty()) kept.push_back(std::move(*played));
   if (const int code = write_page()) return code;
