@@ -122,10 +122,19 @@ Result<size_t> FindClip(const lib::RawCharacter& ch, const std::string& key) {
 }
 
 bool AttachMesh(const lib::RawCharacter& ch, runtime::SphereSet* set) {
-  if (set->has_mesh() || set->source_vertex_count != ch.vertex_count() || set->source_triangle_count != ch.triangle_count()) {
+  if (set->has_mesh() || set->fast_only || set->source_vertex_count != ch.vertex_count() || set->source_triangle_count != ch.triangle_count()) {
     return false;
   }
-  set->mesh = ch.skin;
+  // The skin's bind entries name the character's joints; the set's mesh names the set's (the same
+  // names, perhaps in another order).
+  skinning::SkinnedMesh mesh = ch.skin;
+  for (skinning::BindEntry& b : mesh.binds) {
+    if (b.joint < 0 || static_cast<size_t>(b.joint) >= ch.skeleton.joint_names.size()) return false;
+    const auto at = std::find(set->joint_names.begin(), set->joint_names.end(), ch.skeleton.joint_names[b.joint]);
+    if (at == set->joint_names.end()) return false;
+    b.joint = static_cast<decltype(b.joint)>(at - set->joint_names.begin());
+  }
+  set->mesh = std::move(mesh);
   set->triangle_vertices.clear();
   set->triangle_vertices.reserve(3 * ch.triangle_count());
   for (const auto& t : ch.triangles) {
@@ -138,6 +147,10 @@ Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::Sphere
                             const PlayOptions& options, const FrameSink& sink) {
   const lib::RawCharacter& ch = loaded.character;
   const std::string file = ch.source_file.empty() ? "built-in character" : ch.source_file;
+  if (set.fast_only) {  // no triangle lists: nothing for the narrow phase (or --verify) to test
+    return MakeError(ErrorCode::kInvalidArgument, set.loaded_from + ": a fast-only sphere set has no triangles, and play "
+                                                                    "reports triangle contacts (play the full set)");
+  }
   if (!set.has_mesh()) {
     return MakeError(ErrorCode::kVersionMismatch, file + ": the sphere set has no mesh (format version 1): fit it again");
   }
@@ -146,6 +159,9 @@ Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::Sphere
   if (auto err = (*asset)->Matches(ch.skeleton.joint_names, ch.vertex_count())) {
     return MakeError(err->code, file + ": " + err->message);
   }
+  // The character's joints by name: a set fitted on the same joints in another order still plays.
+  auto mapping = runtime::MapJoints(set, ch.skeleton.joint_names);
+  if (!mapping.ok()) return MakeError(mapping.error().code, file + ": " + mapping.error().message);
   // A set read from a file is checked once against this mesh: same triangles (the mesh it carries
   // is the one tested), and every vertex of every owned triangle among its sphere's source
   // vertices (what exact refit reads).
@@ -175,7 +191,7 @@ Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::Sphere
       }
     }
   }
-  auto created = runtime::CharacterInstance::Create(*asset);
+  auto created = runtime::CharacterInstance::Create(*asset, *mapping);
   if (!created.ok()) return created.error();
   runtime::CharacterInstance& instance = *created;
   const skinning::AnimationClip& clip = ch.clips.at(clip_index);

@@ -2,6 +2,7 @@
 // RefitJob, contacts equal to the all-pairs broad-phase oracle, the touch clip's hand-chest contact
 // is found, NaN input fails only its instance, crowd = serial for 1 and 2 threads, no allocation
 // per frame after the first.
+
 #include "skinspheres/runtime/character.h"
 
 #include <gtest/gtest.h>
@@ -280,13 +281,15 @@ TEST(CharacterInstanceTest, NoAllocationPerFrameAfterTheFirst) {
     }
   };
   run_all();  // warm-up: the contact list reaches its largest size
-  test::StartCountingAllocations();
-  run_all();
-  EXPECT_EQ(test::AllocationsCounted(), 0);
+  {
+    test::AllocationCounter counter;
+    run_all();
+    EXPECT_EQ(counter.count(), 0);
+  }
   // The counter does count (so the zero above means something).
-  test::StartCountingAllocations();
+  test::AllocationCounter counter;
   auto probe = std::make_unique<std::vector<int>>(10);
-  EXPECT_GE(test::AllocationsCounted(), 1);
+  EXPECT_GE(counter.count(), 1);
 }
 
 }  // namespace
