@@ -249,6 +249,7 @@ class Method {
   virtual double Candidates() const { return 0.0; }
   virtual double Builds() const { return 0.0; }
   virtual double BuildTests() const { return 0.0; }
+  virtual double Lookahead() const { return 0.0; }
 };
 
 class Ours : public Method {
@@ -264,18 +265,20 @@ class Ours : public Method {
     if (!job.Run()) Abort("SelfCollisionJob refused a frame");
     candidates_ += double(context_.last_candidate_count());
     build_tests_ += double(context_.last_build_tests());
+    lookahead_ += context_.last_method() == rt::BroadPhaseMethod::kCached ? 0.0 : double(context_.last_lookahead());
     return list->size();
   }
   double Candidates() const override { return candidates_; }
   double Builds() const override { return double(context_.build_count()); }
   double BuildTests() const override { return build_tests_; }
+  double Lookahead() const override { return lookahead_; }
 
  private:
   const rt::PairFilter* filter_;
   rt::BroadPhaseSimd simd_;
   bool no_cache_;
   rt::BroadPhaseContext context_;
-  double candidates_ = 0.0, build_tests_ = 0.0;
+  double candidates_ = 0.0, build_tests_ = 0.0, lookahead_ = 0.0;
 };
 
 class AllPairs : public Method {
@@ -362,7 +365,8 @@ void RunRow(benchmark::State& state, const Scenario& sc, const std::string& meth
   std::unique_ptr<Method> m = MakeMethod(method, sc);
   if (!m) return state.SkipWithError(("method " + method + " not built").c_str());
   CheckAgainstReference(sc, *m, row);
-  const double candidates0 = m->Candidates(), builds0 = m->Builds(), build_tests0 = m->BuildTests();
+  const double candidates0 = m->Candidates(), builds0 = m->Builds(), build_tests0 = m->BuildTests(),
+               lookahead0 = m->Lookahead();
   std::vector<rt::Contact> out;
   out.reserve(2 * sc.reference[0].size() + 64);
   size_t k = 0, contacts = 0;
@@ -378,7 +382,10 @@ void RunRow(benchmark::State& state, const Scenario& sc, const std::string& meth
   state.counters["contacts"] = double(contacts) / frames;
   state.counters["candidates"] = (m->Candidates() - candidates0) / frames;
   state.counters["builds"] = (m->Builds() - builds0) / frames;
-  if (m->Builds() > builds0) state.counters["tests_per_build"] = (m->BuildTests() - build_tests0) / (m->Builds() - builds0);
+  if (m->Builds() > builds0) {
+    state.counters["tests_per_build"] = (m->BuildTests() - build_tests0) / (m->Builds() - builds0);
+    state.counters["lookahead"] = (m->Lookahead() - lookahead0) / (m->Builds() - builds0);
+  }
 }
 
 // --------------------------------------------------------------------------------- registration

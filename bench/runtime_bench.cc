@@ -402,6 +402,7 @@ void BM_XbotQuery(benchmark::State& state) {
     }
   }
   size_t frame = 0, contacts = 0, candidates = 0;
+  const uint64_t builds0 = ctx.build_count();
   for (auto _ : state) {
     rt::SelfCollisionJob{frames[frame % kFrames], &filter, &ctx, &out}.Run();
     contacts += out.size();
@@ -413,6 +414,7 @@ void BM_XbotQuery(benchmark::State& state) {
   SphereCounters(state, *x);
   state.counters["contacts"] = frame ? double(contacts) / double(frame) : 0.0;
   state.counters["candidates"] = frame ? double(candidates) / double(frame) : 0.0;
+  state.counters["builds"] = frame ? double(ctx.build_count() - builds0) / double(frame) : 0.0;
   state.counters["excluded_pairs"] = double(filter.excluded_pair_count());
 }
 BENCHMARK(BM_XbotQuery)->ArgsProduct({{0, 1}, {0, 1}})->ArgNames({"fit", "fast"})->Unit(benchmark::kMicrosecond);

@@ -51,7 +51,7 @@ constexpr float kSkinFloorRelative = 1.0f / 64.0f;      // of the radius: the sk
 // build, per pair a build keeps.
 constexpr int kRungs = 8;
 constexpr float kLookahead[kRungs] = {0.0f, 0.0f, 1.25f, 2.0f, 3.0f, 4.5f, 7.0f, 11.0f};  // rung 0: no cache
-constexpr double kRungFade = 0.97;
+constexpr double kRungFadePerFrame = 0.99;
 constexpr double kCheckWork = 5.0;
 constexpr double kTestWork = 1.5;
 constexpr double kAllPairsSphereWork = 10.0;
@@ -59,7 +59,6 @@ constexpr double kSweepSphereWork = 40.0;
 constexpr double kPairTestWork = 0.3;
 constexpr double kPairWork = 6.0;
 constexpr double kCellMargin = 1.0 + 1.0 / 256.0;       // strips are (2 max grown r)(1 + 2^-8) wide
-constexpr double kMaxColumnsPerAxis = 1 << 20;
 constexpr double kSweepCallCost = 48.0;                 // one sweep call, in interval tests
 // Per-sphere float arrays of the build (BroadPhaseContext::soa_): 0..3 x, y, z, grown radius and
 // 4..5 interval start and end, in the order the kernel reads (index or sweep order); then, in
@@ -208,11 +207,13 @@ void BroadPhaseContext::Resize(size_t max_spheres, size_t max_candidates) {
   row_.assign(max_spheres + 1, 0);
   if (max_spheres > kAllPairsMax) {
     order_.assign(max_spheres, SortItem{0, 0});
+    order_by_strip_.assign(max_spheres, SortItem{0, 0});
     runs_.assign(max_spheres, ColumnRun{0, 0, 0});
     pi_.assign(max_candidates_ + kPad, 0);
     pj_.assign(max_candidates_ + kPad, 0);
   } else {
     order_.clear();
+    order_by_strip_.clear();
     runs_.clear();
     pi_.clear();
     pj_.clear();
@@ -387,7 +388,7 @@ struct BroadPhaseContext::Impl {
       keep_order = false;
     }
     const double cell = std::max({ctx.cell_, std::max(std::fabs(double(lo_f[strip_axis])), std::fabs(double(hi_f[strip_axis]))) * 0x1p-40,
-                                  (double(hi_f[strip_axis]) - lo_f[strip_axis]) / kMaxColumnsPerAxis,
+                                  (double(hi_f[strip_axis]) - lo_f[strip_axis]) / std::max(1.0, double(n / 4)),
                                   std::numeric_limits<double>::min()});
     const double inv_cell = 1.0 / cell;
     const double base = std::floor(double(lo_f[strip_axis]) * inv_cell);
@@ -417,12 +418,22 @@ struct BroadPhaseContext::Impl {
     }
     const auto key_of = [&](size_t s) { return (uint64_t{strip_of(Sphere(s))} << 32) | OrderBits(start_by_sphere[s]); };
 
-    // Sort by (column, start): insertion sort on the previous order (near-linear under coherent
-    // motion) with a move budget, else std::sort.
+    // Sort by (strip, start): a stable counting sort by strip of the previous order (at most n / 4
+    // strips), then an insertion sort (near-linear under coherent motion) with a move budget,
+    // else std::sort.
     SortItem* order = ctx.order_.data();
     bool full_sort = !keep_order;
     if (keep_order) {
       for (size_t q = 0; q < n; ++q) order[q].key = key_of(order[q].sphere);
+      if (count > 1) {
+        uint32_t* at = ctx.row_.data();
+        std::fill(at, at + count + 1, 0u);
+        for (size_t q = 0; q < n; ++q) ++at[(order[q].key >> 32) + 1];
+        for (int64_t c = 0; c < count; ++c) at[c + 1] += at[c];
+        SortItem* by_strip = ctx.order_by_strip_.data();
+        for (size_t q = 0; q < n; ++q) by_strip[at[order[q].key >> 32]++] = order[q];
+        std::copy(by_strip, by_strip + n, order);
+      }
       size_t moves = 0;
       const size_t budget = 4 * n + 64;
       for (size_t q = 1; q < n && moves <= budget; ++q) {
@@ -604,6 +615,7 @@ struct BroadPhaseContext::Impl {
     ctx.last_build_tests_ = 0;
     const bool small = n <= kAllPairsMax;
     for (float lookahead : {have_motion ? kLookahead[ctx.rung_] : 0.0f, 0.0f}) {
+      ctx.last_lookahead_ = lookahead;
       Skins(have_motion, lookahead);
       CopyCentres();
       bool fits;
@@ -634,8 +646,11 @@ struct BroadPhaseContext::Impl {
         ctx.age_ = 0;
         return true;
       }
-      // Too many candidates with these skins: less lookahead from now on. A small set goes
-      // straight to the direct path (all pairs into the output), cheaper than another build.
+      // Too many candidates with these skins: less lookahead from now on, and this rung looks
+      // expensive for a long while. A small set goes straight to the direct path (all pairs into
+      // the output), cheaper than another build.
+      double& memory = ctx.rung_cost_[ctx.rung_];
+      memory = 4.0 * std::max({memory, ctx.rung_cost_[std::max(MinRung(), ctx.rung_ - 1)], 1.0});
       ctx.rung_ = std::max(MinRung(), ctx.rung_ - 2);
       if (lookahead == 0.0f || small) break;
     }
@@ -651,15 +666,16 @@ struct BroadPhaseContext::Impl {
   // average of its cost; the next frames take the cheapest of this rung and its two neighbours, a
   // neighbour never tried counting as a little cheaper (so it gets tried) and a neighbour's
   // memory fading towards cheap (so it is tried again when the motion changes).
-  void AdaptLookahead(double cost) {
+  void AdaptLookahead(double cost, uint32_t frames) {
     double* memory = ctx.rung_cost_;
+    const double fade = std::pow(kRungFadePerFrame, double(std::max<uint32_t>(frames, 1)));
     const int rung = std::max(ctx.rung_, MinRung());
     memory[rung] = memory[rung] > 0.0 ? 0.5 * (memory[rung] + cost) : cost;
     int best = rung;
     double best_cost = memory[rung];
     for (const int r : {rung - 1, rung + 1}) {
       if (r < MinRung() || r >= kRungs) continue;
-      memory[r] *= kRungFade;
+      memory[r] *= fade;
       const double guess = memory[r] > 0.0 ? memory[r] : 0.9 * memory[rung];
       if (guess < best_cost) {
         best = r;
@@ -741,14 +757,15 @@ struct BroadPhaseContext::Impl {
         TestCache();
         return true;
       }
-      AdaptLookahead(ExpiredCacheCost());
+      AdaptLookahead(ExpiredCacheCost(), ctx.age_);
     }
     if (ctx.rung_ == 0 && n <= kAllPairsMax) {
       // No cache pays: all pairs into the output.
       ctx.cache_valid_ = false;
       Direct();
       AdaptLookahead(kAllPairsSphereWork * double(n) + kPairTestWork * double(ctx.last_build_tests_) +
-                     kPairWork * double(job.out->size()));
+                         kPairWork * double(job.out->size()),
+                     1);
       return true;
     }
     if (!Build(same_set, sum)) {

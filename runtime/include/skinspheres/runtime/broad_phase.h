@@ -15,25 +15,39 @@
 // character that walks keeps its cache) and grew by less than what is left; if so, every pair
 // that touches now is a candidate (triangle inequality), and the frame costs one pass over the
 // spheres plus the exact sphere test on the candidates, whose hits come out already sorted.
-// Otherwise the cache is rebuilt: skins from each sphere's own recent speed, then all pairs
-// (up to kAllPairsMax spheres, in index order) or a sort and sweep along the axis of largest
-// spread inside columns of a grid over the two other axes (pairs in the same and adjacent
-// columns only, so the work grows linearly with the count at constant density). The insertion
-// sort reuses the previous build's order. Skins adapt: motion that breaks the cache every frame
-// gets no skin (then the build is the query). Every test is SIMD: SSE2, AVX2 or AVX-512, picked
-// at run time (or forced with SelfCollisionJob::simd) with bit-identical results.
+// Otherwise the cache is rebuilt: skins from each sphere's own recent speed times a lookahead,
+// then all pairs (up to kAllPairsMax spheres, in index order: already sorted) or a sweep in
+// blocks along the axis of largest spread, inside strips across the next axis when that saves
+// work (touching spheres lie in the same or adjacent strips, so the work grows linearly with the
+// count at constant density), then two counting-sort passes. The sweep order is kept between
+// builds (insertion sort). The lookahead adapts per context to the cheapest counted work per
+// frame (lifetime of the cache against its size); motion that breaks every cache gets no skin,
+// and a small set then skips the cache and writes all pairs straight into the output. Every
+// test is SIMD: SSE2, AVX2 or AVX-512, picked at run time (or forced with
+// SelfCollisionJob::simd) with bit-identical results.
 //
 // Output: contacts sorted by (i, j), identical for any thread count, instruction set and
 // previous frame history. No allocation and no exception per frame once the context is sized
 // (Resize) and the output vector has held the largest contact count seen (reserve it at set-up).
-// The candidate cache never grows: when a build does not fit the context's max_candidates, it is
-// redone without skins, and if even that does not fit, the frame is answered without a cache
-// (sweep straight into the output, then sorted).
+// The candidate cache never grows: when a build does not fit the context's max_candidates, a
+// small set is answered without a cache (all pairs straight into the output), a larger one is
+// rebuilt without skins and, if even that does not fit, answered by a sweep straight into the
+// output, then sorted.
 //
-// Crowds: one SelfCollisionJob per character (each with its own context and output), run by
-// RunSelfCollisionJobs through a ParallelFor (TBB by default, or the engine's job system), or by
-// RunSelfCollisionJobRange. Characters that may touch each other: one job over their spheres laid
-// end to end with a PairFilter::Combine filter.
+// Crowds, each character alone: one SelfCollisionJob per character (each with its own context
+// and output), run by RunSelfCollisionJobs through a ParallelFor (TBB by default, or the
+// engine's job system), or by RunSelfCollisionJobRange.
+//
+// Characters that may touch each other: one job over their spheres laid end to end, with the
+// filter of PairFilter::Combine (pairs between characters on or off; each character keeps its
+// own exclusions). Sphere k of character g is index filter.group_begin(g) + k; a contact (i, j)
+// belongs to characters filter.group(i) and filter.group(j).
+//
+//   std::vector<const PairFilter*> members = {&a->filter(), &b->filter(), ...};   // set-up
+//   PairFilter space = PairFilter::Combine(members, {.pairs_between_members = true}).value();
+//   BroadPhaseContext context(space.size());
+//   each frame: copy each instance's spheres() to all[space.group_begin(g) ...], then
+//   SelfCollisionJob{all, &space, &context, &contacts}.Run();
 #pragma once
 
 #include <Eigen/Core>
@@ -111,6 +125,8 @@ class BroadPhaseContext {
   bool last_full_sort() const { return last_full_sort_; }
   // Builds since Resize (a frame that rebuilds counts once, even when it retries without skins).
   uint64_t build_count() const { return build_count_; }
+  // Lookahead of the latest build: each sphere's skin is this many frames of its recent motion.
+  float last_lookahead() const { return last_lookahead_; }
 
  private:
   friend struct SelfCollisionJob;
@@ -147,6 +163,7 @@ class BroadPhaseContext {
   std::vector<float> soa_;           // 8 x (max_spheres + pad), see broad_phase.cc
   std::vector<uint32_t> sphere_;     // max_spheres + pad: sphere at each sweep position
   std::vector<SortItem> order_;      // max_spheres: sweep order (kept between builds)
+  std::vector<SortItem> order_by_strip_;  // max_spheres: counting sort scratch
   std::vector<ColumnRun> runs_;            // max_spheres: columns in sweep order
   std::vector<uint32_t> pi_, pj_;    // max_candidates + pad (above kAllPairsMax): unsorted pairs
   std::vector<uint32_t> row_;        // max_spheres + 1: counting sort
@@ -162,6 +179,7 @@ class BroadPhaseContext {
   size_t last_build_tests_ = 0;
   bool last_full_sort_ = false;
   uint64_t build_count_ = 0;
+  float last_lookahead_ = 0.0f;
 };
 
 struct SelfCollisionJob {
