@@ -12,6 +12,7 @@
 #include <system_error>
 
 #include "importer_internal.h"
+#include "skinspheres/lib/clip_import.h"
 
 namespace skinspheres::lib {
 namespace detail {
@@ -120,10 +121,7 @@ bool LooksLikeGltf2(const std::filesystem::path& file, std::span<const uint8_t> 
   return true;
 }
 
-}  // namespace detail
-
-Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const ImportOptions& options) {
-  using detail::ImportError;
+Result<std::vector<uint8_t>> ReadFileBytes(const std::filesystem::path& file) {
   std::error_code ec;
   const auto status = std::filesystem::status(file, ec);
   if (!std::filesystem::exists(status)) return ImportError(ErrorCode::kFileNotFound, file, "file not found");
@@ -133,14 +131,32 @@ Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const Im
   std::vector<uint8_t> bytes;
   try {
     bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    if (in.bad()) return ImportError(ErrorCode::kFileUnreadable, file, "read error");
-    if (bytes.empty()) return ImportError(ErrorCode::kFormatRejected, file, "the file is empty");
+  } catch (const std::bad_alloc&) {
+    return ImportError(ErrorCode::kFileUnreadable, file, "too large to read (out of memory)");
+  }
+  if (in.bad()) return ImportError(ErrorCode::kFileUnreadable, file, "read error");
+  if (bytes.empty()) return ImportError(ErrorCode::kFormatRejected, file, "the file is empty");
+  return bytes;
+}
+
+}  // namespace detail
+
+Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const ImportOptions& options) {
+  using detail::ImportError;
+  auto read = detail::ReadFileBytes(file);
+  if (!read.ok()) return read.error();
+  const std::vector<uint8_t>& bytes = *read;
+  try {
     Result<RawCharacter> result = detail::LooksLikeGltf2(file, bytes)
                                       ? detail::ImportGltf(file, bytes, options)
                                       : detail::ImportWithAssimp(file, bytes, options);
-    if (!result.ok()) return result;
+    std::optional<Error> error = result.ok() ? detail::FinishCharacter(*result, file) : result.error();
+    if (error && (error->code == ErrorCode::kFormatRejected || error->code == ErrorCode::kInvalidData)) {
+      // Say what the file is when it is an animation without a mesh (clip_import.h).
+      if (std::string what = DescribeAnimationOnlyFile(file); !what.empty()) return ImportError(ErrorCode::kFormatRejected, file, what);
+    }
+    if (error) return *error;
     result->source_file = file.string();
-    if (auto error = detail::FinishCharacter(*result, file)) return *error;
     return result;
   } catch (const nlohmann::json::exception& e) {
     // A field of the wrong JSON type (e.g. a string where a number belongs).

@@ -488,4 +488,37 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
   return c;
 }
 
+std::string ReadGltfNodeTree(const GltfDocument& doc, skinning::Skeleton* out, std::vector<int32_t>* node_of_joint) {
+  std::vector<Node> nodes;
+  if (std::string p = ReadNodes(doc.json, &nodes); !p.empty()) return p;
+  std::vector<int32_t> scene_roots;
+  const json& scenes = ArrayOrEmpty(doc.json, "scenes");
+  const int64_t s = doc.json.value("scene", int64_t{0});
+  if (s >= 0 && s < static_cast<int64_t>(scenes.size())) {
+    for (const auto& r : ArrayOrEmpty(scenes[static_cast<size_t>(s)], "nodes")) {
+      const int64_t root = r.get<int64_t>();
+      if (root >= 0 && root < static_cast<int64_t>(nodes.size()) && nodes[static_cast<size_t>(root)].parent == -1) {
+        scene_roots.push_back(static_cast<int32_t>(root));
+      }
+    }
+  }
+  std::vector<int32_t> joint_of_node(nodes.size(), -1);
+  *out = skinning::Skeleton{};
+  node_of_joint->clear();
+  for (int32_t n : PreorderNodes(nodes, scene_roots)) {
+    const Node& node = nodes[static_cast<size_t>(n)];
+    joint_of_node[static_cast<size_t>(n)] = static_cast<int32_t>(out->size());
+    out->joint_names.push_back(node.name.empty() ? "node_" + std::to_string(n) : node.name);
+    out->parents.push_back(node.parent >= 0 ? joint_of_node[static_cast<size_t>(node.parent)] : -1);
+    out->rest_local.push_back(node.local);
+    node_of_joint->push_back(n);
+  }
+  return {};
+}
+
+std::string ReadGltfClips(const GltfDocument& doc, const std::vector<int32_t>& joint_of_node,
+                          std::vector<skinning::AnimationClip>* clips) {
+  return ReadClips(doc, joint_of_node, clips);
+}
+
 }  // namespace skinspheres::lib::detail

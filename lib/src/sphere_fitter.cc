@@ -526,6 +526,15 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
     bind_rest[b] = (rest_world[ch.skin.binds[b].joint] * ch.skin.binds[b].inverse_bind).cast<double>();
   }
   const bool have_skin = ch.skin.influence_offsets.size() == ch.vertex_count() + 1;
+  // The mesh itself (sphere-set version 2), for triangle-level tests and per-vertex skinning at run
+  // time: the file's skin as imported, and the triangles in file order.
+  if (have_skin && ch.triangle_count() > 0) {
+    set.mesh = ch.skin;
+    set.triangle_vertices.reserve(3 * ch.triangle_count());
+    for (const Eigen::Vector3i& t : ch.triangles) {
+      for (int c = 0; c < 3; ++c) set.triangle_vertices.push_back(static_cast<uint32_t>(t[c]));
+    }
+  }
 
   set.vertex_offsets = {0};
   set.triangle_offsets = {0};

@@ -1,7 +1,9 @@
 #include "skinspheres/runtime/sphere_set.h"
 
 #include <cmath>
+#include <cstdint>
 #include <string>
+#include <vector>
 
 namespace skinspheres::runtime {
 
@@ -32,6 +34,69 @@ bool CsrOk(const std::vector<uint32_t>& offsets, size_t n, size_t list_size) {
     if (offsets[s] > offsets[s + 1]) return false;
   }
   return true;
+}
+
+// The version-2 mesh: sizes, index ranges, finite values, and every vertex of a triangle a sphere
+// owns among that sphere's source vertices (what the refit bounds is what a triangle test reads).
+std::optional<Error> ValidateMesh(const SphereSet& set) {
+  const skinning::SkinnedMesh& mesh = set.mesh;
+  if (!set.has_mesh()) {
+    if (mesh.vertex_count() != 0 || !mesh.binds.empty() || !mesh.influence_binds.empty()) {
+      return Invalid("the mesh has vertices or bind entries but no triangles");
+    }
+    return std::nullopt;
+  }
+  const size_t vertices = set.source_vertex_count;
+  if (set.triangle_vertices.size() != 3 * static_cast<size_t>(set.source_triangle_count)) {
+    return Invalid("the mesh has " + std::to_string(set.triangle_vertices.size()) + " triangle indices, expected 3 x " +
+                   std::to_string(set.source_triangle_count));
+  }
+  for (size_t k = 0; k < set.triangle_vertices.size(); ++k) {
+    if (set.triangle_vertices[k] >= vertices) {
+      return Invalid("mesh triangle " + std::to_string(k / 3) + " names vertex " +
+                     std::to_string(set.triangle_vertices[k]) + " out of range");
+    }
+  }
+  if (mesh.vertex_count() != vertices) {
+    return Invalid("the mesh has " + std::to_string(mesh.vertex_count()) + " vertices, expected " +
+                   std::to_string(vertices));
+  }
+  for (size_t v = 0; v < vertices; ++v) {
+    if (!mesh.positions_bind[v].allFinite()) return Invalid("mesh vertex " + std::to_string(v) + " is not finite");
+  }
+  for (size_t b = 0; b < mesh.binds.size(); ++b) {
+    if (mesh.binds[b].joint < 0 || static_cast<size_t>(mesh.binds[b].joint) >= set.joint_count()) {
+      return Invalid("mesh bind entry " + std::to_string(b) + " names joint " + std::to_string(mesh.binds[b].joint) +
+                     " out of range");
+    }
+    if (!mesh.binds[b].inverse_bind.allFinite()) {
+      return Invalid("mesh bind entry " + std::to_string(b) + " has a non-finite inverse bind matrix");
+    }
+  }
+  if (!CsrOk(mesh.influence_offsets, vertices, mesh.influence_binds.size()) ||
+      mesh.influence_weights.size() != mesh.influence_binds.size()) {
+    return Invalid("mesh influence lists are malformed");
+  }
+  for (size_t k = 0; k < mesh.influence_binds.size(); ++k) {
+    if (mesh.influence_binds[k] >= mesh.binds.size()) return Invalid("a mesh influence names a bind entry out of range");
+    if (!(mesh.influence_weights[k] >= 0.0f) || !std::isfinite(mesh.influence_weights[k])) {
+      return Invalid("a mesh influence weight is negative or not finite");
+    }
+  }
+  std::vector<uint32_t> marked(vertices, UINT32_MAX);  // marked[v] == s: v is a source vertex of sphere s
+  for (size_t s = 0; s < set.size(); ++s) {
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) marked[set.vertices[k]] = static_cast<uint32_t>(s);
+    for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
+      const uint32_t t = set.triangles[k];
+      for (int c = 0; c < 3; ++c) {
+        if (marked[set.triangle_vertices[3 * size_t{t} + c]] != s) {
+          return Invalid("sphere " + std::to_string(s) + " owns triangle " + std::to_string(t) +
+                         " but not its vertex " + std::to_string(set.triangle_vertices[3 * size_t{t} + c]));
+        }
+      }
+    }
+  }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -96,7 +161,7 @@ std::optional<Error> SphereSet::Validate() const {
       if (q.i > p.i || (q.i == p.i && q.j >= p.j)) return Invalid("excluded pairs are not sorted and unique");
     }
   }
-  return std::nullopt;
+  return ValidateMesh(*this);
 }
 
 }  // namespace skinspheres::runtime

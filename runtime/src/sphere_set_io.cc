@@ -11,7 +11,7 @@ using nlohmann::json;
 std::string WriteSphereSetJson(const SphereSet& set) {
   json j;
   j["format"] = kSphereSetFormat;
-  j["version"] = kSphereSetVersion;
+  j["version"] = set.has_mesh() ? kSphereSetVersion : kSphereSetVersionWithoutMesh;
   j["source"] = {{"file", set.source_file},
                  {"vertices", set.source_vertex_count},
                  {"triangles", set.source_triangle_count}};
@@ -58,6 +58,24 @@ std::string WriteSphereSetJson(const SphereSet& set) {
   json pairs = json::array();
   for (const auto& p : set.excluded_pairs) pairs.push_back(json::array({p.i, p.j, ToString(p.reason)}));
   j["excluded_pairs"] = pairs;
+
+  if (set.has_mesh()) {
+    const skinning::SkinnedMesh& mesh = set.mesh;
+    json binds = json::array();
+    for (const skinning::BindEntry& b : mesh.binds) {
+      binds.push_back({{"joint", b.joint},
+                       {"inverse_bind", std::vector<float>(b.inverse_bind.data(), b.inverse_bind.data() + 16)}});
+    }
+    std::vector<float> positions;
+    positions.reserve(3 * mesh.vertex_count());
+    for (const Eigen::Vector3f& p : mesh.positions_bind) positions.insert(positions.end(), {p.x(), p.y(), p.z()});
+    j["mesh"] = {{"triangles", set.triangle_vertices},
+                 {"positions_bind", positions},
+                 {"binds", binds},
+                 {"influence_offsets", mesh.influence_offsets},
+                 {"influence_binds", mesh.influence_binds},
+                 {"influence_weights", mesh.influence_weights}};
+  }
   // Names that are not valid UTF-8 (paths are bytes; FBX names may be Latin-1) are written with
   // U+FFFD instead of aborting; such a set then refuses to match its character by name.
   return j.dump(-1, ' ', false, json::error_handler_t::replace);
@@ -106,6 +124,39 @@ const json& Array(const json& v, const std::string& where, size_t exact_size = 0
   return v;
 }
 
+template <typename T>
+std::vector<T> Numbers(const json& v, const std::string& where) {
+  std::vector<T> out;
+  out.reserve(Array(v, where).size());
+  for (const json& x : v) out.push_back(Number<T>(x, where));
+  return out;
+}
+
+// Version 2's "mesh" (sphere_set.h): flat arrays; sizes and ranges are SphereSet::Validate()'s.
+void ReadMesh(const json& m, SphereSet* set) {
+  const std::string where = "$.mesh";
+  set->triangle_vertices = Numbers<uint32_t>(Field(m, "triangles", where), where + ".triangles");
+  const std::vector<float> positions = Numbers<float>(Field(m, "positions_bind", where), where + ".positions_bind");
+  if (positions.size() % 3 != 0) throw ReadError{where + ".positions_bind does not hold whole xyz triples"};
+  skinning::SkinnedMesh& mesh = set->mesh;
+  mesh.positions_bind.resize(positions.size() / 3);
+  for (size_t v = 0; v < mesh.positions_bind.size(); ++v) {
+    mesh.positions_bind[v] = Eigen::Vector3f(positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]);
+  }
+  const json& binds = Array(Field(m, "binds", where), where + ".binds");
+  for (size_t b = 0; b < binds.size(); ++b) {
+    const std::string at = where + ".binds[" + std::to_string(b) + "]";
+    skinning::BindEntry entry;
+    entry.joint = Number<int32_t>(Field(binds[b], "joint", at), at + ".joint");
+    const json& ibm = Array(Field(binds[b], "inverse_bind", at), at + ".inverse_bind", 16);
+    for (int e = 0; e < 16; ++e) entry.inverse_bind.data()[e] = Number<float>(ibm[e], at + ".inverse_bind");
+    mesh.binds.push_back(entry);
+  }
+  mesh.influence_offsets = Numbers<uint32_t>(Field(m, "influence_offsets", where), where + ".influence_offsets");
+  mesh.influence_binds = Numbers<uint16_t>(Field(m, "influence_binds", where), where + ".influence_binds");
+  mesh.influence_weights = Numbers<float>(Field(m, "influence_weights", where), where + ".influence_weights");
+}
+
 SphereSet Parse(const json& j) {
   if (!j.is_object()) throw ReadError{"the top level is not an object"};
   const json& format = Field(j, "format", "$");
@@ -113,9 +164,9 @@ SphereSet Parse(const json& j) {
     throw ReadError{std::string("not a sphere set (format is not \"") + kSphereSetFormat + "\")"};
   }
   const int version = Number<int>(Field(j, "version", "$"), "$.version");
-  if (version != kSphereSetVersion) {
-    throw ReadError{"version " + std::to_string(version) + " is not supported (this build reads version " +
-                    std::to_string(kSphereSetVersion) + ")"};
+  if (version != kSphereSetVersion && version != kSphereSetVersionWithoutMesh) {
+    throw ReadError{"version " + std::to_string(version) + " is not supported (this build reads versions " +
+                    std::to_string(kSphereSetVersionWithoutMesh) + " and " + std::to_string(kSphereSetVersion) + ")"};
   }
   SphereSet set;
   const json& source = Field(j, "source", "$");
@@ -195,6 +246,12 @@ SphereSet Parse(const json& j) {
     if (!reason) throw ReadError{where + " has unknown reason \"" + p[2].get<std::string>() + "\""};
     set.excluded_pairs.push_back({Number<uint32_t>(p[0], where), Number<uint32_t>(p[1], where), *reason});
   }
+
+  if (version == kSphereSetVersionWithoutMesh) {
+    if (j.contains("mesh")) throw ReadError{"$.mesh is not part of version 1"};
+    return set;
+  }
+  ReadMesh(Field(j, "mesh", "$"), &set);
   return set;
 }
 

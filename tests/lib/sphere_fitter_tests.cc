@@ -33,6 +33,30 @@ void ExpectEveryTriangleCovered(const RawCharacter& ch, const runtime::SphereSet
   for (size_t t = 0; t < owners.size(); ++t) ASSERT_EQ(owners[t], 1) << "triangle " << t;
 }
 
+// The set's mesh (version 2) is the character's: same triangles, and skinning it at rest (in double,
+// independently of the skinning library) gives the rest positions the spheres were fitted on.
+void ExpectMeshReproducesTheRestPose(const RawCharacter& ch, const runtime::SphereSet& set) {
+  ASSERT_TRUE(set.has_mesh());
+  ASSERT_EQ(set.triangle_vertices.size(), 3 * ch.triangle_count());
+  for (size_t t = 0; t < ch.triangle_count(); ++t) {
+    for (int c = 0; c < 3; ++c) ASSERT_EQ(set.triangle_vertices[3 * t + c], static_cast<uint32_t>(ch.triangles[t][c]));
+  }
+  const auto& m = set.mesh;
+  ASSERT_EQ(m.vertex_count(), ch.vertex_count());
+  double extent = 0.0;
+  for (const auto& p : ch.positions_rest) extent = std::max(extent, p.cast<double>().cwiseAbs().maxCoeff());
+  for (size_t v = 0; v < m.vertex_count(); ++v) {
+    Eigen::Vector4d p = Eigen::Vector4d::Zero();
+    for (uint32_t k = m.influence_offsets[v]; k < m.influence_offsets[v + 1]; ++k) {
+      const auto& b = m.binds[m.influence_binds[k]];
+      p += m.influence_weights[k] * (set.joint_rest_world[b.joint].cast<double>() * b.inverse_bind.cast<double>() *
+                                     m.positions_bind[v].cast<double>().homogeneous());
+    }
+    ASSERT_LE((p.head<3>() - ch.positions_rest[v].cast<double>()).norm(), 1e-5 * extent) << "vertex " << v;
+  }
+  EXPECT_FALSE(set.Validate().has_value());
+}
+
 FitResult Fit(const RawCharacter& ch, const BodyParts& parts, const FitSettings& settings) {
   auto r = FitSpheres(ch, parts, settings);
   EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
@@ -47,6 +71,7 @@ TEST(SphereFitterTest, CylinderIsCoveredByOneChainOfRoundSpheres) {
     settings.method = method;
     const FitResult fit = Fit(ch, parts, settings);
     ExpectEveryTriangleCovered(ch, fit.spheres);
+    ExpectMeshReproducesTheRestPose(ch, fit.spheres);
     // A tube of radius R: spheres centred on the axis, radius >= R, and levels spaced by about
     // (1 - PD) * 2R: 1 / (1.4 * 0.1) ~ 7 levels plus the ends.
     ASSERT_GE(fit.spheres.size(), 6u);
@@ -253,6 +278,7 @@ TEST_P(SharedCharacterFit, CoversEveryTriangleAndIsThreadIndependent) {
     tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
     const FitResult fit = Fit(*ch, *parts, FitSettings{});
     ExpectEveryTriangleCovered(*ch, fit.spheres);
+    ExpectMeshReproducesTheRestPose(*ch, fit.spheres);
     EXPECT_LE(fit.spheres.size(), 300u);
     one = runtime::WriteSphereSetJson(fit.spheres);
   }

@@ -30,4 +30,21 @@ inline SphereSet TwoSpheres() {
   return set;
 }
 
+// TwoSpheres with its mesh (version 2): two triangles (0 1 2) and (1 2 3) on a quad, one bind
+// entry on the root joint with a non-trivial inverse bind matrix, vertex 3 blended with weight 1.
+inline SphereSet TwoSpheresWithMesh() {
+  SphereSet set = TwoSpheres();
+  set.triangle_vertices = {0, 1, 2, 1, 2, 3};
+  set.mesh.positions_bind = {Eigen::Vector3f(0, 0, 0), Eigen::Vector3f(0.5f, 0, 0), Eigen::Vector3f(0, 0.5f, 0),
+                             Eigen::Vector3f(1.0f / 3.0f, 0.7f, -0.1f)};
+  skinning::BindEntry entry;
+  entry.joint = 0;
+  entry.inverse_bind(1, 3) = -0.25f;
+  set.mesh.binds = {entry};
+  set.mesh.influence_offsets = {0, 1, 2, 3, 4};
+  set.mesh.influence_binds = {0, 0, 0, 0};
+  set.mesh.influence_weights = {1.0f, 1.0f, 1.0f, 1.0f};
+  return set;
+}
+
 }  // namespace skinspheres::runtime

@@ -38,6 +38,16 @@ void ExpectSame(const SphereSet& a, const SphereSet& b) {
   EXPECT_EQ(a.influence_offsets, b.influence_offsets);
   EXPECT_EQ(a.influence_joints, b.influence_joints);
   EXPECT_EQ(a.influence_weights, b.influence_weights);
+  EXPECT_EQ(a.triangle_vertices, b.triangle_vertices);
+  EXPECT_EQ(a.mesh.positions_bind, b.mesh.positions_bind);
+  ASSERT_EQ(a.mesh.binds.size(), b.mesh.binds.size());
+  for (size_t k = 0; k < a.mesh.binds.size(); ++k) {
+    EXPECT_EQ(a.mesh.binds[k].joint, b.mesh.binds[k].joint);
+    EXPECT_EQ(a.mesh.binds[k].inverse_bind, b.mesh.binds[k].inverse_bind);
+  }
+  EXPECT_EQ(a.mesh.influence_offsets, b.mesh.influence_offsets);
+  EXPECT_EQ(a.mesh.influence_binds, b.mesh.influence_binds);
+  EXPECT_EQ(a.mesh.influence_weights, b.mesh.influence_weights);
   ASSERT_EQ(a.excluded_pairs.size(), b.excluded_pairs.size());
   for (size_t k = 0; k < a.excluded_pairs.size(); ++k) {
     EXPECT_EQ(a.excluded_pairs[k].i, b.excluded_pairs[k].i);
@@ -57,6 +67,42 @@ TEST(SphereSetIoTest, RoundTripIsExact) {
   auto read = ReadSphereSetJson(WriteSphereSetJson(set), "mem");
   ASSERT_TRUE(read.ok()) << read.error().message;
   ExpectSame(set, *read);
+}
+
+TEST(SphereSetIoTest, MeshRoundTripIsExactAndWrittenAsVersion2) {
+  const SphereSet set = TwoSpheresWithMesh();
+  const std::string text = WriteSphereSetJson(set);
+  EXPECT_EQ(nlohmann::json::parse(text)["version"], 2);
+  auto read = ReadSphereSetJson(text, "mem");
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  EXPECT_TRUE(read->has_mesh());
+  ExpectSame(set, *read);
+}
+
+TEST(SphereSetIoTest, VersionOneFilesLoadWithoutAMesh) {
+  // A set without a mesh is written as version 1, exactly as version-1 writers did, and read back
+  // as a set without a mesh; a version-1 file carrying a mesh is not version 1.
+  const std::string text = WriteSphereSetJson(TwoSpheres());
+  nlohmann::json j = nlohmann::json::parse(text);
+  EXPECT_EQ(j["version"], 1);
+  EXPECT_FALSE(j.contains("mesh"));
+  auto read = ReadSphereSetJson(text, "v1.json");
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  EXPECT_FALSE(read->has_mesh());
+  ExpectSame(TwoSpheres(), *read);
+  j["mesh"] = nlohmann::json::parse(WriteSphereSetJson(TwoSpheresWithMesh()))["mesh"];
+  auto mixed = ReadSphereSetJson(j.dump(), "v1.json");
+  ASSERT_FALSE(mixed.ok());
+  EXPECT_NE(mixed.error().message.find("$.mesh is not part of version 1"), std::string::npos) << mixed.error().message;
+}
+
+TEST(SphereSetIoTest, EveryTruncationOfAMeshSetIsAClearError) {
+  const std::string text = WriteSphereSetJson(TwoSpheresWithMesh());
+  for (size_t n = 0; n < text.size(); n += 5) {
+    auto read = ReadSphereSetJson(text.substr(0, n), "cut.json");
+    ASSERT_FALSE(read.ok()) << "prefix of " << n << " bytes was accepted";
+    EXPECT_EQ(read.error().message.rfind("cut.json: ", 0), 0u) << read.error().message;
+  }
 }
 
 TEST(SphereSetIoTest, FileRoundTripAndMissingFile) {
@@ -94,7 +140,8 @@ TEST(SphereSetIoTest, WrongContentIsRefusedWithItsPlace) {
   };
   const std::vector<Case> cases = {
       {"format", [](json& j) { j["format"] = "other"; }, ErrorCode::kInvalidData, "not a sphere set"},
-      {"version", [](json& j) { j["version"] = 2; }, ErrorCode::kVersionMismatch, "version 2"},
+      {"version", [](json& j) { j["version"] = 3; }, ErrorCode::kVersionMismatch, "version 3"},
+      {"version 2 without mesh", [](json& j) { j["version"] = 2; }, ErrorCode::kInvalidData, "$.mesh is missing"},
       {"missing spheres", [](json& j) { j.erase("spheres"); }, ErrorCode::kInvalidData, "$.spheres is missing"},
       {"center size", [](json& j) { j["spheres"][1]["center"] = {1, 2}; }, ErrorCode::kInvalidData, "$.spheres[1].center"},
       {"radius type", [](json& j) { j["spheres"][0]["radius"] = "big"; }, ErrorCode::kInvalidData, "$.spheres[0].radius"},
@@ -106,6 +153,36 @@ TEST(SphereSetIoTest, WrongContentIsRefusedWithItsPlace) {
       {"huge unsigned", [](json& j) { j["skeleton"]["joints"][0]["parent"] = 18446744073709551615ull; },
        ErrorCode::kInvalidData, "parent is out of range"},
   };
+  const json good_mesh = json::parse(WriteSphereSetJson(TwoSpheresWithMesh()));
+  const std::vector<Case> mesh_cases = {
+      {"mesh triangle index", [](json& j) { j["mesh"]["triangles"][4] = 9; }, ErrorCode::kInvalidData,
+       "mesh triangle 1 names vertex 9"},
+      {"mesh triangle count", [](json& j) { j["mesh"]["triangles"].erase(5); }, ErrorCode::kInvalidData,
+       "5 triangle indices, expected 3 x 2"},
+      {"mesh positions", [](json& j) { j["mesh"]["positions_bind"].erase(0); }, ErrorCode::kInvalidData, "xyz triples"},
+      {"mesh vertex count", [](json& j) { j["mesh"]["positions_bind"] = {0, 0, 0}; }, ErrorCode::kInvalidData,
+       "1 vertices, expected 4"},
+      {"bind joint", [](json& j) { j["mesh"]["binds"][0]["joint"] = 3; }, ErrorCode::kInvalidData,
+       "bind entry 0 names joint 3"},
+      {"bind matrix", [](json& j) { j["mesh"]["binds"][0]["inverse_bind"] = {1, 0}; }, ErrorCode::kInvalidData,
+       "$.mesh.binds[0].inverse_bind has 2 entries"},
+      {"influence bind", [](json& j) { j["mesh"]["influence_binds"][2] = 1; }, ErrorCode::kInvalidData,
+       "bind entry out of range"},
+      {"influence offsets", [](json& j) { j["mesh"]["influence_offsets"][1] = 3; j["mesh"]["influence_offsets"][2] = 2; },
+       ErrorCode::kInvalidData, "mesh influence lists are malformed"},
+      {"influence weight", [](json& j) { j["mesh"]["influence_weights"][0] = -1; }, ErrorCode::kInvalidData,
+       "negative or not finite"},
+      {"owned vertex", [](json& j) { j["mesh"]["triangles"][0] = 3; }, ErrorCode::kInvalidData,
+       "sphere 0 owns triangle 0 but not its vertex 3"},
+  };
+  for (const auto& c : mesh_cases) {
+    json j = good_mesh;
+    c.edit(j);
+    auto read = ReadSphereSetJson(j.dump(), "bad.json");
+    ASSERT_FALSE(read.ok()) << c.what;
+    EXPECT_EQ(read.error().code, c.code) << c.what << ": " << read.error().message;
+    EXPECT_NE(read.error().message.find(c.message_part), std::string::npos) << c.what << ": " << read.error().message;
+  }
   for (const auto& c : cases) {
     json j = good;
     c.edit(j);

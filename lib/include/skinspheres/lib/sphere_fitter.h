@@ -35,6 +35,8 @@
 //  6. Fast-refit data: per sphere, the joints influencing its source vertices with their mean
 //     weights, and radius_fast covering every rest copy of every source vertex carried rigidly by
 //     each of its bind entries (see runtime/sphere_set.h).
+//  7. The mesh: the character's skin (bind positions, bind entries, influences) and its triangles,
+//     so the runtime can test triangles and skin single vertices (sphere-set version 2).
 // Parts are fitted in parallel (TBB); the result does not depend on the thread count.
 #pragma once
 

@@ -13,7 +13,12 @@
 // every source vertex carried rigidly by each of its joints at rest (equal to the plain radius when
 // the file's rest pose is its bind pose).
 //
-// On disk: JSON, {"format":"skinspheres.sphere_set","version":1,...} (sphere_set_io.h).
+// Version 2 adds the skinned mesh itself (`mesh`, `triangle_vertices`): what a triangle-level test
+// behind the spheres needs, and what lets fast mode skin only the vertices it tests. A set read
+// from a version-1 file has no mesh (has_mesh() false) and works for everything else.
+//
+// On disk: JSON, {"format":"skinspheres.sphere_set","version":2,...} (sphere_set_io.h); version 1
+// files (no mesh) still load, and a set without a mesh is written as version 1.
 #pragma once
 
 #include <Eigen/Core>
@@ -24,11 +29,13 @@
 
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/runtime/error.h"
+#include "skinspheres/skinning/skinned_mesh.h"
 
 namespace skinspheres::runtime {
 
 inline constexpr const char* kSphereSetFormat = "skinspheres.sphere_set";
-inline constexpr int kSphereSetVersion = 1;
+inline constexpr int kSphereSetVersion = 2;             // written when the set has a mesh
+inline constexpr int kSphereSetVersionWithoutMesh = 1;   // written when it has none; both are read
 
 enum class ExclusionReason : uint8_t {
   kSameJoint = 0,       // both spheres belong to the same joint
@@ -80,9 +87,23 @@ struct SphereSet {
 
   std::vector<ExcludedPair> excluded_pairs;  // sorted by (i, j), i < j, unique
 
+  // The skinned mesh the set was fitted on (version 2; both empty in a version-1 set), indexed by
+  // source vertex and source triangle like the lists above:
+  //   triangle t has source vertices triangle_vertices[3t], [3t+1], [3t+2];
+  //   mesh.positions_bind, mesh.binds (joint, inverse bind matrix) and the per-vertex influences
+  //   (CSR over bind entries, weights normalised to sum 1) are the file's skin, so
+  //   p_v(t) = Σ_k w_k · G_joint(b_k)(t) · IBM_b_k · p_bind,v  gives every vertex at any pose, and at
+  //   rest (G = joint_rest_world) the positions the spheres were fitted on. Rigid meshes hanging
+  //   under a joint appear as one bind entry with weight 1 (see skinning/skinned_mesh.h).
+  // Every vertex of a triangle a sphere owns is among that sphere's source vertices.
+  skinning::SkinnedMesh mesh;                // vertex_count() == source_vertex_count when present
+  std::vector<uint32_t> triangle_vertices;   // 3 * source_triangle_count when present
+
   size_t size() const { return centers_rest.size(); }
+  bool has_mesh() const { return !triangle_vertices.empty(); }
   size_t joint_count() const { return joint_names.size(); }
-  // Every reason the set is inconsistent (sizes, offsets, index ranges, NaNs, pair order);
+  // Every reason the set is inconsistent (sizes, offsets, index ranges, NaNs, pair order; with a
+  // mesh: its sizes, indices, finite values, and each sphere's vertices covering its triangles');
   // std::nullopt when it is sound.
   std::optional<Error> Validate() const;
 };
