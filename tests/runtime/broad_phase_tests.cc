@@ -22,7 +22,6 @@
 #include <random>
 #include <set>
 #include <span>
-#include <unordered_map>
 #include <vector>
 
 #include "skinspheres/lib/body_parts.h"
@@ -32,35 +31,19 @@
 #include "skinspheres/runtime/pair_filter.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 #include "skinspheres/skinning/sampling_job.h"
+#include "allocation_counter.h"
+#include "broad_phase_oracles.h"
 #include "test_support.h"
 
-// Allocation counter: every operator new in this executable goes through here; tests switch
-// counting on around the calls that must not allocate. (GCC cannot see that the replaced new and
-// delete pair malloc with free.)
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-namespace {
-std::atomic<bool> g_count_allocations{false};
-std::atomic<size_t> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  if (g_count_allocations.load(std::memory_order_relaxed)) g_allocations.fetch_add(1);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-// The nothrow forms too (std::stable_sort's buffer uses them): every new/delete pair must match.
-void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
-  if (g_count_allocations.load(std::memory_order_relaxed)) g_allocations.fetch_add(1);
-  return std::malloc(size == 0 ? 1 : size);
-}
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
 
 namespace skinspheres::runtime {
 namespace {
 
 using Spheres = std::vector<skinspheres::Vec4f>;
+using test::g_allocations;
+using test::GridOracle;
+using test::SupportedLevels;
+using test::g_count_allocations;
 
 // Random exclusions: each pair with probability p, listed in random order (i > j allowed).
 std::vector<ExcludedPair> RandomExclusions(size_t n, double p, std::mt19937& rng) {
@@ -133,53 +116,6 @@ std::vector<Contact> Oracle(const Spheres& s, const PairFilter& f) {
   std::vector<Contact> out;
   EXPECT_TRUE(SelfCollisionAllPairs(s, f, &out));
   return out;
-}
-
-// An oracle independent of the library for sets too large for the O(n^2) loop: a uniform grid of
-// cells one largest diameter wide, the 27 neighbouring cells, the contract's float test as written
-// in broad_phase.h, f.excluded() per pair, then a sort.
-std::vector<Contact> GridOracle(const Spheres& s, const PairFilter& f) {
-  float r_max = 0.0f;
-  for (const auto& v : s) r_max = std::max(r_max, v.w());
-  const double cell = std::max(2.0 * double(r_max), 1e-6);
-  using Cell = std::array<int64_t, 3>;
-  struct CellHash {
-    size_t operator()(const Cell& c) const { return size_t((c[0] * 73856093) ^ (c[1] * 19349663) ^ (c[2] * 83492791)); }
-  };
-  std::unordered_map<Cell, std::vector<uint32_t>, CellHash> cells;
-  std::vector<Cell> at(s.size());
-  for (uint32_t i = 0; i < s.size(); ++i) {
-    for (int a = 0; a < 3; ++a) at[i][a] = int64_t(std::floor(double(s[i][a]) / cell));
-    cells[at[i]].push_back(i);
-  }
-  std::vector<Contact> out;
-  for (uint32_t i = 0; i < s.size(); ++i) {
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dz = -1; dz <= 1; ++dz) {
-          auto it = cells.find(Cell{at[i][0] + dx, at[i][1] + dy, at[i][2] + dz});
-          if (it == cells.end()) continue;
-          for (uint32_t j : it->second) {
-            if (j <= i || f.excluded(i, j)) continue;
-            const float ddx = s[j].x() - s[i].x(), ddy = s[j].y() - s[i].y(), ddz = s[j].z() - s[i].z();
-            const float d2 = (ddx * ddx + ddy * ddy) + ddz * ddz;
-            const float rs = s[i].w() + s[j].w();
-            if (d2 <= rs * rs) out.push_back(Contact{i, j, rs - std::sqrt(d2), f.part(i), f.part(j)});
-          }
-        }
-      }
-    }
-  }
-  std::sort(out.begin(), out.end(), [](const Contact& p, const Contact& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; });
-  return out;
-}
-
-std::vector<BroadPhaseSimd> SupportedLevels() {
-  std::vector<BroadPhaseSimd> levels;
-  for (auto l : {BroadPhaseSimd::kSse2, BroadPhaseSimd::kAvx2, BroadPhaseSimd::kAvx512}) {
-    if (BroadPhaseSimdSupported(l)) levels.push_back(l);
-  }
-  return levels;
 }
 
 // ------------------------------------------------------------------------------------------ filter
