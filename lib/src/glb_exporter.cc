@@ -19,6 +19,8 @@
 #include <utility>
 #include <vector>
 
+#include "skinspheres/runtime/file_io.h"
+
 namespace skinspheres::lib {
 namespace {
 
@@ -576,10 +578,19 @@ Result<GlbExportSummary> Export(const RawCharacter& c, const std::filesystem::pa
                                 const char* format) {
   auto built = BuildScene(c, path, extras);
   if (!built.ok()) return built.error();
+  // Exported to memory, then written and checked through the close (runtime/file_io.h): Assimp's
+  // own file writer does not check its close, so a full disk went unnoticed.
   Assimp::Exporter exporter;
-  if (exporter.Export(built->scene.get(), format, path.string()) != aiReturn_SUCCESS) {
+  const aiExportDataBlob* blob = exporter.ExportToBlob(built->scene.get(), format);
+  if (blob == nullptr || blob->data == nullptr) {
     return MakeError(ErrorCode::kFileUnreadable,
                      "ExportGlb " + path.string() + ": Assimp could not write the file: " + exporter.GetErrorString());
+  }
+  if (blob->next != nullptr) {
+    return MakeError(ErrorCode::kFileUnreadable, "ExportGlb " + path.string() + ": Assimp made more than one file");
+  }
+  if (auto err = runtime::WriteWholeFile(path, std::string_view(static_cast<const char*>(blob->data), blob->size))) {
+    return *err;
   }
   return built->summary;
 }

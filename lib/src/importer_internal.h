@@ -17,7 +17,8 @@ namespace skinspheres::lib::detail {
 // "<file>: <problem>" on one line (newlines in `problem` become spaces).
 Error ImportError(ErrorCode code, const std::filesystem::path& file, const std::string& problem);
 
-// The whole file; errors as ImportCharacter's (missing, a directory, unreadable, empty).
+// The whole file; errors as ImportCharacter's (missing, not a regular file, larger than
+// kMaxCharacterFileBytes, unreadable, empty): runtime::ReadRegularFile.
 Result<std::vector<uint8_t>> ReadFileBytes(const std::filesystem::path& file);
 
 struct Influence {

@@ -2,8 +2,6 @@
 // and fast-refit data. See sphere_fitter.h for the stages.
 #include "skinspheres/lib/sphere_fitter.h"
 
-#include <tbb/parallel_for.h>
-
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
@@ -17,6 +15,7 @@
 #include "skinspheres/lib/enclosing_sphere.h"
 #include "skinspheres/lib/sphere_tightener.h"
 #include "skinspheres/lib/triangle_bvh.h"
+#include "skinspheres/skinning/parallel_for.h"
 
 namespace skinspheres::lib {
 
@@ -62,6 +61,15 @@ std::string FitSettings::ToJson() const {
 }
 
 namespace {
+
+// f(k) for every k in [0, n), in parallel through the library's ParallelFor (TBB by default; a
+// ThreadSanitizer build swaps in threads the checker can see). Each call writes only its own slots.
+template <typename F>
+void ParallelIndices(size_t n, F f) {
+  DefaultParallelFor()(n, 1, [&f](size_t begin, size_t end) {
+    for (size_t k = begin; k < end; ++k) f(k);
+  });
+}
 
 // One sphere of a part before ownership.
 struct CandidateSphere {
@@ -274,6 +282,60 @@ Ball BallOf(const RawCharacter& ch, const std::vector<uint32_t>& tris) {
   return MinimumBall(pts);
 }
 
+// Invertible as the runtime requires of every joint's rest transform (RefitRestData): the 3x3
+// part's determinant above 1e-12 of its largest entry cubed, in double.
+bool InvertibleLinear(const Eigen::Matrix4d& m) {
+  const double det = m.topLeftCorner<3, 3>().determinant();
+  const double scale = m.topLeftCorner<3, 3>().cwiseAbs().maxCoeff();
+  return std::isfinite(det) && std::abs(det) > 1e-12 * scale * scale * scale;
+}
+
+// The rest pose is degenerate when nothing can be fitted to it or the runtime could not refit
+// what would be: a joint whose rest transform is singular (a zero scale on it or above it: the
+// runtime inverts every joint's), a skinned vertex whose skinning matrix G_joint · IBM is
+// singular (a zero or singular inverse bind matrix collapses its vertices), or a mesh with no
+// extent or no height. The reason, or "" when the pose is sound.
+std::string DegenerateRestPose(const RawCharacter& ch, const std::vector<Mat4f>& rest_world) {
+  const auto& sk = ch.skeleton;
+  for (size_t j = 0; j < sk.size(); ++j) {
+    if (InvertibleLinear(rest_world[j].cast<double>())) continue;
+    const std::string joint = "joint " + std::to_string(j) + " '" + sk.joint_names[j] + "'";
+    if (!InvertibleLinear(sk.rest_local[j].ToMatrix().cast<double>())) {
+      return joint + " has a singular rest transform (a zero scale); the runtime could not refit the set";
+    }
+    return joint + " has a singular rest world transform (its transforms multiply to one); the runtime could not refit the set";
+  }
+  const auto& skin = ch.skin;
+  if (skin.influence_offsets.size() == ch.vertex_count() + 1) {
+    std::vector<int8_t> bind_ok(skin.binds.size(), -1);  // -1: not checked yet
+    for (size_t v = 0; v < ch.vertex_count(); ++v) {
+      for (uint32_t k = skin.influence_offsets[v]; k < skin.influence_offsets[v + 1]; ++k) {
+        const uint16_t b = skin.influence_binds[k];
+        if (b >= skin.binds.size() || !(skin.influence_weights[k] > 0.0f)) continue;
+        if (bind_ok[b] < 0) {
+          const int32_t j = skin.binds[b].joint;
+          bind_ok[b] = j >= 0 && static_cast<size_t>(j) < sk.size() &&
+                       InvertibleLinear(rest_world[j].cast<double>() * skin.binds[b].inverse_bind.cast<double>());
+        }
+        if (!bind_ok[b]) {
+          return "vertex " + std::to_string(v) + " is skinned by bind entry " + std::to_string(b) +
+                 " whose inverse bind matrix makes a singular skinning matrix at rest (a zero or singular inverse bind "
+                 "matrix collapses its vertices)";
+        }
+      }
+    }
+  }
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity()), hi = -lo;
+  for (const auto& p : ch.positions_rest) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Eigen::Vector3d extent = (hi - lo).cast<double>();
+  if (!(extent.norm() > 0.0)) return "every vertex of the rest pose is at one point; nothing can be fitted";
+  if (!(extent.y() > 1e-6 * extent.norm())) return "the rest pose has zero height (no extent along +Y); nothing can be fitted";
+  return "";
+}
+
 }  // namespace
 
 int CountUncoveredTriangles(const RawCharacter& ch, const runtime::SphereSet& set, int* first_bad) {
@@ -348,10 +410,13 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   }
   std::vector<Mat4f> rest_world(joints);
   ch.skeleton.RestWorld(rest_world);
+  if (std::string why = DegenerateRestPose(ch, rest_world); !why.empty()) {
+    return MakeError(ErrorCode::kInvalidData, name + ": degenerate rest pose: " + why);
+  }
 
   // 1-3: the paper's spheres, part by part (in parallel; each part writes its own slot).
   std::vector<PartResult> fitted(parts.parts.size());
-  tbb::parallel_for(size_t{0}, parts.parts.size(), [&](size_t k) {
+  ParallelIndices(parts.parts.size(), [&](size_t k) {
     fitted[k] = FitPart(ch, parts.parts[k], rest_world, settings);
   });
   for (const auto& f : fitted) {
@@ -377,7 +442,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   std::vector<Ball> balls(cand.size());
   for (size_t s = 0; s < cand.size(); ++s) balls[s] = cand[s].ball;
   auto assign = [&] {
-    tbb::parallel_for(size_t{0}, parts.parts.size(), [&](size_t k) {
+    ParallelIndices(parts.parts.size(), [&](size_t k) {
       for (uint32_t t : parts.parts[k].triangles) {
         const Eigen::Vector3f& p0 = ch.positions_rest[ch.triangles[t][0]];
         const Eigen::Vector3f& p1 = ch.positions_rest[ch.triangles[t][1]];
@@ -426,7 +491,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
         }
       }
     }
-    tbb::parallel_for(size_t{0}, cand.size(), [&](size_t s) {
+    ParallelIndices(cand.size(), [&](size_t s) {
       if (pts[s].empty()) {
         balls[s].radius = -1.0f;  // owns nothing: out of the next assignment
       } else {
@@ -446,7 +511,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   if (settings.refine_iterations > 0) {
     // The last refine round reassigned triangles after moving the spheres: centre each sphere
     // once more on what it now owns (its radius stays the paper's, for the growth report).
-    tbb::parallel_for(size_t{0}, cand.size(), [&](size_t s) {
+    ParallelIndices(cand.size(), [&](size_t s) {
       if (!owned[s].empty()) cand[s].ball.center = BallOf(ch, owned[s]).center;
     });
   }

@@ -4,7 +4,6 @@
 #include <unistd.h>
 
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -12,6 +11,7 @@
 #include "html_page.h"
 #include "playback.h"
 #include "skinspheres/lib/glb_exporter.h"
+#include "skinspheres/runtime/file_io.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 #include "skinspheres/skinning/sampling_job.h"
 
@@ -94,10 +94,11 @@ int RunPlay(PlayArgs& a) {
   if (!played.ok()) return Fail(played.error().message);
   PrintPlaySummary(*played, set, a.fps);
 
+  // Every write is checked through the close (runtime/file_io.h): a failed one is one line,
+  // exit 2, and no "wrote".
   if (!a.dump.empty()) {
-    std::ofstream out(a.dump);
-    if (!out) return Fail(a.dump + ": cannot open for writing");
-    for (size_t f = 0; f < played->frames.size(); ++f) {
+    runtime::CheckedFileWriter out(a.dump);
+    for (size_t f = 0; f < played->frames.size() && out.ok(); ++f) {
       const auto& fr = played->frames[f];
       nlohmann::json line = {{"frame", f}, {"time", fr.time_s}};
       nlohmann::json spheres = nlohmann::json::array(), pairs = nlohmann::json::array();
@@ -105,8 +106,9 @@ int RunPlay(PlayArgs& a) {
       for (const auto& c : fr.contacts) pairs.push_back({c.i, c.j});
       line["spheres"] = std::move(spheres);
       line["pairs"] = std::move(pairs);
-      out << line.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
+      out.Write(line.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + '\n');
     }
+    if (auto err = out.Close()) return Fail(err->message);
     std::printf("wrote %s\n", a.dump.c_str());
   }
   if (!a.export_glb.empty()) {
@@ -133,9 +135,10 @@ int RunPlay(PlayArgs& a) {
     nlohmann::json per_frame = nlohmann::json::array();
     for (const auto& fr : played->frames) per_frame.push_back(fr.contacts.size());
     rep["pairs_per_frame"] = per_frame;
-    std::ofstream out(a.report);
-    if (!out) return Fail(a.report + ": cannot open for writing");
-    out << rep.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
+    if (auto err = runtime::WriteWholeFile(a.report, rep.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + '\n')) {
+      return Fail(err->message);
+    }
+    std::printf("wrote %s\n", a.report.c_str());
   }
   if (!a.html.empty()) kept.push_back(*played);
   if (const int code = write_page()) return code;
