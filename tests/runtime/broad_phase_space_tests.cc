@@ -32,8 +32,6 @@ namespace skinspheres::runtime {
 namespace {
 
 using Spheres = std::vector<Vec4f>;
-using test::g_allocations;
-using test::g_count_allocations;
 
 using test::ByPair;
 using test::GridOracle;
@@ -343,31 +341,30 @@ TEST(BroadPhaseSpaceTest, NoAllocationPerFrameInOneSpaceOrACrowdOfSpaces) {
     frames[f] = sp.spheres;
   }
   size_t contacts = 0;
-  const auto run = [&](int first, int last, bool count) {
+  const auto run = [&](int first, int last) {
     bool ok = true;
     for (int f = first; f < last; ++f) {
       for (size_t k = 0; k < jobs_count; ++k) jobs[k] = {frames[f][k], &sp.filters[k], &contexts[k], &outs[k]};
-      if (count) g_count_allocations = true;
       ok &= RunSelfCollisionJobRange(jobs, 0, 1);  // a single character, then every space under TBB
       ok &= RunSelfCollisionJobs(jobs);
-      g_count_allocations = false;
       for (const auto& o : outs) contacts += o.size();
     }
     return ok;
   };
+  long allocations = -1;
   tbb::task_arena arena(2);
   arena.execute([&] {
-    ASSERT_TRUE(run(0, 3, false));  // warm-up: TBB's workers and the first builds
-    g_allocations = 0;
-    ASSERT_TRUE(run(3, 30, true));
+    ASSERT_TRUE(run(0, 3));  // warm-up: TBB's workers and the first builds
+    test::AllocationCounter counter;
+    ASSERT_TRUE(run(3, 30));
+    allocations = counter.count();
   });
-  EXPECT_EQ(g_allocations.load(), 0u);
+  EXPECT_EQ(allocations, 0);
   EXPECT_GT(contacts, 0u);
   // The counter does count.
-  g_count_allocations = true;
+  test::AllocationCounter counter;
   auto probe = std::make_unique<std::vector<int>>(10);
-  g_count_allocations = false;
-  EXPECT_GE(g_allocations.load(), 1u);
+  EXPECT_GE(counter.count(), 1);
 }
 
 }  // namespace

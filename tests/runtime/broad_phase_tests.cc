@@ -40,10 +40,8 @@ namespace skinspheres::runtime {
 namespace {
 
 using Spheres = std::vector<skinspheres::Vec4f>;
-using test::g_allocations;
 using test::GridOracle;
 using test::SupportedLevels;
-using test::g_count_allocations;
 
 // Random exclusions: each pair with probability p, listed in random order (i > j allowed).
 std::vector<ExcludedPair> RandomExclusions(size_t n, double p, std::mt19937& rng) {
@@ -595,16 +593,18 @@ TEST(BroadPhaseTest, NoAllocationAfterTheFirstFrames) {
     out.reserve(n * n / 2);
     const auto* data_before = out.data();
     ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
-    g_allocations = 0;
-    g_count_allocations = true;
     bool ok = true;
-    for (int frame = 0; frame < 30; ++frame) {
-      for (auto& v : s) v.x() += (frame % 10 == 9 ? 0.5f : 0.001f) * float(frame % 5);
-      ok &= SelfCollisionJob{s, &f, &ctx, &out}.Run();
+    long allocations = 0;
+    {
+      test::AllocationCounter counter;
+      for (int frame = 0; frame < 30; ++frame) {
+        for (auto& v : s) v.x() += (frame % 10 == 9 ? 0.5f : 0.001f) * float(frame % 5);
+        ok &= SelfCollisionJob{s, &f, &ctx, &out}.Run();
+      }
+      allocations = counter.count();
     }
-    g_count_allocations = false;
     EXPECT_TRUE(ok);
-    EXPECT_EQ(g_allocations.load(), 0u) << n << " " << kind;
+    EXPECT_EQ(allocations, 0) << n << " " << kind;
     EXPECT_EQ(out.data(), data_before);
   }
 }
