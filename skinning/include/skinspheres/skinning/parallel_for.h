@@ -48,7 +48,8 @@ class RangeBody {
 
 using ParallelFor = std::function<void(size_t count, size_t grain, RangeBody body)>;
 
-// TBB's parallel_for in the calling thread's task arena (limit threads with tbb::task_arena).
+// TBB's parallel_for in the calling thread's task arena (limit threads with tbb::task_arena). In a
+// ThreadSanitizer build, a fixed pool of std::threads the checker can see (skinning/src/parallel_for.cc).
 const ParallelFor& DefaultParallelFor();
 // Runs body(0, count) on the calling thread: for tests, and for callers that want no threads.
 const ParallelFor& SerialFor();
