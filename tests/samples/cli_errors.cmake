@@ -14,7 +14,7 @@ set(cli_cases
   "report_full|play|@GLB@|--frames|3|--report|/dev/full|/dev/full: write failed"
   "export_glb_full|play|@GLB@|--frames|3|--export-glb|/dev/full|/dev/full: write failed"
   "fit_output_full|fit|@GLB@|-o|/dev/full|/dev/full: write failed"
-  "export_builtin_full|export-builtin|/dev/full|/dev/full: write failed"
+  "export_builtin_full|export-builtin|@FULL_GLB@|full.glb: write failed"
   "dump_no_dir|play|@GLB@|--frames|3|--dump|/nonexistent-dir/x.jsonl|cannot open for writing"
   # Files that are not regular files: refused at once, never read (a FIFO used to block forever,
   # /dev/zero to read until memory ran out).

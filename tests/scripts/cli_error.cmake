@@ -3,6 +3,8 @@
 # stdout (a failed write must not claim success). Placeholders in ARGS name files made here in DIR:
 #   @GLB@   the built-in character exported as GLB      @SET@   a sphere set fitted on it
 #   @FIFO@  a FIFO nobody writes to                      @DEEP@  a sphere set whose params nest 100,000 deep
+#   @FULL_GLB@  full.glb, a symbolic link to /dev/full (a write that fails, under a name whose
+#               extension picks the format)
 # The tool runs with a 60 s timeout: a hang (a FIFO read) fails the test instead of stalling CTest.
 file(MAKE_DIRECTORY ${DIR})
 if(ARGS MATCHES "@GLB@|@SET@" AND NOT EXISTS ${DIR}/builtin.glb)
@@ -31,11 +33,15 @@ if(ARGS MATCHES "@DEEP@")
   string(REGEX REPLACE "\"params\":{[^}]*}" "\"params\":{\"deep\":${open}${close}}" deep_text "${set_text}")
   file(WRITE ${DIR}/deep.spheres.json "${deep_text}")
 endif()
+if(ARGS MATCHES "@FULL_GLB@" AND NOT EXISTS ${DIR}/full.glb)
+  file(CREATE_LINK /dev/full ${DIR}/full.glb SYMBOLIC)
+endif()
 string(REPLACE "|" ";" args "${ARGS}")
 string(REPLACE "@GLB@" "${DIR}/builtin.glb" args "${args}")
 string(REPLACE "@SET@" "${DIR}/builtin.spheres.json" args "${args}")
 string(REPLACE "@FIFO@" "${DIR}/fifo" args "${args}")
 string(REPLACE "@DEEP@" "${DIR}/deep.spheres.json" args "${args}")
+string(REPLACE "@FULL_GLB@" "${DIR}/full.glb" args "${args}")
 execute_process(COMMAND ${TOOL} ${args} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 60)
 string(REGEX MATCHALL "\n" newlines "${err}")
 list(LENGTH newlines lines)
