@@ -22,21 +22,13 @@ Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet s
 }
 
 std::optional<Error> CharacterAsset::Matches(std::span<const std::string> joint_names, size_t vertex_count) const {
-  const std::string who = "sphere set '" + set_.source_file + "'";
   if (vertex_count != set_.source_vertex_count) {
-    return MakeError(ErrorCode::kMismatchedAsset, who + " was fitted on " + std::to_string(set_.source_vertex_count) +
-                                                      " vertices, the character has " + std::to_string(vertex_count));
+    return MakeError(ErrorCode::kMismatchedAsset, DescribeSphereSet(set_) + " was fitted on " +
+                                                      std::to_string(set_.source_vertex_count) + " vertices, the character has " +
+                                                      std::to_string(vertex_count));
   }
-  if (joint_names.size() != set_.joint_names.size()) {
-    return MakeError(ErrorCode::kMismatchedAsset, who + " was fitted on " + std::to_string(set_.joint_names.size()) +
-                                                      " joints, the character has " + std::to_string(joint_names.size()));
-  }
-  for (size_t j = 0; j < joint_names.size(); ++j) {
-    if (joint_names[j] != set_.joint_names[j]) {
-      return MakeError(ErrorCode::kMismatchedAsset, who + ": joint " + std::to_string(j) + " is '" + set_.joint_names[j] +
-                                                        "' in the set but '" + joint_names[j] + "' in the character");
-    }
-  }
+  auto mapping = MapJoints(set_, joint_names);
+  if (!mapping.ok()) return mapping.error();
   return std::nullopt;
 }
 
@@ -47,8 +39,40 @@ Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const Charac
   inst.spheres_.assign(n, Vec4f::Zero());
   inst.context_.Resize(n);
   inst.contacts_.reserve(std::max<size_t>(64, 4 * n));
+  inst.joint_input_count_ = asset->joint_count();
   inst.asset_ = std::move(asset);
   return inst;
+}
+
+Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const CharacterAsset> asset,
+                                                    const JointMapping& mapping) {
+  auto created = Create(std::move(asset));
+  if (!created.ok()) return created;
+  CharacterInstance& inst = *created;
+  const SphereSet& set = inst.asset_->sphere_set();
+  const std::vector<bool> read = JointsReadPerFrame(set);
+  if (mapping.engine_index.size() != set.joint_count()) {
+    return MakeError(ErrorCode::kInvalidArgument, DescribeSphereSet(set) + ": the joint mapping was made for a set of " +
+                                                      std::to_string(mapping.engine_index.size()) + " joints, not " +
+                                                      std::to_string(set.joint_count()));
+  }
+  for (size_t j = 0; j < read.size(); ++j) {
+    const int32_t e = mapping.engine_index[j];
+    if (e != JointMapping::kUnmapped && (e < 0 || static_cast<size_t>(e) >= mapping.engine_joint_count)) {
+      return MakeError(ErrorCode::kInvalidArgument, DescribeSphereSet(set) + ": the joint mapping sends joint '" +
+                                                        set.joint_names[j] + "' past the engine's joints");
+    }
+    if (!read[j]) continue;
+    if (e == JointMapping::kUnmapped) {
+      return MakeError(ErrorCode::kInvalidArgument, DescribeSphereSet(set) + ": the joint mapping leaves joint '" +
+                                                        set.joint_names[j] + "' unmapped, and the spheres move with it");
+    }
+    inst.gather_.emplace_back(static_cast<uint32_t>(j), static_cast<uint32_t>(e));
+  }
+  inst.joint_world_.assign(set.joint_count(), Mat4f::Identity());  // joints never read stay identity
+  inst.joint_input_count_ = mapping.engine_joint_count;
+  inst.mapped_ = true;
+  return created;
 }
 
 FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joint_world,
@@ -58,6 +82,18 @@ FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joi
   if (mode != RefitMode::kExact && mode != RefitMode::kFast) {
     status_ = {ErrorCode::kInvalidArgument, "unknown refit mode"};
     return status_;
+  }
+  if (mode == RefitMode::kExact && set.fast_only) {
+    status_ = {ErrorCode::kInvalidArgument, "exact mode needs the full sphere set; this one was loaded fast-only"};
+    return status_;
+  }
+  if (mapped_ && !joint_world.empty()) {  // engine joint order: gather the joints the refit reads
+    if (joint_world.size() < joint_input_count_) {
+      status_ = {ErrorCode::kInvalidArgument, "fewer joint matrices than the engine joints the mapping was made for"};
+      return status_;
+    }
+    for (const auto& [set_joint, engine_joint] : gather_) joint_world_[set_joint] = joint_world[engine_joint];
+    joint_world = joint_world_;
   }
   if (mode == RefitMode::kFast || !joint_world.empty()) {
     if (joint_world.size() < set.joint_count()) {

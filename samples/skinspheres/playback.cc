@@ -52,11 +52,18 @@ Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::Sphere
                             const PlayOptions& options) {
   const lib::RawCharacter& ch = loaded.character;
   const std::string file = ch.source_file.empty() ? "built-in character" : ch.source_file;
+  if (set.fast_only && (!options.fast || options.verify)) {  // no triangle lists to skin or check
+    return MakeError(ErrorCode::kInvalidArgument, set.loaded_from + ": a fast-only sphere set plays in fast mode only, "
+                                                                    "without --verify (convert the full set instead)");
+  }
   auto asset = runtime::CharacterAsset::Create(set);
   if (!asset.ok()) return asset.error();
   if (auto err = (*asset)->Matches(ch.skeleton.joint_names, ch.vertex_count())) {
     return MakeError(err->code, file + ": " + err->message);
   }
+  // The character's joints by name: a set fitted on the same joints in another order still plays.
+  auto mapping = runtime::MapJoints(set, ch.skeleton.joint_names);
+  if (!mapping.ok()) return MakeError(mapping.error().code, file + ": " + mapping.error().message);
   // A set read from a file is checked once against this mesh: same triangle count, and every
   // vertex of every owned triangle among its sphere's source vertices (what exact refit reads).
   if (set.source_triangle_count != ch.triangle_count()) {
@@ -77,7 +84,7 @@ Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::Sphere
       }
     }
   }
-  auto created = runtime::CharacterInstance::Create(*asset);
+  auto created = runtime::CharacterInstance::Create(*asset, *mapping);
   if (!created.ok()) return created.error();
   runtime::CharacterInstance& instance = *created;
   const skinning::AnimationClip& clip = ch.clips.at(clip_index);

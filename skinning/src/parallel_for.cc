@@ -1,7 +1,12 @@
+// DefaultParallelFor: TBB's parallel_for when built with SKINSPHERES_WITH_TBB, otherwise the
+// serial loop (the library then never references TBB); in a ThreadSanitizer build, a pool of
+// std::threads (below). SerialFor: the calling thread.
 #include "skinspheres/skinning/parallel_for.h"
 
+#if SKINSPHERES_WITH_TBB && !defined(__SANITIZE_THREAD__)
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#endif
 
 #include <algorithm>
 #include <atomic>
@@ -13,12 +18,20 @@
 
 namespace skinspheres {
 
+const ParallelFor& SerialFor() {
+  static const ParallelFor serial = [](size_t count, size_t, RangeBody body) {
+    if (count > 0) body(0, count);
+  };
+  return serial;
+}
+
 #if defined(__SANITIZE_THREAD__)
 // ThreadSanitizer build (.ci/run's TSan stage): TBB is a prebuilt library the checker cannot see
 // into, so it would report every hand-over between TBB's threads as a race. Here the default runs
 // the ranges on a fixed pool of std::threads synchronised by a mutex and condition variables (what
 // the checker sees), so what it reports are races in skinspheres' own code. The pool starts on the
-// first call and a call allocates nothing, like the TBB default (the soak counts allocations).
+// first call and a call allocates nothing, like the TBB default (the soak counts allocations). With
+// or without SKINSPHERES_WITH_TBB.
 namespace {
 
 constexpr auto kNoRanges = [](size_t, size_t) {};
@@ -107,7 +120,8 @@ const ParallelFor& DefaultParallelFor() {
   static const ParallelFor thread_for = [](size_t count, size_t grain, RangeBody body) { pool.Run(count, grain, body); };
   return thread_for;
 }
-#else
+bool DefaultParallelForUsesTbb() { return false; }
+#elif SKINSPHERES_WITH_TBB
 const ParallelFor& DefaultParallelFor() {
   static const ParallelFor tbb_for = [](size_t count, size_t grain, RangeBody body) {
     if (count == 0) return;
@@ -116,13 +130,10 @@ const ParallelFor& DefaultParallelFor() {
   };
   return tbb_for;
 }
+bool DefaultParallelForUsesTbb() { return true; }
+#else
+const ParallelFor& DefaultParallelFor() { return SerialFor(); }
+bool DefaultParallelForUsesTbb() { return false; }
 #endif
-
-const ParallelFor& SerialFor() {
-  static const ParallelFor serial = [](size_t count, size_t, RangeBody body) {
-    if (count > 0) body(0, count);
-  };
-  return serial;
-}
 
 }  // namespace skinspheres

@@ -68,6 +68,20 @@ add_test(NAME tool.play_export_glb
           -DDIR=${PROJECT_BINARY_DIR}/test_tmp/play_export -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/play_export_glb.cmake)
 set_tests_properties(tool.play_export_glb PROPERTIES SKIP_REGULAR_EXPRESSION "asset absent")
 
+# fit -o .json / .ssb and convert both ways, bit-exact, on the built-in character and on Xbot.
+foreach(input "builtin;" "Xbot;${SKINSPHERES_ASSET_DIR}/Xbot.glb")
+  list(GET input 0 name)
+  list(LENGTH input n)
+  set(file "")
+  if(n GREATER 1)
+    list(GET input 1 file)
+  endif()
+  add_test(NAME tool.convert_round_trip.${name}
+    COMMAND ${CMAKE_COMMAND} -DTOOL=${tool} "-DINPUT=${file}" -DDIR=${PROJECT_BINARY_DIR}/test_tmp/convert_${name}
+            -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/convert_round_trip.cmake)
+  set_tests_properties(tool.convert_round_trip.${name} PROPERTIES SKIP_REGULAR_EXPRESSION "asset absent" TIMEOUT 600)
+endforeach()
+
 # The installed package: find_package(skinspheres) and skinspheres::runtime alone (not in a
 # sanitizer build: the consumer is built without the sanitizer runtime).
 if(NOT SKINSPHERES_SANITIZE)
@@ -81,4 +95,11 @@ add_test(NAME package.abi_consumers
   COMMAND ${CMAKE_COMMAND} -DBUILD=${PROJECT_BINARY_DIR} -DSOURCE=${CMAKE_CURRENT_SOURCE_DIR}/abi_consumer
           -DDIR=${PROJECT_BINARY_DIR}/test_tmp/abi_consumers -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/abi_consumers.cmake)
 set_tests_properties(package.abi_consumers PROPERTIES TIMEOUT 900)
+# Components: COMPONENTS runtime configures with Assimp and nlohmann_json disabled; COMPONENTS c
+# from a C-only project with Eigen, TBB and Assimp disabled; both load a set and agree.
+add_test(NAME package.component_consumers
+  COMMAND ${CMAKE_COMMAND} -DBUILD=${PROJECT_BINARY_DIR} -DTOOL=${tool} -DSOURCE=${CMAKE_CURRENT_SOURCE_DIR}
+          -DWITH_TBB=${SKINSPHERES_WITH_TBB} -DDIR=${PROJECT_BINARY_DIR}/test_tmp/component_consumers
+          -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/component_consumers.cmake)
+set_tests_properties(package.component_consumers PROPERTIES TIMEOUT 600)
 endif()

@@ -1,11 +1,12 @@
 // The engine-facing API: one CharacterAsset per fitted character (shared, read-only), one
 // CharacterInstance per character on screen (its own scratch), and a crowd helper.
 //
-//   auto asset = CharacterAsset::Create(LoadSphereSet("xbot.spheres.json").value());  // set-up
-//   if (auto err = (*asset)->Matches(my_joint_names, my_vertex_count)) { refuse(err->message); }
-//   auto instance = CharacterInstance::Create(*asset);                                 // set-up
+//   auto set = LoadSphereSet("xbot.ssb");                  // set-up: binary or JSON; check set.ok()
+//   auto asset = CharacterAsset::Create(std::move(set).value());
+//   auto mapping = MapJoints((*asset)->sphere_set(), my_joint_names);  // joint_mapping.h; errors name
+//   auto instance = CharacterInstance::Create(*asset, *mapping);       // missing joints and the file
 //   each frame:
-//     FrameStatus st = instance->UpdateFast(joint_world);        // or UpdateExact(skinned, joint_world)
+//     FrameStatus st = instance->UpdateFast(joint_world);   // my joint order; or UpdateExact(skinned, joint_world)
 //     if (st.ok()) for (const Contact& c : instance->Query()) ...
 //
 // CharacterAsset holds the SphereSet, the refit's rest data (RefitRestData: G_j(rest)^-1 applied to
@@ -30,12 +31,14 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/parallel_for.h"
 #include "skinspheres/runtime/broad_phase.h"
 #include "skinspheres/runtime/error.h"
+#include "skinspheres/runtime/joint_mapping.h"
 #include "skinspheres/runtime/pair_filter.h"
 #include "skinspheres/runtime/refit_job.h"
 #include "skinspheres/runtime/sphere_set.h"
@@ -55,9 +58,13 @@ class CharacterAsset {
   // Errors name the set's source file: kInvalidData (inconsistent set, singular rest transform).
   static Result<std::shared_ptr<const CharacterAsset>> Create(SphereSet set);
 
-  // Whether the set was fitted on this character: same vertex count (source vertex indices) and
-  // the same joint names in the same order. std::nullopt when it matches; otherwise
-  // kMismatchedAsset with a message naming the set's file and the first difference.
+  // Whether the set was fitted on this character: the same vertex count (source vertex indices)
+  // and every joint the runtime reads present by name, in any order (MapJoints, joint_mapping.h:
+  // the engine's own list, e.g. a glTF skin's joints without their `Armature` ancestor, matches).
+  // std::nullopt when it matches; otherwise kMismatchedAsset with a message naming the loaded set
+  // file, the character it was fitted on, and the difference (vertex counts, missing joint names).
+  // A match says nothing of the order: unless the list is the set's own, in order, create the
+  // instances with MapJoints' mapping so that they read matrices in the list's order.
   std::optional<Error> Matches(std::span<const std::string> joint_names, size_t vertex_count) const;
 
   const SphereSet& sphere_set() const { return set_; }
@@ -76,10 +83,18 @@ class CharacterAsset {
 
 class CharacterInstance {
  public:
-  // Sizes every buffer for the asset (kInvalidArgument for a null asset).
+  // Sizes every buffer for the asset (kInvalidArgument for a null asset). Joint matrices are then
+  // in the set's joint order (SphereSet::joint_names).
   static Result<CharacterInstance> Create(std::shared_ptr<const CharacterAsset> asset);
+  // The same, with joint matrices in the engine's own order (mapping: MapJoints on this asset's
+  // set; kInvalidArgument when it was built for another set).
+  static Result<CharacterInstance> Create(std::shared_ptr<const CharacterAsset> asset, const JointMapping& mapping);
 
-  // Fast refit from G_j(t), one world matrix per skeleton joint (>= asset joint_count()).
+  // How many joint matrices an update reads: the engine's joint count with a mapping, the set's
+  // joint count without.
+  size_t joint_input_count() const { return joint_input_count_; }
+
+  // Fast refit from G_j(t), one world matrix per joint (>= joint_input_count()).
   FrameStatus UpdateFast(std::span<const Mat4f> joint_world);
   // Exact refit from skinned positions indexed by source vertex (>= source_vertex_count()), with
   // G_j(t) for the centres (may be empty: box-centre fallback, see refit_job.h).
@@ -112,6 +127,12 @@ class CharacterInstance {
   std::vector<Vec4f> spheres_;
   BroadPhaseContext context_;
   std::vector<Contact> contacts_;
+  // Engine joint order (a JointMapping): per set joint read per frame, the engine joint; the
+  // matrices are gathered into joint_world_ (set order, sized at Create) before the refit.
+  std::vector<std::pair<uint32_t, uint32_t>> gather_;  // (set joint, engine joint)
+  std::vector<Mat4f> joint_world_;
+  bool mapped_ = false;
+  size_t joint_input_count_ = 0;
   bool valid_ = false;
   FrameStatus status_{ErrorCode::kInvalidArgument, "no update has run yet"};
 };
