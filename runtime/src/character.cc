@@ -1,20 +1,29 @@
 // CharacterAsset / CharacterInstance / UpdateAndQueryCrowd (character.h): set-up allocates and
-// reports Errors; per frame only jobs run (RefitJob, SelfCollisionJob) and FrameStatus comes back.
+// reports Errors; per frame only jobs run (RefitJob, SelfCollisionJob, NarrowPhaseJob) and
+// FrameStatus comes back.
 #include "skinspheres/runtime/character.h"
 
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <utility>
 
 namespace skinspheres::runtime {
 
-Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet set) {
+Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet set, const NarrowPhaseSettings& narrow) {
   auto rest = RefitRestData::Create(set);
   if (!rest.ok()) return rest.error();
   auto filter = PairFilter::FromSphereSet(set);
   if (!filter.ok()) return filter.error();
   std::shared_ptr<CharacterAsset> asset(new CharacterAsset());
+  if (set.has_mesh()) {
+    auto data = NarrowPhaseData::Create(set, *filter, narrow);
+    if (!data.ok()) return data.error();
+    asset->narrow_ = std::move(data).value();
+  } else if (!(narrow.margin >= 0.0f) || !std::isfinite(narrow.margin)) {
+    return MakeError(ErrorCode::kInvalidArgument, "sphere set '" + set.source_file + "': the narrow-phase margin must be finite and >= 0");
+  }
   asset->set_ = std::move(set);
   asset->rest_ = std::move(rest).value();
   asset->filter_ = std::move(filter).value();
@@ -39,7 +48,12 @@ Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const Charac
   inst.spheres_.assign(n, Vec4f::Zero());
   inst.context_.Resize(n);
   inst.contacts_.reserve(std::max<size_t>(64, 4 * n));
+  inst.joint_world_.assign(asset->joint_count(), Mat4f::Identity());
   inst.joint_input_count_ = asset->joint_count();
+  if (const NarrowPhaseData* data = asset->narrow_phase()) {
+    inst.narrow_context_.Resize(*data, /*lazy_skinning=*/false);
+    inst.frame_contacts_.Reserve(std::max<size_t>(64, 4 * n));
+  }
   inst.asset_ = std::move(asset);
   return inst;
 }
@@ -78,6 +92,9 @@ Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const Charac
 FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joint_world,
                                       std::span<const Eigen::Vector3f> skinned_positions) {
   valid_ = false;
+  queried_ = false;
+  has_joints_ = false;
+  frame_contacts_.clear();
   const SphereSet& set = asset_->sphere_set();
   if (mode != RefitMode::kExact && mode != RefitMode::kFast) {
     status_ = {ErrorCode::kInvalidArgument, "unknown refit mode"};
@@ -121,6 +138,10 @@ FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joi
     return status_;
   }
   valid_ = true;
+  if (!joint_world.empty()) {  // kept (set order) for FindContacts mode (b); already there when gathered
+    if (joint_world.data() != joint_world_.data()) std::copy_n(joint_world.begin(), joint_world_.size(), joint_world_.begin());
+    has_joints_ = true;
+  }
   status_ = {};
   return status_;
 }
@@ -136,6 +157,8 @@ FrameStatus CharacterInstance::UpdateExact(std::span<const Eigen::Vector3f> skin
 
 std::span<const Contact> CharacterInstance::Query() {
   contacts_.clear();
+  queried_ = true;
+  query_ok_ = false;
   if (!valid_) {
     if (status_.ok()) status_ = {ErrorCode::kInvalidArgument, "no valid spheres to query"};
     return {};
@@ -150,13 +173,59 @@ std::span<const Contact> CharacterInstance::Query() {
     status_ = {ErrorCode::kInvalidData, "broad phase refused the spheres"};
     return {};
   }
+  query_ok_ = true;
   status_ = {};
   return contacts_;
 }
 
-FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
-                                std::span<const CharacterFrameInput> inputs, RefitMode mode,
-                                const ParallelFor& parallel_for) {
+FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> skinned_positions,
+                                            const ParallelFor& parallel_for) {
+  frame_contacts_.clear();
+  const NarrowPhaseData* data = asset_->narrow_phase();
+  if (data == nullptr) {
+    status_ = {ErrorCode::kVersionMismatch, "the sphere set has no mesh (format version 1, or a fast-only file): no narrow phase"};
+    return status_;
+  }
+  if (!queried_) Query();
+  if (!valid_) {
+    status_ = {ErrorCode::kInvalidArgument, "no valid spheres to find contacts for"};
+    return status_;
+  }
+  if (!query_ok_) {
+    status_ = {ErrorCode::kInvalidData, "broad phase refused the spheres"};
+    return status_;
+  }
+  if (skinned_positions.empty() && !has_joints_) {
+    status_ = {ErrorCode::kInvalidArgument, "no skinned positions and the last update had no joint matrices"};
+    return status_;
+  }
+  if (!skinned_positions.empty() && skinned_positions.size() < asset_->source_vertex_count()) {
+    status_ = {ErrorCode::kInvalidArgument, "fewer skinned positions than the asset's source vertices"};
+    return status_;
+  }
+  NarrowPhaseJob job;
+  job.set = &asset_->sphere_set();
+  job.data = data;
+  job.spheres = spheres_;
+  job.pairs = contacts_;
+  job.positions = skinned_positions;
+  job.joint_world = skinned_positions.empty() ? std::span<const Mat4f>(joint_world_) : std::span<const Mat4f>();
+  job.context = &narrow_context_;
+  job.out = &frame_contacts_;
+  if (!job.RunParallel(parallel_for)) {
+    frame_contacts_.clear();
+    status_ = {ErrorCode::kInvalidData, "narrow phase refused the frame (non-finite positions or joint matrices)"};
+    return status_;
+  }
+  status_ = {};
+  return status_;
+}
+
+namespace {
+
+// Update + Query (+ FindContacts) of every instance through parallel_for.
+FrameStatus RunCrowd(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
+                     RefitMode mode, bool find_contacts, const ParallelFor& parallel_for) {
   if (instances.size() != inputs.size()) {
     return {ErrorCode::kInvalidArgument, "instances and inputs differ in count"};
   }
@@ -173,11 +242,28 @@ FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
         continue;
       }
       inst.Query();
+      if (inst.status().ok() && find_contacts) {
+        inst.FindContacts(mode == RefitMode::kExact ? inputs[i].skinned_positions : std::span<const Eigen::Vector3f>());
+      }
       if (!inst.status().ok()) all_ok.store(false, std::memory_order_relaxed);
     }
   });
   if (!all_ok.load()) return {ErrorCode::kInvalidData, "at least one instance failed; see its status()"};
   return {};
+}
+
+}  // namespace
+
+FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
+                                std::span<const CharacterFrameInput> inputs, RefitMode mode,
+                                const ParallelFor& parallel_for) {
+  return RunCrowd(instances, inputs, mode, /*find_contacts=*/false, parallel_for);
+}
+
+FrameStatus UpdateAndFindContactsCrowd(std::span<CharacterInstance* const> instances,
+                                       std::span<const CharacterFrameInput> inputs, RefitMode mode,
+                                       const ParallelFor& parallel_for) {
+  return RunCrowd(instances, inputs, mode, /*find_contacts=*/true, parallel_for);
 }
 
 }  // namespace skinspheres::runtime
