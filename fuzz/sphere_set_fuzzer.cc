@@ -9,7 +9,7 @@
 #include <utility>
 
 #include "fuzz_check.h"
-#include "sphere_set_check.h"
+#include "fuzz_engine.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -26,6 +26,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto again = runtime::ReadSphereSetJson(text, name);
   SKINSPHERES_FUZZ_CHECK(again.ok(), again.ok() ? "" : again.error().message);
   SKINSPHERES_FUZZ_CHECK(runtime::WriteSphereSetJson(*again) == text, "write, read, write differs");
-  fuzz::CheckEngineApi(std::move(set));
+
+  fuzz::DriveEngine(std::move(set));
   return 0;
 }
