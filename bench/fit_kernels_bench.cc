@@ -7,8 +7,8 @@
 #include <random>
 #include <vector>
 
-#include "skinspheres/lib/enclosing_sphere.h"
-#include "skinspheres/lib/triangle_bvh.h"
+#include "skinspheres/lib/geometry/enclosing_sphere.h"
+#include "skinspheres/lib/geometry/triangle_bvh.h"
 
 namespace {
 

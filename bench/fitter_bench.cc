@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/importer.h"
-#include "skinspheres/lib/sphere_fitter.h"
 
 namespace {
 

@@ -26,12 +26,12 @@
 #include <utility>
 #include <vector>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/enclosing_sphere.h"
-#include "skinspheres/lib/fit_metrics.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/lib/geometry/enclosing_sphere.h"
 #include "skinspheres/lib/importer.h"
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/metrics/fit_metrics.h"
 
 namespace {
 

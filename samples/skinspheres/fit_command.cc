@@ -7,7 +7,7 @@
 #include <memory>
 
 #include "commands.h"
-#include "skinspheres/lib/fit_metrics.h"
+#include "skinspheres/lib/metrics/fit_metrics.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 
 namespace skinspheres::tool {

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/raw_character.h"
 
 #include "skinspheres/skinning/math_types.h"

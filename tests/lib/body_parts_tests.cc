@@ -5,7 +5,7 @@
 // decide; mirrored, turned around, with IK feet under the root, with feet that give no facing
 // (names must break the tie); a snake and a spider that are not humanoid. A brute-force dominant
 // joint per triangle is the oracle for the triangle assignment. Then the shared characters.
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 
 #include <gtest/gtest.h>
 

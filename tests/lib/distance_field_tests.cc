@@ -1,4 +1,4 @@
-#include "skinspheres/lib/distance_field.h"
+#include "skinspheres/lib/geometry/distance_field.h"
 
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 
 #include "lib/analytic_shapes.h"
 #include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/fit_metrics.h"
+#include "skinspheres/lib/metrics/fit_metrics.h"
 
 namespace skinspheres::lib {
 namespace {

@@ -1,6 +1,6 @@
 // Tests for enclosing_sphere.h: M1 by hand, M2 (Welzl) against the exhaustive oracle including
 // collinear, coplanar, duplicate and cospherical sets, M1-A's guarantees, and F by hand.
-#include "skinspheres/lib/enclosing_sphere.h"
+#include "skinspheres/lib/geometry/enclosing_sphere.h"
 
 #include <gtest/gtest.h>
 

@@ -10,8 +10,8 @@
 #include <random>
 #include <vector>
 
-#include "skinspheres/lib/fit_metrics.h"
 #include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/metrics/fit_metrics.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

@@ -1,6 +1,6 @@
 // Tests for ray_triangle.h against analytic hits: axis-aligned triangles, edges and vertices,
 // parallel rays, back faces, degenerate triangles, and crack-freedom on shared edges.
-#include "skinspheres/lib/ray_triangle.h"
+#include "skinspheres/lib/geometry/ray_triangle.h"
 
 #include <gtest/gtest.h>
 

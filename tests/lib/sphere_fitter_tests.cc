@@ -1,4 +1,4 @@
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 
 #include <gtest/gtest.h>
 

@@ -1,12 +1,12 @@
-#include "skinspheres/lib/sphere_tightener.h"
+#include "skinspheres/lib/tighten/sphere_tightener.h"
 
 #include <gtest/gtest.h>
 
 #include "lib/analytic_shapes.h"
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/fit_metrics.h"
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/lib/metrics/fit_metrics.h"
 
 namespace skinspheres::lib {
 namespace {

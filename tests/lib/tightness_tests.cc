@@ -7,11 +7,11 @@
 // holds the tightening pass to a real improvement instead, so a regression still shows.
 #include <gtest/gtest.h>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/fit_metrics.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/importer.h"
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/metrics/fit_metrics.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

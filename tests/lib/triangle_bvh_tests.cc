@@ -1,6 +1,6 @@
 // Tests for triangle_bvh.h: the BVH must return exactly what the brute-force oracle returns
 // (same triangle, same t, same point) on random soups, subsets and a closed sphere mesh.
-#include "skinspheres/lib/triangle_bvh.h"
+#include "skinspheres/lib/geometry/triangle_bvh.h"
 
 #include <gtest/gtest.h>
 

@@ -19,7 +19,7 @@
 #include <span>
 #include <vector>
 
-#include "skinspheres/lib/triangle_bvh.h"
+#include "skinspheres/lib/geometry/triangle_bvh.h"
 
 namespace skinspheres::lib {
 

@@ -4,7 +4,7 @@
 // between a sphere and the contact points it covers (§4.4), and by the "volumetric error"; here
 // both are measured globally: union volume over body volume, and the union boundary's distance
 // to the surface.
-#include "skinspheres/lib/fit_metrics.h"
+#include "skinspheres/lib/metrics/fit_metrics.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>

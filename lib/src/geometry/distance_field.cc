@@ -1,12 +1,12 @@
 // DistanceField: seeding near the triangles, then vector propagation. See distance_field.h.
-#include "skinspheres/lib/distance_field.h"
+#include "skinspheres/lib/geometry/distance_field.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
 
-#include "skinspheres/lib/fit_metrics.h"  // ClosestPointOnTriangle
+#include "skinspheres/lib/metrics/fit_metrics.h"  // ClosestPointOnTriangle
 
 namespace skinspheres::lib {
 namespace {

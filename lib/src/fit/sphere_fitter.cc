@@ -1,6 +1,6 @@
 // The fitter: paper §4.1-4.4 and §5 per body part, then the ownership (safety) pass, exclusions
 // and fast-refit data. See sphere_fitter.h for the stages.
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 
 #include <tbb/parallel_for.h>
 
@@ -13,10 +13,10 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 
-#include "skinspheres/lib/disk_traversal.h"
-#include "skinspheres/lib/enclosing_sphere.h"
-#include "skinspheres/lib/sphere_tightener.h"
-#include "skinspheres/lib/triangle_bvh.h"
+#include "skinspheres/lib/fit/disk_traversal.h"
+#include "skinspheres/lib/geometry/enclosing_sphere.h"
+#include "skinspheres/lib/geometry/triangle_bvh.h"
+#include "skinspheres/lib/tighten/sphere_tightener.h"
 
 namespace skinspheres::lib {
 

@@ -1,5 +1,5 @@
 // Sphere construction M1, M2 and the adjustment M1-A of the paper (§4.2-4.4, §5), and F (§4.4).
-#include "skinspheres/lib/enclosing_sphere.h"
+#include "skinspheres/lib/geometry/enclosing_sphere.h"
 
 #include <Eigen/Dense>
 #include <algorithm>

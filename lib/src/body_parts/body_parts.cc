@@ -5,7 +5,7 @@
 // candidate scored by symmetry, coverage and up-direction; (4) left/right from the feet;
 // (5) leftover weighted subtrees to the nearest part; (6) overrides. The fitter (paper §3,
 // disk of rays) then walks each part's `chain`.
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>

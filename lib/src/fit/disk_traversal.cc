@@ -1,6 +1,6 @@
 // Paper §4.1 (Disk Translation) and §5 (Disk Construction, Ray Triangle Intersection Test,
 // Disk Centered).
-#include "skinspheres/lib/disk_traversal.h"
+#include "skinspheres/lib/fit/disk_traversal.h"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>

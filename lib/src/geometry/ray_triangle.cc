@@ -1,6 +1,6 @@
 // Möller-Trumbore in double precision with widened inclusive edges (paper §5, "Ray Triangle
 // Intersection Test"). See ray_triangle.h for why this is watertight for the fitter's rays.
-#include "skinspheres/lib/ray_triangle.h"
+#include "skinspheres/lib/geometry/ray_triangle.h"
 
 #include <Eigen/Geometry>
 #include <cmath>

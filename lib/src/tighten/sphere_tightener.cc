@@ -1,6 +1,6 @@
 // The fitter's tightening pass: exposure-driven centre search, hand-over and splitting. See
 // sphere_tightener.h.
-#include "skinspheres/lib/sphere_tightener.h"
+#include "skinspheres/lib/tighten/sphere_tightener.h"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -11,8 +11,8 @@
 #include <tuple>
 #include <utility>
 
-#include "skinspheres/lib/distance_field.h"
-#include "skinspheres/lib/enclosing_sphere.h"
+#include "skinspheres/lib/geometry/distance_field.h"
+#include "skinspheres/lib/geometry/enclosing_sphere.h"
 
 namespace skinspheres::lib {
 namespace {

@@ -43,7 +43,7 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/raw_character.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/runtime/sphere_set.h"

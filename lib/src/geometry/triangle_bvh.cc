@@ -2,14 +2,14 @@
 // ∀ Δ_j ∈ R: Ray Triangle Intersection Test(r_i, Δ_j)", done here in O(log n) per ray instead of
 // O(n)). Binned SAH build; nearest-first stack traversal; exact same per-triangle test and
 // (t, triangle index) ordering as the brute-force oracle, so both return the same hit.
-#include "skinspheres/lib/triangle_bvh.h"
+#include "skinspheres/lib/geometry/triangle_bvh.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <string>
 
-#include "skinspheres/lib/ray_triangle.h"
+#include "skinspheres/lib/geometry/ray_triangle.h"
 
 namespace skinspheres::lib {
 namespace {
