@@ -6,7 +6,7 @@
 
 #include "lib/analytic_shapes.h"
 #include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/metrics/fit_metrics.h"
+#include "skinspheres/lib/geometry/mesh_distance.h"
 
 namespace skinspheres::lib {
 namespace {

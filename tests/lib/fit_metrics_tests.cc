@@ -10,6 +10,8 @@
 #include <random>
 #include <vector>
 
+#include "skinspheres/lib/geometry/closest_point.h"
+#include "skinspheres/lib/geometry/mesh_distance.h"
 #include "skinspheres/lib/importer.h"
 #include "skinspheres/lib/metrics/fit_metrics.h"
 #include "test_support.h"

@@ -15,6 +15,7 @@
 
 #include "skinspheres/lib/fit/disk_traversal.h"
 #include "skinspheres/lib/geometry/enclosing_sphere.h"
+#include "skinspheres/lib/geometry/mesh_helpers.h"
 #include "skinspheres/lib/geometry/triangle_bvh.h"
 #include "skinspheres/lib/tighten/sphere_tightener.h"
 
@@ -76,10 +77,6 @@ struct PartResult {
   PartFitReport report;
   Error error;
 };
-
-// Radius that holds every point whose largest squared distance to the centre is max_sq (computed
-// in double): padded like every Ball (enclosing_sphere.h), rounded up to float.
-float HoldingRadius(double max_sq) { return RoundUpRadius(std::sqrt(max_sq) * (1.0 + kBallRadiusPad)); }
 
 Ball MakeBall(SphereMethod method, std::span<const Eigen::Vector3f> pts, const Eigen::Vector3f& disk_center,
               const Eigen::Vector3f& n0, const Eigen::Vector3f& n1) {
@@ -146,17 +143,8 @@ PartResult FitPart(const RawCharacter& ch, const BodyPart& part, const std::vect
   result.report.triangles = static_cast<int>(part.triangles.size());
   if (part.triangles.empty()) return result;
 
-  std::vector<uint8_t> used(ch.vertex_count(), 0);
-  std::vector<Eigen::Vector3f> verts;
-  for (uint32_t t : part.triangles) {
-    for (int k = 0; k < 3; ++k) {
-      const int v = ch.triangles[t][k];
-      if (!used[v]) {
-        used[v] = 1;
-        verts.push_back(ch.positions_rest[v]);
-      }
-    }
-  }
+  const std::vector<Eigen::Vector3f> verts =
+      UniqueVertices(ch.triangles, ch.vertex_count()).Positions(ch.positions_rest, part.triangles);
   std::vector<Eigen::Vector3f> chain;
   for (int32_t j : part.chain) chain.push_back(rest_world[j].topRightCorner<3, 1>());
   const DiskPath path = BuildDiskPath(chain, verts);
@@ -259,21 +247,6 @@ std::vector<std::vector<int>> JointHops(const std::vector<int32_t>& parents) {
 }
 
 
-// Minimum ball of the vertices of `tris`, each vertex once (sorted, unique: ~6x fewer points on a
-// closed mesh than one copy per triangle corner; the ball of a set does not depend on repeats).
-Ball BallOf(const RawCharacter& ch, const std::vector<uint32_t>& tris) {
-  std::vector<int32_t> ids;
-  ids.reserve(tris.size() * 3);
-  for (uint32_t t : tris) {
-    for (int v = 0; v < 3; ++v) ids.push_back(ch.triangles[t][v]);
-  }
-  std::sort(ids.begin(), ids.end());
-  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-  std::vector<Eigen::Vector3f> pts(ids.size());
-  for (size_t k = 0; k < ids.size(); ++k) pts[k] = ch.positions_rest[ids[k]];
-  return MinimumBall(pts);
-}
-
 }  // namespace
 
 int CountUncoveredTriangles(const RawCharacter& ch, const runtime::SphereSet& set, int* first_bad) {
@@ -374,6 +347,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   // Ownership, then (refine_iterations times) each sphere is replaced by the minimum ball of the
   // vertices it owns and ownership is redone against the new spheres (a Lloyd-style pass).
   std::vector<int32_t> owner(ch.triangle_count(), -1);
+  UniqueVertices unique(ch.triangles, ch.vertex_count());
   std::vector<Ball> balls(cand.size());
   for (size_t s = 0; s < cand.size(); ++s) balls[s] = cand[s].ball;
   auto assign = [&] {
@@ -415,16 +389,8 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
       if (owner[t] >= 0) by_owner[fill[owner[t]]++] = static_cast<uint32_t>(t);
     }
     std::vector<std::vector<Eigen::Vector3f>> pts(cand.size());
-    std::vector<int32_t> vertex_stamp(ch.vertex_count(), -1);
     for (size_t s = 0; s < cand.size(); ++s) {
-      for (uint32_t k = first[s]; k < first[s + 1]; ++k) {
-        for (int v = 0; v < 3; ++v) {
-          const int32_t vi = ch.triangles[by_owner[k]][v];
-          if (vertex_stamp[vi] == static_cast<int32_t>(s)) continue;
-          vertex_stamp[vi] = static_cast<int32_t>(s);
-          pts[s].push_back(ch.positions_rest[vi]);
-        }
-      }
+      pts[s] = unique.Positions(ch.positions_rest, std::span(by_owner).subspan(first[s], first[s + 1] - first[s]));
     }
     tbb::parallel_for(size_t{0}, cand.size(), [&](size_t s) {
       if (pts[s].empty()) {
@@ -445,9 +411,17 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   }
   if (settings.refine_iterations > 0) {
     // The last refine round reassigned triangles after moving the spheres: centre each sphere
-    // once more on what it now owns (its radius stays the paper's, for the growth report).
+    // once more on the minimum ball of what it now owns (its radius stays the paper's, for the
+    // growth report), its vertices in ascending index order.
+    std::vector<std::vector<Eigen::Vector3f>> pts(cand.size());
+    for (size_t s = 0; s < cand.size(); ++s) {
+      std::vector<uint32_t> ids = unique.Indices(owned[s]);
+      std::sort(ids.begin(), ids.end());
+      pts[s].reserve(ids.size());
+      for (uint32_t v : ids) pts[s].push_back(ch.positions_rest[v]);
+    }
     tbb::parallel_for(size_t{0}, cand.size(), [&](size_t s) {
-      if (!owned[s].empty()) cand[s].ball.center = BallOf(ch, owned[s]).center;
+      if (!owned[s].empty()) cand[s].ball.center = MinimumBall(pts[s]).center;
     });
   }
   // Beyond the paper (tightness): centre search, hand-over and splitting (sphere_tightener.h).
@@ -512,12 +486,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
     }
     set.parts.push_back(std::move(sp));
   }
-  float ylo = std::numeric_limits<float>::infinity(), yhi = -ylo;
-  for (const auto& v : ch.positions_rest) {
-    ylo = std::min(ylo, v.y());
-    yhi = std::max(yhi, v.y());
-  }
-  rep.body_height = ch.positions_rest.empty() ? 0.0f : yhi - ylo;
+  rep.body_height = BodyHeight(ch.positions_rest);
   const float height = rep.body_height > 0.0f ? rep.body_height : 1.0f;
 
   // M_b(rest) = G_joint(b)(rest) · IBM_b: where each bind entry carries a bind-space vertex at rest.
@@ -540,8 +509,6 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   set.triangle_offsets = {0};
   set.influence_offsets = {0};
   double growth_sum = 0.0;
-  std::vector<uint32_t> vlist;
-  std::vector<uint32_t> stamp(ch.vertex_count(), std::numeric_limits<uint32_t>::max());
   std::vector<double> joint_weight(joints, 0.0);
   std::vector<int> joint_tris(joints, 0);
   for (size_t s = 0; s < cand.size(); ++s) {
@@ -549,18 +516,8 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
       ++rep.spheres_dropped;
       continue;
     }
-    const uint32_t id = static_cast<uint32_t>(set.size());
     const Eigen::Vector3f c = cand[s].ball.center;
-    vlist.clear();
-    for (uint32_t t : owned[s]) {
-      for (int v = 0; v < 3; ++v) {
-        const uint32_t vi = static_cast<uint32_t>(ch.triangles[t][v]);
-        if (stamp[vi] != id) {
-          stamp[vi] = id;
-          vlist.push_back(vi);
-        }
-      }
-    }
+    std::vector<uint32_t> vlist = unique.Indices(owned[s]);
     std::sort(vlist.begin(), vlist.end());
     double max_sq = 0.0;
     for (uint32_t v : vlist) max_sq = std::max(max_sq, (ch.positions_rest[v].cast<double>() - c.cast<double>()).squaredNorm());

@@ -6,7 +6,7 @@
 #include <limits>
 #include <vector>
 
-#include "skinspheres/lib/metrics/fit_metrics.h"  // ClosestPointOnTriangle
+#include "skinspheres/lib/geometry/closest_point.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -16,33 +16,6 @@ constexpr int kMaxResolution = 256;  // 257³ voxels x 20 bytes = 340 MB at most
 // Forward + backward sweeps: one round leaves the mean error within ~5% of two rounds' on the shared
 // characters (tests/lib/distance_field_tests.cc bounds it against the exact distance).
 constexpr int kRounds = 1;
-
-// Ericson, Real-Time Collision Detection §5.1.5, in float (the seeding's hot loop); degenerate
-// triangles resolve to a vertex or an edge point through the same region tests.
-Eigen::Vector3f ClosestPoint(const Eigen::Vector3f& p, const Eigen::Vector3f& a, const Eigen::Vector3f& b,
-                             const Eigen::Vector3f& c) {
-  const Eigen::Vector3f ab = b - a, ac = c - a, ap = p - a;
-  const float d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0.0f && d2 <= 0.0f) return a;
-  const Eigen::Vector3f bp = p - b;
-  const float d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0.0f && d4 <= d3) return b;
-  const float vc = d1 * d4 - d3 * d2;
-  if (vc <= 0.0f && d1 >= 0.0f && d3 <= 0.0f && d1 - d3 > 0.0f) return a + (d1 / (d1 - d3)) * ab;
-  const Eigen::Vector3f cp = p - c;
-  const float d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0.0f && d5 <= d6) return c;
-  const float vb = d5 * d2 - d1 * d6;
-  if (vb <= 0.0f && d2 >= 0.0f && d6 <= 0.0f && d2 - d6 > 0.0f) return a + (d2 / (d2 - d6)) * ac;
-  const float va = d3 * d6 - d5 * d4;
-  if (va <= 0.0f && (d4 - d3) >= 0.0f && (d5 - d6) >= 0.0f && (d4 - d3) + (d5 - d6) > 0.0f) {
-    return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-  }
-  const float sum = va + vb + vc;
-  if (!(sum > 0.0f)) return ClosestPointOnTriangle(p, a, b, c);  // degenerate: the careful version
-  const float denom = 1.0f / sum;
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
 
 // A grid coordinate (in voxels) as an index in [0, n): clamped in float first, so huge, infinite or
 // NaN coordinates never reach the int conversion (NaN and -inf give 0).
@@ -120,7 +93,7 @@ DistanceField DistanceField::Build(std::span<const Eigen::Vector3f> positions, s
       for (int y = vlo.y(); y <= vhi.y(); ++y) {
         for (int x = vlo.x(); x <= vhi.x(); ++x) {
           const Eigen::Vector3f p = centre(x, y, z);
-          const Eigen::Vector3f cp = ClosestPoint(p, a, b, c);
+          const Eigen::Vector3f cp = ClosestPointOnTriangleFloat(p, a, b, c);
           const float d2 = (cp - p).squaredNorm();
           const size_t i = f.Index(x, y, z);
           if (d2 < best[i]) {
@@ -182,7 +155,7 @@ float DistanceField::OutsideDistance(const Eigen::Vector3f& q, float d) const {
   if ((q.array() >= origin_.array()).all() && (q.array() <= grid_hi_.array()).all()) return d;
   for (int32_t t : outside_) {
     const auto& tri = triangles_[static_cast<size_t>(t)];
-    d = std::min(d, (q - ClosestPoint(q, positions_[tri[0]], positions_[tri[1]], positions_[tri[2]])).norm());
+    d = std::min(d, (q - ClosestPointOnTriangleFloat(q, positions_[tri[0]], positions_[tri[1]], positions_[tri[2]])).norm());
   }
   return d;
 }
@@ -195,7 +168,7 @@ float DistanceField::Distance(const Eigen::Vector3f& q) const {
 float DistanceField::TriangleDistance(const Eigen::Vector3f& q) const {
   if (closest_.empty()) return std::numeric_limits<float>::infinity();
   const auto& tri = triangles_[static_cast<size_t>(closest_triangle_[Nearest(q)])];
-  const float d = (q - ClosestPoint(q, positions_[tri[0]], positions_[tri[1]], positions_[tri[2]])).norm();
+  const float d = (q - ClosestPointOnTriangleFloat(q, positions_[tri[0]], positions_[tri[1]], positions_[tri[2]])).norm();
   // Far beyond the mesh (|q| ~ 1e19 and up) the float products overflow: fall back to the point.
   return std::isfinite(d) ? OutsideDistance(q, d) : Distance(q);
 }

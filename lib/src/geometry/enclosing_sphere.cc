@@ -14,17 +14,11 @@ namespace {
 
 using Vec3d = Eigen::Vector3d;
 
-double MaxDistance(const Vec3d& c, std::span<const Eigen::Vector3f> points) {
-  double r2 = 0.0;
-  for (const Eigen::Vector3f& p : points) r2 = std::max(r2, (p.cast<double>() - c).squaredNorm());
-  return std::sqrt(r2);
-}
-
-// The returned ball: float centre, radius = padded max distance from that float centre, rounded up.
+// The returned ball: float centre, radius = the holding radius around that float centre.
 Ball Finalize(const Vec3d& center_d, std::span<const Eigen::Vector3f> points) {
   Ball b;
   b.center = center_d.cast<float>();
-  b.radius = RoundUpRadius(MaxDistance(b.center.cast<double>(), points) * (1.0 + kBallRadiusPad));
+  b.radius = HoldingRadius(points, b.center);
   return b;
 }
 
@@ -172,6 +166,15 @@ float RoundUpRadius(double r) {
   float rf = static_cast<float>(r);
   if (static_cast<double>(rf) < r) rf = std::nextafter(rf, std::numeric_limits<float>::infinity());
   return rf;
+}
+
+float HoldingRadius(double max_sq, double pad) { return RoundUpRadius(std::sqrt(max_sq) * (1.0 + pad)); }
+
+float HoldingRadius(std::span<const Eigen::Vector3f> points, const Eigen::Vector3f& center, double pad) {
+  const Vec3d c = center.cast<double>();
+  double max_sq = 0.0;
+  for (const Eigen::Vector3f& p : points) max_sq = std::max(max_sq, (p.cast<double>() - c).squaredNorm());
+  return HoldingRadius(max_sq, pad);
 }
 
 FitErrorStats FitError(const Ball& ball, std::span<const Eigen::Vector3f> points) {

@@ -15,6 +15,9 @@
 #include <optional>
 #include <string>
 
+#include "skinspheres/lib/geometry/fibonacci_directions.h"
+#include "skinspheres/lib/geometry/mesh_distance.h"
+
 namespace skinspheres::lib {
 namespace {
 
@@ -292,101 +295,6 @@ SphereBins BinSpheres(const Vec3d& lo, const Vec3d& hi, std::span<const Eigen::V
   return b;
 }
 
-// ---- AABB tree of triangles, nearest-point queries ----
-
-struct TriangleTree {
-  struct Node {
-    Eigen::Vector3f lo, hi;
-    uint32_t left = 0, right = 0;   // children (inner nodes)
-    uint32_t first = 0, count = 0;  // range in order (leaves: count > 0)
-  };
-  std::vector<Node> nodes;
-  std::vector<uint32_t> order;
-  std::span<const Eigen::Vector3f> positions;
-  std::span<const Eigen::Vector3i> triangles;
-
-  TriangleTree(std::span<const Eigen::Vector3f> pos, std::span<const Eigen::Vector3i> tris)
-      : positions(pos), triangles(tris) {
-    order.resize(tris.size());
-    std::vector<Eigen::Vector3f> centroid(tris.size());
-    for (size_t t = 0; t < tris.size(); ++t) {
-      order[t] = uint32_t(t);
-      centroid[t] = (pos[tris[t][0]] + pos[tris[t][1]] + pos[tris[t][2]]) / 3.f;
-    }
-    nodes.reserve(2 * tris.size() / 3 + 2);
-    Build(0, uint32_t(tris.size()), centroid);
-  }
-
-  uint32_t Build(uint32_t first, uint32_t count, const std::vector<Eigen::Vector3f>& centroid) {
-    const uint32_t id = uint32_t(nodes.size());
-    nodes.emplace_back();
-    Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
-    Eigen::Vector3f clo = lo, chi = hi;
-    for (uint32_t i = first; i < first + count; ++i) {
-      for (int k = 0; k < 3; ++k) {
-        lo = lo.cwiseMin(positions[triangles[order[i]][k]]);
-        hi = hi.cwiseMax(positions[triangles[order[i]][k]]);
-      }
-      clo = clo.cwiseMin(centroid[order[i]]);
-      chi = chi.cwiseMax(centroid[order[i]]);
-    }
-    nodes[id].lo = lo;
-    nodes[id].hi = hi;
-    if (count <= 4) {
-      nodes[id].first = first;
-      nodes[id].count = count;
-      return id;
-    }
-    int axis = 0;
-    (chi - clo).maxCoeff(&axis);
-    const uint32_t half = count / 2;
-    std::nth_element(order.begin() + first, order.begin() + first + half, order.begin() + first + count,
-                     [&](uint32_t x, uint32_t y) {
-                       return centroid[x][axis] < centroid[y][axis] ||
-                              (centroid[x][axis] == centroid[y][axis] && x < y);
-                     });
-    const uint32_t l = Build(first, half, centroid);
-    const uint32_t r = Build(first + half, count - half, centroid);
-    nodes[id].left = l;
-    nodes[id].right = r;
-    return id;
-  }
-
-  static float BoxDistance2(const Node& n, const Eigen::Vector3f& p) {
-    const Eigen::Vector3f d = (n.lo - p).cwiseMax(p - n.hi).cwiseMax(0.f);
-    return d.squaredNorm();
-  }
-
-  float Distance(const Eigen::Vector3f& p) const {
-    float best = std::numeric_limits<float>::infinity();
-    std::array<uint32_t, 128> stack;
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& n = nodes[stack[--top]];
-      if (BoxDistance2(n, p) >= best) continue;
-      if (n.count > 0) {
-        for (uint32_t i = n.first; i < n.first + n.count; ++i) {
-          const Eigen::Vector3i& t = triangles[order[i]];
-          const float d2 =
-              (ClosestPointOnTriangle(p, positions[t[0]], positions[t[1]], positions[t[2]]) - p).squaredNorm();
-          best = std::min(best, d2);
-        }
-        continue;
-      }
-      const float dl = BoxDistance2(nodes[n.left], p), dr = BoxDistance2(nodes[n.right], p);
-      if (dl < dr) {  // nearer child on top of the stack
-        stack[top++] = n.right;
-        stack[top++] = n.left;
-      } else {
-        stack[top++] = n.left;
-        stack[top++] = n.right;
-      }
-    }
-    return std::sqrt(best);
-  }
-};
-
 std::optional<Error> ValidateMesh(std::span<const Eigen::Vector3f> positions,
                                   std::span<const Eigen::Vector3i> triangles) {
   if (positions.empty() || triangles.empty()) return Invalid("the mesh is empty (no vertices or no triangles)");
@@ -411,51 +319,7 @@ void Bounds(std::span<const Eigen::Vector3f> positions, Vec3d& lo, Vec3d& hi) {
 
 }  // namespace
 
-Eigen::Vector3f ClosestPointOnTriangle(const Eigen::Vector3f& pf, const Eigen::Vector3f& af, const Eigen::Vector3f& bf,
-                                       const Eigen::Vector3f& cf) {
-  // Ericson, Real-Time Collision Detection §5.1.5, in double; degenerate triangles fall back to
-  // the nearest of the three edges.
-  const Vec3d p = pf.cast<double>(), a = af.cast<double>(), b = bf.cast<double>(), c = cf.cast<double>();
-  const Vec3d ab = b - a, ac = c - a;
-  auto segment = [&](const Vec3d& s, const Vec3d& e) -> Vec3d {
-    const Vec3d d = e - s;
-    const double len2 = d.squaredNorm();
-    const double tt = len2 > 0 ? std::clamp((p - s).dot(d) / len2, 0.0, 1.0) : 0.0;
-    return s + tt * d;
-  };
-  const double n2 = ab.cross(ac).squaredNorm();
-  if (!(n2 > 1e-24 * ab.squaredNorm() * ac.squaredNorm()) || n2 == 0) {
-    Vec3d best = segment(a, b);
-    for (const Vec3d& q : {segment(b, c), segment(c, a)})
-      if ((q - p).squaredNorm() < (best - p).squaredNorm()) best = q;
-    return best.cast<float>();
-  }
-  const Vec3d ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return af;
-  const Vec3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return bf;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (a + (d1 / (d1 - d3)) * ab).cast<float>();
-  const Vec3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return cf;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (a + (d2 / (d2 - d6)) * ac).cast<float>();
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return (b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b)).cast<float>();
-  const double denom = 1.0 / (va + vb + vc);
-  return (a + ab * (vb * denom) + ac * (vc * denom)).cast<float>();
-}
 
-void MeshDistances(std::span<const Eigen::Vector3f> positions, std::span<const Eigen::Vector3i> triangles,
-                   std::span<const Eigen::Vector3f> queries, std::span<float> out) {
-  if (triangles.empty() || out.size() != queries.size()) return;
-  const TriangleTree tree(positions, triangles);
-  for (size_t i = 0; i < queries.size(); ++i) out[i] = tree.Distance(queries[i]);
-}
 
 Result<double> MeshInsideVolume(std::span<const Eigen::Vector3f> positions, std::span<const Eigen::Vector3i> triangles,
                                 int grid_resolution) {
@@ -536,12 +400,7 @@ Result<FitMetrics> MeasureFit(const FitMetricsInput& in, const FitMetricsSetting
   const double height = m.body_height;
   const SphereBins bins = BinSpheres(lo, hi, in.centers, in.radii, 0.0);
   const int n = settings.samples_per_sphere;
-  std::vector<Eigen::Vector3f> unit(static_cast<size_t>(n));
-  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
-  for (int k = 0; k < n; ++k) {
-    const double y = 1.0 - (2.0 * k + 1.0) / n, rr = std::sqrt(std::max(0.0, 1.0 - y * y)), phi = golden * k;
-    unit[size_t(k)] = Eigen::Vector3f(float(rr * std::cos(phi)), float(y), float(rr * std::sin(phi)));
-  }
+  const std::vector<Eigen::Vector3f> unit = FibonacciDirections(n);
   const float strict = float(1e-6 * height);
   std::vector<Eigen::Vector3f> samples;
   std::vector<double> weights;

@@ -13,6 +13,8 @@
 
 #include "skinspheres/lib/geometry/distance_field.h"
 #include "skinspheres/lib/geometry/enclosing_sphere.h"
+#include "skinspheres/lib/geometry/fibonacci_directions.h"
+#include "skinspheres/lib/geometry/mesh_helpers.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -38,32 +40,19 @@ const std::vector<Eigen::Vector3f>& SearchDirections() {
   return dirs;
 }
 
-struct Ball3 {
-  Eigen::Vector3f c;
-  float r;
-};
-
 // One ball (nearly) inside the other: such a pair hides each other's surface, so their exposure
 // under-counts what the union stands off; the pass neither makes nor keeps such pairs.
-bool Stacked(const Ball3& a, const Ball3& b) {
-  return (a.c - b.c).norm() + std::min(a.r, b.r) <= kMergeSlack * std::max(a.r, b.r);
+bool Stacked(const Ball& a, const Ball& b) {
+  return (a.center - b.center).norm() + std::min(a.radius, b.radius) <= kMergeSlack * std::max(a.radius, b.radius);
 }
 
 class Tightener {
  public:
   Tightener(const RawCharacter& ch, const TightenSettings& settings, std::vector<TightSphere>& spheres)
-      : ch_(ch), st_(settings), sp_(spheres) {
+      : ch_(ch), st_(settings), sp_(spheres), unique_(ch.triangles, ch.vertex_count()) {
     field_ = DistanceField::Build(ch.positions_rest, ch.triangles, settings.field_resolution);
-    const int n = std::max(1, settings.samples);
-    const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
-    for (int k = 0; k < n; ++k) {
-      const double y = 1.0 - (2.0 * k + 1.0) / n, rr = std::sqrt(std::max(0.0, 1.0 - y * y));
-      unit_.emplace_back(float(rr * std::cos(golden * k)), float(y), float(rr * std::sin(golden * k)));
-    }
-    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-    for (const auto& p : ch.positions_rest) lo = std::min(lo, p.y()), hi = std::max(hi, p.y());
-    height_ = ch.positions_rest.empty() ? 0.0f : hi - lo;
-    stamp_.assign(ch.vertex_count(), 0);
+    unit_ = FibonacciDirections(std::max(1, settings.samples));
+    height_ = BodyHeight(ch.positions_rest);
     pts_.resize(sp_.size());
     for (size_t s = 0; s < sp_.size(); ++s) Refresh(s);
   }
@@ -198,7 +187,7 @@ class Tightener {
         if (best == sp_.size() || exposure[s] > exposure[best]) best = s;
       }
       if (best == sp_.size()) break;
-      const Ball3 old{sp_[best].center, sp_[best].radius};
+      const Ball old{sp_[best].center, sp_[best].radius};
       const size_t count_before = sp_.size();
       int added = TrySplit(best, exposure[best]) ? 1 : 0;
       if (!added && sp_.size() + kPatches - 1 <= static_cast<size_t>(st_.max_spheres)) {
@@ -216,7 +205,7 @@ class Tightener {
           return (sp_[o].center - c).squaredNorm() < lim * lim;
         };
         for (size_t o = 0; o < sp_.size(); ++o) {
-          bool touched = o == best || o >= count_before || meets(o, old.c, old.r) || meets(o, sp_[best].center, sp_[best].radius);
+          bool touched = o == best || o >= count_before || meets(o, old.center, old.radius) || meets(o, sp_[best].center, sp_[best].radius);
           for (size_t n = count_before; n < sp_.size() && !touched; ++n) touched = meets(o, sp_[n].center, sp_[n].radius);
           if (touched) {
             double a = 0.0, x = 0.0;
@@ -244,23 +233,13 @@ class Tightener {
  private:
   void Refresh(size_t s) {
     pts_[s] = Points(sp_[s].triangles);
-    sp_[s].radius = pts_[s].empty() ? 0.0f : Hold(pts_[s], sp_[s].center);
+    // The unpadded holding radius: the fitter holds the spheres it keeps again, with the pad.
+    sp_[s].radius = pts_[s].empty() ? 0.0f : HoldingRadius(pts_[s], sp_[s].center, 0.0);
   }
 
   // The vertices of `tris`, once each, in first-seen order.
   std::vector<Eigen::Vector3f> Points(const std::vector<uint32_t>& tris) {
-    ++stamp_now_;
-    std::vector<Eigen::Vector3f> pts;
-    pts.reserve(tris.size());
-    for (uint32_t t : tris) {
-      for (int v = 0; v < 3; ++v) {
-        const int32_t i = ch_.triangles[t][v];
-        if (stamp_[i] == stamp_now_) continue;
-        stamp_[i] = stamp_now_;
-        pts.push_back(ch_.positions_rest[i]);
-      }
-    }
-    return pts;
+    return unique_.Positions(ch_.positions_rest, tris);
   }
 
   // The search's estimate: the largest distance in float (Refresh recomputes the exact holding
@@ -269,13 +248,6 @@ class Tightener {
     float m = 0.0f;
     for (const auto& p : pts) m = std::max(m, (p - c).squaredNorm());
     return std::sqrt(m);
-  }
-
-  // Holding radius in double, rounded up to float: every point is inside.
-  static float Hold(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c) {
-    double m = 0.0;
-    for (const auto& p : pts) m = std::max(m, (p.cast<double>() - c.cast<double>()).squaredNorm());
-    return RoundUpRadius(std::sqrt(m));
   }
 
   // Spheres (other than skip_a / skip_b) whose surface a ball within `reach` of c can meet, as
@@ -291,9 +263,9 @@ class Tightener {
     size_t size() const { return x.size(); }
   };
   void Neighbours(const Eigen::Vector3f& c, float reach, long skip_a, long skip_b, Nbrs* out,
-                  std::span<const Ball3> extras = {}) const {
+                  std::span<const Ball> extras = {}) const {
     out->clear();
-    for (const auto& e : extras) out->push(e.c, e.r);
+    for (const auto& e : extras) out->push(e.center, e.radius);
     for (size_t o = 0; o < sp_.size(); ++o) {
       if (static_cast<long>(o) == skip_a || static_cast<long>(o) == skip_b || sp_[o].triangles.empty()) continue;
       const float lim = sp_[o].radius + reach;
@@ -340,25 +312,25 @@ class Tightener {
   }
 
   // Exposure of balls that together replace sphere s, each covering the others.
-  double GroupExposure(std::span<const Ball3> group, size_t s) {
+  double GroupExposure(std::span<const Ball> group, size_t s) {
     double e = 0.0;
-    std::vector<Ball3> others;
+    std::vector<Ball> others;
     for (size_t i = 0; i < group.size(); ++i) {
       others.assign(group.begin(), group.end());
       others.erase(others.begin() + static_cast<std::ptrdiff_t>(i));
-      Neighbours(group[i].c, group[i].r, static_cast<long>(s), -1, &nbrs_, others);
-      e += Exposure(group[i].c, group[i].r, nbrs_);
+      Neighbours(group[i].center, group[i].radius, static_cast<long>(s), -1, &nbrs_, others);
+      e += Exposure(group[i].center, group[i].radius, nbrs_);
     }
     return e;
   }
-  double PairExposure(const Ball3& a, const Ball3& b, size_t s) {
-    const Ball3 g[2] = {a, b};
+  double PairExposure(const Ball& a, const Ball& b, size_t s) {
+    const Ball g[2] = {a, b};
     return GroupExposure(g, s);
   }
 
   // Step 1 for one ball holding `pts`: pattern search on its centre (radius = holding radius).
   void Search(const std::vector<Eigen::Vector3f>& pts, Eigen::Vector3f* c, float* r, long skip_a, long skip_b,
-              std::span<const Ball3> extras, int passes) {
+              std::span<const Ball> extras, int passes) {
     *r = Reach(pts, *c);
     float step = 0.25f * *r;
     Neighbours(*c, *r + 2.0f * step, skip_a, skip_b, &nbrs_, extras);
@@ -425,7 +397,7 @@ class Tightener {
       c.pb = Points(c.b);
       c.ma = MinimumBall(c.pa);
       c.mb = MinimumBall(c.pb);
-      c.exposure = PairExposure({c.ma.center, c.ma.radius}, {c.mb.center, c.mb.radius}, s);
+      c.exposure = PairExposure(c.ma, c.mb, s);
       cuts.push_back(std::move(c));
     }
     std::stable_sort(cuts.begin(), cuts.end(), [](const Cut& x, const Cut& y) { return x.exposure < y.exposure; });
@@ -433,13 +405,13 @@ class Tightener {
     double best = st_.split_gain * before;
     bool found = false;
     std::vector<uint32_t> best_a, best_b;
-    Ball3 best_ba{}, best_bb{};
+    Ball best_ba{}, best_bb{};
     float ref_a = 0.0f, ref_b = 0.0f;
     for (auto& c : cuts) {
-      Ball3 ba{c.ma.center, c.ma.radius}, bb{c.mb.center, c.mb.radius};
+      Ball ba = c.ma, bb = c.mb;
       for (int round = 0; round < 2; ++round) {
-        Search(c.pa, &ba.c, &ba.r, static_cast<long>(s), -1, std::span<const Ball3>(&bb, 1), st_.split_passes);
-        Search(c.pb, &bb.c, &bb.r, static_cast<long>(s), -1, std::span<const Ball3>(&ba, 1), st_.split_passes);
+        Search(c.pa, &ba.center, &ba.radius, static_cast<long>(s), -1, std::span<const Ball>(&bb, 1), st_.split_passes);
+        Search(c.pb, &bb.center, &bb.radius, static_cast<long>(s), -1, std::span<const Ball>(&ba, 1), st_.split_passes);
       }
       if (Stacked(ba, bb)) continue;
       const double after = PairExposure(ba, bb, s);
@@ -459,10 +431,10 @@ class Tightener {
     second.part = sp_[s].part;
     second.origin = sp_[s].origin;
     second.triangles = std::move(best_b);
-    second.center = best_bb.c;
+    second.center = best_bb.center;
     second.reference_radius = ref_b;
     sp_[s].triangles = std::move(best_a);
-    sp_[s].center = best_ba.c;
+    sp_[s].center = best_ba.center;
     sp_[s].reference_radius = ref_a;
     Refresh(s);
     sp_.push_back(std::move(second));
@@ -521,19 +493,18 @@ class Tightener {
     groups.erase(std::remove_if(groups.begin(), groups.end(), [](const auto& g) { return g.empty(); }), groups.end());
     if (groups.size() < 2) return 0;
     std::vector<std::vector<Eigen::Vector3f>> pts(groups.size());
-    std::vector<Ball3> balls(groups.size());
+    std::vector<Ball> balls(groups.size());
     std::vector<float> refs(groups.size());
     for (size_t j = 0; j < groups.size(); ++j) {
       pts[j] = Points(groups[j]);
-      const Ball m = MinimumBall(pts[j]);
-      balls[j] = {m.center, m.radius};
-      refs[j] = m.radius;
+      balls[j] = MinimumBall(pts[j]);
+      refs[j] = balls[j].radius;
     }
-    std::vector<Ball3> others;
+    std::vector<Ball> others;
     for (size_t j = 0; j < groups.size(); ++j) {
       others = balls;
       others.erase(others.begin() + static_cast<std::ptrdiff_t>(j));
-      Search(pts[j], &balls[j].c, &balls[j].r, static_cast<long>(s), -1, others, st_.split_passes);
+      Search(pts[j], &balls[j].center, &balls[j].radius, static_cast<long>(s), -1, others, st_.split_passes);
     }
     for (size_t i = 0; i < balls.size(); ++i) {
       for (size_t j = i + 1; j < balls.size(); ++j) {
@@ -542,7 +513,7 @@ class Tightener {
     }
     if (GroupExposure(balls, s) > st_.split_gain * before) return 0;
     sp_[s].triangles = std::move(groups[0]);
-    sp_[s].center = balls[0].c;
+    sp_[s].center = balls[0].center;
     sp_[s].reference_radius = refs[0];
     Refresh(s);
     for (size_t j = 1; j < groups.size(); ++j) {
@@ -550,7 +521,7 @@ class Tightener {
       t.part = sp_[s].part;
       t.origin = sp_[s].origin;
       t.triangles = std::move(groups[j]);
-      t.center = balls[j].c;
+      t.center = balls[j].center;
       t.reference_radius = refs[j];
       sp_.push_back(std::move(t));
       pts_.emplace_back();
@@ -567,8 +538,7 @@ class Tightener {
   std::vector<std::vector<Eigen::Vector3f>> pts_;  // each sphere's vertices, once each
   Nbrs nbrs_;                                      // scratch
   std::vector<Eigen::Vector3f> rim_;               // scratch
-  std::vector<uint32_t> stamp_;                    // per vertex, for Points()
-  uint32_t stamp_now_ = 0;
+  UniqueVertices unique_;                          // for Points()
   float height_ = 0.0f;                            // body extent along +Y
 };
 

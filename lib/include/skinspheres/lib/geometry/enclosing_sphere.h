@@ -3,9 +3,10 @@
 //
 // Contract (all functions)
 //   - Points are float; everything is computed in double and rounded once at the end.
-//   - Every returned Ball contains every input point: its radius is the largest double-precision
-//     distance from the (float) centre to a point, enlarged by kBallRadiusPad (relative) and then
-//     rounded up to float, so ||p - center|| <= radius holds in float and in double.
+//   - Every returned Ball contains every input point: its radius is the holding radius below (the
+//     largest double-precision distance from the float centre to a point, enlarged by
+//     kBallRadiusPad and rounded up to float), so ||p - center|| <= radius holds in float and in
+//     double.
 //   - Deterministic: a pure function of the inputs (MinimumBall shuffles with a fixed seed).
 //   - An empty point set gives Ball{0, 0}. Non-finite points are the caller's problem (the result
 //     is then unspecified but the functions do not crash or loop).
@@ -22,6 +23,17 @@ inline constexpr double kBallRadiusPad = 1e-6;
 // The smallest float >= r: a radius computed in double, stored in float without losing a point.
 float RoundUpRadius(double r);
 
+// The holding radius: the radius at which a sphere holds points whose largest squared distance to
+// its (float) centre, computed in double, is max_sq: sqrt(max_sq), enlarged by `pad` (relative),
+// rounded up to float. pad = kBallRadiusPad is the rule of every Ball below and of every radius
+// the fitter writes; the tightening pass moves its spheres on the unpadded radius (pad = 0) and
+// the fitter holds what it keeps again with the pad (fit/sphere_fitter.h).
+float HoldingRadius(double max_sq, double pad = kBallRadiusPad);
+// The same for `points` around `center`.
+float HoldingRadius(std::span<const Eigen::Vector3f> points, const Eigen::Vector3f& center,
+                    double pad = kBallRadiusPad);
+
+// A sphere: what every function below returns, and what the fitter's stages pass around.
 struct Ball {
   Eigen::Vector3f center = Eigen::Vector3f::Zero();
   float radius = 0.0f;

@@ -142,15 +142,6 @@ Result<JointSpheres> NaiveJointSpheres(const RawCharacter& character);
 
 // ---- Building blocks, exposed for tests and tools ----
 
-// Closest point on triangle (a, b, c) to p (Ericson §5.1.5); works for degenerate triangles.
-Eigen::Vector3f ClosestPointOnTriangle(const Eigen::Vector3f& p, const Eigen::Vector3f& a, const Eigen::Vector3f& b,
-                                       const Eigen::Vector3f& c);
-
-// Unsigned distance from each query point to the mesh surface (AABB tree of the triangles).
-// out.size() must equal queries.size(); triangles must index into positions and not be empty.
-void MeshDistances(std::span<const Eigen::Vector3f> positions, std::span<const Eigen::Vector3i> triangles,
-                   std::span<const Eigen::Vector3f> queries, std::span<float> out);
-
 // Voxel estimate of the mesh's inside volume alone (the 6-ray vote above) on a grid with
 // `grid_resolution` voxels along the longest axis of the mesh's bounding box (padded by one voxel).
 Result<double> MeshInsideVolume(std::span<const Eigen::Vector3f> positions, std::span<const Eigen::Vector3i> triangles,
