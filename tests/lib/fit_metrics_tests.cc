@@ -14,6 +14,7 @@
 #include "skinspheres/lib/geometry/mesh_distance.h"
 #include "skinspheres/lib/importer.h"
 #include "skinspheres/lib/metrics/fit_metrics.h"
+#include "skinspheres/lib/metrics/inside_volume.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

@@ -55,6 +55,7 @@
 #include <span>
 #include <vector>
 
+#include "skinspheres/lib/metrics/naive_joint_spheres.h"  // the baseline the figures are compared with
 #include "skinspheres/lib/raw_character.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/runtime/sphere_set.h"
@@ -124,27 +125,5 @@ Result<FitMetrics> MeasureFit(const FitMetricsInput& input, const FitMetricsSett
 // was made for a mesh with another vertex or triangle count.
 Result<FitMetrics> MeasureFit(const RawCharacter& character, const runtime::SphereSet& set,
                               const FitMetricsSettings& settings = {});
-
-// The naive baseline: one bounding sphere per joint around the vertices it dominates, centred on
-// the centre of their bounding box, radius to the farthest of them. Joints that dominate no vertex
-// get no sphere.
-struct JointSpheres {
-  std::vector<Eigen::Vector3f> centers;
-  std::vector<float> radii;
-  std::vector<uint32_t> joints;  // the joint of each sphere, ascending
-};
-// dominant_joint: one entry per position (e.g. the joint with the largest skin weight).
-Result<JointSpheres> NaiveJointSpheres(std::span<const Eigen::Vector3f> positions,
-                                       std::span<const uint32_t> dominant_joint);
-// The same on a character's rest pose, each vertex's dominant joint being the skeleton joint of
-// its largest skin weight (first one on ties; vertices without influences go to joint 0).
-Result<JointSpheres> NaiveJointSpheres(const RawCharacter& character);
-
-// ---- Building blocks, exposed for tests and tools ----
-
-// Voxel estimate of the mesh's inside volume alone (the 6-ray vote above) on a grid with
-// `grid_resolution` voxels along the longest axis of the mesh's bounding box (padded by one voxel).
-Result<double> MeshInsideVolume(std::span<const Eigen::Vector3f> positions, std::span<const Eigen::Vector3i> triangles,
-                                int grid_resolution = 160);
 
 }  // namespace skinspheres::lib
