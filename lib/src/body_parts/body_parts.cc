@@ -8,7 +8,7 @@
 
 namespace skinspheres::lib {
 
-const char* PartKindName(PartKind kind) {
+const char* ToString(PartKind kind) {
   switch (kind) {
     case PartKind::kTorso: return "torso";
     case PartKind::kHead: return "head";

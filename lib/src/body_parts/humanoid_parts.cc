@@ -119,7 +119,7 @@ void BuildHumanoid(const RawCharacter& ch, const WeightedSkeleton& ws, const Hum
                              PartKind::kArmRight, PartKind::kLegLeft, PartKind::kLegRight};
   for (int i = 0; i < 6; ++i) {
     parts[i].kind = kinds[i];
-    parts[i].name = PartKindName(kinds[i]);
+    parts[i].name = ToString(kinds[i]);
   }
   out->parts = std::move(parts);
   for (int32_t j = 0; j < ws.n; ++j) {

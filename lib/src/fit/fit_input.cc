@@ -7,9 +7,7 @@ namespace skinspheres::lib {
 
 std::optional<Error> ValidateFitInput(const RawCharacter& ch, const BodyParts& parts, const FitSettings& settings) {
   const std::string name = CharacterName(ch);
-  if (std::string why = settings.Validate(); !why.empty()) {
-    return MakeError(ErrorCode::kInvalidArgument, "fit settings: " + why);
-  }
+  if (auto refused = settings.Validate()) return MakeError(refused->code, "fit settings: " + refused->message);
   const size_t joints = ch.skeleton.size();
   if (!ch.skeleton.Validate() || joints == 0) return MakeError(ErrorCode::kInvalidData, name + ": invalid skeleton");
   if (parts.triangle_part.size() != ch.triangle_count() || parts.triangle_joint.size() != ch.triangle_count()) {

@@ -45,7 +45,7 @@ namespace skinspheres::lib {
 enum class PartKind { kTorso, kHead, kArmLeft, kArmRight, kLegLeft, kLegRight, kChain };
 
 // "torso", "head", "arm_l", "arm_r", "leg_l", "leg_r"; kChain -> "chain".
-const char* PartKindName(PartKind kind);
+const char* ToString(PartKind kind);
 
 struct BodyPart {
   std::string name;  // "torso","head","arm_l","arm_r","leg_l","leg_r" or "chain_<k>"

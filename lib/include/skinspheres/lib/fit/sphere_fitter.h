@@ -40,6 +40,7 @@
 // Parts are fitted in parallel (TBB); the result does not depend on the thread count.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -51,7 +52,7 @@
 namespace skinspheres::lib {
 
 enum class SphereMethod { kM1, kM2, kM1A };
-const char* ToString(SphereMethod method);  // "m1", "m2", "m1a"
+const char* ToString(SphereMethod method);  // "m1", "m2", "m1a"; "?" outside the enum
 
 struct FitSettings {
   int rays = 80;                  // Nr (α = 360°/Nr), 3..65535
@@ -78,8 +79,9 @@ struct FitSettings {
   int max_spheres = 200;
   float target_standoff = 0.0125f;
 
-  // Every reason the settings are refused, or "" when they are fine.
-  std::string Validate() const;
+  // The first reason the settings are refused (kInvalidArgument; the message names the setting, its
+  // range and the value given), or nullopt when they are fine.
+  std::optional<Error> Validate() const;
   std::string ToJson() const;     // the "params" object of the sphere-set file
 };
 
