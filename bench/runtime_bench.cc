@@ -1,4 +1,4 @@
-// Runtime speed per character per frame, and for crowds, on the REAL Xbot character (issue 3 §7).
+// Runtime speed per character per frame, and for crowds, on the REAL Xbot character.
 //
 // Set-up (untimed, once per fit): SKINSPHERES_ASSET_DIR/Xbot.glb -> ImportCharacter
 // -> SplitBodyParts -> FitSpheres (default FitSettings) -> CharacterAsset. Every benchmark

@@ -8,7 +8,7 @@
 //   no tightening  FitSpheres without the tightening pass (the paper's spheres after ownership);
 //   default        FitSpheres with default settings (what `skinspheres fit` writes);
 //   max effort     the tightening pass splitting while anything pays (split gain 1, no target
-//                  standoff), up to 300 spheres, the limit;
+//                  standoff), up to 300 spheres (the sphere budget of docs/FIT_REPORT.md);
 //   subdivided     the mesh cut (longest-edge bisection) until no edge exceeds 1% of the body
 //                  height, then fitted with max effort; its spheres are measured against the
 //                  ORIGINAL mesh. It breaks the one-sphere-per-triangle rule (a source triangle

@@ -14,7 +14,7 @@ namespace {
 constexpr float kSeedMargin = 1.0f;
 constexpr int kMaxResolution = 256;  // 257³ voxels x 20 bytes = 340 MB at most
 // Forward + backward sweeps: one round leaves the mean error within ~5% of two rounds' on the shared
-// characters (tests/lib/distance_field_tests.cc bounds it against the exact distance).
+// characters (tests/lib/geometry/distance_field_tests.cc bounds it against the exact distance).
 constexpr int kRounds = 1;
 
 // A grid coordinate (in voxels) as an index in [0, n): clamped in float first, so huge, infinite or
@@ -107,7 +107,7 @@ DistanceField DistanceField::Build(std::span<const Eigen::Vector3f> positions, s
   }
 
   // 2. Propagation: each voxel looks at the closest points of its already-visited neighbours
-  // (the 13 before it in the sweep order), forward then backward, twice.
+  // (the 13 before it in the sweep order), forward then backward, kRounds times.
   for (int round = 0; round < kRounds; ++round) {
     for (int dir : {+1, -1}) {
       const int zs = dir > 0 ? 0 : f.dims_.z() - 1, ys = dir > 0 ? 0 : f.dims_.y() - 1, xs = dir > 0 ? 0 : f.dims_.x() - 1;

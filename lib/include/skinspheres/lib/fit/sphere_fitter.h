@@ -1,35 +1,37 @@
-// SphereFitter: RawCharacter + BodyParts -> SphereSet, by the disk-of-rays method of the paper
-// (../shared/paper, "Sphere Approximation for Non-tubular Objects") plus a safety pass.
+// FitSpheres: RawCharacter + BodyParts -> SphereSet, by the disk-of-rays method of the paper
+// "Sphere Approximation for Non-tubular Objects" (section numbers below are its sections), plus
+// safety and tightness passes of our own.
 //
-// Per part (torso, head, arms, legs, or chains):
+// The stages, in the order FitSpheres runs them (each in its own file under lib/src/fit/):
+//  0. Validate the input: settings, skeleton, triangle indices, finite coordinates within 1e18,
+//     parts that partition the triangles and name existing joints.
+// Per part (torso, head, arms, legs, or chains), parts in parallel:
 //  1. Disk traversal (§4.1, §5; disk_traversal.h): Nr rays, step δ = step × the part's path length.
 //  2. Spheres per level (§4.2-4.4): the level's contact points are split into p contiguous angular
 //     sectors of the disk (p = 1, 2 or 4; sectors are centred on the principal axes of the
 //     section so an ellipse is cut across its long axis), and each sector gets a sphere by
-//     M1 (centroid), M2 (Welzl's minimum ball) or M1-A (M1 adjusted, §4.4) (enclosing_sphere.h).
-//     Tubular parts (limbs, head) use p = 1 unless `per_level_all_parts`; the torso, the
-//     non-tubular case, uses `per_level`.
+//     M1 (centroid), M2 (Welzl's minimum ball) or M1-A (M1 adjusted, §4.4)
+//     (geometry/enclosing_sphere.h). Tubular parts (limbs, head) use p = 1 unless
+//     `per_level_all_parts`; the torso, the non-tubular case, uses `per_level`.
 //  3. Levels (§4.3): walking the disk levels in order, a level is kept when its spheres overlap the
 //     last kept level's by at most the penetration depth PD: when the distance along the path d
 //     satisfies d >= (1 - PD)(r̄_prev + r̄_new), r̄ the mean radius of a level's spheres (PD = 0:
 //     spheres just touch; 0.5: they overlap by half). The path's last level is always kept.
+// Then for the whole character:
 //  4. Beyond the paper, safety (ownership): every triangle of a part is owned by exactly one sphere
 //     of that part, the nearest: the one whose centre is closest to the triangle's farthest vertex
 //     (ties: lowest index; preferring least growth instead lets one large sphere swallow its
-//     neighbours' triangles and measured looser on every character); each sphere's radius becomes the largest distance from its centre to the vertices
-//     of its owned triangles (growing where the paper's sphere left part of its patch outside,
-//     Figure 23, and shrinking where it was larger than its patch); spheres that own nothing are
-//     dropped. Then `refine_iterations` rounds move each sphere to the minimum ball of the vertices
-//     it owns and redo the ownership (tighter; the paper's spheres are the starting point and
-//     what F is reported on). Then, unless `tighten` is off, the tightening pass
-//     (sphere_tightener.h) lowers the union's exposure (its surface outside the other spheres,
-//     weighted by the distance to the mesh): each sphere's centre is pattern-searched (its radius
-//     always the holding radius of its triangles), a triangle on a sphere's rim that another
-//     sphere of its part already holds whole is handed over to it, and spheres are split in two
-//     (searched halves) while that pays by split_gain, up to max_spheres. Ownership stays exact:
-//     every triangle owned by one sphere of its part, inside it. A sphere's source vertices are the
-//     vertices of the triangles it owns. A bind-pose check then proves, in double precision,
-//     every triangle inside its owner.
+//     neighbours' triangles and measured looser on every character). Then `refine_iterations`
+//     rounds move each sphere to the minimum ball of the vertices it owns and redo the ownership
+//     (tighter; the paper's spheres are the starting point and what F is reported on). Then, unless
+//     `tighten` is off, the tightening pass (tighten/sphere_tightener.h) lowers the union's
+//     exposure (its surface outside the other spheres, weighted by the distance to the mesh):
+//     centre search, hand-over of rim triangles another sphere of the part already holds, merging
+//     of stacked spheres, and splitting while it pays by split_gain, up to max_spheres. Spheres
+//     that own nothing are dropped. Each kept sphere's radius is the holding radius
+//     (geometry/enclosing_sphere.h) of the vertices of its triangles: growing where the paper's
+//     sphere left part of its patch outside (Figure 23), shrinking where it was larger than its
+//     patch. Its source vertices are those vertices.
 //  5. Excluded pairs: same joint, joints within `adjacent_hops` of each other in the skeleton, and
 //     (optionally) pairs that already overlap in the rest pose.
 //  6. Fast-refit data: per sphere, the joints influencing its source vertices with their mean
@@ -37,7 +39,8 @@
 //     each of its bind entries (see runtime/sphere_set.h).
 //  7. The mesh: the character's skin (bind positions, bind entries, influences) and its triangles,
 //     so the runtime can test triangles and skin single vertices (sphere-set version 2).
-// Parts are fitted in parallel (TBB); the result does not depend on the thread count.
+// Finally a self-check proves, in double precision, every triangle inside its owner in the bind
+// pose. The result does not depend on the thread count.
 #pragma once
 
 #include <optional>
@@ -63,17 +66,18 @@ struct FitSettings {
   float step = 0.02f;             // δ as a fraction of each part's path length, (0, 1]
   int adjacent_hops = 1;          // exclude pairs whose joints are <= this many bones apart (0..2)
   bool exclude_bind_overlaps = true;
-  // Tightening after ownership: rounds of "each sphere becomes the minimum ball of the vertices it
+  // Refinement after ownership: rounds of "each sphere becomes the minimum ball of the vertices it
   // owns, then ownership is redone" (0 keeps the paper's centres and only grows/shrinks radii).
   int refine_iterations = 2;
-  // The tightening pass (sphere_tightener.h): centre search, hand-over, then splitting. A sphere is
-  // split when its searched halves expose at most split_gain of what it exposes (0: never split),
-  // the most exposed sphere first, until there are max_spheres spheres (a budget only stops
-  // splitting: spheres are not merged to meet it, so the paper's count can exceed it). false: the
-  // paper's spheres after ownership and refine only (docs/FIT_REPORT.md compares both).
-  // Splitting stops early once the union stands off the body by target_standoff of the body height
-  // on average (as the pass estimates it; 0: split while it pays): tight enough for the issue's
-  // 1.5% with margin, without spending spheres (and run-time) where they buy little.
+  // The tightening pass (tighten/sphere_tightener.h): centre search, hand-over, merging, then
+  // splitting. A sphere is split when its searched halves expose at most split_gain of what it
+  // exposes (0: never split), the most exposed sphere first, until there are max_spheres spheres (a
+  // budget only stops splitting: spheres are not merged to meet it, so the paper's count can exceed
+  // it). false: the paper's spheres after ownership and refine only (docs/FIT_REPORT.md compares
+  // both). Splitting stops early once the union stands off the body by target_standoff of the body
+  // height on average (as the pass estimates it; 0: split while it pays): tight enough for a mean
+  // standoff of 1.5% of the height (the target tests/lib/metrics/tightness_tests.cc holds the fit
+  // to) with margin, without spending spheres (and run time) where they buy little.
   bool tighten = true;
   float split_gain = 0.9f;
   int max_spheres = 200;
@@ -119,8 +123,10 @@ struct FitResult {
   FitReport report;
 };
 
-// Fits the character. Errors: kInvalidArgument (settings), kInvalidData (character and parts
-// disagree, or the bind-pose check fails — a bug, reported rather than hidden).
+// Fits the character. Errors, each message naming the character (or "fit settings"):
+// kInvalidArgument (settings), kInvalidData (an invalid character, parts that do not belong to it,
+// or a fitted set that fails SphereSet::Validate), kCheckFailed (the bind-pose check found a
+// triangle outside its sphere: a bug, reported rather than hidden).
 Result<FitResult> FitSpheres(const RawCharacter& character, const BodyParts& parts, const FitSettings& settings);
 
 // The bind-pose proof: every triangle's three vertices inside its owner sphere (in double, with a

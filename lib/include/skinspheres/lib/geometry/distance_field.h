@@ -1,6 +1,6 @@
 // DistanceField: unsigned distance from any point to a triangle mesh, answered in O(1) by a voxel
 // grid of closest surface points (a vector distance transform). Used by the fitter's tightening
-// pass (sphere_tightener.h) to score where a sphere's surface stands off the body.
+// pass (tighten/sphere_tightener.h) to score where a sphere's surface stands off the body.
 //
 // Contract:
 // * Build(positions, triangles, resolution, padding): cubic voxels over the body's box grown by
@@ -18,7 +18,7 @@
 //   the mesh, Distance(q) >= the exact distance d(q) (never an under-estimate, up to float
 //   rounding), and for q inside the grid it is at most d(q) + sqrt(3)·voxel + the propagation's
 //   error (zero near the surface, where seeding is exact; measured against the exact distance in
-//   tests/lib/distance_field_tests.cc). Any query is safe: huge, infinite or NaN coordinates are
+//   tests/lib/geometry/distance_field_tests.cc). Any query is safe: huge, infinite or NaN coordinates are
 //   clamped to the grid in float (a NaN query answers NaN).
 // * Degenerate triangles are seeded like any other (their closest point is on an edge). An empty
 //   mesh gives an empty field whose Distance() is +inf.

@@ -1,9 +1,9 @@
 // FitMetrics: how tight a sphere set is against the body it covers (the fit's acceptance figures).
 //
 // Given a triangle mesh (the body, rest pose) and spheres (centers + radii), MeasureFit reports:
-//   1. volume_ratio = vol(∪ spheres) / vol(body): target <= 2; the issue quotes 4.5-5x for one
-//      naive sphere per joint; NaiveJointSpheres measures 5.5x on Xbot, 2.6-3.5x on CesiumMan,
-//      RobotExpressive and Soldier (resolution 192);
+//   1. volume_ratio = vol(∪ spheres) / vol(body): target <= 2; one naive sphere per joint
+//      (NaiveJointSpheres) measures 5.5x on Xbot, 2.6-3.5x on CesiumMan, RobotExpressive and
+//      Soldier (resolution 192);
 //   2. the distance from the union's boundary ∂(∪ S_i) to the mesh surface: area-weighted mean and
 //      max, absolute and relative to the body height (target: mean <= 1.5% of height). Unsigned:
 //      boundary inside the body (a sphere too small) counts like boundary outside it;

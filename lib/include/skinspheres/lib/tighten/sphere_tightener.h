@@ -1,20 +1,22 @@
 // TightenSpheres: the fitter's tightening pass, beyond the paper. Spheres that already own and hold
 // triangles (every triangle of the input owned by exactly one sphere of its part) are moved, split,
 // and handed triangles so the union of the spheres stands closer to the body, keeping ownership
-// exact at every step (each sphere's radius is always the holding radius of the triangles it owns).
+// exact at every step (each sphere's radius is always the unpadded holding radius of the vertices of
+// the triangles it owns: HoldingRadius(..., pad = 0) of geometry/enclosing_sphere.h; the fitter
+// holds the spheres it keeps again with the pad).
 //
 // Objective, the EXPOSURE of a sphere S = (c, r): the part of its surface that lies inside no
 // other sphere, weighted by how far it stands from the mesh,
 //     E(S) = Σ_k [c + r·u_k inside no other sphere] · D(c + r·u_k) · 4πr²/N
-// over N Fibonacci directions u_k, D the distance to the mesh (DistanceField). Σ_S E(S) is a
-// sampled integral of the distance from the union's boundary to the surface, the figure
-// fit_metrics.h reports (there area-normalised and exact); a smaller sphere, or one whose
+// over N Fibonacci directions u_k (geometry/fibonacci_directions.h), D the distance to the mesh.
+// Σ_S E(S) is a sampled integral of the distance from the union's boundary to the surface, the
+// figure metrics/fit_metrics.h reports (there area-normalised and exact); a smaller sphere, or one whose
 // surface follows the body or hides inside its neighbours, exposes less.
 //
-// D is a DistanceField (distance_field.h): the nearest voxel's closest point while searching, the
+// D is a DistanceField (geometry/distance_field.h): the nearest voxel's closest point while searching, the
 // distance to that voxel's closest triangle (closer to exact) where the pass reports or stops.
 //
-// Steps (sphere_fitter.h, stage 4):
+// Steps (part of stage 4 of fit/sphere_fitter.h), each in its own file under lib/src/tighten/:
 //  1. Centre search: each sphere in turn moves its centre by pattern search (14 directions: the
 //     axes and the diagonals, step 1/4 of its radius halved whenever no move lowers E, `passes`
 //     times), its radius following as the holding radius of its triangles. A minimum ball puts the
@@ -33,10 +35,10 @@
 //     A sphere a split left more exposed may be tried again. Splitting stops at `max_spheres`, or
 //     once the union's mean standoff Σ E / Σ exposed area is at most `target_standoff` of the body
 //     height (extent along +Y), or when nothing pays.
-//  5. Centre search and hand-over again.
+//  5. Centre search, hand-over and merge again.
 // Guarantees: every input triangle ends up owned by exactly one sphere of its own part, and inside
 // it (radius = max distance from the float centre to its vertices, computed in double and rounded
-// up); splitting never takes the count past max(input count, max_spheres); the result is a pure
+// up to float); splitting never takes the count past max(input count, max_spheres); the result is a pure
 // function of the inputs (sequential, no randomness), so independent of threads.
 // Cost: Xbot (49k triangles, 84 spheres in) ~100 ms on one core, most of it the field and the
 // searches (bench/fitter_bench.cc).
