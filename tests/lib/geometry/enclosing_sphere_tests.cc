@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -24,6 +25,52 @@ void ExpectContainsAll(const Ball& b, const Points& pts, const char* what) {
     ASSERT_LE(dd, static_cast<double>(b.radius)) << what << ": point " << i << " outside (double)";
     ASSERT_LE((pts[i] - b.center).norm(), b.radius) << what << ": point " << i << " outside (float)";
   }
+}
+
+// ---- The holding radius ------------------------------------------------------------------------
+
+TEST(HoldingRadius, HoldsEveryPointAndIsTheSmallestFloatThatDoes) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(-3.0f, 3.0f);
+  for (int trial = 0; trial < 200; ++trial) {
+    Points pts(1 + trial % 9);
+    for (V& p : pts) p = V(u(rng), u(rng), u(rng));
+    const V c(u(rng), u(rng), u(rng));
+    double max_sq = 0.0;
+    for (const V& p : pts) max_sq = std::max(max_sq, (p.cast<double>() - c.cast<double>()).squaredNorm());
+    const double exact = std::sqrt(max_sq);
+    const float bare = HoldingRadius(pts, c, 0.0);
+    // Unpadded: the smallest float at or above the exact (double) farthest distance.
+    EXPECT_GE(static_cast<double>(bare), exact);
+    EXPECT_LT(static_cast<double>(std::nextafter(bare, 0.0f)), exact);
+    // Padded: at least kBallRadiusPad more, and no more than one float step beyond that.
+    const float padded = HoldingRadius(pts, c);
+    EXPECT_GE(static_cast<double>(padded), exact * (1.0 + kBallRadiusPad));
+    EXPECT_LT(static_cast<double>(std::nextafter(padded, 0.0f)), exact * (1.0 + kBallRadiusPad));
+    EXPECT_EQ(padded, HoldingRadius(max_sq));
+    EXPECT_EQ(bare, HoldingRadius(max_sq, 0.0));
+    // The unpadded radius holds every point in double only; the pad is what makes it hold in
+    // float too (float's own rounding of the distance can exceed the exact one).
+    for (const V& p : pts) EXPECT_LE((p.cast<double>() - c.cast<double>()).norm(), static_cast<double>(bare));
+    ExpectContainsAll(Ball{c, padded}, pts, "padded");
+  }
+  EXPECT_EQ(HoldingRadius(Points{}, V(1, 2, 3)), 0.0f);
+}
+
+TEST(HoldingRadius, IsTheRadiusEveryBallCarries) {
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  Points pts(30);
+  for (V& p : pts) p = V(u(rng), u(rng), 0.3f * u(rng));
+  const Ball m1 = CentroidBall(pts);
+  EXPECT_EQ(m1.radius, HoldingRadius(pts, m1.center));
+  const Ball m2 = MinimumBall(pts);
+  EXPECT_EQ(m2.radius, HoldingRadius(pts, m2.center));
+  const Ball m1a = AdjustM1(m1, pts, V::Zero(), V::UnitX(), V::UnitY());
+  EXPECT_EQ(m1a.radius, HoldingRadius(pts, m1a.center));
+  const Points few(pts.begin(), pts.begin() + 8);
+  const Ball exhaustive = ExhaustiveMinimumBall(few);
+  EXPECT_EQ(exhaustive.radius, HoldingRadius(few, exhaustive.center));
 }
 
 // ---- F and M1 by hand --------------------------------------------------------------------------

@@ -9,15 +9,14 @@
 #include <random>
 #include <vector>
 
+#include "shapes/uv_sphere.h"
+
 namespace skinspheres::lib {
 namespace {
 
 using V = Eigen::Vector3f;
 
-struct Mesh {
-  std::vector<V> positions;
-  std::vector<Eigen::Vector3i> triangles;
-};
+using Mesh = test::TriangleMesh;
 
 // Random triangles of varied size in [-1, 1]^3, with some degenerate ones and exact duplicates.
 Mesh RandomSoup(int count, uint32_t seed) {
@@ -36,32 +35,6 @@ Mesh RandomSoup(int count, uint32_t seed) {
     m.triangles.emplace_back(base, base + 1, base + 2);
     if (i % 53 == 0) m.triangles.emplace_back(base, base + 1, base + 2);  // exact duplicate
   }
-  return m;
-}
-
-// UV sphere of radius r around c: closed, shared vertices, poles as single vertices.
-Mesh SphereMesh(int rings, int segments, float r, const V& c) {
-  Mesh m;
-  m.positions.push_back(c + V(0, 0, r));
-  for (int i = 1; i < rings; ++i) {
-    const double th = std::numbers::pi * i / rings;
-    for (int j = 0; j < segments; ++j) {
-      const double ph = 2.0 * std::numbers::pi * j / segments;
-      m.positions.push_back(c + (r * Eigen::Vector3d(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph),
-                                                     std::cos(th))).cast<float>());
-    }
-  }
-  m.positions.push_back(c + V(0, 0, -r));
-  const int south = static_cast<int>(m.positions.size()) - 1;
-  auto ring = [&](int i, int j) { return 1 + (i - 1) * segments + (j % segments); };
-  for (int j = 0; j < segments; ++j) m.triangles.emplace_back(0, ring(1, j), ring(1, j + 1));
-  for (int i = 1; i < rings - 1; ++i) {
-    for (int j = 0; j < segments; ++j) {
-      m.triangles.emplace_back(ring(i, j), ring(i + 1, j), ring(i + 1, j + 1));
-      m.triangles.emplace_back(ring(i, j), ring(i + 1, j + 1), ring(i, j + 1));
-    }
-  }
-  for (int j = 0; j < segments; ++j) m.triangles.emplace_back(south, ring(rings - 1, j + 1), ring(rings - 1, j));
   return m;
 }
 
@@ -162,7 +135,7 @@ TEST(TriangleBvh, SubsetOnlyHitsItsTriangles) {
 TEST(TriangleBvh, SphereMeshAlwaysHitFromInside) {
   const V center(0.3f, -0.2f, 1.1f);
   const float r = 0.8f;
-  const Mesh m = SphereMesh(40, 64, r, center);
+  const Mesh m = test::UvSphere(center, r, 40, 64);  // poles single vertices, wound outward
   const auto bvh = TriangleBvh::Build(m.positions, m.triangles);
   ASSERT_TRUE(bvh.ok());
   EXPECT_EQ(bvh->triangle_count(), m.triangles.size());
