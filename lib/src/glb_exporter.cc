@@ -15,8 +15,11 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
+
+#include "skinspheres/runtime/file_io.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -31,6 +34,49 @@ aiMatrix4x4 ToAi(const Mat4f& m) {
 
 Error Invalid(const std::filesystem::path& path, const std::string& what) {
   return MakeError(ErrorCode::kInvalidArgument, "ExportGlb " + path.string() + ": " + what);
+}
+
+// Smooth per-vertex normals of one mesh (local vertex indices): the area-weighted sum of the
+// face normals around each vertex, vertices at exactly the same position sharing one sum (so a
+// UV seam, where a file splits vertices, does not show as a crease). +Y where the sum vanishes.
+std::vector<Vector3f> SmoothNormals(const std::vector<Vector3f>& positions, const aiMesh& mesh) {
+  struct Hash {
+    size_t operator()(const Vector3f& p) const {
+      size_t h = 0;
+      for (int k = 0; k < 3; ++k) h = h * 1000003u ^ std::hash<float>()(p[k]);
+      return h;
+    }
+  };
+  std::unordered_map<Vector3f, uint32_t, Hash> slot_of;
+  std::vector<uint32_t> slot(positions.size());
+  for (size_t v = 0; v < positions.size(); ++v) {
+    slot[v] = slot_of.emplace(positions[v], static_cast<uint32_t>(slot_of.size())).first->second;
+  }
+  std::vector<Eigen::Vector3d> sum(slot_of.size(), Eigen::Vector3d::Zero());
+  for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
+    const unsigned* i = mesh.mFaces[f].mIndices;
+    const Eigen::Vector3d a = positions[i[0]].cast<double>(), b = positions[i[1]].cast<double>(),
+                          c = positions[i[2]].cast<double>();
+    const Eigen::Vector3d n = (b - a).cross(c - a);  // |n| = twice the area
+    for (int k = 0; k < 3; ++k) sum[slot[i[k]]] += n;
+  }
+  std::vector<Vector3f> normals(positions.size());
+  for (size_t v = 0; v < positions.size(); ++v) {
+    const Eigen::Vector3d& n = sum[slot[v]];
+    const double len = n.norm();
+    normals[v] = len > 0.0 && std::isfinite(len) ? Vector3f((n / len).cast<float>()) : Vector3f::UnitY();
+  }
+  return normals;
+}
+
+void SetNormals(aiMesh* mesh) {
+  std::vector<Vector3f> positions(mesh->mNumVertices);
+  for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+    positions[v] = Vector3f(mesh->mVertices[v].x, mesh->mVertices[v].y, mesh->mVertices[v].z);
+  }
+  const std::vector<Vector3f> normals = SmoothNormals(positions, *mesh);
+  mesh->mNormals = new aiVector3D[mesh->mNumVertices];
+  for (unsigned v = 0; v < mesh->mNumVertices; ++v) mesh->mNormals[v] = aiVector3D(normals[v].x(), normals[v].y(), normals[v].z());
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -115,11 +161,6 @@ aiNodeAnim* MakeChannel(const std::string& node, const std::vector<std::pair<flo
 std::optional<Error> Validate(const RawCharacter& c, const GlbExtras& e, const std::filesystem::path& path) {
   const auto& sk = c.skeleton;
   if (sk.size() == 0 || !sk.Validate()) return Invalid(path, "skeleton is empty or its arrays/parents are inconsistent");
-  std::set<std::string> names;
-  for (const auto& n : sk.joint_names) {
-    if (n.empty()) return Invalid(path, "a joint has an empty name (glTF nodes are matched by name)");
-    if (!names.insert(n).second) return Invalid(path, "joint name '" + n + "' is used twice");
-  }
   const auto& s = c.skin;
   const size_t nv = c.positions_rest.size();
   if (s.positions_bind.size() != nv) return Invalid(path, "skin.positions_bind size differs from positions_rest");
@@ -261,14 +302,19 @@ aiMesh* UnitSphereMesh(int segments, int rings) {
   mesh->mMaterialIndex = 0;
   mesh->mNumVertices = static_cast<unsigned>(v.size());
   mesh->mVertices = new aiVector3D[v.size()];
-  for (size_t i = 0; i < v.size(); ++i) mesh->mVertices[i] = ToAi(v[i]);
+  mesh->mNormals = new aiVector3D[v.size()];
+  for (size_t i = 0; i < v.size(); ++i) mesh->mVertices[i] = mesh->mNormals[i] = ToAi(v[i]);  // unit sphere
   SetFaces(mesh, tris, 0, static_cast<uint32_t>(tris.size()), 0);
   return mesh;
 }
 
-}  // namespace
+struct BuiltScene {
+  std::unique_ptr<aiScene> scene;
+  GlbExportSummary summary;
+};
 
-Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem::path& path, const GlbExtras& extras) {
+// The whole aiScene for `c` (see glb_exporter.h for what it holds); `path` only names errors.
+Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path& path, const GlbExtras& extras) {
   if (auto err = Validate(c, extras, path)) return *err;
   const auto& sk = c.skeleton;
   std::vector<Mat4f> rest_world(sk.size());
@@ -277,12 +323,26 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
   auto scene = std::make_unique<aiScene>();
   GlbExportSummary summary;
 
+  // Node names: Assimp's writer binds bones and channels by name, so every joint gets a unique,
+  // non-empty one (a repeated name, which glTF allows, gets "_2", "_3", ...).
+  std::vector<std::string> joint_names(sk.size());
+  {
+    std::set<std::string> taken(sk.joint_names.begin(), sk.joint_names.end()), given;
+    for (size_t j = 0; j < sk.size(); ++j) {
+      const std::string base = sk.joint_names[j].empty() ? "joint_" + std::to_string(j) : sk.joint_names[j];
+      std::string n = base;
+      for (int k = 2; given.count(n) || (n != sk.joint_names[j] && taken.count(n)); ++k) n = base + "_" + std::to_string(k);
+      given.insert(n);
+      joint_names[j] = n;
+    }
+  }
+
   // ---- node tree from the skeleton
   std::vector<aiNode*> joint_nodes(sk.size());
   std::vector<std::vector<aiNode*>> children(sk.size());
   std::vector<aiNode*> roots;
   for (size_t j = 0; j < sk.size(); ++j) {
-    joint_nodes[j] = new aiNode(sk.joint_names[j]);
+    joint_nodes[j] = new aiNode(joint_names[j]);
     joint_nodes[j]->mTransformation = ToAi(sk.rest_local[j].ToMatrix());
   }
   for (size_t j = 0; j < sk.size(); ++j) {
@@ -300,7 +360,7 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
   const bool joint_is_root = roots.size() == 1 && sk.parents[0] < 0 && rest_world[0].isIdentity(1e-6f) && !root_animated;
   aiNode* root = joint_is_root ? joint_nodes[0] : new aiNode("Root");
   std::vector<aiNode*> root_children = joint_is_root ? children[0] : roots;
-  std::set<std::string> used(sk.joint_names.begin(), sk.joint_names.end());
+  std::set<std::string> used(joint_names.begin(), joint_names.end());
   if (!joint_is_root) used.insert("Root");
   auto unique_name = [&](std::string base) {
     if (base.empty()) base = "mesh";
@@ -318,6 +378,7 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
     meshes.push_back(mesh);
     const unsigned mesh_index = static_cast<unsigned>(meshes.size() - 1);
     const std::string node_name = unique_name(range.name);
+    summary.mesh_node_names.push_back(node_name);
     mesh->mName = aiString(node_name);
     mesh->mPrimitiveTypes = aiPrimitiveType_TRIANGLE;
     mesh->mMaterialIndex = 0;
@@ -368,7 +429,7 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
         for (size_t i = 0; i < order.size(); ++i) {
           const int32_t joint = order[i];
           auto* bone = new aiBone();
-          bone->mName = aiString(sk.joint_names[joint]);
+          bone->mName = aiString(joint_names[joint]);
           const auto ibm = std::find_if(c.skin.binds.begin(), c.skin.binds.end(),
                                         [&](const auto& b) { return b.joint == joint; });
           bone->mOffsetMatrix = ToAi(ibm->inverse_bind);
@@ -381,6 +442,7 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
           mesh->mBones[i] = bone;
         }
       }
+      SetNormals(mesh);
       root_children.push_back(node);
     } else {
       // Rigid: vertices in the followed joint's rest space, node under that joint.
@@ -390,6 +452,7 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
         const Vec4f p = to_local * c.positions_rest[range.first_vertex + v].homogeneous();
         mesh->mVertices[v] = ToAi(Vector3f(p.head<3>()));
       }
+      SetNormals(mesh);
       if (range.rigid_joint >= 0) {
         children[range.rigid_joint].push_back(node);
       } else {
@@ -422,8 +485,10 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
   scene->mRootNode = root;
 
   scene->mNumMeshes = static_cast<unsigned>(meshes.size());
-  scene->mMeshes = new aiMesh*[meshes.size()];
-  std::copy(meshes.begin(), meshes.end(), scene->mMeshes);
+  if (!meshes.empty()) {
+    scene->mMeshes = new aiMesh*[meshes.size()];
+    std::copy(meshes.begin(), meshes.end(), scene->mMeshes);
+  }
   scene->mNumMaterials = 1;
   scene->mMaterials = new aiMaterial*[1];
   scene->mMaterials[0] = new aiMaterial();
@@ -451,7 +516,7 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
       auto r = tr.rotation.empty() ? std::vector<std::pair<float, Quatf>>{{0.0f, rest.rotation}}
                                    : BakeLinear(tr.rotation);
       auto s = tr.scale.empty() ? std::vector<std::pair<float, Vector3f>>{{0.0f, rest.scale}} : BakeLinear(tr.scale);
-      channels.push_back(MakeChannel(sk.joint_names[joint], t, r, s));
+      channels.push_back(MakeChannel(joint_names[joint], t, r, s));
     }
     auto* anim = new aiAnimation();
     anim->mName = aiString(clip.name);
@@ -464,6 +529,11 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
   }
   if (!extras.spheres.empty()) {
     std::vector<aiNodeAnim*> channels;
+    // The character's clip of that name, if any, also moves the spheres.
+    aiAnimation* host = nullptr;
+    for (aiAnimation* a : anims) {
+      if (!host && extras.clip_name == a->mName.C_Str()) host = a;
+    }
     for (size_t i = 0; i < extras.spheres.size(); ++i) {
       std::vector<std::pair<float, Vector3f>> t, s;
       for (size_t f = 0; f < extras.frame_times_s.size(); ++f) {
@@ -473,14 +543,24 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
       }
       channels.push_back(MakeChannel(sphere_nodes[i], t, {{extras.frame_times_s.front(), Quatf::Identity()}}, s));
     }
-    auto* anim = new aiAnimation();
-    anim->mName = aiString(extras.clip_name);
-    anim->mTicksPerSecond = 1.0;
-    anim->mDuration = extras.frame_times_s.back();
-    anim->mNumChannels = static_cast<unsigned>(channels.size());
-    anim->mChannels = new aiNodeAnim*[channels.size()];
-    std::copy(channels.begin(), channels.end(), anim->mChannels);
-    anims.push_back(anim);
+    if (host != nullptr) {
+      auto** merged = new aiNodeAnim*[host->mNumChannels + channels.size()];
+      std::copy(host->mChannels, host->mChannels + host->mNumChannels, merged);
+      std::copy(channels.begin(), channels.end(), merged + host->mNumChannels);
+      delete[] host->mChannels;
+      host->mChannels = merged;
+      host->mNumChannels += static_cast<unsigned>(channels.size());
+      host->mDuration = std::max<double>(host->mDuration, extras.frame_times_s.back());
+    } else {
+      auto* anim = new aiAnimation();
+      anim->mName = aiString(extras.clip_name);
+      anim->mTicksPerSecond = 1.0;
+      anim->mDuration = extras.frame_times_s.back();
+      anim->mNumChannels = static_cast<unsigned>(channels.size());
+      anim->mChannels = new aiNodeAnim*[channels.size()];
+      std::copy(channels.begin(), channels.end(), anim->mChannels);
+      anims.push_back(anim);
+    }
   }
   if (!anims.empty()) {
     scene->mNumAnimations = static_cast<unsigned>(anims.size());
@@ -491,13 +571,51 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem:
   summary.mesh_count = static_cast<uint32_t>(meshes.size());
   summary.animation_count = static_cast<uint32_t>(anims.size());
   summary.node_count = static_cast<uint32_t>(sk.size() + c.meshes.size() + extras.spheres.size() + (joint_is_root ? 0 : 1));
+  return BuiltScene{std::move(scene), summary};
+}
 
+Result<GlbExportSummary> Export(const RawCharacter& c, const std::filesystem::path& path, const GlbExtras& extras,
+                                const char* format) {
+  auto built = BuildScene(c, path, extras);
+  if (!built.ok()) return built.error();
+  // Exported to memory, then written and checked through the close (runtime/file_io.h): Assimp's
+  // own file writer does not check its close, so a full disk went unnoticed.
   Assimp::Exporter exporter;
-  if (exporter.Export(scene.get(), "glb2", path.string()) != aiReturn_SUCCESS) {
+  const aiExportDataBlob* blob = exporter.ExportToBlob(built->scene.get(), format);
+  if (blob == nullptr || blob->data == nullptr) {
     return MakeError(ErrorCode::kFileUnreadable,
                      "ExportGlb " + path.string() + ": Assimp could not write the file: " + exporter.GetErrorString());
   }
-  return summary;
+  if (blob->next != nullptr) {
+    return MakeError(ErrorCode::kFileUnreadable, "ExportGlb " + path.string() + ": Assimp made more than one file");
+  }
+  if (auto err = runtime::WriteWholeFile(path, std::string_view(static_cast<const char*>(blob->data), blob->size))) {
+    return *err;
+  }
+  return built->summary;
+}
+
+}  // namespace
+
+Result<GlbExportSummary> ExportGlb(const RawCharacter& c, const std::filesystem::path& path, const GlbExtras& extras) {
+  return Export(c, path, extras, "glb2");
+}
+
+Result<GlbExportSummary> ExportFbxAscii(const RawCharacter& c, const std::filesystem::path& path) {
+  return Export(c, path, {}, "fbxa");
+}
+
+Result<GlbBlob> ExportGlbToMemory(const RawCharacter& c, const std::string& label, const GlbExtras& extras) {
+  auto built = BuildScene(c, label, extras);
+  if (!built.ok()) return built.error();
+  Assimp::Exporter exporter;
+  const aiExportDataBlob* blob = exporter.ExportToBlob(built->scene.get(), "glb2");
+  if (blob == nullptr || blob->data == nullptr) {
+    return MakeError(ErrorCode::kFileUnreadable, "ExportGlb " + label + ": Assimp could not write the GLB: " +
+                                                     exporter.GetErrorString());
+  }
+  const auto* bytes = static_cast<const uint8_t*>(blob->data);
+  return GlbBlob{std::vector<uint8_t>(bytes, bytes + blob->size), std::move(built->summary)};
 }
 
 }  // namespace skinspheres::lib

@@ -3,6 +3,9 @@
 // against the buffer it points into before a byte is read.
 #include "gltf_document.h"
 
+#include "skinspheres/lib/importer.h"
+#include "skinspheres/runtime/file_io.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cstring>
@@ -67,6 +70,18 @@ std::string PercentDecode(const std::string& s) {
     }
   }
   return out;
+}
+
+// Extensions a file may require of this reader (see LoadGltf): they change only what it does not
+// read, or (KHR_mesh_quantization) allow integer attributes, which it converts.
+bool IsIgnorableOrReadExtension(const std::string& ext) {
+  static const char* const kExact[] = {"KHR_mesh_quantization", "KHR_texture_transform", "KHR_texture_basisu",
+                                       "EXT_texture_webp", "EXT_texture_avif", "KHR_lights_punctual", "KHR_xmp_json_ld",
+                                       "MSFT_texture_dds"};
+  for (const char* e : kExact) {
+    if (ext == e) return true;
+  }
+  return ext.rfind("KHR_materials_", 0) == 0;  // every material extension (variants included)
 }
 
 int ComponentsOf(const std::string& type) {
@@ -290,6 +305,12 @@ std::string OpenAccessor(const GltfDocument& doc, int64_t index, int components,
     return name + " (" + std::to_string(view->count) + " elements) runs past the end of bufferView " +
            std::to_string(bv_index);
   }
+  // Checked before anything is read: a byte accessor becomes 4x its size in floats. (Without a
+  // bufferView, kMaxZeroFilledCount is far below this.)
+  if (view->count > kMaxAccessorValues / static_cast<uint64_t>(components)) {
+    return name + " has " + std::to_string(view->count) + " elements; at most " + std::to_string(kMaxAccessorValues) +
+           " values are read from one accessor";
+  }
   view->base = bytes.data() + off;
   return sparse ? MaterialiseSparse(doc, a, name, view) : std::string();
 }
@@ -381,6 +402,18 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
     }
     if (first) return Fail(ErrorCode::kFormatRejected, file, "truncated GLB: no JSON chunk");
   }
+  // Depth and size before parsing (runtime/file_io.h): the parse is iterative, but a copy or a
+  // dump of a deep value is not, and a value costs ~100 bytes once parsed.
+  const runtime::JsonShape shape =
+      runtime::ScanJson(std::string_view(reinterpret_cast<const char*>(json_text.data()), json_text.size()));
+  if (shape.depth > runtime::kMaxJsonDepth) {
+    return Fail(ErrorCode::kFormatRejected, file, "the JSON nests " + std::to_string(shape.depth) + " deep (at most " +
+                                                      std::to_string(runtime::kMaxJsonDepth) + " is read)");
+  }
+  if (shape.values > kMaxGltfJsonValues) {
+    return Fail(ErrorCode::kFormatRejected, file, "the JSON holds more than " + std::to_string(kMaxGltfJsonValues) +
+                                                      " values (at most that many are read)");
+  }
   doc.json = json::parse(json_text.begin(), json_text.end(), nullptr, /*allow_exceptions=*/false);
   if (doc.json.is_discarded() || !doc.json.is_object()) {
     return Fail(ErrorCode::kFormatRejected, file, "not a glTF file (the JSON does not parse)");
@@ -390,18 +423,26 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
   if (version.empty() || version[0] != '2') {
     return Fail(ErrorCode::kFormatRejected, file, "glTF version \"" + version + "\" (only 2.x is read)");
   }
-  for (const char* ext : {"KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression"}) {
-    if (doc.json.contains("extensionsRequired") && doc.json["extensionsRequired"].is_array()) {
-      for (const auto& e : doc.json["extensionsRequired"]) {
-        if (e.is_string() && e.get<std::string>() == ext) {
-          return Fail(ErrorCode::kFormatRejected, file, std::string("uses ") + ext + ", which is not supported");
-        }
+  // glTF 2.0 §3.12: a loader MUST NOT load an asset that requires an extension it does not
+  // support. This reader supports the extensions that change nothing it reads (materials,
+  // textures, lights, metadata) and KHR_mesh_quantization (integer attributes, which every
+  // accessor read here converts); any other (Draco or meshopt compression, GPU instancing,
+  // animation pointers, ...) refuses the file.
+  if (doc.json.contains("extensionsRequired")) {
+    const json& required = doc.json["extensionsRequired"];
+    if (!required.is_array()) return Fail(ErrorCode::kFormatRejected, file, "\"extensionsRequired\" is not an array");
+    for (const auto& e : required) {
+      if (!e.is_string()) return Fail(ErrorCode::kFormatRejected, file, "\"extensionsRequired\" lists a non-string");
+      const std::string ext = e.get<std::string>();
+      if (!IsIgnorableOrReadExtension(ext)) {
+        return Fail(ErrorCode::kFormatRejected, file, "requires the glTF extension " + ext + ", which is not supported");
       }
     }
   }
   if (doc.json.contains("buffers")) {
     const json& buffers = doc.json["buffers"];
     if (!buffers.is_array()) return Fail(ErrorCode::kFormatRejected, file, "\"buffers\" is not an array");
+    uint64_t external_bytes = 0;
     for (size_t b = 0; b < buffers.size(); ++b) {
       const int64_t length = buffers[b].value("byteLength", int64_t{-1});
       std::vector<uint8_t> data;
@@ -424,19 +465,20 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
             return Fail(ErrorCode::kFormatRejected, file, label + " uri \"" + uri + "\" is not a path beside the file");
           }
           const std::filesystem::path external = file.parent_path() / relative;
-          std::error_code ec;
-          if (!std::filesystem::is_regular_file(external, ec)) {
-            return Fail(ErrorCode::kFileUnreadable, file, label + " file " + external.string() + " is not a readable file");
+          if (length < 0) return Fail(ErrorCode::kFormatRejected, file, label + " has no valid byteLength");
+          external_bytes += static_cast<uint64_t>(length);
+          if (external_bytes > kMaxGltfExternalBufferBytes) {
+            return Fail(ErrorCode::kFormatRejected, file, "the external buffers add up to more than " +
+                                                              std::to_string(kMaxGltfExternalBufferBytes) + " bytes");
           }
-          const auto size = std::filesystem::file_size(external, ec);
-          if (ec || length < 0 || size < static_cast<uint64_t>(length)) {
-            return Fail(ErrorCode::kFormatRejected, file, label + " file " + external.string() + " is shorter than its byteLength");
+          // A regular file only (runtime/file_io.h), checked on the open file itself.
+          Result<std::vector<uint8_t>> read = runtime::ReadRegularFilePrefix(external, static_cast<uint64_t>(length));
+          if (!read.ok()) {
+            const ErrorCode code = read.error().code == ErrorCode::kFormatRejected ? ErrorCode::kFormatRejected
+                                                                                    : ErrorCode::kFileUnreadable;
+            return Fail(code, file, label + " file " + read.error().message);
           }
-          std::ifstream in(external, std::ios::binary);
-          if (!in) return Fail(ErrorCode::kFileUnreadable, file, label + " file " + external.string() + " cannot be read");
-          data.resize(static_cast<size_t>(length));
-          in.read(reinterpret_cast<char*>(data.data()), length);
-          if (!in) return Fail(ErrorCode::kFileUnreadable, file, label + " file " + external.string() + " cannot be read");
+          data = std::move(read).value();
         }
       }
       if (length < 0 || static_cast<uint64_t>(length) > data.size()) {

@@ -12,6 +12,8 @@
 #include <system_error>
 
 #include "importer_internal.h"
+#include "skinspheres/lib/clip_import.h"
+#include "skinspheres/runtime/file_io.h"
 
 namespace skinspheres::lib {
 namespace detail {
@@ -65,6 +67,17 @@ std::optional<Error> FinishCharacter(RawCharacter& c, const std::filesystem::pat
     return ImportError(ErrorCode::kInvalidData, file, "the skeleton is empty or not ordered parents-first");
   }
   if (c.triangles.empty()) return ImportError(ErrorCode::kInvalidData, file, "no triangles (no triangle primitive in the scene)");
+  // The limits of importer.h, for every reader (the glTF reader checks them before allocating).
+  if (skeleton.size() > kMaxJoints) {
+    return ImportError(ErrorCode::kInvalidData, file, "the skeleton has " + std::to_string(skeleton.size()) + " joints; at most " +
+                                                          std::to_string(kMaxJoints) + " are read");
+  }
+  if (skin.vertex_count() > kMaxVertices || c.triangles.size() > kMaxTriangles) {
+    return ImportError(ErrorCode::kInvalidData, file, std::to_string(skin.vertex_count()) + " vertices and " +
+                                                          std::to_string(c.triangles.size()) + " triangles; at most " +
+                                                          std::to_string(kMaxVertices) + " and " + std::to_string(kMaxTriangles) +
+                                                          " are read");
+  }
   if (skin.influence_offsets.size() != skin.vertex_count() + 1) {
     return ImportError(ErrorCode::kInvalidData, file, "internal: influence table does not match the vertices");
   }
@@ -109,7 +122,10 @@ bool LooksLikeGltf2(const std::filesystem::path& file, std::span<const uint8_t> 
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
   if (ext == ".glb") return true;  // not GLB magic: our reader reports what is wrong
   if (ext != ".gltf") return false;
-  // glTF 1.0 JSON goes to Assimp; anything else that says .gltf is ours (errors included).
+  // glTF 1.0 JSON goes to Assimp; anything else that says .gltf is ours (errors included). Text
+  // too deep or too large to parse safely is ours too: our reader refuses it, naming the limit.
+  const runtime::JsonShape shape = runtime::ScanJson(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+  if (shape.depth > runtime::kMaxJsonDepth || shape.values > kMaxGltfJsonValues) return true;
   const auto json = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false);
   if (json.is_object() && json.contains("asset") && json["asset"].is_object()) {
     const auto it = json["asset"].find("version");
@@ -120,27 +136,38 @@ bool LooksLikeGltf2(const std::filesystem::path& file, std::span<const uint8_t> 
   return true;
 }
 
+Result<std::vector<uint8_t>> ReadFileBytes(const std::filesystem::path& file) {
+  // Regular files only (a FIFO would block, /dev/zero never ends), at most kMaxCharacterFileBytes,
+  // refused from the size before anything is allocated (runtime/file_io.h). Its messages are
+  // "<file>: <problem>"; ImportError keeps them on one line.
+  Result<std::string> read = runtime::ReadRegularFile(file, kMaxCharacterFileBytes, "character file");
+  if (!read.ok()) return ImportError(read.error().code, file, read.error().message.substr(file.string().size() + 2));
+  if (read->empty()) return ImportError(ErrorCode::kFormatRejected, file, "the file is empty");
+  return std::vector<uint8_t>(read->begin(), read->end());
+}
+
 }  // namespace detail
 
-Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const ImportOptions& options) {
+namespace {
+
+// Reads `bytes` (the whole file, named `file`) with the reader `gltf_only` or the bytes pick, then
+// the final pass; every exception a reader lets out becomes one Error naming the file. Bytes from
+// memory (gltf_only) never make it open `file`.
+Result<RawCharacter> ImportBytes(const std::filesystem::path& file, std::span<const uint8_t> bytes,
+                                 const ImportOptions& options, bool gltf_only) {
   using detail::ImportError;
-  std::error_code ec;
-  const auto status = std::filesystem::status(file, ec);
-  if (!std::filesystem::exists(status)) return ImportError(ErrorCode::kFileNotFound, file, "file not found");
-  if (std::filesystem::is_directory(status)) return ImportError(ErrorCode::kFileUnreadable, file, "is a directory, not a file");
-  std::ifstream in(file, std::ios::binary);
-  if (!in) return ImportError(ErrorCode::kFileUnreadable, file, "cannot be opened for reading");
-  std::vector<uint8_t> bytes;
   try {
-    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    if (in.bad()) return ImportError(ErrorCode::kFileUnreadable, file, "read error");
     if (bytes.empty()) return ImportError(ErrorCode::kFormatRejected, file, "the file is empty");
-    Result<RawCharacter> result = detail::LooksLikeGltf2(file, bytes)
+    Result<RawCharacter> result = gltf_only || detail::LooksLikeGltf2(file, bytes)
                                       ? detail::ImportGltf(file, bytes, options)
                                       : detail::ImportWithAssimp(file, bytes, options);
-    if (!result.ok()) return result;
+    std::optional<Error> error = result.ok() ? detail::FinishCharacter(*result, file) : result.error();
+    if (error && !gltf_only && (error->code == ErrorCode::kFormatRejected || error->code == ErrorCode::kInvalidData)) {
+      // Say what the file is when it is an animation without a mesh (clip_import.h).
+      if (std::string what = DescribeAnimationOnlyFile(file); !what.empty()) return ImportError(ErrorCode::kFormatRejected, file, what);
+    }
+    if (error) return *error;
     result->source_file = file.string();
-    if (auto error = detail::FinishCharacter(*result, file)) return *error;
     return result;
   } catch (const nlohmann::json::exception& e) {
     // A field of the wrong JSON type (e.g. a string where a number belongs).
@@ -150,6 +177,24 @@ Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const Im
   } catch (const std::exception& e) {
     return ImportError(ErrorCode::kFormatRejected, file, std::string("cannot be read: ") + e.what());
   }
+}
+
+}  // namespace
+
+Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const ImportOptions& options) {
+  auto read = detail::ReadFileBytes(file);
+  if (!read.ok()) return read.error();
+  return ImportBytes(file, *read, options, /*gltf_only=*/false);
+}
+
+Result<RawCharacter> ImportGltfBytes(std::span<const uint8_t> bytes, const std::filesystem::path& name,
+                                     const ImportOptions& options) {
+  if (bytes.size() > kMaxCharacterFileBytes) {
+    return detail::ImportError(ErrorCode::kFormatRejected, name, "is " + std::to_string(bytes.size()) +
+                                                                     " bytes; a character file may be at most " +
+                                                                     std::to_string(kMaxCharacterFileBytes) + " bytes");
+  }
+  return ImportBytes(name, bytes, options, /*gltf_only=*/true);
 }
 
 }  // namespace skinspheres::lib

@@ -59,10 +59,13 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
     const Mat4f l = local[i].ToMatrix();
     world[i] = parent[i] >= 0 ? Mat4f(world[static_cast<size_t>(parent[i])] * l) : l;
   }
+  // The first node of a name in preorder, as aiNode::FindNode gives it, from one map (FindNode
+  // recurses, and per bone it would make the work nodes x bones).
+  std::map<std::string, int32_t> node_of_name;
+  for (size_t i = 0; i < nodes.size(); ++i) node_of_name.emplace(nodes[i]->mName.C_Str(), static_cast<int32_t>(i));
   auto node_named = [&](const aiString& name) -> int32_t {
-    const aiNode* n = scene->mRootNode->FindNode(name);
-    auto it = n ? index_of.find(n) : index_of.end();
-    return it == index_of.end() ? -1 : it->second;
+    auto it = node_of_name.find(name.C_Str());
+    return it == node_of_name.end() ? -1 : it->second;
   };
 
   // Mesh instances: mesh order, then node preorder.
@@ -95,6 +98,10 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
       if (needed[i] && parent[i] >= 0) needed[static_cast<size_t>(parent[i])] = 1;
     }
   }
+  const uint64_t joint_count = static_cast<uint64_t>(std::count(needed.begin(), needed.end(), 1));
+  if (joint_count > kMaxJoints) {
+    return invalid("the skeleton has " + std::to_string(joint_count) + " joints; at most " + std::to_string(kMaxJoints) + " are read");
+  }
 
   RawCharacter c;
   std::vector<int32_t> joint_of_node(nodes.size(), -1);
@@ -119,7 +126,10 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
     if ((mesh->mPrimitiveTypes & (aiPrimitiveType_TRIANGLE | aiPrimitiveType_POLYGON)) == 0) continue;
     const bool skinned = mesh->HasBones();
     const uint64_t first_vertex = c.skin.vertex_count();
-    if (first_vertex + mesh->mNumVertices >= static_cast<uint64_t>(INT32_MAX)) return invalid("more than 2^31 vertices");
+    if (first_vertex + mesh->mNumVertices > kMaxVertices) {
+      return invalid("more than " + std::to_string(kMaxVertices) + " vertices (at most that many are read)");
+    }
+
     std::vector<std::vector<Influence>> per_vertex(mesh->mNumVertices);
     int32_t rigid_bind = -1;
     Mat4f rigid_world = world[static_cast<size_t>(n)];
@@ -170,6 +180,9 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
       for (unsigned k = 1; k + 1 < face.mNumIndices; ++k) {  // fan; faces with < 3 indices add nothing
         c.triangles.emplace_back(static_cast<int>(first_vertex + face.mIndices[0]), static_cast<int>(first_vertex + face.mIndices[k]),
                                  static_cast<int>(first_vertex + face.mIndices[k + 1]));
+      }
+      if (c.triangles.size() > kMaxTriangles) {
+        return invalid("more than " + std::to_string(kMaxTriangles) + " triangles (at most that many are read)");
       }
     }
     MeshRange range;

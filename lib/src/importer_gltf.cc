@@ -4,11 +4,14 @@
 // Assimp 5.2.5 drops (aiNodeAnim has no interpolation field).
 // Spec references: glTF 2.0 §3.5 (nodes, TRS/matrix), §3.7 (meshes, primitive modes),
 // §3.7.3 (skins: jointMatrix = G_joint · IBM; a skinned mesh node's own transform is ignored),
-// §3.11 (animations).
+// §3.11 (animations), and the JSON schema of each object (node.schema.json, skin.schema.json,
+// animation.sampler.schema.json) where a rule is stated there.
+// Work is linear in the number of nodes (no walk to the root per node) and nothing recurses.
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 
 #include "gltf_document.h"
 #include "importer_internal.h"
@@ -26,6 +29,7 @@ struct Node {
   Transform local;
   int64_t mesh = -1;
   int64_t skin = -1;
+  bool has_matrix = false;
 };
 
 struct MeshInstance {
@@ -53,6 +57,11 @@ std::string ReadNodes(const json& j, std::vector<Node>* nodes) {
     node.mesh = jn.value("mesh", int64_t{-1});
     node.skin = jn.value("skin", int64_t{-1});
     if (jn.contains("matrix")) {
+      // glTF 2.0 §3.5.3 (and node.schema.json): a node has a matrix or TRS properties, not both.
+      for (const char* trs : {"translation", "rotation", "scale"}) {
+        if (jn.contains(trs)) return "node " + std::to_string(i) + " has both a matrix and a " + trs + " (glTF allows one or the other)";
+      }
+      node.has_matrix = true;
       const auto& m = jn["matrix"];
       if (!m.is_array() || m.size() != 16) return "node " + std::to_string(i) + " has a matrix without 16 numbers";
       Mat4f mat;
@@ -90,13 +99,23 @@ std::string ReadNodes(const json& j, std::vector<Node>* nodes) {
       node.children.push_back(static_cast<int32_t>(child));
     }
   }
-  // With single parents, a cycle is a chain that never reaches a root.
-  for (int32_t i = 0; i < n_nodes; ++i) {
-    int32_t p = i;
-    for (int32_t steps = 0; p != -1; ++steps) {
-      if (steps > n_nodes) return "the node hierarchy has a cycle through node " + std::to_string(i);
-      p = (*nodes)[static_cast<size_t>(p)].parent;
+  // With single parents, a node is on or under a cycle exactly when no root reaches it: one
+  // iterative walk down from the roots, linear in the nodes (walking up from each node to its root
+  // is quadratic on a deep chain).
+  std::vector<char> reached(nodes->size(), 0);
+  std::vector<int32_t> stack;
+  for (int32_t r = 0; r < n_nodes; ++r) {
+    if ((*nodes)[static_cast<size_t>(r)].parent != -1) continue;
+    stack.push_back(r);
+    while (!stack.empty()) {
+      const int32_t n = stack.back();
+      stack.pop_back();
+      reached[static_cast<size_t>(n)] = 1;
+      for (int32_t c : (*nodes)[static_cast<size_t>(n)].children) stack.push_back(c);
     }
+  }
+  for (int32_t i = 0; i < n_nodes; ++i) {
+    if (!reached[static_cast<size_t>(i)]) return "the node hierarchy has a cycle through or above node " + std::to_string(i);
   }
   return {};
 }
@@ -126,8 +145,8 @@ std::vector<int32_t> PreorderNodes(const std::vector<Node>& nodes, const std::ve
   return order;
 }
 
-// Keys with the same time as the previous one are merged (the later key wins), so times are
-// strictly increasing as Track requires; times must not decrease.
+// glTF 2.0 §3.11 (animation.sampler.schema.json): key times are >= 0 and strictly increasing;
+// a CUBICSPLINE sampler has at least two keys. A sampler that breaks either refuses the file.
 template <typename Value>
 std::string FillTrack(skinning::Interpolation interpolation, const std::vector<float>& times,
                       const std::vector<Value>& values, skinning::Track<Value>* track) {
@@ -136,25 +155,25 @@ std::string FillTrack(skinning::Interpolation interpolation, const std::vector<f
     return "a sampler has " + std::to_string(values.size()) + " output values for " + std::to_string(times.size()) +
            " key times";
   }
-  track->interpolation = interpolation;
-  track->times_s.clear();
-  track->values.clear();
+  if (per_key == 3 && times.size() < 2) return "a CUBICSPLINE sampler has fewer than two keys";
   for (size_t k = 0; k < times.size(); ++k) {
     if (!std::isfinite(times[k])) return "a sampler has a non-finite key time";
-    if (!track->times_s.empty() && times[k] < track->times_s.back()) return "a sampler's key times decrease";
-    if (!track->times_s.empty() && times[k] == track->times_s.back()) {
-      track->values.resize(track->values.size() - per_key);
-      track->times_s.pop_back();
+    if (k == 0 && times[k] < 0.0f) return "a sampler's first key time is negative (" + std::to_string(times[k]) + ")";
+    if (k > 0 && !(times[k] > times[k - 1])) {
+      return "a sampler's key times are not strictly increasing (key " + std::to_string(k) + ": " + std::to_string(times[k]) +
+             " after " + std::to_string(times[k - 1]) + ")";
     }
-    track->times_s.push_back(times[k]);
-    for (size_t e = 0; e < per_key; ++e) track->values.push_back(values[k * per_key + e]);
   }
+  track->interpolation = interpolation;
+  track->times_s = times;
+  track->values = values;
   return {};
 }
 
-std::string ReadClips(const GltfDocument& doc, const std::vector<int32_t>& joint_of_node,
+std::string ReadClips(const GltfDocument& doc, const std::vector<Node>& nodes, const std::vector<int32_t>& joint_of_node,
                       std::vector<skinning::AnimationClip>* clips) {
   const json& anims = ArrayOrEmpty(doc.json, "animations");
+  uint64_t keys = 0;  // over every clip and track, against kMaxAnimationKeys
   for (size_t a = 0; a < anims.size(); ++a) {
     const json& ja = anims[a];
     skinning::AnimationClip clip;
@@ -163,11 +182,21 @@ std::string ReadClips(const GltfDocument& doc, const std::vector<int32_t>& joint
     const std::string where = "animation " + std::to_string(a) + " '" + clip.name + "'";
     const json& samplers = ArrayOrEmpty(ja, "samplers");
     std::map<int32_t, size_t> track_of_joint;
+    std::set<std::pair<int64_t, std::string>> targets;
     for (const json& ch : ArrayOrEmpty(ja, "channels")) {
       if (!ch.contains("target")) continue;
       const json& target = ch["target"];
       const int64_t node = target.value("node", int64_t{-1});
       const std::string path = target.value("path", std::string());
+      // glTF 2.0 §3.11: within one animation a target (node and path) MUST NOT appear twice, and
+      // a node animated in translation, rotation or scale MUST NOT have a matrix.
+      if (target.contains("node") && !targets.emplace(node, path).second) {
+        return where + " animates node " + std::to_string(node) + " " + path + " twice";
+      }
+      if (node >= 0 && node < static_cast<int64_t>(nodes.size()) && nodes[static_cast<size_t>(node)].has_matrix &&
+          (path == "translation" || path == "rotation" || path == "scale")) {
+        return where + " animates the " + path + " of node " + std::to_string(node) + ", which has a matrix";
+      }
       // Tracks on nodes outside the skeleton (cameras, props not carrying a mesh, nodes not on a
       // path to a joint) cannot move the character and are dropped, as are morph "weights".
       if (node < 0 || node >= static_cast<int64_t>(joint_of_node.size())) continue;
@@ -188,6 +217,10 @@ std::string ReadClips(const GltfDocument& doc, const std::vector<int32_t>& joint
       if (std::string p = ReadAccessorFloats(doc, js.value("output", int64_t{-1}), components, &out); !p.empty()) return where + ": " + p;
       for (float v : out) {
         if (!std::isfinite(v)) return where + " has a non-finite " + path + " value";
+      }
+      keys += times.size();
+      if (keys > kMaxAnimationKeys) {
+        return "the animations hold more than " + std::to_string(kMaxAnimationKeys) + " keys (at most that many are read)";
       }
       auto [it, inserted] = track_of_joint.emplace(joint, clip.tracks.size());
       if (inserted) {
@@ -277,6 +310,7 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
   std::vector<char> needed(nodes.size(), 0);
   std::vector<std::vector<int32_t>> skin_joints(skins.size());
   std::vector<char> skin_used(skins.size(), 0);
+  std::vector<int64_t> in_skin(nodes.size(), -1);  // the last skin listing each node
   for (const MeshInstance& m : instances) {
     const int64_t s = nodes[static_cast<size_t>(m.node)].skin;
     if (s >= 0) skin_used[static_cast<size_t>(s)] = 1;
@@ -284,9 +318,14 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
   }
   for (size_t s = 0; s < skins.size(); ++s) {
     if (!skin_used[s]) continue;
+    // glTF 2.0 §3.7.3 (skin.schema.json): joints are unique node indices.
     for (const auto& jj : ArrayOrEmpty(skins[s], "joints")) {
       const int64_t joint = jj.get<int64_t>();
       if (joint < 0 || joint >= n_nodes) return invalid("skin " + std::to_string(s) + " lists joint node " + std::to_string(joint) + ", which does not exist");
+      if (in_skin[static_cast<size_t>(joint)] == static_cast<int64_t>(s)) {
+        return invalid("skin " + std::to_string(s) + " lists joint node " + std::to_string(joint) + " twice (glTF skin joints are unique)");
+      }
+      in_skin[static_cast<size_t>(joint)] = static_cast<int64_t>(s);
       skin_joints[s].push_back(static_cast<int32_t>(joint));
       needed[static_cast<size_t>(joint)] = 1;
     }
@@ -299,6 +338,11 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
     }
   }
 
+  const uint64_t joint_count = static_cast<uint64_t>(std::count(needed.begin(), needed.end(), 1));
+  if (joint_count > kMaxJoints) {
+    return invalid("the skeleton has " + std::to_string(joint_count) + " joints (nodes on the paths to the skins' joints); at most " +
+                   std::to_string(kMaxJoints) + " are read");
+  }
   RawCharacter c;
   std::vector<int32_t> joint_of_node(nodes.size(), -1);
   if (skinned_file) {
@@ -385,7 +429,9 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
       }
       const size_t n_verts = positions.size() / 3;
       const uint64_t first_vertex = c.skin.vertex_count();
-      if (first_vertex + n_verts >= static_cast<uint64_t>(INT32_MAX)) return invalid("more than 2^31 vertices");
+      if (first_vertex + n_verts > kMaxVertices) {
+        return invalid("more than " + std::to_string(kMaxVertices) + " vertices (at most that many are read)");
+      }
       if (prim.contains("indices")) {
         if (std::string e = ReadAccessorUints(doc, prim["indices"].get<int64_t>(), 1, &indices); !e.empty()) {
           return ImportError(ErrorCode::kFormatRejected, file, where + " indices: " + e);
@@ -458,6 +504,10 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
                                  static_cast<int>(first_vertex + indices[d]));
       };
       const size_t ni = indices.size();
+      const uint64_t new_triangles = mode == 4 ? ni / 3 : (ni >= 3 ? ni - 2 : 0);
+      if (c.triangles.size() + new_triangles > kMaxTriangles) {
+        return invalid("more than " + std::to_string(kMaxTriangles) + " triangles (at most that many are read)");
+      }
       if (mode == 4) {
         for (size_t t = 0; t + 2 < ni; t += 3) add(static_cast<uint32_t>(t), static_cast<uint32_t>(t + 1), static_cast<uint32_t>(t + 2));
       } else if (mode == 5) {
@@ -483,9 +533,44 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
   if (c.skin.influence_offsets.empty()) c.skin.influence_offsets.push_back(0);
 
   if (options.read_clips && skinned_file) {
-    if (std::string p = ReadClips(doc, joint_of_node, &c.clips); !p.empty()) return invalid(p);
+    if (std::string p = ReadClips(doc, nodes, joint_of_node, &c.clips); !p.empty()) return invalid(p);
   }
   return c;
+}
+
+std::string ReadGltfNodeTree(const GltfDocument& doc, skinning::Skeleton* out, std::vector<int32_t>* node_of_joint) {
+  std::vector<Node> nodes;
+  if (std::string p = ReadNodes(doc.json, &nodes); !p.empty()) return p;
+  std::vector<int32_t> scene_roots;
+  const json& scenes = ArrayOrEmpty(doc.json, "scenes");
+  const int64_t s = doc.json.value("scene", int64_t{0});
+  if (s >= 0 && s < static_cast<int64_t>(scenes.size())) {
+    for (const auto& r : ArrayOrEmpty(scenes[static_cast<size_t>(s)], "nodes")) {
+      const int64_t root = r.get<int64_t>();
+      if (root >= 0 && root < static_cast<int64_t>(nodes.size()) && nodes[static_cast<size_t>(root)].parent == -1) {
+        scene_roots.push_back(static_cast<int32_t>(root));
+      }
+    }
+  }
+  std::vector<int32_t> joint_of_node(nodes.size(), -1);
+  *out = skinning::Skeleton{};
+  node_of_joint->clear();
+  for (int32_t n : PreorderNodes(nodes, scene_roots)) {
+    const Node& node = nodes[static_cast<size_t>(n)];
+    joint_of_node[static_cast<size_t>(n)] = static_cast<int32_t>(out->size());
+    out->joint_names.push_back(node.name.empty() ? "node_" + std::to_string(n) : node.name);
+    out->parents.push_back(node.parent >= 0 ? joint_of_node[static_cast<size_t>(node.parent)] : -1);
+    out->rest_local.push_back(node.local);
+    node_of_joint->push_back(n);
+  }
+  return {};
+}
+
+std::string ReadGltfClips(const GltfDocument& doc, const std::vector<int32_t>& joint_of_node,
+                          std::vector<skinning::AnimationClip>* clips) {
+  std::vector<Node> nodes;  // which nodes have a matrix (a TRS channel on one is refused)
+  if (std::string p = ReadNodes(doc.json, &nodes); !p.empty()) return p;
+  return ReadClips(doc, nodes, joint_of_node, clips);
 }
 
 }  // namespace skinspheres::lib::detail

@@ -17,6 +17,10 @@ namespace skinspheres::lib::detail {
 // "<file>: <problem>" on one line (newlines in `problem` become spaces).
 Error ImportError(ErrorCode code, const std::filesystem::path& file, const std::string& problem);
 
+// The whole file; errors as ImportCharacter's (missing, not a regular file, larger than
+// kMaxCharacterFileBytes, unreadable, empty): runtime::ReadRegularFile.
+Result<std::vector<uint8_t>> ReadFileBytes(const std::filesystem::path& file);
+
 struct Influence {
   uint32_t bind = 0;   // index into SkinnedMesh::binds
   float weight = 0.0f; // as read; normalised by AppendVertex
@@ -44,5 +48,16 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
 
 // True when the bytes look like glTF 2.0 (GLB magic, or JSON with asset.version "2.x").
 bool LooksLikeGltf2(const std::filesystem::path& file, std::span<const uint8_t> bytes);
+
+// The glTF reader's node tree and clips, for the animation-file reader (clip_import.cc).
+// ReadGltfNodeTree: every node of the document as a skeleton, parents first (the default
+// scene's roots first, then any other root), names as in the file ("node_<i>" when unnamed);
+// node_of_joint[j] is joint j's glTF node index. ReadGltfClips: every animation, tracks on
+// joint_of_node[node] (channels on nodes mapped to -1 dropped), STEP/LINEAR/CUBICSPLINE kept.
+// Both return the problem (without the file name) or an empty string.
+struct GltfDocument;
+std::string ReadGltfNodeTree(const GltfDocument& doc, skinning::Skeleton* nodes, std::vector<int32_t>* node_of_joint);
+std::string ReadGltfClips(const GltfDocument& doc, const std::vector<int32_t>& joint_of_node,
+                          std::vector<skinning::AnimationClip>* clips);
 
 }  // namespace skinspheres::lib::detail

@@ -130,9 +130,10 @@ std::optional<Error> SphereSet::Validate() const {
   }
   for (size_t s = 0; s < n; ++s) {
     const std::string id = "sphere " + std::to_string(s);
-    if (!centers_rest[s].allFinite() || !std::isfinite(radii_rest[s]) || radii_rest[s] < 0.0f) {
-      return Invalid(id + " has a non-finite centre or a negative radius");
-    }
+    if (!centers_rest[s].allFinite() || !std::isfinite(radii_rest[s])) return Invalid(id + " has a non-finite centre or radius");
+    // A sphere owns at least one triangle and holds it: a radius of zero or less holds nothing
+    // (a set of zero radii came from zero inverse bind matrices and failed every frame).
+    if (!(radii_rest[s] > 0.0f)) return Invalid(id + " has radius " + std::to_string(radii_rest[s]) + " (must be > 0)");
     // The broad phase refuses magnitudes beyond 1e18 (its sums must stay finite): say so here.
     if (centers_rest[s].cwiseAbs().maxCoeff() > 1e18f || radii_fast[s] > 1e18f) {
       return Invalid(id + " lies beyond 1e18 units from the origin or is larger than that");
@@ -148,6 +149,26 @@ std::optional<Error> SphereSet::Validate() const {
   }
   for (uint32_t t : triangles) {
     if (t >= source_triangle_count) return Invalid("a sphere names triangle " + std::to_string(t) + " out of range");
+  }
+  // Every source triangle is owned by exactly one sphere: what makes a contact anywhere on the
+  // mesh visible to the broad phase (and what --verify checks). The lists then hold exactly
+  // source_triangle_count entries, compared before the per-triangle table is allocated (the count
+  // comes from the file).
+  if (n == 0) return Invalid("the set has no spheres");
+  if (triangles.size() != source_triangle_count) {
+    return Invalid("the spheres own " + std::to_string(triangles.size()) + " triangle entries for " +
+                   std::to_string(source_triangle_count) + " triangles (each must be owned by exactly one sphere)");
+  }
+  std::vector<uint32_t> owner(source_triangle_count, UINT32_MAX);
+  for (size_t s = 0; s < n; ++s) {
+    for (uint32_t k = triangle_offsets[s]; k < triangle_offsets[s + 1]; ++k) {
+      uint32_t& o = owner[triangles[k]];
+      if (o != UINT32_MAX) {
+        return Invalid("triangle " + std::to_string(triangles[k]) + " is owned by spheres " + std::to_string(o) + " and " +
+                       std::to_string(s) + " (each must be owned by exactly one)");
+      }
+      o = static_cast<uint32_t>(s);
+    }
   }
   for (size_t k = 0; k < influence_joints.size(); ++k) {
     if (influence_joints[k] >= joints) return Invalid("a sphere influence names joint out of range");

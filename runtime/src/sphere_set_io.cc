@@ -1,8 +1,11 @@
 #include "skinspheres/runtime/sphere_set_io.h"
 
-#include <fstream>
+#include <algorithm>
+#include <functional>
 #include <nlohmann/json.hpp>
-#include <sstream>
+#include <new>
+
+#include "skinspheres/runtime/file_io.h"
 
 namespace skinspheres::runtime {
 
@@ -132,11 +135,26 @@ std::vector<T> Numbers(const json& v, const std::string& where) {
   return out;
 }
 
+// The large arrays of version 2's "mesh", converted while the text is parsed (SetStream) and
+// dropped from the document; `seen` records which ones the file had.
+struct StreamedMesh {
+  std::vector<uint32_t> triangles, influence_offsets;
+  std::vector<float> positions, influence_weights;
+  std::vector<uint16_t> influence_binds;
+  std::vector<std::string> seen;
+};
+
 // Version 2's "mesh" (sphere_set.h): flat arrays; sizes and ranges are SphereSet::Validate()'s.
-void ReadMesh(const json& m, SphereSet* set) {
+void ReadMesh(const json& m, StreamedMesh&& streamed, SphereSet* set) {
   const std::string where = "$.mesh";
-  set->triangle_vertices = Numbers<uint32_t>(Field(m, "triangles", where), where + ".triangles");
-  const std::vector<float> positions = Numbers<float>(Field(m, "positions_bind", where), where + ".positions_bind");
+  if (!m.is_object()) throw ReadError{where + " is not an object"};
+  for (const char* key : {"triangles", "positions_bind", "influence_offsets", "influence_binds", "influence_weights"}) {
+    if (std::find(streamed.seen.begin(), streamed.seen.end(), key) == streamed.seen.end()) {
+      throw ReadError{where + "." + key + " is missing (or not an array)"};
+    }
+  }
+  set->triangle_vertices = std::move(streamed.triangles);
+  const std::vector<float>& positions = streamed.positions;
   if (positions.size() % 3 != 0) throw ReadError{where + ".positions_bind does not hold whole xyz triples"};
   skinning::SkinnedMesh& mesh = set->mesh;
   mesh.positions_bind.resize(positions.size() / 3);
@@ -152,12 +170,115 @@ void ReadMesh(const json& m, SphereSet* set) {
     for (int e = 0; e < 16; ++e) entry.inverse_bind.data()[e] = Number<float>(ibm[e], at + ".inverse_bind");
     mesh.binds.push_back(entry);
   }
-  mesh.influence_offsets = Numbers<uint32_t>(Field(m, "influence_offsets", where), where + ".influence_offsets");
-  mesh.influence_binds = Numbers<uint16_t>(Field(m, "influence_binds", where), where + ".influence_binds");
-  mesh.influence_weights = Numbers<float>(Field(m, "influence_weights", where), where + ".influence_weights");
+  mesh.influence_offsets = std::move(streamed.influence_offsets);
+  mesh.influence_binds = std::move(streamed.influence_binds);
+  mesh.influence_weights = std::move(streamed.influence_weights);
 }
 
-SphereSet Parse(const json& j) {
+// One element of "spheres", appended to the set's per-sphere arrays and CSR lists.
+void ParseSphere(const json& sp, size_t s, SphereSet* set) {
+  const std::string where = "$.spheres[" + std::to_string(s) + "]";
+  if (Number<uint32_t>(Field(sp, "id", where), where + ".id") != s) throw ReadError{where + ".id is not its index"};
+  set->sphere_part.push_back(Number<uint16_t>(Field(sp, "part", where), where + ".part"));
+  set->sphere_joint.push_back(Number<uint16_t>(Field(sp, "joint", where), where + ".joint"));
+  set->sphere_level.push_back(Number<uint16_t>(Field(sp, "level", where), where + ".level"));
+  const json& c = Array(Field(sp, "center", where), where + ".center", 3);
+  set->centers_rest.emplace_back(Number<float>(c[0], where + ".center"), Number<float>(c[1], where + ".center"),
+                                 Number<float>(c[2], where + ".center"));
+  set->radii_rest.push_back(Number<float>(Field(sp, "radius", where), where + ".radius"));
+  set->radii_fast.push_back(Number<float>(Field(sp, "radius_fast", where), where + ".radius_fast"));
+  for (const json& v : Array(Field(sp, "vertices", where), where + ".vertices")) {
+    set->vertices.push_back(Number<uint32_t>(v, where + ".vertices"));
+  }
+  set->vertex_offsets.push_back(static_cast<uint32_t>(set->vertices.size()));
+  for (const json& v : Array(Field(sp, "triangles", where), where + ".triangles")) {
+    set->triangles.push_back(Number<uint32_t>(v, where + ".triangles"));
+  }
+  set->triangle_offsets.push_back(static_cast<uint32_t>(set->triangles.size()));
+  for (const json& v : Array(Field(sp, "influences", where), where + ".influences")) {
+    const json& pair = Array(v, where + ".influences[]", 2);
+    set->influence_joints.push_back(Number<uint16_t>(pair[0], where + ".influences[][0]"));
+    set->influence_weights.push_back(Number<float>(pair[1], where + ".influences[][1]"));
+  }
+  set->influence_offsets.push_back(static_cast<uint32_t>(set->influence_joints.size()));
+}
+
+// One element of "excluded_pairs".
+void ParsePair(const json& pair, size_t k, SphereSet* set) {
+  const std::string where = "$.excluded_pairs[" + std::to_string(k) + "]";
+  const json& p = Array(pair, where, 3);
+  if (!p[2].is_string()) throw ReadError{where + "[2] is not a reason string"};
+  auto reason = ExclusionReasonFromString(p[2].get<std::string>());
+  if (!reason) throw ReadError{where + " has unknown reason \"" + p[2].get<std::string>() + "\""};
+  set->excluded_pairs.push_back({Number<uint32_t>(p[0], where), Number<uint32_t>(p[1], where), *reason});
+}
+
+// The parser callback of ReadSphereSetJson: each sphere, each excluded pair and each large "mesh"
+// array is converted as soon as the parser completes it and then dropped from the document, so the
+// document holds at most one of them at a time: reading peaks at about the text plus the set,
+// where the whole document would be several times the text. (Depths as nlohmann counts them: the
+// top object's members at 1, their elements at 2.)
+class SetStream {
+ public:
+  SetStream() {
+    set_.vertex_offsets = {0};
+    set_.triangle_offsets = {0};
+    set_.influence_offsets = {0};
+  }
+  bool operator()(int depth, json::parse_event_t event, json& parsed) {
+    using E = json::parse_event_t;
+    if (depth > 2) return true;
+    const size_t d = static_cast<size_t>(depth);
+    switch (event) {
+      case E::key:
+        key_[d] = parsed.get<std::string>();
+        return true;
+      case E::object_start:
+      case E::array_start:
+        array_[d] = event == E::array_start;
+        return true;
+      case E::object_end:
+        if (d == 2 && array_[1] && key_[1] == "spheres") {
+          ParseSphere(parsed, set_.size(), &set_);
+          return false;
+        }
+        return true;
+      case E::array_end:
+        if (d == 2 && array_[1] && key_[1] == "excluded_pairs") {
+          ParsePair(parsed, set_.excluded_pairs.size(), &set_);
+          return false;
+        }
+        if (d == 2 && !array_[1] && key_[1] == "mesh") return !TakeMeshArray(parsed);
+        return true;
+      case E::value:
+        return true;
+    }
+    return true;
+  }
+  SphereSet TakeSet() { return std::move(set_); }
+  StreamedMesh TakeMesh() { return std::move(mesh_); }
+
+ private:
+  bool TakeMeshArray(const json& a) {
+    const std::string& key = key_[2];
+    const std::string where = "$.mesh." + key;
+    if (key == "triangles") mesh_.triangles = Numbers<uint32_t>(a, where);
+    else if (key == "positions_bind") mesh_.positions = Numbers<float>(a, where);
+    else if (key == "influence_offsets") mesh_.influence_offsets = Numbers<uint32_t>(a, where);
+    else if (key == "influence_binds") mesh_.influence_binds = Numbers<uint16_t>(a, where);
+    else if (key == "influence_weights") mesh_.influence_weights = Numbers<float>(a, where);
+    else return false;  // "binds" (small): read from the document
+    mesh_.seen.push_back(key);
+    return true;
+  }
+  SphereSet set_;
+  StreamedMesh mesh_;
+  std::string key_[3];
+  bool array_[3] = {false, false, false};
+};
+
+// The rest of the document, once SetStream has taken the spheres, pairs and mesh arrays.
+SphereSet Parse(const json& j, SetStream&& stream) {
   if (!j.is_object()) throw ReadError{"the top level is not an object"};
   const json& format = Field(j, "format", "$");
   if (!format.is_string() || format.get<std::string>() != kSphereSetFormat) {
@@ -168,7 +289,7 @@ SphereSet Parse(const json& j) {
     throw ReadError{"version " + std::to_string(version) + " is not supported (this build reads versions " +
                     std::to_string(kSphereSetVersionWithoutMesh) + " and " + std::to_string(kSphereSetVersion) + ")"};
   }
-  SphereSet set;
+  SphereSet set = stream.TakeSet();
   const json& source = Field(j, "source", "$");
   const json& file = Field(source, "file", "$.source");
   if (!file.is_string()) throw ReadError{"$.source.file is not a string"};
@@ -205,65 +326,33 @@ SphereSet Parse(const json& j) {
     set.parts.push_back(std::move(part));
   }
 
-  const json& spheres = Array(Field(j, "spheres", "$"), "$.spheres");
-  set.vertex_offsets = {0};
-  set.triangle_offsets = {0};
-  set.influence_offsets = {0};
-  for (size_t s = 0; s < spheres.size(); ++s) {
-    const std::string where = "$.spheres[" + std::to_string(s) + "]";
-    const json& sp = spheres[s];
-    if (Number<uint32_t>(Field(sp, "id", where), where + ".id") != s) throw ReadError{where + ".id is not its index"};
-    set.sphere_part.push_back(Number<uint16_t>(Field(sp, "part", where), where + ".part"));
-    set.sphere_joint.push_back(Number<uint16_t>(Field(sp, "joint", where), where + ".joint"));
-    set.sphere_level.push_back(Number<uint16_t>(Field(sp, "level", where), where + ".level"));
-    const json& c = Array(Field(sp, "center", where), where + ".center", 3);
-    set.centers_rest.emplace_back(Number<float>(c[0], where + ".center"), Number<float>(c[1], where + ".center"),
-                                  Number<float>(c[2], where + ".center"));
-    set.radii_rest.push_back(Number<float>(Field(sp, "radius", where), where + ".radius"));
-    set.radii_fast.push_back(Number<float>(Field(sp, "radius_fast", where), where + ".radius_fast"));
-    for (const json& v : Array(Field(sp, "vertices", where), where + ".vertices")) {
-      set.vertices.push_back(Number<uint32_t>(v, where + ".vertices"));
-    }
-    set.vertex_offsets.push_back(static_cast<uint32_t>(set.vertices.size()));
-    for (const json& v : Array(Field(sp, "triangles", where), where + ".triangles")) {
-      set.triangles.push_back(Number<uint32_t>(v, where + ".triangles"));
-    }
-    set.triangle_offsets.push_back(static_cast<uint32_t>(set.triangles.size()));
-    for (const json& v : Array(Field(sp, "influences", where), where + ".influences")) {
-      const json& pair = Array(v, where + ".influences[]", 2);
-      set.influence_joints.push_back(Number<uint16_t>(pair[0], where + ".influences[][0]"));
-      set.influence_weights.push_back(Number<float>(pair[1], where + ".influences[][1]"));
-    }
-    set.influence_offsets.push_back(static_cast<uint32_t>(set.influence_joints.size()));
-  }
-
-  const json& pairs = Array(Field(j, "excluded_pairs", "$"), "$.excluded_pairs");
-  for (size_t k = 0; k < pairs.size(); ++k) {
-    const std::string where = "$.excluded_pairs[" + std::to_string(k) + "]";
-    const json& p = Array(pairs[k], where, 3);
-    if (!p[2].is_string()) throw ReadError{where + "[2] is not a reason string"};
-    auto reason = ExclusionReasonFromString(p[2].get<std::string>());
-    if (!reason) throw ReadError{where + " has unknown reason \"" + p[2].get<std::string>() + "\""};
-    set.excluded_pairs.push_back({Number<uint32_t>(p[0], where), Number<uint32_t>(p[1], where), *reason});
-  }
+  Array(Field(j, "spheres", "$"), "$.spheres");                // its elements went to SetStream
+  Array(Field(j, "excluded_pairs", "$"), "$.excluded_pairs");  // so did these
 
   if (version == kSphereSetVersionWithoutMesh) {
     if (j.contains("mesh")) throw ReadError{"$.mesh is not part of version 1"};
     return set;
   }
-  ReadMesh(Field(j, "mesh", "$"), &set);
+  ReadMesh(Field(j, "mesh", "$"), stream.TakeMesh(), &set);
   return set;
 }
 
 }  // namespace
 
 Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& source_name) {
-  json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) {
-    return MakeError(ErrorCode::kFormatRejected, source_name + ": not valid JSON (malformed or truncated)");
+  // Nesting checked first (file_io.h): the parse is iterative, a copy or a dump of a deep value
+  // (params is kept as text) is not.
+  if (const size_t depth = ScanJson(text).depth; depth > kMaxJsonDepth) {
+    return MakeError(ErrorCode::kFormatRejected, source_name + ": the JSON nests " + std::to_string(depth) +
+                                                     " deep (at most " + std::to_string(kMaxJsonDepth) + " is read)");
   }
   try {
-    SphereSet set = Parse(j);
+    SetStream stream;
+    json j = json::parse(text, std::ref(stream), /*allow_exceptions=*/false);
+    if (j.is_discarded()) {
+      return MakeError(ErrorCode::kFormatRejected, source_name + ": not valid JSON (malformed or truncated)");
+    }
+    SphereSet set = Parse(j, std::move(stream));
     if (auto err = set.Validate()) {
       return MakeError(ErrorCode::kInvalidData, source_name + ": " + err->message);
     }
@@ -273,28 +362,24 @@ Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& so
     return MakeError(version ? ErrorCode::kVersionMismatch : ErrorCode::kInvalidData, source_name + ": " + e.what);
   } catch (const json::exception& e) {
     return MakeError(ErrorCode::kInvalidData, source_name + ": " + e.what());
+  } catch (const std::bad_alloc&) {
+    return MakeError(ErrorCode::kFormatRejected, source_name + ": implausible sizes (out of memory while reading)");
   }
 }
 
 std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": cannot open for writing");
-  out << WriteSphereSetJson(set) << '\n';
-  out.close();
-  if (!out) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": write failed");
-  return std::nullopt;
+  // Checked through the close (file_io.h): a full disk is an error, never a truncated set.
+  CheckedFileWriter out(path);
+  out.Write(WriteSphereSetJson(set));
+  out.Write("\n");
+  return out.Close();
 }
 
 Result<SphereSet> LoadSphereSet(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    return MakeError(ErrorCode::kFileNotFound, path.string() + ": file not found");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return MakeError(ErrorCode::kFileUnreadable, path.string() + ": cannot be read");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return ReadSphereSetJson(text.str(), path.string());
+  // A regular file only, at most kMaxSphereSetBytes, refused from its size (file_io.h).
+  Result<std::string> text = ReadRegularFile(path, kMaxSphereSetBytes, "sphere set");
+  if (!text.ok()) return text.error();
+  return ReadSphereSetJson(*text, path.string());
 }
 
 }  // namespace skinspheres::runtime

@@ -1,35 +1,106 @@
-// skinspheres demo / skinspheres export-builtin OUT.glb
+// skinspheres demo / skinspheres export-builtin OUT.glb|OUT.fbx [--no-mesh] [--no-clips] [--joint-prefix P]
+#include <algorithm>
+#include <cctype>
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
+#include "html_page.h"
 #include "playback.h"
 #include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/clip_import.h"
 #include "skinspheres/lib/glb_exporter.h"
 
 namespace skinspheres::tool {
+namespace {
+
+struct ExportBuiltinArgs {
+  std::string output, joint_prefix;
+  bool no_mesh = false, no_clips = false;
+  float armature_scale = 1.0f;
+};
+
+// The same character as a rig in other units: the root joint scaled by s, every other joint's
+// translations (rest and keys) divided by s, inverse bind matrices from the new rest pose. The
+// world shape and motion do not change (as Mixamo's centimetre rigs under a 0.01 armature).
+void ScaleArmature(lib::RawCharacter& ch, float s) {
+  auto& sk = ch.skeleton;
+  for (size_t j = 0; j < sk.size(); ++j) {
+    if (sk.parents[j] < 0) {
+      sk.rest_local[j].scale *= s;
+    } else {
+      sk.rest_local[j].translation /= s;
+    }
+  }
+  for (auto& clip : ch.clips) {
+    for (auto& tr : clip.tracks) {
+      if (sk.parents[static_cast<size_t>(tr.joint)] >= 0) {
+        for (auto& v : tr.translation.values) v /= s;
+      }
+    }
+  }
+  std::vector<Mat4f> world(sk.size());
+  sk.RestWorld(world);
+  for (auto& b : ch.skin.binds) b.inverse_bind = world[static_cast<size_t>(b.joint)].inverse();
+  // The scaled root binds no vertex: drop its bind entry, so it is a plain node above the skin's
+  // joints (as an armature node is), not a joint of the skin.
+  auto& skin = ch.skin;
+  for (size_t b = skin.binds.size(); b-- > 0;) {
+    if (sk.parents[static_cast<size_t>(skin.binds[b].joint)] >= 0) continue;
+    if (std::find(skin.influence_binds.begin(), skin.influence_binds.end(), b) != skin.influence_binds.end()) continue;
+    skin.binds.erase(skin.binds.begin() + static_cast<std::ptrdiff_t>(b));
+    for (auto& k : skin.influence_binds) k = static_cast<uint16_t>(k > b ? k - 1 : k);
+  }
+}
+
+int RunExportBuiltin(const ExportBuiltinArgs& a) {
+  if (!(a.armature_scale > 0.0f) || !std::isfinite(a.armature_scale)) {
+    return Fail("--armature-scale must be a positive number (got " + std::to_string(a.armature_scale) + ")");
+  }
+  lib::RawCharacter ch = lib::MakeBuiltinCharacter();
+  if (a.armature_scale != 1.0f) ScaleArmature(ch, a.armature_scale);
+  if (a.no_mesh) ch = lib::WithoutMesh(std::move(ch));  // an animation-only file, as Mixamo's "without skin"
+  if (a.no_clips) ch.clips.clear();
+  for (auto& name : ch.skeleton.joint_names) name = a.joint_prefix + name;
+  std::string ext = std::filesystem::path(a.output).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  Result<lib::GlbExportSummary> written = MakeError(ErrorCode::kInvalidArgument, "");
+  if (ext == ".glb") {
+    written = lib::ExportGlb(ch, a.output);
+  } else if (ext == ".fbx") {
+    written = lib::ExportFbxAscii(ch, a.output);
+  } else {
+    return Fail(a.output + ": export-builtin writes .glb or .fbx (ASCII FBX 7.4), not \"" + ext + "\"");
+  }
+  if (!written.ok()) return Fail(written.error().message);
+  std::printf("wrote %s: %zu vertices, %zu triangles, %zu joints, %zu clips\n", a.output.c_str(), ch.vertex_count(),
+              ch.triangle_count(), ch.skeleton.size(), ch.clips.size());
+  return 0;
+}
+
+}  // namespace
 
 void AddExportBuiltinCommand(CLI::App& app, int* exit_code) {
-  auto out = std::make_shared<std::string>();
-  CLI::App* cmd = app.add_subcommand("export-builtin", "write the built-in character (mesh, skin, clips) as GLB");
-  cmd->add_option("output", *out, "GLB file to write")->required();
-  cmd->callback([out, exit_code] {
-    const lib::RawCharacter ch = lib::MakeBuiltinCharacter();
-    auto written = lib::ExportGlb(ch, *out);
-    if (!written.ok()) {
-      *exit_code = Fail(written.error().message);
-      return;
-    }
-    std::printf("wrote %s: %zu vertices, %zu triangles, %zu joints, %zu clips\n", out->c_str(), ch.vertex_count(),
-                ch.triangle_count(), ch.skeleton.size(), ch.clips.size());
-    *exit_code = 0;
-  });
+  auto args = std::make_shared<ExportBuiltinArgs>();
+  CLI::App* cmd = app.add_subcommand("export-builtin", "write the built-in character (mesh, skin, clips) as GLB or FBX");
+  cmd->add_option("output", args->output, "file to write: .glb, or .fbx (ASCII FBX 7.4)")->required();
+  cmd->add_flag("--no-mesh", args->no_mesh, "write the skeleton and clips only (an animation-only file, for play --clips)");
+  cmd->add_flag("--no-clips", args->no_clips, "write no animations (a character without clips)");
+  cmd->add_option("--joint-prefix", args->joint_prefix, "put this before every joint name (e.g. mixamorig:)");
+  cmd->add_option("--armature-scale", args->armature_scale,
+                  "scale the root joint by this and divide bone translations by it: the same shape as a rig in "
+                  "other units (0.01: centimetres under a metre armature)");
+  cmd->callback([args, exit_code] { *exit_code = RunExportBuiltin(*args); });
 }
 
 void AddDemoCommand(CLI::App& app, int* exit_code) {
   auto opts = std::make_shared<FitOptions>();
+  auto html = std::make_shared<std::string>((std::filesystem::temp_directory_path() / "skinspheres-demo.html").string());
   CLI::App* cmd = app.add_subcommand("demo", "fit the built-in character and play its clips");
   opts->AddTo(*cmd);
-  cmd->callback([opts, exit_code] {
+  cmd->add_option("--html", *html, "where to write the viewer page")->capture_default_str();
+  cmd->callback([opts, html, exit_code] {
     if (auto why = opts->Resolve()) {
       *exit_code = Fail(*why);
       return;
@@ -63,9 +134,12 @@ void AddDemoCommand(CLI::App& app, int* exit_code) {
       for (size_t k = 0; k < set.parts.size(); ++k) if (set.parts[k].name == "head") return static_cast<int>(k);
       return -1;
     }();
+    std::vector<PlayResult> kept;  // for the page
+    kept.reserve(loaded->character.clips.size());
     for (size_t c = 0; c < loaded->character.clips.size(); ++c) {
       PlayOptions play;
       play.verify = true;
+      play.keep_spheres = true;
       auto played = PlayClip(*loaded, set, c, play);
       if (!played.ok()) {
         *exit_code = Fail(played.error().message);
@@ -95,7 +169,16 @@ void AddDemoCommand(CLI::App& app, int* exit_code) {
         *exit_code = 1;
         return;
       }
+      kept.push_back(std::move(*played));
     }
+    ViewerPageInput page{&*loaded, &set, fit->report.seconds, {}, {}};
+    for (size_t c = 0; c < kept.size(); ++c) page.clips.push_back(ViewClip{&kept[c], c, PlayOptions{}.fps, false, {}});
+    if (auto err = WriteViewerPage(page, *html)) {
+      *exit_code = Fail(err->message);
+      return;
+    }
+    std::printf("\npage: %s (open it in a browser; it needs no server or network)\n",
+                std::filesystem::absolute(*html).string().c_str());
     *exit_code = 0;
   });
 }

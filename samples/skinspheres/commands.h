@@ -15,7 +15,8 @@ namespace skinspheres::tool {
 
 inline constexpr int kExitBadInput = 2;
 
-// Prints "skinspheres: <message>" on stderr and returns kExitBadInput.
+// Prints "skinspheres: <message>" on stderr, on one line (newlines become spaces), and returns
+// kExitBadInput.
 int Fail(const std::string& message);
 
 // A character to work on: a file (any format Assimp reads) or, with an empty path, the built-in one.

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -9,7 +10,11 @@
 namespace skinspheres::tool {
 
 int Fail(const std::string& message) {
-  std::cerr << "skinspheres: " << message << "\n";
+  // One line whatever the message holds (a file name or a set's source name may contain newlines).
+  std::string line = message;
+  std::replace(line.begin(), line.end(), '\n', ' ');
+  std::replace(line.begin(), line.end(), '\r', ' ');
+  std::cerr << "skinspheres: " << line << std::endl;
   return kExitBadInput;
 }
 

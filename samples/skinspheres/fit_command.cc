@@ -1,12 +1,13 @@
 // skinspheres fit INPUT -o OUT.json [--rays N] [--per-level 1|2|4] [--method m1|m2|m1a]
 //   [--overlap PD] [--step delta] [--parts parts.json] [--hops H] [--no-bind-overlap]
 //   [--refine N] [--no-tighten] [--split-gain G] [--target-standoff F] [--max-spheres N]
-//   [--compare] [--metrics]
+//   [--compare] [--metrics] [--html V.html]
 #include <algorithm>
 #include <cstdio>
 #include <memory>
 
 #include "commands.h"
+#include "html_page.h"
 #include "skinspheres/lib/metrics/fit_metrics.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 
@@ -16,6 +17,7 @@ namespace {
 struct FitArgs {
   std::string input;
   std::string output;
+  std::string html;
   bool compare = false;
   bool metrics = false;
   FitOptions fit;
@@ -129,6 +131,12 @@ int RunFit(FitArgs& args) {
     if (auto err = runtime::SaveSphereSet(fit->spheres, args.output)) return Fail(err->message);
     std::printf("wrote %s\n", args.output.c_str());
   }
+  if (!args.html.empty()) {
+    if (auto err = WriteViewerPage(ViewerPageInput{&*loaded, &fit->spheres, fit->report.seconds, {}, {}}, args.html)) {
+      return Fail(err->message);
+    }
+    std::printf("wrote %s\n", args.html.c_str());
+  }
   int code = 0;
   if (args.metrics) code = PrintMetrics(*loaded, *fit);
   if (args.compare) PrintComparison(*loaded, args.fit.settings);
@@ -144,6 +152,7 @@ void AddFitCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("-o,--output", args->output, "sphere-set JSON to write");
   cmd->add_flag("--compare", args->compare, "print the paper's comparison: F for M1, M2, M1-A at p = 1, 2, 4");
   cmd->add_flag("--metrics", args->metrics, "measure tightness: union volume / body volume, boundary distance");
+  cmd->add_option("--html", args->html, "write the viewer page: the bind pose, spheres by part, the loosest marked");
   args->fit.AddTo(*cmd);
   cmd->callback([args, exit_code] { *exit_code = RunFit(*args); });
 }

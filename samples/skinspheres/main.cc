@@ -5,7 +5,6 @@
 //   skinspheres export-builtin OUT.glb           write the built-in character as glTF
 #include <CLI/CLI.hpp>
 #include <exception>
-#include <iostream>
 
 #include "playback.h"
 
@@ -20,12 +19,13 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? 0 : skinspheres::tool::kExitBadInput;
+    // --help and --version: CLI11 prints them (exit 0). Every argument error is one line (CLI11's
+    // own exit() adds a second, "Run with --help ..."), exit 2.
+    if (e.get_exit_code() == 0) return app.exit(e);
+    return skinspheres::tool::Fail(e.what());
   } catch (const std::exception& e) {
     // Last line of defence (out of memory, a library throwing): one line, never an abort.
-    std::cerr << "skinspheres: " << e.what() << "\n";
-    return skinspheres::tool::kExitBadInput;
+    return skinspheres::tool::Fail(e.what());
   }
   return exit_code;
 }

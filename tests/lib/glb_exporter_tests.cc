@@ -6,12 +6,17 @@
 #include <assimp/scene.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstring>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <map>
 #include <set>
 
 #include "lib/clip_eval_for_tests.h"
 #include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/clip_import.h"
 #include "skinspheres/lib/importer.h"
 #include "test_support.h"
 
@@ -221,6 +226,148 @@ TEST(GlbExporter, AnimatedSpheresBecomeNodesWithTheirOwnClip) {
       EXPECT_NEAR(ch->mScalingKeys[f].mValue.z, e.w(), 1e-6f);
     }
   }
+}
+
+// Normals: every exported mesh carries unit normals. The head is an ellipsoid (semi-axes 0.085 x
+// 0.11 x 0.10, builtin_character.h), whose outward normal at a surface point p is known: the
+// gradient (x/a^2, y/b^2, z/c^2) about its centre. Away from the neck seam every head normal
+// must lie within a few degrees of it (smooth area-weighted normals of a fine tessellation).
+TEST(GlbExporter, MeshesCarryUnitNormalsThatFollowTheSurface) {
+  const auto path = ExportBuiltin("glb_exporter_normals");
+  AiScene in(path);
+  ASSERT_NE(in.scene, nullptr) << aiGetErrorString();
+  const aiMesh* head = nullptr;
+  for (unsigned m = 0; m < in.scene->mNumMeshes; ++m) {
+    const aiMesh* mesh = in.scene->mMeshes[m];
+    ASSERT_TRUE(mesh->HasNormals()) << mesh->mName.C_Str();
+    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+      const aiVector3D& n = mesh->mNormals[v];
+      ASSERT_NEAR(Vector3f(n.x, n.y, n.z).norm(), 1.0f, 1e-4f) << mesh->mName.C_Str() << " " << v;
+    }
+    if (std::string(mesh->mName.C_Str()) == "HeadMesh") head = mesh;
+  }
+  ASSERT_NE(head, nullptr);
+  Vector3f lo = Vector3f::Constant(1e9f), hi = Vector3f::Constant(-1e9f);
+  for (unsigned v = 0; v < head->mNumVertices; ++v) {
+    const Vector3f p(head->mVertices[v].x, head->mVertices[v].y, head->mVertices[v].z);
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Vector3f centre = 0.5f * (lo + hi), semi(0.085f, 0.11f, 0.10f);
+  EXPECT_LT(((hi - lo) * 0.5f - semi).cwiseAbs().maxCoeff(), 0.01f) << "the head is not the documented ellipsoid";
+  size_t checked = 0;
+  float worst = 0.0f;
+  for (unsigned v = 0; v < head->mNumVertices; ++v) {
+    const Vector3f p = Vector3f(head->mVertices[v].x, head->mVertices[v].y, head->mVertices[v].z) - centre;
+    if (p.y() < -0.5f * semi.y()) continue;  // the neck joins below
+    const Vector3f gradient = p.cwiseQuotient(semi.cwiseProduct(semi)).normalized();
+    const aiVector3D& n = head->mNormals[v];
+    worst = std::max(worst, std::acos(std::clamp(gradient.dot(Vector3f(n.x, n.y, n.z)), -1.0f, 1.0f)));
+    ++checked;
+  }
+  EXPECT_GT(checked, head->mNumVertices / 2);
+  EXPECT_LT(worst * 180.0f / 3.14159265f, 8.0f) << "largest angle to the ellipsoid's normal";
+}
+
+// extras.clip_name naming a character clip: the spheres move in that clip's animation, and no
+// extra animation is written.
+TEST(GlbExporter, AnimatedSpheresJoinTheNamedClip) {
+  GlbExtras extras;
+  extras.clip_name = "touch";
+  extras.frame_times_s = {0.0f, 1.0f, 2.0f, 3.0f};
+  for (int i = 0; i < 2; ++i) {
+    AnimatedSphere s;
+    for (int f = 0; f < 4; ++f) s.per_frame_xyzr.emplace_back(0.1f * i, 1.0f + 0.1f * f, 0.05f * f, 0.05f + 0.01f * f);
+    extras.spheres.push_back(s);
+  }
+  const auto path = ExportBuiltin("glb_exporter_spheres_in_clip", extras);
+  AiScene in(path);
+  ASSERT_NE(in.scene, nullptr) << aiGetErrorString();
+  const aiScene* s = in.scene;
+  EXPECT_EQ(s->mNumAnimations, Character().clips.size());
+  EXPECT_EQ(FindAnim(s, "spheres"), nullptr);
+  const aiAnimation* touch = FindAnim(s, "touch");
+  ASSERT_NE(touch, nullptr);
+  EXPECT_NE(FindChannel(touch, "LeftArm"), nullptr);  // the character's own channels stay
+  const double tps = touch->mTicksPerSecond > 0 ? touch->mTicksPerSecond : 1.0;
+  EXPECT_NEAR(touch->mDuration / tps, kTouchDuration_s, 1e-4);
+  for (int i = 0; i < 2; ++i) {
+    const aiNodeAnim* ch = FindChannel(touch, "sphere_" + std::to_string(i));
+    ASSERT_NE(ch, nullptr) << i;
+    ASSERT_EQ(ch->mNumPositionKeys, 4u);
+    for (int f = 0; f < 4; ++f) {
+      EXPECT_NEAR(ch->mPositionKeys[f].mTime / tps, extras.frame_times_s[f], 1e-5);
+      EXPECT_NEAR(ch->mPositionKeys[f].mValue.y, extras.spheres[i].per_frame_xyzr[f].y(), 1e-6f);
+      EXPECT_NEAR(ch->mScalingKeys[f].mValue.x, extras.spheres[i].per_frame_xyzr[f].w(), 1e-6f);
+    }
+    EXPECT_EQ(FindChannel(FindAnim(s, "walk"), "sphere_" + std::to_string(i)), nullptr);
+  }
+}
+
+// The in-memory export is the file's bytes, and names the node holding each mesh range.
+TEST(GlbExporter, MemoryExportIsTheFileAndNamesTheMeshNodes) {
+  const auto path = ExportBuiltin("glb_exporter_memory");
+  std::ifstream f(path, std::ios::binary);
+  const std::vector<uint8_t> file((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const auto blob = ExportGlbToMemory(Character(), "builtin");
+  ASSERT_TRUE(blob.ok()) << blob.error().message;
+  // Same JSON chunk and same bufferView bytes (Assimp 5.2.5 leaves the padding between
+  // bufferViews uninitialised, so two exports of one scene differ there, and only there).
+  ASSERT_EQ(blob->bytes.size(), file.size());
+  ASSERT_GT(file.size(), 28u);
+  uint32_t json_length = 0;
+  std::memcpy(&json_length, file.data() + 12, 4);
+  ASSERT_TRUE(std::equal(file.begin(), file.begin() + 20 + json_length, blob->bytes.begin()));
+  const auto gltf = nlohmann::json::parse(file.begin() + 20, file.begin() + 20 + json_length);
+  const size_t bin = 20 + json_length + 8;
+  for (const auto& view : gltf["bufferViews"]) {
+    const size_t begin = bin + view.value("byteOffset", size_t{0}), end = begin + view["byteLength"].get<size_t>();
+    ASSERT_LE(end, file.size());
+    EXPECT_TRUE(std::equal(file.begin() + begin, file.begin() + end, blob->bytes.begin() + begin));
+  }
+  ASSERT_EQ(blob->summary.mesh_node_names.size(), Character().meshes.size());
+  AiScene in(path);
+  ASSERT_NE(in.scene, nullptr);
+  for (size_t m = 0; m < Character().meshes.size(); ++m) {
+    const aiNode* node = in.scene->mRootNode->FindNode(blob->summary.mesh_node_names[m].c_str());
+    ASSERT_NE(node, nullptr) << blob->summary.mesh_node_names[m];
+    ASSERT_EQ(node->mNumMeshes, 1u);
+    EXPECT_EQ(in.scene->mMeshes[node->mMeshes[0]]->mNumFaces, Character().meshes[m].triangle_count);
+  }
+}
+
+// A skeleton with clips and no mesh (an animation-only file) exports and reads back as nodes and
+// animations.
+TEST(GlbExporter, SkeletonAndClipsWithoutAMesh) {
+  const RawCharacter c = WithoutMesh(MakeBuiltinCharacter());
+  const auto path = test::TempDir("glb_exporter_no_mesh") / "anim.glb";
+  const auto r = ExportGlb(c, path);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->mesh_count, 0u);
+  AiScene in(path);
+  ASSERT_NE(in.scene, nullptr) << aiGetErrorString();
+  EXPECT_EQ(in.scene->mNumMeshes, 0u);
+  EXPECT_EQ(in.scene->mNumAnimations, c.clips.size());
+  for (const auto& name : c.skeleton.joint_names) EXPECT_NE(in.scene->mRootNode->FindNode(name.c_str()), nullptr) << name;
+}
+
+// Repeated joint names (glTF allows them) get a suffix, and the file still plays the same.
+TEST(GlbExporter, RepeatedJointNamesAreMadeUnique) {
+  RawCharacter c = MakeBuiltinCharacter();
+  c.skeleton.joint_names[static_cast<size_t>(c.skeleton.Find("LeftFoot"))] = "RightFoot";
+  const auto path = test::TempDir("glb_exporter_repeated_names") / "twice.glb";
+  const auto r = ExportGlb(c, path);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const auto back = ImportCharacter(path);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_GE(back->skeleton.Find("RightFoot"), 0);
+  EXPECT_GE(back->skeleton.Find("RightFoot_2"), 0);
+  const auto& walk = c.clips[0];
+  const auto a = test::PoseAt(c, walk, 0.3f), b = test::PoseAt(*back, back->clips[0], 0.3f);
+  ASSERT_EQ(a.size(), b.size());
+  float worst = 0.0f;
+  for (size_t v = 0; v < a.size(); ++v) worst = std::max(worst, (a[v] - b[v]).norm());
+  EXPECT_LT(worst, 2e-4f);
 }
 
 TEST(GlbExporter, RefusesInconsistentInputWithAMessage) {

@@ -1,7 +1,7 @@
 # The command-line tool runs headless in CTest.
 set(tool $<TARGET_FILE:skinspheres>)
 
-add_test(NAME tool.demo COMMAND ${tool} demo)
+add_test(NAME tool.demo COMMAND ${tool} demo --html ${PROJECT_BINARY_DIR}/tool_demo.html)
 set_tests_properties(tool.demo PROPERTIES
   PASS_REGULAR_EXPRESSION "hands on the chest: [0-9]+ frames.*hands on the head: [0-9]+ frames"
   FAIL_REGULAR_EXPRESSION "outside their sphere \\(first")

@@ -1,5 +1,5 @@
-# play --frames 4 --export-glb: a GLB whose JSON chunk names a "spheres" animation and one node per
-# sphere ("sphere_<k>" or similar), next to the character's own clip.
+# play --frames 4 --export-glb: a GLB with one node per sphere ("sphere_<k>") whose channels are
+# part of the played clip's own animation (no separate animation), keyed at the clip times.
 if(NOT EXISTS ${ASSET})
   message(STATUS "asset absent: ${ASSET}")
   return()
@@ -10,15 +10,28 @@ execute_process(COMMAND ${TOOL} play ${ASSET} --frames 4 --export-glb ${DIR}/v.g
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "play --export-glb failed: ${rc}\n${out}")
 endif()
-string(REGEX MATCH "and ([0-9]+) animated spheres" m "${out}")
+string(REGEX MATCH "and ([0-9]+) animated spheres, in clip \"([^\"]*)\"" m "${out}")
 set(count ${CMAKE_MATCH_1})
-file(READ ${DIR}/v.glb head LIMIT 4 HEX)
-if(NOT head STREQUAL "676c5446")  # "glTF"
+set(clip ${CMAKE_MATCH_2})
+file(READ ${DIR}/v.glb head LIMIT 20 HEX)
+if(NOT head MATCHES "^676c5446")  # "glTF"
   message(FATAL_ERROR "not a GLB file")
 endif()
-file(STRINGS ${DIR}/v.glb json LIMIT_COUNT 1 LENGTH_MAXIMUM 100000000 REGEX "\"animations\"")
-string(REGEX MATCHALL "\"name\":\"spheres\"" clip "${json}")
-if(NOT clip OR NOT count GREATER 10)
-  message(FATAL_ERROR "no \"spheres\" animation in the GLB (count ${count})")
+# JSON chunk: length (little endian) at bytes 12..15, text from byte 20.
+string(SUBSTRING "${head}" 24 8 len_hex)
+string(REGEX REPLACE "(..)(..)(..)(..)" "\\4\\3\\2\\1" len_hex "${len_hex}")
+math(EXPR json_length "0x${len_hex}")
+file(READ ${DIR}/v.glb json OFFSET 20 LIMIT ${json_length})
+string(JSON animations LENGTH "${json}" animations)
+string(JSON name GET "${json}" animations 0 name)
+if(NOT animations EQUAL 1 OR NOT name STREQUAL clip)
+  message(FATAL_ERROR "expected one animation, \"${clip}\"; got ${animations}, the first \"${name}\"")
 endif()
-message(STATUS "exported ${count} animated spheres")
+# Its channels: translation, rotation and scale for every sphere node, besides the joints'.
+# (tests/lib/glb_exporter_tests.cc checks each channel's node and keys.)
+string(JSON channels LENGTH "${json}" animations 0 channels)
+math(EXPR needed "3 * ${count}")
+if(NOT count GREATER 10 OR channels LESS needed)
+  message(FATAL_ERROR "clip \"${clip}\": ${channels} channels for ${count} spheres")
+endif()
+message(STATUS "clip \"${clip}\" moves the character and its ${count} spheres (${channels} channels)")

@@ -2,11 +2,10 @@
 // joint (and so its triangles) moved to the named part. See body_parts.h and split_stages.h.
 #include <algorithm>
 #include <cctype>
-#include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <system_error>
 
+#include "skinspheres/runtime/file_io.h"
 #include "split_stages.h"
 
 namespace skinspheres::lib {
@@ -30,17 +29,17 @@ bool IsValidPartName(const std::string& name) {
 
 Result<PartOverrides> LoadPartOverrides(const std::filesystem::path& file, const skinning::Skeleton* skeleton) {
   const std::string name = file.string();
-  std::error_code ec;
-  if (!std::filesystem::exists(file, ec)) return MakeError(ErrorCode::kFileNotFound, name + ": file not found");
-  if (std::filesystem::is_directory(file, ec)) return MakeError(ErrorCode::kFileUnreadable, name + ": is a directory");
-  std::ifstream in(file, std::ios::binary);
-  if (!in) return MakeError(ErrorCode::kFileUnreadable, name + ": cannot open for reading");
-  std::stringstream buf;
-  buf << in.rdbuf();
-  if (in.bad()) return MakeError(ErrorCode::kFileUnreadable, name + ": read error");
+  // A regular file only (a FIFO would block, /dev/zero never ends), capped, and nested at most
+  // kMaxJsonDepth deep (runtime/file_io.h).
+  Result<std::string> text = runtime::ReadRegularFile(file, kMaxPartsFileBytes, "parts file");
+  if (!text.ok()) return text.error();
+  if (const size_t depth = runtime::ScanJson(*text).depth; depth > runtime::kMaxJsonDepth) {
+    return MakeError(ErrorCode::kFormatRejected, name + ": the JSON nests " + std::to_string(depth) + " deep (at most " +
+                                                     std::to_string(runtime::kMaxJsonDepth) + " is read)");
+  }
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(buf.str());
+    j = nlohmann::json::parse(*text);
   } catch (const nlohmann::json::exception& e) {
     return MakeError(ErrorCode::kFormatRejected, name + ": malformed JSON: " + e.what());
   }

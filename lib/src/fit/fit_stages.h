@@ -1,6 +1,7 @@
 // The stages of FitSpheres (fit/sphere_fitter.h), in the order it runs them. Internal to lib/.
 //
-//   0. ValidateFitInput                 fit_input.cc
+//   0. ValidateFitInput, then          validate_input.cc
+//      ValidateRestPose (on rest_world)
 //   1-3. FitPaperSpheres, per part:     part_spheres.cc (§4.1 disk traversal: fit/disk_traversal.h;
 //        §4.2 and §4.4 LevelSpheres, §4.3 SelectLevels: level_spheres.cc)
 //   4. AssignOwnership (and refine)     ownership.cc
@@ -24,6 +25,7 @@
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/geometry/enclosing_sphere.h"
 #include "skinspheres/skinning/math_types.h"
+#include "skinspheres/skinning/parallel_for.h"
 
 namespace skinspheres::lib {
 
@@ -36,6 +38,20 @@ inline std::string CharacterName(const RawCharacter& ch) {
 // coordinates within 1e18) and the parts (they partition the triangles, name existing joints).
 // Messages name the character (the settings' begin with "fit settings: ").
 std::optional<Error> ValidateFitInput(const RawCharacter& ch, const BodyParts& parts, const FitSettings& settings);
+// 0. Then the rest pose (`rest_world`: the skeleton's rest world transforms), refused as degenerate
+// (kInvalidData, "<character>: degenerate rest pose: <why>") when nothing can be fitted to it or the
+// runtime could not refit what would be: a joint whose rest transform is singular, a skinned vertex
+// whose rest skinning matrix is singular, or a mesh with no extent or no height.
+std::optional<Error> ValidateRestPose(const RawCharacter& ch, std::span<const Mat4f> rest_world);
+
+// f(k) for every k in [0, n), in parallel through the library's ParallelFor (TBB by default; a
+// ThreadSanitizer build swaps in threads the checker can see). Each call writes only its own slots.
+template <typename F>
+void ParallelIndices(size_t n, F f) {
+  DefaultParallelFor()(n, 1, [&f](size_t begin, size_t end) {
+    for (size_t k = begin; k < end; ++k) f(k);
+  });
+}
 
 // One sphere of a part before ownership.
 struct CandidateSphere {

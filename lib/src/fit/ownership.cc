@@ -1,7 +1,5 @@
 // Stage 4 of the fitter, beyond the paper (safety): every triangle owned by exactly one sphere of
 // its part, then Lloyd-style refinement. See fit_stages.h.
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -17,7 +15,7 @@ namespace {
 // smallest radius (ties: lowest index). Spheres with a negative radius are out. Parts in parallel.
 void AssignToNearest(const RawCharacter& ch, const BodyParts& parts, std::span<const uint32_t> part_first,
                      std::span<const Ball> balls, std::vector<int32_t>* owner) {
-  tbb::parallel_for(size_t{0}, parts.parts.size(), [&](size_t k) {
+  ParallelIndices(parts.parts.size(), [&](size_t k) {
     for (uint32_t t : parts.parts[k].triangles) {
       const Eigen::Vector3f& p0 = ch.positions_rest[ch.triangles[t][0]];
       const Eigen::Vector3f& p1 = ch.positions_rest[ch.triangles[t][1]];
@@ -62,7 +60,7 @@ void MoveToOwnedBalls(const RawCharacter& ch, std::span<const int32_t> owner, Un
   for (size_t s = 0; s < n; ++s) {
     pts[s] = unique.Positions(ch.positions_rest, std::span(by_owner).subspan(first[s], first[s + 1] - first[s]));
   }
-  tbb::parallel_for(size_t{0}, n, [&](size_t s) {
+  ParallelIndices(n, [&](size_t s) {
     if (pts[s].empty()) {
       (*balls)[s].radius = -1.0f;
     } else {
@@ -82,7 +80,7 @@ void RecentreOnOwned(const RawCharacter& ch, UniqueVertices& unique, OwnedSphere
     pts[s].reserve(ids.size());
     for (uint32_t v : ids) pts[s].push_back(ch.positions_rest[v]);
   }
-  tbb::parallel_for(size_t{0}, n, [&](size_t s) {
+  ParallelIndices(n, [&](size_t s) {
     if (!owned->triangles[s].empty()) owned->spheres[s].ball.center = MinimumBall(pts[s]).center;
   });
 }

@@ -1,7 +1,5 @@
 // Stages 1-3 of the fitter, per body part: the disk's path and traversal (paper §4.1, §5), then
 // each level's spheres and the levels kept (level_spheres.cc). See fit_stages.h.
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <optional>
 
@@ -57,7 +55,7 @@ Result<PartSpheres> FitPartSpheres(const RawCharacter& ch, const BodyPart& part,
 Result<std::vector<PartSpheres>> FitPaperSpheres(const RawCharacter& ch, const BodyParts& parts,
                                                  std::span<const Mat4f> rest_world, const FitSettings& settings) {
   std::vector<std::optional<Result<PartSpheres>>> fitted(parts.parts.size());
-  tbb::parallel_for(size_t{0}, parts.parts.size(), [&](size_t k) {
+  ParallelIndices(parts.parts.size(), [&](size_t k) {
     fitted[k] = FitPartSpheres(ch, parts.parts[k], rest_world, settings);
   });
   std::vector<PartSpheres> out;

@@ -13,6 +13,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   if (auto error = ValidateFitInput(ch, parts, settings)) return *error;
   std::vector<Mat4f> rest_world(ch.skeleton.size());
   ch.skeleton.RestWorld(rest_world);
+  if (auto error = ValidateRestPose(ch, rest_world)) return *error;
 
   // 1-3. The paper's spheres, part by part.
   auto paper = FitPaperSpheres(ch, parts, rest_world, settings);

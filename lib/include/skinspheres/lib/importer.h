@@ -34,20 +34,50 @@
 //   glTF features we do not read: Draco/meshopt compression),
 //   kInvalidData (no triangles, NaN/Inf positions or matrices, skin weights summing to zero or
 //   negative, joint index out of range (only where its weight is > 0), index out of range).
-// Never throws; never crashes on malformed input.
+// Never throws; never crashes on malformed input; no recursion whose depth the file decides, and
+// work on the node tree is linear in its size (in our glTF reader; Assimp's readers are Assimp's).
+//
+// Limits (docs/LIMITS.md): a file beyond one is refused (kFormatRejected, or kInvalidData for
+// the counts), naming the limit, before the memory it would need is allocated where the size is
+// known up front. Only regular files are read (a FIFO, device, socket or directory is refused
+// without reading: kFileUnreadable).
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
+#include <span>
 
 #include "skinspheres/lib/raw_character.h"
 #include "skinspheres/runtime/error.h"
 
 namespace skinspheres::lib {
 
+// The character file itself, and a .gltf's external buffer files together.
+inline constexpr uint64_t kMaxCharacterFileBytes = uint64_t{1} << 30;     // 1 GiB
+inline constexpr uint64_t kMaxGltfExternalBufferBytes = uint64_t{1} << 30;  // 1 GiB
+// glTF JSON: nesting depth (runtime::kMaxJsonDepth, 128) and values (arrays, objects and the
+// separators between values), which bound the parsed document's memory (~100 bytes a value).
+inline constexpr uint64_t kMaxGltfJsonValues = uint64_t{1} << 23;  // 8,388,608
+// One accessor: count x components values (a 100 MB buffer of bytes must not become 400 MB of floats
+// without a check).
+inline constexpr uint64_t kMaxAccessorValues = uint64_t{1} << 27;  // 134,217,728
+// The character: vertices, triangles, skeleton joints (nodes on a path from a root to a joint),
+// and animation keys over every clip and track.
+inline constexpr uint64_t kMaxVertices = uint64_t{1} << 24;       // 16,777,216
+inline constexpr uint64_t kMaxTriangles = uint64_t{1} << 25;      // 33,554,432
+inline constexpr uint64_t kMaxJoints = 4096;
+inline constexpr uint64_t kMaxAnimationKeys = uint64_t{1} << 24;  // 16,777,216
+
 struct ImportOptions {
   bool read_clips = true;  // false: skip animations (faster, clips stays empty)
 };
 
 Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const ImportOptions& options = {});
+
+// The same for a glTF 2.0 / GLB file already in memory (a pack file, a fuzzer): our glTF reader
+// only (Assimp's readers open their own files). `name` names the file in messages, and external
+// buffer uris are looked for beside it.
+Result<RawCharacter> ImportGltfBytes(std::span<const uint8_t> bytes, const std::filesystem::path& name,
+                                     const ImportOptions& options = {});
 
 }  // namespace skinspheres::lib

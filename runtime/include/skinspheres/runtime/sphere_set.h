@@ -102,7 +102,8 @@ struct SphereSet {
   size_t size() const { return centers_rest.size(); }
   bool has_mesh() const { return !triangle_vertices.empty(); }
   size_t joint_count() const { return joint_names.size(); }
-  // Every reason the set is inconsistent (sizes, offsets, index ranges, NaNs, pair order; with a
+  // Every reason the set is inconsistent (no spheres, a radius <= 0, a triangle owned by no sphere
+  // or by two, sizes, offsets, index ranges, NaNs, pair order; with a
   // mesh: its sizes, indices, finite values, and each sphere's vertices covering its triangles');
   // std::nullopt when it is sound.
   std::optional<Error> Validate() const;

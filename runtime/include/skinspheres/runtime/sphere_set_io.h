@@ -19,6 +19,7 @@
 // that fails SphereSet::Validate(), with a message naming the file and the problem.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 
@@ -30,7 +31,12 @@ namespace skinspheres::runtime {
 std::string WriteSphereSetJson(const SphereSet& set);
 Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& source_name = "<memory>");
 
-// Files: errors name the path.
+// Files: errors name the path. Saving checks every write through the close. Loading reads only a
+// regular file (a FIFO or device is refused without reading) of at most kMaxSphereSetBytes,
+// refused from its size; JSON nested deeper than kMaxJsonDepth (file_io.h) is refused before
+// parsing. Reading streams the spheres, pairs and mesh arrays out of the parsed document as they
+// complete: it peaks at about the text plus the set (docs/LIMITS.md has the figures).
+inline constexpr uint64_t kMaxSphereSetBytes = uint64_t{512} << 20;  // 512 MiB
 std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path);
 Result<SphereSet> LoadSphereSet(const std::filesystem::path& path);
 

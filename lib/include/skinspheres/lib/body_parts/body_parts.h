@@ -87,9 +87,11 @@ struct PartOverrides {
 
 // Reads {"joint name": "part name", ...}. Part names must be torso, head, arm_l, arm_r, leg_l,
 // leg_r or chain_<k>. With a skeleton, every joint name must exist in it.
-// Errors name the file: kFileNotFound, kFileUnreadable, kFormatRejected (malformed JSON, not an
-// object, a value that is not a string), kNotFound (unknown joint), kInvalidArgument (unknown
-// part name).
+// Errors name the file: kFileNotFound, kFileUnreadable (also a FIFO, device or directory: only a
+// regular file is read), kFormatRejected (larger than kMaxPartsFileBytes, nested deeper than
+// runtime::kMaxJsonDepth, malformed JSON, not an object, a value that is not a string),
+// kNotFound (unknown joint), kInvalidArgument (unknown part name).
+inline constexpr uint64_t kMaxPartsFileBytes = uint64_t{16} << 20;  // 16 MiB
 Result<PartOverrides> LoadPartOverrides(const std::filesystem::path& file,
                                         const skinning::Skeleton* skeleton = nullptr);
 

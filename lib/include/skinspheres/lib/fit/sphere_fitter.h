@@ -4,7 +4,9 @@
 //
 // The stages, in the order FitSpheres runs them (each in its own file under lib/src/fit/):
 //  0. Validate the input: settings, skeleton, triangle indices, finite coordinates within 1e18,
-//     parts that partition the triangles and name existing joints.
+//     parts that partition the triangles and name existing joints; then the rest pose, refused
+//     as degenerate when a joint's rest transform or a skinned vertex's rest skinning matrix is
+//     singular (the runtime inverts them) or the mesh has no extent or no height.
 // Per part (torso, head, arms, legs, or chains), parts in parallel:
 //  1. Disk traversal (§4.1, §5; disk_traversal.h): Nr rays, step δ = step × the part's path length.
 //  2. Spheres per level (§4.2-4.4): the level's contact points are split into p contiguous angular
@@ -124,8 +126,8 @@ struct FitResult {
 };
 
 // Fits the character. Errors, each message naming the character (or "fit settings"):
-// kInvalidArgument (settings), kInvalidData (an invalid character, parts that do not belong to it,
-// or a fitted set that fails SphereSet::Validate), kCheckFailed (the bind-pose check found a
+// kInvalidArgument (settings), kInvalidData (an invalid character, a degenerate rest pose, parts
+// that do not belong to it, or a fitted set that fails SphereSet::Validate), kCheckFailed (the bind-pose check found a
 // triangle outside its sphere: a bug, reported rather than hidden).
 Result<FitResult> FitSpheres(const RawCharacter& character, const BodyParts& parts, const FitSettings& settings);
 

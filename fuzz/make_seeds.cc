@@ -1,0 +1,74 @@
+// Writes the seed corpus of the fuzz targets into fuzz/corpus/<target>/ (the folder given as the
+// only argument, normally fuzz/corpus): small valid inputs from the tests' tiny glTF writer,
+// so the fuzzers start from files that go deep into the readers. Deterministic: the same files
+// every run. Usage: build/fuzz/fuzz_make_seeds fuzz/corpus
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <span>
+
+#include "skinspheres/lib/body_parts/body_parts.h"
+#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/runtime/sphere_set_io.h"
+#include "tiny_gltf.h"
+
+namespace {
+
+using namespace skinspheres;
+using lib::json;
+
+void Save(const std::filesystem::path& file, const std::string& bytes) {
+  std::filesystem::create_directories(file.parent_path());
+  std::ofstream(file, std::ios::binary) << bytes;
+  std::printf("%s (%zu bytes)\n", file.c_str(), bytes.size());
+}
+
+std::string FitJson(const std::string& gltf, bool tighten) {
+  const auto c = lib::ImportGltfBytes(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(gltf.data()), gltf.size()), "seed.gltf");
+  if (!c.ok()) return "";
+  const auto parts = lib::SplitBodyParts(*c);
+  if (!parts.ok()) return "";
+  lib::FitSettings settings;
+  settings.rays = 8;
+  settings.tighten = tighten;
+  const auto fit = lib::FitSpheres(*c, *parts, settings);
+  return fit.ok() ? runtime::WriteSphereSetJson(fit->spheres) : "";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: fuzz_make_seeds <corpus folder>\n");
+    return 2;
+  }
+  const std::filesystem::path out(argv[1]);
+  lib::TinyOptions anim;
+  anim.animations = true;
+  lib::TinyOptions strip;
+  strip.skinned = false;
+  strip.mode = 5;
+  lib::TinyOptions sparse;
+  sparse.edit = [](lib::TinyGltf& t) {
+    const float moved[3] = {2, 0.5f, 0};
+    t.MakeSparse(0, {1}, 5121, moved, sizeof moved);
+  };
+  const std::pair<const char*, lib::TinyOptions> cases[] = {{"tiny", {}}, {"anim", anim}, {"strip", strip}, {"sparse", sparse}};
+  for (const auto& [name, options] : cases) {
+    const json j = lib::MakeTiny(options);
+    Save(out / "gltf" / (std::string(name) + ".gltf"), j.dump());
+    Save(out / "gltf" / (std::string(name) + ".glb"), lib::ToGlb(j));
+  }
+  Save(out / "sphere_set" / "tiny.spheres.json", FitJson(lib::MakeTiny(anim).dump(), true));
+  Save(out / "sphere_set" / "tiny_untightened.spheres.json", FitJson(lib::MakeTiny({}).dump(), false));
+  // The fit target decodes any bytes into a character: seeds of a few sizes, from a fixed seed.
+  std::mt19937 rng(20240601);
+  for (size_t size : {64, 160, 320, 640}) {
+    std::string bytes(size, '\0');
+    for (char& b : bytes) b = static_cast<char>(rng());
+    Save(out / "fit" / ("random_" + std::to_string(size) + ".bin"), bytes);
+  }
+  return 0;
+}

@@ -1,0 +1,79 @@
+// Whole-file reading and checked writing for paths a user hands in (untrusted), and the JSON
+// nesting check every JSON reader runs before parsing.
+//
+// Reading refuses, before it reads a byte, anything that is not a regular file: a directory, a
+// FIFO (it would block until a writer came), a device (/dev/zero never ends) or a socket. The
+// file is opened non-blocking, so a FIFO is refused at once rather than waited on. A file larger
+// than the caller's limit is refused from its size, before anything is allocated, and again if it
+// grows past the limit while being read (/proc files report size 0).
+//
+// Writing checks every write, the flush and the close (a full disk or /dev/full fails at the
+// flush or the close, never silently), and reports the first failure in one line.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "skinspheres/runtime/error.h"
+
+namespace skinspheres::runtime {
+
+// The whole of the regular file at `path`, at most `max_bytes` long. `what` names the kind of
+// file in the size message ("a sphere set may be at most ... bytes"). Errors are one line
+// "<path>: <problem>": kFileNotFound (missing), kFileUnreadable (a directory, FIFO, device or
+// socket; no permission; an I/O error), kFormatRejected (larger than max_bytes).
+Result<std::string> ReadRegularFile(const std::filesystem::path& path, uint64_t max_bytes,
+                                    std::string_view what = "file");
+
+// The first `length` bytes of the regular file at `path` (a glTF's external buffer: the file
+// may be longer). Refuses what ReadRegularFile refuses; kFormatRejected when the file is shorter
+// (checked from its size before anything is allocated).
+Result<std::vector<uint8_t>> ReadRegularFilePrefix(const std::filesystem::path& path, uint64_t length);
+
+// Creates or truncates `path` and writes `bytes` to it, checked through the close. Error
+// (kFileUnreadable): "<path>: cannot open for writing (reason)" or "<path>: write failed (reason)".
+// A failed write may leave a partial file: the path is never deleted (it may be a device).
+std::optional<Error> WriteWholeFile(const std::filesystem::path& path, std::string_view bytes);
+
+// A file written piece by piece (one JSON line per frame, ...), checked like WriteWholeFile:
+// Write() after a failure does nothing; Close() returns the first failure (open, write, flush or
+// close). Destroying an open writer closes it and drops any error: call Close().
+class CheckedFileWriter {
+ public:
+  explicit CheckedFileWriter(const std::filesystem::path& path);
+  CheckedFileWriter(const CheckedFileWriter&) = delete;
+  CheckedFileWriter& operator=(const CheckedFileWriter&) = delete;
+  ~CheckedFileWriter();
+
+  bool ok() const { return !error_.has_value(); }
+  // Appends `bytes` (buffered). False once any step has failed.
+  bool Write(std::string_view bytes);
+  // Flushes and closes; the first failure of any step, or std::nullopt when all went through.
+  std::optional<Error> Close();
+
+ private:
+  void FailWith(const char* step, int errno_value);
+  std::filesystem::path path_;
+  std::FILE* file_ = nullptr;
+  std::optional<Error> error_;
+};
+
+// The shape of JSON text, from one linear pass that skips strings (escapes included), with no
+// recursion, whatever the text (malformed text gives some shape; the parser then refuses it):
+// the deepest nesting of arrays and objects, and `values`: the arrays, objects and commas, at
+// least half the number of values and at most their number plus one. nlohmann::json parses deep text without recursion
+// but copies, compares and dumps it recursively, and holds ~100 bytes per value: a reader checks
+// both before parsing.
+struct JsonShape {
+  size_t depth = 0;
+  uint64_t values = 0;  // arrays + objects + commas outside strings
+};
+JsonShape ScanJson(std::string_view text);
+inline constexpr size_t kMaxJsonDepth = 128;
+
+}  // namespace skinspheres::runtime

@@ -1,0 +1,40 @@
+# Bad input to the tool, each case: exit code 2, one line on stderr naming the problem, nothing
+# claimed written (tests/scripts/cli_error.cmake). No shared character needed: the built-in one
+# is exported and fitted in the test's folder.
+set(cli_cases
+  # Argument errors (CLI11's own messages, one line instead of two).
+  "frames_not_integer|play|@GLB@|--frames|3.5|--frames"
+  "fps_not_number|play|@GLB@|--fps|abc|--fps"
+  "rays_nan|fit|@GLB@|--rays|nan|--rays"
+  "unknown_flag|play|@GLB@|--no-such-flag|--no-such-flag"
+  "no_subcommand||subcommand"
+  "missing_input|fit|input"
+  # Failed writes, including at the close (/dev/full fails the flush).
+  "dump_full|play|@GLB@|--frames|3|--dump|/dev/full|/dev/full: write failed"
+  "report_full|play|@GLB@|--frames|3|--report|/dev/full|/dev/full: write failed"
+  "export_glb_full|play|@GLB@|--frames|3|--export-glb|/dev/full|/dev/full: write failed"
+  "fit_output_full|fit|@GLB@|-o|/dev/full|/dev/full: write failed"
+  "export_builtin_full|export-builtin|@FULL_GLB@|full.glb: write failed"
+  "dump_no_dir|play|@GLB@|--frames|3|--dump|/nonexistent-dir/x.jsonl|cannot open for writing"
+  # Files that are not regular files: refused at once, never read (a FIFO used to block forever,
+  # /dev/zero to read until memory ran out).
+  "input_fifo|fit|@FIFO@|FIFO"
+  "spheres_fifo|play|@GLB@|--spheres|@FIFO@|FIFO"
+  "parts_fifo|fit|@GLB@|--parts|@FIFO@|FIFO"
+  "input_dev_zero|fit|/dev/zero|device"
+  "spheres_dev_zero|play|@GLB@|--spheres|/dev/zero|device"
+  "parts_dev_zero|fit|@GLB@|--parts|/dev/zero|device"
+  # A sphere set nested 100,000 deep (it crashed play with SIGSEGV).
+  "spheres_deep|play|@GLB@|--spheres|@DEEP@|nests 100002 deep"
+)
+foreach(case ${cli_cases})
+  string(REPLACE "|" ";" fields "${case}")
+  list(GET fields 0 name)
+  list(GET fields -1 needle)
+  list(REMOVE_AT fields 0 -1)
+  string(REPLACE ";" "|" args "${fields}")
+  add_test(NAME tool.cli_error.${name}
+    COMMAND ${CMAKE_COMMAND} -DTOOL=$<TARGET_FILE:skinspheres> "-DARGS=${args}" "-DNEEDLE=${needle}"
+            -DDIR=${PROJECT_BINARY_DIR}/test_tmp/cli_error_${name} -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/cli_error.cmake)
+  set_tests_properties(tool.cli_error.${name} PROPERTIES TIMEOUT 300)
+endforeach()
