@@ -1,10 +1,11 @@
 # skinspheres_warnings(<target>): the project's warning flags (errors with SKINSPHERES_WERROR).
 #
-# skinspheres_library(<folder> [PUBLIC_DEPS <targets...>] [PRIVATE_DEPS <targets...>])
+# skinspheres_library(<folder> EXPORT <export set> [PUBLIC_DEPS <targets...>] [PRIVATE_DEPS <targets...>])
 # One library per top-level folder: sources are <folder>/src/**/*.cc (stage subfolders included),
 # public headers live in <folder>/include/skinspheres/<folder>/ (subfolders mirror src/), built as
-# skinspheres_<folder> and exported as skinspheres::<folder>. PUBLIC_DEPS are linked publicly
-# (their headers appear in ours), PRIVATE_DEPS privately.
+# skinspheres_<folder> and exported as skinspheres::<folder> in the given export set (one per package
+# component, see the top-level CMakeLists.txt). PUBLIC_DEPS are linked publicly (their headers appear
+# in ours), PRIVATE_DEPS privately.
 function(skinspheres_warnings target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow)
   if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")  # clang (fuzz builds) has no such warning
@@ -16,18 +17,19 @@ function(skinspheres_warnings target)
 endfunction()
 
 function(skinspheres_library name)
-  cmake_parse_arguments(ARG "" "" "PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "EXPORT" "PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
   file(GLOB_RECURSE sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/src/*.cc)
   add_library(skinspheres_${name} ${sources})
   add_library(skinspheres::${name} ALIAS skinspheres_${name})
   set_target_properties(skinspheres_${name} PROPERTIES OUTPUT_NAME skinspheres_${name} EXPORT_NAME ${name})
   target_include_directories(skinspheres_${name} PUBLIC
     $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+    $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/generated/include>
     $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
   target_link_libraries(skinspheres_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
   target_compile_features(skinspheres_${name} PUBLIC cxx_std_20)
   skinspheres_warnings(skinspheres_${name})
-  install(TARGETS skinspheres_${name} EXPORT skinspheresTargets
+  install(TARGETS skinspheres_${name} EXPORT ${ARG_EXPORT}
     ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
     LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
     RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})

@@ -563,7 +563,7 @@
     clips.forEach(function (c) {
       var info = c.info;
       rows.push('<tr><td>' + esc(info.name) + '</td><td class="num">' + info.frames + ' frames at ' + fmt(info.fps, 0) + ' fps, ' + info.mode + ' refit</td></tr>');
-      ['sample', 'skin', 'refit', 'query'].forEach(function (stage) {
+      ['sample', 'skin', 'refit', 'query', 'narrow'].forEach(function (stage) {
         var st = info.stages_us[stage];
         if (st) rows.push('<tr><td>&nbsp;&nbsp;' + stage + '</td><td class="num">median ' + fmt(st.median_us, 1) + ' &micro;s, p95 ' + fmt(st.p95_us, 1) + ' &micro;s</td></tr>');
       });
@@ -688,7 +688,9 @@
     playClock = ui.frame / clips[index].info.fps;
     buildTimeline();
     var st = clips[index].info.stages_us;
-    $('ss-stage-fact').innerHTML = 'per frame (' + esc(clips[index].info.name) + ', medians): ' + ['sample', 'skin', 'refit', 'query'].map(function (name) {
+    $('ss-stage-fact').innerHTML = 'per frame (' + esc(clips[index].info.name) + ', medians): ' + ['sample', 'skin', 'refit', 'query', 'narrow'].filter(function (name) {
+      return name !== 'narrow' || st[name];  // pages from before the narrow phase have no such stage
+    }).map(function (name) {
       return name + ' <b>' + fmt(st[name] ? st[name].median_us : null, 1) + '</b>';
     }).join(', ') + ' &micro;s';
     updateFrame();

@@ -21,6 +21,11 @@ using skinning::Interpolation;
 using skinning::JointTrack;
 
 constexpr float kPi = std::numbers::pi_v<float>;
+// The shoulder joint (LeftArm) sits kArm from the body's axis; the arm piece starts just outside it
+// (its dome reaches back to the joint), clear of the torso in every pose of the clips.
+constexpr float kShoulderOffset = 0.05f;
+constexpr float kUpperArmOffset = 0.19f;
+constexpr float kArm = kShoulderOffset + kUpperArmOffset;
 float Deg(float d) { return d * kPi / 180.0f; }
 
 Quatf AxisAngle(float radians, const Vector3f& axis) {
@@ -47,8 +52,8 @@ std::vector<JointDef> JointDefs() {
   };
   for (const float side : {1.0f, -1.0f}) {
     const std::string s = side > 0 ? "Left" : "Right";
-    d.push_back({s + "Shoulder", "Spine2", {side * 0.05f, 0.10f, 0}});
-    d.push_back({s + "Arm", s + "Shoulder", {side * 0.13f, 0, 0}});
+    d.push_back({s + "Shoulder", "Spine2", {side * kShoulderOffset, 0.10f, 0}});
+    d.push_back({s + "Arm", s + "Shoulder", {side * kUpperArmOffset, 0, 0}});
     d.push_back({s + "ForeArm", s + "Arm", {side * 0.27f, 0, 0}});
     d.push_back({s + "Hand", s + "ForeArm", {side * 0.25f, 0, 0}});
   }
@@ -228,6 +233,7 @@ const Vector3f kHeadCenter(0.0f, 1.70f, 0.01f);
 const Vector3f kHeadSemiAxes(0.085f, 0.11f, 0.10f);
 constexpr float kHandCenterOffset = 0.085f;  // from the hand joint along the hand
 constexpr float kHandHalfThickness = 0.019f;
+constexpr float kTouchApproach = 0.4f;  // the hands' halfway spot: this far in front, at shoulder width
 
 std::vector<PieceDef> PieceDefs() {
   const Vector3f X = Vector3f::UnitX(), Y = Vector3f::UnitY(), Z = Vector3f::UnitZ();
@@ -243,14 +249,14 @@ std::vector<PieceDef> PieceDefs() {
     const bool left = side > 0;
     // Arm tube along ±X: u = Z carries the hand's width, v = Y its thickness.
     d.push_back({left ? "LeftArmMesh" : "RightArmMesh", Vector3f(0, 1.44f, 0), side * X, Z, Y,
-                 {{0.21f, 0.055f, 0.055f}, {0.32f, 0.05f, 0.05f}, {0.45f, 0.04f, 0.04f},
-                  {0.58f, 0.037f, 0.037f}, {0.69f, 0.03f, 0.028f}, {0.73f, 0.045f, kHandHalfThickness},
-                  {0.84f, 0.045f, kHandHalfThickness}},
+                 {{kArm + 0.03f, 0.055f, 0.055f}, {kArm + 0.14f, 0.05f, 0.05f}, {kArm + 0.27f, 0.04f, 0.04f},
+                  {kArm + 0.40f, 0.037f, 0.037f}, {kArm + 0.51f, 0.03f, 0.028f}, {kArm + 0.55f, 0.045f, kHandHalfThickness},
+                  {kArm + 0.66f, 0.045f, kHandHalfThickness}},
                  28, 0.03f, 0.04f, 3, 16,
                  {{left ? "LeftShoulder" : "RightShoulder", 0},
-                  {left ? "LeftArm" : "RightArm", 0.22f},
-                  {left ? "LeftForeArm" : "RightForeArm", 0.45f},
-                  {left ? "LeftHand" : "RightHand", 0.70f}},
+                  {left ? "LeftArm" : "RightArm", kArm + 0.04f},
+                  {left ? "LeftForeArm" : "RightForeArm", kArm + 0.27f},
+                  {left ? "LeftHand" : "RightHand", kArm + 0.52f}},
                  0.03f});
   }
   for (const float side : {1.0f, -1.0f}) {
@@ -402,8 +408,10 @@ skinning::AnimationClip MakeTouch(const skinning::Skeleton& sk) {
   skinning::AnimationClip clip;
   clip.name = "touch";
   clip.duration_s = kTouchDuration_s;
-  const std::vector<float> times = {0.0f, kTouchChestBegin_s, kTouchChestEnd_s, kTouchHeadBegin_s,
-                                    kTouchHeadEnd_s, kTouchDuration_s};
+  // The hands first come to a spot in front of the chest, so that on the way they pass in front of
+  // the body, never through it.
+  const std::vector<float> times = {0.0f, 0.5f * kTouchChestBegin_s, kTouchChestBegin_s, kTouchChestEnd_s,
+                                    kTouchHeadBegin_s, kTouchHeadEnd_s, kTouchDuration_s};
   for (const float side : {1.0f, -1.0f}) {
     const std::string s = side > 0 ? "Left" : "Right";
     const int32_t arm = sk.Find(s + "Arm"), fore = sk.Find(s + "ForeArm"), hand = sk.Find(s + "Hand");
@@ -418,6 +426,8 @@ skinning::AnimationClip MakeTouch(const skinning::Skeleton& sk) {
     const Vector3f chest_wrist = chest_center - kHandCenterOffset * hand_dir_chest;
     const auto chest = SolveArm(shoulder, l1, l2, side, chest_wrist, Vector3f(side * 0.6f, -1.0f, -0.3f),
                                 hand_dir_chest, Vector3f::UnitZ());
+    const auto approach = SolveArm(shoulder, l1, l2, side, Vector3f(side * kArm, y_chest, kTouchApproach),
+                                   Vector3f(side * 0.6f, -1.0f, -0.3f), hand_dir_chest, Vector3f::UnitZ());
     // Head: palms on the sides of the head, fingers up.
     const Vector3f hand_dir_head = Vector3f(-side * 0.1f, 1.0f, 0.0f).normalized();
     const float y_head = kHeadCenter.y() + 0.01f, z_head = kHeadCenter.z() + 0.01f;
@@ -430,7 +440,7 @@ skinning::AnimationClip MakeTouch(const skinning::Skeleton& sk) {
     const Quatf id = Quatf::Identity();
     const int32_t joints[3] = {arm, fore, hand};
     for (int b = 0; b < 3; ++b) {
-      clip.tracks.push_back(RotationTrack(joints[b], times, {id, chest[b], chest[b], head[b], head[b], id}));
+      clip.tracks.push_back(RotationTrack(joints[b], times, {id, approach[b], chest[b], chest[b], head[b], head[b], id}));
     }
   }
   // A STEP track on a joint no vertex depends on (exercises STEP in readers and the exporter).

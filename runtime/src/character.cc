@@ -1,20 +1,29 @@
 // CharacterAsset / CharacterInstance / UpdateAndQueryCrowd (character.h): set-up allocates and
-// reports Errors; per frame only jobs run (RefitJob, SelfCollisionJob) and FrameStatus comes back.
+// reports Errors; per frame only jobs run (RefitJob, SelfCollisionJob, NarrowPhaseJob) and
+// FrameStatus comes back.
 #include "skinspheres/runtime/character.h"
 
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <utility>
 
 namespace skinspheres::runtime {
 
-Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet set) {
+Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet set, const NarrowPhaseSettings& narrow) {
   auto rest = RefitRestData::Create(set);
   if (!rest.ok()) return rest.error();
   auto filter = PairFilter::FromSphereSet(set);
   if (!filter.ok()) return filter.error();
   std::shared_ptr<CharacterAsset> asset(new CharacterAsset());
+  if (set.has_mesh()) {
+    auto data = NarrowPhaseData::Create(set, *filter, narrow);
+    if (!data.ok()) return data.error();
+    asset->narrow_ = std::move(data).value();
+  } else if (!(narrow.margin >= 0.0f) || !std::isfinite(narrow.margin)) {
+    return MakeError(ErrorCode::kInvalidArgument, "sphere set '" + set.source_file + "': the narrow-phase margin must be finite and >= 0");
+  }
   asset->set_ = std::move(set);
   asset->rest_ = std::move(rest).value();
   asset->filter_ = std::move(filter).value();
@@ -22,21 +31,13 @@ Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet s
 }
 
 std::optional<Error> CharacterAsset::Matches(std::span<const std::string> joint_names, size_t vertex_count) const {
-  const std::string who = "sphere set '" + set_.source_file + "'";
   if (vertex_count != set_.source_vertex_count) {
-    return MakeError(ErrorCode::kMismatchedAsset, who + " was fitted on " + std::to_string(set_.source_vertex_count) +
-                                                      " vertices, the character has " + std::to_string(vertex_count));
+    return MakeError(ErrorCode::kMismatchedAsset, DescribeSphereSet(set_) + " was fitted on " +
+                                                      std::to_string(set_.source_vertex_count) + " vertices, the character has " +
+                                                      std::to_string(vertex_count));
   }
-  if (joint_names.size() != set_.joint_names.size()) {
-    return MakeError(ErrorCode::kMismatchedAsset, who + " was fitted on " + std::to_string(set_.joint_names.size()) +
-                                                      " joints, the character has " + std::to_string(joint_names.size()));
-  }
-  for (size_t j = 0; j < joint_names.size(); ++j) {
-    if (joint_names[j] != set_.joint_names[j]) {
-      return MakeError(ErrorCode::kMismatchedAsset, who + ": joint " + std::to_string(j) + " is '" + set_.joint_names[j] +
-                                                        "' in the set but '" + joint_names[j] + "' in the character");
-    }
-  }
+  auto mapping = MapJoints(set_, joint_names);
+  if (!mapping.ok()) return mapping.error();
   return std::nullopt;
 }
 
@@ -47,17 +48,69 @@ Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const Charac
   inst.spheres_.assign(n, Vec4f::Zero());
   inst.context_.Resize(n);
   inst.contacts_.reserve(std::max<size_t>(64, 4 * n));
+  inst.joint_world_.assign(asset->joint_count(), Mat4f::Identity());
+  inst.joint_input_count_ = asset->joint_count();
+  if (const NarrowPhaseData* data = asset->narrow_phase()) {
+    inst.narrow_context_.Resize(*data, /*lazy_skinning=*/false);
+    inst.frame_contacts_.Reserve(std::max<size_t>(64, 4 * n));
+  }
   inst.asset_ = std::move(asset);
   return inst;
+}
+
+Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const CharacterAsset> asset,
+                                                    const JointMapping& mapping) {
+  auto created = Create(std::move(asset));
+  if (!created.ok()) return created;
+  CharacterInstance& inst = *created;
+  const SphereSet& set = inst.asset_->sphere_set();
+  const std::vector<bool> read = JointsReadPerFrame(set);
+  if (mapping.engine_index.size() != set.joint_count()) {
+    return MakeError(ErrorCode::kInvalidArgument, DescribeSphereSet(set) + ": the joint mapping was made for a set of " +
+                                                      std::to_string(mapping.engine_index.size()) + " joints, not " +
+                                                      std::to_string(set.joint_count()));
+  }
+  for (size_t j = 0; j < read.size(); ++j) {
+    const int32_t e = mapping.engine_index[j];
+    if (e != JointMapping::kUnmapped && (e < 0 || static_cast<size_t>(e) >= mapping.engine_joint_count)) {
+      return MakeError(ErrorCode::kInvalidArgument, DescribeSphereSet(set) + ": the joint mapping sends joint '" +
+                                                        set.joint_names[j] + "' past the engine's joints");
+    }
+    if (!read[j]) continue;
+    if (e == JointMapping::kUnmapped) {
+      return MakeError(ErrorCode::kInvalidArgument, DescribeSphereSet(set) + ": the joint mapping leaves joint '" +
+                                                        set.joint_names[j] + "' unmapped, and the spheres move with it");
+    }
+    inst.gather_.emplace_back(static_cast<uint32_t>(j), static_cast<uint32_t>(e));
+  }
+  inst.joint_world_.assign(set.joint_count(), Mat4f::Identity());  // joints never read stay identity
+  inst.joint_input_count_ = mapping.engine_joint_count;
+  inst.mapped_ = true;
+  return created;
 }
 
 FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joint_world,
                                       std::span<const Eigen::Vector3f> skinned_positions) {
   valid_ = false;
+  queried_ = false;
+  has_joints_ = false;
+  frame_contacts_.clear();
   const SphereSet& set = asset_->sphere_set();
   if (mode != RefitMode::kExact && mode != RefitMode::kFast) {
     status_ = {ErrorCode::kInvalidArgument, "unknown refit mode"};
     return status_;
+  }
+  if (mode == RefitMode::kExact && set.fast_only) {
+    status_ = {ErrorCode::kInvalidArgument, "exact mode needs the full sphere set; this one was loaded fast-only"};
+    return status_;
+  }
+  if (mapped_ && !joint_world.empty()) {  // engine joint order: gather the joints the refit reads
+    if (joint_world.size() < joint_input_count_) {
+      status_ = {ErrorCode::kInvalidArgument, "fewer joint matrices than the engine joints the mapping was made for"};
+      return status_;
+    }
+    for (const auto& [set_joint, engine_joint] : gather_) joint_world_[set_joint] = joint_world[engine_joint];
+    joint_world = joint_world_;
   }
   if (mode == RefitMode::kFast || !joint_world.empty()) {
     if (joint_world.size() < set.joint_count()) {
@@ -85,6 +138,10 @@ FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joi
     return status_;
   }
   valid_ = true;
+  if (!joint_world.empty()) {  // kept (set order) for FindContacts mode (b); already there when gathered
+    if (joint_world.data() != joint_world_.data()) std::copy_n(joint_world.begin(), joint_world_.size(), joint_world_.begin());
+    has_joints_ = true;
+  }
   status_ = {};
   return status_;
 }
@@ -100,6 +157,8 @@ FrameStatus CharacterInstance::UpdateExact(std::span<const Eigen::Vector3f> skin
 
 std::span<const Contact> CharacterInstance::Query() {
   contacts_.clear();
+  queried_ = true;
+  query_ok_ = false;
   if (!valid_) {
     if (status_.ok()) status_ = {ErrorCode::kInvalidArgument, "no valid spheres to query"};
     return {};
@@ -114,13 +173,59 @@ std::span<const Contact> CharacterInstance::Query() {
     status_ = {ErrorCode::kInvalidData, "broad phase refused the spheres"};
     return {};
   }
+  query_ok_ = true;
   status_ = {};
   return contacts_;
 }
 
-FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
-                                std::span<const CharacterFrameInput> inputs, RefitMode mode,
-                                const ParallelFor& parallel_for) {
+FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> skinned_positions,
+                                            const ParallelFor& parallel_for) {
+  frame_contacts_.clear();
+  const NarrowPhaseData* data = asset_->narrow_phase();
+  if (data == nullptr) {
+    status_ = {ErrorCode::kVersionMismatch, "the sphere set has no mesh (format version 1, or a fast-only file): no narrow phase"};
+    return status_;
+  }
+  if (!queried_) Query();
+  if (!valid_) {
+    status_ = {ErrorCode::kInvalidArgument, "no valid spheres to find contacts for"};
+    return status_;
+  }
+  if (!query_ok_) {
+    status_ = {ErrorCode::kInvalidData, "broad phase refused the spheres"};
+    return status_;
+  }
+  if (skinned_positions.empty() && !has_joints_) {
+    status_ = {ErrorCode::kInvalidArgument, "no skinned positions and the last update had no joint matrices"};
+    return status_;
+  }
+  if (!skinned_positions.empty() && skinned_positions.size() < asset_->source_vertex_count()) {
+    status_ = {ErrorCode::kInvalidArgument, "fewer skinned positions than the asset's source vertices"};
+    return status_;
+  }
+  NarrowPhaseJob job;
+  job.set = &asset_->sphere_set();
+  job.data = data;
+  job.spheres = spheres_;
+  job.pairs = contacts_;
+  job.positions = skinned_positions;
+  job.joint_world = skinned_positions.empty() ? std::span<const Mat4f>(joint_world_) : std::span<const Mat4f>();
+  job.context = &narrow_context_;
+  job.out = &frame_contacts_;
+  if (!job.RunParallel(parallel_for)) {
+    frame_contacts_.clear();
+    status_ = {ErrorCode::kInvalidData, "narrow phase refused the frame (non-finite positions or joint matrices)"};
+    return status_;
+  }
+  status_ = {};
+  return status_;
+}
+
+namespace {
+
+// Update + Query (+ FindContacts) of every instance through parallel_for.
+FrameStatus RunCrowd(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
+                     RefitMode mode, bool find_contacts, const ParallelFor& parallel_for) {
   if (instances.size() != inputs.size()) {
     return {ErrorCode::kInvalidArgument, "instances and inputs differ in count"};
   }
@@ -137,11 +242,28 @@ FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
         continue;
       }
       inst.Query();
+      if (inst.status().ok() && find_contacts) {
+        inst.FindContacts(mode == RefitMode::kExact ? inputs[i].skinned_positions : std::span<const Eigen::Vector3f>());
+      }
       if (!inst.status().ok()) all_ok.store(false, std::memory_order_relaxed);
     }
   });
   if (!all_ok.load()) return {ErrorCode::kInvalidData, "at least one instance failed; see its status()"};
   return {};
+}
+
+}  // namespace
+
+FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
+                                std::span<const CharacterFrameInput> inputs, RefitMode mode,
+                                const ParallelFor& parallel_for) {
+  return RunCrowd(instances, inputs, mode, /*find_contacts=*/false, parallel_for);
+}
+
+FrameStatus UpdateAndFindContactsCrowd(std::span<CharacterInstance* const> instances,
+                                       std::span<const CharacterFrameInput> inputs, RefitMode mode,
+                                       const ParallelFor& parallel_for) {
+  return RunCrowd(instances, inputs, mode, /*find_contacts=*/true, parallel_for);
 }
 
 }  // namespace skinspheres::runtime

@@ -71,9 +71,9 @@ int64_t ReadUpTo(int fd, char* out, size_t n) {
   return static_cast<int64_t>(have);
 }
 
-}  // namespace
-
-Result<std::string> ReadRegularFile(const std::filesystem::path& path, uint64_t max_bytes, std::string_view what) {
+// ReadRegularFile into any contiguous byte container with resize() (std::string, a byte vector).
+template <typename Bytes>
+Result<Bytes> ReadRegular(const std::filesystem::path& path, uint64_t max_bytes, std::string_view what) {
   Fd f;
   uint64_t size = 0;
   if (auto err = OpenRegular(path, &f, &size)) return *err;
@@ -86,11 +86,11 @@ Result<std::string> ReadRegularFile(const std::filesystem::path& path, uint64_t 
   // One spare byte: the read that finds the end lands there, so a file of the size fstat gave is
   // read without reallocating. A file longer than that (it grew, or /proc reports 0) is read on
   // in steps, never past max_bytes + 1.
-  std::string bytes;
+  Bytes bytes;
   bytes.resize(static_cast<size_t>(size) + 1);
   size_t have = 0;
   for (;;) {
-    const int64_t got = ReadUpTo(f.fd, bytes.data() + have, bytes.size() - have);
+    const int64_t got = ReadUpTo(f.fd, reinterpret_cast<char*>(bytes.data()) + have, bytes.size() - have);
     if (got < 0) return FileError(ErrorCode::kFileUnreadable, path, "read error (" + Reason(errno) + ")");
     have += static_cast<size_t>(got);
     if (have < bytes.size()) break;  // the end of the file
@@ -99,6 +99,17 @@ Result<std::string> ReadRegularFile(const std::filesystem::path& path, uint64_t 
   }
   bytes.resize(have);
   return bytes;
+}
+
+}  // namespace
+
+Result<std::string> ReadRegularFile(const std::filesystem::path& path, uint64_t max_bytes, std::string_view what) {
+  return ReadRegular<std::string>(path, max_bytes, what);
+}
+
+Result<std::vector<std::byte>> ReadRegularFileBytes(const std::filesystem::path& path, uint64_t max_bytes,
+                                                    std::string_view what) {
+  return ReadRegular<std::vector<std::byte>>(path, max_bytes, what);
 }
 
 Result<std::vector<uint8_t>> ReadRegularFilePrefix(const std::filesystem::path& path, uint64_t length) {

@@ -92,6 +92,7 @@ bool RefitJob::Validate() const {
     if (joint_world.size() < spheres->joint_count()) return false;
   }
   if (mode == RefitMode::kExact) {
+    if (spheres->fast_only) return false;  // no vertex lists to bound
     if (positions.size() < spheres->source_vertex_count) return false;
     // The set's vertex indices were checked against source_vertex_count when the rest data was
     // built; without rest data check the CSR end at least (O(1)).

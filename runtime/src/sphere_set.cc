@@ -153,13 +153,14 @@ std::optional<Error> SphereSet::Validate() const {
   // Every source triangle is owned by exactly one sphere: what makes a contact anywhere on the
   // mesh visible to the broad phase (and what --verify checks). The lists then hold exactly
   // source_triangle_count entries, compared before the per-triangle table is allocated (the count
-  // comes from the file).
+  // comes from the file). A fast-only set (sphere_set_binary.h) has no lists to check: they were
+  // checked when the whole set was written, and nothing that reads triangles accepts it.
   if (n == 0) return Invalid("the set has no spheres");
-  if (triangles.size() != source_triangle_count) {
+  if (!fast_only && triangles.size() != source_triangle_count) {
     return Invalid("the spheres own " + std::to_string(triangles.size()) + " triangle entries for " +
                    std::to_string(source_triangle_count) + " triangles (each must be owned by exactly one sphere)");
   }
-  std::vector<uint32_t> owner(source_triangle_count, UINT32_MAX);
+  std::vector<uint32_t> owner(fast_only ? 0 : source_triangle_count, UINT32_MAX);
   for (size_t s = 0; s < n; ++s) {
     for (uint32_t k = triangle_offsets[s]; k < triangle_offsets[s + 1]; ++k) {
       uint32_t& o = owner[triangles[k]];
@@ -181,6 +182,9 @@ std::optional<Error> SphereSet::Validate() const {
       const auto& q = excluded_pairs[k - 1];
       if (q.i > p.i || (q.i == p.i && q.j >= p.j)) return Invalid("excluded pairs are not sorted and unique");
     }
+  }
+  if (fast_only && (!vertices.empty() || !triangles.empty() || has_mesh())) {
+    return Invalid("a fast-only set has vertex or triangle lists or a mesh");
   }
   return ValidateMesh(*this);
 }

@@ -6,6 +6,7 @@
 #include <new>
 
 #include "skinspheres/runtime/file_io.h"
+#include "skinspheres/runtime/sphere_set_binary.h"
 
 namespace skinspheres::runtime {
 
@@ -356,6 +357,7 @@ Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& so
     if (auto err = set.Validate()) {
       return MakeError(ErrorCode::kInvalidData, source_name + ": " + err->message);
     }
+    set.loaded_from = source_name;
     return set;
   } catch (const ReadError& e) {
     const bool version = e.what.rfind("version", 0) == 0;
@@ -367,7 +369,21 @@ Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& so
   }
 }
 
-std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path) {
+std::optional<SphereSetFileFormat> SphereSetFormatForPath(const std::filesystem::path& path) {
+  const std::string ext = path.extension().string();
+  if (ext == ".json") return SphereSetFileFormat::kJson;
+  if (ext == ".ssb") return SphereSetFileFormat::kBinary;
+  return std::nullopt;
+}
+
+std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path, SphereSetFileFormat format) {
+  if (format == SphereSetFileFormat::kBinary) return SaveSphereSetBinary(set, path);
+  if (format == SphereSetFileFormat::kBinaryFastOnly) return SaveSphereSetBinary(set, path, SphereSetBinaryContent::kFastOnly);
+  if (set.fast_only) {
+    return MakeError(ErrorCode::kInvalidArgument, path.string() + ": a fast-only sphere set (" +
+                                                      (set.loaded_from.empty() ? "no vertex lists" : set.loaded_from) +
+                                                      ") cannot be written as JSON, which holds the whole set");
+  }
   // Checked through the close (file_io.h): a full disk is an error, never a truncated set.
   CheckedFileWriter out(path);
   out.Write(WriteSphereSetJson(set));
@@ -375,11 +391,20 @@ std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::
   return out.Close();
 }
 
+std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path) {
+  return SaveSphereSet(set, path, SphereSetFormatForPath(path).value_or(SphereSetFileFormat::kJson));
+}
+
+Result<SphereSet> ReadSphereSet(std::span<const std::byte> bytes, const std::string& source_name) {
+  if (IsSphereSetBinary(bytes)) return ReadSphereSetBinary(bytes, source_name);
+  return ReadSphereSetJson(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), source_name);
+}
+
 Result<SphereSet> LoadSphereSet(const std::filesystem::path& path) {
   // A regular file only, at most kMaxSphereSetBytes, refused from its size (file_io.h).
-  Result<std::string> text = ReadRegularFile(path, kMaxSphereSetBytes, "sphere set");
-  if (!text.ok()) return text.error();
-  return ReadSphereSetJson(*text, path.string());
+  auto bytes = ReadSphereSetFile(path);
+  if (!bytes.ok()) return bytes.error();
+  return ReadSphereSet(*bytes, path.string());
 }
 
 }  // namespace skinspheres::runtime

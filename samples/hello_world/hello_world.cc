@@ -3,7 +3,8 @@
 // Offline (your asset pipeline, links skinspheres::lib): fit a character, save its sphere set.
 // At run time (your engine, links skinspheres::runtime only): load the set, create one shared
 // asset and an instance per character, and every frame hand over joint world transforms,
-// update, and read the self-colliding sphere pairs.
+// update, read the overlapping sphere pairs (broad phase) and the surfaces that really touch
+// (narrow phase: triangle pairs by body-part pair, with a penetration depth).
 #include <cstdio>
 #include <filesystem>
 #include <vector>
@@ -30,7 +31,8 @@ int main() {
   // --- Run time: load once, share the asset between instances.
   auto set = runtime::LoadSphereSet(path);
   if (!set.ok()) return std::fprintf(stderr, "%s\n", set.error().message.c_str()), 2;
-  auto asset = runtime::CharacterAsset::Create(std::move(set).value());
+  // The narrow phase's exclusions (triangles touching at rest) are found here, once.
+  auto asset = runtime::CharacterAsset::Create(std::move(set).value(), runtime::NarrowPhaseSettings{});
   if (!asset.ok()) return std::fprintf(stderr, "%s\n", asset.error().message.c_str()), 2;
   auto instance = runtime::CharacterInstance::Create(*asset);
   if (!instance.ok()) return std::fprintf(stderr, "%s\n", instance.error().message.c_str()), 2;
@@ -52,12 +54,19 @@ int main() {
       std::fprintf(stderr, "frame %d: %s\n", frame, status.message);
       continue;
     }
-    const auto contacts = instance->Query();
+    const auto sphere_pairs = instance->Query();
+    // The triangles behind those pairs: fast mode skins only the vertices it tests, from the same
+    // joint matrices (pass your skinned buffer instead when you skin on the CPU).
+    if (auto status = instance->FindContacts(); !status.ok()) {
+      std::fprintf(stderr, "frame %d: %s\n", frame, status.message);
+      continue;
+    }
     const auto& s = (*asset)->sphere_set();
-    std::printf("t=%.1f s: %zu pairs", t, contacts.size());
-    for (size_t k = 0; k < contacts.size() && k < 3; ++k) {
-      std::printf("  [%s-%s depth %.3f]", s.parts[contacts[k].part_i].name.c_str(), s.parts[contacts[k].part_j].name.c_str(),
-                  contacts[k].depth);
+    const runtime::FrameContacts& contacts = instance->frame_contacts();
+    std::printf("t=%.1f s: %zu sphere pairs, %zu touching part pairs", t, sphere_pairs.size(), contacts.parts.size());
+    for (const runtime::PartContact& p : contacts.parts) {
+      std::printf("  [%s - %s: %u triangle pairs, depth %.3f]", s.parts[p.part_a].name.c_str(), s.parts[p.part_b].name.c_str(),
+                  p.triangle_pair_count, p.depth);
     }
     std::printf("\n");
   }

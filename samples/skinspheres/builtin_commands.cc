@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -121,65 +122,91 @@ void AddDemoCommand(CLI::App& app, int* exit_code) {
     std::printf("\n");
     PrintFitSummary(*fit, loaded->import_seconds);
     const runtime::SphereSet& set = fit->spheres;
-    // Contacts of a hand: a sphere whose dominant joint is a hand (or a finger under it).
-    auto is_hand = [&](uint32_t s) {
-      const std::string& j = set.joint_names[set.sphere_joint[s]];
-      return j.find("Hand") != std::string::npos;
+    // A hand touches when a contact's arm-side triangle belongs to a sphere whose dominant joint is
+    // a hand (or a finger under it): real triangle contacts, not overlapping spheres.
+    std::vector<uint32_t> owner(set.source_triangle_count, UINT32_MAX);
+    for (uint32_t s = 0; s < set.size(); ++s) {
+      for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) owner[set.triangles[k]] = s;
+    }
+    auto is_hand = [&](uint32_t triangle) {
+      const uint32_t s = owner[triangle];
+      return s != UINT32_MAX && set.joint_names[set.sphere_joint[s]].find("Hand") != std::string::npos;
     };
-    const int torso = [&] {
-      for (size_t k = 0; k < set.parts.size(); ++k) if (set.parts[k].name == "torso") return static_cast<int>(k);
+    auto part_named = [&](const char* name) {
+      for (size_t k = 0; k < set.parts.size(); ++k) {
+        if (set.parts[k].name == name) return static_cast<int>(k);
+      }
       return -1;
-    }();
-    const int head = [&] {
-      for (size_t k = 0; k < set.parts.size(); ++k) if (set.parts[k].name == "head") return static_cast<int>(k);
-      return -1;
-    }();
-    std::vector<PlayResult> kept;  // for the page
+    };
+    const int torso = part_named("torso"), head = part_named("head");
+    bool all_verified = true;
+    std::vector<PlayResult> kept;                  // for the page
+    std::vector<std::vector<FrameRecord>> frames;  // the page's per-frame data
     kept.reserve(loaded->character.clips.size());
+    frames.reserve(loaded->character.clips.size());
     for (size_t c = 0; c < loaded->character.clips.size(); ++c) {
+      struct Touches {
+        size_t frames = 0;
+        int first = -1, last = -1;
+        float first_t = 0.0f, last_t = 0.0f;
+        float depth = 0.0f;
+      } on[2];  // chest, head
       PlayOptions play;
       play.verify = true;
-      play.keep_spheres = true;
-      auto played = PlayClip(*loaded, set, c, play);
+      FrameSink sink = [&](const FrameView& fr) {
+        for (int target = 0; target < 2; ++target) {
+          const int part = target == 0 ? torso : head;
+          bool touching = false;
+          float depth = 0.0f;
+          for (const runtime::PartContact& p : fr.contacts->parts) {
+            if (p.part_a != part && p.part_b != part) continue;
+            for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
+              const runtime::TrianglePairContact& tp = fr.contacts->triangle_pairs[k];
+              const uint32_t other = p.part_a == part ? tp.u : tp.t;
+              if (tp.kind == runtime::TriangleContactKind::kIntersecting && is_hand(other)) {
+                touching = true;
+                depth = std::max(depth, p.depth);
+              }
+            }
+          }
+          if (!touching) continue;
+          Touches& t = on[target];
+          if (t.frames++ == 0) t.first = fr.index, t.first_t = fr.clip_time_s;
+          t.last = fr.index;
+          t.last_t = fr.clip_time_s;
+          t.depth = std::max(t.depth, depth);
+        }
+      };
+      frames.emplace_back();
+      auto played = PlayClip(*loaded, set, c, play, RecordFrames(&frames.back(), sink));
       if (!played.ok()) {
         *exit_code = Fail(played.error().message);
         return;
       }
       std::printf("\n");
-      PrintPlaySummary(*played, set, play.fps);
-      for (const auto& [target, label] : {std::pair{torso, "chest"}, std::pair{head, "head"}}) {
-        std::vector<int> frames;
-        for (size_t f = 0; f < played->frames.size(); ++f) {
-          for (const auto& k : played->frames[f].contacts) {
-            if ((is_hand(k.i) && k.part_j == target) || (is_hand(k.j) && k.part_i == target)) {
-              frames.push_back(static_cast<int>(f));
-              break;
-            }
-          }
-        }
-        if (frames.empty()) {
+      PrintPlaySummary(*played, set, play.fps, /*sphere_pairs=*/false, /*verify=*/true);
+      for (int target = 0; target < 2; ++target) {
+        const char* label = target == 0 ? "chest" : "head";
+        const Touches& t = on[target];
+        if (t.frames == 0) {
           std::printf("  hands on the %s: never\n", label);
         } else {
-          std::printf("  hands on the %s: %zu frames, first %d (t=%.2f s), last %d (t=%.2f s)\n", label, frames.size(),
-                      frames.front(), played->frames[frames.front()].time_s, frames.back(), played->frames[frames.back()].time_s);
+          std::printf("  hands on the %s: %zu frames, first %d (t=%.2f s), last %d (t=%.2f s), up to %.3g deep\n", label,
+                      t.frames, t.first, t.first_t, t.last, t.last_t, t.depth);
         }
       }
-      std::printf("  verify: %zu triangle-frames outside their sphere\n", played->triangles_outside);
-      if (played->triangles_outside) {
-        *exit_code = 1;
-        return;
-      }
+      all_verified &= played->verified();
       kept.push_back(std::move(*played));
     }
     ViewerPageInput page{&*loaded, &set, fit->report.seconds, {}, {}};
-    for (size_t c = 0; c < kept.size(); ++c) page.clips.push_back(ViewClip{&kept[c], c, PlayOptions{}.fps, false, {}});
+    for (size_t c = 0; c < kept.size(); ++c) page.clips.push_back(ViewClip{&kept[c], &frames[c], c, PlayOptions{}.fps, false});
     if (auto err = WriteViewerPage(page, *html)) {
       *exit_code = Fail(err->message);
       return;
     }
     std::printf("\npage: %s (open it in a browser; it needs no server or network)\n",
                 std::filesystem::absolute(*html).string().c_str());
-    *exit_code = 0;
+    *exit_code = all_verified ? 0 : 1;
   });
 }
 

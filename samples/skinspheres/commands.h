@@ -10,6 +10,7 @@
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/raw_character.h"
+#include "skinspheres/runtime/sphere_set.h"
 
 namespace skinspheres::tool {
 
@@ -42,7 +43,12 @@ struct FitOptions {
 // Prints the fit summary (parts, spheres per part, triangles covered, growth, F, time).
 void PrintFitSummary(const lib::FitResult& fit, double import_seconds);
 
+// Writes a sphere set in the format of the path's extension (.json JSON, .ssb binary; fast_only:
+// the binary fast-only variant, .ssb only). An error message (naming the path) when refused.
+std::optional<std::string> SaveSetFile(const runtime::SphereSet& set, const std::string& path, bool fast_only);
+
 void AddFitCommand(CLI::App& app, int* exit_code);
+void AddConvertCommand(CLI::App& app, int* exit_code);
 void AddExportBuiltinCommand(CLI::App& app, int* exit_code);
 void AddDemoCommand(CLI::App& app, int* exit_code);
 

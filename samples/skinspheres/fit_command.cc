@@ -1,4 +1,4 @@
-// skinspheres fit INPUT -o OUT.json [--rays N] [--per-level 1|2|4] [--method m1|m2|m1a]
+// skinspheres fit INPUT -o OUT.json|OUT.ssb [--fast-only] [--rays N] [--per-level 1|2|4] [--method m1|m2|m1a]
 //   [--overlap PD] [--step delta] [--parts parts.json] [--hops H] [--no-bind-overlap]
 //   [--refine N] [--no-tighten] [--split-gain G] [--target-standoff F] [--max-spheres N]
 //   [--compare] [--metrics] [--html V.html]
@@ -20,6 +20,7 @@ struct FitArgs {
   std::string html;
   bool compare = false;
   bool metrics = false;
+  bool fast_only = false;
   FitOptions fit;
 };
 
@@ -116,6 +117,9 @@ int PrintMetrics(const LoadedCharacter& loaded, const lib::FitResult& fit) {
 
 int RunFit(FitArgs& args) {
   if (auto why = args.fit.Resolve()) return Fail(*why);
+  if (!args.output.empty() && !runtime::SphereSetFormatForPath(args.output)) {  // before a long fit
+    return Fail(args.output + ": unknown sphere-set extension (use .json for JSON or .ssb for binary)");
+  }
   auto loaded = LoadCharacter(args.input, args.fit.parts_file);
   if (!loaded.ok()) return Fail(loaded.error().message);
   auto fit = lib::FitSpheres(loaded->character, loaded->parts, args.fit.settings);
@@ -128,7 +132,7 @@ int RunFit(FitArgs& args) {
               loaded->character.triangle_count(), loaded->character.skeleton.size(), loaded->character.clips.size());
   PrintFitSummary(*fit, loaded->import_seconds);
   if (!args.output.empty()) {
-    if (auto err = runtime::SaveSphereSet(fit->spheres, args.output)) return Fail(err->message);
+    if (auto why = SaveSetFile(fit->spheres, args.output, args.fast_only)) return Fail(*why);
     std::printf("wrote %s\n", args.output.c_str());
   }
   if (!args.html.empty()) {
@@ -149,7 +153,9 @@ void AddFitCommand(CLI::App& app, int* exit_code) {
   auto args = std::make_shared<FitArgs>();
   CLI::App* cmd = app.add_subcommand("fit", "fit a sphere set to a skinned character file");
   cmd->add_option("input", args->input, "character file (glTF/GLB, FBX, ... as Assimp reads)")->required();
-  cmd->add_option("-o,--output", args->output, "sphere-set JSON to write");
+  cmd->add_option("-o,--output", args->output, "sphere set to write: .json (JSON) or .ssb (binary)");
+  cmd->add_flag("--fast-only", args->fast_only,
+                "with -o X.ssb: leave out what only exact mode and triangle tests read (smaller; exact mode refused)");
   cmd->add_flag("--compare", args->compare, "print the paper's comparison: F for M1, M2, M1-A at p = 1, 2, 4");
   cmd->add_flag("--metrics", args->metrics, "measure tightness: union volume / body volume, boundary distance");
   cmd->add_option("--html", args->html, "write the viewer page: the bind pose, spheres by part, the loosest marked");

@@ -41,11 +41,9 @@ std::string Base64(const void* data, size_t size) {
 std::string Base64Floats(const std::vector<float>& v) { return Base64(v.data(), v.size() * sizeof(float)); }
 
 // Median and 95th percentile of per-frame seconds, in microseconds.
-json StageMicroseconds(std::vector<double> v) {
-  if (v.empty()) return nullptr;
-  std::sort(v.begin(), v.end());
-  auto at = [&](double q) { return v[std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size() - 1) + 0.5))] * 1e6; };
-  return json{{"median_us", at(0.5)}, {"p95_us", at(0.95)}};
+json StageMicroseconds(const StageTime& v) {
+  if (v.count() == 0) return nullptr;
+  return json{{"median_us", v.Percentile(0.5) * 1e6}, {"p95_us", v.Percentile(0.95) * 1e6}};
 }
 
 std::string EscapeHtml(std::string_view s) {
@@ -173,52 +171,46 @@ Result<json> ClipJson(const ViewClip& vc, const lib::RawCharacter& ch, size_t sp
   const PlayResult& r = *vc.played;
   if (vc.clip_index >= ch.clips.size()) return MakeError(ErrorCode::kInvalidArgument, "viewer page: clip index out of range");
   const auto& clip = ch.clips[vc.clip_index];
-  if (!vc.triangle_pairs.empty() && vc.triangle_pairs.size() != r.frames.size()) {
-    return MakeError(ErrorCode::kInvalidArgument, "viewer page: clip \"" + clip.name + "\" has triangle pairs for " +
-                                                      std::to_string(vc.triangle_pairs.size()) + " of " +
-                                                      std::to_string(r.frames.size()) + " frames");
+  if (vc.frames == nullptr || vc.frames->size() != static_cast<size_t>(r.frames)) {
+    return MakeError(ErrorCode::kInvalidArgument, "viewer page: clip \"" + clip.name + "\" was played without keeping its frames");
   }
+  const std::vector<FrameRecord>& frames = *vc.frames;
   std::vector<float> xyzr;
-  xyzr.reserve(r.frames.size() * spheres * 4);
+  xyzr.reserve(frames.size() * spheres * 4);
   json time = json::array(), clip_time = json::array(), pairs = json::array(), depths = json::array();
-  for (const auto& f : r.frames) {
+  json triangles = json::array();
+  for (const FrameRecord& f : frames) {
     if (f.spheres.size() != spheres) {
-      return MakeError(ErrorCode::kInvalidArgument, "viewer page: clip \"" + clip.name + "\" was played without keeping the spheres");
+      return MakeError(ErrorCode::kInvalidArgument, "viewer page: clip \"" + clip.name + "\" has frames of another sphere set");
     }
     for (const auto& s : f.spheres) xyzr.insert(xyzr.end(), {s.x(), s.y(), s.z(), s.w()});
     time.push_back(f.time_s);
-    clip_time.push_back(skinning::LoopTime(f.time_s, clip.duration_s));
+    clip_time.push_back(f.clip_time_s);
     json p = json::array(), d = json::array();
-    for (const auto& c : f.contacts) {
+    for (const auto& c : f.sphere_pairs) {
       p.push_back(c.i);
       p.push_back(c.j);
       d.push_back(c.depth);
     }
     pairs.push_back(std::move(p));
     depths.push_back(std::move(d));
-  }
-  json triangles = nullptr;
-  if (!vc.triangle_pairs.empty()) {
-    triangles = json::array();
-    for (const auto& frame : vc.triangle_pairs) {
-      json flat = json::array();
-      for (const auto& tp : frame) {
-        if (tp[0] >= ch.triangle_count() || tp[1] >= ch.triangle_count()) {
-          return MakeError(ErrorCode::kInvalidArgument, "viewer page: a triangle pair names a triangle past the mesh's " +
-                                                            std::to_string(ch.triangle_count()));
-        }
-        flat.push_back(tp[0]);
-        flat.push_back(tp[1]);
+    json flat = json::array();
+    for (const auto& tp : f.triangle_pairs) {
+      if (tp[0] >= ch.triangle_count() || tp[1] >= ch.triangle_count()) {
+        return MakeError(ErrorCode::kInvalidArgument, "viewer page: a triangle pair names a triangle past the mesh's " +
+                                                          std::to_string(ch.triangle_count()));
       }
-      triangles.push_back(std::move(flat));
+      flat.push_back(tp[0]);
+      flat.push_back(tp[1]);
     }
+    triangles.push_back(std::move(flat));
   }
   return json{{"name", clip.name},
               {"animation", clip.name},
               {"duration", clip.duration_s},
               {"fps", vc.fps},
               {"mode", vc.fast ? "fast" : "exact"},
-              {"frames", r.frames.size()},
+              {"frames", frames.size()},
               {"time", std::move(time)},
               {"clip_time", std::move(clip_time)},
               {"spheres_xyzr", Base64Floats(xyzr)},
@@ -228,7 +220,8 @@ Result<json> ClipJson(const ViewClip& vc, const lib::RawCharacter& ch, size_t sp
               {"stages_us", {{"sample", StageMicroseconds(r.times.sample)},
                              {"skin", StageMicroseconds(r.times.skin)},
                              {"refit", StageMicroseconds(r.times.refit)},
-                             {"query", StageMicroseconds(r.times.query)}}}};
+                             {"query", StageMicroseconds(r.times.query)},
+                             {"narrow", StageMicroseconds(r.times.narrow)}}}};
 }
 
 // Fills the template: every "{{NAME}}" is replaced once, in one pass (inserted text is never rescanned).

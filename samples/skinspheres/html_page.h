@@ -21,13 +21,12 @@
 namespace skinspheres::tool {
 
 struct ViewClip {
-  const PlayResult* played = nullptr;  // frames with spheres (PlayOptions::keep_spheres) and contacts
-  size_t clip_index = 0;               // into the character's clips
+  const PlayResult* played = nullptr;               // the run's summary (stage times)
+  const std::vector<FrameRecord>* frames = nullptr;  // every frame (RecordFrames): spheres, sphere pairs,
+                                                     // intersecting triangle pairs (shown in the contact colour)
+  size_t clip_index = 0;                            // into the character's clips
   float fps = 30.0f;
-  bool fast = false;                   // refit mode of the run
-  // Per frame (empty, or one entry per frame): intersecting triangle pairs, triangle indices in the
-  // source file's triangle order. Shown in the contact colour for triangles when present.
-  std::vector<std::vector<std::array<uint32_t, 2>>> triangle_pairs;
+  bool fast = false;                                // refit mode of the run
 };
 
 struct ViewerPageInput {

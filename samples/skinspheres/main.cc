@@ -1,5 +1,6 @@
 // skinspheres: the command-line tool.
-//   skinspheres fit INPUT -o OUT.json [...]      fit a sphere set (see fit_command.cc)
+//   skinspheres fit INPUT -o OUT.json [...]      fit a sphere set (see fit_command.cc); .ssb: binary
+//   skinspheres convert IN OUT [--fast-only]     sphere set JSON <-> binary (convert_command.cc)
 //   skinspheres play INPUT [...]                 play a clip: sample, skin, refit, query (play_command.cc)
 //   skinspheres demo                             fit and play the built-in character
 //   skinspheres export-builtin OUT.glb           write the built-in character as glTF
@@ -16,6 +17,7 @@ int main(int argc, char** argv) {
   skinspheres::tool::AddPlayCommand(app, &exit_code);
   skinspheres::tool::AddDemoCommand(app, &exit_code);
   skinspheres::tool::AddExportBuiltinCommand(app, &exit_code);
+  skinspheres::tool::AddConvertCommand(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

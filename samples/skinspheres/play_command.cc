@@ -1,10 +1,12 @@
 // skinspheres play INPUT [--spheres S.json | fit on the fly] [--clip NAME|INDEX|all] [--clips FILE]...
-//   [--fps 30] [--frames N] [--mode exact|fast] [--report R.json] [--dump F.jsonl] [--export-glb V.glb]
-//   [--html V.html] [--verify]
+//   [--fps 30] [--frames N] [--mode exact|fast] [--margin D] [--sphere-pairs] [--report R.json]
+//   [--dump F.jsonl] [--export-glb V.glb] [--html V.html] [--verify]
 #include <unistd.h>
 
 #include <cstdio>
 #include <memory>
+#include <optional>
+#include <string>
 #include <nlohmann/json.hpp>
 
 #include "clip_files.h"
@@ -13,7 +15,6 @@
 #include "skinspheres/lib/glb_exporter.h"
 #include "skinspheres/runtime/file_io.h"
 #include "skinspheres/runtime/sphere_set_io.h"
-#include "skinspheres/skinning/sampling_job.h"
 
 namespace skinspheres::tool {
 namespace {
@@ -22,14 +23,46 @@ struct PlayArgs {
   std::string input, spheres, clip = "0", mode = "exact", report, dump, export_glb, html;
   std::vector<std::string> clip_files;
   float fps = 30.0f;
+  float margin = 0.0f;
   int frames = 0;
   bool verify = false;
+  bool sphere_pairs = false;
   FitOptions fit;
 };
+
+// One --dump line: the frame, its times, the spheres, the sphere pairs, the contacts by part pair
+// (intersecting triangle pairs [t, u], t in the first part; with a margin, "near" [t, u, distance]).
+nlohmann::json DumpLine(const FrameView& fr, const runtime::SphereSet& set, bool margin) {
+  nlohmann::json line = {{"frame", fr.index}, {"time", fr.time_s}, {"clip_time", fr.clip_time_s}};
+  nlohmann::json spheres = nlohmann::json::array(), pairs = nlohmann::json::array(), contacts = nlohmann::json::array();
+  for (const auto& s : fr.spheres) spheres.push_back({s.x(), s.y(), s.z(), s.w()});
+  for (const auto& c : fr.sphere_pairs) pairs.push_back({c.i, c.j});
+  for (const runtime::PartContact& p : fr.contacts->parts) {
+    nlohmann::json triangles = nlohmann::json::array(), near = nlohmann::json::array();
+    for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
+      const runtime::TrianglePairContact& c = fr.contacts->triangle_pairs[k];
+      if (c.kind == runtime::TriangleContactKind::kIntersecting) {
+        triangles.push_back({c.t, c.u});
+      } else {
+        near.push_back({c.t, c.u, c.distance});
+      }
+    }
+    nlohmann::json entry = {{"parts", {set.parts[p.part_a].name, set.parts[p.part_b].name}},
+                            {"triangles", std::move(triangles)},
+                            {"depth", p.depth}};
+    if (margin) entry["near"] = std::move(near);
+    contacts.push_back(std::move(entry));
+  }
+  line["spheres"] = std::move(spheres);
+  line["pairs"] = std::move(pairs);
+  line["contacts"] = std::move(contacts);
+  return line;
+}
 
 int RunPlay(PlayArgs& a) {
   if (a.mode != "exact" && a.mode != "fast") return Fail("--mode must be exact or fast (got " + a.mode + ")");
   if (!(a.fps > 0.0f) || a.fps > 10000.0f) return Fail("--fps must be in (0, 10000]");
+  if (!(a.margin >= 0.0f) || !std::isfinite(a.margin)) return Fail("--margin must be a finite distance >= 0");
   if (auto why = a.fit.Resolve()) return Fail(*why);
   auto loaded = LoadCharacter(a.input, a.fit.parts_file);
   if (!loaded.ok()) return Fail(loaded.error().message);
@@ -54,6 +87,10 @@ int RunPlay(PlayArgs& a) {
     auto read = runtime::LoadSphereSet(a.spheres);
     if (!read.ok()) return Fail(read.error().message);
     set = std::move(read).value();
+    if (AttachMesh(loaded->character, &set)) {
+      std::printf("%s: format version 1 (no mesh): the triangle tests use %s's mesh\n", a.spheres.c_str(),
+                  loaded->character.source_file.c_str());
+    }
   } else {
     auto fit = lib::FitSpheres(loaded->character, loaded->parts, a.fit.settings);
     if (!fit.ok()) return Fail(fit.error().message);
@@ -65,88 +102,122 @@ int RunPlay(PlayArgs& a) {
   opts.frames = a.frames;
   opts.fast = a.mode == "fast";
   opts.verify = a.verify;
+  opts.margin = a.margin;
   opts.progress = isatty(STDERR_FILENO);
-  opts.keep_spheres = !a.dump.empty() || !a.export_glb.empty() || !a.html.empty();
-  // --html: one page with every clip played.
+  // --html: one page with every clip played; its per-frame data is kept for it (RecordFrames).
   std::vector<PlayResult> kept;
+  std::vector<std::vector<FrameRecord>> recorded;
+  recorded.reserve(clips.size());
   auto write_page = [&]() -> int {
     if (a.html.empty()) return 0;
     ViewerPageInput page{&*loaded, &set, fit_seconds, {}, notes};
-    for (size_t k = 0; k < kept.size(); ++k) page.clips.push_back(ViewClip{&kept[k], clips[k], a.fps, opts.fast, {}});
+    for (size_t k = 0; k < kept.size(); ++k) page.clips.push_back(ViewClip{&kept[k], &recorded[k], clips[k], a.fps, opts.fast});
     if (auto err = WriteViewerPage(page, a.html)) return Fail(err->message);
     std::printf("wrote %s\n", a.html.c_str());
     return 0;
   };
-  if (clips.size() > 1) {
-    size_t outside = 0;
+  if (a.clip == "all") {
+    bool all_verified = true;
+    size_t outside = 0, mismatches = 0;
     for (size_t k : clips) {
-      auto played = PlayClip(*loaded, set, k, opts);
+      FrameSink record;
+      if (!a.html.empty()) {
+        recorded.emplace_back();
+        record = RecordFrames(&recorded.back());
+      }
+      auto played = PlayClip(*loaded, set, k, opts, record);
       if (!played.ok()) return Fail(played.error().message);
-      PrintPlaySummary(*played, set, a.fps);
+      PrintPlaySummary(*played, set, a.fps, a.sphere_pairs, a.verify);
+      all_verified &= played->verified();
       outside += played->triangles_outside;
+      mismatches += played->narrow_mismatches;
       if (!a.html.empty()) kept.push_back(std::move(*played));
     }
-    if (a.verify) std::printf("verify: %zu triangle-frames outside their sphere over %zu clips\n", outside, clips.size());
-    if (const int code = write_page()) return code;
-    return outside ? 1 : 0;
-  }
-  auto played = PlayClip(*loaded, set, clips[0], opts);
-  if (!played.ok()) return Fail(played.error().message);
-  PrintPlaySummary(*played, set, a.fps);
-
-  // Every write is checked through the close (runtime/file_io.h): a failed one is one line,
-  // exit 2, and no "wrote".
-  if (!a.dump.empty()) {
-    runtime::CheckedFileWriter out(a.dump);
-    for (size_t f = 0; f < played->frames.size() && out.ok(); ++f) {
-      const auto& fr = played->frames[f];
-      nlohmann::json line = {{"frame", f}, {"time", fr.time_s}};
-      nlohmann::json spheres = nlohmann::json::array(), pairs = nlohmann::json::array();
-      for (const auto& s : fr.spheres) spheres.push_back({s.x(), s.y(), s.z(), s.w()});
-      for (const auto& c : fr.contacts) pairs.push_back({c.i, c.j});
-      line["spheres"] = std::move(spheres);
-      line["pairs"] = std::move(pairs);
-      out.Write(line.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + '\n');
+    if (a.verify) {
+      std::printf("verify: %zu triangle-frames outside their sphere over %zu clips; narrow phase differs from the oracle in "
+                  "%zu frames\n",
+                  outside, clips.size(), mismatches);
     }
-    if (auto err = out.Close()) return Fail(err->message);
+    if (const int code = write_page()) return code;
+    std::printf("memory: peak %ld KiB\n", PeakRssKiB());
+    return a.verify && !all_verified ? 1 : 0;
+  }
+
+  // Outputs are written frame by frame as the clip plays (nothing per frame is kept in memory,
+  // except what --export-glb and --html have to write at the end). Every write is checked through
+  // the close (runtime/file_io.h): a failed one is one line, exit 2, and no "wrote".
+  std::optional<runtime::CheckedFileWriter> dump, report;
+  if (!a.dump.empty()) dump.emplace(a.dump);
+  if (!a.report.empty()) {
+    report.emplace(a.report);
+    report->Write("{\"pairs_per_frame\":[");
+  }
+  // --export-glb: the spheres' keys go into the played clip's own animation, at the clip times
+  // sampled (one pass of the clip: frames past its end, which loop, are left out).
+  lib::GlbExtras extras;
+  bool extras_looped = false;
+  if (!a.export_glb.empty()) {
+    extras.spheres.resize(set.size());
+    extras.clip_name = loaded->character.clips[clips[0]].name;
+  }
+  if (!a.html.empty()) recorded.emplace_back();
+  FrameSink record = a.html.empty() ? FrameSink() : RecordFrames(&recorded.back());
+  FrameSink sink = [&](const FrameView& fr) {
+    if (record) record(fr);
+    if (dump && dump->ok()) {
+      dump->Write(DumpLine(fr, set, a.margin > 0.0f).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + '\n');
+    }
+    if (report) report->Write((fr.index ? "," : "") + std::to_string(fr.sphere_pairs.size()));
+    if (!a.export_glb.empty() && !extras_looped) {
+      if (!extras.frame_times_s.empty() && !(fr.clip_time_s > extras.frame_times_s.back())) {
+        extras_looped = true;
+        return;
+      }
+      extras.frame_times_s.push_back(fr.clip_time_s);
+      for (size_t s = 0; s < set.size(); ++s) extras.spheres[s].per_frame_xyzr.push_back(fr.spheres[s]);
+    }
+  };
+  auto played = PlayClip(*loaded, set, clips[0], opts, sink);
+  if (!played.ok()) return Fail(played.error().message);
+  PrintPlaySummary(*played, set, a.fps, a.sphere_pairs, a.verify);
+
+  if (dump) {
+    if (auto err = dump->Close()) return Fail(err->message);
     std::printf("wrote %s\n", a.dump.c_str());
   }
   if (!a.export_glb.empty()) {
-    // The spheres' keys go into the played clip's own animation, at the clip times sampled (one
-    // pass of the clip: frames past its end, which loop, are left out).
-    lib::GlbExtras extras;
-    extras.clip_name = played->clip;
-    extras.spheres.resize(set.size());
-    const float duration = loaded->character.clips[clips[0]].duration_s;
-    for (const auto& fr : played->frames) {
-      const float t = skinning::LoopTime(fr.time_s, duration);
-      if (!extras.frame_times_s.empty() && !(t > extras.frame_times_s.back())) break;
-      extras.frame_times_s.push_back(t);
-      for (size_t s = 0; s < set.size(); ++s) extras.spheres[s].per_frame_xyzr.push_back(fr.spheres[s]);
-    }
     auto written = lib::ExportGlb(loaded->character, a.export_glb, extras);
     if (!written.ok()) return Fail(written.error().message);
     std::printf("wrote %s (character and %zu animated spheres, in clip \"%s\")\n", a.export_glb.c_str(), set.size(),
-                played->clip.c_str());
+                extras.clip_name.c_str());
   }
-  if (!a.report.empty()) {
-    nlohmann::json rep = {{"clip", played->clip}, {"frames", played->frames.size()}, {"mode", a.mode},
-                          {"spheres", set.size()}, {"triangles_outside", played->triangles_outside}};
-    nlohmann::json per_frame = nlohmann::json::array();
-    for (const auto& fr : played->frames) per_frame.push_back(fr.contacts.size());
-    rep["pairs_per_frame"] = per_frame;
-    if (auto err = runtime::WriteWholeFile(a.report, rep.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + '\n')) {
-      return Fail(err->message);
+  if (report) {
+    nlohmann::json contacts = nlohmann::json::array();
+    for (const PartPairSummary& e : played->contacts) {
+      contacts.push_back({{"parts", {set.parts[e.part_a].name, set.parts[e.part_b].name}},
+                          {"kind", e.intersecting ? "intersecting" : "within_margin"},
+                          {"frames", e.frames.frames()},
+                          {"first_frame", e.frames.first()},
+                          {"last_frame", e.frames.last()},
+                          {"most_triangle_pairs", e.most_triangle_pairs},
+                          {"max_depth", e.max_depth}});
     }
+    const nlohmann::json rest = {{"clip", played->clip},
+                                 {"frames", played->frames},
+                                 {"mode", a.mode},
+                                 {"margin", a.margin},
+                                 {"spheres", set.size()},
+                                 {"triangles_outside", played->triangles_outside},
+                                 {"contacts", std::move(contacts)}};
+    const std::string tail = rest.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    report->Write("]," + tail.substr(1) + '\n');  // the summary's members after the streamed array
+    if (auto err = report->Close()) return Fail(err->message);
     std::printf("wrote %s\n", a.report.c_str());
   }
-  if (!a.html.empty()) kept.push_back(*played);
+  if (!a.html.empty()) kept.push_back(std::move(*played));
   if (const int code = write_page()) return code;
-  if (a.verify) {
-    std::printf("verify: %zu triangle-frames outside their sphere%s\n", played->triangles_outside,
-                played->triangles_outside ? (" (first at frame " + std::to_string(played->first_bad_frame) + ")").c_str() : "");
-    if (played->triangles_outside) return 1;
-  }
+  std::printf("memory: peak %ld KiB\n", PeakRssKiB());
+  if (a.verify && !played->verified()) return 1;
   return 0;
 }
 
@@ -154,21 +225,28 @@ int RunPlay(PlayArgs& a) {
 
 void AddPlayCommand(CLI::App& app, int* exit_code) {
   auto a = std::make_shared<PlayArgs>();
-  CLI::App* cmd = app.add_subcommand("play", "play a clip: sample, skin, refit, query every frame");
+  CLI::App* cmd = app.add_subcommand("play", "play a clip: sample, skin, refit, find sphere pairs and triangle contacts");
   cmd->add_option("input", a->input, "character file")->required();
   cmd->add_option("--spheres", a->spheres, "sphere set to use (default: fit on the fly)");
   cmd->add_option("--clip", a->clip, "clip name or index, or all")->capture_default_str();
   cmd->add_option("--fps", a->fps, "frames per second")->capture_default_str();
   cmd->add_option("--frames", a->frames, "number of frames (default: the whole clip)");
   cmd->add_option("--mode", a->mode, "refit mode: exact (skinned source vertices) or fast (joint transforms)")->capture_default_str();
+  cmd->add_option("--margin", a->margin,
+                  "also report triangle pairs nearer than this distance (model units; pairs this near at rest excluded)")
+      ->capture_default_str();
+  cmd->add_flag("--sphere-pairs", a->sphere_pairs, "also list the broad phase's sphere pairs by body-part pair");
   cmd->add_option("--report", a->report, "write a JSON report");
-  cmd->add_option("--dump", a->dump, "write one JSON line per frame: spheres and pairs");
+  cmd->add_option("--dump", a->dump, "write one JSON line per frame: spheres, sphere pairs, contacts");
   cmd->add_option("--export-glb", a->export_glb, "write the animated character with its spheres (in the clip's animation) as GLB");
   cmd->add_option("--html", a->html, "write the viewer page: one self-contained HTML file (with --clip all, every clip)");
   cmd->add_option("--clips", a->clip_files,
                   "add the clips of an animation file (glTF, GLB, FBX, ...; joints matched by name); repeatable")
-      ->take_all()->allow_extra_args(false);
-  cmd->add_flag("--verify", a->verify, "skin every vertex and check every triangle inside its sphere");
+      ->take_all()
+      ->allow_extra_args(false);
+  cmd->add_flag("--verify", a->verify,
+                "skin every vertex: check every triangle is owned and inside its sphere, and the narrow phase "
+                "against the brute-force oracle");
   a->fit.AddTo(*cmd);
   cmd->callback([a, exit_code] { *exit_code = RunPlay(*a); });
 }

@@ -1,11 +1,21 @@
-// Playback: for each frame of a clip, sample, skin, refit, query (what `play` and `demo` run).
+// Playback: for each frame of a clip, sample, skin, refit, query the sphere pairs, find the
+// triangle contacts (what `play` and `demo` run).
+//
+// Memory stays flat whatever the clip length: each frame is handed to an optional FrameSink as it
+// is played and then forgotten; the result keeps only bounded summaries (per part pair: frame
+// ranges, at most kMaxRanges of them, counts and extremes; stage times as fixed histograms).
 #pragma once
 
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "commands.h"
 #include "skinspheres/runtime/broad_phase.h"
+#include "skinspheres/runtime/narrow_phase.h"
 #include "skinspheres/runtime/sphere_set.h"
 
 namespace skinspheres::tool {
@@ -14,37 +24,116 @@ struct PlayOptions {
   float fps = 30.0f;
   int frames = 0;              // 0: the whole clip
   bool fast = false;           // refit mode: fast (joint transforms only) or exact (skinned vertices)
-  bool verify = false;         // skin every vertex and check every triangle inside its sphere
+  bool verify = false;         // skin every vertex: every triangle inside its sphere, narrow phase == oracle
   bool progress = false;       // a progress line on the terminal
-  bool keep_spheres = false;   // keep per-frame spheres (for --dump / --export-glb)
+  float margin = 0.0f;         // narrow phase: also report triangle pairs nearer than this (model units)
 };
 
-struct FramePairs {
+// One played frame, valid during the FrameSink call only.
+struct FrameView {
+  int index = 0;
+  float time_s = 0.0f;       // frame / fps: keeps counting past the clip's end
+  float clip_time_s = 0.0f;  // the time sampled in the clip (the pose loops)
+  std::span<const runtime::Contact> sphere_pairs;  // broad phase
+  const runtime::FrameContacts* contacts = nullptr;  // narrow phase
+  std::span<const skinspheres::Vec4f> spheres;      // refitted: xyz centre, w radius
+};
+using FrameSink = std::function<void(const FrameView&)>;
+
+// One played frame kept for what needs every frame at the end (the viewer page, a GLB export):
+// its times, refitted spheres, sphere pairs and intersecting triangle pairs (source-triangle
+// indices, t of part_a then u of part_b).
+struct FrameRecord {
   float time_s = 0.0f;
-  std::vector<runtime::Contact> contacts;
-  std::vector<skinspheres::Vec4f> spheres;  // only with keep_spheres
+  float clip_time_s = 0.0f;
+  std::vector<skinspheres::Vec4f> spheres;
+  std::vector<runtime::Contact> sphere_pairs;
+  std::vector<std::array<uint32_t, 2>> triangle_pairs;
+};
+// A sink that appends every frame to *out (memory grows with the clip: only for such outputs),
+// then hands it to `next` when given.
+FrameSink RecordFrames(std::vector<FrameRecord>* out, FrameSink next = {});
+
+// Frame numbers collected as ranges "3-7, 12": at most kMaxRanges ranges are kept, later ones are
+// only counted.
+class FrameRanges {
+ public:
+  static constexpr size_t kMaxRanges = 8;
+  void Add(int frame);
+  size_t frames() const { return frames_; }
+  int first() const { return first_; }
+  int last() const { return last_; }
+  std::string ToString() const;  // "0-30", "3-7, 12, ... (+4 ranges)"
+
+ private:
+  std::vector<std::pair<int, int>> ranges_;
+  size_t more_ = 0;      // ranges started after the kept ones
+  size_t frames_ = 0;
+  int first_ = -1, last_ = -1;
+};
+
+struct PartPairSummary {
+  uint16_t part_a = 0, part_b = 0;
+  FrameRanges frames;              // frames where the pair touched
+  bool intersecting = false;       // at least one intersecting triangle pair (else only within margin)
+  uint32_t most_triangle_pairs = 0;  // largest number of triangle pairs in one frame
+  float max_depth = 0.0f;          // largest penetration depth estimate
+  float min_distance = 0.0f;       // closest within-margin distance (when never intersecting)
+};
+
+// Per-frame times as a fixed log-scale histogram (1% bins from 10 ns to 100 s): percentiles within 1%.
+class StageTime {
+ public:
+  void Add(double seconds);
+  double Percentile(double q) const;  // seconds
+  size_t count() const { return count_; }
+
+ private:
+  static constexpr int kBinsPerDecade = 230;  // 10^(1/230) ~ 1.01
+  static constexpr int kDecades = 10;         // 1e-8 .. 1e2 s
+  std::array<uint32_t, kBinsPerDecade * kDecades + 2> bins_{};
+  size_t count_ = 0;
 };
 
 struct StageTimes {
-  std::vector<double> sample, skin, refit, query, verify;  // seconds per frame
+  StageTime sample, skin, refit, query, narrow, verify;
 };
 
 struct PlayResult {
   std::string clip;
-  std::vector<FramePairs> frames;
+  int frames = 0;
+  size_t sphere_pairs_total = 0, sphere_pairs_most = 0;
+  size_t triangle_pairs_total = 0, triangle_pairs_most = 0;
+  std::vector<PartPairSummary> contacts;        // narrow phase, by part pair (sorted)
+  std::vector<PartPairSummary> sphere_pairs;    // broad phase, by part pair (sorted)
   StageTimes times;
-  size_t triangles_outside = 0;   // --verify: summed over frames (must be 0)
+  float body_height = 0.0f;
+  // --verify
+  size_t triangles_outside = 0;   // triangle-frames outside their sphere (must be 0)
+  size_t triangles_unowned = 0;   // triangles of the mesh that no sphere owns (must be 0)
   int first_bad_frame = -1;
+  size_t narrow_mismatches = 0;   // frames where the narrow phase differs from the brute-force oracle
+  int first_mismatch_frame = -1;
+  bool verified() const { return triangles_outside == 0 && triangles_unowned == 0 && narrow_mismatches == 0; }
 };
 
 Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::SphereSet& set, size_t clip,
-                            const PlayOptions& options);
+                            const PlayOptions& options, const FrameSink& sink = {});
 
 // Clip by name or index; the error lists the clips there are.
 Result<size_t> FindClip(const lib::RawCharacter& character, const std::string& name_or_index);
 
-// The summary: frames, pairs per frame, body-part pairs touched over frame ranges, stage times.
-void PrintPlaySummary(const PlayResult& result, const runtime::SphereSet& set, float fps);
+// A set read from a version-1 file has no mesh: the character it was fitted on provides it (same
+// vertices and triangles, checked by PlayClip). Returns true when it added one.
+bool AttachMesh(const lib::RawCharacter& character, runtime::SphereSet* set);
+
+// The summary: frames, contacts by part pair (frames, triangle pairs, depth), optionally the
+// broad phase's sphere pairs by part pair, stage times, and --verify's outcome when it ran.
+void PrintPlaySummary(const PlayResult& result, const runtime::SphereSet& set, float fps, bool sphere_pairs,
+                      bool verify);
+
+// Peak resident memory of this process so far, in KiB (0 where the system does not tell).
+long PeakRssKiB();
 
 void AddPlayCommand(CLI::App& app, int* exit_code);
 

@@ -1,7 +1,12 @@
+// DefaultParallelFor: TBB's parallel_for when built with SKINSPHERES_WITH_TBB, otherwise the
+// serial loop (the library then never references TBB); in a ThreadSanitizer build, std::threads
+// (below). SerialFor: the calling thread.
 #include "skinspheres/skinning/parallel_for.h"
 
+#if SKINSPHERES_WITH_TBB && !defined(__SANITIZE_THREAD__)
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#endif
 
 #include <algorithm>
 #include <atomic>
@@ -10,11 +15,18 @@
 
 namespace skinspheres {
 
+const ParallelFor& SerialFor() {
+  static const ParallelFor serial = [](size_t count, size_t, RangeBody body) {
+    if (count > 0) body(0, count);
+  };
+  return serial;
+}
+
 #if defined(__SANITIZE_THREAD__)
 // ThreadSanitizer build (.ci/run's TSan stage): TBB is a prebuilt library the checker cannot see
 // into, so it would report every hand-over between TBB's threads as a race. Here the default runs
 // the ranges on std::threads it starts and joins (synchronisation the checker sees), so what it
-// reports are races in skinspheres' own code.
+// reports are races in skinspheres' own code. With or without SKINSPHERES_WITH_TBB.
 const ParallelFor& DefaultParallelFor() {
   static const ParallelFor thread_for = [](size_t count, size_t grain, RangeBody body) {
     if (count == 0) return;
@@ -32,7 +44,8 @@ const ParallelFor& DefaultParallelFor() {
   };
   return thread_for;
 }
-#else
+bool DefaultParallelForUsesTbb() { return false; }
+#elif SKINSPHERES_WITH_TBB
 const ParallelFor& DefaultParallelFor() {
   static const ParallelFor tbb_for = [](size_t count, size_t grain, RangeBody body) {
     if (count == 0) return;
@@ -41,13 +54,10 @@ const ParallelFor& DefaultParallelFor() {
   };
   return tbb_for;
 }
+bool DefaultParallelForUsesTbb() { return true; }
+#else
+const ParallelFor& DefaultParallelFor() { return SerialFor(); }
+bool DefaultParallelForUsesTbb() { return false; }
 #endif
-
-const ParallelFor& SerialFor() {
-  static const ParallelFor serial = [](size_t count, size_t, RangeBody body) {
-    if (count > 0) body(0, count);
-  };
-  return serial;
-}
 
 }  // namespace skinspheres

@@ -1,13 +1,15 @@
-// Runs one frame of every public job through the installed package and prints what the library
-// computed, plus the size of every public struct as this program sees it. Built once with the
+// Runs one frame of every public job (and the binary asset, the joint mapping and the C API) through
+// the installed package and prints what the library computed, plus the size of every public struct as this program sees it. Built once with the
 // library's own flags and again with wider ones (-mavx2 -mfma, -march=native): the outputs must be
 // identical, and nothing may crash. Before the public math types were made layout-stable
 // (skinning/math_types.h) the -mavx2 build crashed in LocalToModelJob::Run.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
@@ -16,7 +18,10 @@
 #include "skinspheres/runtime/broad_phase.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/runtime/refit_job.h"
+#include "skinspheres/runtime/joint_mapping.h"
+#include "skinspheres/runtime/sphere_set_binary.h"
 #include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/skinspheres.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 #include "skinspheres/skinning/prepared_influences.h"
 #include "skinspheres/skinning/sampling_job.h"
@@ -56,12 +61,14 @@ int main(int argc, char** argv) {
   // Layouts as this program sees them (compared across builds by the test script).
   std::printf("sizeof Transform %zu BindEntry %zu LocalToModelJob %zu SkinningMatricesJob %zu SamplingJob %zu "
               "SkinningJob %zu RefitJob %zu SelfCollisionJob %zu Contact %zu SphereSet %zu CharacterFrameInput %zu "
-              "FrameStatus %zu JointTrack %zu\n",
+              "FrameStatus %zu JointTrack %zu JointMapping %zu SphereSetBinaryView %zu skinspheres_contact %zu "
+              "skinspheres_frame_input %zu\n",
               sizeof(skinning::Transform), sizeof(skinning::BindEntry), sizeof(skinning::LocalToModelJob),
               sizeof(skinning::SkinningMatricesJob), sizeof(skinning::SamplingJob), sizeof(skinning::SkinningJob),
               sizeof(runtime::RefitJob), sizeof(runtime::SelfCollisionJob), sizeof(runtime::Contact),
               sizeof(runtime::SphereSet), sizeof(runtime::CharacterFrameInput), sizeof(runtime::FrameStatus),
-              sizeof(skinning::JointTrack));
+              sizeof(skinning::JointTrack), sizeof(runtime::JointMapping), sizeof(runtime::SphereSetBinaryView),
+              sizeof(skinspheres_contact), sizeof(skinspheres_frame_input));
 
   // Offline API: the built-in character, its parts and its fit, saved and loaded back.
   const lib::RawCharacter ch = lib::MakeBuiltinCharacter();
@@ -170,6 +177,44 @@ int main(int argc, char** argv) {
   Check(std::equal(one->contacts().begin(), one->contacts().end(), out_b.begin(), out_b.end()) &&
             std::equal(two->contacts().begin(), two->contacts().end(), out_b.begin(), out_b.end()),
         "crowd == single instance");
+
+  // The binary asset: the same set as the JSON, through a file and through a checked view.
+  std::filesystem::path binary_path = path;
+  binary_path.replace_extension(".ssb");
+  if (auto err = runtime::SaveSphereSet(set, binary_path)) return std::printf("%s\n", err->message.c_str()), 1;
+  auto binary = runtime::LoadSphereSet(binary_path);
+  Check(binary.ok() && runtime::WriteSphereSetJson(*binary) == runtime::WriteSphereSetJson(set), "binary set == JSON set");
+  auto bytes = runtime::ReadSphereSetFile(binary_path);
+  Check(bytes.ok() && runtime::SphereSetBinaryView::Open(*bytes, "abi.ssb").ok(), "SphereSetBinaryView::Open");
+
+  // Joint mapping: matrices in an engine's order (the set's reversed) give the same contacts.
+  std::vector<std::string> engine_names(set.joint_names.rbegin(), set.joint_names.rend());
+  std::vector<Mat4f> engine_world(world.rbegin(), world.rend());
+  auto mapping = runtime::MapJoints(set, engine_names);
+  Check(mapping.ok(), "MapJoints");
+  auto mapped = runtime::CharacterInstance::Create(*asset, *mapping);
+  Check(mapped.ok() && mapped->UpdateFast(engine_world).ok(), "CharacterInstance with a JointMapping");
+  Check(mapped.ok() && std::equal(mapped->Query().begin(), mapped->Query().end(), out_b.begin(), out_b.end()),
+        "engine joint order == set joint order");
+
+  // The C API on the same file and the same engine order.
+  skinspheres_asset* c_asset = nullptr;
+  skinspheres_instance* c_instance = nullptr;
+  std::vector<const char*> c_names;
+  for (const std::string& n : engine_names) c_names.push_back(n.c_str());
+  size_t c_count = 0;
+  Check(skinspheres_asset_load_file(binary_path.c_str(), &c_asset) == SKINSPHERES_OK &&
+            skinspheres_instance_create(c_asset, c_names.data(), c_names.size(), &c_instance) == SKINSPHERES_OK &&
+            skinspheres_instance_update_fast(c_instance, engine_world.data()->data(), engine_world.size()) == SKINSPHERES_OK &&
+            skinspheres_instance_query(c_instance, &c_count) == SKINSPHERES_OK,
+        "C API: load, instance, update, query");
+  std::vector<skinspheres_contact> c_contacts(c_count);
+  size_t written = 0;
+  Check(skinspheres_instance_get_contacts(c_instance, c_contacts.data(), c_contacts.size(), &written) == SKINSPHERES_OK &&
+            written == out_b.size() && std::memcmp(c_contacts.data(), out_b.data(), written * sizeof(skinspheres_contact)) == 0,
+        "C API contacts == C++ contacts");
+  skinspheres_instance_destroy(c_instance);
+  skinspheres_asset_release(c_asset);
   std::printf("%s\n", failures ? "FAILED" : "all jobs ran");
   return failures ? 1 : 0;
 }

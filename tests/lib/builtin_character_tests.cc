@@ -9,6 +9,7 @@
 #include <set>
 
 #include "lib/clip_eval_for_tests.h"
+#include "skinspheres/runtime/triangle_contact.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -307,6 +308,120 @@ TEST(BuiltinCharacter, TouchClipHandsReachChestThenHead) {
     const Contact end = HandAgainst(c, test::PoseAt(c, touch, kTouchDuration_s), arm, hand, "TorsoMesh");
     EXPECT_GT(end.min_distance, 0.3f);
   }
+}
+
+// Every pair of triangles of two different pieces that intersect (exact test) in `pos`, for the
+// pieces that are apart at rest. Pieces joined at rest (neck in torso, head on neck, thighs in
+// the hips, feet in the shins) are joints of the body, whose spheres the fitter excludes.
+struct PieceHit {
+  std::string a, b;
+  uint32_t t, u;
+};
+std::vector<PieceHit> PieceIntersections(const RawCharacter& c, const std::vector<Vector3f>& pos) {
+  std::vector<PieceHit> hits;
+  auto box = [&](const std::vector<Vector3f>& p, uint32_t t) {
+    Eigen::AlignedBox3f b;
+    for (int k = 0; k < 3; ++k) b.extend(p[c.triangles[t][k]]);
+    return b;
+  };
+  auto meet = [&](const std::vector<Vector3f>& p, uint32_t t, uint32_t u) {
+    const auto& x = c.triangles[t];
+    const auto& y = c.triangles[u];
+    return runtime::TrianglesIntersect(p[x[0]], p[x[1]], p[x[2]], p[y[0]], p[y[1]], p[y[2]]);
+  };
+  auto each_pair = [&](const std::vector<Vector3f>& p, const MeshRange& a, const MeshRange& b, auto&& fn) {
+    std::vector<Eigen::AlignedBox3f> boxes_b;
+    for (uint32_t u = b.first_triangle; u < b.first_triangle + b.triangle_count; ++u) boxes_b.push_back(box(p, u));
+    for (uint32_t t = a.first_triangle; t < a.first_triangle + a.triangle_count; ++t) {
+      const Eigen::AlignedBox3f bt = box(p, t);
+      for (uint32_t u = b.first_triangle; u < b.first_triangle + b.triangle_count; ++u) {
+        if (bt.intersects(boxes_b[u - b.first_triangle]) && meet(p, t, u)) fn(t, u);
+      }
+    }
+  };
+  static std::set<std::pair<size_t, size_t>> joined;  // computed once: the character never changes
+  static bool found = false;
+  if (!found) {
+    for (size_t m = 0; m < c.meshes.size(); ++m) {
+      for (size_t n = m + 1; n < c.meshes.size(); ++n) {
+        each_pair(c.positions_rest, c.meshes[m], c.meshes[n], [&](uint32_t, uint32_t) { joined.insert({m, n}); });
+      }
+    }
+    found = true;
+  }
+  for (size_t m = 0; m < c.meshes.size(); ++m) {
+    for (size_t n = m + 1; n < c.meshes.size(); ++n) {
+      if (joined.count({m, n})) continue;
+      each_pair(pos, c.meshes[m], c.meshes[n], [&](uint32_t t, uint32_t u) { hits.push_back({c.meshes[m].name, c.meshes[n].name, t, u}); });
+    }
+  }
+  return hits;
+}
+
+// The largest weight of triangle t's vertices is on `joint` for at least one vertex.
+bool TouchesJoint(const RawCharacter& c, uint32_t t, const std::string& joint) {
+  const int32_t j = c.skeleton.Find(joint);
+  for (int k = 0; k < 3; ++k) {
+    const int v = c.triangles[t][k];
+    float best = 0;
+    int32_t best_joint = -1;
+    for (uint32_t i = c.skin.influence_offsets[v]; i < c.skin.influence_offsets[v + 1]; ++i) {
+      if (c.skin.influence_weights[i] > best) best = c.skin.influence_weights[i], best_joint = c.skin.binds[c.skin.influence_binds[i]].joint;
+    }
+    if (best_joint == j) return true;
+  }
+  return false;
+}
+
+TEST(BuiltinCharacter, TheWalkTouchesNothing) {
+  const RawCharacter& c = Character();
+  // The arms are among the pieces checked: apart at rest.
+  ASSERT_TRUE(PieceIntersections(c, c.positions_rest).empty());
+  const auto& walk = *Clip(c, "walk");
+  for (int f = 0; f <= 30; ++f) {
+    const float t = kWalkDuration_s * float(f) / 30.0f;
+    const auto hits = PieceIntersections(c, test::PoseAt(c, walk, t));
+    ASSERT_TRUE(hits.empty()) << "t=" << t << ": " << hits.size() << " intersecting pairs, first " << hits[0].a << " triangle "
+                              << hits[0].t << " with " << hits[0].b << " triangle " << hits[0].u;
+  }
+}
+
+TEST(BuiltinCharacter, TheTouchClipTouchesOnlyWithTheHands) {
+  const RawCharacter& c = Character();
+  const auto& touch = *Clip(c, "touch");
+  int chest_frames = 0, head_frames = 0;
+  for (int f = 0; f <= 60; ++f) {  // 15 frames per second
+    const float t = kTouchDuration_s * float(f) / 60.0f;
+    const auto hits = PieceIntersections(c, test::PoseAt(c, touch, t));
+    bool chest = false, head = false;
+    for (const PieceHit& h : hits) {
+      // Only an arm piece's hand against the torso or the head.
+      const bool arm_first = h.a.find("ArmMesh") != std::string::npos;
+      const std::string arm = arm_first ? h.a : h.b, other = arm_first ? h.b : h.a;
+      const uint32_t arm_t = arm_first ? h.t : h.u;
+      ASSERT_NE(arm.find("ArmMesh"), std::string::npos) << "t=" << t << ": " << h.a << " against " << h.b;
+      const std::string hand = arm.substr(0, arm.find("ArmMesh")) + "Hand";
+      ASSERT_TRUE(TouchesJoint(c, arm_t, hand)) << "t=" << t << ": " << arm << " triangle " << arm_t << " is not the hand's";
+      ASSERT_TRUE(other == "TorsoMesh" || other == "HeadMesh") << "t=" << t << ": hand against " << other;
+      chest |= other == "TorsoMesh";
+      head |= other == "HeadMesh";
+      // Contacts stay near their windows (the hands arrive and leave within 0.1 s of them).
+      const bool near_chest = t >= kTouchChestBegin_s - 0.1f && t <= kTouchChestEnd_s + 0.1f;
+      const bool near_head = t >= kTouchHeadBegin_s - 0.1f && t <= kTouchHeadEnd_s + 0.1f;
+      ASSERT_TRUE(other == "TorsoMesh" ? near_chest : near_head) << "t=" << t << ": hand on " << other << " outside its window";
+    }
+    const bool in_chest = t >= kTouchChestBegin_s && t <= kTouchChestEnd_s;
+    const bool in_head = t >= kTouchHeadBegin_s && t <= kTouchHeadEnd_s;
+    if (in_chest) {
+      EXPECT_TRUE(chest) << "no hand on the chest at t=" << t;
+    }
+    if (in_head) {
+      EXPECT_TRUE(head) << "no hand on the head at t=" << t;
+    }
+    chest_frames += chest;
+    head_frames += head;
+  }
+  std::printf("[touch] hands on the chest in %d of 61 frames, on the head in %d\n", chest_frames, head_frames);
 }
 
 TEST(BuiltinCharacter, Deterministic) {

@@ -128,9 +128,9 @@ TEST(GlbExporter, AssimpReadsBackMeshesSkinAndClips) {
   const auto& touch = c.clips[1];
   const aiNodeAnim* ch = FindChannel(FindAnim(s, "touch"), "LeftArm");
   ASSERT_NE(ch, nullptr);
-  ASSERT_EQ(ch->mNumRotationKeys, 6u);
   for (const auto& tr : touch.tracks) {
     if (c.skeleton.joint_names[tr.joint] != "LeftArm") continue;
+    ASSERT_EQ(ch->mNumRotationKeys, tr.rotation.times_s.size());
     const skinspheres::Quatf q = tr.rotation.values[1];
     const aiQuaternion& k = ch->mRotationKeys[1].mValue;
     EXPECT_NEAR(std::abs(q.w() * k.w + q.x() * k.x + q.y() * k.y + q.z() * k.z), 1.0f, 1e-6f);

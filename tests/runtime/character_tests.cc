@@ -2,8 +2,6 @@
 // RefitJob, contacts equal to the all-pairs broad-phase oracle, the touch clip's hand-chest contact
 // is found, NaN input fails only its instance, crowd = serial for 1 and 2 threads, no allocation
 // per frame after the first.
-// The counting operator new/delete below pair malloc/free; GCC 12 flags the inlined pairs falsely.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
 
 #include "skinspheres/runtime/character.h"
 
@@ -18,26 +16,8 @@
 #include <random>
 #include <set>
 
+#include "allocation_counter.h"
 #include "posed_characters.h"
-
-// Allocation counter for the no-allocation-per-frame test (counts operator new in this binary).
-namespace {
-std::atomic<long> g_allocations{0};
-std::atomic<bool> g_counting{false};
-}  // namespace
-void* operator new(size_t size) {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, size_t) noexcept { std::free(p); }
-// The nothrow forms too (std::stable_sort's buffer uses them): every new/delete pair must match.
-void* operator new(size_t size, const std::nothrow_t&) noexcept {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
-  return std::malloc(size == 0 ? 1 : size);
-}
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
 
 namespace skinspheres::runtime {
 namespace {
@@ -301,16 +281,15 @@ TEST(CharacterInstanceTest, NoAllocationPerFrameAfterTheFirst) {
     }
   };
   run_all();  // warm-up: the contact list reaches its largest size
-  g_allocations = 0;
-  g_counting = true;
-  run_all();
-  g_counting = false;
-  EXPECT_EQ(g_allocations.load(), 0);
+  {
+    test::AllocationCounter counter;
+    run_all();
+    EXPECT_EQ(counter.count(), 0);
+  }
   // The counter does count (so the zero above means something).
-  g_counting = true;
+  test::AllocationCounter counter;
   auto probe = std::make_unique<std::vector<int>>(10);
-  g_counting = false;
-  EXPECT_GE(g_allocations.load(), 1);
+  EXPECT_GE(counter.count(), 1);
 }
 
 }  // namespace

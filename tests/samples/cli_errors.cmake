@@ -13,7 +13,10 @@ set(cli_cases
   "dump_full|play|@GLB@|--frames|3|--dump|/dev/full|/dev/full: write failed"
   "report_full|play|@GLB@|--frames|3|--report|/dev/full|/dev/full: write failed"
   "export_glb_full|play|@GLB@|--frames|3|--export-glb|/dev/full|/dev/full: write failed"
-  "fit_output_full|fit|@GLB@|-o|/dev/full|/dev/full: write failed"
+  "fit_output_full|fit|@GLB@|-o|@FULL_JSON@|full.json: write failed"
+  "fit_output_full_binary|fit|@GLB@|-o|@FULL_SSB@|full.ssb: write failed"
+  "convert_output_full|convert|@SET@|@FULL_SSB@|full.ssb: write failed"
+  "convert_output_full_json|convert|@SSB@|@FULL_JSON@|full.json: write failed"
   "export_builtin_full|export-builtin|@FULL_GLB@|full.glb: write failed"
   "dump_no_dir|play|@GLB@|--frames|3|--dump|/nonexistent-dir/x.jsonl|cannot open for writing"
   # Files that are not regular files: refused at once, never read (a FIFO used to block forever,
@@ -21,9 +24,15 @@ set(cli_cases
   "input_fifo|fit|@FIFO@|FIFO"
   "spheres_fifo|play|@GLB@|--spheres|@FIFO@|FIFO"
   "parts_fifo|fit|@GLB@|--parts|@FIFO@|FIFO"
+  "convert_input_fifo|convert|@FIFO@|@DIR@/out.ssb|FIFO"
+  "convert_input_dev_zero|convert|/dev/zero|@DIR@/out.json|device"
   "input_dev_zero|fit|/dev/zero|device"
   "spheres_dev_zero|play|@GLB@|--spheres|/dev/zero|device"
   "parts_dev_zero|fit|@GLB@|--parts|/dev/zero|device"
+  # Sphere-set outputs the tool cannot tell the format of, and a truncated binary set.
+  "fit_output_unknown_extension|fit|@GLB@|-o|@DIR@/set.spheres|unknown sphere-set extension"
+  "fast_only_json|convert|@SET@|@DIR@/fast.json|--fast-only|--fast-only needs a binary (.ssb) output"
+  "spheres_truncated_binary|play|@GLB@|--spheres|@SHORT_SSB@|short.ssb: "
   # A sphere set nested 100,000 deep (it crashed play with SIGSEGV).
   "spheres_deep|play|@GLB@|--spheres|@DEEP@|nests 100002 deep"
 )

@@ -3,26 +3,15 @@
 # tests/abi_consumer against it three times: with no extra flags, with -mavx2 -mfma, and with
 # -march=native. Each runs one frame of every public job; all three must succeed and print the
 # same thing (struct sizes, spheres, contacts). The wider builds must really be wider (stderr).
+include(${CMAKE_CURRENT_LIST_DIR}/package_consumer.cmake)
 file(REMOVE_RECURSE ${DIR})
-execute_process(COMMAND ${CMAKE_COMMAND} --install ${BUILD} --prefix ${DIR}/prefix RESULT_VARIABLE rc OUTPUT_QUIET)
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "cmake --install failed: ${rc}")
-endif()
+install_package(${BUILD} ${DIR}/prefix)
 set(reference "")
 foreach(variant "baseline;-O2" "avx2;-mavx2 -mfma" "native;-march=native")
   list(GET variant 0 name)
   list(GET variant 1 flags)
   set(build ${DIR}/${name})
-  execute_process(COMMAND ${CMAKE_COMMAND} -S ${SOURCE} -B ${build} -DCMAKE_PREFIX_PATH=${DIR}/prefix
-                          -DCMAKE_BUILD_TYPE=Release "-DSKINSPHERES_CONSUMER_FLAGS=${flags}"
-                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "configuring the ${name} consumer failed:\n${out}\n${err}")
-  endif()
-  execute_process(COMMAND ${CMAKE_COMMAND} --build ${build} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "building the ${name} consumer failed:\n${out}\n${err}")
-  endif()
+  build_consumer(${SOURCE} ${build} ${DIR}/prefix "-DSKINSPHERES_CONSUMER_FLAGS=${flags}")
   execute_process(COMMAND ${build}/abi_consumer ${build}/set.json RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(NOT rc EQUAL 0)
     message(FATAL_ERROR "the ${name} consumer (${flags}) failed (${rc}):\n${out}\n${err}")

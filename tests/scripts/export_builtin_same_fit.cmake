@@ -1,10 +1,5 @@
 # export-builtin, then fit the exported file and the built-in character: the same sphere set.
-file(REMOVE_RECURSE ${DIR})
-file(MAKE_DIRECTORY ${DIR})
-execute_process(COMMAND ${TOOL} export-builtin ${DIR}/builtin.glb RESULT_VARIABLE rc)
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "export-builtin failed: ${rc}")
-endif()
+include(${CMAKE_CURRENT_LIST_DIR}/builtin_glb.cmake)
 execute_process(COMMAND ${TOOL} fit ${DIR}/builtin.glb -o ${DIR}/from_file.json RESULT_VARIABLE rc OUTPUT_VARIABLE out1)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "fit of the exported file failed: ${rc}")

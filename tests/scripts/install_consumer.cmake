@@ -1,19 +1,9 @@
 # cmake --install the build tree into a scratch prefix, then configure and build
 # tests/install_consumer against it with find_package(skinspheres), and run it.
+include(${CMAKE_CURRENT_LIST_DIR}/package_consumer.cmake)
 file(REMOVE_RECURSE ${DIR})
-execute_process(COMMAND ${CMAKE_COMMAND} --install ${BUILD} --prefix ${DIR}/prefix RESULT_VARIABLE rc OUTPUT_QUIET)
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "cmake --install failed: ${rc}")
-endif()
-execute_process(COMMAND ${CMAKE_COMMAND} -S ${SOURCE} -B ${DIR}/build -DCMAKE_PREFIX_PATH=${DIR}/prefix
-                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "configuring the consumer failed:\n${out}\n${err}")
-endif()
-execute_process(COMMAND ${CMAKE_COMMAND} --build ${DIR}/build RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "building the consumer failed:\n${out}\n${err}")
-endif()
+install_package(${BUILD} ${DIR}/prefix)
+build_consumer(${SOURCE} ${DIR}/build ${DIR}/prefix)
 execute_process(COMMAND ${DIR}/build/consumer ${DIR}/no_such_set.json RESULT_VARIABLE rc OUTPUT_VARIABLE out)
 if(NOT rc EQUAL 2 OR NOT out MATCHES "no_such_set.json: file not found")
   message(FATAL_ERROR "the consumer did not run as expected (${rc}): ${out}")

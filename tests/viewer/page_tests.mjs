@@ -5,12 +5,13 @@
 //          contact colour covers pixels near the chest; the timeline jumps to a clicked mark;
 //          clicking a sphere selects it; intersecting triangles (data generated here, injected
 //          into a copy of the page) show in their colour where those triangles are, and only on
-//          the frame that has them.
+//          the frame that has them; the tool's own triangle pairs (the narrow phase): none at
+//          rest, and at the hand-on-chest frame the triangle colour is on screen near the chest.
 //   fit    fit.html (a character file with no clip, its bones in centimetres under a 0.01
 //          armature): loads with no console error, the bind pose is drawn inside its spheres, the
 //          loosest spheres are marked, the transport is disabled.
 //   clips  clips.html (clips from an animation-only FBX, joints "mixamorig:<name>"): the same
-//          contacts as the character's own clips, and the contact colour on the chest.
+//          contacts as the character's own clips, the contact and triangle colours on the chest.
 // Pixel checks count exact colours: the contact markers and the intersecting triangles are unlit,
 // opaque and drawn over everything, so their colour reaches the screen unchanged; the screen
 // region comes from the page's own projection of the spheres (screenBox), checked at rest to
@@ -159,8 +160,50 @@ async function restAndChest(browser, file) {
   check(inChest >= 150, `frame ${f}: ${inChest} contact-colour pixels near the chest (>= 150)`);
   check(inChest >= 0.8 * all, `frame ${f}: most contact-colour pixels are near the chest (${inChest} of ${all})`);
   await meshInsideSpheres(browser, `clip=${encodeURIComponent(touch.name)}&frame=${f}`);
+  await triangleContacts(browser, data, touch);
   await setHash(browser, `#clip=${encodeURIComponent(touch.name)}&frame=${f}&mesh=solid&spheres=1&contacts=1&loosest=0`);
   return { data, touch, chestFrame: f };
+}
+
+// The narrow phase's intersecting triangles as the tool wrote them: none at rest (touch frame 0),
+// and at the hand-on-chest frame (a hand triangle crossing a torso triangle, nearest the middle
+// of the chest window) the triangle colour is on screen near the chest, and nowhere at rest.
+async function triangleContacts(browser, data, touch) {
+  const sph = data.spheres;
+  const offsets = typed(Uint32Array, sph.owned_offsets), owned = typed(Uint32Array, sph.owned_triangles);
+  const owner = new Map();
+  for (let s = 0; s < sph.count; ++s) for (let k = offsets[s]; k < offsets[s + 1]; ++k) owner.set(owned[k], s);
+  const hand = (t) => owner.has(t) && sph.joint_names[sph.joint[owner.get(t)]].includes('Hand');
+  const torso = (t) => owner.has(t) && sph.parts[sph.part[owner.get(t)]] === 'torso';
+  const tp = touch.triangle_pairs;
+  check(Array.isArray(tp) && tp.length === touch.frames, `the page has the narrow phase's triangle pairs for every frame (${tp && tp.length})`);
+  if (!Array.isArray(tp)) return;
+  let f = -1;
+  tp.forEach((p, frame) => {
+    for (let i = 0; i + 1 < p.length; i += 2) {
+      if ((hand(p[i]) && torso(p[i + 1])) || (hand(p[i + 1]) && torso(p[i]))) {
+        if (f < 0 || Math.abs(touch.time[frame] - 1.2) < Math.abs(touch.time[f] - 1.2)) f = frame;
+      }
+    }
+  });
+  check(f >= 0 && touch.time[f] >= 0.8 && touch.time[f] <= 1.6,
+    `a hand triangle crosses a chest triangle at frame ${f} (t=${touch.time[f]} s), ${f >= 0 ? tp[f].length / 2 : 0} triangle pairs`);
+  check(tp[0].length === 0, `touch frame 0 (T-pose) has no intersecting triangles (${tp[0].length / 2})`);
+  const name = encodeURIComponent(touch.name);
+  await setHash(browser, `#clip=${name}&frame=0&mesh=solid&spheres=0&contacts=1&loosest=0`);
+  let st = await state(browser);
+  let { image } = await browser.screenshot();
+  const atRest = await countOnView(browser, image, MAGENTA);
+  check(st.trianglePairs === '0' && atRest === 0, `at rest no pixel has the triangle colour (${atRest})`);
+  if (f < 0) return;
+  await setHash(browser, `#clip=${name}&frame=${f}&mesh=solid&spheres=0&contacts=1&loosest=0`);
+  st = await state(browser);
+  ({ image } = await browser.screenshot());
+  const chest = await boxOf(browser, partSpheres(data, 'torso'), true);
+  const inChest = await countOnView(browser, image, MAGENTA, chest), all = await countOnView(browser, image, MAGENTA);
+  check(st.trianglePairs === String(tp[f].length / 2), `frame ${f} shows ${st.trianglePairs} triangle pairs (${tp[f].length / 2} in the data)`);
+  check(inChest >= 100, `frame ${f}: ${inChest} triangle-colour pixels near the chest (>= 100)`);
+  check(inChest >= 0.9 * all, `frame ${f}: the triangle colour is near the chest only (${inChest} of ${all})`);
 }
 
 async function casePlay(browser) {

@@ -1,28 +1,35 @@
 // The engine-facing API: one CharacterAsset per fitted character (shared, read-only), one
 // CharacterInstance per character on screen (its own scratch), and a crowd helper.
 //
-//   auto asset = CharacterAsset::Create(LoadSphereSet("xbot.spheres.json").value());  // set-up
-//   if (auto err = (*asset)->Matches(my_joint_names, my_vertex_count)) { refuse(err->message); }
-//   auto instance = CharacterInstance::Create(*asset);                                 // set-up
+//   auto set = LoadSphereSet("xbot.ssb");                  // set-up: binary or JSON; check set.ok()
+//   auto asset = CharacterAsset::Create(std::move(set).value());
+//   auto mapping = MapJoints((*asset)->sphere_set(), my_joint_names);  // joint_mapping.h; errors name
+//   auto instance = CharacterInstance::Create(*asset, *mapping);       // missing joints and the file
 //   each frame:
-//     FrameStatus st = instance->UpdateFast(joint_world);        // or UpdateExact(skinned, joint_world)
-//     if (st.ok()) for (const Contact& c : instance->Query()) ...
+//     FrameStatus st = instance->UpdateFast(joint_world);   // my joint order; or UpdateExact(skinned, joint_world)
+//     if (st.ok()) for (const Contact& c : instance->Query()) ...          // sphere pairs (broad phase)
+//     if (instance->FindContacts().ok())                                    // triangles (narrow phase)
+//       for (const PartContact& p : instance->frame_contacts().parts) ...
 //
 // CharacterAsset holds the SphereSet, the refit's rest data (RefitRestData: G_j(rest)^-1 applied to
-// the centres) and the broad phase's PairFilter; immutable after Create, so any number of
-// instances on any threads share it through a shared_ptr.
+// the centres), the broad phase's PairFilter and, for a set with a mesh (format version 2), the
+// narrow phase's data (narrow_phase.h: exclusions found at set-up for the margin of its
+// NarrowPhaseSettings); immutable after Create, so any number of instances on any threads share
+// it through a shared_ptr.
 //
 // CharacterInstance: refitted spheres (refit_job.h) + the self-collision broad phase
-// (broad_phase.h). Its buffers are sized at Create; per frame nothing is allocated, except that the
-// contact list grows (geometrically) the first time a frame has more contacts than any before
-// (ReserveContacts pins it). Per-frame calls never throw; they return a FrameStatus whose message
-// is a static string (no allocation). A failed update (non-finite input, short spans) marks the
-// instance's spheres invalid, so Query() then returns no contacts and status() says why; other
-// instances are untouched. Not thread-safe per instance; distinct instances may run concurrently.
+// (broad_phase.h) + the narrow phase (narrow_phase.h). Its buffers are sized at Create; per frame
+// nothing is allocated, except that the output lists grow (geometrically) the first time a frame
+// has more contacts than any before (ReserveContacts pins them), and the first FindContacts in
+// mode (b) allocates its skinned-position buffer (12 bytes per mesh vertex). Per-frame calls never
+// throw; they return a FrameStatus whose message is a static string (no allocation). A failed
+// update (non-finite input, short spans) marks the instance's spheres invalid, so Query() then
+// returns no contacts and status() says why; other instances are untouched. Not thread-safe per
+// instance; distinct instances may run concurrently.
 //
-// UpdateAndQueryCrowd runs Update + Query for many instances through a ParallelFor (parallel_for.h:
-// TBB by default, or the engine's job system); every
-// instance's spheres and contacts are identical to running it alone, serially.
+// UpdateAndQueryCrowd runs Update + Query (UpdateAndFindContactsCrowd: + FindContacts) for many
+// instances through a ParallelFor (parallel_for.h: TBB by default, or the engine's job system);
+// every instance's spheres and contacts are identical to running it alone, serially.
 #pragma once
 
 #include <Eigen/Core>
@@ -30,12 +37,15 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/parallel_for.h"
 #include "skinspheres/runtime/broad_phase.h"
 #include "skinspheres/runtime/error.h"
+#include "skinspheres/runtime/joint_mapping.h"
+#include "skinspheres/runtime/narrow_phase.h"
 #include "skinspheres/runtime/pair_filter.h"
 #include "skinspheres/runtime/refit_job.h"
 #include "skinspheres/runtime/sphere_set.h"
@@ -51,18 +61,27 @@ struct FrameStatus {
 
 class CharacterAsset {
  public:
-  // Validates the set (SphereSet::Validate), inverts the rest transforms, builds the pair filter.
-  // Errors name the set's source file: kInvalidData (inconsistent set, singular rest transform).
-  static Result<std::shared_ptr<const CharacterAsset>> Create(SphereSet set);
+  // Validates the set (SphereSet::Validate), inverts the rest transforms, builds the pair filter
+  // and, when the set has a mesh, the narrow phase's data with these settings (a set without a mesh
+  // is accepted: narrow_phase() is then null and FindContacts refuses). Errors name the set's
+  // source file: kInvalidData (inconsistent set, singular rest transform), kInvalidArgument (a
+  // negative or non-finite margin).
+  static Result<std::shared_ptr<const CharacterAsset>> Create(SphereSet set, const NarrowPhaseSettings& narrow = {});
 
-  // Whether the set was fitted on this character: same vertex count (source vertex indices) and
-  // the same joint names in the same order. std::nullopt when it matches; otherwise
-  // kMismatchedAsset with a message naming the set's file and the first difference.
+  // Whether the set was fitted on this character: the same vertex count (source vertex indices)
+  // and every joint the runtime reads present by name, in any order (MapJoints, joint_mapping.h:
+  // the engine's own list, e.g. a glTF skin's joints without their `Armature` ancestor, matches).
+  // std::nullopt when it matches; otherwise kMismatchedAsset with a message naming the loaded set
+  // file, the character it was fitted on, and the difference (vertex counts, missing joint names).
+  // A match says nothing of the order: unless the list is the set's own, in order, create the
+  // instances with MapJoints' mapping so that they read matrices in the list's order.
   std::optional<Error> Matches(std::span<const std::string> joint_names, size_t vertex_count) const;
 
   const SphereSet& sphere_set() const { return set_; }
   const RefitRestData& rest() const { return rest_; }
   const PairFilter& filter() const { return filter_; }
+  // The narrow phase's data; nullptr when the set has no mesh (format version 1).
+  const NarrowPhaseData* narrow_phase() const { return narrow_ ? &*narrow_ : nullptr; }
   size_t size() const { return set_.size(); }
   size_t joint_count() const { return set_.joint_count(); }
   size_t source_vertex_count() const { return set_.source_vertex_count; }
@@ -72,14 +91,23 @@ class CharacterAsset {
   SphereSet set_;
   RefitRestData rest_;
   PairFilter filter_;
+  std::optional<NarrowPhaseData> narrow_;
 };
 
 class CharacterInstance {
  public:
-  // Sizes every buffer for the asset (kInvalidArgument for a null asset).
+  // Sizes every buffer for the asset (kInvalidArgument for a null asset). Joint matrices are then
+  // in the set's joint order (SphereSet::joint_names).
   static Result<CharacterInstance> Create(std::shared_ptr<const CharacterAsset> asset);
+  // The same, with joint matrices in the engine's own order (mapping: MapJoints on this asset's
+  // set; kInvalidArgument when it was built for another set).
+  static Result<CharacterInstance> Create(std::shared_ptr<const CharacterAsset> asset, const JointMapping& mapping);
 
-  // Fast refit from G_j(t), one world matrix per skeleton joint (>= asset joint_count()).
+  // How many joint matrices an update reads: the engine's joint count with a mapping, the set's
+  // joint count without.
+  size_t joint_input_count() const { return joint_input_count_; }
+
+  // Fast refit from G_j(t), one world matrix per joint (>= joint_input_count()).
   FrameStatus UpdateFast(std::span<const Mat4f> joint_world);
   // Exact refit from skinned positions indexed by source vertex (>= source_vertex_count()), with
   // G_j(t) for the centres (may be empty: box-centre fallback, see refit_job.h).
@@ -95,6 +123,21 @@ class CharacterInstance {
   std::span<const Contact> Query();
   std::span<const Contact> contacts() const { return contacts_; }
 
+  // The narrow phase (narrow_phase.h) behind this frame's sphere pairs (Query() runs first if it
+  // has not since the last update). Positions:
+  //  - skinned_positions given: mode (a), the positions the spheres were refitted from (UpdateExact's
+  //    buffer), or the LBS of the same joint matrices after UpdateFast;
+  //  - empty: mode (b), the instance skins only the vertices of the spheres it tests, from the
+  //    joint matrices of the last update (kInvalidArgument when that update had none).
+  // Refused (kVersionMismatch) when the asset has no mesh. parallel_for spreads the sphere pairs
+  // over threads (same output); the default runs on the calling thread. Results: frame_contacts(),
+  // empty after a failure.
+  FrameStatus FindContacts(std::span<const Eigen::Vector3f> skinned_positions = {},
+                           const ParallelFor& parallel_for = SerialFor());
+  const FrameContacts& frame_contacts() const { return frame_contacts_; }
+  // Counters of the last FindContacts (pairs, culled triangles, tests, skinned vertices).
+  const NarrowPhaseContext::Stats& narrow_phase_stats() const { return narrow_context_.last_stats(); }
+
   // The refitted spheres (xyz centre, w radius), one per asset sphere; meaningful when
   // spheres_valid().
   std::span<const Vec4f> spheres() const { return spheres_; }
@@ -102,7 +145,11 @@ class CharacterInstance {
   // Outcome of the last Update*/Query call.
   FrameStatus status() const { return status_; }
 
-  void ReserveContacts(size_t count) { contacts_.reserve(count); }
+  // Room for this many sphere pairs and as many triangle pairs, so later frames do not allocate.
+  void ReserveContacts(size_t count) {
+    contacts_.reserve(count);
+    frame_contacts_.Reserve(count);
+  }
   const CharacterAsset& asset() const { return *asset_; }
   const std::shared_ptr<const CharacterAsset>& shared_asset() const { return asset_; }
 
@@ -112,6 +159,18 @@ class CharacterInstance {
   std::vector<Vec4f> spheres_;
   BroadPhaseContext context_;
   std::vector<Contact> contacts_;
+  // Engine joint order (a JointMapping): per set joint read per frame, the engine joint; the
+  // matrices are gathered into joint_world_ (set order, sized at Create) before the refit. It also
+  // keeps the last update's G_j(t) in set order for FindContacts mode (b).
+  std::vector<std::pair<uint32_t, uint32_t>> gather_;  // (set joint, engine joint)
+  std::vector<Mat4f> joint_world_;
+  bool mapped_ = false;
+  size_t joint_input_count_ = 0;
+  bool has_joints_ = false;             // joint_world_ holds the last update's matrices
+  bool queried_ = false;                // Query() ran since the last update
+  bool query_ok_ = false;               // and succeeded
+  NarrowPhaseContext narrow_context_;
+  FrameContacts frame_contacts_;
   bool valid_ = false;
   FrameStatus status_{ErrorCode::kInvalidArgument, "no update has run yet"};
 };
@@ -130,5 +189,13 @@ struct CharacterFrameInput {
 FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
                                 std::span<const CharacterFrameInput> inputs, RefitMode mode,
                                 const ParallelFor& parallel_for = DefaultParallelFor());
+
+// The same, then FindContacts for every instance: mode (a) with the input's skinned positions in
+// exact mode, mode (b) (lazy skinning from the joint matrices) in fast mode. Each instance's
+// narrow phase runs on the thread that updates it. kInvalidData also when an instance's asset has
+// no mesh (its status() says so).
+FrameStatus UpdateAndFindContactsCrowd(std::span<CharacterInstance* const> instances,
+                                       std::span<const CharacterFrameInput> inputs, RefitMode mode,
+                                       const ParallelFor& parallel_for = DefaultParallelFor());
 
 }  // namespace skinspheres::runtime

@@ -11,6 +11,7 @@
 // flush or the close, never silently), and reports the first failure in one line.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -29,6 +30,10 @@ namespace skinspheres::runtime {
 // socket; no permission; an I/O error), kFormatRejected (larger than max_bytes).
 Result<std::string> ReadRegularFile(const std::filesystem::path& path, uint64_t max_bytes,
                                     std::string_view what = "file");
+// The same into bytes (a binary file): the buffer comes from operator new, so it is aligned for
+// any fundamental type (16 bytes on x86-64).
+Result<std::vector<std::byte>> ReadRegularFileBytes(const std::filesystem::path& path, uint64_t max_bytes,
+                                                    std::string_view what = "file");
 
 // The first `length` bytes of the regular file at `path` (a glTF's external buffer: the file
 // may be longer). Refuses what ReadRegularFile refuses; kFormatRejected when the file is shorter

@@ -124,7 +124,8 @@ struct RefitJob {
   std::span<const Eigen::Vector3f> positions;
   std::span<Vec4f> out;         // >= spheres->size(): xyz centre, w radius
 
-  // Every reason the job is refused: null pointers, short spans, rest data from another set.
+  // Every reason the job is refused: null pointers, short spans, rest data from another set,
+  // exact mode on a fast-only set (SphereSet::fast_only: no vertex lists).
   bool Validate() const;
   // Validates, refits every sphere. False on a refused job or non-finite input / output.
   bool Run() const;

@@ -1,5 +1,6 @@
 // Reading and writing a SphereSet as JSON (the versioned on-disk contract between the fitter
-// and the runtime). Runtime code reads it without Assimp.
+// and the runtime), and files in either format (JSON or binary, sphere_set_binary.h). Runtime code
+// reads both without Assimp.
 //
 // {"format":"skinspheres.sphere_set","version":2,
 //  "source":{"file","vertices","triangles"}, "params":{...},
@@ -19,8 +20,11 @@
 // that fails SphereSet::Validate(), with a message naming the file and the problem.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
+#include <span>
 #include <string>
 
 #include "skinspheres/runtime/error.h"
@@ -31,13 +35,29 @@ namespace skinspheres::runtime {
 std::string WriteSphereSetJson(const SphereSet& set);
 Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& source_name = "<memory>");
 
-// Files: errors name the path. Saving checks every write through the close. Loading reads only a
-// regular file (a FIFO or device is refused without reading) of at most kMaxSphereSetBytes,
-// refused from its size; JSON nested deeper than kMaxJsonDepth (file_io.h) is refused before
-// parsing. Reading streams the spheres, pairs and mesh arrays out of the parsed document as they
-// complete: it peaks at about the text plus the set (docs/LIMITS.md has the figures).
+enum class SphereSetFileFormat : uint8_t {
+  kJson,            // this file's format: the interchange and debugging format
+  kBinary,          // sphere_set_binary.h, the whole set
+  kBinaryFastOnly,  // sphere_set_binary.h, what fast refit reads
+};
+// By extension: ".json" -> kJson, ".ssb" -> kBinary; std::nullopt for anything else.
+std::optional<SphereSetFileFormat> SphereSetFormatForPath(const std::filesystem::path& path);
+
+// Either format, told apart by content (the binary magic number); errors name source_name.
+Result<SphereSet> ReadSphereSet(std::span<const std::byte> bytes, const std::string& source_name = "<memory>");
+
+// Files: errors name the path. Load reads either format (told apart by content) and sets
+// loaded_from to the path. Save writes `format`, or without it the format of the extension (JSON
+// when unknown); a fast-only set cannot be written as JSON (kInvalidArgument). Saving checks every
+// write through the close (file_io.h), in both formats. Loading reads only a regular file (a FIFO
+// or device is refused without reading) of at most kMaxSphereSetBytes, refused from its size
+// before anything is allocated, in both formats; JSON nested deeper than kMaxJsonDepth (file_io.h)
+// is refused before parsing. Reading JSON streams the spheres, pairs and mesh arrays out of the
+// parsed document as they complete: it peaks at about the text plus the set (docs/LIMITS.md has
+// the figures); reading binary peaks at the file plus the set.
 inline constexpr uint64_t kMaxSphereSetBytes = uint64_t{512} << 20;  // 512 MiB
 std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path);
+std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path, SphereSetFileFormat format);
 Result<SphereSet> LoadSphereSet(const std::filesystem::path& path);
 
 }  // namespace skinspheres::runtime

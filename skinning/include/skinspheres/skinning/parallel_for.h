@@ -2,7 +2,8 @@
 //
 // Every parallel entry point (SkinParallel, RefitParallel, RunSelfCollisionJobs,
 // UpdateAndQueryCrowd, ...) takes a `const ParallelFor&`, so an engine runs the work on its own
-// job system; by default it runs under TBB (DefaultParallelFor()).
+// job system; by default it runs under TBB (DefaultParallelFor()), or serially on the calling
+// thread in a build configured with -DSKINSPHERES_WITH_TBB=OFF (which never links TBB).
 //
 // Contract of a ParallelFor `pf`: pf(count, grain, body) calls body(begin, end) on ranges that are
 // disjoint and together cover [0, count) exactly once, and returns when every call has returned.
@@ -48,8 +49,12 @@ class RangeBody {
 
 using ParallelFor = std::function<void(size_t count, size_t grain, RangeBody body)>;
 
-// TBB's parallel_for in the calling thread's task arena (limit threads with tbb::task_arena).
+// TBB's parallel_for in the calling thread's task arena (limit threads with tbb::task_arena); in a
+// build without TBB (SKINSPHERES_WITH_TBB=OFF) the same as SerialFor(); in a ThreadSanitizer build
+// of the library, std::threads started and joined per call (the checker cannot see inside TBB).
 const ParallelFor& DefaultParallelFor();
+// Whether DefaultParallelFor() runs on TBB in this build of the library.
+bool DefaultParallelForUsesTbb();
 // Runs body(0, count) on the calling thread: for tests, and for callers that want no threads.
 const ParallelFor& SerialFor();
 

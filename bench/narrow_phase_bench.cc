@@ -1,0 +1,565 @@
+// The narrow phase (runtime/narrow_phase.h) per character per frame, against FCL on the same
+// frames, and beside the other stages of a frame.
+//
+// Characters: the built-in one and the shared ones (SKINSPHERES_ASSET_DIR; a row whose file is
+// absent skips with a message), fitted with the default FitSettings. Workloads (range `work`):
+//   0 "clips":  every clip of the file at 30 fps (at most kMaxFrames frames, evenly spaced);
+//   1 "random": kRandomFrames poses with every joint turned by up to 35 degrees about a random
+//               axis (seed 7): limbs folded into each other, many contacts, the peer's best case.
+// Per frame, precomputed at set-up (untimed): G_j(t), the whole mesh skinned (SkinningJob, CSR),
+// the exact and the fast spheres and their broad-phase pairs.
+//
+// Rows (one thread unless said; each iteration is the next frame):
+//   BM_Narrow/char/work/mode   the narrow phase alone on the broad phase's pairs:
+//     mode 0  exact: mode (a), the frame's skinned positions, exact spheres' pairs;
+//     mode 1  fast + lazy: mode (b), fast spheres' pairs, skinning only what it tests (included);
+//     mode 2  fast + full skin: skin the whole mesh (prepared, SIMD), then mode (a) on the fast pairs.
+//   BM_Stage/char/work/stage   the other stages: 0 skin the whole mesh (prepared), 1 exact refit,
+//     2 broad phase on exact spheres, 3 fast refit, 4 broad phase on fast spheres.
+//   BM_OursExact/char/work     what FCL is compared to: exact refit + broad phase + narrow phase,
+//     from the same skinned positions FCL gets.
+//   BM_Fcl/char/work           FCL 0.7 (Debian libfcl-dev): one BVHModel<OBBRSS> per body part,
+//     refitted every frame (beginUpdateModel / updateVertex for every vertex / endUpdateModel,
+//     refit bottom-up, as FCL's docs recommend for deforming meshes), then collide() on every pair
+//     of parts the sphere set does not wholly exclude, all contacts requested (num_max_contacts
+//     unbounded). range `fcl`: 0 enable_contact on (FCL computes a contact point and depth per
+//     triangle pair, as we compute points), 1 off (the pairs only), 2 the refit alone.
+//   BM_ClusterSize/char/work/size  mode (a) with clusters of at most `size` triangles.
+// Checks before timing (set-up; a failure skips the row with the reason): fast + lazy gives the
+// same contacts as fast + full skin on every frame, and FCL's intersecting triangle pairs, after
+// our exclusion rules (sphere pairs the filter excludes, shared vertex, intersecting at rest,
+// degenerate triangles), equal ours between different parts (FCL sees no pair inside one part);
+// the counters fcl_same / fcl_only / ours_only say how many pairs agreed over all frames.
+#include <benchmark/benchmark.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "skinspheres/lib/body_parts/body_parts.h"
+#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/runtime/character.h"
+#include "skinspheres/runtime/narrow_phase.h"
+#include "skinspheres/runtime/triangle_contact.h"
+#include "skinspheres/skinning/local_to_model_job.h"
+#include "skinspheres/skinning/prepared_influences.h"
+#include "skinspheres/skinning/sampling_job.h"
+#include "skinspheres/skinning/skinning_job.h"
+#include "skinspheres/skinning/skinning_matrices_job.h"
+
+#if SKINSPHERES_HAVE_FCL
+#include <fcl/geometry/bvh/BVH_model.h>
+#include <fcl/math/bv/OBBRSS.h>
+#include <fcl/narrowphase/collision.h>
+#include <fcl/narrowphase/collision_object.h>
+#endif
+
+namespace {
+
+namespace lib = skinspheres::lib;
+namespace rt = skinspheres::runtime;
+namespace sk = skinspheres::skinning;
+using skinspheres::Mat4f;
+using skinspheres::Vec4f;
+
+constexpr int kMaxFrames = 240;
+constexpr int kRandomFrames = 48;
+const char* const kNames[] = {"builtin", "CesiumMan.glb", "Soldier.glb", "RobotExpressive.glb", "Xbot.glb"};
+constexpr int kCharacters = 5;
+
+std::span<const float> Floats(const std::vector<Eigen::Vector3f>& v) {
+  return {reinterpret_cast<const float*>(v.data()), v.size() * 3};
+}
+std::span<float> Floats(std::vector<Eigen::Vector3f>& v) { return {reinterpret_cast<float*>(v.data()), v.size() * 3}; }
+
+struct Frame {
+  std::vector<Mat4f> joint_world;
+  std::vector<Eigen::Vector3f> positions;  // whole mesh, SkinningJob CSR
+  std::vector<Vec4f> spheres_exact, spheres_fast;
+  std::vector<rt::Contact> pairs_exact, pairs_fast;
+};
+
+struct Workload {
+  std::string error;
+  std::vector<Frame> frames;
+  double contacts = 0.0;  // triangle pairs per frame (exact mode)
+  double fcl_same = 0, fcl_only = 0, ours_only = 0;
+  bool checked_fcl = false;
+};
+
+struct Character {
+  std::string error;
+  lib::RawCharacter ch;
+  rt::SphereSet set;
+  std::shared_ptr<const rt::CharacterAsset> asset;
+  sk::PreparedInfluences prepared_all;
+  Workload work[2];
+};
+
+std::vector<sk::Transform> RandomLocals(const lib::RawCharacter& c, std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f), unit(0.0f, 1.0f);
+  std::vector<sk::Transform> local = c.skeleton.rest_local;
+  for (auto& t : local) {
+    Eigen::Vector3f axis(u(rng), u(rng), u(rng));
+    if (axis.norm() < 1e-3f) axis = Eigen::Vector3f::UnitX();
+    const float angle = unit(rng) * 35.0f * float(M_PI) / 180.0f;
+    t.rotation = (t.rotation * skinspheres::Quatf(Eigen::AngleAxisf(angle, axis.normalized()))).normalized();
+  }
+  return local;
+}
+
+// Poses a frame from joint-local transforms: G_j, the skinned mesh, both refits and their pairs.
+bool MakeFrame(const Character& c, const std::vector<sk::Transform>& locals, rt::CharacterInstance& inst, Frame* f) {
+  const auto& skin = c.ch.skin;
+  f->joint_world.resize(c.ch.skeleton.size());
+  sk::LocalToModelJob l2m;
+  l2m.skeleton = &c.ch.skeleton;
+  l2m.input = locals;
+  l2m.output = f->joint_world;
+  std::vector<Mat4f> mats(skin.binds.size());
+  f->positions.assign(skin.vertex_count(), Eigen::Vector3f::Zero());
+  sk::SkinningJob job;
+  job.joint_matrices = mats;
+  job.vertex_count = skin.vertex_count();
+  job.in_positions = Floats(skin.positions_bind);
+  job.out_positions = Floats(f->positions);
+  job.influence_offsets = skin.influence_offsets;
+  job.influence_binds = skin.influence_binds;
+  job.influence_weights = skin.influence_weights;
+  if (!l2m.Run() || !sk::SkinningMatricesJob{skin.binds, f->joint_world, mats}.Run() || !job.Run()) return false;
+  if (!inst.UpdateExact(f->positions, f->joint_world).ok()) return false;
+  f->spheres_exact.assign(inst.spheres().begin(), inst.spheres().end());
+  const auto pe = inst.Query();
+  f->pairs_exact.assign(pe.begin(), pe.end());
+  if (!inst.UpdateFast(f->joint_world).ok()) return false;
+  f->spheres_fast.assign(inst.spheres().begin(), inst.spheres().end());
+  const auto pf = inst.Query();
+  f->pairs_fast.assign(pf.begin(), pf.end());
+  return true;
+}
+
+void Load(Character* c, int index) {
+  const std::string name = kNames[index];
+  if (name == "builtin") {
+    c->ch = lib::MakeBuiltinCharacter();
+  } else {
+    const auto file = std::filesystem::path(SKINSPHERES_ASSET_DIR) / name;
+    if (!std::filesystem::exists(file)) {
+      c->error = file.string() + ": not found (the shared characters are not installed); skipped";
+      return;
+    }
+    auto ch = lib::ImportCharacter(file);
+    if (!ch.ok()) return void(c->error = ch.error().message);
+    c->ch = std::move(*ch);
+  }
+  auto parts = lib::SplitBodyParts(c->ch);
+  if (!parts.ok()) return void(c->error = parts.error().message);
+  auto fit = lib::FitSpheres(c->ch, *parts, lib::FitSettings{});
+  if (!fit.ok()) return void(c->error = fit.error().message);
+  c->set = std::move(fit->spheres);
+  auto asset = rt::CharacterAsset::Create(c->set);
+  if (!asset.ok()) return void(c->error = asset.error().message);
+  c->asset = *asset;
+  std::string why;
+  const auto& skin = c->ch.skin;
+  if (!c->prepared_all.Build(skin.vertex_count(), skin.influence_offsets, skin.influence_binds, skin.influence_weights, {},
+                             &why)) {
+    return void(c->error = why);
+  }
+  auto inst = rt::CharacterInstance::Create(c->asset);
+  // Clips.
+  std::vector<std::pair<size_t, float>> times;
+  for (size_t k = 0; k < c->ch.clips.size(); ++k) {
+    const int n = int(std::floor(c->ch.clips[k].duration_s * 30.0f + 1e-3f)) + 1;
+    for (int f = 0; f < n; ++f) times.push_back({k, float(f) / 30.0f});
+  }
+  const size_t stride = std::max<size_t>(1, (times.size() + kMaxFrames - 1) / kMaxFrames);
+  std::vector<sk::Transform> locals(c->ch.skeleton.size());
+  for (size_t k = 0; k < times.size(); k += stride) {
+    const auto& clip = c->ch.clips[times[k].first];
+    if (!sk::SamplingJob{&clip, &c->ch.skeleton, std::min(times[k].second, clip.duration_s), locals}.Run()) {
+      return void(c->error = "sampling failed");
+    }
+    c->work[0].frames.emplace_back();
+    if (!MakeFrame(*c, locals, *inst, &c->work[0].frames.back())) return void(c->error = "posing failed");
+  }
+  std::mt19937 rng(7);
+  for (int k = 0; k < kRandomFrames; ++k) {
+    c->work[1].frames.emplace_back();
+    if (!MakeFrame(*c, RandomLocals(c->ch, rng), *inst, &c->work[1].frames.back())) return void(c->error = "posing failed");
+  }
+  for (Workload& w : c->work) {
+    if (w.frames.empty()) w.error = "no frames";
+  }
+}
+
+Character* Get(benchmark::State& state, int index, int work) {
+  static std::unique_ptr<Character> cache[kCharacters];
+  if (!cache[index]) {
+    cache[index] = std::make_unique<Character>();
+    Load(cache[index].get(), index);
+  }
+  Character* c = cache[index].get();
+  if (!c->error.empty()) {
+    state.SkipWithError(c->error.c_str());
+    return nullptr;
+  }
+  if (!c->work[work].error.empty()) {
+    state.SkipWithError(c->work[work].error.c_str());
+    return nullptr;
+  }
+  state.SetLabel(std::string(kNames[index]) + (work ? " random" : " clips"));
+  return c;
+}
+
+void Counters(benchmark::State& state, const Character& c, size_t frames, size_t pairs, const rt::NarrowPhaseContext::Stats& s,
+              size_t contacts) {
+  const double n = frames ? double(frames) : 1.0;
+  state.counters["sphere_pairs"] = double(pairs) / n;
+  state.counters["triangle_tests"] = double(s.triangle_tests) / n;
+  state.counters["contacts"] = double(contacts) / n;
+  state.counters["skinned"] = double(s.skinned_vertices) / n;
+  state.counters["vertices"] = double(c.ch.vertex_count());
+  state.counters["triangles"] = double(c.ch.triangle_count());
+}
+
+void AddStats(rt::NarrowPhaseContext::Stats* sum, const rt::NarrowPhaseContext::Stats& s) {
+  sum->triangle_tests += s.triangle_tests;
+  sum->skinned_vertices += s.skinned_vertices;
+}
+
+// --------------------------------------------------------------------------- our rows
+
+// Skins the whole mesh of a frame the fastest way (prepared influences, SIMD).
+struct WholeMeshSkinner {
+  const Character& c;
+  std::vector<Eigen::Vector3f> skinned;
+  std::vector<Mat4f> mats;
+  sk::SkinningJob job;
+  explicit WholeMeshSkinner(const Character& character)
+      : c(character), skinned(character.ch.vertex_count(), Eigen::Vector3f::Zero()), mats(character.ch.skin.binds.size()) {
+    job.joint_matrices = mats;
+    job.vertex_count = c.ch.vertex_count();
+    job.in_positions = Floats(c.ch.skin.positions_bind);
+    job.out_positions = Floats(skinned);
+    job.prepared = &c.prepared_all;
+  }
+  bool Skin(const Frame& f) { return sk::SkinningMatricesJob{c.ch.skin.binds, f.joint_world, mats}.Run() && job.Run(); }
+};
+
+void BM_Narrow(benchmark::State& state) {
+  const int work = int(state.range(1)), mode = int(state.range(2));
+  Character* c = Get(state, int(state.range(0)), work);
+  if (!c) return;
+  const Workload& w = c->work[work];
+  const rt::NarrowPhaseData& data = *c->asset->narrow_phase();
+  rt::NarrowPhaseContext ctx;
+  ctx.Resize(data, mode == 1);
+  rt::FrameContacts out, check;
+  out.Reserve(4096);
+  WholeMeshSkinner whole(*c);
+  auto run = [&](const Frame& f, rt::FrameContacts* result) {
+    rt::NarrowPhaseJob job;
+    job.set = &c->set;
+    job.data = &data;
+    job.context = &ctx;
+    job.out = result;
+    if (mode == 0) {
+      job.spheres = f.spheres_exact;
+      job.pairs = f.pairs_exact;
+      job.positions = f.positions;
+    } else {
+      job.spheres = f.spheres_fast;
+      job.pairs = f.pairs_fast;
+      if (mode == 1) {
+        job.joint_world = f.joint_world;
+      } else {
+        whole.Skin(f);
+        job.positions = whole.skinned;
+      }
+    }
+    return job.Run();
+  };
+  // Check: fast + lazy == fast + full skin == the frame's own positions (bit for bit).
+  if (mode != 0) {
+    for (const Frame& f : w.frames) {
+      rt::NarrowPhaseContext other;
+      other.Resize(data, false);
+      rt::NarrowPhaseJob job{&c->set, &data, f.spheres_fast, f.pairs_fast, f.positions, {}, &other, &check};
+      if (!run(f, &out) || !job.Run() || !(out == check)) return state.SkipWithError("fast-mode contacts differ between lazy and full skinning");
+    }
+  }
+  size_t frame = 0, pairs = 0, contacts = 0;
+  rt::NarrowPhaseContext::Stats stats;
+  for (auto _ : state) {
+    const Frame& f = w.frames[frame % w.frames.size()];
+    if (!run(f, &out)) return state.SkipWithError("narrow phase refused a frame");
+    pairs += mode == 0 ? f.pairs_exact.size() : f.pairs_fast.size();
+    contacts += out.triangle_pairs.size();
+    AddStats(&stats, ctx.last_stats());
+    ++frame;
+  }
+  Counters(state, *c, frame, pairs, stats, contacts);
+}
+BENCHMARK(BM_Narrow)
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}, {0, 1, 2}})
+    ->ArgNames({"char", "work", "mode"})
+    ->Unit(benchmark::kMicrosecond);
+
+void BM_Stage(benchmark::State& state) {
+  const int work = int(state.range(1)), stage = int(state.range(2));
+  Character* c = Get(state, int(state.range(0)), work);
+  if (!c) return;
+  const Workload& w = c->work[work];
+  auto inst = rt::CharacterInstance::Create(c->asset);
+  inst->ReserveContacts(8192);
+  WholeMeshSkinner whole(*c);
+  rt::BroadPhaseContext ctx(c->set.size());
+  std::vector<rt::Contact> out;
+  out.reserve(8192);
+  size_t frame = 0;
+  for (auto _ : state) {
+    const Frame& f = w.frames[frame % w.frames.size()];
+    switch (stage) {
+      case 0: benchmark::DoNotOptimize(whole.Skin(f)); break;
+      case 1: benchmark::DoNotOptimize(inst->UpdateExact(f.positions, f.joint_world).ok()); break;
+      case 2: benchmark::DoNotOptimize(rt::SelfCollisionJob{f.spheres_exact, &c->asset->filter(), &ctx, &out}.Run()); break;
+      case 3: benchmark::DoNotOptimize(inst->UpdateFast(f.joint_world).ok()); break;
+      default: benchmark::DoNotOptimize(rt::SelfCollisionJob{f.spheres_fast, &c->asset->filter(), &ctx, &out}.Run()); break;
+    }
+    benchmark::ClobberMemory();
+    ++frame;
+  }
+  static const char* const kStages[] = {"skin whole mesh", "refit exact", "query exact", "refit fast", "query fast"};
+  state.SetLabel(std::string(kNames[state.range(0)]) + (work ? " random: " : " clips: ") + kStages[stage]);
+}
+BENCHMARK(BM_Stage)
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}, {0, 1, 2, 3, 4}})
+    ->ArgNames({"char", "work", "stage"})
+    ->Unit(benchmark::kMicrosecond);
+
+// Exact refit + broad phase + narrow phase from the skinned positions: the work FCL does below.
+void BM_OursExact(benchmark::State& state) {
+  const int work = int(state.range(1));
+  Character* c = Get(state, int(state.range(0)), work);
+  if (!c) return;
+  const Workload& w = c->work[work];
+  auto inst = rt::CharacterInstance::Create(c->asset);
+  inst->ReserveContacts(8192);
+  size_t frame = 0, contacts = 0;
+  for (auto _ : state) {
+    const Frame& f = w.frames[frame % w.frames.size()];
+    if (!inst->UpdateExact(f.positions, f.joint_world).ok() || !inst->FindContacts(f.positions).ok()) {
+      return state.SkipWithError("frame failed");
+    }
+    contacts += inst->frame_contacts().triangle_pairs.size();
+    ++frame;
+  }
+  state.counters["contacts"] = frame ? double(contacts) / double(frame) : 0.0;
+}
+BENCHMARK(BM_OursExact)->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}})->ArgNames({"char", "work"})->Unit(benchmark::kMicrosecond);
+
+void BM_ClusterSize(benchmark::State& state) {
+  const int work = int(state.range(1));
+  Character* c = Get(state, int(state.range(0)), work);
+  if (!c) return;
+  const Workload& w = c->work[work];
+  rt::NarrowPhaseSettings settings;
+  settings.cluster_triangles = uint32_t(state.range(2));
+  auto data = rt::NarrowPhaseData::Create(c->set, c->asset->filter(), settings);
+  if (!data.ok()) return state.SkipWithError(data.error().message.c_str());
+  rt::NarrowPhaseContext ctx;
+  ctx.Resize(*data, false);
+  rt::FrameContacts out;
+  out.Reserve(4096);
+  size_t frame = 0, pairs = 0, contacts = 0;
+  rt::NarrowPhaseContext::Stats stats;
+  for (auto _ : state) {
+    const Frame& f = w.frames[frame % w.frames.size()];
+    rt::NarrowPhaseJob job{&c->set, &*data, f.spheres_exact, f.pairs_exact, f.positions, {}, &ctx, &out};
+    if (!job.Run()) return state.SkipWithError("narrow phase refused a frame");
+    pairs += f.pairs_exact.size();
+    contacts += out.triangle_pairs.size();
+    AddStats(&stats, ctx.last_stats());
+    ++frame;
+  }
+  Counters(state, *c, frame, pairs, stats, contacts);
+}
+BENCHMARK(BM_ClusterSize)
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}, {4, 8, 16, 32, 64}})
+    ->ArgNames({"char", "work", "size"})
+    ->Unit(benchmark::kMicrosecond);
+
+#if SKINSPHERES_HAVE_FCL
+// --------------------------------------------------------------------------- FCL
+
+using Model = fcl::BVHModel<fcl::OBBRSSd>;
+
+struct FclWorld {
+  struct Part {
+    std::shared_ptr<Model> model;
+    std::unique_ptr<fcl::CollisionObjectd> object;
+    std::vector<uint32_t> vertices;   // local vertex -> source vertex
+    std::vector<uint32_t> triangles;  // local triangle -> source triangle
+  };
+  std::vector<Part> parts;
+  std::vector<std::pair<int, int>> part_pairs;  // the pairs of parts with a sphere pair the filter allows
+  fcl::CollisionRequestd request{1000000, true};
+  bool collide = true;  // false: refit only (to see where FCL's time goes)
+  fcl::CollisionResultd result;
+  std::vector<fcl::Contactd> found;
+
+  FclWorld(const Character& c) {
+    const rt::SphereSet& set = c.set;
+    parts.resize(set.parts.size());
+    std::vector<int> local(set.source_vertex_count, -1);
+    for (size_t p = 0; p < parts.size(); ++p) {
+      Part& part = parts[p];
+      std::fill(local.begin(), local.end(), -1);
+      std::vector<fcl::Vector3d> points;
+      std::vector<fcl::Triangle> tris;
+      for (size_t s = 0; s < set.size(); ++s) {
+        if (set.sphere_part[s] != p) continue;
+        for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
+          const uint32_t t = set.triangles[k];
+          size_t idx[3];
+          for (int v = 0; v < 3; ++v) {
+            const uint32_t src = set.triangle_vertices[3 * size_t{t} + v];
+            if (local[src] < 0) {
+              local[src] = int(part.vertices.size());
+              part.vertices.push_back(src);
+              points.push_back(c.asset->narrow_phase()->rest_positions()[src].cast<double>());
+            }
+            idx[v] = size_t(local[src]);
+          }
+          tris.emplace_back(idx[0], idx[1], idx[2]);
+          part.triangles.push_back(t);
+        }
+      }
+      part.model = std::make_shared<Model>();
+      part.model->beginModel(int(tris.size()), int(points.size()));
+      part.model->addSubModel(points, tris);
+      part.model->endModel();
+      part.object = std::make_unique<fcl::CollisionObjectd>(part.model);
+    }
+    const rt::PairFilter& filter = c.asset->filter();
+    for (size_t p = 0; p < parts.size(); ++p) {
+      for (size_t q = p + 1; q < parts.size(); ++q) {
+        bool allowed = false;
+        for (uint32_t i = 0; i < set.size() && !allowed; ++i) {
+          for (uint32_t j = 0; j < set.size() && !allowed; ++j) {
+            allowed = set.sphere_part[i] == p && set.sphere_part[j] == q && !filter.excluded(i, j);
+          }
+        }
+        if (allowed && !parts[p].triangles.empty() && !parts[q].triangles.empty()) part_pairs.push_back({int(p), int(q)});
+      }
+    }
+  }
+
+  // Refit every part to the positions, collide every allowed part pair; calls fn(t, u) per pair.
+  template <class Fn>
+  void Frame(const std::vector<Eigen::Vector3f>& pos, Fn&& fn) {
+    for (Part& part : parts) {
+      part.model->beginUpdateModel();
+      for (uint32_t v : part.vertices) part.model->updateVertex(pos[v].cast<double>());
+      part.model->endUpdateModel(true, true);
+      part.object->computeAABB();
+    }
+    if (!collide) return;
+    for (const auto& [p, q] : part_pairs) {
+      result.clear();
+      fcl::collide(parts[p].object.get(), parts[q].object.get(), request, result);
+      found.clear();
+      result.getContacts(found);
+      for (const fcl::Contactd& contact : found) {
+        const bool first = contact.o1 == parts[p].model.get();
+        const uint32_t t = parts[first ? p : q].triangles[size_t(contact.b1)];
+        const uint32_t u = parts[first ? q : p].triangles[size_t(contact.b2)];
+        fn(t, u);
+      }
+    }
+  }
+};
+
+// Compares FCL's pairs with ours on every frame (after our rules), once per workload.
+void CheckFcl(Character* c, Workload* w, FclWorld* world) {
+  if (w->checked_fcl) return;
+  w->checked_fcl = true;
+  const rt::NarrowPhaseData& data = *c->asset->narrow_phase();
+  const rt::PairFilter& filter = c->asset->filter();
+  std::vector<uint32_t> owner(c->set.source_triangle_count, UINT32_MAX);
+  for (uint32_t s = 0; s < c->set.size(); ++s) {
+    for (uint32_t k = c->set.triangle_offsets[s]; k < c->set.triangle_offsets[s + 1]; ++k) owner[c->set.triangles[k]] = s;
+  }
+  auto degenerate = [&](const std::vector<Eigen::Vector3f>& pos, uint32_t t) {
+    const uint32_t* v = &c->set.triangle_vertices[3 * size_t{t}];
+    return rt::TriangleIsDegenerate(pos[v[0]], pos[v[1]], pos[v[2]]);
+  };
+  auto inst = rt::CharacterInstance::Create(c->asset);
+  for (const Frame& f : w->frames) {
+    std::set<std::pair<uint32_t, uint32_t>> fcl_pairs, ours;
+    world->Frame(f.positions, [&](uint32_t t, uint32_t u) {
+      if (filter.excluded(owner[t], owner[u]) || data.ShareVertex(t, u) || data.RestExcluded(t, u) ||
+          degenerate(f.positions, t) || degenerate(f.positions, u)) {
+        return;
+      }
+      fcl_pairs.insert(std::minmax(t, u));
+    });
+    inst->UpdateExact(f.positions, f.joint_world);
+    inst->FindContacts(f.positions);
+    const rt::FrameContacts& fc = inst->frame_contacts();
+    for (const rt::PartContact& p : fc.parts) {
+      if (p.part_a == p.part_b) continue;
+      for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
+        const auto& tp = fc.triangle_pairs[k];
+        if (tp.kind == rt::TriangleContactKind::kIntersecting) ours.insert(std::minmax(tp.t, tp.u));
+      }
+    }
+    for (const auto& key : fcl_pairs) (ours.count(key) ? w->fcl_same : w->fcl_only) += 1;
+    for (const auto& key : ours) w->ours_only += fcl_pairs.count(key) ? 0 : 1;
+  }
+}
+
+// range(2): 0 all contacts with contact points (enable_contact), 1 all contacts without points
+// (primitive pairs only: the least work that still finds every pair), 2 the refit alone.
+void BM_Fcl(benchmark::State& state) {
+  const int work = int(state.range(1)), variant = int(state.range(2));
+  Character* c = Get(state, int(state.range(0)), work);
+  if (!c) return;
+  Workload& w = c->work[work];
+  FclWorld world(*c);
+  CheckFcl(c, &w, &world);
+  world.request.enable_contact = variant == 0;
+  world.collide = variant != 2;
+  static const char* const kVariants[] = {": contact points", ": pairs only", ": refit only"};
+  state.SetLabel(std::string(kNames[state.range(0)]) + (work ? " random" : " clips") + kVariants[variant]);
+  size_t frame = 0, contacts = 0;
+  for (auto _ : state) {
+    world.Frame(w.frames[frame % w.frames.size()].positions, [&](uint32_t, uint32_t) { ++contacts; });
+    ++frame;
+  }
+  const double frames = double(w.frames.size());
+  state.counters["contacts_raw"] = frame ? double(contacts) / double(frame) : 0.0;
+  state.counters["fcl_same"] = w.fcl_same / frames;
+  state.counters["fcl_only"] = w.fcl_only / frames;
+  state.counters["ours_only"] = w.ours_only / frames;
+  state.counters["part_pairs"] = double(world.part_pairs.size());
+}
+BENCHMARK(BM_Fcl)
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}, {0, 1, 2}})
+    ->ArgNames({"char", "work", "fcl"})
+    ->Unit(benchmark::kMicrosecond);
+#endif  // SKINSPHERES_HAVE_FCL
+
+}  // namespace
+
+BENCHMARK_MAIN();

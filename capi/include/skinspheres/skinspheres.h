@@ -1,0 +1,212 @@
+/* skinspheres.h: the C API of the skinspheres runtime (C99), for engines and for bindings
+   (C# P/Invoke, Godot GDExtension, Rust, Python ctypes). Only C types cross it: opaque handles,
+   fixed-size integers, floats, and caller-owned arrays. The library is a shared library
+   (libskinspheres_c.so, target skinspheres::c) that exports nothing but these functions.
+
+   Use:
+     skinspheres_asset* asset;                 set-up: load once (binary .ssb or JSON), share
+     if (skinspheres_asset_load_file("xbot.ssb", &asset) != SKINSPHERES_OK)
+       fail(skinspheres_last_error());         one line naming the file and the problem
+     skinspheres_instance* inst;               one per character on screen; joint matrices in the
+     skinspheres_instance_create(asset, my_joint_names, my_joint_count, &inst);   engine's order
+     each frame:
+       skinspheres_instance_update_fast(inst, joint_world, my_joint_count);   16 floats per joint
+       size_t n;
+       skinspheres_instance_query(inst, &n);                                  count first,
+       skinspheres_instance_get_contacts(inst, buffer, capacity, &n);         then fill
+     skinspheres_instance_destroy(inst); skinspheres_asset_release(asset);
+
+   Matrices: 16 floats per joint, column-major (OpenGL / glTF order: the translation in elements
+   12, 13, 14), affine (the last row is ignored), one world (model) transform G_j per joint, all in
+   one frame: the spheres come out in that frame. Positions: 3 floats (x, y, z) per vertex,
+   tightly packed, indexed like the source file's vertices.
+
+   Errors: every call that can fail returns a skinspheres_status; skinspheres_last_error() then
+   gives one line saying why (the file and the problem at set-up), until the next failing call on
+   the same thread. Per-frame calls never allocate for it.
+
+   Threads: an asset is immutable once loaded and may be used by any number of threads and
+   instances. An instance is used by one thread at a time; distinct instances may be updated and
+   queried concurrently (skinspheres_crowd_update_and_query does it for you).
+
+   Allocation: loading and creating allocate (the calling thread). Updates and queries do not,
+   except that the contact buffer grows the first time a frame has more contacts than any before
+   (skinspheres_instance_reserve_contacts pins it).
+
+   Queries, and those to come (triangle contacts behind the spheres), follow one pattern: a
+   skinspheres_instance_query_* call computes and gives the count; a skinspheres_instance_get_*
+   call copies into the caller's buffer (or a pointer call reads the results in place). */
+#ifndef SKINSPHERES_SKINSPHERES_H_
+#define SKINSPHERES_SKINSPHERES_H_
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "skinspheres/version.h"
+
+#if defined(_WIN32)
+#if defined(SKINSPHERES_C_BUILDING)
+#define SKINSPHERES_C_API __declspec(dllexport)
+#else
+#define SKINSPHERES_C_API __declspec(dllimport)
+#endif
+#else
+#define SKINSPHERES_C_API __attribute__((visibility("default")))
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Status of a call. 1-9 are the C++ API's ErrorCode values. */
+typedef enum skinspheres_status {
+  SKINSPHERES_OK = 0,
+  SKINSPHERES_FILE_NOT_FOUND = 1,
+  SKINSPHERES_FILE_UNREADABLE = 2,
+  SKINSPHERES_FORMAT_REJECTED = 3,  /* not a sphere set (neither binary nor JSON) */
+  SKINSPHERES_INVALID_DATA = 4,     /* read, but corrupt or inconsistent; or non-finite frame input */
+  SKINSPHERES_VERSION_MISMATCH = 5,
+  SKINSPHERES_MISMATCHED_ASSET = 6, /* the set was fitted on another character (joints, vertices) */
+  SKINSPHERES_INVALID_ARGUMENT = 7, /* null handle, short array, exact mode on a fast-only set, ... */
+  SKINSPHERES_NOT_FOUND = 8,
+  SKINSPHERES_CHECK_FAILED = 9,
+  SKINSPHERES_BUFFER_TOO_SMALL = 100, /* the caller's buffer holds fewer entries than the count */
+  SKINSPHERES_OUT_OF_MEMORY = 101,
+  SKINSPHERES_INTERNAL_ERROR = 102
+} skinspheres_status;
+
+typedef enum skinspheres_refit_mode {
+  SKINSPHERES_MODE_EXACT = 0, /* from skinned vertex positions: tight spheres */
+  SKINSPHERES_MODE_FAST = 1   /* from joint matrices alone: no skinning, looser spheres */
+} skinspheres_refit_mode;
+
+/* One self-collision contact: spheres sphere_i < sphere_j overlap by depth (>= 0, the set's
+   units); part_i, part_j are their body parts (skinspheres_asset_part_name). 16 bytes. */
+typedef struct skinspheres_contact {
+  uint32_t sphere_i;
+  uint32_t sphere_j;
+  float depth;
+  uint16_t part_i;
+  uint16_t part_j;
+} skinspheres_contact;
+
+typedef struct skinspheres_asset skinspheres_asset;       /* a loaded sphere set, shared */
+typedef struct skinspheres_instance skinspheres_instance; /* one character's per-frame state */
+
+/* ---- Version and errors ---- */
+
+/* The linked library's SKINSPHERES_VERSION (MAJOR * 10000 + MINOR * 100 + PATCH) and string. */
+SKINSPHERES_C_API int skinspheres_version(void);
+SKINSPHERES_C_API const char* skinspheres_version_string(void);
+/* "ok", "file not found", ..., "buffer too small": a static string. */
+SKINSPHERES_C_API const char* skinspheres_status_string(skinspheres_status status);
+/* The message of the last failing call on this thread ("" when none). */
+SKINSPHERES_C_API const char* skinspheres_last_error(void);
+
+/* ---- Assets ---- */
+
+/* Loads a sphere set, binary or JSON (told apart by content). Errors name the path. */
+SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_file(const char* path, skinspheres_asset** out_asset);
+/* The same from memory (copied: the caller may free data on return); name is used in messages
+   (NULL: "<memory>"). */
+SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_memory(const void* data, size_t size, const char* name,
+                                                                    skinspheres_asset** out_asset);
+/* Drops the caller's reference: the set is freed once every instance made from it is destroyed.
+   NULL is ignored. */
+SKINSPHERES_C_API void skinspheres_asset_release(skinspheres_asset* asset);
+
+SKINSPHERES_C_API size_t skinspheres_asset_sphere_count(const skinspheres_asset* asset);
+/* The set's joints (see docs: the skin's joints plus their non-joint ancestors, parents first). */
+SKINSPHERES_C_API size_t skinspheres_asset_joint_count(const skinspheres_asset* asset);
+SKINSPHERES_C_API const char* skinspheres_asset_joint_name(const skinspheres_asset* asset, size_t joint);
+/* The joint's world transform in the rest pose the set was fitted in (16 floats, column-major),
+   e.g. to check an engine's own rest pose against it. NULL for an index out of range. */
+SKINSPHERES_C_API const float* skinspheres_asset_joint_rest_world(const skinspheres_asset* asset, size_t joint);
+/* 1 when the runtime reads this joint's matrix every frame (it must be in the engine's list). */
+SKINSPHERES_C_API int skinspheres_asset_joint_is_read(const skinspheres_asset* asset, size_t joint);
+SKINSPHERES_C_API size_t skinspheres_asset_part_count(const skinspheres_asset* asset);
+SKINSPHERES_C_API const char* skinspheres_asset_part_name(const skinspheres_asset* asset, size_t part);
+/* Vertices the set was fitted on (exact mode reads that many positions). */
+SKINSPHERES_C_API size_t skinspheres_asset_vertex_count(const skinspheres_asset* asset);
+/* 1 for a set loaded from a fast-only binary file: exact mode is refused. */
+SKINSPHERES_C_API int skinspheres_asset_is_fast_only(const skinspheres_asset* asset);
+
+/* Whether the set was fitted on this character: vertex_count equal and every joint the spheres
+   move with named in joint_names (any order; extra joints allowed). SKINSPHERES_MISMATCHED_ASSET
+   otherwise, skinspheres_last_error() naming the set's file and the missing joints. */
+SKINSPHERES_C_API skinspheres_status skinspheres_asset_check(const skinspheres_asset* asset, const char* const* joint_names,
+                                                             size_t joint_count, size_t vertex_count);
+
+/* ---- Instances ---- */
+
+/* An instance of the asset (which it keeps alive). joint_names: the engine's joints, in the order
+   its matrices will come (MISMATCHED_ASSET when a joint the spheres move with is missing); NULL:
+   matrices in the set's own order (skinspheres_asset_joint_name). */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_create(const skinspheres_asset* asset,
+                                                                 const char* const* joint_names, size_t joint_count,
+                                                                 skinspheres_instance** out_instance);
+SKINSPHERES_C_API void skinspheres_instance_destroy(skinspheres_instance* instance);
+/* Joint matrices an update reads: joint_count given at creation (or the set's). */
+SKINSPHERES_C_API size_t skinspheres_instance_joint_count(const skinspheres_instance* instance);
+
+/* Fast refit: joint_world holds 16 floats per joint, joint_count >= skinspheres_instance_joint_count. */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_update_fast(skinspheres_instance* instance,
+                                                                     const float* joint_world, size_t joint_count);
+/* Exact refit: positions holds 3 floats per vertex, vertex_count >= skinspheres_asset_vertex_count;
+   joint_world as above, or NULL with joint_count 0 (sphere centres then from the vertices alone). */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_update_exact(skinspheres_instance* instance,
+                                                                      const float* positions, size_t vertex_count,
+                                                                      const float* joint_world, size_t joint_count);
+
+/* Runs the self-collision query on the current spheres; *out_count = the number of contacts (0
+   and an error when the last update failed). */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_query(skinspheres_instance* instance, size_t* out_count);
+/* Copies the last query's contacts (sorted by sphere_i, sphere_j) into out[0, capacity);
+   *out_written = how many. SKINSPHERES_BUFFER_TOO_SMALL when capacity < the count (the first
+   capacity are copied; call again with a larger buffer, no need to query again). */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_get_contacts(const skinspheres_instance* instance,
+                                                                      skinspheres_contact* out, size_t capacity,
+                                                                      size_t* out_written);
+/* The last query's contacts in place (valid until the next query or update); *out_count set. */
+SKINSPHERES_C_API const skinspheres_contact* skinspheres_instance_contacts(const skinspheres_instance* instance,
+                                                                          size_t* out_count);
+/* The current spheres, 4 floats each (x, y, z, radius), NULL when the last update failed. */
+SKINSPHERES_C_API const float* skinspheres_instance_spheres(const skinspheres_instance* instance, size_t* out_count);
+/* The outcome of the instance's last update or query; *message (when not NULL) gets a static
+   string saying why. */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_status(const skinspheres_instance* instance,
+                                                                const char** message);
+/* Sizes the contact buffer so that frames with up to `count` contacts never allocate. */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_contacts(skinspheres_instance* instance, size_t count);
+
+/* ---- Crowds, on the engine's job system ---- */
+
+/* A range of work: call body(body_context, begin, end). */
+typedef void (*skinspheres_range_fn)(void* body_context, size_t begin, size_t end);
+/* The engine's parallel loop: call body on disjoint ranges covering [0, count) exactly once, on any
+   threads, in any order, and return when all have returned; grain is a hint (>= 1). */
+typedef void (*skinspheres_parallel_for_fn)(void* user, size_t count, size_t grain, skinspheres_range_fn body,
+                                            void* body_context);
+
+typedef struct skinspheres_frame_input {
+  const float* joint_world; /* 16 floats per joint */
+  size_t joint_count;
+  const float* positions;   /* exact mode: 3 floats per vertex; fast mode: ignored */
+  size_t vertex_count;
+} skinspheres_frame_input;
+
+/* Update then query instances[i] with inputs[i], for i < count, through parallel_for (NULL: the
+   library's default: TBB, or serial in a build without TBB). Results are identical to calling each
+   instance alone. SKINSPHERES_INVALID_DATA when at least one instance failed (query it for its
+   own status); SKINSPHERES_INVALID_ARGUMENT (nothing runs) for a null array or instance. */
+SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_query(skinspheres_instance* const* instances,
+                                                                       const skinspheres_frame_input* inputs,
+                                                                       size_t count, skinspheres_refit_mode mode,
+                                                                       skinspheres_parallel_for_fn parallel_for,
+                                                                       void* user);
+
+#ifdef __cplusplus
+}  /* extern "C" */
+#endif
+
+#endif /* SKINSPHERES_SKINSPHERES_H_ */

@@ -1,0 +1,345 @@
+// The C API (skinspheres/skinspheres.h) over the C++ runtime: handles wrap CharacterAsset and
+// CharacterInstance; no exception crosses the boundary; set-up errors keep their message in a
+// thread-local string, per-frame errors point at the runtime's static messages (no allocation).
+#include "skinspheres/skinspheres.h"
+
+#include <atomic>
+#include <cstddef>
+#include <cstring>
+#include <exception>
+#include <memory>
+#include <new>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "skinspheres/runtime/character.h"
+#include "skinspheres/runtime/joint_mapping.h"
+#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/version.h"
+
+using skinspheres::ErrorCode;
+using skinspheres::Mat4f;
+namespace rt = skinspheres::runtime;
+
+struct skinspheres_asset {
+  std::shared_ptr<const rt::CharacterAsset> asset;
+  std::vector<bool> joint_read;  // JointsReadPerFrame
+};
+
+struct skinspheres_instance {
+  rt::CharacterInstance instance;
+};
+
+// The C structs are the C++ ones, byte for byte: contacts are handed out in place.
+static_assert(sizeof(skinspheres_contact) == sizeof(rt::Contact));
+static_assert(offsetof(skinspheres_contact, sphere_i) == offsetof(rt::Contact, i));
+static_assert(offsetof(skinspheres_contact, sphere_j) == offsetof(rt::Contact, j));
+static_assert(offsetof(skinspheres_contact, depth) == offsetof(rt::Contact, depth));
+static_assert(offsetof(skinspheres_contact, part_i) == offsetof(rt::Contact, part_i));
+static_assert(offsetof(skinspheres_contact, part_j) == offsetof(rt::Contact, part_j));
+static_assert(sizeof(Mat4f) == 16 * sizeof(float) && alignof(Mat4f) == alignof(float));
+static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float) && alignof(Eigen::Vector3f) == alignof(float));
+static_assert(sizeof(skinspheres::Vec4f) == 4 * sizeof(float));
+static_assert(SKINSPHERES_OK == static_cast<int>(ErrorCode::kOk) &&
+              SKINSPHERES_FILE_NOT_FOUND == static_cast<int>(ErrorCode::kFileNotFound) &&
+              SKINSPHERES_FILE_UNREADABLE == static_cast<int>(ErrorCode::kFileUnreadable) &&
+              SKINSPHERES_FORMAT_REJECTED == static_cast<int>(ErrorCode::kFormatRejected) &&
+              SKINSPHERES_INVALID_DATA == static_cast<int>(ErrorCode::kInvalidData) &&
+              SKINSPHERES_VERSION_MISMATCH == static_cast<int>(ErrorCode::kVersionMismatch) &&
+              SKINSPHERES_MISMATCHED_ASSET == static_cast<int>(ErrorCode::kMismatchedAsset) &&
+              SKINSPHERES_INVALID_ARGUMENT == static_cast<int>(ErrorCode::kInvalidArgument) &&
+              SKINSPHERES_NOT_FOUND == static_cast<int>(ErrorCode::kNotFound) &&
+              SKINSPHERES_CHECK_FAILED == static_cast<int>(ErrorCode::kCheckFailed));
+
+namespace {
+
+thread_local std::string t_message;           // set-up errors (allocated)
+thread_local const char* t_last_error = "";   // what skinspheres_last_error returns
+
+skinspheres_status Fail(skinspheres_status status, std::string message) {
+  t_message = std::move(message);
+  t_last_error = t_message.c_str();
+  return status;
+}
+skinspheres_status Fail(const skinspheres::Error& error) {
+  return Fail(static_cast<skinspheres_status>(error.code), error.message);
+}
+// Per frame: a static message, nothing allocated.
+skinspheres_status FailStatic(skinspheres_status status, const char* message) {
+  t_last_error = message;
+  return status;
+}
+skinspheres_status FromFrame(const rt::FrameStatus& st) {
+  if (st.ok()) return SKINSPHERES_OK;
+  return FailStatic(static_cast<skinspheres_status>(st.code), st.message);
+}
+
+// Runs f; exceptions (allocation failure at set-up, a bug) become a status.
+template <typename F>
+skinspheres_status Guard(F&& f) noexcept {
+  try {
+    return f();
+  } catch (const std::bad_alloc&) {
+    return FailStatic(SKINSPHERES_OUT_OF_MEMORY, "out of memory");
+  } catch (const std::exception& e) {
+    try {
+      return Fail(SKINSPHERES_INTERNAL_ERROR, std::string("internal error: ") + e.what());
+    } catch (...) {
+      return FailStatic(SKINSPHERES_INTERNAL_ERROR, "internal error");
+    }
+  } catch (...) {
+    return FailStatic(SKINSPHERES_INTERNAL_ERROR, "internal error");
+  }
+}
+
+std::vector<std::string> Names(const char* const* names, size_t count) {
+  std::vector<std::string> out;
+  out.reserve(count);
+  for (size_t k = 0; k < count; ++k) out.emplace_back(names[k] ? names[k] : "");
+  return out;
+}
+
+skinspheres_status MakeAsset(skinspheres::Result<rt::SphereSet> set, skinspheres_asset** out_asset) {
+  if (!set.ok()) return Fail(set.error());
+  auto asset = rt::CharacterAsset::Create(std::move(set).value());
+  if (!asset.ok()) return Fail(asset.error());
+  auto handle = std::make_unique<skinspheres_asset>();
+  handle->joint_read = rt::JointsReadPerFrame((*asset)->sphere_set());
+  handle->asset = std::move(asset).value();
+  *out_asset = handle.release();
+  return SKINSPHERES_OK;
+}
+
+std::span<const Mat4f> Joints(const float* joint_world, size_t joint_count) {
+  if (joint_world == nullptr) return {};
+  return {reinterpret_cast<const Mat4f*>(joint_world), joint_count};
+}
+std::span<const Eigen::Vector3f> Positions(const float* positions, size_t vertex_count) {
+  if (positions == nullptr) return {};
+  return {reinterpret_cast<const Eigen::Vector3f*>(positions), vertex_count};
+}
+
+struct CrowdWork {
+  skinspheres_instance* const* instances;
+  const skinspheres_frame_input* inputs;
+  rt::RefitMode mode;
+  std::atomic<bool> all_ok{true};  // set to false by any thread; read after the loop
+};
+
+void RunCrowdRange(void* context, size_t begin, size_t end) {
+  auto* work = static_cast<CrowdWork*>(context);
+  for (size_t i = begin; i < end; ++i) {
+    rt::CharacterInstance& inst = work->instances[i]->instance;
+    const skinspheres_frame_input& in = work->inputs[i];
+    const rt::FrameStatus st = inst.Update(work->mode, Joints(in.joint_world, in.joint_count),
+                                           Positions(in.positions, in.vertex_count));
+    if (st.ok()) inst.Query();
+    if (!st.ok() || !inst.status().ok()) work->all_ok.store(false, std::memory_order_relaxed);
+  }
+}
+
+}  // namespace
+
+extern "C" {
+
+int skinspheres_version(void) { return skinspheres::LibraryVersion(); }
+const char* skinspheres_version_string(void) { return skinspheres::LibraryVersionString(); }
+
+const char* skinspheres_status_string(skinspheres_status status) {
+  switch (status) {
+    case SKINSPHERES_BUFFER_TOO_SMALL: return "buffer too small";
+    case SKINSPHERES_OUT_OF_MEMORY: return "out of memory";
+    case SKINSPHERES_INTERNAL_ERROR: return "internal error";
+    default: return skinspheres::ToString(static_cast<ErrorCode>(status));
+  }
+}
+
+const char* skinspheres_last_error(void) { return t_last_error; }
+
+skinspheres_status skinspheres_asset_load_file(const char* path, skinspheres_asset** out_asset) {
+  return Guard([&] {
+    if (out_asset) *out_asset = nullptr;
+    if (path == nullptr || out_asset == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null path or out_asset");
+    return MakeAsset(rt::LoadSphereSet(path), out_asset);
+  });
+}
+
+skinspheres_status skinspheres_asset_load_memory(const void* data, size_t size, const char* name,
+                                                 skinspheres_asset** out_asset) {
+  return Guard([&] {
+    if (out_asset) *out_asset = nullptr;
+    if ((data == nullptr && size != 0) || out_asset == nullptr) {
+      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null data or out_asset");
+    }
+    const std::span<const std::byte> bytes(static_cast<const std::byte*>(data), size);
+    return MakeAsset(rt::ReadSphereSet(bytes, name ? name : "<memory>"), out_asset);
+  });
+}
+
+void skinspheres_asset_release(skinspheres_asset* asset) { delete asset; }
+
+size_t skinspheres_asset_sphere_count(const skinspheres_asset* asset) { return asset ? asset->asset->size() : 0; }
+size_t skinspheres_asset_joint_count(const skinspheres_asset* asset) { return asset ? asset->asset->joint_count() : 0; }
+const char* skinspheres_asset_joint_name(const skinspheres_asset* asset, size_t joint) {
+  if (!asset || joint >= asset->asset->joint_count()) return nullptr;
+  return asset->asset->sphere_set().joint_names[joint].c_str();
+}
+const float* skinspheres_asset_joint_rest_world(const skinspheres_asset* asset, size_t joint) {
+  if (!asset || joint >= asset->asset->joint_count()) return nullptr;
+  return asset->asset->sphere_set().joint_rest_world[joint].data();
+}
+int skinspheres_asset_joint_is_read(const skinspheres_asset* asset, size_t joint) {
+  return asset && joint < asset->joint_read.size() && asset->joint_read[joint] ? 1 : 0;
+}
+size_t skinspheres_asset_part_count(const skinspheres_asset* asset) {
+  return asset ? asset->asset->sphere_set().parts.size() : 0;
+}
+const char* skinspheres_asset_part_name(const skinspheres_asset* asset, size_t part) {
+  if (!asset || part >= asset->asset->sphere_set().parts.size()) return nullptr;
+  return asset->asset->sphere_set().parts[part].name.c_str();
+}
+size_t skinspheres_asset_vertex_count(const skinspheres_asset* asset) {
+  return asset ? asset->asset->source_vertex_count() : 0;
+}
+int skinspheres_asset_is_fast_only(const skinspheres_asset* asset) {
+  return asset && asset->asset->sphere_set().fast_only ? 1 : 0;
+}
+
+skinspheres_status skinspheres_asset_check(const skinspheres_asset* asset, const char* const* joint_names,
+                                           size_t joint_count, size_t vertex_count) {
+  return Guard([&] {
+    if (asset == nullptr || (joint_names == nullptr && joint_count != 0)) {
+      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null asset or joint_names");
+    }
+    const std::vector<std::string> names = Names(joint_names, joint_count);
+    if (auto err = asset->asset->Matches(names, vertex_count)) return Fail(*err);
+    return SKINSPHERES_OK;
+  });
+}
+
+skinspheres_status skinspheres_instance_create(const skinspheres_asset* asset, const char* const* joint_names,
+                                               size_t joint_count, skinspheres_instance** out_instance) {
+  return Guard([&] {
+    if (out_instance) *out_instance = nullptr;
+    if (asset == nullptr || out_instance == nullptr || (joint_names == nullptr && joint_count != 0)) {
+      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null asset, joint_names or out_instance");
+    }
+    skinspheres::Result<rt::CharacterInstance> created = rt::CharacterInstance::Create(asset->asset);
+    if (joint_names != nullptr) {
+      auto mapping = rt::MapJoints(asset->asset->sphere_set(), Names(joint_names, joint_count));
+      if (!mapping.ok()) return Fail(mapping.error());
+      created = rt::CharacterInstance::Create(asset->asset, *mapping);
+    }
+    if (!created.ok()) return Fail(created.error());
+    *out_instance = new skinspheres_instance{std::move(created).value()};
+    return SKINSPHERES_OK;
+  });
+}
+
+void skinspheres_instance_destroy(skinspheres_instance* instance) { delete instance; }
+
+size_t skinspheres_instance_joint_count(const skinspheres_instance* instance) {
+  return instance ? instance->instance.joint_input_count() : 0;
+}
+
+skinspheres_status skinspheres_instance_update_fast(skinspheres_instance* instance, const float* joint_world,
+                                                    size_t joint_count) {
+  if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
+  if (joint_world == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "fast mode needs joint matrices");
+  return FromFrame(instance->instance.UpdateFast(Joints(joint_world, joint_count)));
+}
+
+skinspheres_status skinspheres_instance_update_exact(skinspheres_instance* instance, const float* positions,
+                                                     size_t vertex_count, const float* joint_world, size_t joint_count) {
+  if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
+  if (positions == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "exact mode needs vertex positions");
+  return FromFrame(instance->instance.UpdateExact(Positions(positions, vertex_count), Joints(joint_world, joint_count)));
+}
+
+skinspheres_status skinspheres_instance_query(skinspheres_instance* instance, size_t* out_count) {
+  return Guard([&] {
+    if (out_count) *out_count = 0;
+    if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
+    const size_t n = instance->instance.Query().size();
+    if (out_count) *out_count = n;
+    return FromFrame(instance->instance.status());
+  });
+}
+
+skinspheres_status skinspheres_instance_get_contacts(const skinspheres_instance* instance, skinspheres_contact* out,
+                                                     size_t capacity, size_t* out_written) {
+  if (out_written) *out_written = 0;
+  if (instance == nullptr || (out == nullptr && capacity != 0)) {
+    return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance or buffer");
+  }
+  const auto contacts = instance->instance.contacts();
+  const size_t n = contacts.size() < capacity ? contacts.size() : capacity;
+  if (n) std::memcpy(out, contacts.data(), n * sizeof(skinspheres_contact));
+  if (out_written) *out_written = n;
+  if (n < contacts.size()) return FailStatic(SKINSPHERES_BUFFER_TOO_SMALL, "the contact buffer holds fewer entries than the count");
+  return SKINSPHERES_OK;
+}
+
+const skinspheres_contact* skinspheres_instance_contacts(const skinspheres_instance* instance, size_t* out_count) {
+  if (out_count) *out_count = 0;
+  if (instance == nullptr) return nullptr;
+  const auto contacts = instance->instance.contacts();
+  if (out_count) *out_count = contacts.size();
+  return reinterpret_cast<const skinspheres_contact*>(contacts.data());
+}
+
+const float* skinspheres_instance_spheres(const skinspheres_instance* instance, size_t* out_count) {
+  if (out_count) *out_count = 0;
+  if (instance == nullptr || !instance->instance.spheres_valid()) return nullptr;
+  const auto spheres = instance->instance.spheres();
+  if (out_count) *out_count = spheres.size();
+  return spheres.empty() ? nullptr : spheres.data()->data();
+}
+
+skinspheres_status skinspheres_instance_status(const skinspheres_instance* instance, const char** message) {
+  if (instance == nullptr) {
+    if (message) *message = "null instance";
+    return SKINSPHERES_INVALID_ARGUMENT;
+  }
+  const rt::FrameStatus st = instance->instance.status();
+  if (message) *message = st.message;
+  return static_cast<skinspheres_status>(st.code);
+}
+
+skinspheres_status skinspheres_instance_reserve_contacts(skinspheres_instance* instance, size_t count) {
+  return Guard([&] {
+    if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
+    instance->instance.ReserveContacts(count);
+    return SKINSPHERES_OK;
+  });
+}
+
+skinspheres_status skinspheres_crowd_update_and_query(skinspheres_instance* const* instances,
+                                                      const skinspheres_frame_input* inputs, size_t count,
+                                                      skinspheres_refit_mode mode,
+                                                      skinspheres_parallel_for_fn parallel_for, void* user) {
+  return Guard([&] {
+    if (count != 0 && (instances == nullptr || inputs == nullptr)) {
+      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instances or inputs");
+    }
+    if (mode != SKINSPHERES_MODE_EXACT && mode != SKINSPHERES_MODE_FAST) {
+      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "unknown refit mode");
+    }
+    for (size_t i = 0; i < count; ++i) {
+      if (instances[i] == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
+    }
+    CrowdWork work{instances, inputs, mode == SKINSPHERES_MODE_FAST ? rt::RefitMode::kFast : rt::RefitMode::kExact};
+    if (parallel_for != nullptr) {
+      if (count) parallel_for(user, count, 1, &RunCrowdRange, &work);
+    } else {
+      skinspheres::DefaultParallelFor()(count, 1, [&work](size_t begin, size_t end) { RunCrowdRange(&work, begin, end); });
+    }
+    if (!work.all_ok.load()) {
+      return FailStatic(SKINSPHERES_INVALID_DATA, "at least one instance failed; see skinspheres_instance_status");
+    }
+    return SKINSPHERES_OK;
+  });
+}
+
+}  // extern "C"

@@ -1,0 +1,286 @@
+/* A plain C99 program that drives the built-in character through the C API as an engine would:
+   load the sphere set (binary from a file, JSON from memory), create instances that take joint
+   matrices in the engine's own joint order, update fast and exact every frame of a clip, query
+   contacts (count first, then fill), and run a crowd on its own parallel loop. Every frame's
+   contacts must equal, byte for byte, what the C++ API found (capi_reference writes them).
+   Usage: capi_contacts DIR (holding set.ssb, set.json, set_fast.ssb, frames.bin). */
+#ifdef __cplusplus
+#error "this test must be compiled as C"
+#endif
+#if !defined(__STDC_VERSION__) || __STDC_VERSION__ != 199901L
+#error "this test must be compiled as C99"
+#endif
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "skinspheres/skinspheres.h"
+
+static int failures = 0;
+
+static void check(int ok, const char* what, size_t frame) {
+  if (!ok) {
+    fprintf(stderr, "FAILED: %s (frame %lu): %s\n", what, (unsigned long)frame, skinspheres_last_error());
+    ++failures;
+  }
+}
+
+/* dir/name in a static buffer (valid until the next call). */
+static const char* join(const char* dir, const char* name) {
+  static char path[4096];
+  snprintf(path, sizeof path, "%s/%s", dir, name);
+  return path;
+}
+
+static void* read_all(const char* path, size_t* size) {
+  FILE* f = fopen(path, "rb");
+  void* data;
+  long n;
+  if (!f) return NULL;
+  fseek(f, 0, SEEK_END);
+  n = ftell(f);
+  fseek(f, 0, SEEK_SET);
+  data = malloc((size_t)n + 1);
+  *size = fread(data, 1, (size_t)n, f);
+  fclose(f);
+  return data;
+}
+
+static uint32_t read_u32(const unsigned char** p) {
+  uint32_t v;
+  memcpy(&v, *p, 4);
+  *p += 4;
+  return v;
+}
+
+/* What capi_reference wrote for one frame. */
+typedef struct frame {
+  const float* joint_world;
+  const float* positions;
+  uint32_t contact_count[2]; /* fast, exact */
+  const skinspheres_contact* contacts[2];
+} frame;
+
+static int same_contacts(const skinspheres_contact* a, size_t na, const skinspheres_contact* b, size_t nb) {
+  return na == nb && (na == 0 || memcmp(a, b, na * sizeof(skinspheres_contact)) == 0);
+}
+
+/* The engine's job system, simplified: ranges of `grain` items, last range first. */
+static void reversed_parallel_for(void* user, size_t count, size_t grain, skinspheres_range_fn body, void* ctx) {
+  size_t begin;
+  int* calls = (int*)user;
+  if (grain == 0) grain = 1;
+  begin = (count - 1) / grain * grain;
+  for (;;) {
+    size_t end = begin + grain < count ? begin + grain : count;
+    body(ctx, begin, end);
+    ++*calls;
+    if (begin == 0) break;
+    begin -= grain;
+  }
+}
+
+int main(int argc, char** argv) {
+  const char* dir;
+  size_t frames_size = 0, json_size = 0, k, f, total[2] = {0, 0};
+  unsigned char* frames_data;
+  const unsigned char* p;
+  char* json_text;
+  uint32_t joint_count, vertex_count, frame_count;
+  const char** names;
+  frame* frames;
+  skinspheres_asset *binary = NULL, *json = NULL, *fast_only = NULL, *missing = NULL;
+  skinspheres_instance *a = NULL, *b = NULL, *c = NULL, *in_set_order = NULL;
+  skinspheres_contact small[1];
+  skinspheres_contact* buffer;
+  size_t capacity = 4096;
+  int parallel_calls = 0;
+
+  if (argc != 2) {
+    fprintf(stderr, "usage: capi_contacts DIR\n");
+    return 2;
+  }
+  dir = argv[1];
+
+  /* Versions: the header's and the library's agree. */
+  check(skinspheres_version() == SKINSPHERES_VERSION, "skinspheres_version() == SKINSPHERES_VERSION", 0);
+  check(strcmp(skinspheres_version_string(), SKINSPHERES_VERSION_STRING) == 0, "version string", 0);
+  check(strcmp(skinspheres_status_string(SKINSPHERES_FILE_NOT_FOUND), "file not found") == 0, "status string", 0);
+
+  /* A missing file: its status and a message naming it. */
+  check(skinspheres_asset_load_file("no_such_set.ssb", &missing) == SKINSPHERES_FILE_NOT_FOUND && missing == NULL,
+        "missing file refused", 0);
+  check(strstr(skinspheres_last_error(), "no_such_set.ssb: file not found") != NULL, "missing file named", 0);
+
+  /* The clip as the engine has it. */
+  frames_data = (unsigned char*)read_all(join(dir, "frames.bin"), &frames_size);
+  if (!frames_data) {
+    fprintf(stderr, "cannot read %s/frames.bin\n", dir);
+    return 2;
+  }
+  p = frames_data;
+  joint_count = read_u32(&p);
+  vertex_count = read_u32(&p);
+  frame_count = read_u32(&p);
+  names = (const char**)malloc(joint_count * sizeof(char*));
+  for (k = 0; k < joint_count; ++k) {
+    uint32_t n = read_u32(&p);
+    char* name = (char*)malloc(n + 1);
+    memcpy(name, p, n);
+    name[n] = '\0';
+    names[k] = name;
+    p += (n + 3) / 4 * 4; /* names are padded to 4 bytes: the floats that follow stay aligned */
+  }
+  frames = (frame*)malloc(frame_count * sizeof(frame));
+  for (f = 0; f < frame_count; ++f) {
+    int m;
+    frames[f].joint_world = (const float*)p;
+    p += 16 * sizeof(float) * joint_count;
+    frames[f].positions = (const float*)p;
+    p += 3 * sizeof(float) * vertex_count;
+    for (m = 0; m < 2; ++m) {
+      frames[f].contact_count[m] = read_u32(&p);
+      frames[f].contacts[m] = (const skinspheres_contact*)p;
+      p += sizeof(skinspheres_contact) * frames[f].contact_count[m];
+    }
+  }
+  if ((size_t)(p - frames_data) != frames_size) {
+    fprintf(stderr, "frames.bin: %lu bytes read of %lu\n", (unsigned long)(p - frames_data), (unsigned long)frames_size);
+    return 2;
+  }
+
+  /* The set: binary from a file, JSON from memory, and the fast-only binary. */
+  check(skinspheres_asset_load_file(join(dir, "set.ssb"), &binary) == SKINSPHERES_OK, "load set.ssb", 0);
+  json_text = (char*)read_all(join(dir, "set.json"), &json_size);
+  check(json_text != NULL, "read set.json", 0);
+  check(skinspheres_asset_load_memory(json_text, json_size, "set.json", &json) == SKINSPHERES_OK, "load JSON from memory", 0);
+  free(json_text); /* the asset holds its own copy */
+  check(skinspheres_asset_load_file(join(dir, "set_fast.ssb"), &fast_only) == SKINSPHERES_OK, "load set_fast.ssb", 0);
+  if (failures) return 1;
+  check(skinspheres_asset_sphere_count(binary) == skinspheres_asset_sphere_count(json) &&
+            skinspheres_asset_sphere_count(binary) > 10,
+        "sphere counts", 0);
+  check(skinspheres_asset_is_fast_only(fast_only) && !skinspheres_asset_is_fast_only(binary), "fast-only flags", 0);
+  check(skinspheres_asset_vertex_count(binary) == vertex_count, "vertex count", 0);
+  for (k = 0; k < skinspheres_asset_joint_count(binary); ++k) {
+    check(strcmp(skinspheres_asset_joint_name(binary, k), skinspheres_asset_joint_name(json, k)) == 0, "joint names", 0);
+  }
+
+  /* The set matches the engine's character; a wrong vertex count is refused naming the file. */
+  check(skinspheres_asset_check(binary, names, joint_count, vertex_count) == SKINSPHERES_OK, "asset_check", 0);
+  check(skinspheres_asset_check(binary, names, joint_count, vertex_count + 1) == SKINSPHERES_MISMATCHED_ASSET,
+        "asset_check wrong vertex count", 0);
+  check(strstr(skinspheres_last_error(), "set.ssb") != NULL, "mismatch names the set file", 0);
+  check(skinspheres_asset_check(binary, names + 1, joint_count - 1, vertex_count) == SKINSPHERES_MISMATCHED_ASSET,
+        "asset_check missing joint", 0);
+  check(strstr(skinspheres_last_error(), names[0]) != NULL, "missing joint named", 0);
+
+  /* Instances in the engine's joint order. The assets are released at once: instances keep them. */
+  check(skinspheres_instance_create(binary, names, joint_count, &a) == SKINSPHERES_OK, "instance a", 0);
+  check(skinspheres_instance_create(json, names, joint_count, &b) == SKINSPHERES_OK, "instance b", 0);
+  check(skinspheres_instance_create(fast_only, names, joint_count, &c) == SKINSPHERES_OK, "instance c", 0);
+  check(skinspheres_instance_create(binary, NULL, 0, &in_set_order) == SKINSPHERES_OK, "instance in set order", 0);
+  check(skinspheres_instance_joint_count(a) == joint_count, "instance joint count", 0);
+  skinspheres_asset_release(json);
+  skinspheres_asset_release(fast_only);
+  if (failures) return 1;
+  buffer = (skinspheres_contact*)malloc(capacity * sizeof(skinspheres_contact));
+  check(skinspheres_instance_reserve_contacts(a, capacity) == SKINSPHERES_OK, "reserve", 0);
+
+  for (f = 0; f < frame_count; ++f) {
+    const frame* fr = &frames[f];
+    size_t count = 0, written = 0, in_place = 0;
+    const skinspheres_contact* direct;
+    int m;
+    for (m = 0; m < 2; ++m) {
+      skinspheres_instance* inst = m == 0 ? a : b;
+      skinspheres_status st = m == 0 ? skinspheres_instance_update_fast(inst, fr->joint_world, joint_count)
+                                     : skinspheres_instance_update_exact(inst, fr->positions, vertex_count,
+                                                                         fr->joint_world, joint_count);
+      check(st == SKINSPHERES_OK, m == 0 ? "update_fast" : "update_exact", f);
+      check(skinspheres_instance_query(inst, &count) == SKINSPHERES_OK, "query", f);
+      check(count == fr->contact_count[m], "contact count equals the C++ API's", f);
+      /* Count first, then fill: a one-entry buffer is too small when there are more. */
+      if (count > 1) {
+        check(skinspheres_instance_get_contacts(inst, small, 1, &written) == SKINSPHERES_BUFFER_TOO_SMALL && written == 1,
+              "a small buffer is refused", f);
+        check(memcmp(&small[0], &fr->contacts[m][0], sizeof small[0]) == 0, "the first contact still copied", f);
+      }
+      check(skinspheres_instance_get_contacts(inst, buffer, capacity, &written) == SKINSPHERES_OK, "get_contacts", f);
+      check(same_contacts(buffer, written, fr->contacts[m], fr->contact_count[m]),
+            m == 0 ? "fast contacts equal the C++ API's" : "exact contacts equal the C++ API's", f);
+      direct = skinspheres_instance_contacts(inst, &in_place);
+      check(same_contacts(direct, in_place, buffer, written), "contacts in place", f);
+      total[m] += count;
+    }
+    /* The fast-only set: the same fast contacts; exact mode refused with a clear message. */
+    check(skinspheres_instance_update_fast(c, fr->joint_world, joint_count) == SKINSPHERES_OK, "fast-only update", f);
+    check(skinspheres_instance_query(c, &count) == SKINSPHERES_OK, "fast-only query", f);
+    direct = skinspheres_instance_contacts(c, &in_place);
+    check(same_contacts(direct, in_place, fr->contacts[0], fr->contact_count[0]), "fast-only contacts", f);
+    check(skinspheres_instance_update_exact(c, fr->positions, vertex_count, fr->joint_world, joint_count) ==
+              SKINSPHERES_INVALID_ARGUMENT,
+          "exact mode on a fast-only set is refused", f);
+    check(strstr(skinspheres_last_error(), "fast-only") != NULL, "the refusal says fast-only", f);
+    check(skinspheres_instance_query(c, &count) != SKINSPHERES_OK && count == 0, "no contacts after a refused update", f);
+  }
+
+  /* A crowd on the engine's own loop, fast then exact: each instance as if alone. */
+  {
+    skinspheres_instance* crowd[3];
+    skinspheres_frame_input inputs[3];
+    const frame* fr = &frames[frame_count / 2];
+    int m;
+    crowd[0] = a;
+    crowd[1] = b;
+    crowd[2] = in_set_order;
+    for (k = 0; k < 2; ++k) {
+      inputs[k].joint_world = fr->joint_world;
+      inputs[k].joint_count = joint_count;
+      inputs[k].positions = fr->positions;
+      inputs[k].vertex_count = vertex_count;
+    }
+    /* The set-order instance gets a joint list that does not fit it: it alone fails. */
+    inputs[2] = inputs[0];
+    inputs[2].joint_count = 3;
+    for (m = 0; m < 2; ++m) {
+      size_t n0, n1;
+      const skinspheres_contact* c0;
+      const skinspheres_contact* c1;
+      const char* why = NULL;
+      skinspheres_status st = skinspheres_crowd_update_and_query(crowd, inputs, 3, m == 0 ? SKINSPHERES_MODE_FAST : SKINSPHERES_MODE_EXACT,
+                                                                 m == 0 ? reversed_parallel_for : NULL, &parallel_calls);
+      check(st == SKINSPHERES_INVALID_DATA, "the crowd reports the failed instance", frame_count / 2);
+      check(skinspheres_instance_status(in_set_order, &why) == SKINSPHERES_INVALID_ARGUMENT && why && why[0],
+            "its own status says why", frame_count / 2);
+      c0 = skinspheres_instance_contacts(a, &n0);
+      c1 = skinspheres_instance_contacts(b, &n1);
+      check(same_contacts(c0, n0, fr->contacts[m], fr->contact_count[m]) &&
+                same_contacts(c1, n1, fr->contacts[m], fr->contact_count[m]),
+            "crowd contacts equal the C++ API's", frame_count / 2);
+    }
+    check(parallel_calls == 3, "the engine's loop ran every instance", 0);
+  }
+
+  skinspheres_instance_destroy(a);
+  skinspheres_instance_destroy(b);
+  skinspheres_instance_destroy(c);
+  skinspheres_instance_destroy(in_set_order);
+  skinspheres_asset_release(binary);
+  skinspheres_asset_release(NULL);
+  skinspheres_instance_destroy(NULL);
+  for (k = 0; k < joint_count; ++k) free((void*)names[k]);
+  free(names);
+  free(frames);
+  free(frames_data);
+  free(buffer);
+  if (total[0] == 0 || total[1] == 0) {
+    fprintf(stderr, "FAILED: no contacts in the clip, the comparison proves nothing\n");
+    ++failures;
+  }
+  printf("C API (%s): %u frames, %lu fast and %lu exact contacts, %s\n", skinspheres_version_string(), frame_count,
+         (unsigned long)total[0], (unsigned long)total[1],
+         failures ? "DIFFERENT from the C++ API" : "all equal to the C++ API's");
+  return failures ? 1 : 0;
+}

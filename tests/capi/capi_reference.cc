@@ -1,0 +1,125 @@
+// The C++ side of the C API test: fits the built-in character, writes its sphere set (binary,
+// JSON, fast-only binary) and, for every frame of its "touch" clip, what an engine would hand the C
+// API (joint world matrices in the engine's own joint order, skinned positions) together with the
+// contacts the C++ API (CharacterInstance, set joint order) finds in fast and exact mode.
+//
+// frames.bin (little-endian): u32 joint_count, u32 vertex_count, u32 frame_count; joint_count names
+// (u32 length + bytes + padding); then per frame: 16 * joint_count floats, 3 * vertex_count floats, and for
+// fast then exact mode a u32 contact count followed by that many 16-byte contacts. Names are padded
+// with zeros to a multiple of 4 bytes so that every float is 4-byte aligned in a malloc'ed copy.
+#include <cstdio>
+#include <filesystem>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "skinspheres/lib/body_parts/body_parts.h"
+#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/runtime/character.h"
+#include "skinspheres/runtime/sphere_set_binary.h"
+#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/skinning/local_to_model_job.h"
+#include "skinspheres/skinning/sampling_job.h"
+#include "skinspheres/skinning/skinning_job.h"
+#include "skinspheres/skinning/skinning_matrices_job.h"
+
+using namespace skinspheres;
+
+namespace {
+
+int Fail(const std::string& what) {
+  std::fprintf(stderr, "capi_reference: %s\n", what.c_str());
+  return 1;
+}
+
+void Put(FILE* f, const void* data, size_t bytes) { std::fwrite(data, 1, bytes, f); }
+void Put32(FILE* f, uint32_t v) { Put(f, &v, 4); }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) return Fail("usage: capi_reference OUT_DIR");
+  const std::filesystem::path dir = argv[1];
+  std::filesystem::create_directories(dir);
+  const lib::RawCharacter ch = lib::MakeBuiltinCharacter();
+  auto parts = lib::SplitBodyParts(ch);
+  if (!parts.ok()) return Fail(parts.error().message);
+  auto fit = lib::FitSpheres(ch, *parts, lib::FitSettings{});
+  if (!fit.ok()) return Fail(fit.error().message);
+  const runtime::SphereSet& set = fit->spheres;
+  if (auto err = runtime::SaveSphereSet(set, dir / "set.ssb")) return Fail(err->message);
+  if (auto err = runtime::SaveSphereSet(set, dir / "set.json")) return Fail(err->message);
+  if (auto err = runtime::SaveSphereSet(set, dir / "set_fast.ssb", runtime::SphereSetFileFormat::kBinaryFastOnly)) {
+    return Fail(err->message);
+  }
+
+  // The engine's joints: the skin's, in reverse order, plus one the set does not know.
+  std::set<int32_t> skin;
+  for (const skinning::BindEntry& b : ch.skin.binds) skin.insert(b.joint);
+  std::vector<int32_t> engine_joint(skin.rbegin(), skin.rend());
+  engine_joint.push_back(-1);
+  std::vector<std::string> names;
+  for (int32_t j : engine_joint) names.push_back(j < 0 ? "IK_target" : ch.skeleton.joint_names[static_cast<size_t>(j)]);
+
+  auto asset = runtime::CharacterAsset::Create(set);
+  if (!asset.ok()) return Fail(asset.error().message);
+  auto instance = runtime::CharacterInstance::Create(*asset);
+  if (!instance.ok()) return Fail(instance.error().message);
+
+  const skinning::AnimationClip& clip = ch.clips.back();  // "touch": hands on the chest, then the head
+  const float fps = 15.0f;
+  const uint32_t frames = static_cast<uint32_t>(clip.duration_s * fps) + 1;
+  const size_t joints = ch.skeleton.size(), vertices = ch.vertex_count();
+  FILE* f = std::fopen((dir / "frames.bin").c_str(), "wb");
+  if (!f) return Fail("cannot write frames.bin");
+  Put32(f, static_cast<uint32_t>(names.size()));
+  Put32(f, static_cast<uint32_t>(vertices));
+  Put32(f, frames);
+  for (const std::string& n : names) {
+    Put32(f, static_cast<uint32_t>(n.size()));
+    Put(f, n.data(), n.size());
+    const char zeros[4] = {};
+    Put(f, zeros, (4 - n.size() % 4) % 4);  // the floats that follow stay 4-byte aligned
+  }
+  std::vector<skinning::Transform> locals(joints);
+  std::vector<Mat4f> world(joints), skin_matrices(ch.skin.binds.size());
+  std::vector<Mat4f> engine_world(names.size(), Mat4f::Identity());
+  std::vector<float> positions(3 * vertices);
+  size_t total = 0;
+  for (uint32_t k = 0; k < frames; ++k) {
+    skinning::SamplingJob sampling{&clip, &ch.skeleton, k / fps, locals};
+    skinning::LocalToModelJob l2m;
+    l2m.skeleton = &ch.skeleton;
+    l2m.input = locals;
+    l2m.output = world;
+    skinning::SkinningMatricesJob matrices{ch.skin.binds, world, skin_matrices};
+    skinning::SkinningJob skinning;
+    skinning.joint_matrices = skin_matrices;
+    skinning.vertex_count = vertices;
+    skinning.in_positions = {ch.skin.positions_bind.data()->data(), 3 * vertices};
+    skinning.out_positions = positions;
+    skinning.influence_offsets = ch.skin.influence_offsets;
+    skinning.influence_binds = ch.skin.influence_binds;
+    skinning.influence_weights = ch.skin.influence_weights;
+    if (!sampling.Run() || !l2m.Run() || !matrices.Run() || !skinning.Run()) return Fail("posing the character failed");
+    for (size_t e = 0; e < engine_joint.size(); ++e) {
+      if (engine_joint[e] >= 0) engine_world[e] = world[static_cast<size_t>(engine_joint[e])];
+    }
+    Put(f, engine_world.data()->data(), engine_world.size() * sizeof(Mat4f));
+    Put(f, positions.data(), positions.size() * sizeof(float));
+    const std::span<const Eigen::Vector3f> skinned(reinterpret_cast<const Eigen::Vector3f*>(positions.data()), vertices);
+    for (runtime::RefitMode mode : {runtime::RefitMode::kFast, runtime::RefitMode::kExact}) {
+      const runtime::FrameStatus st = instance->Update(mode, world, skinned);
+      if (!st.ok()) return Fail(std::string("update: ") + st.message);
+      const auto contacts = instance->Query();
+      Put32(f, static_cast<uint32_t>(contacts.size()));
+      Put(f, contacts.data(), contacts.size() * sizeof(runtime::Contact));
+      total += contacts.size();
+    }
+  }
+  std::fclose(f);
+  std::printf("wrote %u frames of \"%s\", %zu contacts in all, %zu engine joints\n", frames, clip.name.c_str(), total,
+              names.size());
+  return total > 0 ? 0 : Fail("no contacts at all: the test would prove nothing");
+}

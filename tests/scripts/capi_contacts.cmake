@@ -1,0 +1,13 @@
+# capi_reference (C++) writes the built-in character's set and clip with the C++ API's contacts;
+# capi_contacts (C99) replays the clip through the C API and compares.
+file(REMOVE_RECURSE ${DIR})
+execute_process(COMMAND ${REFERENCE} ${DIR} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "capi_reference failed (${rc}):\n${out}\n${err}")
+endif()
+message(STATUS "${out}")
+execute_process(COMMAND ${PROGRAM} ${DIR} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT out MATCHES "all equal to the C\\+\\+ API's")
+  message(FATAL_ERROR "capi_contacts failed (${rc}):\n${out}\n${err}")
+endif()
+message(STATUS "${out}")
