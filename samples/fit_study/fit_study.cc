@@ -1,5 +1,5 @@
 // fit_study: how far below the fitter's tightness figures other coverings get, on the same
-// character and the same measuring tool (lib/fit_metrics.h). It backs the "where the tightness
+// character and the same measuring tool (lib/metrics/fit_metrics.h). It backs the "where the tightness
 // gap comes from" section of docs/FIT_REPORT.md; nothing in the product depends on it.
 //
 //   fit_study [FILE ...]      (no file: the built-in character)

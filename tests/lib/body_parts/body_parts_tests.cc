@@ -1,4 +1,4 @@
-// Tests for SplitBodyParts / LoadPartOverrides (lib/body_parts.h).
+// Tests for SplitBodyParts / LoadPartOverrides (lib/body_parts/body_parts.h).
 //
 // Synthetic characters first: a humanoid built from boxes around its bones, with joints stored in
 // a shuffled (parents-first) order under meaningless names, so only topology and geometry can
