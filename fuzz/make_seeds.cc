@@ -5,12 +5,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <span>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/importer.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/runtime/sphere_set_binary.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 #include "tiny_gltf.h"
 
@@ -25,17 +27,20 @@ void Save(const std::filesystem::path& file, const std::string& bytes) {
   std::printf("%s (%zu bytes)\n", file.c_str(), bytes.size());
 }
 
-std::string FitJson(const std::string& gltf, bool tighten) {
+std::optional<runtime::SphereSet> FitSet(const std::string& gltf, bool tighten) {
   const auto c = lib::ImportGltfBytes(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(gltf.data()), gltf.size()), "seed.gltf");
-  if (!c.ok()) return "";
+  if (!c.ok()) return std::nullopt;
   const auto parts = lib::SplitBodyParts(*c);
-  if (!parts.ok()) return "";
+  if (!parts.ok()) return std::nullopt;
   lib::FitSettings settings;
   settings.rays = 8;
   settings.tighten = tighten;
   const auto fit = lib::FitSpheres(*c, *parts, settings);
-  return fit.ok() ? runtime::WriteSphereSetJson(fit->spheres) : "";
+  if (!fit.ok()) return std::nullopt;
+  return fit->spheres;
 }
+
+std::string Bytes(const std::vector<std::byte>& b) { return std::string(reinterpret_cast<const char*>(b.data()), b.size()); }
 
 }  // namespace
 
@@ -61,8 +66,19 @@ int main(int argc, char** argv) {
     Save(out / "gltf" / (std::string(name) + ".gltf"), j.dump());
     Save(out / "gltf" / (std::string(name) + ".glb"), lib::ToGlb(j));
   }
-  Save(out / "sphere_set" / "tiny.spheres.json", FitJson(lib::MakeTiny(anim).dump(), true));
-  Save(out / "sphere_set" / "tiny_untightened.spheres.json", FitJson(lib::MakeTiny({}).dump(), false));
+  const auto tight = FitSet(lib::MakeTiny(anim).dump(), true);
+  const auto loose = FitSet(lib::MakeTiny({}).dump(), false);
+  if (!tight || !loose) {
+    std::fprintf(stderr, "fuzz_make_seeds: the tiny character did not fit\n");
+    return 1;
+  }
+  Save(out / "sphere_set" / "tiny.spheres.json", runtime::WriteSphereSetJson(*tight));
+  Save(out / "sphere_set" / "tiny_untightened.spheres.json", runtime::WriteSphereSetJson(*loose));
+  // The binary asset: whole (mesh included) and fast-only.
+  using runtime::SphereSetBinaryContent;
+  Save(out / "sphere_set_binary" / "tiny.ssb", Bytes(runtime::WriteSphereSetBinary(*tight)));
+  Save(out / "sphere_set_binary" / "tiny_fast_only.ssb", Bytes(runtime::WriteSphereSetBinary(*tight, SphereSetBinaryContent::kFastOnly)));
+  Save(out / "sphere_set_binary" / "tiny_untightened.ssb", Bytes(runtime::WriteSphereSetBinary(*loose)));
   // The fit target decodes any bytes into a character: seeds of a few sizes, from a fixed seed.
   std::mt19937 rng(20240601);
   for (size_t size : {64, 160, 320, 640}) {

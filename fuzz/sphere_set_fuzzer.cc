@@ -6,10 +6,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <string_view>
-#include <vector>
+#include <utility>
 
 #include "fuzz_check.h"
-#include "skinspheres/runtime/character.h"
+#include "fuzz_engine.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -27,18 +27,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   SKINSPHERES_FUZZ_CHECK(again.ok(), again.ok() ? "" : again.error().message);
   SKINSPHERES_FUZZ_CHECK(runtime::WriteSphereSetJson(*again) == text, "write, read, write differs");
 
-  const std::vector<Mat4f> rest = set.joint_rest_world;
-  const size_t vertices = set.source_vertex_count;
-  auto asset = runtime::CharacterAsset::Create(std::move(set));
-  if (!asset.ok()) return 0;  // e.g. a singular rest transform: refused, not a crash
-  auto instance = runtime::CharacterInstance::Create(*asset);
-  SKINSPHERES_FUZZ_CHECK(instance.ok(), instance.ok() ? "" : instance.error().message);
-  instance->UpdateFast(rest);
-  instance->Query();
-  if (vertices <= (1u << 16)) {
-    const std::vector<Eigen::Vector3f> positions(vertices, Eigen::Vector3f::Zero());
-    instance->UpdateExact(positions, rest);
-    instance->Query();
-  }
+  fuzz::DriveEngine(std::move(set));
   return 0;
 }

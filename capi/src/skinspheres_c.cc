@@ -3,6 +3,7 @@
 // thread-local string, per-frame errors point at the runtime's static messages (no allocation).
 #include "skinspheres/skinspheres.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cstddef>
 #include <cstring>
@@ -38,6 +39,9 @@ static_assert(offsetof(skinspheres_contact, sphere_j) == offsetof(rt::Contact, j
 static_assert(offsetof(skinspheres_contact, depth) == offsetof(rt::Contact, depth));
 static_assert(offsetof(skinspheres_contact, part_i) == offsetof(rt::Contact, part_i));
 static_assert(offsetof(skinspheres_contact, part_j) == offsetof(rt::Contact, part_j));
+// No padding in the narrow phase's C structs (their documented sizes): bindings declare them field
+// by field, and a caller may compare them bytewise.
+static_assert(sizeof(skinspheres_part_contact) == 52 && sizeof(skinspheres_triangle_contact) == 52);
 static_assert(sizeof(Mat4f) == 16 * sizeof(float) && alignof(Mat4f) == alignof(float));
 static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float) && alignof(Eigen::Vector3f) == alignof(float));
 static_assert(sizeof(skinspheres::Vec4f) == 4 * sizeof(float));
@@ -120,10 +124,39 @@ std::span<const Eigen::Vector3f> Positions(const float* positions, size_t vertex
   return {reinterpret_cast<const Eigen::Vector3f*>(positions), vertex_count};
 }
 
+skinspheres_part_contact ToC(const rt::PartContact& p) {
+  skinspheres_part_contact c;
+  c.part_a = p.part_a;
+  c.part_b = p.part_b;
+  c.first_triangle_contact = p.first_triangle_pair;
+  c.triangle_contact_count = p.triangle_pair_count;
+  c.intersecting_count = p.intersecting_count;
+  c.sphere_pair_count = p.sphere_pair_count;
+  c.depth = p.depth;
+  c.min_distance = p.min_distance;
+  std::copy_n(p.normal, 3, c.normal);
+  std::copy_n(p.center, 3, c.center);
+  return c;
+}
+
+skinspheres_triangle_contact ToC(const rt::TrianglePairContact& t) {
+  skinspheres_triangle_contact c;
+  c.triangle_a = t.t;
+  c.triangle_b = t.u;
+  c.kind = t.kind == rt::TriangleContactKind::kIntersecting ? SKINSPHERES_TRIANGLES_INTERSECTING
+                                                              : SKINSPHERES_TRIANGLES_WITHIN_MARGIN;
+  c.distance = t.distance;
+  std::copy_n(t.point, 3, c.point);
+  std::copy_n(t.on_t, 3, c.on_a);
+  std::copy_n(t.on_u, 3, c.on_b);
+  return c;
+}
+
 struct CrowdWork {
   skinspheres_instance* const* instances;
   const skinspheres_frame_input* inputs;
   rt::RefitMode mode;
+  bool find_contacts;              // then the narrow phase (skinspheres_crowd_update_and_find_contacts)
   std::atomic<bool> all_ok{true};  // set to false by any thread; read after the loop
 };
 
@@ -135,8 +168,40 @@ void RunCrowdRange(void* context, size_t begin, size_t end) {
     const rt::FrameStatus st = inst.Update(work->mode, Joints(in.joint_world, in.joint_count),
                                            Positions(in.positions, in.vertex_count));
     if (st.ok()) inst.Query();
+    if (st.ok() && inst.status().ok() && work->find_contacts) {
+      inst.FindContacts(work->mode == rt::RefitMode::kExact ? Positions(in.positions, in.vertex_count)
+                                                            : std::span<const Eigen::Vector3f>());
+    }
     if (!st.ok() || !inst.status().ok()) work->all_ok.store(false, std::memory_order_relaxed);
   }
+}
+
+// Update + Query (+ FindContacts) of every instance through the engine's loop or the default one.
+skinspheres_status RunCrowd(skinspheres_instance* const* instances, const skinspheres_frame_input* inputs, size_t count,
+                            skinspheres_refit_mode mode, bool find_contacts, skinspheres_parallel_for_fn parallel_for,
+                            void* user) {
+  return Guard([&] {
+    if (count != 0 && (instances == nullptr || inputs == nullptr)) {
+      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instances or inputs");
+    }
+    if (mode != SKINSPHERES_MODE_EXACT && mode != SKINSPHERES_MODE_FAST) {
+      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "unknown refit mode");
+    }
+    for (size_t i = 0; i < count; ++i) {
+      if (instances[i] == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
+    }
+    CrowdWork work{instances, inputs, mode == SKINSPHERES_MODE_FAST ? rt::RefitMode::kFast : rt::RefitMode::kExact,
+                   find_contacts};
+    if (parallel_for != nullptr) {
+      if (count) parallel_for(user, count, 1, &RunCrowdRange, &work);
+    } else {
+      skinspheres::DefaultParallelFor()(count, 1, [&work](size_t begin, size_t end) { RunCrowdRange(&work, begin, end); });
+    }
+    if (!work.all_ok.load()) {
+      return FailStatic(SKINSPHERES_INVALID_DATA, "at least one instance failed; see skinspheres_instance_status");
+    }
+    return SKINSPHERES_OK;
+  });
 }
 
 }  // namespace
@@ -315,31 +380,80 @@ skinspheres_status skinspheres_instance_reserve_contacts(skinspheres_instance* i
   });
 }
 
+int skinspheres_asset_has_triangle_contacts(const skinspheres_asset* asset) {
+  return asset && asset->asset->narrow_phase() != nullptr ? 1 : 0;
+}
+
+skinspheres_status skinspheres_instance_find_contacts(skinspheres_instance* instance, const float* positions,
+                                                      size_t vertex_count, size_t* out_part_pairs,
+                                                      size_t* out_triangle_pairs) {
+  return Guard([&] {
+    if (out_part_pairs) *out_part_pairs = 0;
+    if (out_triangle_pairs) *out_triangle_pairs = 0;
+    if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
+    if (positions == nullptr && vertex_count != 0) {
+      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null positions with a vertex count");
+    }
+    const rt::FrameStatus st = instance->instance.FindContacts(Positions(positions, vertex_count));
+    const rt::FrameContacts& found = instance->instance.frame_contacts();
+    if (out_part_pairs) *out_part_pairs = found.parts.size();
+    if (out_triangle_pairs) *out_triangle_pairs = found.triangle_pairs.size();
+    return FromFrame(st);
+  });
+}
+
+skinspheres_status skinspheres_instance_get_part_contacts(const skinspheres_instance* instance,
+                                                          skinspheres_part_contact* out, size_t capacity,
+                                                          size_t* out_written) {
+  if (out_written) *out_written = 0;
+  if (instance == nullptr || (out == nullptr && capacity != 0)) {
+    return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance or buffer");
+  }
+  const std::vector<rt::PartContact>& parts = instance->instance.frame_contacts().parts;
+  const size_t n = std::min(parts.size(), capacity);
+  for (size_t k = 0; k < n; ++k) out[k] = ToC(parts[k]);
+  if (out_written) *out_written = n;
+  if (n < parts.size()) return FailStatic(SKINSPHERES_BUFFER_TOO_SMALL, "the part-contact buffer holds fewer entries than the count");
+  return SKINSPHERES_OK;
+}
+
+skinspheres_status skinspheres_instance_get_triangle_contacts(const skinspheres_instance* instance, size_t part_contact,
+                                                              skinspheres_triangle_contact* out, size_t capacity,
+                                                              size_t* out_written) {
+  if (out_written) *out_written = 0;
+  if (instance == nullptr || (out == nullptr && capacity != 0)) {
+    return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance or buffer");
+  }
+  const rt::FrameContacts& found = instance->instance.frame_contacts();
+  std::span<const rt::TrianglePairContact> pairs = found.triangle_pairs;
+  if (part_contact != SKINSPHERES_ALL_PART_PAIRS) {
+    if (part_contact >= found.parts.size()) {
+      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "part_contact is not below the part-pair count");
+    }
+    const rt::PartContact& p = found.parts[part_contact];
+    pairs = pairs.subspan(p.first_triangle_pair, p.triangle_pair_count);
+  }
+  const size_t n = std::min(pairs.size(), capacity);
+  for (size_t k = 0; k < n; ++k) out[k] = ToC(pairs[k]);
+  if (out_written) *out_written = n;
+  if (n < pairs.size()) {
+    return FailStatic(SKINSPHERES_BUFFER_TOO_SMALL, "the triangle-contact buffer holds fewer entries than the count");
+  }
+  return SKINSPHERES_OK;
+}
+
 skinspheres_status skinspheres_crowd_update_and_query(skinspheres_instance* const* instances,
                                                       const skinspheres_frame_input* inputs, size_t count,
                                                       skinspheres_refit_mode mode,
                                                       skinspheres_parallel_for_fn parallel_for, void* user) {
-  return Guard([&] {
-    if (count != 0 && (instances == nullptr || inputs == nullptr)) {
-      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instances or inputs");
-    }
-    if (mode != SKINSPHERES_MODE_EXACT && mode != SKINSPHERES_MODE_FAST) {
-      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "unknown refit mode");
-    }
-    for (size_t i = 0; i < count; ++i) {
-      if (instances[i] == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
-    }
-    CrowdWork work{instances, inputs, mode == SKINSPHERES_MODE_FAST ? rt::RefitMode::kFast : rt::RefitMode::kExact};
-    if (parallel_for != nullptr) {
-      if (count) parallel_for(user, count, 1, &RunCrowdRange, &work);
-    } else {
-      skinspheres::DefaultParallelFor()(count, 1, [&work](size_t begin, size_t end) { RunCrowdRange(&work, begin, end); });
-    }
-    if (!work.all_ok.load()) {
-      return FailStatic(SKINSPHERES_INVALID_DATA, "at least one instance failed; see skinspheres_instance_status");
-    }
-    return SKINSPHERES_OK;
-  });
+  return RunCrowd(instances, inputs, count, mode, /*find_contacts=*/false, parallel_for, user);
+}
+
+skinspheres_status skinspheres_crowd_update_and_find_contacts(skinspheres_instance* const* instances,
+                                                              const skinspheres_frame_input* inputs, size_t count,
+                                                              skinspheres_refit_mode mode,
+                                                              skinspheres_parallel_for_fn parallel_for, void* user) {
+  return RunCrowd(instances, inputs, count, mode, /*find_contacts=*/true, parallel_for, user);
 }
 
 }  // extern "C"

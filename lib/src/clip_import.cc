@@ -173,6 +173,8 @@ Result<AnimationFile> ReadAnimationFile(const std::filesystem::path& file) {
       return ImportError(ErrorCode::kInvalidData, file, "the node tree is empty or not ordered parents-first");
     }
     return read;
+  } catch (const detail::NotAnInteger& e) {
+    return ImportError(ErrorCode::kFormatRejected, file, std::string("malformed glTF JSON: ") + e.what());
   } catch (const std::bad_alloc&) {
     return ImportError(ErrorCode::kFormatRejected, file, "implausible sizes (out of memory while reading)");
   } catch (const std::exception& e) {

@@ -8,10 +8,12 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <limits>
 #include <memory>
+#include <optional>
 
 namespace skinspheres::lib::detail {
 namespace {
@@ -129,18 +131,30 @@ struct AccessorView {
 // accessor's zero base): a 200-byte file must not allocate gigabytes.
 constexpr uint64_t kMaxZeroFilledCount = uint64_t{1} << 20;
 
+// `v` as an integer when it is one: a JSON integer (an unsigned one above INT64_MAX gives -1), or
+// a number with no fractional part within int64 (glTF's schema says "integer", which JSON Schema
+// 2020-12 defines by value: 2.0 is one, 2.5 and 1e24 are not).
+std::optional<int64_t> AsInteger(const json& v) {
+  if (v.is_number_float()) {
+    const double d = v.get<double>();
+    if (!(d >= -0x1p63 && d < 0x1p63) || d != std::trunc(d)) return std::nullopt;  // NaN fails too
+    return static_cast<int64_t>(d);
+  }
+  if (!v.is_number_integer()) return std::nullopt;
+  return v.is_number_unsigned() && v.get<uint64_t>() > static_cast<uint64_t>(std::numeric_limits<int64_t>::max())
+             ? -1
+             : v.get<int64_t>();
+}
+
 // `key` of `obj` as an integer: false when present but not an integer (absent gives `fallback`).
 bool IntField(const json& obj, const char* key, int64_t fallback, int64_t* out) {
   if (!obj.contains(key)) {
     *out = fallback;
     return true;
   }
-  const json& v = obj[key];
-  if (!v.is_number_integer()) return false;
-  // An unsigned value above INT64_MAX is implausible anyway: map it to -1 (rejected as negative).
-  *out = v.is_number_unsigned() && v.get<uint64_t>() > static_cast<uint64_t>(std::numeric_limits<int64_t>::max())
-             ? -1
-             : v.get<int64_t>();
+  const std::optional<int64_t> v = AsInteger(obj[key]);
+  if (!v) return false;
+  *out = *v;
   return true;
 }
 
@@ -153,14 +167,14 @@ std::string OpenBufferView(const GltfDocument& doc, int64_t bv_index, std::span<
     return "bufferView " + std::to_string(bv_index) + " does not exist";
   }
   const json& bv = j["bufferViews"][static_cast<size_t>(bv_index)];
-  const int64_t buffer = bv.value("buffer", int64_t{-1});
+  const int64_t buffer = Integer(bv, "buffer", -1);
   if (buffer < 0 || buffer >= static_cast<int64_t>(doc.buffers.size())) {
     return "bufferView " + std::to_string(bv_index) + " uses buffer " + std::to_string(buffer) + ", which does not exist";
   }
   const std::vector<uint8_t>& data = doc.buffers[static_cast<size_t>(buffer)];
-  const int64_t bv_offset = bv.value("byteOffset", int64_t{0});
-  const int64_t bv_length = bv.value("byteLength", int64_t{-1});
-  *stride = bv.value("byteStride", int64_t{0});
+  const int64_t bv_offset = Integer(bv, "byteOffset", 0);
+  const int64_t bv_length = Integer(bv, "byteLength", -1);
+  *stride = Integer(bv, "byteStride", 0);
   if (bv_offset < 0 || bv_length < 0 || *stride < 0 || static_cast<uint64_t>(bv_offset) > data.size() ||
       static_cast<uint64_t>(bv_length) > data.size() - static_cast<uint64_t>(bv_offset)) {
     return "bufferView " + std::to_string(bv_index) + " lies outside its buffer (" + std::to_string(data.size()) +
@@ -264,10 +278,11 @@ std::string OpenAccessor(const GltfDocument& doc, int64_t index, int components,
     return name + " has type " + a.value("type", std::string("?")) + ", expected " + std::to_string(components) +
            " component(s)";
   }
-  view->component_type = a.value("componentType", 0);
+  const int64_t component_type = Integer(a, "componentType", 0);
+  view->component_type = component_type > 0 && component_type <= 0xffff ? static_cast<int>(component_type) : 0;
   const int csize = ComponentSize(view->component_type);
   if (csize == 0) return name + " has an unknown componentType " + std::to_string(view->component_type);
-  const int64_t count = a.value("count", int64_t{-1});
+  const int64_t count = Integer(a, "count", -1);
   if (count < 0) return name + " has no valid count";
   view->count = static_cast<uint64_t>(count);
   view->components = components;
@@ -282,11 +297,11 @@ std::string OpenAccessor(const GltfDocument& doc, int64_t index, int components,
     view->stride = elem_size;
     return sparse ? MaterialiseSparse(doc, a, name, view) : std::string();
   }
-  const int64_t bv_index = a["bufferView"].get<int64_t>();
+  const int64_t bv_index = Integer(a, "bufferView", -1);
   std::span<const uint8_t> bytes;
   int64_t stride = 0;
   if (std::string p = OpenBufferView(doc, bv_index, &bytes, &stride); !p.empty()) return name + ": " + p;
-  const int64_t acc_offset = a.value("byteOffset", int64_t{0});
+  const int64_t acc_offset = Integer(a, "byteOffset", 0);
   if (acc_offset < 0) return name + " has a negative byteOffset";
   view->stride = stride > 0 ? static_cast<uint64_t>(stride) : elem_size;
   if (view->stride > 4096) return "bufferView " + std::to_string(bv_index) + " has an implausible byteStride";
@@ -331,7 +346,7 @@ float ComponentAsFloat(const uint8_t* p, int type, bool normalized) {
 int64_t AccessorCount(const GltfDocument& doc, int64_t index) {
   const json& j = doc.json;
   if (!j.contains("accessors") || index < 0 || index >= static_cast<int64_t>(j["accessors"].size())) return -1;
-  return j["accessors"][static_cast<size_t>(index)].value("count", int64_t{-1});
+  return Integer(j["accessors"][static_cast<size_t>(index)], "count", -1);
 }
 
 std::string ReadAccessorFloats(const GltfDocument& doc, int64_t index, int components, std::vector<float>* out) {
@@ -446,7 +461,7 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
     if (!buffers.is_array()) return Fail(ErrorCode::kFormatRejected, file, "\"buffers\" is not an array");
     uint64_t external_bytes = 0;
     for (size_t b = 0; b < buffers.size(); ++b) {
-      const int64_t length = buffers[b].value("byteLength", int64_t{-1});
+      const int64_t length = Integer(buffers[b], "byteLength", -1);
       std::vector<uint8_t> data;
       const std::string label = "buffer " + std::to_string(b);
       if (!buffers[b].contains("uri")) {
@@ -491,6 +506,20 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
     }
   }
   return doc;
+}
+
+int64_t Integer(const json& obj, const char* key, int64_t fallback) {
+  int64_t out = 0;
+  if (!IntField(obj, key, fallback, &out)) {
+    throw NotAnInteger("\"" + std::string(key) + "\" is " + obj[key].dump().substr(0, 40) + ", not an integer");
+  }
+  return out;
+}
+
+int64_t Integer(const json& v, const char* array_name) {
+  const std::optional<int64_t> out = AsInteger(v);
+  if (!out) throw NotAnInteger("\"" + std::string(array_name) + "\" lists " + v.dump().substr(0, 40) + ", not an integer");
+  return *out;
 }
 
 }  // namespace skinspheres::lib::detail

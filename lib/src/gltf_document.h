@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,20 @@ struct GltfDocument {
   nlohmann::json json;
   std::vector<std::vector<uint8_t>> buffers;  // one per json["buffers"] entry
 };
+
+// Thrown by Integer(): a property glTF defines as an integer (an index, count, offset, length,
+// stride or enum; glTF 2.0 §5 and its JSON schema) holds something else, e.g. 3.5, 1e24 or a
+// string. The importers report it as the file's one-line error. Converting such a value with
+// nlohmann's get<int64_t>() would truncate it silently, or be undefined behaviour out of range.
+struct NotAnInteger : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// obj[key] as an integer: `fallback` when absent; throws NotAnInteger when present and not a JSON
+// integer. An unsigned value above INT64_MAX gives -1 (every caller refuses negative values).
+int64_t Integer(const nlohmann::json& obj, const char* key, int64_t fallback);
+// `v`, an element of the array `array_name`, as an integer (NotAnInteger when it is not one).
+int64_t Integer(const nlohmann::json& v, const char* array_name);
 
 // Parses `bytes` (the whole file): GLB = 12-byte header + JSON chunk + optional BIN chunk;
 // otherwise JSON text. Buffers come from the BIN chunk, base64 data: URIs or files next to

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <system_error>
 
+#include "gltf_document.h"
 #include "importer_internal.h"
 #include "skinspheres/lib/clip_import.h"
 #include "skinspheres/runtime/file_io.h"
@@ -169,6 +170,8 @@ Result<RawCharacter> ImportBytes(const std::filesystem::path& file, std::span<co
     if (error) return *error;
     result->source_file = file.string();
     return result;
+  } catch (const detail::NotAnInteger& e) {
+    return ImportError(ErrorCode::kFormatRejected, file, std::string("malformed glTF JSON: ") + e.what());
   } catch (const nlohmann::json::exception& e) {
     // A field of the wrong JSON type (e.g. a string where a number belongs).
     return ImportError(ErrorCode::kFormatRejected, file, std::string("malformed glTF JSON: ") + e.what());

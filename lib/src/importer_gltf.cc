@@ -54,8 +54,8 @@ std::string ReadNodes(const json& j, std::vector<Node>* nodes) {
     const json& jn = arr[static_cast<size_t>(i)];
     Node& node = (*nodes)[static_cast<size_t>(i)];
     node.name = jn.value("name", std::string());
-    node.mesh = jn.value("mesh", int64_t{-1});
-    node.skin = jn.value("skin", int64_t{-1});
+    node.mesh = Integer(jn, "mesh", -1);
+    node.skin = Integer(jn, "skin", -1);
     if (jn.contains("matrix")) {
       // glTF 2.0 §3.5.3 (and node.schema.json): a node has a matrix or TRS properties, not both.
       for (const char* trs : {"translation", "rotation", "scale"}) {
@@ -90,7 +90,7 @@ std::string ReadNodes(const json& j, std::vector<Node>* nodes) {
       }
     }
     for (const auto& c : ArrayOrEmpty(jn, "children")) {
-      const int64_t child = c.get<int64_t>();
+      const int64_t child = Integer(c, "children");
       if (child < 0 || child >= n_nodes) return "node " + std::to_string(i) + " has a child index out of range";
       if ((*nodes)[static_cast<size_t>(child)].parent != -1 || child == i) {
         return "node " + std::to_string(child) + " has more than one parent (the node graph is not a tree)";
@@ -186,7 +186,7 @@ std::string ReadClips(const GltfDocument& doc, const std::vector<Node>& nodes, c
     for (const json& ch : ArrayOrEmpty(ja, "channels")) {
       if (!ch.contains("target")) continue;
       const json& target = ch["target"];
-      const int64_t node = target.value("node", int64_t{-1});
+      const int64_t node = Integer(target, "node", -1);
       const std::string path = target.value("path", std::string());
       // glTF 2.0 §3.11: within one animation a target (node and path) MUST NOT appear twice, and
       // a node animated in translation, rotation or scale MUST NOT have a matrix.
@@ -202,7 +202,7 @@ std::string ReadClips(const GltfDocument& doc, const std::vector<Node>& nodes, c
       if (node < 0 || node >= static_cast<int64_t>(joint_of_node.size())) continue;
       const int32_t joint = joint_of_node[static_cast<size_t>(node)];
       if (joint < 0 || (path != "translation" && path != "rotation" && path != "scale")) continue;
-      const int64_t s = ch.value("sampler", int64_t{-1});
+      const int64_t s = Integer(ch, "sampler", -1);
       if (s < 0 || s >= static_cast<int64_t>(samplers.size())) return where + " has a channel with a bad sampler index";
       const json& js = samplers[static_cast<size_t>(s)];
       const std::string interp_name = js.value("interpolation", std::string("LINEAR"));
@@ -212,9 +212,9 @@ std::string ReadClips(const GltfDocument& doc, const std::vector<Node>& nodes, c
       else if (interp_name == "CUBICSPLINE") interpolation = skinning::Interpolation::kCubicSpline;
       else return where + " has an unknown interpolation \"" + interp_name + "\"";
       std::vector<float> times, out;
-      if (std::string p = ReadAccessorFloats(doc, js.value("input", int64_t{-1}), 1, &times); !p.empty()) return where + ": " + p;
+      if (std::string p = ReadAccessorFloats(doc, Integer(js, "input", -1), 1, &times); !p.empty()) return where + ": " + p;
       const int components = path == "rotation" ? 4 : 3;
-      if (std::string p = ReadAccessorFloats(doc, js.value("output", int64_t{-1}), components, &out); !p.empty()) return where + ": " + p;
+      if (std::string p = ReadAccessorFloats(doc, Integer(js, "output", -1), components, &out); !p.empty()) return where + ": " + p;
       for (float v : out) {
         if (!std::isfinite(v)) return where + " has a non-finite " + path + " value";
       }
@@ -268,10 +268,10 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
   std::vector<int32_t> scene_roots;
   const json& scenes = ArrayOrEmpty(j, "scenes");
   if (!scenes.empty()) {
-    const int64_t s = j.value("scene", int64_t{0});
+    const int64_t s = Integer(j, "scene", 0);
     if (s < 0 || s >= static_cast<int64_t>(scenes.size())) return invalid("\"scene\" " + std::to_string(s) + " does not exist");
     for (const auto& r : ArrayOrEmpty(scenes[static_cast<size_t>(s)], "nodes")) {
-      const int64_t root = r.get<int64_t>();
+      const int64_t root = Integer(r, "nodes");
       if (root < 0 || root >= n_nodes || nodes[static_cast<size_t>(root)].parent != -1) {
         return invalid("the scene lists node " + std::to_string(root) + ", which is not a root node");
       }
@@ -322,7 +322,7 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
     if (!skin_used[s]) continue;
     // glTF 2.0 §3.7.3 (skin.schema.json): joints are unique node indices.
     for (const auto& jj : ArrayOrEmpty(skins[s], "joints")) {
-      const int64_t joint = jj.get<int64_t>();
+      const int64_t joint = Integer(jj, "joints");
       if (joint < 0 || joint >= n_nodes) return invalid("skin " + std::to_string(s) + " lists joint node " + std::to_string(joint) + ", which does not exist");
       if (in_skin[static_cast<size_t>(joint)] == static_cast<int64_t>(s)) {
         return invalid("skin " + std::to_string(s) + " lists joint node " + std::to_string(joint) + " twice (glTF skin joints are unique)");
@@ -379,7 +379,7 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
     const size_t n_joints = skin_joints[s].size();
     std::vector<float> ibm;
     if (skins[s].contains("inverseBindMatrices")) {
-      if (std::string p = ReadAccessorFloats(doc, skins[s]["inverseBindMatrices"].get<int64_t>(), 16, &ibm); !p.empty()) {
+      if (std::string p = ReadAccessorFloats(doc, Integer(skins[s], "inverseBindMatrices", -1), 16, &ibm); !p.empty()) {
         return ImportError(ErrorCode::kFormatRejected, file, "skin " + std::to_string(s) + ": " + p);
       }
       if (ibm.size() < 16 * n_joints) return invalid("skin " + std::to_string(s) + " has fewer inverse bind matrices than joints");
@@ -422,11 +422,11 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
     for (size_t p = 0; p < prims.size(); ++p) {
       const json& prim = prims[p];
       const std::string where = "mesh '" + mesh_name + "' primitive " + std::to_string(p);
-      const int64_t mode = prim.value("mode", int64_t{4});
+      const int64_t mode = Integer(prim, "mode", 4);
       if (mode < 4 || mode > 6) continue;  // POINTS, LINES, LINE_LOOP, LINE_STRIP: not a surface
       if (!prim.contains("attributes") || !prim["attributes"].contains("POSITION")) return invalid(where + " has no POSITION");
       const json& attrs = prim["attributes"];
-      if (std::string e = ReadAccessorFloats(doc, attrs["POSITION"].get<int64_t>(), 3, &positions); !e.empty()) {
+      if (std::string e = ReadAccessorFloats(doc, Integer(attrs, "POSITION", -1), 3, &positions); !e.empty()) {
         return ImportError(ErrorCode::kFormatRejected, file, where + " POSITION: " + e);
       }
       const size_t n_verts = positions.size() / 3;
@@ -435,7 +435,7 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
         return invalid("more than " + std::to_string(kMaxVertices) + " vertices (at most that many are read)");
       }
       if (prim.contains("indices")) {
-        if (std::string e = ReadAccessorUints(doc, prim["indices"].get<int64_t>(), 1, &indices); !e.empty()) {
+        if (std::string e = ReadAccessorUints(doc, Integer(prim, "indices", -1), 1, &indices); !e.empty()) {
           return ImportError(ErrorCode::kFormatRejected, file, where + " indices: " + e);
         }
       } else {
@@ -460,10 +460,10 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
         for (int set = 0;; ++set) {
           const std::string jn = "JOINTS_" + std::to_string(set), wn = "WEIGHTS_" + std::to_string(set);
           if (!attrs.contains(jn) || !attrs.contains(wn)) break;
-          if (std::string e = ReadAccessorUints(doc, attrs[jn].get<int64_t>(), 4, &joints); !e.empty()) {
+          if (std::string e = ReadAccessorUints(doc, Integer(attrs, jn.c_str(), -1), 4, &joints); !e.empty()) {
             return ImportError(ErrorCode::kFormatRejected, file, where + " " + jn + ": " + e);
           }
-          if (std::string e = ReadAccessorFloats(doc, attrs[wn].get<int64_t>(), 4, &weights); !e.empty()) {
+          if (std::string e = ReadAccessorFloats(doc, Integer(attrs, wn.c_str(), -1), 4, &weights); !e.empty()) {
             return ImportError(ErrorCode::kFormatRejected, file, where + " " + wn + ": " + e);
           }
           if (joints.size() != 4 * n_verts || weights.size() != 4 * n_verts) {
@@ -545,10 +545,10 @@ std::string ReadGltfNodeTree(const GltfDocument& doc, skinning::Skeleton* out, s
   if (std::string p = ReadNodes(doc.json, &nodes); !p.empty()) return p;
   std::vector<int32_t> scene_roots;
   const json& scenes = ArrayOrEmpty(doc.json, "scenes");
-  const int64_t s = doc.json.value("scene", int64_t{0});
+  const int64_t s = Integer(doc.json, "scene", 0);
   if (s >= 0 && s < static_cast<int64_t>(scenes.size())) {
     for (const auto& r : ArrayOrEmpty(scenes[static_cast<size_t>(s)], "nodes")) {
-      const int64_t root = r.get<int64_t>();
+      const int64_t root = Integer(r, "nodes");
       if (root >= 0 && root < static_cast<int64_t>(nodes.size()) && nodes[static_cast<size_t>(root)].parent == -1) {
         scene_roots.push_back(static_cast<int32_t>(root));
       }

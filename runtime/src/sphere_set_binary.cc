@@ -9,6 +9,7 @@
 #include <initializer_list>
 #include <limits>
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "skinspheres/runtime/file_io.h"
 #include "skinspheres/runtime/sphere_set_io.h"
@@ -433,7 +434,18 @@ Result<SphereSet> SphereSetBinaryView::ToSphereSet() const {
   const size_t n = sphere_count_;
   set.loaded_from = source_name_;
   set.source_file = source_file();
-  set.params_json = params_json();
+  // The fit's settings become the JSON's "params" object (convert): what the JSON reader would
+  // accept, i.e. empty or an object nested at most kMaxJsonDepth deep (copying and writing a deeper
+  // document recurses past the stack), kept in the form the JSON reader gives (compact).
+  if (const std::string_view params = params_json(); !params.empty()) {
+    if (const size_t depth = ScanJson(params).depth; depth > kMaxJsonDepth) {
+      return Refuse(source_name_, "the fit settings (params) nest " + std::to_string(depth) + " deep (at most " +
+                                      std::to_string(kMaxJsonDepth) + " is read)");
+    }
+    const nlohmann::json parsed = nlohmann::json::parse(params, nullptr, /*allow_exceptions=*/false);
+    if (!parsed.is_object()) return Refuse(source_name_, "the fit settings (params) are not a JSON object");
+    set.params_json = parsed.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  }
   set.source_vertex_count = source_vertex_count_;
   set.source_triangle_count = source_triangle_count_;
   set.joint_names.reserve(joint_count_);

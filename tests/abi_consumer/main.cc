@@ -1,4 +1,4 @@
-// Runs one frame of every public job (and the binary asset, the joint mapping and the C API) through
+// Runs one frame of every public job (the narrow phase too, and the binary asset, the joint mapping and the C API) through
 // the installed package and prints what the library computed, plus the size of every public struct as this program sees it. Built once with the
 // library's own flags and again with wider ones (-mavx2 -mfma, -march=native): the outputs must be
 // identical, and nothing may crash. Before the public math types were made layout-stable
@@ -19,6 +19,7 @@
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/runtime/refit_job.h"
 #include "skinspheres/runtime/joint_mapping.h"
+#include "skinspheres/runtime/narrow_phase.h"
 #include "skinspheres/runtime/sphere_set_binary.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 #include "skinspheres/skinspheres.h"
@@ -62,13 +63,16 @@ int main(int argc, char** argv) {
   std::printf("sizeof Transform %zu BindEntry %zu LocalToModelJob %zu SkinningMatricesJob %zu SamplingJob %zu "
               "SkinningJob %zu RefitJob %zu SelfCollisionJob %zu Contact %zu SphereSet %zu CharacterFrameInput %zu "
               "FrameStatus %zu JointTrack %zu JointMapping %zu SphereSetBinaryView %zu skinspheres_contact %zu "
-              "skinspheres_frame_input %zu\n",
+              "skinspheres_frame_input %zu NarrowPhaseJob %zu NarrowPhaseSettings %zu PartContact %zu "
+              "TrianglePairContact %zu skinspheres_part_contact %zu skinspheres_triangle_contact %zu\n",
               sizeof(skinning::Transform), sizeof(skinning::BindEntry), sizeof(skinning::LocalToModelJob),
               sizeof(skinning::SkinningMatricesJob), sizeof(skinning::SamplingJob), sizeof(skinning::SkinningJob),
               sizeof(runtime::RefitJob), sizeof(runtime::SelfCollisionJob), sizeof(runtime::Contact),
               sizeof(runtime::SphereSet), sizeof(runtime::CharacterFrameInput), sizeof(runtime::FrameStatus),
               sizeof(skinning::JointTrack), sizeof(runtime::JointMapping), sizeof(runtime::SphereSetBinaryView),
-              sizeof(skinspheres_contact), sizeof(skinspheres_frame_input));
+              sizeof(skinspheres_contact), sizeof(skinspheres_frame_input), sizeof(runtime::NarrowPhaseJob),
+              sizeof(runtime::NarrowPhaseSettings), sizeof(runtime::PartContact), sizeof(runtime::TrianglePairContact),
+              sizeof(skinspheres_part_contact), sizeof(skinspheres_triangle_contact));
 
   // Offline API: the built-in character, its parts and its fit, saved and loaded back.
   const lib::RawCharacter ch = lib::MakeBuiltinCharacter();
@@ -213,6 +217,51 @@ int main(int argc, char** argv) {
   Check(skinspheres_instance_get_contacts(c_instance, c_contacts.data(), c_contacts.size(), &written) == SKINSPHERES_OK &&
             written == out_b.size() && std::memcmp(c_contacts.data(), out_b.data(), written * sizeof(skinspheres_contact)) == 0,
         "C API contacts == C++ contacts");
+
+  // The narrow phase: the job on the prepared skinning's positions, the brute-force oracle, the
+  // mapped instance skinning only what it tests (the same positions, so the same contacts), and the
+  // C API on the same frame.
+  const runtime::NarrowPhaseData* narrow_data = (*asset)->narrow_phase();
+  Check(narrow_data != nullptr, "NarrowPhaseData (the set has its mesh)");
+  if (narrow_data != nullptr) {
+    runtime::NarrowPhaseContext narrow_context;
+    narrow_context.Resize(*narrow_data, /*lazy_skinning=*/true);
+    runtime::FrameContacts narrow_out, narrow_oracle;
+    runtime::NarrowPhaseJob narrow_job;
+    narrow_job.set = &set;
+    narrow_job.data = narrow_data;
+    narrow_job.spheres = fast_spheres;
+    narrow_job.pairs = out_b;
+    narrow_job.positions = fast;
+    narrow_job.context = &narrow_context;
+    narrow_job.out = &narrow_out;
+    Check(narrow_job.Run(), "NarrowPhaseJob");
+    Check(runtime::FindContactsBruteForce(set, *narrow_data, (*asset)->filter(), fast, &narrow_oracle) &&
+              narrow_oracle.triangle_pairs == narrow_out.triangle_pairs,
+          "NarrowPhaseJob == brute force");
+    std::printf("triangle contacts: %zu part pairs, %zu triangle pairs", narrow_out.parts.size(),
+                narrow_out.triangle_pairs.size());
+    for (const runtime::PartContact& pc : narrow_out.parts) {
+      std::printf(" %u-%u:%u:%.5f", pc.part_a, pc.part_b, pc.triangle_pair_count, pc.depth);
+    }
+    std::printf("\n");
+    Check(mapped.ok() && mapped->FindContacts().ok() && mapped->frame_contacts() == narrow_out,
+          "FindContacts (engine joint order, skinning what it tests) == NarrowPhaseJob");
+    size_t c_parts = 0, c_triangles = 0;
+    Check(skinspheres_instance_find_contacts(c_instance, nullptr, 0, &c_parts, &c_triangles) == SKINSPHERES_OK &&
+              c_parts == narrow_out.parts.size() && c_triangles == narrow_out.triangle_pairs.size(),
+          "C API: find_contacts");
+    std::vector<skinspheres_triangle_contact> c_pairs(c_triangles);
+    bool same = skinspheres_instance_get_triangle_contacts(c_instance, SKINSPHERES_ALL_PART_PAIRS, c_pairs.data(),
+                                                           c_pairs.size(), &written) == SKINSPHERES_OK &&
+                written == narrow_out.triangle_pairs.size();
+    for (size_t k = 0; same && k < written; ++k) {
+      const runtime::TrianglePairContact& t = narrow_out.triangle_pairs[k];
+      same = c_pairs[k].triangle_a == t.t && c_pairs[k].triangle_b == t.u && c_pairs[k].distance == t.distance &&
+             std::memcmp(c_pairs[k].on_a, t.on_t, sizeof t.on_t) == 0 && std::memcmp(c_pairs[k].on_b, t.on_u, sizeof t.on_u) == 0;
+    }
+    Check(same, "C API triangle contacts == C++ triangle contacts");
+  }
   skinspheres_instance_destroy(c_instance);
   skinspheres_asset_release(c_asset);
   std::printf("%s\n", failures ? "FAILED" : "all jobs ran");

@@ -1,8 +1,10 @@
 /* A plain C99 program that drives the built-in character through the C API as an engine would:
    load the sphere set (binary from a file, JSON from memory), create instances that take joint
    matrices in the engine's own joint order, update fast and exact every frame of a clip, query
-   contacts (count first, then fill), and run a crowd on its own parallel loop. Every frame's
-   contacts must equal, byte for byte, what the C++ API found (capi_reference writes them).
+   contacts (count first, then fill), find the triangle contacts behind them (by part pair and
+   all at once, count first, then fill), and run a crowd on its own parallel loop. Every frame's
+   sphere, part-pair and triangle contacts must equal, byte for byte, what the C++ API found
+   (capi_reference writes them).
    Usage: capi_contacts DIR (holding set.ssb, set.json, set_fast.ssb, frames.bin). */
 #ifdef __cplusplus
 #error "this test must be compiled as C"
@@ -60,10 +62,60 @@ typedef struct frame {
   const float* positions;
   uint32_t contact_count[2]; /* fast, exact */
   const skinspheres_contact* contacts[2];
+  uint32_t part_count[2];    /* the narrow phase: part pairs and triangle pairs, fast and exact */
+  const skinspheres_part_contact* parts[2];
+  uint32_t triangle_count[2];
+  const skinspheres_triangle_contact* triangles[2];
 } frame;
 
 static int same_contacts(const skinspheres_contact* a, size_t na, const skinspheres_contact* b, size_t nb) {
   return na == nb && (na == 0 || memcmp(a, b, na * sizeof(skinspheres_contact)) == 0);
+}
+static int same_triangles(const skinspheres_triangle_contact* a, size_t na, const skinspheres_triangle_contact* b,
+                          size_t nb) {
+  return na == nb && (na == 0 || memcmp(a, b, na * sizeof(skinspheres_triangle_contact)) == 0);
+}
+
+/* The frame's triangle contacts through the C API, against what the C++ API found (mode m): the
+   counts, the part pairs, every triangle pair at once and part pair by part pair, a buffer too
+   small, an index out of range. Returns the number of triangle pairs. */
+static size_t check_triangle_contacts(skinspheres_instance* inst, const frame* fr, int m, size_t f, size_t vertex_count,
+                                      skinspheres_part_contact* parts, size_t part_capacity,
+                                      skinspheres_triangle_contact* triangles, size_t triangle_capacity) {
+  size_t part_count = 0, triangle_count = 0, written = 0, k;
+  skinspheres_triangle_contact one[1];
+  check(skinspheres_instance_find_contacts(inst, m == 0 ? NULL : fr->positions, m == 0 ? 0 : vertex_count,
+                                           &part_count, &triangle_count) == SKINSPHERES_OK,
+        m == 0 ? "find_contacts (skinning from the joints)" : "find_contacts (skinned positions)", f);
+  check(part_count == fr->part_count[m] && triangle_count == fr->triangle_count[m],
+        "part and triangle pair counts equal the C++ API's", f);
+  check(skinspheres_instance_get_part_contacts(inst, parts, part_capacity, &written) == SKINSPHERES_OK &&
+            written == part_count,
+        "get_part_contacts", f);
+  check(written == 0 || memcmp(parts, fr->parts[m], written * sizeof(skinspheres_part_contact)) == 0,
+        "part contacts equal the C++ API's", f);
+  check(skinspheres_instance_get_triangle_contacts(inst, SKINSPHERES_ALL_PART_PAIRS, triangles, triangle_capacity,
+                                                   &written) == SKINSPHERES_OK,
+        "get_triangle_contacts", f);
+  check(same_triangles(triangles, written, fr->triangles[m], fr->triangle_count[m]),
+        m == 0 ? "fast triangle contacts equal the C++ API's" : "exact triangle contacts equal the C++ API's", f);
+  for (k = 0; k < part_count && k < part_capacity; ++k) {
+    const skinspheres_part_contact* pc = &fr->parts[m][k];
+    check(skinspheres_instance_get_triangle_contacts(inst, k, triangles, triangle_capacity, &written) == SKINSPHERES_OK,
+          "get_triangle_contacts of a part pair", f);
+    check(pc->first_triangle_contact + pc->triangle_contact_count <= fr->triangle_count[m] &&
+              same_triangles(triangles, written, fr->triangles[m] + pc->first_triangle_contact, pc->triangle_contact_count),
+          "a part pair's triangle contacts equal the C++ API's", f);
+  }
+  check(skinspheres_instance_get_triangle_contacts(inst, part_count, triangles, triangle_capacity, &written) ==
+            SKINSPHERES_INVALID_ARGUMENT && written == 0,
+        "a part-pair index out of range is refused", f);
+  if (triangle_count > 1) {
+    check(skinspheres_instance_get_triangle_contacts(inst, SKINSPHERES_ALL_PART_PAIRS, one, 1, &written) ==
+                  SKINSPHERES_BUFFER_TOO_SMALL && written == 1 && memcmp(&one[0], &fr->triangles[m][0], sizeof one[0]) == 0,
+          "a small triangle buffer is refused, its first entry copied", f);
+  }
+  return triangle_count;
 }
 
 /* The engine's job system, simplified: ranges of `grain` items, last range first. */
@@ -83,7 +135,7 @@ static void reversed_parallel_for(void* user, size_t count, size_t grain, skinsp
 
 int main(int argc, char** argv) {
   const char* dir;
-  size_t frames_size = 0, json_size = 0, k, f, total[2] = {0, 0};
+  size_t frames_size = 0, json_size = 0, k, f, total[2] = {0, 0}, triangle_total[2] = {0, 0};
   unsigned char* frames_data;
   const unsigned char* p;
   char* json_text;
@@ -94,7 +146,9 @@ int main(int argc, char** argv) {
   skinspheres_instance *a = NULL, *b = NULL, *c = NULL, *in_set_order = NULL;
   skinspheres_contact small[1];
   skinspheres_contact* buffer;
-  size_t capacity = 4096;
+  size_t capacity = 4096, part_capacity = 256, triangle_capacity = 65536;
+  skinspheres_part_contact* part_buffer;
+  skinspheres_triangle_contact* triangle_buffer;
   int parallel_calls = 0;
 
   if (argc != 2) {
@@ -143,6 +197,12 @@ int main(int argc, char** argv) {
       frames[f].contact_count[m] = read_u32(&p);
       frames[f].contacts[m] = (const skinspheres_contact*)p;
       p += sizeof(skinspheres_contact) * frames[f].contact_count[m];
+      frames[f].part_count[m] = read_u32(&p);
+      frames[f].parts[m] = (const skinspheres_part_contact*)p;
+      p += sizeof(skinspheres_part_contact) * frames[f].part_count[m];
+      frames[f].triangle_count[m] = read_u32(&p);
+      frames[f].triangles[m] = (const skinspheres_triangle_contact*)p;
+      p += sizeof(skinspheres_triangle_contact) * frames[f].triangle_count[m];
     }
   }
   if ((size_t)(p - frames_data) != frames_size) {
@@ -162,6 +222,9 @@ int main(int argc, char** argv) {
             skinspheres_asset_sphere_count(binary) > 10,
         "sphere counts", 0);
   check(skinspheres_asset_is_fast_only(fast_only) && !skinspheres_asset_is_fast_only(binary), "fast-only flags", 0);
+  check(skinspheres_asset_has_triangle_contacts(binary) && skinspheres_asset_has_triangle_contacts(json) &&
+            !skinspheres_asset_has_triangle_contacts(fast_only),
+        "triangle contacts with the mesh only", 0);
   check(skinspheres_asset_vertex_count(binary) == vertex_count, "vertex count", 0);
   for (k = 0; k < skinspheres_asset_joint_count(binary); ++k) {
     check(strcmp(skinspheres_asset_joint_name(binary, k), skinspheres_asset_joint_name(json, k)) == 0, "joint names", 0);
@@ -186,6 +249,8 @@ int main(int argc, char** argv) {
   skinspheres_asset_release(fast_only);
   if (failures) return 1;
   buffer = (skinspheres_contact*)malloc(capacity * sizeof(skinspheres_contact));
+  part_buffer = (skinspheres_part_contact*)malloc(part_capacity * sizeof(skinspheres_part_contact));
+  triangle_buffer = (skinspheres_triangle_contact*)malloc(triangle_capacity * sizeof(skinspheres_triangle_contact));
   check(skinspheres_instance_reserve_contacts(a, capacity) == SKINSPHERES_OK, "reserve", 0);
 
   for (f = 0; f < frame_count; ++f) {
@@ -213,12 +278,17 @@ int main(int argc, char** argv) {
       direct = skinspheres_instance_contacts(inst, &in_place);
       check(same_contacts(direct, in_place, buffer, written), "contacts in place", f);
       total[m] += count;
+      triangle_total[m] += check_triangle_contacts(inst, fr, m, f, vertex_count, part_buffer, part_capacity,
+                                                   triangle_buffer, triangle_capacity);
     }
     /* The fast-only set: the same fast contacts; exact mode refused with a clear message. */
     check(skinspheres_instance_update_fast(c, fr->joint_world, joint_count) == SKINSPHERES_OK, "fast-only update", f);
     check(skinspheres_instance_query(c, &count) == SKINSPHERES_OK, "fast-only query", f);
     direct = skinspheres_instance_contacts(c, &in_place);
     check(same_contacts(direct, in_place, fr->contacts[0], fr->contact_count[0]), "fast-only contacts", f);
+    check(skinspheres_instance_find_contacts(c, NULL, 0, &count, NULL) == SKINSPHERES_VERSION_MISMATCH && count == 0,
+          "triangle contacts from a fast-only set are refused", f);
+    check(strstr(skinspheres_last_error(), "fast-only") != NULL, "that refusal says fast-only", f);
     check(skinspheres_instance_update_exact(c, fr->positions, vertex_count, fr->joint_world, joint_count) ==
               SKINSPHERES_INVALID_ARGUMENT,
           "exact mode on a fast-only set is refused", f);
@@ -249,8 +319,10 @@ int main(int argc, char** argv) {
       const skinspheres_contact* c0;
       const skinspheres_contact* c1;
       const char* why = NULL;
-      skinspheres_status st = skinspheres_crowd_update_and_query(crowd, inputs, 3, m == 0 ? SKINSPHERES_MODE_FAST : SKINSPHERES_MODE_EXACT,
-                                                                 m == 0 ? reversed_parallel_for : NULL, &parallel_calls);
+      size_t written = 0;
+      skinspheres_status st = skinspheres_crowd_update_and_find_contacts(
+          crowd, inputs, 3, m == 0 ? SKINSPHERES_MODE_FAST : SKINSPHERES_MODE_EXACT, m == 0 ? reversed_parallel_for : NULL,
+          &parallel_calls);
       check(st == SKINSPHERES_INVALID_DATA, "the crowd reports the failed instance", frame_count / 2);
       check(skinspheres_instance_status(in_set_order, &why) == SKINSPHERES_INVALID_ARGUMENT && why && why[0],
             "its own status says why", frame_count / 2);
@@ -259,6 +331,12 @@ int main(int argc, char** argv) {
       check(same_contacts(c0, n0, fr->contacts[m], fr->contact_count[m]) &&
                 same_contacts(c1, n1, fr->contacts[m], fr->contact_count[m]),
             "crowd contacts equal the C++ API's", frame_count / 2);
+      for (k = 0; k < 2; ++k) {
+        check(skinspheres_instance_get_triangle_contacts(crowd[k], SKINSPHERES_ALL_PART_PAIRS, triangle_buffer,
+                                                         triangle_capacity, &written) == SKINSPHERES_OK &&
+                  same_triangles(triangle_buffer, written, fr->triangles[m], fr->triangle_count[m]),
+              "crowd triangle contacts equal the C++ API's", frame_count / 2);
+      }
     }
     check(parallel_calls == 3, "the engine's loop ran every instance", 0);
   }
@@ -275,12 +353,15 @@ int main(int argc, char** argv) {
   free(frames);
   free(frames_data);
   free(buffer);
-  if (total[0] == 0 || total[1] == 0) {
-    fprintf(stderr, "FAILED: no contacts in the clip, the comparison proves nothing\n");
+  free(part_buffer);
+  free(triangle_buffer);
+  if (total[0] == 0 || total[1] == 0 || triangle_total[0] == 0 || triangle_total[1] == 0) {
+    fprintf(stderr, "FAILED: no sphere or no triangle contacts in the clip, the comparison proves nothing\n");
     ++failures;
   }
-  printf("C API (%s): %u frames, %lu fast and %lu exact contacts, %s\n", skinspheres_version_string(), frame_count,
-         (unsigned long)total[0], (unsigned long)total[1],
+  printf("C API (%s): %u frames, %lu fast and %lu exact sphere contacts, %lu fast and %lu exact triangle contacts, %s\n",
+         skinspheres_version_string(), frame_count, (unsigned long)total[0], (unsigned long)total[1],
+         (unsigned long)triangle_total[0], (unsigned long)triangle_total[1],
          failures ? "DIFFERENT from the C++ API" : "all equal to the C++ API's");
   return failures ? 1 : 0;
 }

@@ -5,7 +5,11 @@
 //
 // frames.bin (little-endian): u32 joint_count, u32 vertex_count, u32 frame_count; joint_count names
 // (u32 length + bytes + padding); then per frame: 16 * joint_count floats, 3 * vertex_count floats, and for
-// fast then exact mode a u32 contact count followed by that many 16-byte contacts. Names are padded
+// fast then exact mode a u32 contact count followed by that many 16-byte contacts, then the narrow
+// phase's part pairs (u32 count, then 52 bytes each: u16 part_a, part_b, u32 first triangle pair,
+// triangle pair count, intersecting count, sphere pair count, f32 depth, min_distance, normal[3],
+// center[3]) and triangle pairs (u32 count, then 52 bytes each: u32 t, u, kind, f32 distance,
+// point[3], on_t[3], on_u[3]): the C API's structs, field by field. Names are padded
 // with zeros to a multiple of 4 bytes so that every float is 4-byte aligned in a malloc'ed copy.
 #include <cstdio>
 #include <filesystem>
@@ -86,7 +90,7 @@ int main(int argc, char** argv) {
   std::vector<Mat4f> world(joints), skin_matrices(ch.skin.binds.size());
   std::vector<Mat4f> engine_world(names.size(), Mat4f::Identity());
   std::vector<float> positions(3 * vertices);
-  size_t total = 0;
+  size_t total = 0, triangle_total = 0;
   for (uint32_t k = 0; k < frames; ++k) {
     skinning::SamplingJob sampling{&clip, &ch.skeleton, k / fps, locals};
     skinning::LocalToModelJob l2m;
@@ -116,10 +120,40 @@ int main(int argc, char** argv) {
       Put32(f, static_cast<uint32_t>(contacts.size()));
       Put(f, contacts.data(), contacts.size() * sizeof(runtime::Contact));
       total += contacts.size();
+      // The narrow phase behind those pairs: fast mode skins what it tests from the joint matrices,
+      // exact mode takes the skinned positions.
+      const runtime::FrameStatus nst =
+          mode == runtime::RefitMode::kFast ? instance->FindContacts() : instance->FindContacts(skinned);
+      if (!nst.ok()) return Fail(std::string("find contacts: ") + nst.message);
+      const runtime::FrameContacts& found = instance->frame_contacts();
+      Put32(f, static_cast<uint32_t>(found.parts.size()));
+      for (const runtime::PartContact& p : found.parts) {
+        Put(f, &p.part_a, 2);
+        Put(f, &p.part_b, 2);
+        Put32(f, p.first_triangle_pair);
+        Put32(f, p.triangle_pair_count);
+        Put32(f, p.intersecting_count);
+        Put32(f, p.sphere_pair_count);
+        Put(f, &p.depth, 4);
+        Put(f, &p.min_distance, 4);
+        Put(f, p.normal, 12);
+        Put(f, p.center, 12);
+      }
+      Put32(f, static_cast<uint32_t>(found.triangle_pairs.size()));
+      for (const runtime::TrianglePairContact& t : found.triangle_pairs) {
+        Put32(f, t.t);
+        Put32(f, t.u);
+        Put32(f, static_cast<uint32_t>(t.kind));
+        Put(f, &t.distance, 4);
+        Put(f, t.point, 12);
+        Put(f, t.on_t, 12);
+        Put(f, t.on_u, 12);
+      }
+      triangle_total += found.triangle_pairs.size();
     }
   }
   std::fclose(f);
-  std::printf("wrote %u frames of \"%s\", %zu contacts in all, %zu engine joints\n", frames, clip.name.c_str(), total,
-              names.size());
-  return total > 0 ? 0 : Fail("no contacts at all: the test would prove nothing");
+  std::printf("wrote %u frames of \"%s\", %zu sphere contacts and %zu triangle contacts in all, %zu engine joints\n",
+              frames, clip.name.c_str(), total, triangle_total, names.size());
+  return total > 0 && triangle_total > 0 ? 0 : Fail("no sphere or no triangle contacts: the test would prove nothing");
 }

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <functional>
 #include <future>
 
 #include "skinspheres/lib/importer.h"
@@ -162,6 +163,40 @@ TEST(GltfRules, DuplicatedSkinJointsAreRefused) {
   j["skins"][0]["joints"] = {0, 1, 1};
   ExpectError(Write(test::TempDir("gltf_dup_joints"), "dup.gltf", j.dump()), ErrorCode::kInvalidData,
               "skin 0 lists joint node 1 twice");
+}
+
+TEST(GltfRules, IntegerPropertiesMustBeIntegers) {
+  // glTF 2.0 §5 (JSON schema): indices, counts, offsets, lengths and enums are integers. fuzz_gltf
+  // found a byteLength of 8.9e23 (converting it to int64 was undefined behaviour); 3.5 used to be
+  // truncated to 3 without a word.
+  const auto dir = test::TempDir("gltf_integers");
+  struct Case {
+    std::function<void(json&)> edit;
+    const char* needle;
+  };
+  const Case cases[] = {
+      {[](json& j) { j["bufferViews"][0]["byteLength"] = 8.888888888888889e23; }, "\"byteLength\" is 8.88"},
+      {[](json& j) { j["accessors"][0]["count"] = 3.5; }, "\"count\" is 3.5, not an integer"},
+      {[](json& j) { j["accessors"][0]["componentType"] = "5126"; }, "\"componentType\" is \"5126\", not an integer"},
+      {[](json& j) { j["nodes"][2]["mesh"] = 1e300; }, "\"mesh\" is 1e+300, not an integer"},
+      {[](json& j) { j["nodes"][0]["children"] = {1.5}; }, "\"children\" lists 1.5, not an integer"},
+      {[](json& j) { j["skins"][0]["joints"] = {0, -0.5}; }, "\"joints\" lists -0.5, not an integer"},
+  };
+  for (const Case& c : cases) {
+    json j = MakeTiny({});
+    c.edit(j);
+    ExpectError(Write(dir, "float.gltf", j.dump()), ErrorCode::kFormatRejected, c.needle);
+  }
+  // A whole number written as a float is an integer by value (JSON Schema): 2.0 reads as 2.
+  const auto reference = ImportCharacter(Write(dir, "reference.gltf", MakeTiny({}).dump()));
+  ASSERT_TRUE(reference.ok()) << reference.error().message;
+  json j = MakeTiny({});
+  for (auto& a : j["accessors"]) a["count"] = static_cast<double>(a["count"].get<int64_t>());
+  j["nodes"][2]["mesh"] = 0.0;
+  const auto r = ImportCharacter(Write(dir, "whole.gltf", j.dump()));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->positions_rest.size(), reference->positions_rest.size());
+  EXPECT_EQ(r->triangles.size(), reference->triangles.size());
 }
 
 TEST(GltfRules, UnsupportedRequiredExtensionsAreRefused) {

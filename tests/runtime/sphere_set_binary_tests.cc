@@ -428,5 +428,38 @@ TEST(SphereSetBinaryTest, AbsurdHeadersAndTablesAreRefusedByName) {
   }
 }
 
+// The fit settings (params) become the JSON's "params" object when a binary set is converted:
+// params nested deeper than the JSON reader reads (copying and writing them would recurse past the
+// stack, as a JSON file nested 100,000 deep once crashed the tool) and params that are not an
+// object are refused by name; accepted ones are kept compact, as the JSON reader gives them, so
+// that binary -> JSON -> binary gives the same bytes.
+TEST(SphereSetBinaryTest, ParamsAreAJsonObjectTheJsonReaderWouldRead) {
+  SphereSet set = Small();
+  set.params_json = "{\"x\":" + std::string(100000, '[') + std::string(100000, ']') + "}";
+  auto deep = Read(WriteSphereSetBinary(set));
+  ASSERT_FALSE(deep.ok());
+  EXPECT_EQ(deep.error().code, ErrorCode::kInvalidData);
+  EXPECT_NE(deep.error().message.find("params) nest 100001 deep (at most 128"), std::string::npos) << deep.error().message;
+  for (const char* not_object : {"[1,2]", "3", "{\"a\":", "{\"a\":\"\xff\"}"}) {
+    set.params_json = not_object;
+    auto read = Read(WriteSphereSetBinary(set));
+    ASSERT_FALSE(read.ok()) << not_object;
+    EXPECT_NE(read.error().message.find("the fit settings (params) are not a JSON object"), std::string::npos)
+        << read.error().message;
+  }
+  set.params_json = " { \"rays\" : 80 ,\"a\":[1, 2] } ";
+  auto read = Read(WriteSphereSetBinary(set));
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  EXPECT_EQ(read->params_json, R"({"a":[1,2],"rays":80})");
+  const Bytes binary = WriteSphereSetBinary(*read);
+  auto from_json = ReadSphereSetJson(WriteSphereSetJson(*read), "x.json");
+  ASSERT_TRUE(from_json.ok()) << from_json.error().message;
+  EXPECT_EQ(WriteSphereSetBinary(*from_json), binary);
+  set.params_json.clear();  // no settings at all: read as an empty object (SphereSet's default)
+  auto none = Read(WriteSphereSetBinary(set));
+  ASSERT_TRUE(none.ok()) << none.error().message;
+  EXPECT_EQ(none->params_json, "{}");
+}
+
 }  // namespace
 }  // namespace skinspheres::runtime

@@ -14,6 +14,11 @@
        size_t n;
        skinspheres_instance_query(inst, &n);                                  count first,
        skinspheres_instance_get_contacts(inst, buffer, capacity, &n);         then fill
+       size_t parts, triangles;                                               the triangles behind them:
+       skinspheres_instance_find_contacts(inst, NULL, 0, &parts, &triangles); count first,
+       skinspheres_instance_get_part_contacts(inst, part_buf, part_cap, &parts);      then fill
+       skinspheres_instance_get_triangle_contacts(inst, SKINSPHERES_ALL_PART_PAIRS, tri_buf, tri_cap,
+                                                  &triangles);
      skinspheres_instance_destroy(inst); skinspheres_asset_release(asset);
 
    Matrices: 16 floats per joint, column-major (OpenGL / glTF order: the translation in elements
@@ -30,12 +35,14 @@
    queried concurrently (skinspheres_crowd_update_and_query does it for you).
 
    Allocation: loading and creating allocate (the calling thread). Updates and queries do not,
-   except that the contact buffer grows the first time a frame has more contacts than any before
-   (skinspheres_instance_reserve_contacts pins it).
+   except that the contact buffers grow the first time a frame has more contacts than any before
+   (skinspheres_instance_reserve_contacts pins them), and that the first
+   skinspheres_instance_find_contacts without positions allocates its skinned-position buffer.
 
-   Queries, and those to come (triangle contacts behind the spheres), follow one pattern: a
-   skinspheres_instance_query_* call computes and gives the count; a skinspheres_instance_get_*
-   call copies into the caller's buffer (or a pointer call reads the results in place). */
+   Queries follow one pattern: a call computes and gives the count (skinspheres_instance_query for
+   the overlapping spheres, skinspheres_instance_find_contacts for the triangles behind them); a
+   skinspheres_instance_get_* call copies into the caller's buffer (or a pointer call reads the
+   sphere contacts in place). */
 #ifndef SKINSPHERES_SKINSPHERES_H_
 #define SKINSPHERES_SKINSPHERES_H_
 
@@ -176,8 +183,84 @@ SKINSPHERES_C_API const float* skinspheres_instance_spheres(const skinspheres_in
    string saying why. */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_status(const skinspheres_instance* instance,
                                                                 const char** message);
-/* Sizes the contact buffer so that frames with up to `count` contacts never allocate. */
+/* Sizes the contact buffers so that frames with up to `count` sphere contacts, and as many part and
+   triangle pairs, never allocate. */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_contacts(skinspheres_instance* instance, size_t count);
+
+/* ---- Triangle contacts (the narrow phase) ----
+   Behind the sphere pairs, the triangles that really touch: pairs of source triangles (the set's
+   triangle numbering, the source file's order) that intersect, or lie within the asset's margin,
+   grouped by body-part pair. Needs a set with its mesh (a set fitted by this version, as JSON or a
+   full binary file); a fast-only binary set or an older set without a mesh is refused
+   (SKINSPHERES_VERSION_MISMATCH). Same pattern as the sphere contacts: find gives the counts, the
+   get calls copy into the caller's buffers. What is reported and what never is (triangles sharing a
+   vertex, pairs already touching at rest, ...): runtime/include/skinspheres/runtime/narrow_phase.h. */
+
+typedef enum skinspheres_triangle_contact_kind {
+  SKINSPHERES_TRIANGLES_INTERSECTING = 0, /* the two closed triangles share a point */
+  SKINSPHERES_TRIANGLES_WITHIN_MARGIN = 1 /* apart, but closer than the asset's margin */
+} skinspheres_triangle_contact_kind;
+
+/* One body-part pair in contact this frame (part_a <= part_b; skinspheres_asset_part_name).
+   Its triangle pairs are entries [first_triangle_contact, first_triangle_contact +
+   triangle_contact_count) of the frame's triangle contacts (skinspheres_instance_get_triangle_contacts
+   with SKINSPHERES_ALL_PART_PAIRS), or all of them with its own index. 52 bytes. */
+typedef struct skinspheres_part_contact {
+  uint16_t part_a;
+  uint16_t part_b;
+  uint32_t first_triangle_contact;
+  uint32_t triangle_contact_count;
+  uint32_t intersecting_count; /* how many of those are SKINSPHERES_TRIANGLES_INTERSECTING */
+  uint32_t sphere_pair_count;  /* sphere pairs (broad phase) that hold those triangle pairs */
+  float depth;                 /* penetration depth estimate (set units); 0 without intersections */
+  float min_distance;          /* 0 with intersections, else the smallest within-margin distance */
+  float normal[3];             /* contact normal, from part_b towards part_a (0 without intersections) */
+  float center[3];             /* contact centre, or the closest pair's point */
+} skinspheres_part_contact;
+
+/* One pair of touching triangles: triangle_a of the part pair's part_a, triangle_b of its part_b
+   (same part: triangle_a < triangle_b). 52 bytes. */
+typedef struct skinspheres_triangle_contact {
+  uint32_t triangle_a;
+  uint32_t triangle_b;
+  uint32_t kind;  /* skinspheres_triangle_contact_kind */
+  float distance; /* 0 when intersecting, else the closest distance (< margin) */
+  float point[3]; /* a representative point: the midpoint of on_a and on_b */
+  float on_a[3];  /* intersecting: the ends of the intersection segment; within margin: the */
+  float on_b[3];  /* closest points on triangle_a and triangle_b */
+} skinspheres_triangle_contact;
+
+/* The part_contact argument of skinspheres_instance_get_triangle_contacts for every part pair's. */
+#define SKINSPHERES_ALL_PART_PAIRS ((size_t)-1)
+
+/* 1 when the asset can give triangle contacts (it holds its mesh). */
+SKINSPHERES_C_API int skinspheres_asset_has_triangle_contacts(const skinspheres_asset* asset);
+
+/* Runs the narrow phase behind the last update's sphere contacts (the sphere query runs first if it
+   has not since that update). positions: the skinned positions the spheres were refitted from
+   (3 floats per vertex, vertex_count >= skinspheres_asset_vertex_count), or NULL with vertex_count 0:
+   the instance then skins only the vertices it tests, from the last update's joint matrices (the
+   usual choice after update_fast). *out_part_pairs and *out_triangle_pairs (either may be NULL) get
+   the counts. Allocates nothing per frame once the buffers have held the largest frame
+   (skinspheres_instance_reserve_contacts sizes them), except that the first call without positions
+   allocates its skinned-position buffer (12 bytes per vertex). */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_find_contacts(skinspheres_instance* instance,
+                                                                       const float* positions, size_t vertex_count,
+                                                                       size_t* out_part_pairs,
+                                                                       size_t* out_triangle_pairs);
+/* Copies the last find's part pairs (sorted by part_a, part_b) into out[0, capacity); *out_written =
+   how many. SKINSPHERES_BUFFER_TOO_SMALL when capacity < the count (the first capacity are copied). */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_get_part_contacts(const skinspheres_instance* instance,
+                                                                           skinspheres_part_contact* out,
+                                                                           size_t capacity, size_t* out_written);
+/* Copies the triangle pairs of part pair `part_contact` (an index below the part-pair count), or of
+   every part pair (SKINSPHERES_ALL_PART_PAIRS: grouped by part pair in the part pairs' order, each
+   group sorted by triangle_a, triangle_b), into out[0, capacity); *out_written = how many.
+   SKINSPHERES_BUFFER_TOO_SMALL as above; SKINSPHERES_INVALID_ARGUMENT for an index out of range. */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_get_triangle_contacts(const skinspheres_instance* instance,
+                                                                               size_t part_contact,
+                                                                               skinspheres_triangle_contact* out,
+                                                                               size_t capacity, size_t* out_written);
 
 /* ---- Crowds, on the engine's job system ---- */
 
@@ -204,6 +287,13 @@ SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_query(skinsphe
                                                                        size_t count, skinspheres_refit_mode mode,
                                                                        skinspheres_parallel_for_fn parallel_for,
                                                                        void* user);
+/* The same, then skinspheres_instance_find_contacts for every instance, on the thread that updated
+   it: from the input's positions in exact mode, skinning only what it tests from the joint matrices
+   in fast mode. SKINSPHERES_INVALID_DATA also when an instance's asset has no mesh (its status says
+   so). */
+SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_find_contacts(
+    skinspheres_instance* const* instances, const skinspheres_frame_input* inputs, size_t count,
+    skinspheres_refit_mode mode, skinspheres_parallel_for_fn parallel_for, void* user);
 
 #ifdef __cplusplus
 }  /* extern "C" */

@@ -32,7 +32,8 @@
 //
 //   id  section                 type  count            what (sphere_set.h)
 //    1  string_offsets          u32   S + 1            S = 2 + J + P strings: source_file,
-//    2  string_bytes            u8    string_offsets[S]   params_json, joint names, part names
+//    2  string_bytes            u8    string_offsets[S]   params_json (a JSON object or empty),
+//                                                       joint names, part names
 //                                                       (UTF-8, no terminator)
 //    3  joint_parents           i32   J
 //    4  joint_rest_world        f32   16 J             column-major 4x4 per joint
@@ -70,7 +71,10 @@
 // layout version (kVersionMismatch), a truncated or over-long file, a checksum mismatch, and every
 // structural fault (section ids, sizes, offsets, alignment, counts that disagree with the header,
 // CSR offsets that decrease or overrun) with kInvalidData; nothing is allocated before the sizes
-// are known to fit inside the input. Then the set must pass SphereSet::Validate() like a JSON set.
+// are known to fit inside the input. ToSphereSet then refuses what the JSON reader would: params
+// (the fit settings) that are neither empty nor a JSON object nested at most kMaxJsonDepth
+// (file_io.h) deep (kept compact, as the JSON reader gives them), and a set that fails
+// SphereSet::Validate().
 //
 // Memory-mapping: map the file (mmap / MapViewOfFile: page-aligned) and open a SphereSetBinaryView
 // on it; the view's spans point into the mapping. ReadSphereSetBinary copies into a SphereSet

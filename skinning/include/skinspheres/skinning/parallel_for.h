@@ -51,7 +51,7 @@ using ParallelFor = std::function<void(size_t count, size_t grain, RangeBody bod
 
 // TBB's parallel_for in the calling thread's task arena (limit threads with tbb::task_arena); in a
 // build without TBB (SKINSPHERES_WITH_TBB=OFF) the same as SerialFor(); in a ThreadSanitizer build
-// of the library, std::threads started and joined per call (the checker cannot see inside TBB).
+// of the library, a fixed pool of std::threads the checker can see (it cannot see inside TBB).
 const ParallelFor& DefaultParallelFor();
 // Whether DefaultParallelFor() runs on TBB in this build of the library.
 bool DefaultParallelForUsesTbb();
