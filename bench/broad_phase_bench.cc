@@ -48,9 +48,9 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/importer.h"
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/broad_phase.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/skinning/local_to_model_job.h"

@@ -7,48 +7,20 @@
 #include <random>
 #include <vector>
 
-#include "skinspheres/lib/enclosing_sphere.h"
-#include "skinspheres/lib/triangle_bvh.h"
+#include "shapes/uv_sphere.h"
+#include "skinspheres/lib/geometry/enclosing_sphere.h"
+#include "skinspheres/lib/geometry/triangle_bvh.h"
 
 namespace {
 
 using V = Eigen::Vector3f;
 using skinspheres::lib::TriangleBvh;
 
-struct Mesh {
-  std::vector<V> positions;
-  std::vector<Eigen::Vector3i> triangles;
-};
-
-// A closed UV ellipsoid (semi-axes 0.2, 0.15, 0.9: torso-like) with 2·segments·(rings-1) triangles.
-Mesh Ellipsoid(int rings, int segments) {
-  const V axes(0.2f, 0.15f, 0.9f);
-  Mesh m;
-  m.positions.push_back(V(0, 0, axes.z()));
-  for (int i = 1; i < rings; ++i) {
-    const double th = std::numbers::pi * i / rings;
-    for (int j = 0; j < segments; ++j) {
-      const double ph = 2.0 * std::numbers::pi * j / segments;
-      m.positions.push_back(V(static_cast<float>(std::sin(th) * std::cos(ph)), static_cast<float>(std::sin(th) * std::sin(ph)),
-                              static_cast<float>(std::cos(th))).cwiseProduct(axes));
-    }
-  }
-  m.positions.push_back(V(0, 0, -axes.z()));
-  const int south = static_cast<int>(m.positions.size()) - 1;
-  auto ring = [&](int i, int j) { return 1 + (i - 1) * segments + (j % segments); };
-  for (int j = 0; j < segments; ++j) m.triangles.emplace_back(0, ring(1, j), ring(1, j + 1));
-  for (int i = 1; i < rings - 1; ++i) {
-    for (int j = 0; j < segments; ++j) {
-      m.triangles.emplace_back(ring(i, j), ring(i + 1, j), ring(i + 1, j + 1));
-      m.triangles.emplace_back(ring(i, j), ring(i + 1, j + 1), ring(i, j + 1));
-    }
-  }
-  for (int j = 0; j < segments; ++j) m.triangles.emplace_back(south, ring(rings - 1, j + 1), ring(rings - 1, j));
-  return m;
-}
+using Mesh = skinspheres::test::TriangleMesh;
 
 const Mesh& BigMesh() {
-  static const Mesh m = Ellipsoid(160, 160);  // 50,880 triangles
+  // A closed UV ellipsoid (semi-axes 0.2, 0.15, 0.9: torso-like), 2·160·159 = 50,880 triangles.
+  static const Mesh m = skinspheres::test::UvEllipsoid(V::Zero(), V(0.2f, 0.15f, 0.9f), 160, 160);
   return m;
 }
 

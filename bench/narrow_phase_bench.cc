@@ -43,10 +43,10 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/builtin_character.h"
 #include "skinspheres/lib/importer.h"
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/runtime/narrow_phase.h"
 #include "skinspheres/runtime/triangle_contact.h"

@@ -1,4 +1,4 @@
-// Runtime speed per character per frame, and for crowds, on the REAL Xbot character (issue 3 §7).
+// Runtime speed per character per frame, and for crowds, on the REAL Xbot character.
 //
 // Set-up (untimed, once per fit): SKINSPHERES_ASSET_DIR/Xbot.glb -> ImportCharacter
 // -> SplitBodyParts -> FitSpheres (default FitSettings) -> CharacterAsset. Every benchmark
@@ -58,9 +58,9 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/importer.h"
-#include "skinspheres/lib/sphere_fitter.h"
 #include "skinspheres/runtime/broad_phase.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/skinning/local_to_model_job.h"

@@ -1,7 +1,11 @@
-# skinspheres_library(NAME <folder> EXPORT <export set> PUBLIC_DEPS <targets...> PRIVATE_DEPS <targets...>)
-# One library per top-level folder: sources are <folder>/src/*.cc, public headers live in
-# <folder>/include/skinspheres/<folder>/, exported as skinspheres::<folder> in the given export set
-# (one per package component, see the top-level CMakeLists.txt).
+# skinspheres_warnings(<target>): the project's warning flags (errors with SKINSPHERES_WERROR).
+#
+# skinspheres_library(<folder> EXPORT <export set> [PUBLIC_DEPS <targets...>] [PRIVATE_DEPS <targets...>])
+# One library per top-level folder: sources are <folder>/src/**/*.cc (stage subfolders included),
+# public headers live in <folder>/include/skinspheres/<folder>/ (subfolders mirror src/), built as
+# skinspheres_<folder> and exported as skinspheres::<folder> in the given export set (one per package
+# component, see the top-level CMakeLists.txt). PUBLIC_DEPS are linked publicly (their headers appear
+# in ours), PRIVATE_DEPS privately.
 function(skinspheres_warnings target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow)
   if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")  # clang (fuzz builds) has no such warning
@@ -14,7 +18,7 @@ endfunction()
 
 function(skinspheres_library name)
   cmake_parse_arguments(ARG "" "EXPORT" "PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
-  file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/src/*.cc)
+  file(GLOB_RECURSE sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/src/*.cc)
   add_library(skinspheres_${name} ${sources})
   add_library(skinspheres::${name} ALIAS skinspheres_${name})
   set_target_properties(skinspheres_${name} PROPERTIES OUTPUT_NAME skinspheres_${name} EXPORT_NAME ${name})

@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "fuzz_check.h"
-#include "skinspheres/lib/body_parts.h"
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 

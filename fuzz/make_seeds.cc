@@ -9,9 +9,9 @@
 #include <random>
 #include <span>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/importer.h"
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/sphere_set_binary.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 #include "tiny_gltf.h"

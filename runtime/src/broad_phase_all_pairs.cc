@@ -1,5 +1,5 @@
-// All-pairs self-collision: the O(n^2) oracle kept beside the sort-and-sweep path
-// (ENGINEERING.md §6). Same arithmetic (broad_phase_internal.h), contacts in (i, j) order.
+// All-pairs self-collision: the O(n^2) oracle kept beside the sort-and-sweep path (the slow,
+// obvious version the tests compare the fast one with). Same arithmetic (broad_phase_internal.h), contacts in (i, j) order.
 #include "broad_phase_internal.h"
 #include "skinspheres/runtime/broad_phase.h"
 

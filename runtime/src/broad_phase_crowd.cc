@@ -1,6 +1,6 @@
 // Crowds: many characters' self-collision jobs, one after the other or through a ParallelFor.
 // Each job touches only its own context and output, so the result does not depend on the
-// scheduling (ENGINEERING.md §4: threading stays outside the job body).
+// scheduling (threading stays outside the job body).
 #include <atomic>
 
 #include "skinspheres/runtime/broad_phase.h"

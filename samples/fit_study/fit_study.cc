@@ -1,5 +1,5 @@
 // fit_study: how far below the fitter's tightness figures other coverings get, on the same
-// character and the same measuring tool (lib/fit_metrics.h). It backs the "where the tightness
+// character and the same measuring tool (lib/metrics/fit_metrics.h). It backs the "where the tightness
 // gap comes from" section of docs/FIT_REPORT.md; nothing in the product depends on it.
 //
 //   fit_study [FILE ...]      (no file: the built-in character)
@@ -8,7 +8,7 @@
 //   no tightening  FitSpheres without the tightening pass (the paper's spheres after ownership);
 //   default        FitSpheres with default settings (what `skinspheres fit` writes);
 //   max effort     the tightening pass splitting while anything pays (split gain 1, no target
-//                  standoff), up to 300 spheres, the issue's limit;
+//                  standoff), up to 300 spheres (the sphere budget of docs/FIT_REPORT.md);
 //   subdivided     the mesh cut (longest-edge bisection) until no edge exceeds 1% of the body
 //                  height, then fitted with max effort; its spheres are measured against the
 //                  ORIGINAL mesh. It breaks the one-sphere-per-triangle rule (a source triangle
@@ -26,12 +26,13 @@
 #include <utility>
 #include <vector>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/enclosing_sphere.h"
-#include "skinspheres/lib/fit_metrics.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/lib/geometry/enclosing_sphere.h"
+#include "skinspheres/lib/geometry/mesh_helpers.h"
 #include "skinspheres/lib/importer.h"
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/metrics/fit_metrics.h"
 
 namespace {
 
@@ -42,15 +43,6 @@ struct Covering {
   std::vector<Eigen::Vector3f> centers;
   std::vector<float> radii;
 };
-
-float BodyHeight(const RawCharacter& ch) {
-  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-  for (const auto& p : ch.positions_rest) {
-    lo = std::min(lo, p.y());
-    hi = std::max(hi, p.y());
-  }
-  return hi - lo;
-}
 
 void PrintRow(const RawCharacter& ch, const std::string& name, const Covering& cov, int samples_per_sphere) {
   skinspheres::lib::FitMetricsInput in;
@@ -213,7 +205,7 @@ int Study(const std::string& file) {
   auto parts = skinspheres::lib::SplitBodyParts(ch);
   if (!parts.ok()) return std::fprintf(stderr, "fit_study: %s\n", parts.error().message.c_str()), 2;
   std::printf("\n%s: %zu triangles, body height %.4g\n\n", file.empty() ? "built-in character" : file.c_str(),
-              ch.triangle_count(), BodyHeight(ch));
+              ch.triangle_count(), skinspheres::lib::BodyHeight(ch.positions_rest));
   std::printf("| covering                     | spheres | union/body | boundary mean | boundary max | not in one sphere |\n");
   std::printf("|---|---|---|---|---|---|\n");
   skinspheres::lib::FitSettings settings;
@@ -232,7 +224,7 @@ int Study(const std::string& file) {
   if (!fit.ok()) return std::fprintf(stderr, "fit_study: %s\n", fit.error().message.c_str()), 2;
   PrintRow(ch, "max effort (300)", FromFit(fit->spheres), 256);
   {
-    const auto [sub, sub_parts] = Subdivide(ch, *parts, 0.01f * BodyHeight(ch));
+    const auto [sub, sub_parts] = Subdivide(ch, *parts, 0.01f * skinspheres::lib::BodyHeight(ch.positions_rest));
     auto sub_fit = skinspheres::lib::FitSpheres(sub, sub_parts, settings);
     if (!sub_fit.ok()) return std::fprintf(stderr, "fit_study: %s\n", sub_fit.error().message.c_str()), 2;
     PrintRow(ch, "subdivided 1%, max effort", FromFit(sub_fit->spheres), 256);

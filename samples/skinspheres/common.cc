@@ -81,7 +81,7 @@ std::optional<std::string> FitOptions::Resolve() {
   settings.adjacent_hops = hops;
   settings.exclude_bind_overlaps = !no_bind_overlap;
   settings.tighten = !no_tighten;
-  if (std::string why = settings.Validate(); !why.empty()) return why;
+  if (auto refused = settings.Validate()) return refused->message;
   return std::nullopt;
 }
 

@@ -8,7 +8,7 @@
 
 #include "commands.h"
 #include "html_page.h"
-#include "skinspheres/lib/fit_metrics.h"
+#include "skinspheres/lib/metrics/fit_metrics.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 
 namespace skinspheres::tool {

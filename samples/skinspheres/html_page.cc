@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <string_view>
 
-#include "skinspheres/lib/fit_metrics.h"
+#include "skinspheres/lib/metrics/fit_metrics.h"
 #include "skinspheres/lib/glb_exporter.h"
 #include "skinspheres/skinning/sampling_job.h"
 #include "viewer_assets.h"

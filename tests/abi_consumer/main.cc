@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/broad_phase.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/runtime/refit_job.h"

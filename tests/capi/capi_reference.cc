@@ -17,9 +17,9 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/runtime/sphere_set_binary.h"
 #include "skinspheres/runtime/sphere_set_io.h"

@@ -5,7 +5,8 @@
 #include <cmath>
 #include <numbers>
 
-#include "skinspheres/lib/body_parts.h"
+#include "shapes/uv_sphere.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/raw_character.h"
 
 #include "skinspheres/skinning/math_types.h"
@@ -42,24 +43,14 @@ inline lib::RawCharacter EllipticPrism(float a, float b, float y0, float y1, int
   return ch;
 }
 
-// A UV sphere of radius r around c.
+// A UV sphere of radius r around c, poles on the Y axis, each pole a ring of coincident vertices
+// (so each polar band has `slices` degenerate triangles, on purpose).
 inline lib::RawCharacter SphereMesh(float r, const Eigen::Vector3f& c, int stacks = 24, int slices = 48) {
+  const TriangleMesh m = UvSphere(c, r, stacks, slices, /*pole_axis=*/1, Poles::kRingOfCopies);
   lib::RawCharacter ch;
   ch.source_file = "sphere";
-  for (int i = 0; i <= stacks; ++i) {
-    const float th = std::numbers::pi_v<float> * i / stacks;
-    for (int j = 0; j < slices; ++j) {
-      const float ph = 2.0f * std::numbers::pi_v<float> * j / slices;
-      ch.positions_rest.push_back(c + r * Eigen::Vector3f(std::sin(th) * std::cos(ph), -std::cos(th), std::sin(th) * std::sin(ph)));
-    }
-  }
-  for (int i = 0; i < stacks; ++i) {
-    for (int j = 0; j < slices; ++j) {
-      const int a = i * slices + j, b = i * slices + (j + 1) % slices;
-      ch.triangles.emplace_back(a, b + slices, b);  // includes degenerate pole triangles, on purpose
-      ch.triangles.emplace_back(a, a + slices, b + slices);
-    }
-  }
+  ch.positions_rest = m.positions;
+  ch.triangles = m.triangles;
   return ch;
 }
 

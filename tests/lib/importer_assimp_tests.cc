@@ -28,11 +28,11 @@
 #include <string>
 
 #include "lib/clip_eval_for_tests.h"
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/glb_exporter.h"
 #include "skinspheres/lib/importer.h"
-#include "skinspheres/lib/sphere_fitter.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

@@ -24,9 +24,9 @@
 #include <span>
 #include <vector>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/importer.h"
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/runtime/pair_filter.h"
 #include "skinspheres/skinning/local_to_model_job.h"

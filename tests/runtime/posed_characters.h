@@ -13,10 +13,10 @@
 #include <vector>
 
 #include "lib/clip_eval_for_tests.h"
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/importer.h"
-#include "skinspheres/lib/sphere_fitter.h"
 #include "test_support.h"
 
 #include "skinspheres/skinning/math_types.h"

@@ -31,9 +31,9 @@
 #include <unistd.h>
 #include <vector>
 
-#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/sphere_fitter.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 #include "skinspheres/skinning/sampling_job.h"

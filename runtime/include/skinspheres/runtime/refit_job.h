@@ -53,7 +53,7 @@
 // float evaluation (of the centre, the distances, and the caller's own skinning) cannot leave a
 // vertex outside by rounding. Exact-mode radii therefore equal the max distance to ~2e-6 relative.
 //
-// Jobs (ENGINEERING.md §3-5): spans in, spans out; Validate() is O(1) (sizes and pointers; the
+// Jobs: spans in, spans out; Validate() is O(1) (sizes and pointers; the
 // SphereSet's indices were checked when RefitRestData was built from it); Run()/RunRange() never
 // allocate nor throw; RunRange(begin, end) refits spheres [begin, end), each sphere computed by the
 // same instructions whatever the split, so RefitParallel (any ParallelFor) gives bit-identical

@@ -1,0 +1,64 @@
+// Stage 0 of the body-part split: validate the input. See split_stages.h.
+#include <cmath>
+#include <string>
+
+#include "split_stages.h"
+
+namespace skinspheres::lib {
+
+std::optional<Error> ValidateSplitInput(const RawCharacter& ch) {
+  const std::string name = SplitInputName(ch);
+  auto fail = [&](const std::string& what) { return MakeError(ErrorCode::kInvalidData, name + ": " + what); };
+  const auto& sk = ch.skeleton;
+  if (sk.size() == 0) return fail("skeleton has no joints");
+  if (!sk.Validate()) return fail("skeleton arrays disagree in size or parents are not ordered parents-first");
+  const int32_t n = static_cast<int32_t>(sk.size());
+  const size_t nv = ch.positions_rest.size();
+  for (size_t t = 0; t < ch.triangles.size(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const int idx = ch.triangles[t][k];
+      if (idx < 0 || static_cast<size_t>(idx) >= nv) {
+        return fail("triangle " + std::to_string(t) + " uses vertex " + std::to_string(idx) + " of " + std::to_string(nv));
+      }
+    }
+  }
+  const auto& skin = ch.skin;
+  // Without a skin nothing below applies; note that the rigid-joint check at the end is skipped too.
+  if (skin.vertex_count() == 0) return std::nullopt;
+  if (skin.vertex_count() != nv) {
+    return fail("skin has " + std::to_string(skin.vertex_count()) + " vertices, mesh has " + std::to_string(nv));
+  }
+  if (skin.influence_offsets.size() != nv + 1 || skin.influence_offsets.front() != 0 ||
+      skin.influence_offsets.back() != skin.influence_binds.size() ||
+      skin.influence_binds.size() != skin.influence_weights.size()) {
+    return fail("skin influence arrays disagree in size");
+  }
+  for (size_t v = 0; v < nv; ++v) {
+    if (skin.influence_offsets[v] > skin.influence_offsets[v + 1]) {
+      return fail("skin influence offsets decrease at vertex " + std::to_string(v));
+    }
+  }
+  for (size_t b = 0; b < skin.binds.size(); ++b) {
+    if (skin.binds[b].joint < 0 || skin.binds[b].joint >= n) {
+      return fail("bind entry " + std::to_string(b) + " names joint " + std::to_string(skin.binds[b].joint) + " of " +
+                  std::to_string(n));
+    }
+  }
+  for (size_t i = 0; i < skin.influence_binds.size(); ++i) {
+    if (skin.influence_binds[i] >= skin.binds.size()) {
+      return fail("influence " + std::to_string(i) + " uses bind entry " + std::to_string(skin.influence_binds[i]) +
+                  " of " + std::to_string(skin.binds.size()));
+    }
+    if (!std::isfinite(skin.influence_weights[i])) {
+      return fail("influence " + std::to_string(i) + " has a non-finite weight");
+    }
+  }
+  for (const MeshRange& m : ch.meshes) {
+    if (m.rigid_joint >= n) {
+      return fail("mesh '" + m.name + "' follows joint " + std::to_string(m.rigid_joint) + " of " + std::to_string(n));
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace skinspheres::lib

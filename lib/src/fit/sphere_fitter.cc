@@ -1,0 +1,42 @@
+// FitSpheres: the fitter's stages in order (sphere_fitter.h; each stage in fit_stages.h and its own
+// file).
+#include "skinspheres/lib/fit/sphere_fitter.h"
+
+#include <chrono>
+
+#include "fit_stages.h"
+
+namespace skinspheres::lib {
+
+Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, const FitSettings& settings) {
+  const auto start = std::chrono::steady_clock::now();
+  if (auto error = ValidateFitInput(ch, parts, settings)) return *error;
+  std::vector<Mat4f> rest_world(ch.skeleton.size());
+  ch.skeleton.RestWorld(rest_world);
+  if (auto error = ValidateRestPose(ch, rest_world)) return *error;
+
+  // 1-3. The paper's spheres, part by part.
+  auto paper = FitPaperSpheres(ch, parts, rest_world, settings);
+  if (!paper.ok()) return paper.error();
+  // 4. Ownership and refinement, then the tightening pass.
+  auto owned = AssignOwnership(ch, parts, *paper, settings.refine_iterations);
+  if (!owned.ok()) return owned.error();
+  FitResult out;
+  if (settings.tighten) TightenOwnedSpheres(ch, settings, &*owned, &out.report);
+
+  // The set: what it describes and its spheres, 5. excluded pairs, 6. fast-refit data, 7. the mesh.
+  WriteSetHeader(ch, parts, settings, rest_world, &out.spheres);
+  WriteOwnedSpheres(ch, parts, *owned, &out.spheres, &out.report);
+  WriteExcludedPairs(ch.skeleton, settings, &out.spheres);
+  WriteFastRefitData(ch, rest_world, &out.spheres);
+  WriteSetMesh(ch, &out.spheres);
+  SummarisePartReports(*paper, out.spheres, &out.report);
+
+  // The self-check: a consistent set, every triangle inside its owner in the bind pose.
+  if (auto error = CheckFittedSet(ch, out.spheres)) return *error;
+  out.report.triangles_covered = static_cast<int>(ch.triangle_count());
+  out.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+}  // namespace skinspheres::lib

@@ -1,0 +1,34 @@
+// TightenSpheres: the tightening pass's steps in order (sphere_tightener.h; the steps in
+// tightener.h and their own files).
+#include "skinspheres/lib/tighten/sphere_tightener.h"
+
+#include <tuple>
+
+#include "tightener.h"
+
+namespace skinspheres::lib {
+
+TightenReport TightenSpheres(const RawCharacter& character, const TightenSettings& settings,
+                             std::vector<TightSphere>* spheres) {
+  TightenReport rep;
+  Tightener t(character, settings, *spheres);
+  rep.dropped += t.DropEmpty();
+  std::tie(rep.exposure_before, rep.standoff_before) = t.TotalExposure();
+  // 1. Centre search, 2. hand-over, 3. merge (spheres left with nothing are dropped).
+  for (int round = 0; round < settings.search_rounds; ++round) t.SearchAll();
+  rep.triangles_handed_over += t.HandOver();
+  rep.merges = t.MergeStacked();
+  rep.dropped += t.DropEmpty();
+  // 4. Splitting.
+  rep.splits = t.SplitLoop();
+  // 5. Centre search, hand-over and merge again.
+  for (int round = 0; round < settings.search_rounds; ++round) t.SearchAll();
+  rep.triangles_handed_over += t.HandOver();
+  rep.merges += t.MergeStacked();
+  rep.dropped += t.DropEmpty();
+  t.Finish();
+  std::tie(rep.exposure_after, rep.standoff_after) = t.TotalExposure();
+  return rep;
+}
+
+}  // namespace skinspheres::lib
