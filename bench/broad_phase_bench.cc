@@ -1,254 +1,651 @@
-// Self-collision broad phase benchmarks (broad_phase.h).
+// Broad phase: skinspheres' SelfCollisionJob against Bullet's btDbvtBroadphase, FCL's dynamic AABB
+// tree (peer_broad_phases.h: configured as their documentation recommends, float sphere test,
+// same exclusions) and the all-pairs loop, on four workloads. One process times every method;
+// docs/PERFORMANCE.md has the tables (bench/broad_phase_tables.py makes them from --benchmark_out).
 //
-// Sphere sets: a synthetic humanoid of 150 or 300 spheres (torso of three columns, head, two arms,
-// two legs: chains of overlapping spheres), animated over a 64-frame loop (arms swing and adduct
-// into the torso, legs swing with bending knees, torso twists), so frames are temporally coherent
-// and contacts exist. Exclusions: consecutive spheres on a chain and every pair overlapping at rest
-// (what the fitter's kBindOverlap produces). Each iteration is one new frame.
+// Workloads (each iteration is the next frame; frames play forward then backward, so a loop never
+// teleports):
+//   a_cloud   spheres in a 1.8 x 1.8 x 0.3 box: std::mt19937 seed 3, for each sphere in order
+//             x = 1.8U - 0.9, y = 1.8U, z = 0.3U - 0.15, r = 0.02 + 0.06U (U uniform in [0, 1));
+//             frame f: x += A sin(0.05f + i), y += A cos(0.05f + i) (offsets from the generated
+//             position, so each sphere wiggles within +-A). N = 150, 300, 1000; A = 0.02, 0.3.
+//             No exclusions. 128 frames.
+//   b_clip    the shared characters' own clips (../shared/assets), fitted with the default
+//             settings, exact refit, at 30 and 60 fps, with the fitted exclusions and without any,
+//             standing or walking forward at 1.5 body heights per second (the whole clip).
+//   c_scale   the cloud's generator at the density of its N = 300 box, scaled to N = 100 ... 50,000
+//             spheres: a slab (x, y grow, z stays 0.3: a crowd's floor) and a cube (all three
+//             grow). A = 0.02. 128 frames (32 above 5,000 spheres).
+//   d_crowd   1 to 1000 CesiumMan walking in place (clip at 30 fps, exact spheres), character k
+//             playing 7k frames ahead, on a square grid 0.8 body heights apart: each alone (one job
+//             per character; RunSelfCollisionJobs on 1 and 2 threads with per-thread CPU time) and
+//             all in one space (one job over every sphere, pairs between characters included).
+//             16 frames.
 //
-//   BM_SkinSpheres      SelfCollisionJob (sort and sweep, coherent insertion sort)
-//   BM_AllPairs         SelfCollisionAllPairs (the scalar oracle)
-//   BM_BulletDbvt       btDbvtBroadphase: setAabb per sphere + calculateOverlappingPairs, exclusions in
-//                       an overlap filter callback, then the sphere test and sorted contacts
-//   BM_FclDynamicTree   fcl::DynamicAABBTreeCollisionManager: setTranslation + computeAABB per sphere,
-//                       update(), collide() with a callback doing exclusions and the sphere test
-//   BM_Crowd            RunSelfCollisionJobs on 1..1000 characters at 1 and 2 threads
-// Every method is checked against the oracle on all 64 frames before timing (SkipWithError if not).
+// Methods (the last path element of every name):
+//   skinspheres[_sse2|_avx2|_avx512]   SelfCollisionJob (sorted list), instruction set auto or forced
+//   allpairs                           SelfCollisionAllPairs, the plain O(n^2) loop (up to 5,000 spheres)
+//   bullet_count, bullet_sorted        btDbvtBroadphase: contact count only / sorted contact list
+//   fcl_count, fcl_sorted              FCL dynamic AABB tree in float: the same two variants
+//
+// Every method is checked before timing, on every frame of the loop, against a reference: the
+// all-pairs oracle up to 5,000 spheres, Bullet's sorted list above (checked in turn against FCL
+// and ours). A mismatch aborts the process with a message. Counters: contacts and candidates per
+// frame (ours: pairs given the exact test; peers: pairs their tree reported), and for ours the
+// builds per frame.
 #include <benchmark/benchmark.h>
-#include <tbb/global_control.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
-#include <Eigen/Geometry>
-
+#include "skinspheres/lib/body_parts.h"
+#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/sphere_fitter.h"
 #include "skinspheres/runtime/broad_phase.h"
+#include "skinspheres/runtime/character.h"
+#include "skinspheres/skinning/local_to_model_job.h"
+#include "skinspheres/skinning/prepared_influences.h"
+#include "skinspheres/skinning/sampling_job.h"
+#include "skinspheres/skinning/skinning_job.h"
+#include "skinspheres/skinning/skinning_matrices_job.h"
 
 #include "peer_broad_phases.h"
+#include "thread_cpu.h"
 
 namespace {
 
-using skinspheres::runtime::BroadPhaseContext;
-using skinspheres::runtime::Contact;
-using skinspheres::runtime::ExcludedPair;
-using skinspheres::runtime::ExclusionReason;
-using skinspheres::runtime::PairFilter;
-using skinspheres::runtime::SelfCollisionJob;
+namespace lib = skinspheres::lib;
+namespace rt = skinspheres::runtime;
+namespace sk = skinspheres::skinning;
+using skinspheres::Vec4f;
+using Spheres = std::vector<Vec4f>;
 
-constexpr int kFrames = 64;
+constexpr size_t kOracleMax = 5000;  // spheres: above this the reference is Bullet's sorted list
 
-struct Humanoid {
-  std::vector<std::vector<skinspheres::Vec4f>> frames;  // kFrames x n
-  PairFilter filter;
+[[noreturn]] void Abort(const std::string& message) {
+  std::fprintf(stderr, "broad_phase_bench: %s\n", message.c_str());
+  std::fflush(stderr);
+  std::abort();
+}
+
+// Frame index of iteration k over f frames played forward then backward.
+size_t PingPong(size_t k, size_t f) {
+  if (f <= 1) return 0;
+  const size_t period = 2 * (f - 1);
+  const size_t m = k % period;
+  return m < f ? m : period - m;
+}
+
+// ------------------------------------------------------------------------------------ scenarios
+
+struct Scenario {
+  std::string error;                 // non-empty: every row of it is skipped with this message
+  std::vector<Spheres> frames;       // the loop
+  rt::PairFilter filter;
+  std::vector<std::vector<rt::Contact>> reference;  // per frame
+  // Crowd: the characters alone (spheres of character k at frame f: frames[(f + 7k) % frames]).
+  size_t characters = 0;             // 0: not a crowd
 };
 
-// One chain: spheres evenly spaced from `from` to `to`; limbs have a joint at their middle.
-struct Chain {
-  Eigen::Vector3f from, to;
-  int count;
-  float radius;
-  uint16_t part;  // 0 torso, 1 head, 2 arm_l, 3 arm_r, 4 leg_l, 5 leg_r
+// Workload (a)'s generator, box sx x sy x sz (the box is 1.8 x 1.8 x 0.3).
+Spheres CloudBase(size_t n, double sx, double sy, double sz) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  Spheres s(n);
+  for (size_t i = 0; i < n; ++i) {
+    const float x = float(sx) * u(rng) - float(0.5 * sx);
+    const float y = float(sy) * u(rng);
+    const float z = float(sz) * u(rng) - float(0.5 * sz);
+    const float r = 0.02f + 0.06f * u(rng);
+    s[i] = Vec4f(x, y, z, r);
+  }
+  return s;
+}
+
+void CloudFrames(Scenario* sc, const Spheres& base, double amplitude, size_t frame_count) {
+  sc->frames.assign(frame_count, base);
+  for (size_t f = 0; f < frame_count; ++f) {
+    for (size_t i = 0; i < base.size(); ++i) {
+      const double phase = 0.05 * double(f) + double(i);
+      sc->frames[f][i].x() = float(double(base[i].x()) + amplitude * std::sin(phase));
+      sc->frames[f][i].y() = float(double(base[i].y()) + amplitude * std::cos(phase));
+    }
+  }
+  sc->filter = rt::PairFilter::Create(base.size(), {}, {}).value();
+}
+
+void ComputeReference(Scenario* sc);
+
+// A fitted shared character and one clip's exact spheres at some fps.
+struct FittedCharacter {
+  std::string error;
+  lib::RawCharacter ch;
+  lib::BodyParts parts;
+  std::shared_ptr<const rt::CharacterAsset> asset;
+  float height = 0.0f;
+  Eigen::Vector3f forward = Eigen::Vector3f::Zero();
 };
 
-Humanoid MakeHumanoid(int n) {
-  const int m = n / 150;  // 1 or 2
-  const float rs = 1.0f / std::sqrt(float(m));
-  std::vector<Chain> chains;
-  for (float x : {-0.1f, 0.0f, 0.1f}) chains.push_back({{x, 0.95f, 0}, {x, 1.5f, 0}, 14 * m, 0.09f * rs, 0});
-  chains.push_back({{0, 1.56f, 0}, {0, 1.8f, 0}, 8 * m, 0.1f * rs, 1});
-  for (float s : {-1.0f, 1.0f}) {
-    chains.push_back({{0.2f * s, 1.45f, 0}, {0.24f * s, 0.8f, 0}, 22 * m, 0.045f * rs, uint16_t(s < 0 ? 2 : 3)});
-    chains.push_back({{0.1f * s, 0.9f, 0}, {0.1f * s, 0.05f, 0}, 28 * m, 0.07f * rs, uint16_t(s < 0 ? 4 : 5)});
+const FittedCharacter& Fitted(const std::string& file) {
+  static std::map<std::string, std::unique_ptr<FittedCharacter>> cache;
+  auto& slot = cache[file];
+  if (slot) return *slot;
+  slot = std::make_unique<FittedCharacter>();
+  FittedCharacter& c = *slot;
+  const std::filesystem::path path = std::filesystem::path(SKINSPHERES_ASSET_DIR) / file;
+  if (!std::filesystem::exists(path)) {
+    c.error = path.string() + ": not found (the shared characters are not installed)";
+    return c;
   }
-  std::vector<skinspheres::Vec4f> rest;
-  std::vector<uint16_t> parts;
-  std::vector<int> chain_of, index_in_chain;
-  for (size_t c = 0; c < chains.size(); ++c) {
-    for (int k = 0; k < chains[c].count; ++k) {
-      const float t = (float(k) + 0.5f) / float(chains[c].count);
-      const Eigen::Vector3f p = chains[c].from + t * (chains[c].to - chains[c].from);
-      rest.push_back({p.x(), p.y(), p.z(), chains[c].radius});
-      parts.push_back(chains[c].part);
-      chain_of.push_back(int(c));
-      index_in_chain.push_back(k);
+  auto ch = lib::ImportCharacter(path);
+  if (!ch.ok()) return c.error = ch.error().message, c;
+  c.ch = std::move(*ch);
+  auto parts = lib::SplitBodyParts(c.ch);
+  if (!parts.ok()) return c.error = parts.error().message, c;
+  c.parts = std::move(*parts);
+  auto fit = lib::FitSpheres(c.ch, c.parts, lib::FitSettings{});
+  if (!fit.ok()) return c.error = fit.error().message, c;
+  auto asset = rt::CharacterAsset::Create(std::move(fit->spheres));
+  if (!asset.ok()) return c.error = asset.error().message, c;
+  c.asset = *asset;
+  const rt::SphereSet& set = c.asset->sphere_set();
+  const Eigen::Vector3f up = c.parts.humanoid ? c.parts.up : Eigen::Vector3f::UnitY();
+  const Eigen::Vector3f left = c.parts.humanoid ? c.parts.left : Eigen::Vector3f::UnitX();
+  float lo = INFINITY, hi = -INFINITY;
+  for (size_t s = 0; s < set.size(); ++s) {
+    lo = std::min(lo, set.centers_rest[s].dot(up) - set.radii_rest[s]);
+    hi = std::max(hi, set.centers_rest[s].dot(up) + set.radii_rest[s]);
+  }
+  c.height = hi - lo;
+  c.forward = left.cross(up).normalized();
+  return c;
+}
+
+// The exact spheres of every frame of `clip` at `fps` (the whole clip), walking or not.
+std::string ClipFrames(const FittedCharacter& c, const std::string& clip_name, double fps, bool walk,
+                       std::vector<Spheres>* frames) {
+  const sk::AnimationClip* clip = nullptr;
+  for (const auto& k : c.ch.clips) {
+    if (k.name == clip_name || (clip_name == "0" && &k == &c.ch.clips[0])) clip = &k;
+  }
+  if (clip == nullptr) return "no clip " + clip_name;
+  const rt::SphereSet& set = c.asset->sphere_set();
+  std::vector<uint32_t> sources(set.vertices.begin(), set.vertices.end());
+  std::sort(sources.begin(), sources.end());
+  sources.erase(std::unique(sources.begin(), sources.end()), sources.end());
+  const sk::SkinnedMesh& skin = c.ch.skin;
+  sk::PreparedInfluences prepared;
+  std::string why;
+  if (!prepared.Build(skin.vertex_count(), skin.influence_offsets, skin.influence_binds, skin.influence_weights, sources,
+                      &why)) {
+    return why;
+  }
+  std::vector<sk::Transform> locals(c.ch.skeleton.size());
+  std::vector<skinspheres::Mat4f> world(c.ch.skeleton.size()), mats(skin.binds.size());
+  std::vector<Eigen::Vector3f> skinned(skin.vertex_count(), Eigen::Vector3f::Zero());
+  auto instance = rt::CharacterInstance::Create(c.asset);
+  if (!instance.ok()) return instance.error().message;
+  const size_t count = size_t(std::floor(double(clip->duration_s) * fps + 1e-3)) + 1;
+  frames->assign(count, {});
+  for (size_t f = 0; f < count; ++f) {
+    const float t = float(double(f) / fps);
+    sk::SamplingJob sampling{clip, &c.ch.skeleton, sk::LoopTime(t, clip->duration_s), locals};
+    sk::LocalToModelJob l2m;
+    l2m.skeleton = &c.ch.skeleton;
+    l2m.input = locals;
+    l2m.output = world;
+    sk::SkinningMatricesJob m{skin.binds, world, mats};
+    sk::SkinningJob job;
+    job.joint_matrices = mats;
+    job.vertex_count = skin.vertex_count();
+    job.in_positions = {reinterpret_cast<const float*>(skin.positions_bind.data()), skin.positions_bind.size() * 3};
+    job.out_positions = {reinterpret_cast<float*>(skinned.data()), skinned.size() * 3};
+    job.prepared = &prepared;
+    if (!sampling.Run() || !l2m.Run() || !m.Run() || !job.Run()) return "posing frame failed";
+    if (!instance->UpdateExact(skinned, world).ok()) return instance->status().message;
+    Spheres& out = (*frames)[f];
+    out.assign(instance->spheres().begin(), instance->spheres().end());
+    if (walk) {
+      const Eigen::Vector3f step = c.forward * (1.5f * c.height * t);
+      for (Vec4f& s : out) s.head<3>() += step;
     }
   }
-  std::vector<ExcludedPair> excluded;
-  for (uint32_t i = 0; i < rest.size(); ++i) {
-    for (uint32_t j = i + 1; j < rest.size(); ++j) {
-      const bool consecutive = chain_of[i] == chain_of[j] && index_in_chain[j] == index_in_chain[i] + 1;
-      const bool overlap_at_rest = (rest[i].head<3>() - rest[j].head<3>()).norm() < rest[i].w() + rest[j].w();
-      if (consecutive || overlap_at_rest) excluded.push_back({i, j, ExclusionReason::kBindOverlap});
-    }
+  return "";
+}
+
+// Scenario cache, built on first use.
+const Scenario& GetScenario(const std::string& key, const std::function<void(Scenario*)>& make) {
+  static std::map<std::string, std::unique_ptr<Scenario>> cache;
+  auto& slot = cache[key];
+  if (!slot) {
+    slot = std::make_unique<Scenario>();
+    make(slot.get());
+    if (slot->error.empty()) ComputeReference(slot.get());
   }
-  Humanoid h;
-  h.filter = std::move(PairFilter::Create(rest.size(), parts, excluded)).value();
-  h.frames.resize(kFrames);
-  for (int f = 0; f < kFrames; ++f) {
-    const float theta = 2.0f * float(M_PI) * float(f) / float(kFrames);
-    const float s = std::sin(theta);
-    const Eigen::AngleAxisf twist(0.1f * s, Eigen::Vector3f::UnitY());
-    std::vector<skinspheres::Vec4f>& out = h.frames[f];
-    out.resize(rest.size());
-    for (size_t i = 0; i < rest.size(); ++i) {
-      const Chain& ch = chains[chain_of[i]];
-      Eigen::Vector3f p = rest[i].head<3>();
-      const bool lower = index_in_chain[i] >= ch.count / 2;
-      const Eigen::Vector3f mid = 0.5f * (ch.from + ch.to);
-      const float side = ch.from.x() < 0 ? -1.0f : 1.0f;
-      if (ch.part == 2 || ch.part == 3) {  // arm: elbow bend, then shoulder swing and adduction
-        if (lower) p = mid + Eigen::AngleAxisf(-0.7f * (1.0f + s), Eigen::Vector3f::UnitX()) * (p - mid);
-        const Eigen::Matrix3f shoulder =
-            (Eigen::AngleAxisf(-side * (0.05f + 0.08f * s), Eigen::Vector3f::UnitZ()) *
-             Eigen::AngleAxisf(0.6f * s * side, Eigen::Vector3f::UnitX()))
-                .toRotationMatrix();
-        p = ch.from + shoulder * (p - ch.from);
-        p = twist * p;
-      } else if (ch.part >= 4) {  // leg: knee bend, hip swing, slight adduction
-        const float phase = side * s;
-        if (lower) p = mid + Eigen::AngleAxisf(0.5f * (1.0f - phase), Eigen::Vector3f::UnitX()) * (p - mid);
-        const Eigen::Matrix3f hip = (Eigen::AngleAxisf(-side * 0.04f, Eigen::Vector3f::UnitZ()) *
-                                     Eigen::AngleAxisf(-0.45f * phase, Eigen::Vector3f::UnitX()))
-                                        .toRotationMatrix();
-        p = ch.from + hip * (p - ch.from);
-      } else {  // torso and head twist about the pelvis
-        p = twist * p;
-      }
-      out[i] = {p.x(), p.y(), p.z(), rest[i].w()};
-    }
+  return *slot;
+}
+
+size_t SphereCount(const Scenario& sc) { return sc.frames.empty() ? 0 : sc.frames[0].size(); }
+
+// ---------------------------------------------------------------------------------- the methods
+
+// One method's per-frame state over a scenario's (one-space) frames.
+class Method {
+ public:
+  virtual ~Method() = default;
+  // Runs the frame; returns the contact count (list filled when the method makes one).
+  virtual size_t Frame(const Spheres& s, std::vector<rt::Contact>* list) = 0;
+  virtual bool MakesList() const { return true; }
+  virtual double Candidates() const { return 0.0; }
+  virtual double Builds() const { return 0.0; }
+  virtual double BuildTests() const { return 0.0; }
+  virtual double Lookahead() const { return 0.0; }
+};
+
+class Ours : public Method {
+ public:
+  Ours(const Scenario& sc, rt::BroadPhaseSimd simd, bool no_cache = false)
+      : filter_(&sc.filter), simd_(simd), no_cache_(no_cache) {
+    context_.Resize(SphereCount(sc));
   }
-  return h;
-}
-
-const Humanoid& GetHumanoid(int n) {
-  static std::map<int, Humanoid> cache;
-  auto it = cache.find(n);
-  if (it == cache.end()) it = cache.emplace(n, MakeHumanoid(n)).first;
-  return it->second;
-}
-
-std::vector<Contact> Oracle(const Humanoid& h, int frame) {
-  std::vector<Contact> out;
-  skinspheres::runtime::SelfCollisionAllPairs(h.frames[frame], h.filter, &out);
-  return out;
-}
-
-void AddCounters(benchmark::State& state, const Humanoid& h, size_t contacts_total, size_t frames) {
-  state.counters["spheres"] = double(h.frames[0].size());
-  state.counters["contacts"] = frames ? double(contacts_total) / double(frames) : 0.0;
-}
-
-// --------------------------------------------------------------------------------- skinspheres
-
-void BM_SkinSpheres(benchmark::State& state) {
-  const Humanoid& h = GetHumanoid(int(state.range(0)));
-  const size_t n = h.frames[0].size();
-  BroadPhaseContext ctx(n);
-  std::vector<Contact> out;
-  out.reserve(4 * n);
-  for (int f = 0; f < kFrames; ++f) {
-    if (!SelfCollisionJob{h.frames[f], &h.filter, &ctx, &out}.Run() || out != Oracle(h, f)) {
-      state.SkipWithError("skinspheres differs from all-pairs");
-      return;
-    }
+  size_t Frame(const Spheres& s, std::vector<rt::Contact>* list) override {
+    if (no_cache_) context_.Invalidate();
+    rt::SelfCollisionJob job{s, filter_, &context_, list};
+    job.simd = simd_;
+    if (!job.Run()) Abort("SelfCollisionJob refused a frame");
+    candidates_ += double(context_.last_candidate_count());
+    build_tests_ += double(context_.last_build_tests());
+    lookahead_ += context_.last_method() == rt::BroadPhaseMethod::kCached ? 0.0 : double(context_.last_lookahead());
+    return list->size();
   }
-  size_t frame = 0, contacts = 0, candidates = 0;
-  for (auto _ : state) {
-    SelfCollisionJob{h.frames[frame % kFrames], &h.filter, &ctx, &out}.Run();
-    contacts += out.size();
-    candidates += ctx.last_candidate_count();
-    benchmark::DoNotOptimize(out.data());
-    ++frame;
-  }
-  AddCounters(state, h, contacts, frame);
-  state.counters["candidates"] = frame ? double(candidates) / double(frame) : 0.0;
-  state.counters["axis"] = ctx.sweep_axis();
-}
-BENCHMARK(BM_SkinSpheres)->Arg(150)->Arg(300);
+  double Candidates() const override { return candidates_; }
+  double Builds() const override { return double(context_.build_count()); }
+  double BuildTests() const override { return build_tests_; }
+  double Lookahead() const override { return lookahead_; }
 
-void BM_AllPairs(benchmark::State& state) {
-  const Humanoid& h = GetHumanoid(int(state.range(0)));
-  std::vector<Contact> out;
-  out.reserve(4 * h.frames[0].size());
-  size_t frame = 0, contacts = 0;
-  for (auto _ : state) {
-    skinspheres::runtime::SelfCollisionAllPairs(h.frames[frame % kFrames], h.filter, &out);
-    contacts += out.size();
-    benchmark::DoNotOptimize(out.data());
-    ++frame;
+ private:
+  const rt::PairFilter* filter_;
+  rt::BroadPhaseSimd simd_;
+  bool no_cache_;
+  rt::BroadPhaseContext context_;
+  double candidates_ = 0.0, build_tests_ = 0.0, lookahead_ = 0.0;
+};
+
+class AllPairs : public Method {
+ public:
+  explicit AllPairs(const Scenario& sc) : filter_(&sc.filter) {}
+  size_t Frame(const Spheres& s, std::vector<rt::Contact>* list) override {
+    if (!rt::SelfCollisionAllPairs(s, *filter_, list)) Abort("all-pairs refused a frame");
+    return list->size();
   }
-  AddCounters(state, h, contacts, frame);
-}
-BENCHMARK(BM_AllPairs)->Arg(150)->Arg(300);
+
+ private:
+  const rt::PairFilter* filter_;
+};
 
 #if SKINSPHERES_HAVE_PEERS
-// ----------------------------------------------------------------------- Bullet and FCL (peers)
-using skinspheres::bench::BulletWorld;
-using skinspheres::bench::FclWorld;
-
-// One peer over the synthetic humanoid: checked against all-pairs on every frame, then timed.
 template <class World>
-void PeerBenchmark(benchmark::State& state, const char* name) {
-  const Humanoid& h = GetHumanoid(int(state.range(0)));
-  World world(h.frames[0], h.filter);
-  std::vector<Contact> out;
-  out.reserve(4 * h.frames[0].size());
-  for (int f = 0; f < kFrames; ++f) {
-    world.Frame(h.frames[f], &out);
-    if (out != Oracle(h, f)) {
-      state.SkipWithError((std::string(name) + " differs from all-pairs").c_str());
-      return;
+class Peer : public Method {
+ public:
+  Peer(const Scenario& sc, bool sorted) : world_(sc.frames[0], sc.filter), sorted_(sorted) {}
+  size_t Frame(const Spheres& s, std::vector<rt::Contact>* list) override {
+    const size_t count = world_.Frame(s, sorted_ ? list : nullptr);
+    candidates_ += double(world_.last_candidates());
+    return count;
+  }
+  bool MakesList() const override { return sorted_; }
+  double Candidates() const override { return candidates_; }
+
+ private:
+  World world_;
+  bool sorted_;
+  double candidates_ = 0.0;
+};
+#endif
+
+std::unique_ptr<Method> MakeMethod(const std::string& name, const Scenario& sc) {
+  if (name == "skinspheres") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kAuto);
+  if (name == "skinspheres_nocache") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kAuto, true);
+  if (name == "skinspheres_nocache_avx2") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kAvx2, true);
+  if (name == "skinspheres_nocache_sse2") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kSse2, true);
+  if (name == "skinspheres_sse2") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kSse2);
+  if (name == "skinspheres_avx2") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kAvx2);
+  if (name == "skinspheres_avx512") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kAvx512);
+  if (name == "allpairs") return std::make_unique<AllPairs>(sc);
+#if SKINSPHERES_HAVE_PEERS
+  using skinspheres::bench::BulletWorld;
+  using skinspheres::bench::FclWorld;
+  if (name == "bullet_count") return std::make_unique<Peer<BulletWorld>>(sc, false);
+  if (name == "bullet_sorted") return std::make_unique<Peer<BulletWorld>>(sc, true);
+  if (name == "fcl_count") return std::make_unique<Peer<FclWorld>>(sc, false);
+  if (name == "fcl_sorted") return std::make_unique<Peer<FclWorld>>(sc, true);
+#endif
+  return nullptr;
+}
+
+void ComputeReference(Scenario* sc) {
+  const size_t n = SphereCount(*sc);
+  std::unique_ptr<Method> ref = n <= kOracleMax ? MakeMethod("allpairs", *sc) : MakeMethod("bullet_sorted", *sc);
+  if (!ref) {
+    sc->error = "no reference method (Bullet not built) above " + std::to_string(kOracleMax) + " spheres";
+    return;
+  }
+  sc->reference.resize(sc->frames.size());
+  for (size_t f = 0; f < sc->frames.size(); ++f) ref->Frame(sc->frames[f], &sc->reference[f]);
+}
+
+// Runs every frame of the loop once and aborts unless the method matches the reference.
+void CheckAgainstReference(const Scenario& sc, Method& m, const std::string& row) {
+  std::vector<rt::Contact> out;
+  const size_t period = sc.frames.size() <= 1 ? 1 : 2 * (sc.frames.size() - 1);
+  for (size_t k = 0; k < period; ++k) {
+    const size_t f = PingPong(k, sc.frames.size());
+    const size_t count = m.Frame(sc.frames[f], &out);
+    const bool same = m.MakesList() ? out == sc.reference[f] : count == sc.reference[f].size();
+    if (!same) {
+      Abort(row + ": frame " + std::to_string(f) + " differs from the reference (" + std::to_string(count) + " vs " +
+            std::to_string(sc.reference[f].size()) + " contacts)");
     }
   }
-  size_t frame = 0, contacts = 0;
-  for (auto _ : state) {
-    world.Frame(h.frames[frame % kFrames], &out);
-    contacts += out.size();
-    ++frame;
-  }
-  AddCounters(state, h, contacts, frame);
 }
-void BM_BulletDbvt(benchmark::State& state) { PeerBenchmark<BulletWorld>(state, "Bullet"); }
-void BM_FclDynamicTree(benchmark::State& state) { PeerBenchmark<FclWorld>(state, "FCL"); }
-BENCHMARK(BM_BulletDbvt)->Arg(150)->Arg(300);
-BENCHMARK(BM_FclDynamicTree)->Arg(150)->Arg(300);
-#endif  // SKINSPHERES_HAVE_PEERS
 
-// -------------------------------------------------------------------------------------- crowd
-
-// range(0) characters of 150 spheres, range(1) threads. Character c plays the loop 7c frames ahead.
-void BM_Crowd(benchmark::State& state) {
-  const Humanoid& h = GetHumanoid(150);
-  const size_t characters = size_t(state.range(0));
-  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(state.range(1)));
-  std::vector<BroadPhaseContext> contexts(characters);
-  std::vector<std::vector<Contact>> outs(characters);
-  std::vector<SelfCollisionJob> jobs(characters);
-  for (size_t c = 0; c < characters; ++c) {
-    contexts[c].Resize(h.frames[0].size());
-    outs[c].reserve(4 * h.frames[0].size());
-    jobs[c] = {h.frames[0], &h.filter, &contexts[c], &outs[c]};
-  }
-  size_t frame = 0;
+// The body of every one-space row.
+void RunRow(benchmark::State& state, const Scenario& sc, const std::string& method, const std::string& row) {
+  if (!sc.error.empty()) return state.SkipWithError(sc.error.c_str());
+  std::unique_ptr<Method> m = MakeMethod(method, sc);
+  if (!m) return state.SkipWithError(("method " + method + " not built").c_str());
+  CheckAgainstReference(sc, *m, row);
+  const double candidates0 = m->Candidates(), builds0 = m->Builds(), build_tests0 = m->BuildTests(),
+               lookahead0 = m->Lookahead();
+  std::vector<rt::Contact> out;
+  out.reserve(2 * sc.reference[0].size() + 64);
+  size_t k = 0, contacts = 0;
   for (auto _ : state) {
-    for (size_t c = 0; c < characters; ++c) jobs[c].spheres = h.frames[(frame + 7 * c) % kFrames];
-    if (!skinspheres::runtime::RunSelfCollisionJobs(jobs)) {
-      state.SkipWithError("crowd job failed");
-      return;
+    contacts += m->Frame(sc.frames[PingPong(k, sc.frames.size())], &out);
+    benchmark::DoNotOptimize(out.data());
+    ++k;
+  }
+  const size_t last = PingPong(k - 1, sc.frames.size());
+  if (m->MakesList() ? out != sc.reference[last] : false) Abort(row + ": last timed frame differs from the reference");
+  const double frames = double(std::max<size_t>(k, 1));
+  state.counters["spheres"] = double(SphereCount(sc));
+  state.counters["contacts"] = double(contacts) / frames;
+  state.counters["candidates"] = (m->Candidates() - candidates0) / frames;
+  state.counters["builds"] = (m->Builds() - builds0) / frames;
+  if (m->Builds() > builds0) {
+    state.counters["tests_per_build"] = (m->BuildTests() - build_tests0) / (m->Builds() - builds0);
+    state.counters["lookahead"] = (m->Lookahead() - lookahead0) / (m->Builds() - builds0);
+  }
+}
+
+// --------------------------------------------------------------------------------- registration
+
+std::vector<std::string> OurMethods(bool all_levels) {
+  std::vector<std::string> m = {"skinspheres"};
+  if (all_levels) {
+    for (auto level : {rt::BroadPhaseSimd::kSse2, rt::BroadPhaseSimd::kAvx2, rt::BroadPhaseSimd::kAvx512}) {
+      if (rt::BroadPhaseSimdSupported(level)) m.push_back(std::string("skinspheres_") + rt::ToString(level));
     }
-    ++frame;
   }
-  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(characters));  // characters per second
+  return m;
 }
-BENCHMARK(BM_Crowd)
-    ->ArgsProduct({{1, 10, 100, 1000}, {1, 2}})
-    ->ArgNames({"characters", "threads"})
-    ->UseRealTime();
+
+const std::vector<std::string> kPeers = {"bullet_count", "bullet_sorted", "fcl_count", "fcl_sorted"};
+
+void Register(const std::string& row, std::function<const Scenario&()> scenario, const std::string& method,
+              benchmark::TimeUnit unit = benchmark::kMicrosecond) {
+  benchmark::RegisterBenchmark(row.c_str(), [=](benchmark::State& state) { RunRow(state, scenario(), method, row); })
+      ->Unit(unit);
+}
+
+void RegisterCloud() {
+  for (double amplitude : {0.02, 0.3}) {
+    for (size_t n : {150, 300, 1000}) {
+      char key[96];
+      std::snprintf(key, sizeof key, "a_cloud/amp:%g/n:%zu", amplitude, n);
+      const std::string k = key;
+      auto scenario = [k, n, amplitude]() -> const Scenario& {
+        return GetScenario(k, [&](Scenario* sc) { CloudFrames(sc, CloudBase(n, 1.8, 1.8, 0.3), amplitude, 128); });
+      };
+      std::vector<std::string> methods = OurMethods(true);
+      for (const char* m : {"skinspheres_nocache", "skinspheres_nocache_avx2", "skinspheres_nocache_sse2"}) methods.push_back(m);
+      methods.push_back("allpairs");
+      methods.insert(methods.end(), kPeers.begin(), kPeers.end());
+      for (const auto& m : methods) Register(k + "/" + m, scenario, m);
+    }
+  }
+}
+
+struct ClipSpec {
+  const char* file;
+  const char* clip;
+};
+const ClipSpec kClips[] = {{"CesiumMan.glb", "0"},
+                           {"Soldier.glb", "Run"},
+                           {"RobotExpressive.glb", "Dance"},
+                           {"RobotExpressive.glb", "Running"},
+                           {"Xbot.glb", "0"}};
+
+void RegisterClips() {
+  for (const ClipSpec& spec : kClips) {
+    for (int fps : {30, 60}) {
+      for (bool exclusions : {true, false}) {
+        for (bool walk : {false, true}) {
+          std::string name = std::string(spec.file).substr(0, std::string(spec.file).find('.'));
+          const std::string k = "b_clip/" + name + ":" + (spec.clip[0] == '0' ? "clip0" : spec.clip) +
+                                "/fps:" + std::to_string(fps) + "/excl:" + (exclusions ? "1" : "0") +
+                                "/walk:" + (walk ? "1" : "0");
+          auto scenario = [k, spec, fps, exclusions, walk]() -> const Scenario& {
+            return GetScenario(k, [&](Scenario* sc) {
+              const FittedCharacter& c = Fitted(spec.file);
+              if (!c.error.empty()) return void(sc->error = c.error);
+              const std::string err = ClipFrames(c, spec.clip, fps, walk, &sc->frames);
+              if (!err.empty()) return void(sc->error = std::string(spec.file) + ": " + err);
+              const rt::PairFilter& fitted = c.asset->filter();
+              sc->filter = exclusions ? fitted : rt::PairFilter::Create(fitted.size(), fitted.parts(), {}).value();
+            });
+          };
+          std::vector<std::string> methods = {"skinspheres", "skinspheres_sse2", "allpairs"};
+          methods.insert(methods.end(), kPeers.begin(), kPeers.end());
+          for (const auto& m : methods) Register(k + "/" + m, scenario, m);
+        }
+      }
+    }
+  }
+}
+
+void RegisterScale() {
+  for (const char* shape : {"slab", "cube"}) {
+    for (size_t n : {100, 300, 1000, 3000, 10000, 30000, 50000}) {
+      const std::string k = std::string("c_scale/") + shape + "/n:" + std::to_string(n);
+      const bool slab = shape[0] == 's';
+      auto scenario = [k, n, slab]() -> const Scenario& {
+        return GetScenario(k, [&](Scenario* sc) {
+          const double grow = double(n) / 300.0;
+          const double s2 = std::sqrt(grow), s3 = std::cbrt(grow);
+          const Spheres base = slab ? CloudBase(n, 1.8 * s2, 1.8 * s2, 0.3) : CloudBase(n, 1.8 * s3, 1.8 * s3, 0.3 * s3);
+          CloudFrames(sc, base, 0.02, n > 5000 ? 32 : 128);
+        });
+      };
+      std::vector<std::string> methods = {"skinspheres", "bullet_count", "fcl_count"};
+      if (n <= 3000) methods.push_back("allpairs");
+      for (const auto& m : methods) Register(k + "/" + m, scenario, m, n >= 10000 ? benchmark::kMillisecond : benchmark::kMicrosecond);
+    }
+  }
+}
+
+// ------------------------------------------------------------------------------------ crowds (d)
+
+constexpr size_t kCrowdFrames = 16;
+constexpr size_t kPhase = 7;
+
+// CesiumMan's walk in place at 30 fps (first kCrowdFrames frames), its filter, its height.
+struct CrowdCharacter {
+  std::string error;
+  std::vector<Spheres> frames;
+  const rt::PairFilter* filter = nullptr;
+  float height = 0.0f;
+  Eigen::Vector3f forward, left;
+};
+
+const CrowdCharacter& GetCrowdCharacter() {
+  static std::unique_ptr<CrowdCharacter> cc;
+  if (cc) return *cc;
+  cc = std::make_unique<CrowdCharacter>();
+  const FittedCharacter& c = Fitted("CesiumMan.glb");
+  if (!c.error.empty()) return cc->error = c.error, *cc;
+  std::vector<Spheres> all;
+  const std::string err = ClipFrames(c, "0", 30.0, false, &all);
+  if (!err.empty()) return cc->error = err, *cc;
+  all.resize(std::min(all.size(), kCrowdFrames));
+  cc->frames = std::move(all);
+  cc->filter = &c.asset->filter();
+  cc->height = c.height;
+  cc->forward = c.forward;
+  cc->left = c.parts.humanoid ? c.parts.left : Eigen::Vector3f::UnitX();
+  return *cc;
+}
+
+// All characters in one space: frame f holds every character's spheres, character k at its grid
+// place, 7k frames ahead.
+void CrowdSpace(Scenario* sc, size_t characters) {
+  const CrowdCharacter& cc = GetCrowdCharacter();
+  if (!cc.error.empty()) return void(sc->error = cc.error);
+  const size_t per = cc.frames[0].size(), f_count = cc.frames.size();
+  const size_t side = size_t(std::ceil(std::sqrt(double(characters))));
+  const float spacing = 0.8f * cc.height;
+  sc->frames.assign(f_count, Spheres(characters * per));
+  for (size_t f = 0; f < f_count; ++f) {
+    for (size_t k = 0; k < characters; ++k) {
+      const Eigen::Vector3f place = cc.left * (spacing * float(k % side)) + cc.forward * (spacing * float(k / side));
+      const Spheres& src = cc.frames[(f + kPhase * k) % f_count];
+      for (size_t s = 0; s < per; ++s) {
+        Vec4f v = src[s];
+        v.head<3>() += place;
+        sc->frames[f][k * per + s] = v;
+      }
+    }
+  }
+  std::vector<const rt::PairFilter*> members(characters, cc.filter);
+  auto combined = rt::PairFilter::Combine(members, {true, true});
+  if (!combined.ok()) return void(sc->error = combined.error().message);
+  sc->filter = std::move(*combined);
+  sc->characters = characters;
+}
+
+// Each alone: one job per character, RunSelfCollisionJobs on `threads` threads (per-thread CPU
+// counters), checked against the per-character oracle first.
+void CrowdAloneOurs(benchmark::State& state, size_t characters, int threads) {
+  const CrowdCharacter& cc = GetCrowdCharacter();
+  if (!cc.error.empty()) return state.SkipWithError(cc.error.c_str());
+  const size_t per = cc.frames[0].size(), f_count = cc.frames.size();
+  std::vector<std::vector<rt::Contact>> reference(f_count);
+  for (size_t f = 0; f < f_count; ++f) rt::SelfCollisionAllPairs(cc.frames[f], *cc.filter, &reference[f]);
+  std::vector<rt::BroadPhaseContext> contexts(characters);
+  std::vector<std::vector<rt::Contact>> outs(characters);
+  std::vector<rt::SelfCollisionJob> jobs(characters);
+  for (size_t k = 0; k < characters; ++k) {
+    contexts[k].Resize(per);
+    outs[k].reserve(4 * per);
+    jobs[k] = {cc.frames[0], cc.filter, &contexts[k], &outs[k]};
+  }
+  skinspheres::bench::TimedParallelFor pf(threads);
+  const auto frame = [&](size_t f) {
+    for (size_t k = 0; k < characters; ++k) jobs[k].spheres = cc.frames[(f + kPhase * k) % f_count];
+    if (!rt::RunSelfCollisionJobs(jobs, pf.get())) Abort("crowd job failed");
+  };
+  for (size_t f = 0; f < 2 * f_count; ++f) {
+    frame(f);
+    for (size_t k = 0; k < characters; ++k) {
+      if (outs[k] != reference[(f + kPhase * k) % f_count]) Abort("d_crowd alone: character " + std::to_string(k) + " differs");
+    }
+  }
+  pf.Reset();
+  size_t f = 0;
+  for (auto _ : state) frame(f++);
+  pf.Report(state);
+  state.counters["spheres"] = double(characters * per);
+  state.counters["threads"] = threads;
+}
+
+#if SKINSPHERES_HAVE_PEERS
+// Each alone with a peer: one world per character, one after the other (count only).
+template <class World>
+void CrowdAlonePeer(benchmark::State& state, size_t characters) {
+  const CrowdCharacter& cc = GetCrowdCharacter();
+  if (!cc.error.empty()) return state.SkipWithError(cc.error.c_str());
+  const size_t f_count = cc.frames.size();
+  std::vector<std::unique_ptr<World>> worlds;
+  for (size_t k = 0; k < characters; ++k) worlds.push_back(std::make_unique<World>(cc.frames[0], *cc.filter));
+  std::vector<rt::Contact> reference;
+  size_t f = 0;
+  const auto frame = [&](bool check) {
+    size_t total = 0;
+    for (size_t k = 0; k < characters; ++k) {
+      const Spheres& s = cc.frames[(f + kPhase * k) % f_count];
+      const size_t count = worlds[k]->Frame(s, nullptr);
+      if (check) {
+        rt::SelfCollisionAllPairs(s, *cc.filter, &reference);
+        if (count != reference.size()) Abort("d_crowd alone: a peer differs from the oracle");
+      }
+      total += count;
+    }
+    ++f;
+    return total;
+  };
+  for (size_t w = 0; w < 2 * f_count; ++w) frame(true);
+  for (auto _ : state) benchmark::DoNotOptimize(frame(false));
+  state.counters["spheres"] = double(characters * cc.frames[0].size());
+}
+#endif
+
+void RegisterCrowds() {
+  for (size_t characters : {1, 10, 100, 1000}) {
+    const std::string alone = "d_crowd/alone/chars:" + std::to_string(characters);
+    for (int threads : {1, 2}) {
+      benchmark::RegisterBenchmark((alone + "/skinspheres_threads:" + std::to_string(threads)).c_str(),
+                                   [=](benchmark::State& s) { CrowdAloneOurs(s, characters, threads); })
+          ->Unit(benchmark::kMillisecond)
+          ->UseRealTime();
+    }
+#if SKINSPHERES_HAVE_PEERS
+    benchmark::RegisterBenchmark((alone + "/bullet_count").c_str(), [=](benchmark::State& s) {
+      CrowdAlonePeer<skinspheres::bench::BulletWorld>(s, characters);
+    })->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((alone + "/fcl_count").c_str(), [=](benchmark::State& s) {
+      CrowdAlonePeer<skinspheres::bench::FclWorld>(s, characters);
+    })->Unit(benchmark::kMillisecond);
+#endif
+    const std::string k = "d_crowd/space/chars:" + std::to_string(characters);
+    auto scenario = [k, characters]() -> const Scenario& {
+      return GetScenario(k, [&](Scenario* sc) { CrowdSpace(sc, characters); });
+    };
+    std::vector<std::string> methods = {"skinspheres", "bullet_count", "fcl_count"};
+    if (characters <= 10) methods.push_back("allpairs");
+    for (const auto& m : methods) Register(k + "/" + m, scenario, m, benchmark::kMillisecond);
+  }
+}
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  RegisterCloud();
+  RegisterClips();
+  RegisterScale();
+  RegisterCrowds();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -33,9 +33,11 @@
 // The query rows check, before timing, that sort-and-sweep equals all-pairs on every frame.
 //
 // Crowd (shared CharacterAsset, one CharacterInstance each, instance k plays the loop 7k frames
-// ahead), at 1 and 2 threads (tbb::global_control):
-//   BM_CrowdFast             UpdateAndQueryCrowd(kFast): fast refit + query. G_j(t) per instance
-//                            is precomputed per frame OUTSIDE the timed region.
+// ahead), at 1 and 2 threads:
+//   BM_CrowdFast             UpdateAndQueryCrowd(kFast): fast refit + query, 1 to 10,000
+//                            instances, on a TBB arena of exactly 1 or 2 threads (thread_cpu.h),
+//                            with each thread's CPU time in the work next to the wall time. G_j(t)
+//                            per instance is precomputed per frame OUTSIDE the timed region.
 //   BM_CrowdPose             the separate row for that input: LocalToModelJob per instance under
 //                            tbb::parallel_for (what an engine's animation system would do).
 //
@@ -68,6 +70,7 @@
 #include "skinspheres/skinning/skinning_matrices_job.h"
 
 #include "peer_broad_phases.h"
+#include "thread_cpu.h"
 
 namespace {
 
@@ -399,6 +402,7 @@ void BM_XbotQuery(benchmark::State& state) {
     }
   }
   size_t frame = 0, contacts = 0, candidates = 0;
+  const uint64_t builds0 = ctx.build_count();
   for (auto _ : state) {
     rt::SelfCollisionJob{frames[frame % kFrames], &filter, &ctx, &out}.Run();
     contacts += out.size();
@@ -410,6 +414,7 @@ void BM_XbotQuery(benchmark::State& state) {
   SphereCounters(state, *x);
   state.counters["contacts"] = frame ? double(contacts) / double(frame) : 0.0;
   state.counters["candidates"] = frame ? double(candidates) / double(frame) : 0.0;
+  state.counters["builds"] = frame ? double(ctx.build_count() - builds0) / double(frame) : 0.0;
   state.counters["excluded_pairs"] = double(filter.excluded_pair_count());
 }
 BENCHMARK(BM_XbotQuery)->ArgsProduct({{0, 1}, {0, 1}})->ArgNames({"fit", "fast"})->Unit(benchmark::kMicrosecond);
@@ -497,7 +502,7 @@ void BM_CrowdFast(benchmark::State& state) {
   const Xbot* x = GetXbot(state, int(state.range(0)));
   if (!x) return;
   const size_t count = size_t(state.range(1));
-  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(state.range(2)));
+  skinspheres::bench::TimedParallelFor pf(int(state.range(2)));
   std::vector<rt::CharacterInstance> instances;
   std::vector<rt::CharacterInstance*> pointers;
   instances.reserve(count);
@@ -510,9 +515,14 @@ void BM_CrowdFast(benchmark::State& state) {
   std::vector<std::vector<rt::CharacterFrameInput>> inputs(kFrames, std::vector<rt::CharacterFrameInput>(count));
   for (int f = 0; f < kFrames; ++f)
     for (size_t k = 0; k < count; ++k) inputs[f][k].joint_world = x->joint_world[(f + kPhaseShift * k) % kFrames];
-  size_t frame = 0;
+  // One warm-up frame (caches, contact lists), then per-thread CPU time of the timed frames only.
+  if (!rt::UpdateAndQueryCrowd(pointers, inputs[0], rt::RefitMode::kFast, pf.get()).ok()) {
+    return state.SkipWithError("crowd update failed");
+  }
+  pf.Reset();
+  size_t frame = 1;
   for (auto _ : state) {
-    if (!rt::UpdateAndQueryCrowd(pointers, inputs[frame % kFrames], rt::RefitMode::kFast).ok()) {
+    if (!rt::UpdateAndQueryCrowd(pointers, inputs[frame % kFrames], rt::RefitMode::kFast, pf.get()).ok()) {
       return state.SkipWithError("crowd update failed");
     }
     ++frame;
@@ -522,9 +532,10 @@ void BM_CrowdFast(benchmark::State& state) {
   state.counters["contacts_last_frame"] = double(contacts);
   state.counters["spheres_total"] = double(count * x->set.size());
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(count));  // characters per second
+  pf.Report(state);
 }
 BENCHMARK(BM_CrowdFast)
-    ->ArgsProduct({{0, 1}, {1, 10, 100, 1000}, {1, 2}})
+    ->ArgsProduct({{0, 1}, {1, 10, 100, 1000, 10000}, {1, 2}})
     ->ArgNames({"fit", "instances", "threads"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();

@@ -1,263 +1,802 @@
-// Self-collision broad phase, sort and sweep (broad_phase.h has the contract).
+// Self-collision broad phase: the candidate cache, its builds and its test (broad_phase.h has the
+// contract; broad_phase_kernels.inc has the SIMD loops).
 //
 // Per frame, for n spheres:
-//   1. keys: interval start on the sweep axis, s = c_axis - r - pad, gathered in the previous
-//      frame's order (and every value checked: finite centre, finite radius >= 0);
-//   2. sort: insertion sort on that order (near-linear under coherent motion) with a move budget,
-//      falling back to std::sort when the order is new or too scrambled;
-//   3. gather: x, y, z, r, start, end into structure-of-arrays in sweep order;
-//   4. sweep: sphere a against b = a+1, a+2, ... while start_b <= end_a, W candidates per SIMD
-//      step (SSE2: 4, AVX2: 8); each sphere hit is checked against the PairFilter bit row of a
-//      (the exclusion is applied inside the query) and emitted with its depth;
-//   5. contacts sorted by (i, j).
-// pad = (|c_axis| + r) * 2^-18 (+ a denormal floor) makes the interval test strictly more generous
-// than the float sphere test: |c_a - c_b| <= (r_a + r_b)(1 + ~4u) when the sphere test passes,
-// and the interval test itself rounds by ~2u(|c| + r) on each side, u = 2^-24.
+//   1. values: every centre and radius finite, within ±kMaxMagnitude, radii >= 0; centres summed;
+//   2. cache check (CacheHolds): with shift = mean centre now - mean centre at the build, every
+//      sphere k satisfies |c_k - c_k,build - shift| + max(0, r_k - r_k,build) <= skin_k. Then any
+//      pair touching now has |c_i,b - c_j,b| <= r_i,b + r_j,b + skin_i + skin_j (the shift
+//      cancels in the difference), so it is a candidate of the cache;
+//   3. otherwise a build (Build): skins from each sphere's speed since the last build times the
+//      lookahead (a number of frames the controller adapts), radii grown to (r + skin)(1 + 2^-16),
+//      and every allowed pair whose grown spheres touch (all pairs, or the column sweep), sorted by
+//      (i, j);
+//   4. the exact sphere test on the candidates, in order: the contacts come out sorted.
+//
+// Rounding. The build accepts every pair whose grown spheres truly touch: its float test errs by a
+// few units of 2^-24 relative to the distances, far below the 2^-16 growth. The check's float
+// error is at most ~8u relative to the moved distance plus 2u |shift| (each subtraction is exactly
+// rounded relative to its result), covered by allowing only skin (1 - 2^-16) - 2^-20 |shift|. A
+// pair the exact float test accepts is within (r_i + r_j)(1 + 4u) in reals, also covered. So a
+// frame's contacts are exactly the oracle's whatever the cache's history.
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstring>
+#include <limits>
+#include <span>
 
 #include <emmintrin.h>
-#if SKINSPHERES_AVX2
-#include <immintrin.h>
-#endif
 
 #include "broad_phase_internal.h"
+#include "broad_phase_kernels.h"
 #include "skinspheres/runtime/broad_phase.h"
 
 namespace skinspheres::runtime {
 namespace {
 
-#if SKINSPHERES_AVX2
-struct Simd {
-  using V = __m256;
-  static constexpr int kWidth = 8;
-  static constexpr int kAll = 0xFF;
-  static V Set1(float v) { return _mm256_set1_ps(v); }
-  static V Load(const float* p) { return _mm256_loadu_ps(p); }
-  static V Add(V a, V b) { return _mm256_add_ps(a, b); }
-  static V Sub(V a, V b) { return _mm256_sub_ps(a, b); }
-  static V Mul(V a, V b) { return _mm256_mul_ps(a, b); }
-  static V And(V a, V b) { return _mm256_and_ps(a, b); }
-  static V Le(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }
-  static int Mask(V a) { return _mm256_movemask_ps(a); }
-};
-#else
-struct Simd {
-  using V = __m128;
-  static constexpr int kWidth = 4;
-  static constexpr int kAll = 0xF;
-  static V Set1(float v) { return _mm_set1_ps(v); }
-  static V Load(const float* p) { return _mm_loadu_ps(p); }
-  static V Add(V a, V b) { return _mm_add_ps(a, b); }
-  static V Sub(V a, V b) { return _mm_sub_ps(a, b); }
-  static V Mul(V a, V b) { return _mm_mul_ps(a, b); }
-  static V And(V a, V b) { return _mm_and_ps(a, b); }
-  static V Le(V a, V b) { return _mm_cmple_ps(a, b); }
-  static int Mask(V a) { return _mm_movemask_ps(a); }
-};
-#endif
-static_assert(Simd::kWidth <= 8, "BroadPhaseContext::kPad must cover one SIMD read past the end");
-
-constexpr float kPadRelative = 1.0f / 262144.0f;  // 2^-18
+constexpr size_t kPad = kernels::kMaxWidth;
+constexpr size_t kStage = 512;                          // contacts staged before the output
+constexpr float kGrow = 1.0f + 1.0f / 65536.0f;         // grown radius factor of a build
+constexpr float kAllowFactor = 1.0f - 1.0f / 65536.0f;  // of the skin, for the cache check
+constexpr float kSlackRelative = 1.0f / 1048576.0f;     // 2^-20 of |shift|_inf
+constexpr float kPadRelative = 1.0f / 262144.0f;        // 2^-18: sweep interval pad
 constexpr float kPadAbsolute = 1e-30f;
+constexpr float kSkinMin = 0x1p-60f;                    // skins^2 stay normal floats
+constexpr float kSkinFloorRelative = 1.0f / 64.0f;      // of the radius: the skin of a still sphere
+// The lookahead ladder (skin = lookahead x speed per frame; rung 0: no cache, all pairs straight
+// into the output) and the work units of its cost model,
+// roughly nanoseconds x 2 on a current x86 core: per sphere for the cache check, per candidate
+// for its exact test, per sphere for a build's set-up (all pairs / sweep), per pair test of a
+// build, per pair a build keeps.
+constexpr int kRungs = 8;
+constexpr float kLookahead[kRungs] = {0.0f, 0.0f, 1.25f, 2.0f, 3.0f, 4.5f, 7.0f, 11.0f};  // rung 0: no cache
+constexpr double kRungFadePerFrame = 0.99;
+constexpr double kCheckWork = 5.0;
+constexpr double kTestWork = 1.5;
+constexpr double kAllPairsSphereWork = 10.0;
+constexpr double kSweepSphereWork = 40.0;
+constexpr double kPairTestWork = 0.3;
+constexpr double kPairWork = 6.0;
+constexpr double kCellMargin = 1.0 + 1.0 / 256.0;       // strips are (2 max grown r)(1 + 2^-8) wide
+constexpr double kSweepCallCost = 48.0;                 // one sweep call, in interval tests
+// Per-sphere float arrays of the build (BroadPhaseContext::soa_): 0..3 x, y, z, grown radius and
+// 4..5 interval start and end, in the order the kernel reads (index or sweep order); then, in
+// index order, the grown radii and the interval starts.
+constexpr int kGrown = 6;
+constexpr int kStartByIndex = 7;
+constexpr int kSoaFields = 8;
 
-inline float IntervalPad(float c, float r) { return (std::fabs(c) + r) * kPadRelative + kPadAbsolute; }
-
-// Variance of the centres along each axis (double sums: only used to pick an axis).
-Eigen::Vector3d CenterVariance(std::span<const Vec4f> spheres) {
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero(), sum2 = Eigen::Vector3d::Zero();
-  for (const Vec4f& s : spheres) {
-    const Eigen::Vector3d c = s.head<3>().cast<double>();
-    sum += c;
-    sum2 += c.cwiseProduct(c);
+bool CpuHas(BroadPhaseSimd level) {
+#if defined(SKINSPHERES_BROAD_PHASE_X86)
+  static const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("bmi");
+  static const bool avx512 = avx2 && __builtin_cpu_supports("avx512f");
+  switch (level) {
+    case BroadPhaseSimd::kAuto:
+    case BroadPhaseSimd::kSse2:
+      return true;
+    case BroadPhaseSimd::kAvx2:
+      return avx2;
+    case BroadPhaseSimd::kAvx512:
+      return avx512;
   }
-  const double n = std::max<double>(1.0, static_cast<double>(spheres.size()));
-  const Eigen::Vector3d mean = sum / n;
-  return sum2 / n - mean.cwiseProduct(mean);
+  return false;
+#else
+  return level == BroadPhaseSimd::kAuto || level == BroadPhaseSimd::kSse2;
+#endif
+}
+
+const kernels::Kernels& KernelsFor(BroadPhaseSimd level) {
+#if defined(SKINSPHERES_BROAD_PHASE_X86)
+  switch (ResolveBroadPhaseSimd(level)) {
+    case BroadPhaseSimd::kAvx512:
+      return kernels::Avx512Kernels();
+    case BroadPhaseSimd::kAvx2:
+      return kernels::Avx2Kernels();
+    default:
+      break;
+  }
+#else
+  (void)level;
+#endif
+  return kernels::Sse2Kernels();
+}
+
+kernels::FilterView View(const PairFilter& f) {
+  kernels::FilterView v;
+  v.row_begin = f.row_begin();
+  v.partners = f.partners();
+  v.groups = f.groups();
+  v.parts = f.parts().data();
+  v.within = f.pairs_within_groups();
+  v.between = f.pairs_between_groups();
+  return v;
+}
+
+bool NoPairAllowed(const PairFilter& f) {
+  return !f.pairs_within_groups() && (f.groups() == nullptr || !f.pairs_between_groups());
+}
+
+// Order-preserving bits of a float (not NaN): unsigned order of the result = float order.
+uint32_t OrderBits(float f) {
+  const uint32_t u = std::bit_cast<uint32_t>(f);
+  return (u & 0x80000000u) != 0 ? ~u : (u | 0x80000000u);
+}
+
+bool ByPair(const Contact& p, const Contact& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; }
+
+// Removes, from contacts sorted by (i, j), the pairs the filter lists (merge with each row).
+void RemoveListed(const PairFilter& filter, std::vector<Contact>* contacts) {
+  size_t w = 0;
+  const size_t m = contacts->size();
+  Contact* c = contacts->data();
+  for (size_t r = 0; r < m;) {
+    const uint32_t i = c[r].i;
+    const std::span<const uint32_t> row = filter.excluded_partners(i);
+    const uint32_t* p = row.data();
+    const uint32_t* p_end = p + row.size();
+    for (; r < m && c[r].i == i; ++r) {
+      while (p < p_end && *p < c[r].j) ++p;
+      if (p < p_end && *p == c[r].j) continue;
+      c[w++] = c[r];
+    }
+  }
+  contacts->resize(w);
 }
 
 }  // namespace
 
-void BroadPhaseContext::Resize(size_t max_spheres) {
-  max_spheres_ = max_spheres;
-  order_.assign(max_spheres, SortItem{0.0f, 0});
-  const size_t padded = max_spheres + kPad;
-  x_.assign(padded, 0.0f);
-  y_.assign(padded, 0.0f);
-  z_.assign(padded, 0.0f);
-  r_.assign(padded, 0.0f);
-  start_.assign(padded, INFINITY);
-  end_.assign(padded, -INFINITY);
-  sphere_.assign(padded, 0);
-  Invalidate();
-  axis_ = -1;
-  last_candidates_ = 0;
-  last_full_sort_ = false;
+bool BroadPhaseSimdSupported(BroadPhaseSimd level) { return CpuHas(level); }
+
+BroadPhaseSimd ResolveBroadPhaseSimd(BroadPhaseSimd level) {
+  if (level != BroadPhaseSimd::kAuto) return level;
+  if (CpuHas(BroadPhaseSimd::kAvx512)) return BroadPhaseSimd::kAvx512;
+  if (CpuHas(BroadPhaseSimd::kAvx2)) return BroadPhaseSimd::kAvx2;
+  return BroadPhaseSimd::kSse2;
 }
+
+const char* ToString(BroadPhaseSimd level) {
+  switch (level) {
+    case BroadPhaseSimd::kAuto:
+      return "auto";
+    case BroadPhaseSimd::kSse2:
+      return "sse2";
+    case BroadPhaseSimd::kAvx2:
+      return "avx2";
+    case BroadPhaseSimd::kAvx512:
+      return "avx512";
+  }
+  return "unknown";
+}
+
+const char* ToString(BroadPhaseMethod method) {
+  switch (method) {
+    case BroadPhaseMethod::kNone:
+      return "none";
+    case BroadPhaseMethod::kCached:
+      return "cached";
+    case BroadPhaseMethod::kAllPairsBuild:
+      return "all-pairs build";
+    case BroadPhaseMethod::kSweepBuild:
+      return "sweep build";
+    case BroadPhaseMethod::kAllPairsDirect:
+      return "all-pairs direct";
+    case BroadPhaseMethod::kSweepDirect:
+      return "sweep direct";
+  }
+  return "unknown";
+}
+
+void BroadPhaseContext::Resize(size_t max_spheres, size_t max_candidates) {
+  max_spheres_ = max_spheres;
+  if (max_candidates == 0) {
+    const size_t all_pairs = max_spheres * (max_spheres > 0 ? max_spheres - 1 : 0) / 2;
+    max_candidates = std::min(all_pairs, 16 * max_spheres + 256);
+  }
+  // A direct sweep needs room for one sphere's whole range.
+  max_candidates_ = std::max(max_candidates, max_spheres + kPad);
+  const size_t padded = max_spheres + kPad;
+  ci_.assign(max_candidates_ + kPad, 0);
+  cj_.assign(max_candidates_ + kPad, 0);
+  ref_.assign(4 * padded, 0.0f);
+  allow_.assign(padded, 0.0f);
+  motion_.assign(padded, 0.0f);
+  speed_.assign(max_spheres, 0.0f);
+  soa_.assign(kSoaFields * padded, 0.0f);
+  sphere_.assign(padded, 0);
+  row_.assign(max_spheres + 1, 0);
+  if (max_spheres > kAllPairsMax) {
+    order_.assign(max_spheres, SortItem{0, 0});
+    order_by_strip_.assign(max_spheres, SortItem{0, 0});
+    runs_.assign(max_spheres, ColumnRun{0, 0, 0});
+    pi_.assign(max_candidates_ + kPad, 0);
+    pj_.assign(max_candidates_ + kPad, 0);
+  } else {
+    order_.clear();
+    order_by_strip_.clear();
+    runs_.clear();
+    pi_.clear();
+    pj_.clear();
+  }
+  stage_.assign(kStage + kPad, Contact{});
+  Invalidate();
+  rung_ = 3;
+  std::fill(rung_cost_, rung_cost_ + kRungs, 0.0);
+  method_ = BroadPhaseMethod::kNone;
+  last_candidates_ = 0;
+  last_build_tests_ = 0;
+  last_full_sort_ = false;
+  build_count_ = 0;
+}
+
+void BroadPhaseContext::Invalidate() {
+  cache_valid_ = false;
+  cache_count_ = 0;
+  cache_filter_ = 0;
+  age_ = 0;
+  candidate_count_ = 0;
+  order_count_ = 0;
+  axis_ = -1;
+  cell_ = 0.0;
+  build_cost_ = 0.0;
+}
+
+// ------------------------------------------------------------------------------------- the job
+
+struct BroadPhaseContext::Impl {
+  const SelfCollisionJob& job;
+  BroadPhaseContext& ctx;
+  const kernels::Kernels& k;
+  const PairFilter& filter;
+  const kernels::FilterView view;
+  const size_t n;
+  const float* spheres;  // n x (x, y, z, r)
+  size_t padded;         // n + kPad: stride of the per-sphere arrays of this frame
+
+  Impl(const SelfCollisionJob& j, const kernels::Kernels& kernels)
+      : job(j),
+        ctx(*j.context),
+        k(kernels),
+        filter(*j.filter),
+        view(View(*j.filter)),
+        n(j.spheres.size()),
+        spheres(reinterpret_cast<const float*>(j.spheres.data())),
+        padded(j.spheres.size() + kPad) {}
+
+  const Vec4f& Sphere(size_t s) const { return job.spheres[s]; }
+  float* Soa(int field) { return ctx.soa_.data() + static_cast<size_t>(field) * padded; }
+
+  bool CacheHolds(const float sum[3]) {
+    const float inv_n = 1.0f / static_cast<float>(n);
+    float shift[3];
+    float largest = 0.0f;
+    for (int a = 0; a < 3; ++a) {
+      shift[a] = (sum[a] - ctx.ref_sum_[a]) * inv_n;
+      largest = std::max(largest, std::fabs(shift[a]));
+    }
+    return k.check_motion(spheres, ctx.ref_.data(), ctx.allow_.data(), n, shift, largest * kSlackRelative, padded,
+                          ctx.motion_.data());
+  }
+
+  // Skins for the next cache: lookahead x speed, within [floor, cap]. A sphere's speed is its
+  // motion per frame since the last build, or half its previous speed if that is more (a limb
+  // at the turn of a swing is about to move again); no sphere counts as slower than half the
+  // set's mean (the slowest sphere would otherwise end every cache). Writes the grown radii
+  // (index order) into Soa(kGrown) and the allowances.
+  void Skins(bool have_motion, float lookahead) {
+    float radius_sum = 0.0f, speed_sum = 0.0f;
+    const float inv_age = 1.0f / static_cast<float>(std::max<uint32_t>(ctx.age_, 1));
+    float* speed = ctx.speed_.data();
+    for (size_t s = 0; s < n; ++s) {
+      radius_sum += Sphere(s).w();
+      speed[s] = have_motion ? std::max(ctx.motion_[s] * inv_age, 0.5f * speed[s]) : 0.0f;
+      speed_sum += speed[s];
+    }
+    const float cap_add = 4.0f * radius_sum / static_cast<float>(n);
+    const float slowest = 0.5f * speed_sum / static_cast<float>(n);
+    float* grown = Soa(kGrown);
+    for (size_t s = 0; s < n; ++s) {
+      const float r = Sphere(s).w();
+      const float floor = std::max(r * kSkinFloorRelative, kSkinMin);
+      const float cap = std::max(floor, std::min(r + cap_add, internal::kMaxMagnitude));
+      const float skin = std::clamp(lookahead * std::max(speed[s], slowest), floor, cap);
+      grown[s] = (r + skin) * kGrow;
+      ctx.allow_[s] = skin * kAllowFactor;
+    }
+  }
+
+  void CopyCentres() {
+    float* x = Soa(0);
+    float* y = Soa(1);
+    float* z = Soa(2);
+    for (size_t s = 0; s < n; ++s) {
+      x[s] = Sphere(s).x();
+      y[s] = Sphere(s).y();
+      z[s] = Sphere(s).z();
+    }
+  }
+
+  // NaN centres past the end: padding lanes of the all-pairs kernels never touch anything.
+  void PadIndexOrder() {
+    for (int field : {0, 1, 2, int(kGrown)}) {
+      std::fill(Soa(field) + n, Soa(field) + padded, std::numeric_limits<float>::quiet_NaN());
+    }
+  }
+
+  // All pairs of grown spheres into the cache (index order: already sorted). False if it does not fit.
+  bool AllPairsBuild() {
+    kernels::SoaSpheres s{Soa(0), Soa(1), Soa(2), Soa(kGrown), nullptr, nullptr, nullptr};
+    kernels::PairSink sink{ctx.ci_.data(), ctx.cj_.data(), ctx.max_candidates_, 0, false};
+    size_t tests = 0;
+    const uint32_t next = k.all_pairs_build(s, static_cast<uint32_t>(n), 0, static_cast<uint32_t>(n), view, &sink, &tests);
+    ctx.last_build_tests_ += tests;
+    ctx.candidate_count_ = sink.count;
+    return next == n;
+  }
+
+  // Sweep order of the spheres with radii Soa(kGrown): sorted by (strip, interval start), the
+  // strips cutting the axis of second largest spread (when `strips` and the cost model below
+  // prefers them), gathered into Soa(0..5) and ctx.sphere_; the strips as runs of that order.
+  // Returns the run count.
+  size_t Order(bool strips) {
+    const float* grown = Soa(kGrown);
+    // Bounds and spread of the centres (relative to the first, so float sums stay accurate), the
+    // largest and mean grown radius.
+    const __m128 c0 = _mm_loadu_ps(spheres);
+    __m128 lo = c0, hi = c0, sum = _mm_setzero_ps(), sum2 = _mm_setzero_ps();
+    for (size_t s = 0; s < n; ++s) {
+      const __m128 v = _mm_loadu_ps(spheres + 4 * s);
+      lo = _mm_min_ps(lo, v);
+      hi = _mm_max_ps(hi, v);
+      const __m128 d = _mm_sub_ps(v, c0);
+      sum = _mm_add_ps(sum, d);
+      sum2 = _mm_add_ps(sum2, _mm_mul_ps(d, d));
+    }
+    float lo_f[4], hi_f[4], sum_f[4], sum2_f[4];
+    _mm_storeu_ps(lo_f, lo);
+    _mm_storeu_ps(hi_f, hi);
+    _mm_storeu_ps(sum_f, sum);
+    _mm_storeu_ps(sum2_f, sum2);
+    float max_r = 0.0f, sum_r = 0.0f;
+    for (size_t s = 0; s < n; ++s) {
+      max_r = std::max(max_r, grown[s]);
+      sum_r += grown[s];
+    }
+    double variance[3];
+    for (int a = 0; a < 3; ++a) {
+      const double mean = double(sum_f[a]) / double(n);
+      variance[a] = double(sum2_f[a]) / double(n) - mean * mean;
+    }
+    const int best = int(std::max_element(variance, variance + 3) - variance);
+    bool keep_order = ctx.order_count_ == n && ctx.axis_ >= 0;
+    if (!keep_order || variance[best] > 1.25 * variance[ctx.axis_]) {
+      if (best != ctx.axis_) keep_order = false;
+      ctx.axis_ = best;
+    }
+    const int axis = ctx.axis_;
+    const int strip_axis = variance[(axis + 1) % 3] >= variance[(axis + 2) % 3] ? (axis + 1) % 3 : (axis + 2) % 3;
+
+    // Strips at least one grown diameter wide (touching spheres lie in the same or adjacent
+    // strips), anchored at multiples of the width (so they do not move with the set) and kept
+    // while the width is within 1.5x of the need. Worth it when they save more interval tests
+    // than their extra sweep calls cost: a sphere meets about p * n / 2 intervals in one sweep,
+    // p * 1.5 n / strips with strips, for 3 calls instead of 1 (p: the chance that two intervals
+    // overlap on the sweep axis).
+    const double need = 2.0 * double(max_r) * kCellMargin;
+    if (!(ctx.cell_ >= need && ctx.cell_ <= 1.5 * need)) {
+      ctx.cell_ = need;
+      keep_order = false;
+    }
+    const double cell = std::max({ctx.cell_, std::max(std::fabs(double(lo_f[strip_axis])), std::fabs(double(hi_f[strip_axis]))) * 0x1p-40,
+                                  (double(hi_f[strip_axis]) - lo_f[strip_axis]) / std::max(1.0, double(n / 4)),
+                                  std::numeric_limits<double>::min()});
+    const double inv_cell = 1.0 / cell;
+    const double base = std::floor(double(lo_f[strip_axis]) * inv_cell);
+    int64_t count = std::max<int64_t>(1, int64_t(double(hi_f[strip_axis]) * inv_cell - base) + 1);
+    if (strips && count > 1) {
+      const double extent = std::max(double(hi_f[axis]) - lo_f[axis], 1e-30);
+      const double p = std::min(1.0, 4.0 * double(sum_r) / double(n) / extent);
+      const double cost_one = kSweepCallCost * double(n) + 0.5 * p * double(n) * double(n);
+      const double cost_strips = 3.0 * kSweepCallCost * double(n) + 1.5 * p * double(n) * double(n) / double(count);
+      strips = cost_strips < cost_one;
+    }
+    if (!strips) count = 1;
+    if (ctx.order_columns_ != (count > 1)) keep_order = false;
+    // Strip index: the product is >= base up to rounding, so truncation is the floor.
+    const auto strip_of = [&](const Vec4f& p) {
+      if (count == 1) return uint32_t{0};
+      return static_cast<uint32_t>(
+          std::min<int64_t>(int64_t(std::max(double(p[strip_axis]) * inv_cell - base, 0.0)), count - 1));
+    };
+
+    // Interval starts in index order (one computation, reused by the keys and the sweep).
+    const auto interval_pad = [](float c, float r) { return (std::fabs(c) + r) * kPadRelative + kPadAbsolute; };
+    float* start_by_sphere = Soa(kStartByIndex);
+    for (size_t s = 0; s < n; ++s) {
+      const float c = Sphere(s)[axis], r = grown[s];
+      start_by_sphere[s] = c - r - interval_pad(c, r);
+    }
+    const auto key_of = [&](size_t s) { return (uint64_t{strip_of(Sphere(s))} << 32) | OrderBits(start_by_sphere[s]); };
+
+    // Sort by (strip, start): a stable counting sort by strip of the previous order (at most n / 4
+    // strips), then an insertion sort (near-linear under coherent motion) with a move budget,
+    // else std::sort.
+    SortItem* order = ctx.order_.data();
+    bool full_sort = !keep_order;
+    if (keep_order) {
+      for (size_t q = 0; q < n; ++q) order[q].key = key_of(order[q].sphere);
+      if (count > 1) {
+        uint32_t* at = ctx.row_.data();
+        std::fill(at, at + count + 1, 0u);
+        for (size_t q = 0; q < n; ++q) ++at[(order[q].key >> 32) + 1];
+        for (int64_t c = 0; c < count; ++c) at[c + 1] += at[c];
+        SortItem* by_strip = ctx.order_by_strip_.data();
+        for (size_t q = 0; q < n; ++q) by_strip[at[order[q].key >> 32]++] = order[q];
+        std::copy(by_strip, by_strip + n, order);
+      }
+      size_t moves = 0;
+      const size_t budget = 4 * n + 64;
+      for (size_t q = 1; q < n && moves <= budget; ++q) {
+        const SortItem item = order[q];
+        if (!(item.key < order[q - 1].key)) continue;
+        size_t m = q;
+        do {
+          order[m] = order[m - 1];
+          --m;
+          ++moves;
+        } while (m > 0 && item.key < order[m - 1].key);
+        order[m] = item;
+      }
+      full_sort = moves > budget;
+    } else {
+      for (size_t q = 0; q < n; ++q) order[q] = SortItem{key_of(q), static_cast<uint32_t>(q)};
+    }
+    if (full_sort) {
+      std::sort(order, order + n, [](const SortItem& a, const SortItem& b) { return a.key < b.key; });
+    }
+    ctx.last_full_sort_ = full_sort;
+    ctx.order_count_ = n;
+    ctx.order_columns_ = count > 1;
+
+    // Gather in sweep order.
+    float* x = Soa(0);
+    float* y = Soa(1);
+    float* z = Soa(2);
+    float* r_sorted = Soa(3);
+    float* start = Soa(4);
+    float* end = Soa(5);
+    uint32_t* sphere = ctx.sphere_.data();
+    for (size_t q = 0; q < n; ++q) {
+      const uint32_t s = order[q].sphere;
+      const Vec4f& p = Sphere(s);
+      const float r = grown[s];
+      sphere[q] = s;
+      x[q] = p.x();
+      y[q] = p.y();
+      z[q] = p.z();
+      r_sorted[q] = r;
+      start[q] = start_by_sphere[s];
+      end[q] = p[axis] + r + interval_pad(p[axis], r);
+    }
+    for (size_t q = n; q < padded; ++q) {
+      x[q] = y[q] = z[q] = r_sorted[q] = 0.0f;
+      start[q] = std::numeric_limits<float>::infinity();
+      end[q] = -std::numeric_limits<float>::infinity();
+      sphere[q] = 0;
+    }
+
+    // Columns as runs of the sorted order.
+    ColumnRun* runs = ctx.runs_.data();
+    size_t run_count = 0;
+    for (size_t q = 0; q < n;) {
+      const uint32_t col = static_cast<uint32_t>(order[q].key >> 32);
+      size_t e = q + 1;
+      while (e < n && static_cast<uint32_t>(order[e].key >> 32) == col) ++e;
+      runs[run_count++] = ColumnRun{col, static_cast<uint32_t>(q), static_cast<uint32_t>(e)};
+      q = e;
+    }
+    return run_count;
+  }
+
+  // Longest interval of a run of the sweep order.
+  float RunLength(const ColumnRun& run) {
+    const float* start = Soa(4);
+    const float* end = Soa(5);
+    float len = 0.0f;
+    for (uint32_t q = run.begin; q < run.end; ++q) len = std::max(len, end[q] - start[q]);
+    return len * (1.0f + 1.0f / 65536.0f);
+  }
+
+  kernels::SoaSpheres SweepSoa() {
+    return kernels::SoaSpheres{Soa(0), Soa(1), Soa(2), Soa(3), Soa(4), Soa(5), ctx.sphere_.data()};
+  }
+
+  // Sort and sweep in strips of the spheres with radii Soa(kGrown): the pairs whose balls touch
+  // into (pi_, pj_). False when they do not fit.
+  bool SweepBuild(size_t* pair_count) {
+    const size_t run_count = Order(true);
+    const ColumnRun* runs = ctx.runs_.data();
+    const kernels::SoaSpheres soa = SweepSoa();
+    kernels::PairSink sink{ctx.pi_.data(), ctx.pj_.data(), ctx.max_candidates_, 0, false};
+    size_t tests = 0;
+    for (size_t ri = 0; ri < run_count && !sink.full; ++ri) {
+      const ColumnRun& ra = runs[ri];
+      tests += k.sweep_blocks(soa, ra.begin, ra.end, 0, 0, 0.0f, view, &sink);
+      // The next strip, if it holds spheres: both ways (blocks of A against B, then B against A
+      // would count pairs twice, so one call with B's longest interval as reach).
+      if (ri + 1 < run_count && runs[ri + 1].column == ra.column + 1 && !sink.full) {
+        const ColumnRun& rb = runs[ri + 1];
+        tests += k.sweep_blocks(soa, ra.begin, ra.end, rb.begin, rb.end, RunLength(rb), view, &sink);
+      }
+    }
+    ctx.last_build_tests_ += tests;
+    *pair_count = sink.count;
+    return !sink.full;
+  }
+
+  // The direct path's sweep (one axis, no columns: a fallback for sets too dense for any cache):
+  // every touching pair into the output, unsorted, listed exclusions still in.
+  void SweepDirect() {
+    Order(false);
+    const kernels::SoaSpheres soa = SweepSoa();
+    kernels::PairSink sink{ctx.pi_.data(), ctx.pj_.data(), ctx.max_candidates_, 0, false};
+    size_t tests = 0;
+    for (uint32_t a = 0; a + 1 < n; ++a) {
+      const size_t before = sink.count;
+      tests += k.sweep_range(soa, a, a + 1, static_cast<uint32_t>(n), view, &sink);
+      if (!sink.full) continue;
+      // Out of room: stream what came before this sphere, then redo it (max_candidates >= n + pad).
+      FlushDirect(before);
+      sink.count = 0;
+      sink.full = false;
+      k.sweep_range(soa, a, a + 1, static_cast<uint32_t>(n), view, &sink);
+    }
+    FlushDirect(sink.count);
+    ctx.last_build_tests_ = tests;
+  }
+
+  // The unsorted pairs (pi_, pj_)[0, m) into the cache, sorted by (i, j) (two counting-sort
+  // passes: by j, then stably by i), listed exclusions removed.
+  void SortPairsIntoCache(size_t m) {
+    uint32_t* count = ctx.row_.data();
+    uint32_t* pi = ctx.pi_.data();
+    uint32_t* pj = ctx.pj_.data();
+    uint32_t* ci = ctx.ci_.data();
+    uint32_t* cj = ctx.cj_.data();
+    const auto pass = [&](const uint32_t* key, const uint32_t* other, uint32_t* key_out, uint32_t* other_out) {
+      std::fill(count, count + n + 1, 0u);
+      for (size_t p = 0; p < m; ++p) ++count[key[p] + 1];
+      for (size_t s = 0; s < n; ++s) count[s + 1] += count[s];
+      for (size_t p = 0; p < m; ++p) {
+        const uint32_t at = count[key[p]]++;
+        key_out[at] = key[p];
+        other_out[at] = other[p];
+      }
+    };
+    pass(pj, pi, cj, ci);  // by j into (ci, cj)
+    pass(ci, cj, pi, pj);  // stably by i back into (pi, pj)
+    size_t w = 0;
+    if (filter.excluded_pair_count() == 0) {
+      std::copy(pi, pi + m, ci);
+      std::copy(pj, pj + m, cj);
+      w = m;
+    } else {
+      const uint32_t* row_begin = filter.row_begin();
+      const uint32_t* partners = filter.partners();
+      const uint32_t* e = partners;
+      const uint32_t* e_end = partners;
+      uint32_t row = std::numeric_limits<uint32_t>::max();
+      for (size_t p = 0; p < m; ++p) {
+        const uint32_t i = pi[p], j = pj[p];
+        if (i != row) {
+          row = i;
+          e = partners + row_begin[i];
+          e_end = partners + row_begin[i + 1];
+        }
+        while (e < e_end && *e < j) ++e;
+        const bool listed = e < e_end && *e == j;
+        ci[w] = i;
+        cj[w] = j;
+        w += listed ? 0 : 1;
+      }
+    }
+    ctx.candidate_count_ = w;
+  }
+
+  // Pads the cache's pair arrays with valid indices for the vector reads past its end.
+  void PadCache() {
+    std::fill(ctx.ci_.data() + ctx.candidate_count_, ctx.ci_.data() + ctx.candidate_count_ + kPad, 0u);
+    std::fill(ctx.cj_.data() + ctx.candidate_count_, ctx.cj_.data() + ctx.candidate_count_ + kPad, 0u);
+  }
+
+  // Builds the cache. False when it does not fit even without skins.
+  bool Build(bool have_motion, const float sum[3]) {
+    ++ctx.build_count_;
+    ctx.last_build_tests_ = 0;
+    const bool small = n <= kAllPairsMax;
+    for (float lookahead : {have_motion ? kLookahead[ctx.rung_] : 0.0f, 0.0f}) {
+      ctx.last_lookahead_ = lookahead;
+      Skins(have_motion, lookahead);
+      CopyCentres();
+      bool fits;
+      if (small) {
+        PadIndexOrder();
+        fits = AllPairsBuild();
+      } else {
+        size_t m = 0;
+        fits = SweepBuild(&m);
+        if (fits) SortPairsIntoCache(m);
+      }
+      if (fits) {
+        ctx.method_ = small ? BroadPhaseMethod::kAllPairsBuild : BroadPhaseMethod::kSweepBuild;
+        PadCache();
+        // The reference: this frame's spheres.
+        float* rx = ctx.ref_.data();
+        for (size_t s = 0; s < n; ++s) {
+          const Vec4f& p = Sphere(s);
+          rx[s] = p.x();
+          rx[padded + s] = p.y();
+          rx[2 * padded + s] = p.z();
+          rx[3 * padded + s] = p.w();
+        }
+        std::copy(sum, sum + 3, ctx.ref_sum_);
+        ctx.cache_valid_ = true;
+        ctx.cache_count_ = n;
+        ctx.cache_filter_ = filter.id();
+        ctx.age_ = 0;
+        return true;
+      }
+      // Too many candidates with these skins: less lookahead from now on, and this rung looks
+      // expensive for a long while. A small set goes straight to the direct path (all pairs into
+      // the output), cheaper than another build.
+      double& memory = ctx.rung_cost_[ctx.rung_];
+      memory = 4.0 * std::max({memory, ctx.rung_cost_[std::max(MinRung(), ctx.rung_ - 1)], 1.0});
+      ctx.rung_ = std::max(MinRung(), ctx.rung_ - 2);
+      if (lookahead == 0.0f || small) break;
+    }
+    ctx.cache_valid_ = false;
+    return false;
+  }
+
+  // Rung 0 (no cache: all pairs straight into the output) only for sets the all-pairs kernels take.
+  int MinRung() const { return n <= kAllPairsMax ? 0 : 1; }
+
+  // Adapts the lookahead (a rung of kLookahead) from the cost per frame of what the current rung
+  // just did, in counted work (not time: the choice is deterministic). Each rung keeps a moving
+  // average of its cost; the next frames take the cheapest of this rung and its two neighbours, a
+  // neighbour never tried counting as a little cheaper (so it gets tried) and a neighbour's
+  // memory fading towards cheap (so it is tried again when the motion changes).
+  void AdaptLookahead(double cost, uint32_t frames) {
+    double* memory = ctx.rung_cost_;
+    const double fade = std::pow(kRungFadePerFrame, double(std::max<uint32_t>(frames, 1)));
+    const int rung = std::max(ctx.rung_, MinRung());
+    memory[rung] = memory[rung] > 0.0 ? 0.5 * (memory[rung] + cost) : cost;
+    int best = rung;
+    double best_cost = memory[rung];
+    for (const int r : {rung - 1, rung + 1}) {
+      if (r < MinRung() || r >= kRungs) continue;
+      memory[r] *= fade;
+      const double guess = memory[r] > 0.0 ? memory[r] : 0.9 * memory[rung];
+      if (guess < best_cost) {
+        best = r;
+        best_cost = guess;
+      }
+    }
+    ctx.rung_ = best;
+  }
+
+  // Cost per frame of the cache that just expired.
+  double ExpiredCacheCost() const {
+    const double frames = std::max<uint32_t>(ctx.age_, 1);
+    const double cached = kCheckWork * double(n) + kTestWork * double(ctx.candidate_count_);
+    return (ctx.build_cost_ + (frames - 1.0) * cached) / frames;
+  }
+
+  // Streams the unsorted pairs (pi_, pj_)[0, m) as contacts into the output (direct sweep).
+  void FlushDirect(size_t m) {
+    const uint32_t* pi = ctx.pi_.data();
+    const uint32_t* pj = ctx.pj_.data();
+    for (size_t p = 0; p < m; ++p) {
+      const uint32_t i = pi[p], j = pj[p];
+      job.out->push_back(Contact{i, j, internal::PenetrationDepth(Sphere(i), Sphere(j)), filter.part(i), filter.part(j)});
+    }
+  }
+
+  // No cache fits: contacts straight into the output.
+  void Direct() {
+    ctx.last_build_tests_ = 0;
+    if (n <= kAllPairsMax) {
+      ctx.method_ = BroadPhaseMethod::kAllPairsDirect;
+      CopyCentres();
+      float* r = Soa(kGrown);
+      for (size_t s = 0; s < n; ++s) r[s] = Sphere(s).w();
+      PadIndexOrder();
+      kernels::SoaSpheres s{Soa(0), Soa(1), Soa(2), Soa(kGrown), nullptr, nullptr, nullptr};
+      kernels::ContactSink sink{ctx.stage_.data(), kStage, 0};
+      size_t tests = 0;
+      for (uint32_t row = 0; row < n;) {
+        row = k.all_pairs_contacts(s, static_cast<uint32_t>(n), row, static_cast<uint32_t>(n), view, &sink, &tests);
+        job.out->insert(job.out->end(), ctx.stage_.data(), ctx.stage_.data() + sink.count);
+        sink.count = 0;
+      }
+      ctx.last_build_tests_ = tests;
+      return;
+    }
+    ctx.method_ = BroadPhaseMethod::kSweepDirect;
+    float* r = Soa(kGrown);
+    for (size_t s = 0; s < n; ++s) r[s] = Sphere(s).w();
+    SweepDirect();
+    std::sort(job.out->begin(), job.out->end(), ByPair);
+    RemoveListed(filter, job.out);
+  }
+
+  void TestCache() {
+    const uint16_t* parts = filter.parts().data();
+    kernels::ContactSink sink{ctx.stage_.data(), kStage, 0};
+    const size_t count = ctx.candidate_count_;
+    for (size_t pos = 0; pos < count;) {
+      pos = k.test_candidates(spheres, ctx.ci_.data(), ctx.cj_.data(), pos, count, parts, &sink);
+      job.out->insert(job.out->end(), ctx.stage_.data(), ctx.stage_.data() + sink.count);
+      sink.count = 0;
+    }
+    ctx.last_candidates_ = count;
+  }
+
+  bool Run() {
+    ctx.method_ = BroadPhaseMethod::kNone;
+    ctx.last_candidates_ = 0;
+    ctx.last_build_tests_ = 0;
+    float sum[3];
+    if (!k.check_values(spheres, n, internal::kMaxMagnitude, sum)) return false;
+    if (n < 2 || NoPairAllowed(filter)) return true;
+    const bool same_set = ctx.cache_valid_ && ctx.cache_count_ == n && ctx.cache_filter_ == filter.id();
+    if (same_set) {
+      ++ctx.age_;
+      if (CacheHolds(sum)) {
+        ctx.method_ = BroadPhaseMethod::kCached;
+        TestCache();
+        return true;
+      }
+      AdaptLookahead(ExpiredCacheCost(), ctx.age_);
+    }
+    if (ctx.rung_ == 0 && n <= kAllPairsMax) {
+      // No cache pays: all pairs into the output.
+      ctx.cache_valid_ = false;
+      Direct();
+      AdaptLookahead(kAllPairsSphereWork * double(n) + kPairTestWork * double(ctx.last_build_tests_) +
+                         kPairWork * double(job.out->size()),
+                     1);
+      return true;
+    }
+    if (!Build(same_set, sum)) {
+      Direct();
+      return true;
+    }
+    ctx.build_cost_ = (n <= kAllPairsMax ? kAllPairsSphereWork : kSweepSphereWork) * double(n) +
+                      kPairTestWork * double(ctx.last_build_tests_) + kPairWork * double(ctx.candidate_count_) +
+                      kTestWork * double(ctx.candidate_count_);
+    TestCache();
+    return true;
+  }
+};
 
 bool SelfCollisionJob::Validate() const {
   if (filter == nullptr || context == nullptr || out == nullptr) return false;
   if (spheres.size() != filter->size()) return false;
   if (spheres.size() > context->max_spheres()) return false;
   if (spheres.data() == nullptr && !spheres.empty()) return false;
+  if (!BroadPhaseSimdSupported(simd)) return false;
   return true;
 }
 
 bool SelfCollisionJob::Run() const {
   if (out != nullptr) out->clear();
-  if (!Validate()) return false;
-  BroadPhaseContext& ctx = *context;
-  const size_t n = spheres.size();
-  ctx.last_candidates_ = 0;
-  ctx.last_full_sort_ = false;
-
-  // Axis: chosen when the order is new, re-chosen every kAxisRefreshFrames with hysteresis.
-  bool coherent = ctx.previous_count_ == n && ctx.previous_filter_ == filter && ctx.axis_ >= 0;
-  if (!coherent || ctx.frame_ >= BroadPhaseContext::kAxisRefreshFrames) {
-    const Eigen::Vector3d variance = CenterVariance(spheres);
-    int best = 0;
-    variance.maxCoeff(&best);
-    if (!coherent || variance[best] > 1.25 * variance[ctx.axis_]) {
-      if (coherent && best != ctx.axis_) coherent = false;
-      ctx.axis_ = best;
-    }
-    ctx.frame_ = 0;
+  if (!Validate()) {
+    if (context != nullptr) context->method_ = BroadPhaseMethod::kNone;
+    return false;
   }
-  ++ctx.frame_;
-  const int axis = ctx.axis_;
-  BroadPhaseContext::SortItem* order = ctx.order_.data();
-  if (!coherent) {
-    for (size_t k = 0; k < n; ++k) order[k].sphere = static_cast<uint32_t>(k);
-  }
-  // The order stays a permutation whatever happens below; it is only trusted again once a frame
-  // completes.
-  ctx.previous_count_ = 0;
-
-  // 1. Keys in the previous order, with the value check.
-  // v - v is 0 for finite values and NaN otherwise (cmpneq is true for NaN); w must be >= 0.
-  // |v| > kMaxMagnitude is refused too (as by SphereValuesOk), so no interval end overflows.
-  const __m128 zero = _mm_setzero_ps();
-  const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
-  const __m128 limit = _mm_set1_ps(internal::kMaxMagnitude);
-  __m128 not_finite = zero, negative = zero;
-  for (size_t k = 0; k < n; ++k) {
-    const Vec4f& s = spheres[order[k].sphere];
-    const __m128 v = _mm_loadu_ps(s.data());
-    not_finite = _mm_or_ps(not_finite, _mm_cmpneq_ps(_mm_sub_ps(v, v), zero));
-    not_finite = _mm_or_ps(not_finite, _mm_cmpgt_ps(_mm_and_ps(v, abs_mask), limit));
-    negative = _mm_or_ps(negative, _mm_cmplt_ps(v, zero));
-    const float c = s[axis];
-    order[k].key = c - s.w() - IntervalPad(c, s.w());
-  }
-  if (_mm_movemask_ps(not_finite) != 0 || (_mm_movemask_ps(negative) & 8) != 0) return false;
-
-  // 2. Sort by interval start.
-  const auto by_key = [](const BroadPhaseContext::SortItem& a, const BroadPhaseContext::SortItem& b) {
-    return a.key < b.key;
-  };
-  bool full_sort = !coherent;
-  if (coherent) {
-    size_t moves = 0;
-    const size_t budget = 4 * n + 64;
-    for (size_t k = 1; k < n && moves <= budget; ++k) {
-      const BroadPhaseContext::SortItem item = order[k];
-      if (!(item.key < order[k - 1].key)) continue;
-      size_t m = k;
-      do {
-        order[m] = order[m - 1];
-        --m;
-        ++moves;
-      } while (m > 0 && item.key < order[m - 1].key);
-      order[m] = item;
-    }
-    full_sort = moves > budget;
-  }
-  if (full_sort) std::sort(order, order + n, by_key);
-  ctx.last_full_sort_ = full_sort;
-
-  // 3. Gather in sweep order.
-  float* x = ctx.x_.data();
-  float* y = ctx.y_.data();
-  float* z = ctx.z_.data();
-  float* r = ctx.r_.data();
-  float* start = ctx.start_.data();
-  float* end = ctx.end_.data();
-  uint32_t* sphere = ctx.sphere_.data();
-  for (size_t k = 0; k < n; ++k) {
-    const uint32_t s_index = order[k].sphere;
-    const Vec4f& s = spheres[s_index];
-    x[k] = s.x();
-    y[k] = s.y();
-    z[k] = s.z();
-    r[k] = s.w();
-    const float c = s[axis];
-    start[k] = order[k].key;
-    end[k] = c + s.w() + IntervalPad(c, s.w());
-    sphere[k] = s_index;
-  }
-  for (size_t k = n; k < n + BroadPhaseContext::kPad; ++k) {
-    x[k] = y[k] = z[k] = r[k] = 0.0f;
-    start[k] = INFINITY;
-    sphere[k] = 0;
-  }
-
-  // 4. Sweep.
-  const uint64_t* bits = filter->bits();
-  const size_t words_per_row = filter->words_per_row();
-  size_t candidates = 0;
-  for (size_t a = 0; a < n; ++a) {
-    const Simd::V ax = Simd::Set1(x[a]);
-    const Simd::V ay = Simd::Set1(y[a]);
-    const Simd::V az = Simd::Set1(z[a]);
-    const Simd::V ar = Simd::Set1(r[a]);
-    const Simd::V aend = Simd::Set1(end[a]);
-    const uint32_t sa = sphere[a];
-    const uint64_t* row = bits + static_cast<size_t>(sa) * words_per_row;
-    size_t b = a + 1;
-    for (;; b += Simd::kWidth) {
-      const Simd::V in_range = Simd::Le(Simd::Load(start + b), aend);
-      const int range_mask = Simd::Mask(in_range);  // a prefix of the lanes: starts are sorted
-      if (range_mask == 0) break;
-      const Simd::V dx = Simd::Sub(Simd::Load(x + b), ax);
-      const Simd::V dy = Simd::Sub(Simd::Load(y + b), ay);
-      const Simd::V dz = Simd::Sub(Simd::Load(z + b), az);
-      const Simd::V d2 = Simd::Add(Simd::Add(Simd::Mul(dx, dx), Simd::Mul(dy, dy)), Simd::Mul(dz, dz));
-      const Simd::V rs = Simd::Add(Simd::Load(r + b), ar);
-      unsigned hit = static_cast<unsigned>(Simd::Mask(Simd::And(Simd::Le(d2, Simd::Mul(rs, rs)), in_range)));
-      if (hit != 0) {
-        // Most hits of a fitted set are excluded neighbours: read the W exclusion bits without
-        // branching, then emit only what is left (padding lanes read sphere 0, masked by hit).
-        unsigned excluded = 0;
-        for (int lane = 0; lane < Simd::kWidth; ++lane) {
-          const uint32_t sb = sphere[b + static_cast<size_t>(lane)];
-          excluded |= static_cast<unsigned>((row[sb >> 6] >> (sb & 63u)) & 1u) << lane;
-        }
-        hit &= ~excluded;
-        while (hit != 0) {
-          const uint32_t sb = sphere[b + static_cast<size_t>(__builtin_ctz(hit))];
-          hit &= hit - 1;
-          const uint32_t i = std::min(sa, sb);
-          const uint32_t j = std::max(sa, sb);
-          out->push_back(Contact{i, j, internal::PenetrationDepth(spheres[i], spheres[j]), filter->part(i),
-                                 filter->part(j)});
-        }
-      }
-      if (range_mask != Simd::kAll) {
-        b += static_cast<size_t>(__builtin_ctz(~static_cast<unsigned>(range_mask)));
-        break;
-      }
-    }
-    candidates += b - a - 1;
-  }
-  ctx.last_candidates_ = candidates;
-
-  // 5. Deterministic output order.
-  std::sort(out->begin(), out->end(), [](const Contact& p, const Contact& q) {
-    return p.i != q.i ? p.i < q.i : p.j < q.j;
-  });
-  ctx.previous_count_ = n;
-  ctx.previous_filter_ = filter;
-  return true;
+  BroadPhaseContext::Impl impl(*this, KernelsFor(simd));
+  return impl.Run();
 }
 
 }  // namespace skinspheres::runtime

@@ -166,20 +166,46 @@ bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
   const auto& set = *job.spheres;
   const auto q = job.rest->center_in_joint();
   const auto rinv = job.rest->rest_linear_inverse();
+  // max_i Σ_k |(A_jᵀ A_j)_ik| depends on the joint only: computed once per joint and call (on the
+  // stack, for skeletons of up to kJointCache joints), not once per influence entry.
+  constexpr size_t kJointCache = 256;
+  float joint_row[kJointCache];
+  bool joint_known[kJointCache] = {};
+  const bool cache = set.joint_count() <= kJointCache;
+  const auto row_of = [&](uint16_t j) {
+    const Eigen::Matrix3f a = job.joint_world[j].topLeftCorner<3, 3>() * rinv[j];  // A_j = linear(G_j(t) G_j(rest)^-1)
+    const Eigen::Matrix3f ata = a.transpose() * a;
+    return ata.cwiseAbs().rowwise().sum().maxCoeff();
+  };
+  const auto w = job.rest->weights();
+  constexpr uint32_t kPointCache = 16;  // T_j c per influence of one sphere, when it has at most this many
+  Eigen::Vector3f moved[kPointCache];
   bool ok = true;
   for (size_t s = begin; s < end; ++s) {
     const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
-    const Eigen::Vector3f c = BlendedCentre(job, s);
+    const bool keep = k1 - k0 <= kPointCache;
+    Eigen::Vector3f c = Eigen::Vector3f::Zero();  // as BlendedCentre
+    for (uint32_t k = k0; k < k1; ++k) {
+      const Eigen::Vector3f p = Apply(job.joint_world[set.influence_joints[k]], q[k]);
+      if (keep) moved[k - k0] = p;
+      c += w[k] * p;
+    }
     float spread2 = 0.0f;  // max_j |T_j c - c'|^2
     float s2 = 0.0f;       // s_max^2 = max_j max_i Σ_k |(A_jᵀ A_j)_ik|
     bool finite = true;
     for (uint32_t k = k0; k < k1; ++k) {
       const uint16_t j = set.influence_joints[k];
-      const Mat4f& g = job.joint_world[j];
-      const float d2 = (Apply(g, q[k]) - c).squaredNorm();
-      const Eigen::Matrix3f a = g.topLeftCorner<3, 3>() * rinv[j];  // A_j = linear(G_j(t) G_j(rest)^-1)
-      const Eigen::Matrix3f ata = a.transpose() * a;
-      const float row = ata.cwiseAbs().rowwise().sum().maxCoeff();
+      const float d2 = ((keep ? moved[k - k0] : Apply(job.joint_world[j], q[k])) - c).squaredNorm();
+      float row;
+      if (cache) {
+        if (!joint_known[j]) {
+          joint_row[j] = row_of(j);
+          joint_known[j] = true;
+        }
+        row = joint_row[j];
+      } else {
+        row = row_of(j);
+      }
       finite &= (d2 <= FLT_MAX) & (row <= FLT_MAX);
       spread2 = std::max(spread2, d2);
       s2 = std::max(s2, row);
