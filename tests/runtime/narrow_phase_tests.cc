@@ -393,6 +393,38 @@ TEST(NarrowPhaseData, VersionOneSetsAreRefusedWithTheReason) {
   EXPECT_FALSE(CharacterAsset::Create(fc->set, NarrowPhaseSettings{NAN}).ok());
 }
 
+// A margin beyond kMaxMarginShareOfSize of the character's rest size (the largest extent of its
+// mesh at rest, computed here independently) is refused naming that size; at the limit it is
+// accepted and finds within-margin pairs.
+TEST(NarrowPhaseData, MarginsBeyondAShareOfTheCharactersSizeAreRefused) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  Eigen::AlignedBox3f box;
+  for (const auto& p : fc->character.skin.positions_bind) box.extend(p);
+  const float size = box.sizes().maxCoeff();
+  ASSERT_GT(size, 1.0f);  // the built-in character is about 1.9 m tall
+  auto filter = PairFilter::FromSphereSet(fc->set);
+  ASSERT_TRUE(filter.ok());
+  for (const float margin : {1e30f, 2.0f * kMaxMarginShareOfSize * size, 1.01f * kMaxMarginShareOfSize * size}) {
+    auto data = NarrowPhaseData::Create(fc->set, *filter, NarrowPhaseSettings{margin});
+    ASSERT_FALSE(data.ok()) << margin;
+    EXPECT_EQ(data.error().code, ErrorCode::kInvalidArgument);
+    EXPECT_NE(data.error().message.find("is more than 0.05 of the character's rest size"), std::string::npos)
+        << data.error().message;
+  }
+  auto at_limit = CharacterAsset::Create(fc->set, NarrowPhaseSettings{0.99f * kMaxMarginShareOfSize * size});
+  ASSERT_TRUE(at_limit.ok()) << at_limit.error().message;
+  auto inst = CharacterInstance::Create(*at_limit);
+  ASSERT_TRUE(inst.ok());
+  size_t within = 0;
+  for (const auto& pose : test::ClipPoses(fc->character, 4)) {
+    ASSERT_TRUE(inst->UpdateFast(pose.world).ok());
+    ASSERT_TRUE(inst->FindContacts().ok());
+    for (const auto& t : inst->frame_contacts().triangle_pairs) within += t.kind == TriangleContactKind::kWithinMargin;
+  }
+  EXPECT_GT(within, 0u);
+}
+
 TEST(NarrowPhase, ModeBNeedsJointMatricesAndFiniteInput) {
   auto fc = test::LoadFitted("builtin");
   ASSERT_TRUE(fc);

@@ -93,9 +93,15 @@
 
 namespace skinspheres::runtime {
 
+// The largest margin NarrowPhaseData::Create accepts, as a share of the character's rest size (the
+// largest extent of its mesh at rest): beyond it nearly every triangle pair near a joint is within
+// the margin, and set-up memory and per-frame contacts grow with the square of the triangle count.
+inline constexpr float kMaxMarginShareOfSize = 0.05f;
+
 struct NarrowPhaseSettings {
   // > 0: also report triangle pairs whose distance is below this (model units); 0: intersections
-  // only. Pairs within this distance at rest are excluded, so it is fixed at set-up.
+  // only. Pairs within this distance at rest are excluded, so it is fixed at set-up. At most
+  // kMaxMarginShareOfSize times the character's rest size (else kInvalidArgument).
   float margin = 0.0f;
   // Triangles per cluster at most, 1..256 (bench/narrow_phase_bench.cc, BM_ClusterSize, chose 16).
   uint32_t cluster_triangles = 16;
