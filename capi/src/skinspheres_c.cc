@@ -11,10 +11,12 @@
 #include <memory>
 #include <new>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "skinspheres/runtime/character.h"
+#include "skinspheres/runtime/file_io.h"
 #include "skinspheres/runtime/joint_mapping.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 #include "skinspheres/version.h"
@@ -62,7 +64,7 @@ thread_local std::string t_message;           // set-up errors (allocated)
 thread_local const char* t_last_error = "";   // what skinspheres_last_error returns
 
 skinspheres_status Fail(skinspheres_status status, std::string message) {
-  t_message = std::move(message);
+  t_message = rt::OneLine(std::move(message));  // a quoted joint name may hold a newline
   t_last_error = t_message.c_str();
   return status;
 }
@@ -86,6 +88,8 @@ skinspheres_status Guard(F&& f) noexcept {
     return f();
   } catch (const std::bad_alloc&) {
     return FailStatic(SKINSPHERES_OUT_OF_MEMORY, "out of memory");
+  } catch (const std::length_error&) {  // a count beyond what a vector can hold (SIZE_MAX joints)
+    return FailStatic(SKINSPHERES_OUT_OF_MEMORY, "out of memory: a count too large to allocate");
   } catch (const std::exception& e) {
     try {
       return Fail(SKINSPHERES_INTERNAL_ERROR, std::string("internal error: ") + e.what());

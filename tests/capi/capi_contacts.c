@@ -13,6 +13,7 @@
 #error "this test must be compiled as C99"
 #endif
 
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -166,6 +167,13 @@ int main(int argc, char** argv) {
   check(skinspheres_asset_load_file("no_such_set.ssb", &missing) == SKINSPHERES_FILE_NOT_FOUND && missing == NULL,
         "missing file refused", 0);
   check(strstr(skinspheres_last_error(), "no_such_set.ssb: file not found") != NULL, "missing file named", 0);
+  /* The last error is one line: a newline in the name is escaped; an empty path is named as such. */
+  check(skinspheres_asset_load_file("no\nsuch.ssb", &missing) == SKINSPHERES_FILE_NOT_FOUND, "missing file refused", 0);
+  check(strstr(skinspheres_last_error(), "no\\nsuch.ssb: file not found") != NULL &&
+            strchr(skinspheres_last_error(), '\n') == NULL,
+        "a newline in the name is escaped", 0);
+  check(skinspheres_asset_load_file("", &missing) == SKINSPHERES_INVALID_ARGUMENT, "empty path refused", 0);
+  check(strstr(skinspheres_last_error(), "empty path") == skinspheres_last_error(), "empty path named", 0);
 
   /* The clip as the engine has it. */
   frames_data = (unsigned char*)read_all(join(dir, "frames.bin"), &frames_size);
@@ -245,6 +253,15 @@ int main(int argc, char** argv) {
   check(skinspheres_instance_create(fast_only, names, joint_count, &c) == SKINSPHERES_OK, "instance c", 0);
   check(skinspheres_instance_create(binary, NULL, 0, &in_set_order) == SKINSPHERES_OK, "instance in set order", 0);
   check(skinspheres_instance_joint_count(a) == joint_count, "instance joint count", 0);
+  /* A count no vector can hold is refused as out of memory, never an "internal error". */
+  {
+    skinspheres_instance* huge = NULL;
+    check(skinspheres_instance_create(binary, names, SIZE_MAX, &huge) == SKINSPHERES_OUT_OF_MEMORY && huge == NULL,
+          "SIZE_MAX joint names refused", 0);
+    check(strstr(skinspheres_last_error(), "too large") != NULL, "the refusal says too large", 0);
+    check(skinspheres_instance_reserve_contacts(a, SIZE_MAX) == SKINSPHERES_OUT_OF_MEMORY, "SIZE_MAX contacts refused", 0);
+    check(strstr(skinspheres_last_error(), "too large") != NULL, "the refusal says too large", 0);
+  }
   skinspheres_asset_release(json);
   skinspheres_asset_release(fast_only);
   if (failures) return 1;
