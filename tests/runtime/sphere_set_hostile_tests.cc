@@ -79,6 +79,23 @@ TEST(SphereSetHostile, ValidateRefusesRadiiOfZeroOrLess) {
   }
 }
 
+TEST(SphereSetHostile, ValidateRefusesEmptyAndDuplicatePartNames) {
+  SphereSet set = TwoSpheres();
+  ASSERT_FALSE(set.Validate().has_value());
+  set.parts.push_back(set.parts[0]);  // a second part with the first one's name
+  ASSERT_TRUE(set.Validate().has_value());
+  EXPECT_NE(set.Validate()->message.find("parts 0 and " + std::to_string(set.parts.size() - 1) + " are both named '" +
+                                         set.parts[0].name + "'"),
+            std::string::npos)
+      << set.Validate()->message;
+  ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "dup.json"), "dup.json", ErrorCode::kInvalidData, "both named");
+  ExpectRefused(ReadSphereSetBinary(WriteSphereSetBinary(set), "dup.ssb"), "dup.ssb", ErrorCode::kInvalidData, "both named");
+  set = TwoSpheres();
+  set.parts[0].name.clear();
+  ASSERT_TRUE(set.Validate().has_value());
+  EXPECT_NE(set.Validate()->message.find("part 0 has an empty name"), std::string::npos) << set.Validate()->message;
+}
+
 TEST(SphereSetHostile, ValidateRefusesUnownedAndDoublyOwnedTriangles) {
   SphereSet unowned = TwoSpheres();  // sphere 1 gives up triangle 1: no sphere holds it
   unowned.triangles = {0};
