@@ -31,7 +31,7 @@
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/geometry/enclosing_sphere.h"
 #include "skinspheres/lib/geometry/mesh_helpers.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/metrics/fit_metrics.h"
 
 namespace {

@@ -5,7 +5,7 @@
 
 #include "commands.h"
 #include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 
 namespace skinspheres::tool {
 

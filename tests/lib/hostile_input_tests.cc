@@ -16,7 +16,7 @@
 #include <functional>
 #include <future>
 
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/file_io.h"
 #include "test_support.h"
 #include "tiny_gltf.h"

@@ -1,4 +1,4 @@
-// Tests for ImportCharacter's Assimp path (lib/src/importer_assimp.cc): the built-in character is
+// Tests for ImportCharacter's Assimp path (lib/src/io/importer_assimp.cc): the built-in character is
 // written to GLB by ExportGlb, read by Assimp, written again by Assimp's own exporters (FBX ascii,
 // FBX binary, COLLADA), then read by ImportCharacter and compared with the built-in character
 // (an independent oracle: it never went through any file).
@@ -31,8 +31,8 @@
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
-#include "skinspheres/lib/glb_exporter.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/glb_exporter.h"
+#include "skinspheres/lib/io/importer.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

@@ -3,7 +3,7 @@
 // parsed here again (vertex/triangle counts from the accessors, rest positions recomputed in
 // double precision from the node tree), and small glTF files are written at test time for the
 // edge cases (NaN, zero weights, joint out of range, no triangles, STEP/CUBICSPLINE samplers).
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // ExportGlb (glb_exporter.h): builds an aiScene by hand from a RawCharacter and hands it to
 // Assimp's "glb2" exporter. Ownership: the aiScene owns every array below (allocated with new[]
 // as Assimp's destructors expect); the unique_ptr frees the whole tree after the export.
-#include "skinspheres/lib/glb_exporter.h"
+#include "skinspheres/lib/io/glb_exporter.h"
 
 #include <assimp/Exporter.hpp>
 #include <assimp/scene.h>
