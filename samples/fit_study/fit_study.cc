@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/geometry/enclosing_sphere.h"
 #include "skinspheres/lib/geometry/mesh_helpers.h"

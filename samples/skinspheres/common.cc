@@ -4,7 +4,7 @@
 #include <iostream>
 
 #include "commands.h"
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/io/importer.h"
 
 namespace skinspheres::tool {

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "lib/clip_eval_for_tests.h"
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/io/glb_exporter.h"
 #include "skinspheres/lib/io/importer.h"
 #include "test_support.h"

@@ -15,7 +15,7 @@
 #include <set>
 
 #include "lib/clip_eval_for_tests.h"
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/io/clip_import.h"
 #include "skinspheres/lib/io/importer.h"
 #include "test_support.h"

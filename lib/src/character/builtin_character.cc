@@ -2,7 +2,7 @@
 // stacks of elliptic rings with domed caps, chain-blended skin weights, and the "walk" and
 // "touch" clips (the touch poses come from an analytic two-bone IK, checked by an independent
 // forward-kinematics + skinning evaluation in tests/lib/builtin_character_tests.cc).
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
