@@ -22,6 +22,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <fstream>
 #include <functional>
 #include <cmath>
 #include <map>
@@ -462,6 +463,17 @@ TEST(ImporterAssimp, ColladaRoundTripWithoutClipsKeepsMeshSkinAndRestPose) {
 
 // Files Assimp 5.2.5 writes but cannot read back: ImportCharacter must refuse them with one clean
 // line naming the file, not crash.
+// A format only Assimp reads: an OBJ quad is fanned into two triangles on the one joint a static
+// file gets.
+TEST(ImporterAssimp, ObjThroughAssimp) {
+  const auto path = test::TempDir("importer_obj") / "quad.obj";
+  std::ofstream(path) << "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+  const auto r = ImportCharacter(path);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->triangle_count(), 2u);
+  EXPECT_EQ(r->skeleton.size(), 1u);
+}
+
 TEST(ImporterAssimp, UnreadableAssimpOutputIsRejectedCleanly) {
   for (const auto& [format, extension] : {std::pair<std::string, std::string>{"fbx", "fbx"}, {"collada", "dae"}}) {
     const auto path = ExportThroughAssimp(format, extension, true);

@@ -19,7 +19,7 @@
 #include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/file_io.h"
 #include "test_support.h"
-#include "tiny_gltf.h"
+#include "lib/tiny_gltf.h"
 
 namespace skinspheres::lib {
 namespace {
