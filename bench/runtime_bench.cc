@@ -60,7 +60,7 @@
 
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/broad_phase.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/skinning/local_to_model_job.h"

@@ -1,4 +1,4 @@
-// Fuzz target: the glTF 2.0 / GLB reader (lib/src/gltf_document.cc, importer_gltf.cc) on any
+// Fuzz target: the glTF 2.0 / GLB reader (lib/src/io/gltf_document.cc, importer_gltf.cc) on any
 // bytes, then sampling every clip of what it accepted. Properties: an error is one line naming
 // the file; an accepted character is consistent (skeleton parents first, influences normalised
 // and in range, triangles in range, rest positions finite, key times strictly increasing).
@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "fuzz_check.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 #include "skinspheres/skinning/sampling_job.h"
 

@@ -10,7 +10,7 @@
 #include <span>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/sphere_set_binary.h"
 #include "skinspheres/runtime/sphere_set_io.h"

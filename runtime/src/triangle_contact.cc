@@ -256,27 +256,6 @@ Vector3d CoplanarCentre(const P3 pa[3], const P3 pb[3]) {
   return c / double(count);
 }
 
-Vector3d ClosestOnTriangle(const Vector3d& p, const Vector3d& a, const Vector3d& b, const Vector3d& c) {
-  // Ericson, Real-Time Collision Detection, 5.1.5 (Voronoi regions of the vertices, edges, face).
-  const Vector3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0.0 && d2 <= 0.0) return a;
-  const Vector3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0.0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return a + (d1 / (d1 - d3)) * ab;
-  const Vector3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0.0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return a + (d2 / (d2 - d6)) * ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-  const double denom = 1.0 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
 // Closest points of segments [p1, q1] and [p2, q2] (Ericson 5.1.9, with a relative parallel test).
 void ClosestOnSegments(const Vector3d& p1, const Vector3d& q1, const Vector3d& p2, const Vector3d& q2, Vector3d* c1,
                        Vector3d* c2) {
@@ -319,8 +298,8 @@ double DistanceD(const Vector3d a[3], const Vector3d b[3], Vector3d* on_a, Vecto
     }
   };
   for (int k = 0; k < 3; ++k) {
-    consider(a[k], ClosestOnTriangle(a[k], b[0], b[1], b[2]));
-    consider(ClosestOnTriangle(b[k], a[0], a[1], a[2]), b[k]);
+    consider(a[k], ClosestPointOnTriangle(a[k], b[0], b[1], b[2]));
+    consider(ClosestPointOnTriangle(b[k], a[0], a[1], a[2]), b[k]);
   }
   for (int k = 0; k < 3; ++k) {
     for (int l = 0; l < 3; ++l) {
@@ -333,6 +312,28 @@ double DistanceD(const Vector3d a[3], const Vector3d b[3], Vector3d* on_a, Vecto
 }
 
 }  // namespace
+
+// Ericson, Real-Time Collision Detection, 5.1.5 (Voronoi regions of the vertices, edges, face).
+Eigen::Vector3d ClosestPointOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                       const Eigen::Vector3d& c) {
+  const Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0.0 && d2 <= 0.0) return a;
+  const Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0.0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return a + (d1 / (d1 - d3)) * ab;
+  const Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0.0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return a + (d2 / (d2 - d6)) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
 
 bool TriangleIsDegenerate(const Vector3f& a0, const Vector3f& a1, const Vector3f& a2) {
   if (!Finite(a0) || !Finite(a1) || !Finite(a2)) return true;

@@ -27,11 +27,11 @@
 #include <vector>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/geometry/enclosing_sphere.h"
 #include "skinspheres/lib/geometry/mesh_helpers.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/metrics/fit_metrics.h"
 
 namespace {

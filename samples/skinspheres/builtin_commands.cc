@@ -9,9 +9,9 @@
 
 #include "html_page.h"
 #include "playback.h"
-#include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/clip_import.h"
-#include "skinspheres/lib/glb_exporter.h"
+#include "skinspheres/lib/character/builtin_character.h"
+#include "skinspheres/lib/io/clip_import.h"
+#include "skinspheres/lib/io/glb_exporter.h"
 
 namespace skinspheres::tool {
 namespace {

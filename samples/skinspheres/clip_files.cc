@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "skinspheres/lib/clip_import.h"
+#include "skinspheres/lib/io/clip_import.h"
 #include "skinspheres/skinning/sampling_job.h"
 
 namespace skinspheres::tool {

@@ -4,8 +4,8 @@
 #include <iostream>
 
 #include "commands.h"
-#include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/character/builtin_character.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/file_io.h"
 
 namespace skinspheres::tool {

@@ -11,7 +11,7 @@
 #include <string_view>
 
 #include "skinspheres/lib/metrics/fit_metrics.h"
-#include "skinspheres/lib/glb_exporter.h"
+#include "skinspheres/lib/io/glb_exporter.h"
 #include "skinspheres/runtime/file_io.h"
 #include "skinspheres/skinning/sampling_job.h"
 #include "viewer_assets.h"

@@ -12,7 +12,7 @@
 #include "clip_files.h"
 #include "html_page.h"
 #include "playback.h"
-#include "skinspheres/lib/glb_exporter.h"
+#include "skinspheres/lib/io/glb_exporter.h"
 #include "skinspheres/runtime/file_io.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 

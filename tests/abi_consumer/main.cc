@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/broad_phase.h"
 #include "skinspheres/runtime/character.h"

@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "skinspheres/lib/raw_character.h"
+#include "skinspheres/lib/character/raw_character.h"
 
 #include "skinspheres/skinning/math_types.h"
 

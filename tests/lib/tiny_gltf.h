@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 
 namespace skinspheres::lib {
 

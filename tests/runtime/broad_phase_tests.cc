@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/runtime/pair_filter.h"

@@ -18,7 +18,7 @@
 
 #include "allocation_counter.h"
 #include "posed_characters.h"
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/runtime/triangle_contact.h"
 #include "skinspheres/skinning/skinning_job.h"

@@ -14,9 +14,9 @@
 
 #include "lib/clip_eval_for_tests.h"
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "test_support.h"
 
 #include "skinspheres/skinning/math_types.h"

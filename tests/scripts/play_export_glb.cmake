@@ -28,7 +28,7 @@ if(NOT animations EQUAL 1 OR NOT name STREQUAL clip)
   message(FATAL_ERROR "expected one animation, \"${clip}\"; got ${animations}, the first \"${name}\"")
 endif()
 # Its channels: translation, rotation and scale for every sphere node, besides the joints'.
-# (tests/lib/glb_exporter_tests.cc checks each channel's node and keys.)
+# (tests/lib/io/glb_exporter_tests.cc checks each channel's node and keys.)
 string(JSON channels LENGTH "${json}" animations 0 channels)
 math(EXPR needed "3 * ${count}")
 if(NOT count GREATER 10 OR channels LESS needed)

@@ -44,7 +44,7 @@ void AssignTriangles(const RawCharacter& ch, BodyParts* out) {
 }  // namespace
 
 Result<BodyParts> SplitBodyParts(const RawCharacter& character, const PartOverrides* overrides) {
-  if (auto error = ValidateSplitInput(character)) return *error;
+  if (auto error = character.Validate()) return *error;
   BodyParts out;
   const WeightedSkeleton ws = BuildWeightedSkeleton(character, &out.triangle_joint);
   out.joint_part.assign(ws.n, -1);

@@ -1,6 +1,6 @@
 // The stages of SplitBodyParts (body_parts/body_parts.h), in the order it runs them. Internal to lib/.
 //
-//   ValidateSplitInput       split_input.cc        skeleton, triangle indices, skin arrays
+//   RawCharacter::Validate   character/raw_character.cc  skeleton, triangle indices, skin arrays
 //   BuildWeightedSkeleton    weighted_skeleton.cc  dominant joints, the weighted tree, subtree stats
 //   FindHumanoid             humanoid_search.cc    the best (pelvis, spine, chest, head, arms, legs)
 //   BuildHumanoid            humanoid_parts.cc     the six parts, leftovers attached; sides from
@@ -21,16 +21,6 @@
 #include "skinspheres/lib/body_parts/body_parts.h"
 
 namespace skinspheres::lib {
-
-// The character's name in messages: its source file, or "<character>".
-inline std::string SplitInputName(const RawCharacter& ch) {
-  return ch.source_file.empty() ? std::string("<character>") : ch.source_file;
-}
-
-// Every reason the character cannot be split, named: no joints, skeleton arrays that disagree,
-// triangle indices, skin influence arrays, bind entries or rigid joints out of range, non-finite
-// weights (kInvalidData).
-std::optional<Error> ValidateSplitInput(const RawCharacter& ch);
 
 // A sum of points and their count.
 struct PointStats {
@@ -66,7 +56,7 @@ struct WeightedSkeleton {
 
 // The weighted skeleton, and the dominant joint of every triangle (the joint with the largest
 // summed weight over its 3 vertices; ties -> smallest index; a weightless triangle takes its mesh's
-// rigid joint, else joint 0). The input must have passed ValidateSplitInput.
+// rigid joint, else joint 0). The input must have passed RawCharacter::Validate.
 WeightedSkeleton BuildWeightedSkeleton(const RawCharacter& ch, std::vector<int32_t>* triangle_joint);
 
 // Every joint of `root`'s subtree goes to `part` (joint_part).

@@ -32,7 +32,7 @@ int CountUncoveredTriangles(const RawCharacter& ch, const runtime::SphereSet& se
 }
 
 std::optional<Error> CheckFittedSet(const RawCharacter& ch, const runtime::SphereSet& set) {
-  const std::string name = CharacterName(ch);
+  const std::string name = ch.Name();
   if (auto err = set.Validate()) return MakeError(ErrorCode::kInvalidData, name + ": fitted set is inconsistent: " + err->message);
   int first_bad = -1;
   const int uncovered = CountUncoveredTriangles(ch, set, &first_bad);

@@ -29,12 +29,7 @@
 
 namespace skinspheres::lib {
 
-// The character's name in messages: its source file, or "<character>".
-inline std::string CharacterName(const RawCharacter& ch) {
-  return ch.source_file.empty() ? std::string("<character>") : ch.source_file;
-}
-
-// 0. Validate the input: the settings, then the character (skeleton, triangle indices, finite
+// 0. Validate the input: the settings, then the character (RawCharacter::Validate, then finite
 // coordinates within 1e18) and the parts (they partition the triangles, name existing joints).
 // Messages name the character (the settings' begin with "fit settings: ").
 std::optional<Error> ValidateFitInput(const RawCharacter& ch, const BodyParts& parts, const FitSettings& settings);

@@ -118,7 +118,7 @@ Result<OwnedSpheres> AssignOwnership(const RawCharacter& ch, const BodyParts& pa
   out.triangles.resize(out.spheres.size());
   for (size_t t = 0; t < owner.size(); ++t) {
     if (owner[t] < 0) {
-      return MakeError(ErrorCode::kInvalidData, CharacterName(ch) + ": triangle " + std::to_string(t) + " belongs to no part");
+      return MakeError(ErrorCode::kInvalidData, ch.Name() + ": triangle " + std::to_string(t) + " belongs to no part");
     }
     out.triangles[owner[t]].push_back(static_cast<uint32_t>(t));
   }

@@ -61,7 +61,7 @@ Result<std::vector<PartSpheres>> FitPaperSpheres(const RawCharacter& ch, const B
   std::vector<PartSpheres> out;
   out.reserve(fitted.size());
   for (auto& f : fitted) {
-    if (!f->ok()) return MakeError(f->error().code, CharacterName(ch) + ": " + f->error().message);
+    if (!f->ok()) return MakeError(f->error().code, ch.Name() + ": " + f->error().message);
     out.push_back(std::move(**f));
   }
   return out;

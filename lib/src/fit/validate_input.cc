@@ -10,17 +10,12 @@
 namespace skinspheres::lib {
 
 std::optional<Error> ValidateFitInput(const RawCharacter& ch, const BodyParts& parts, const FitSettings& settings) {
-  const std::string name = CharacterName(ch);
+  const std::string name = ch.Name();
   if (auto refused = settings.Validate()) return MakeError(refused->code, "fit settings: " + refused->message);
+  if (auto invalid = ch.Validate()) return invalid;
   const size_t joints = ch.skeleton.size();
-  if (!ch.skeleton.Validate() || joints == 0) return MakeError(ErrorCode::kInvalidData, name + ": invalid skeleton");
   if (parts.triangle_part.size() != ch.triangle_count() || parts.triangle_joint.size() != ch.triangle_count()) {
     return MakeError(ErrorCode::kInvalidData, name + ": body parts were made for another mesh");
-  }
-  for (const auto& tri : ch.triangles) {
-    if ((tri.array() < 0).any() || (tri.array() >= static_cast<int>(ch.vertex_count())).any()) {
-      return MakeError(ErrorCode::kInvalidData, name + ": a triangle index is out of range");
-    }
   }
   // The sphere-set format refuses coordinates beyond 1e18 (runtime/sphere_set.h); say so up front
   // rather than after fitting (squared distances of such spreads overflow float).
@@ -126,7 +121,7 @@ std::optional<Error> ValidateRestPose(const RawCharacter& ch, std::span<const Ma
   if (!why) why = SingularSkinningMatrix(ch, rest_world);
   if (!why) why = FlatMesh(ch.positions_rest);
   if (!why) return std::nullopt;
-  return MakeError(ErrorCode::kInvalidData, CharacterName(ch) + ": degenerate rest pose: " + *why);
+  return MakeError(ErrorCode::kInvalidData, ch.Name() + ": degenerate rest pose: " + *why);
 }
 
 }  // namespace skinspheres::lib

@@ -1,8 +1,11 @@
-// Closest point on a triangle, in double (see closest_point.h; the float version is inline there).
+// Closest point on a triangle, in double (see closest_point.h; the float version is inline there):
+// degenerate triangles here, the rest by the runtime's region tests (runtime/triangle_contact.h).
 #include "skinspheres/lib/geometry/closest_point.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
+
+#include "skinspheres/runtime/triangle_contact.h"
 
 namespace skinspheres::lib {
 
@@ -25,24 +28,7 @@ Eigen::Vector3f ClosestPointOnTriangle(const Eigen::Vector3f& pf, const Eigen::V
       if ((q - p).squaredNorm() < (best - p).squaredNorm()) best = q;
     return best.cast<float>();
   }
-  const Vec3d ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return af;
-  const Vec3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return bf;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (a + (d1 / (d1 - d3)) * ab).cast<float>();
-  const Vec3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return cf;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (a + (d2 / (d2 - d6)) * ac).cast<float>();
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return (b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b)).cast<float>();
-  const double denom = 1.0 / (va + vb + vc);
-  return (a + ab * (vb * denom) + ac * (vc * denom)).cast<float>();
+  return runtime::ClosestPointOnTriangle(p, a, b, c).cast<float>();
 }
 
 }  // namespace skinspheres::lib

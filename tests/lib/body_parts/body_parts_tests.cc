@@ -20,7 +20,7 @@
 
 #include "test_support.h"
 
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 
 namespace skinspheres::lib {
 namespace {

@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/character.h"
 #include "test_support.h"

@@ -258,7 +258,7 @@ TEST(SphereFitterTest, TighteningKeepsCoverageAndTheSphereBudget) {
 }  // namespace
 }  // namespace skinspheres::lib
 
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

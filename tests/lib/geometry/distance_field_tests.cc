@@ -5,7 +5,7 @@
 #include <random>
 
 #include "lib/analytic_shapes.h"
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/geometry/mesh_distance.h"
 
 namespace skinspheres::lib {

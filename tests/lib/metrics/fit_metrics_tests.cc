@@ -13,7 +13,7 @@
 
 #include "shapes/box_mesh.h"
 #include "shapes/uv_sphere.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/metrics/fit_metrics.h"
 #include "test_support.h"
 

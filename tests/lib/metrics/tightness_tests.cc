@@ -8,9 +8,9 @@
 #include <gtest/gtest.h>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/metrics/fit_metrics.h"
 #include "test_support.h"
 

@@ -4,7 +4,7 @@
 
 #include "lib/analytic_shapes.h"
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/metrics/fit_metrics.h"
 

@@ -38,6 +38,15 @@ bool TrianglesIntersect(const Eigen::Vector3f& a0, const Eigen::Vector3f& a1, co
 // True when the three points are exactly collinear (or two of them are equal) or one is not finite.
 bool TriangleIsDegenerate(const Eigen::Vector3f& a0, const Eigen::Vector3f& a1, const Eigen::Vector3f& a2);
 
+// Closest point of the closed triangle (a, b, c) to p, in double (Ericson, Real-Time Collision
+// Detection §5.1.5: the Voronoi regions of the vertices, then of the edges, then the face). The
+// triangle must have area: for a degenerate one the face step may divide by zero (callers that can
+// meet one test first; lib's geometry/closest_point.h falls back to the nearest edge point).
+// An internal helper of skinspheres shared by the narrow phase and the offline fitter, installed
+// with this header; not part of the engine API.
+Eigen::Vector3d ClosestPointOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                       const Eigen::Vector3d& c);
+
 struct TriangleContactGeometry {
   bool intersecting = false;      // TrianglesIntersect
   float distance = 0.0f;          // 0 when intersecting; else the smallest distance between the triangles

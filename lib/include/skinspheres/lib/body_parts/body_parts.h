@@ -37,7 +37,7 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/lib/raw_character.h"
+#include "skinspheres/lib/character/raw_character.h"
 #include "skinspheres/runtime/error.h"
 
 namespace skinspheres::lib {
@@ -95,8 +95,8 @@ inline constexpr uint64_t kMaxPartsFileBytes = uint64_t{16} << 20;  // 16 MiB
 Result<PartOverrides> LoadPartOverrides(const std::filesystem::path& file,
                                         const skinning::Skeleton* skeleton = nullptr);
 
-// Errors: kInvalidData (skeleton arrays disagree, influences / binds / triangle indices out of
-// range), kNotFound (an override names a joint the skeleton lacks), kInvalidArgument (an
+// Errors: kInvalidData (RawCharacter::Validate refuses the character: skeleton arrays disagree,
+// influences / binds / triangle indices out of range), kNotFound (an override names a joint the skeleton lacks), kInvalidArgument (an
 // override names a part this character does not have, e.g. "arm_l" on a snake).
 Result<BodyParts> SplitBodyParts(const RawCharacter& character, const PartOverrides* overrides = nullptr);
 

@@ -3,7 +3,7 @@
 // safety and tightness passes of our own.
 //
 // The stages, in the order FitSpheres runs them (each in its own file under lib/src/fit/):
-//  0. Validate the input: settings, skeleton, triangle indices, finite coordinates within 1e18,
+//  0. Validate the input: settings, the character (RawCharacter::Validate), finite coordinates within 1e18,
 //     parts that partition the triangles and name existing joints; then the rest pose, refused
 //     as degenerate when a joint's rest transform or a skinned vertex's rest skinning matrix is
 //     singular (the runtime inverts them) or the mesh has no extent or no height.
@@ -50,7 +50,7 @@
 #include <vector>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/raw_character.h"
+#include "skinspheres/lib/character/raw_character.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/runtime/sphere_set.h"
 

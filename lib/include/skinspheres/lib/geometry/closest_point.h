@@ -1,7 +1,8 @@
 // Closest point on a triangle to a point (Ericson, Real-Time Collision Detection §5.1.5: the
 // Voronoi regions of the vertices, then of the edges, then the face).
 //
-// * ClosestPointOnTriangle: in double from the float inputs, rounded once. A degenerate triangle
+// * ClosestPointOnTriangle: in double from the float inputs, rounded once: the runtime's
+//   runtime::ClosestPointOnTriangle (runtime/triangle_contact.h), except that a degenerate triangle
 //   (zero area, collinear or coincident vertices) gives the nearest point of its three edges.
 // * ClosestPointOnTriangleFloat: the same region tests in float, for hot loops (the distance
 //   field's seeding); a degenerate triangle resolves to a vertex or an edge point through the same

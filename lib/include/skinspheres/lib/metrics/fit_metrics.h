@@ -55,8 +55,8 @@
 #include <span>
 #include <vector>
 
+#include "skinspheres/lib/character/raw_character.h"
 #include "skinspheres/lib/metrics/naive_joint_spheres.h"  // the baseline the figures are compared with
-#include "skinspheres/lib/raw_character.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/runtime/sphere_set.h"
 

@@ -7,7 +7,7 @@
 #include <span>
 #include <vector>
 
-#include "skinspheres/lib/raw_character.h"
+#include "skinspheres/lib/character/raw_character.h"
 #include "skinspheres/runtime/error.h"
 
 namespace skinspheres::lib {

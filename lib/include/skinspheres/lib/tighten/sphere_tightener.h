@@ -49,7 +49,7 @@
 
 #include <Eigen/Core>
 
-#include "skinspheres/lib/raw_character.h"
+#include "skinspheres/lib/character/raw_character.h"
 
 namespace skinspheres::lib {
 

@@ -1,7 +1,7 @@
 // ImportCharacter: reads the file, picks a reader (our glTF 2.0 reader for .gltf/.glb, Assimp
 // for everything else), then the shared final pass (rest positions and the checks every
 // character passes). See importer.h for the contract.
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 
 #include <algorithm>
 #include <cctype>
@@ -13,7 +13,7 @@
 
 #include "gltf_document.h"
 #include "importer_internal.h"
-#include "skinspheres/lib/clip_import.h"
+#include "skinspheres/lib/io/clip_import.h"
 #include "skinspheres/runtime/file_io.h"
 
 namespace skinspheres::lib {

@@ -3,7 +3,7 @@
 // against the buffer it points into before a byte is read.
 #include "gltf_document.h"
 
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/file_io.h"
 
 #include <algorithm>

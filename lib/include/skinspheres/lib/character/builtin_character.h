@@ -35,7 +35,7 @@
 //           HeadTop_End carries a STEP rotation track (no vertex depends on it).
 #pragma once
 
-#include "skinspheres/lib/raw_character.h"
+#include "skinspheres/lib/character/raw_character.h"
 
 namespace skinspheres::lib {
 

@@ -47,7 +47,7 @@
 #include <filesystem>
 #include <span>
 
-#include "skinspheres/lib/raw_character.h"
+#include "skinspheres/lib/character/raw_character.h"
 #include "skinspheres/runtime/error.h"
 
 namespace skinspheres::lib {

@@ -1,4 +1,4 @@
-// Tests for ImportCharacter's Assimp path (lib/src/importer_assimp.cc): the built-in character is
+// Tests for ImportCharacter's Assimp path (lib/src/io/importer_assimp.cc): the built-in character is
 // written to GLB by ExportGlb, read by Assimp, written again by Assimp's own exporters (FBX ascii,
 // FBX binary, COLLADA), then read by ImportCharacter and compared with the built-in character
 // (an independent oracle: it never went through any file).
@@ -22,6 +22,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <fstream>
 #include <functional>
 #include <cmath>
 #include <map>
@@ -29,10 +30,10 @@
 
 #include "lib/clip_eval_for_tests.h"
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
-#include "skinspheres/lib/glb_exporter.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/glb_exporter.h"
+#include "skinspheres/lib/io/importer.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {
@@ -462,6 +463,17 @@ TEST(ImporterAssimp, ColladaRoundTripWithoutClipsKeepsMeshSkinAndRestPose) {
 
 // Files Assimp 5.2.5 writes but cannot read back: ImportCharacter must refuse them with one clean
 // line naming the file, not crash.
+// A format only Assimp reads: an OBJ quad is fanned into two triangles on the one joint a static
+// file gets.
+TEST(ImporterAssimp, ObjThroughAssimp) {
+  const auto path = test::TempDir("importer_obj") / "quad.obj";
+  std::ofstream(path) << "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+  const auto r = ImportCharacter(path);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->triangle_count(), 2u);
+  EXPECT_EQ(r->skeleton.size(), 1u);
+}
+
 TEST(ImporterAssimp, UnreadableAssimpOutputIsRejectedCleanly) {
   for (const auto& [format, extension] : {std::pair<std::string, std::string>{"fbx", "fbx"}, {"collada", "dae"}}) {
     const auto path = ExportThroughAssimp(format, extension, true);

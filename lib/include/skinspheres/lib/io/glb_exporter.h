@@ -37,7 +37,8 @@
 // the 4 largest are kept, weights renormalised); a joint may carry one inverse bind matrix (bind
 // entries that share a joint with different matrices are refused: kInvalidArgument); Assimp
 // joins identical vertices inside a mesh (a mesh without exact duplicate positions keeps its
-// vertex order and count). Errors: kInvalidArgument (inconsistent input, named), kFileUnreadable
+// vertex order and count). Errors: kInvalidArgument (inconsistent input, named: RawCharacter::Validate's
+// rules first, then the exporter's own), kFileUnreadable
 // (Assimp could not write the file; its message is included).
 #pragma once
 
@@ -48,7 +49,7 @@
 #include <vector>
 
 #include "skinspheres/skinning/math_types.h"
-#include "skinspheres/lib/raw_character.h"
+#include "skinspheres/lib/character/raw_character.h"
 #include "skinspheres/runtime/error.h"
 
 namespace skinspheres::lib {

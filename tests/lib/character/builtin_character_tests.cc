@@ -1,7 +1,7 @@
 // Tests for MakeBuiltinCharacter: mesh validity per piece, skeleton, skin, shape (elliptic torso),
 // clips, and the touch clip's contacts checked with an independent FK + skinning oracle
 // (clip_eval_for_tests.h) and ray-parity point-in-mesh tests on the posed mesh.
-#include "skinspheres/lib/builtin_character.h"
+#include "skinspheres/lib/character/builtin_character.h"
 
 #include <gtest/gtest.h>
 

@@ -1,9 +1,10 @@
-// Tests for ImportCharacter (lib/importer.h).
+// Tests for ImportCharacter's glTF 2.0 reader (lib/src/io/importer_gltf.cc, gltf_document.cc; Assimp's
+// path: assimp_import_tests.cc, clip files: clip_import_tests.cc, hostile files: hostile_input_tests.cc).
 // Oracles are independent of the importer: the shared characters' GLB JSON and binary chunk are
 // parsed here again (vertex/triangle counts from the accessors, rest positions recomputed in
 // double precision from the node tree), and small glTF files are written at test time for the
 // edge cases (NaN, zero weights, joint out of range, no triangles, STEP/CUBICSPLINE samplers).
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 
 #include <gtest/gtest.h>
 
@@ -18,7 +19,7 @@
 #include <set>
 
 #include "test_support.h"
-#include "tiny_gltf.h"
+#include "lib/tiny_gltf.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -394,14 +395,6 @@ TEST(ImporterTiny, StaticFileIsOneJointAtTheNodeTransform) {
   EXPECT_TRUE(r->positions_rest[3].isApprox(Eigen::Vector3f(6, 1, 1)));
   EXPECT_FALSE(r->meshes[0].skinned);
   EXPECT_EQ(r->meshes[0].rigid_joint, 0);
-}
-
-TEST(ImporterTiny, ObjThroughAssimp) {
-  const auto path = Write(test::TempDir("importer_obj"), "quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
-  const auto r = ImportCharacter(path);
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  EXPECT_EQ(r->triangle_count(), 2u);
-  EXPECT_EQ(r->skeleton.size(), 1u);
 }
 
 TEST(ImporterBadInput, EachProblemGivesItsError) {

@@ -16,10 +16,10 @@
 #include <functional>
 #include <future>
 
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/file_io.h"
 #include "test_support.h"
-#include "tiny_gltf.h"
+#include "lib/tiny_gltf.h"
 
 namespace skinspheres::lib {
 namespace {

@@ -26,7 +26,7 @@
 #include <string_view>
 #include <vector>
 
-#include "skinspheres/lib/raw_character.h"
+#include "skinspheres/lib/character/raw_character.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/skinning/animation_clip.h"
 #include "skinspheres/skinning/skeleton.h"

@@ -1,28 +1,28 @@
-// Stage 0 of the body-part split: validate the input. See split_stages.h.
-#include <cmath>
-#include <string>
+// RawCharacter's name and the rules every stage relies on (raw_character.h).
+#include "skinspheres/lib/character/raw_character.h"
 
-#include "split_stages.h"
+#include <cmath>
 
 namespace skinspheres::lib {
 
-std::optional<Error> ValidateSplitInput(const RawCharacter& ch) {
-  const std::string name = SplitInputName(ch);
-  auto fail = [&](const std::string& what) { return MakeError(ErrorCode::kInvalidData, name + ": " + what); };
-  const auto& sk = ch.skeleton;
+std::string RawCharacter::Name() const { return source_file.empty() ? std::string("<character>") : source_file; }
+
+std::optional<Error> RawCharacter::Validate() const {
+  auto fail = [&](const std::string& what) { return MakeError(ErrorCode::kInvalidData, Name() + ": " + what); };
+  const auto& sk = skeleton;
   if (sk.size() == 0) return fail("skeleton has no joints");
   if (!sk.Validate()) return fail("skeleton arrays disagree in size or parents are not ordered parents-first");
   const int32_t n = static_cast<int32_t>(sk.size());
-  const size_t nv = ch.positions_rest.size();
-  for (size_t t = 0; t < ch.triangles.size(); ++t) {
+  const size_t nv = positions_rest.size();
+  for (size_t t = 0; t < triangles.size(); ++t) {
     for (int k = 0; k < 3; ++k) {
-      const int idx = ch.triangles[t][k];
+      const int idx = triangles[t][k];
       if (idx < 0 || static_cast<size_t>(idx) >= nv) {
-        return fail("triangle " + std::to_string(t) + " uses vertex " + std::to_string(idx) + " of " + std::to_string(nv));
+        return fail("triangle " + std::to_string(t) + " uses vertex " + std::to_string(idx) + " of " +
+                    std::to_string(nv));
       }
     }
   }
-  const auto& skin = ch.skin;
   // Without a skin nothing below applies; note that the rigid-joint check at the end is skipped too.
   if (skin.vertex_count() == 0) return std::nullopt;
   if (skin.vertex_count() != nv) {
@@ -53,7 +53,7 @@ std::optional<Error> ValidateSplitInput(const RawCharacter& ch) {
       return fail("influence " + std::to_string(i) + " has a non-finite weight");
     }
   }
-  for (const MeshRange& m : ch.meshes) {
+  for (const MeshRange& m : meshes) {
     if (m.rigid_joint >= n) {
       return fail("mesh '" + m.name + "' follows joint " + std::to_string(m.rigid_joint) + " of " + std::to_string(n));
     }

@@ -1,7 +1,7 @@
 // ExportGlb (glb_exporter.h): builds an aiScene by hand from a RawCharacter and hands it to
 // Assimp's "glb2" exporter. Ownership: the aiScene owns every array below (allocated with new[]
 // as Assimp's destructors expect); the unique_ptr frees the whole tree after the export.
-#include "skinspheres/lib/glb_exporter.h"
+#include "skinspheres/lib/io/glb_exporter.h"
 
 #include <assimp/Exporter.hpp>
 #include <assimp/scene.h>
@@ -161,23 +161,20 @@ aiNodeAnim* MakeChannel(const std::string& node, const std::vector<std::pair<flo
 // Over the function-size limit of .clang-tidy: to be split into one stage per section of the file.
 // NOLINTNEXTLINE(readability-function-size)
 std::optional<Error> Validate(const RawCharacter& c, const GlbExtras& e, const std::filesystem::path& path) {
+  // The rules every stage relies on (skeleton, triangle indices, skin arrays, bind entries).
+  if (auto invalid = c.Validate()) return Invalid(path, invalid->message);
   const auto& sk = c.skeleton;
-  if (sk.size() == 0 || !sk.Validate()) return Invalid(path, "skeleton is empty or its arrays/parents are inconsistent");
   const auto& s = c.skin;
   const size_t nv = c.positions_rest.size();
+  // Beyond them, the GLB needs a skin even without vertices (Validate skips an empty one): one
+  // entry per rest position, arrays that agree, bind entries on joints (checked below).
   if (s.positions_bind.size() != nv) return Invalid(path, "skin.positions_bind size differs from positions_rest");
   if (s.influence_offsets.size() != nv + 1 || s.influence_offsets.front() != 0 ||
       s.influence_offsets.back() != s.influence_binds.size() || s.influence_weights.size() != s.influence_binds.size()) {
     return Invalid(path, "skin influence arrays are inconsistent (CSR offsets / binds / weights)");
   }
-  for (size_t v = 0; v < nv; ++v) {
-    if (s.influence_offsets[v] > s.influence_offsets[v + 1]) return Invalid(path, "influence offsets decrease");
-  }
-  for (size_t k = 0; k < s.influence_binds.size(); ++k) {
-    if (s.influence_binds[k] >= s.binds.size()) return Invalid(path, "influence refers to a missing bind entry");
-    if (!std::isfinite(s.influence_weights[k]) || s.influence_weights[k] < 0.0f) {
-      return Invalid(path, "influence weight is negative or not finite");
-    }
+  for (float w : s.influence_weights) {
+    if (w < 0.0f) return Invalid(path, "influence weight is negative");
   }
   std::map<int32_t, Mat4f> ibm;
   for (const auto& b : s.binds) {

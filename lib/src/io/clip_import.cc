@@ -1,7 +1,7 @@
 // Clips from animation files (clip_import.h): the glTF reader's node tree and clips
 // (importer_gltf.cc), or Assimp's scene with FBX pivots folded; then name matching onto a
 // character's skeleton.
-#include "skinspheres/lib/clip_import.h"
+#include "skinspheres/lib/io/clip_import.h"
 
 #include <assimp/Importer.hpp>
 #include <assimp/config.h>
@@ -15,6 +15,7 @@
 #include <new>
 #include <set>
 
+#include "assimp_nodes.h"
 #include "gltf_document.h"
 #include "importer_internal.h"
 
@@ -42,12 +43,6 @@ Result<AnimationFile> ReadGltfAnimations(const std::filesystem::path& file, std:
     for (const auto& n : json["nodes"]) out.skinned_mesh_count += (n.is_object() && n.contains("mesh") && n.contains("skin")) ? 1 : 0;
   }
   return out;
-}
-
-Mat4f ToEigen(const aiMatrix4x4& m) {
-  Mat4f e;
-  e << m.a1, m.a2, m.a3, m.a4, m.b1, m.b2, m.b3, m.b4, m.c1, m.c2, m.c3, m.c4, m.d1, m.d2, m.d3, m.d4;
-  return e;
 }
 
 // Appends a key; a key at the time of the previous one replaces it, an earlier one is ignored
@@ -81,20 +76,14 @@ Result<AnimationFile> ReadAssimpAnimations(const std::filesystem::path& file) {
     std::string why = importer.GetErrorString();
     return ImportError(ErrorCode::kFormatRejected, file, "rejected by Assimp: " + (why.empty() ? std::string("no scene") : why));
   }
+  auto tree = detail::ReadAssimpNodeTree(*scene, file);
+  if (!tree.ok()) return tree.error();
   AnimationFile out;
-  std::map<const aiNode*, int32_t> index_of;
-  std::vector<std::pair<const aiNode*, int32_t>> stack = {{scene->mRootNode, -1}};
-  while (!stack.empty()) {
-    auto [n, p] = stack.back();
-    stack.pop_back();
-    if (n == nullptr || index_of.count(n)) continue;
-    const Mat4f m = ToEigen(n->mTransformation);
-    if (!m.allFinite()) return ImportError(ErrorCode::kInvalidData, file, "node '" + std::string(n->mName.C_Str()) + "' has a non-finite transform");
-    index_of[n] = static_cast<int32_t>(out.nodes.size());
-    out.nodes.joint_names.emplace_back(n->mName.length > 0 ? n->mName.C_Str() : "node_" + std::to_string(out.nodes.size()));
-    out.nodes.parents.push_back(p);
-    out.nodes.rest_local.push_back(skinning::Transform::FromMatrix(m));
-    for (unsigned c = n->mNumChildren; c-- > 0;) stack.push_back({n->mChildren[c], index_of[n]});
+  for (size_t i = 0; i < tree->nodes.size(); ++i) {
+    const aiNode* n = tree->nodes[i];
+    out.nodes.joint_names.emplace_back(n->mName.length > 0 ? n->mName.C_Str() : "node_" + std::to_string(i));
+    out.nodes.parents.push_back(tree->parent[i]);
+    out.nodes.rest_local.push_back(tree->local[i]);
   }
   out.mesh_count = scene->mNumMeshes;
   for (unsigned m = 0; m < scene->mNumMeshes; ++m) out.skinned_mesh_count += scene->mMeshes[m]->HasBones() ? 1 : 0;
@@ -110,13 +99,12 @@ Result<AnimationFile> ReadAssimpAnimations(const std::filesystem::path& file) {
     std::map<int32_t, size_t> track_of_node;
     for (unsigned ch = 0; ch < anim->mNumChannels; ++ch) {
       const aiNodeAnim* na = anim->mChannels[ch];
-      const aiNode* node = scene->mRootNode->FindNode(na->mNodeName);
-      const auto it = node ? index_of.find(node) : index_of.end();
-      if (it == index_of.end()) continue;  // a channel on no node moves nothing
-      auto [slot, fresh] = track_of_node.emplace(it->second, clip.tracks.size());
+      const int32_t node = tree->Find(na->mNodeName);
+      if (node < 0) continue;  // a channel on no node moves nothing
+      auto [slot, fresh] = track_of_node.emplace(node, clip.tracks.size());
       if (fresh) {
         clip.tracks.emplace_back();
-        clip.tracks.back().joint = it->second;
+        clip.tracks.back().joint = node;
       }
       skinning::JointTrack& track = clip.tracks[slot->second];
       bool finite = true;

@@ -1,8 +1,8 @@
 // The procedural humanoid of builtin_character.h: skeleton, nine closed pieces generated as
 // stacks of elliptic rings with domed caps, chain-blended skin weights, and the "walk" and
 // "touch" clips (the touch poses come from an analytic two-bone IK, checked by an independent
-// forward-kinematics + skinning evaluation in tests/lib/builtin_character_tests.cc).
-#include "skinspheres/lib/builtin_character.h"
+// forward-kinematics + skinning evaluation in tests/lib/character/builtin_character_tests.cc).
+#include "skinspheres/lib/character/builtin_character.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>

@@ -1,7 +1,7 @@
 // Tests for clips from animation files (clip_import.h). The files are the built-in character's
 // skeleton and clips without a mesh (ExportGlb / ExportFbxAscii), joints renamed as rigs name them;
 // the oracle is the built-in character's own clips, sampled by the test-only sampler.
-#include "skinspheres/lib/clip_import.h"
+#include "skinspheres/lib/io/clip_import.h"
 
 #include <gtest/gtest.h>
 
@@ -10,9 +10,9 @@
 #include <string>
 
 #include "lib/clip_eval_for_tests.h"
-#include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/glb_exporter.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/character/builtin_character.h"
+#include "skinspheres/lib/io/glb_exporter.h"
+#include "skinspheres/lib/io/importer.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

@@ -1,5 +1,5 @@
 // Private to the importer: pieces shared by the glTF reader (importer_gltf.cc) and the Assimp
-// reader (importer_assimp.cc). Not installed; include only from lib/src/importer*.cc, gltf_*.cc.
+// reader (importer_assimp.cc). Not installed; include only from lib/src/io/.
 #pragma once
 
 #include <Eigen/Core>
@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/io/importer.h"
 
 namespace skinspheres::lib::detail {
 

@@ -1,6 +1,6 @@
 // Tests for ExportGlb: the written file is read back by Assimp (an independent reader) and by
 // ImportCharacter (the project's importer), and compared with what was exported.
-#include "skinspheres/lib/glb_exporter.h"
+#include "skinspheres/lib/io/glb_exporter.h"
 
 #include <assimp/cimport.h>
 #include <assimp/scene.h>
@@ -15,9 +15,9 @@
 #include <set>
 
 #include "lib/clip_eval_for_tests.h"
-#include "skinspheres/lib/builtin_character.h"
-#include "skinspheres/lib/clip_import.h"
-#include "skinspheres/lib/importer.h"
+#include "skinspheres/lib/character/builtin_character.h"
+#include "skinspheres/lib/io/clip_import.h"
+#include "skinspheres/lib/io/importer.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

@@ -12,18 +12,10 @@
 #include <algorithm>
 #include <map>
 
+#include "assimp_nodes.h"
 #include "importer_internal.h"
 
 namespace skinspheres::lib::detail {
-namespace {
-
-Mat4f ToEigen(const aiMatrix4x4& m) {
-  Mat4f e;
-  e << m.a1, m.a2, m.a3, m.a4, m.b1, m.b2, m.b3, m.b4, m.c1, m.c2, m.c3, m.c4, m.d1, m.d2, m.d3, m.d4;
-  return e;
-}
-
-}  // namespace
 
 // Over the function-size limit of .clang-tidy: to be split into one stage per section of the file.
 // NOLINTNEXTLINE(readability-function-size)
@@ -39,36 +31,17 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
   }
 
   // Nodes in preorder (parents first), with world transforms.
-  std::vector<const aiNode*> nodes;
-  std::vector<int32_t> parent;
-  std::map<const aiNode*, int32_t> index_of;
-  std::vector<std::pair<const aiNode*, int32_t>> stack = {{scene->mRootNode, -1}};
-  while (!stack.empty()) {
-    auto [n, p] = stack.back();
-    stack.pop_back();
-    if (n == nullptr || index_of.count(n)) continue;
-    index_of[n] = static_cast<int32_t>(nodes.size());
-    nodes.push_back(n);
-    parent.push_back(p);
-    for (unsigned c = n->mNumChildren; c-- > 0;) stack.push_back({n->mChildren[c], index_of[n]});
-  }
-  std::vector<skinning::Transform> local(nodes.size());
+  auto tree = ReadAssimpNodeTree(*scene, file);
+  if (!tree.ok()) return tree.error();
+  const std::vector<const aiNode*>& nodes = tree->nodes;
+  const std::vector<int32_t>& parent = tree->parent;
+  const std::vector<skinning::Transform>& local = tree->local;
   std::vector<Mat4f> world(nodes.size());
   for (size_t i = 0; i < nodes.size(); ++i) {
-    const Mat4f m = ToEigen(nodes[i]->mTransformation);
-    if (!m.allFinite()) return invalid("node '" + std::string(nodes[i]->mName.C_Str()) + "' has a non-finite transform");
-    local[i] = skinning::Transform::FromMatrix(m);
     const Mat4f l = local[i].ToMatrix();
     world[i] = parent[i] >= 0 ? Mat4f(world[static_cast<size_t>(parent[i])] * l) : l;
   }
-  // The first node of a name in preorder, as aiNode::FindNode gives it, from one map (FindNode
-  // recurses, and per bone it would make the work nodes x bones).
-  std::map<std::string, int32_t> node_of_name;
-  for (size_t i = 0; i < nodes.size(); ++i) node_of_name.emplace(nodes[i]->mName.C_Str(), static_cast<int32_t>(i));
-  auto node_named = [&](const aiString& name) -> int32_t {
-    auto it = node_of_name.find(name.C_Str());
-    return it == node_of_name.end() ? -1 : it->second;
-  };
+  auto node_named = [&](const aiString& name) { return tree->Find(name); };
 
   // Mesh instances: mesh order, then node preorder.
   std::vector<std::pair<unsigned, int32_t>> instances;
@@ -138,7 +111,7 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
     if (skinned) {
       for (unsigned b = 0; b < mesh->mNumBones; ++b) {
         const aiBone* bone = mesh->mBones[b];
-        const Mat4f ibm = ToEigen(bone->mOffsetMatrix);
+        const Mat4f ibm = ToMat4f(bone->mOffsetMatrix);
         if (!ibm.allFinite()) return invalid(where + " bone '" + bone->mName.C_Str() + "' has a non-finite offset matrix");
         const int32_t bind = FindOrAddBind(c.skin, joint_of_node[static_cast<size_t>(node_named(bone->mName))], ibm);
         if (bind < 0) return invalid("more than 65536 distinct bind entries");

@@ -1,1 +1,0 @@
-#include "skinspheres/lib/raw_character.h"
