@@ -11,10 +11,12 @@
 #include <memory>
 #include <new>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "skinspheres/runtime/character.h"
+#include "skinspheres/runtime/file_io.h"
 #include "skinspheres/runtime/joint_mapping.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 #include "skinspheres/version.h"
@@ -62,7 +64,7 @@ thread_local std::string t_message;           // set-up errors (allocated)
 thread_local const char* t_last_error = "";   // what skinspheres_last_error returns
 
 skinspheres_status Fail(skinspheres_status status, std::string message) {
-  t_message = std::move(message);
+  t_message = rt::OneLine(std::move(message));  // a quoted joint name may hold a newline
   t_last_error = t_message.c_str();
   return status;
 }
@@ -86,6 +88,8 @@ skinspheres_status Guard(F&& f) noexcept {
     return f();
   } catch (const std::bad_alloc&) {
     return FailStatic(SKINSPHERES_OUT_OF_MEMORY, "out of memory");
+  } catch (const std::length_error&) {  // a count beyond what a vector can hold (SIZE_MAX joints)
+    return FailStatic(SKINSPHERES_OUT_OF_MEMORY, "out of memory: a count too large to allocate");
   } catch (const std::exception& e) {
     try {
       return Fail(SKINSPHERES_INTERNAL_ERROR, std::string("internal error: ") + e.what());
@@ -104,9 +108,27 @@ std::vector<std::string> Names(const char* const* names, size_t count) {
   return out;
 }
 
-skinspheres_status MakeAsset(skinspheres::Result<rt::SphereSet> set, skinspheres_asset** out_asset) {
+// The options as the runtime's settings; false (and the failure recorded) when they are refused.
+bool NarrowSettings(const skinspheres_asset_options* options, rt::NarrowPhaseSettings& narrow, skinspheres_status& status) {
+  if (options == nullptr) return true;
+  const size_t first = offsetof(skinspheres_asset_options, narrow_margin) + sizeof(float);
+  if (options->struct_size < first || options->struct_size > sizeof(skinspheres_asset_options)) {
+    status = Fail(SKINSPHERES_INVALID_ARGUMENT,
+                  "skinspheres_asset_options.struct_size is " + std::to_string(options->struct_size) +
+                      ", this library reads " + std::to_string(sizeof(skinspheres_asset_options)) +
+                      " (set it to sizeof(skinspheres_asset_options) with this library's header)");
+    return false;
+  }
+  narrow.margin = options->narrow_margin;
+  return true;
+}
+
+skinspheres_status MakeAsset(skinspheres::Result<rt::SphereSet> set, const skinspheres_asset_options* options,
+                             skinspheres_asset** out_asset) {
+  rt::NarrowPhaseSettings narrow;
+  if (skinspheres_status refused = SKINSPHERES_OK; !NarrowSettings(options, narrow, refused)) return refused;
   if (!set.ok()) return Fail(set.error());
-  auto asset = rt::CharacterAsset::Create(std::move(set).value());
+  auto asset = rt::CharacterAsset::Create(std::move(set).value(), narrow);
   if (!asset.ok()) return Fail(asset.error());
   auto handle = std::make_unique<skinspheres_asset>();
   handle->joint_read = rt::JointsReadPerFrame((*asset)->sphere_set());
@@ -223,23 +245,39 @@ const char* skinspheres_status_string(skinspheres_status status) {
 const char* skinspheres_last_error(void) { return t_last_error; }
 
 skinspheres_status skinspheres_asset_load_file(const char* path, skinspheres_asset** out_asset) {
+  return skinspheres_asset_load_file_with(path, nullptr, out_asset);
+}
+
+skinspheres_status skinspheres_asset_load_file_with(const char* path, const skinspheres_asset_options* options,
+                                                    skinspheres_asset** out_asset) {
   return Guard([&] {
     if (out_asset) *out_asset = nullptr;
     if (path == nullptr || out_asset == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null path or out_asset");
-    return MakeAsset(rt::LoadSphereSet(path), out_asset);
+    return MakeAsset(rt::LoadSphereSet(path), options, out_asset);
   });
 }
 
 skinspheres_status skinspheres_asset_load_memory(const void* data, size_t size, const char* name,
                                                  skinspheres_asset** out_asset) {
+  return skinspheres_asset_load_memory_with(data, size, name, nullptr, out_asset);
+}
+
+skinspheres_status skinspheres_asset_load_memory_with(const void* data, size_t size, const char* name,
+                                                      const skinspheres_asset_options* options,
+                                                      skinspheres_asset** out_asset) {
   return Guard([&] {
     if (out_asset) *out_asset = nullptr;
     if ((data == nullptr && size != 0) || out_asset == nullptr) {
       return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null data or out_asset");
     }
     const std::span<const std::byte> bytes(static_cast<const std::byte*>(data), size);
-    return MakeAsset(rt::ReadSphereSet(bytes, name ? name : "<memory>"), out_asset);
+    return MakeAsset(rt::ReadSphereSet(bytes, name ? name : "<memory>"), options, out_asset);
   });
+}
+
+float skinspheres_asset_narrow_margin(const skinspheres_asset* asset) {
+  const rt::NarrowPhaseData* narrow = asset ? asset->asset->narrow_phase() : nullptr;
+  return narrow ? narrow->margin() : 0.0f;
 }
 
 void skinspheres_asset_release(skinspheres_asset* asset) { delete asset; }

@@ -37,6 +37,7 @@ const char* NotRegular(mode_t mode) {
 // Opens `path` for reading when it is a regular file (non-blocking open, so a FIFO is refused
 // at once); `size` gets its size.
 std::optional<Error> OpenRegular(const std::filesystem::path& path, Fd* f, uint64_t* size) {
+  if (path.empty()) return MakeError(ErrorCode::kInvalidArgument, "empty path: no file named");
   do {
     f->fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
   } while (f->fd < 0 && errno == EINTR);
@@ -134,9 +135,27 @@ std::optional<Error> WriteWholeFile(const std::filesystem::path& path, std::stri
 }
 
 CheckedFileWriter::CheckedFileWriter(const std::filesystem::path& path) : path_(path) {
-  file_ = std::fopen(path.c_str(), "wb");
+  // Non-blocking open: a FIFO nobody reads fails at once (ENXIO) instead of waiting for a reader
+  // forever. Once open, writes block as usual (a pipe with a reader, a slow disk).
+  int fd = -1;
+  do {
+    fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NONBLOCK | O_CLOEXEC | O_NOCTTY, 0666);
+  } while (fd < 0 && errno == EINTR);
+  if (fd < 0) {
+    const int e = errno;
+    struct stat st {};
+    const bool fifo = e == ENXIO && ::stat(path.c_str(), &st) == 0 && S_ISFIFO(st.st_mode);
+    error_ = FileError(ErrorCode::kFileUnreadable, path_,
+                       fifo ? "is a FIFO (named pipe) nobody reads: cannot write to it"
+                            : "cannot open for writing (" + Reason(e) + ")");
+    return;
+  }
+  const int flags = ::fcntl(fd, F_GETFL);
+  if (flags >= 0) ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
+  file_ = ::fdopen(fd, "wb");
   if (file_ == nullptr) {
     error_ = FileError(ErrorCode::kFileUnreadable, path_, "cannot open for writing (" + Reason(errno) + ")");
+    ::close(fd);
   }
 }
 
@@ -166,6 +185,23 @@ std::optional<Error> CheckedFileWriter::Close() {
     file_ = nullptr;
   }
   return error_;
+}
+
+std::string OneLine(std::string message) {
+  const auto control = [](unsigned char c) { return c < 0x20 || c == 0x7f; };
+  if (std::none_of(message.begin(), message.end(), control)) return message;
+  std::string line;
+  for (const unsigned char c : message) {
+    if (!control(c)) line += static_cast<char>(c);
+    else if (c == '\n') line += "\\n";
+    else if (c == '\r') line += "\\r";
+    else if (c == '\t') line += "\\t";
+    else {
+      static constexpr char kHex[] = "0123456789abcdef";
+      line += {'\\', 'x', kHex[c >> 4], kHex[c & 15]};
+    }
+  }
+  return line;
 }
 
 JsonShape ScanJson(std::string_view text) {

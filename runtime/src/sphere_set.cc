@@ -114,6 +114,16 @@ std::optional<Error> SphereSet::Validate() const {
     }
     if (!joint_rest_world[j].allFinite()) return Invalid("joint " + std::to_string(j) + " rest transform is not finite");
   }
+  // Part names are what a report says ("torso - arm_l") and what an engine looks a part up by:
+  // each is non-empty and names one part.
+  for (size_t p = 0; p < parts.size(); ++p) {
+    if (parts[p].name.empty()) return Invalid("part " + std::to_string(p) + " has an empty name");
+    for (size_t q = 0; q < p; ++q) {
+      if (parts[q].name == parts[p].name) {
+        return Invalid("parts " + std::to_string(q) + " and " + std::to_string(p) + " are both named '" + parts[p].name + "'");
+      }
+    }
+  }
   for (const auto& part : parts) {
     for (uint32_t j : part.joints) {
       if (j >= joints) return Invalid("part " + part.name + " names joint " + std::to_string(j) + " out of range");

@@ -10,6 +10,7 @@
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <utility>
 
 #include "skinspheres/runtime/file_io.h"
 #include "skinspheres/runtime/sphere_set_io.h"
@@ -160,6 +161,47 @@ bool CsrOffsetsOk(std::span<const uint32_t> offsets, size_t total) {
   return true;
 }
 
+// The UTF-8 sequence at s[k]: {length, valid}. An invalid one's length is its maximal subpart
+// (the lead byte and the continuation bytes that fit it, at least 1), which gets one U+FFFD.
+// Shortest forms only, no surrogates, nothing above U+10FFFF.
+std::pair<size_t, bool> Utf8Sequence(std::string_view s, size_t k) {
+  const auto byte = [&](size_t i) { return static_cast<unsigned char>(s[i]); };
+  const unsigned char c = byte(k);
+  size_t len = 0;
+  unsigned char lo = 0x80, hi = 0xBF;  // the range of the second byte
+  if (c < 0x80) return {1, true};
+  if (c >= 0xC2 && c <= 0xDF) len = 2;
+  else if (c >= 0xE0 && c <= 0xEF) len = 3, lo = c == 0xE0 ? 0xA0 : 0x80, hi = c == 0xED ? 0x9F : 0xBF;
+  else if (c >= 0xF0 && c <= 0xF4) len = 4, lo = c == 0xF0 ? 0x90 : 0x80, hi = c == 0xF4 ? 0x8F : 0xBF;
+  else return {1, false};
+  for (size_t i = 1; i < len; ++i) {
+    const bool fits = k + i < s.size() && byte(k + i) >= (i == 1 ? lo : 0x80) && byte(k + i) <= (i == 1 ? hi : 0xBF);
+    if (!fits) return {i, false};
+  }
+  return {len, true};
+}
+
+// The length of the valid UTF-8 prefix of s (s.size() when all of it is valid).
+size_t ValidUtf8Prefix(std::string_view s) {
+  size_t k = 0;
+  for (std::pair<size_t, bool> seq; k < s.size() && (seq = Utf8Sequence(s, k)).second;) k += seq.first;
+  return k;
+}
+
+// s with each invalid sequence replaced by U+FFFD (names taken from a file's bytes: a path, a
+// Latin-1 FBX name), as the JSON writer (nlohmann::json's error_handler_t::replace) does.
+std::string ValidUtf8(std::string_view s) {
+  if (ValidUtf8Prefix(s) == s.size()) return std::string(s);
+  std::string out;
+  for (size_t k = 0; k < s.size();) {
+    const auto [length, valid] = Utf8Sequence(s, k);
+    if (valid) out.append(s.substr(k, length));
+    else out += "\xEF\xBF\xBD";
+    k += length;
+  }
+  return out;
+}
+
 template <typename Dst, typename Src>
 void CopyInto(std::vector<Dst>& dst, std::span<const Src> src) {
   dst.assign(src.begin(), src.end());
@@ -221,7 +263,7 @@ std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set, SphereSetBinar
   std::vector<uint32_t> string_offsets = {0};
   std::string strings;
   auto add_string = [&](const std::string& s) {
-    strings += s;
+    strings += ValidUtf8(s);  // the reader refuses invalid UTF-8
     string_offsets.push_back(static_cast<uint32_t>(strings.size()));
   };
   add_string(set.source_file);
@@ -418,6 +460,28 @@ Result<SphereSetBinaryView> SphereSetBinaryView::Open(std::span<const std::byte>
         (err = csr(S::kMeshInfluenceOffsets, vertices, {S::kMeshInfluenceBinds, S::kMeshInfluenceWeights}))) {
       return *err;
     }
+  }
+  // The bytes between the table and the sections, and after the last, are zero (so a set has one
+  // encoding and reads back byte for byte).
+  uint64_t covered = table_end;
+  for (size_t k = 0; k <= kSphereSetSectionCount; ++k) {
+    const bool last = k == kSphereSetSectionCount;
+    if (!last && !SectionPresent(k + 1, v.flags_)) continue;
+    const uint64_t start = last ? file_size : v.sections_[k].offset;
+    for (uint64_t at = covered; at < start; ++at) {
+      if (base[at] != std::byte{0}) return Refuse(src, "padding byte at offset " + std::to_string(at) + " is not 0");
+    }
+    if (!last) covered = start + uint64_t{v.sections_[k].count} * kSections[k].element_size;
+  }
+  for (size_t k = 0; k < strings; ++k) {
+    const std::string_view text = v.String(k);
+    const size_t valid = ValidUtf8Prefix(text);
+    if (valid == text.size()) continue;
+    const std::string which = k == 0   ? std::string("source_file")
+                              : k == 1 ? std::string("params")
+                              : k < 2 + joints ? "joint " + std::to_string(k - 2) + "'s name"
+                                               : "part " + std::to_string(k - 2 - joints) + "'s name";
+    return Refuse(src, which + " is not valid UTF-8 (byte " + std::to_string(valid) + ")");
   }
   v.source_name_ = std::move(source_name);
   return v;

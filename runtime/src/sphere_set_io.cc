@@ -397,6 +397,12 @@ std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::
 
 Result<SphereSet> ReadSphereSet(std::span<const std::byte> bytes, const std::string& source_name) {
   if (IsSphereSetBinary(bytes)) return ReadSphereSetBinary(bytes, source_name);
+  // Shorter than the binary magic: neither format (the smallest JSON set is far longer).
+  if (bytes.empty()) return MakeError(ErrorCode::kFormatRejected, source_name + ": empty file");
+  if (bytes.size() < sizeof kSphereSetBinaryMagic) {
+    return MakeError(ErrorCode::kFormatRejected, source_name + ": too short to be a sphere set (" +
+                                                     std::to_string(bytes.size()) + " bytes)");
+  }
   return ReadSphereSetJson(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), source_name);
 }
 

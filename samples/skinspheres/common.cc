@@ -6,15 +6,13 @@
 #include "commands.h"
 #include "skinspheres/lib/builtin_character.h"
 #include "skinspheres/lib/importer.h"
+#include "skinspheres/runtime/file_io.h"
 
 namespace skinspheres::tool {
 
 int Fail(const std::string& message) {
-  // One line whatever the message holds (a file name or a set's source name may contain newlines).
-  std::string line = message;
-  std::replace(line.begin(), line.end(), '\n', ' ');
-  std::replace(line.begin(), line.end(), '\r', ' ');
-  std::cerr << "skinspheres: " << line << std::endl;
+  // One line whatever the message holds (a file name or a set's joint names may contain newlines).
+  std::cerr << "skinspheres: " << runtime::OneLine(message) << std::endl;
   return kExitBadInput;
 }
 

@@ -120,6 +120,9 @@ int RunFit(FitArgs& args) {
   if (!args.output.empty() && !runtime::SphereSetFormatForPath(args.output)) {  // before a long fit
     return Fail(args.output + ": unknown sphere-set extension (use .json for JSON or .ssb for binary)");
   }
+  if (args.fast_only && args.output.empty()) {
+    return Fail("--fast-only needs a binary output (-o OUT.ssb): it says what the written set leaves out");
+  }
   auto loaded = LoadCharacter(args.input, args.fit.parts_file);
   if (!loaded.ok()) return Fail(loaded.error().message);
   auto fit = lib::FitSpheres(loaded->character, loaded->parts, args.fit.settings);

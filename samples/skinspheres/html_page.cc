@@ -7,12 +7,12 @@
 #include <array>
 #include <chrono>
 #include <cstring>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string_view>
 
 #include "skinspheres/lib/metrics/fit_metrics.h"
 #include "skinspheres/lib/glb_exporter.h"
+#include "skinspheres/runtime/file_io.h"
 #include "skinspheres/skinning/sampling_job.h"
 #include "viewer_assets.h"
 
@@ -299,12 +299,7 @@ std::optional<Error> WriteViewerPage(const ViewerPageInput& in, const std::strin
                                             {"DATA", data_text},
                                             {"GLB", glb_text}});
   if (!page.ok()) return MakeError(page.error().code, path + ": " + page.error().message);
-  std::ofstream out(path, std::ios::binary);
-  if (!out) return MakeError(ErrorCode::kFileUnreadable, path + ": cannot open for writing");
-  out.write(page->data(), static_cast<std::streamsize>(page->size()));
-  out.close();
-  if (!out) return MakeError(ErrorCode::kFileUnreadable, path + ": write failed");
-  return std::nullopt;
+  return runtime::WriteWholeFile(path, *page);
 }
 
 }  // namespace skinspheres::tool

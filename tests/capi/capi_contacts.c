@@ -5,7 +5,8 @@
    all at once, count first, then fill), and run a crowd on its own parallel loop. Every frame's
    sphere, part-pair and triangle contacts must equal, byte for byte, what the C++ API found
    (capi_reference writes them).
-   Usage: capi_contacts DIR (holding set.ssb, set.json, set_fast.ssb, frames.bin). */
+   Usage: capi_contacts DIR [MARGIN] (DIR holding set.ssb, set.json, set_fast.ssb, frames.bin;
+   MARGIN: the narrow-phase margin capi_reference used, passed in skinspheres_asset_options). */
 #ifdef __cplusplus
 #error "this test must be compiled as C"
 #endif
@@ -13,6 +14,7 @@
 #error "this test must be compiled as C99"
 #endif
 
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -150,12 +152,17 @@ int main(int argc, char** argv) {
   skinspheres_part_contact* part_buffer;
   skinspheres_triangle_contact* triangle_buffer;
   int parallel_calls = 0;
+  skinspheres_asset_options options;
+  size_t within_margin = 0;
 
-  if (argc != 2) {
-    fprintf(stderr, "usage: capi_contacts DIR\n");
+  if (argc != 2 && argc != 3) {
+    fprintf(stderr, "usage: capi_contacts DIR [MARGIN]\n");
     return 2;
   }
   dir = argv[1];
+  memset(&options, 0, sizeof options);
+  options.struct_size = sizeof options;
+  options.narrow_margin = argc == 3 ? strtof(argv[2], NULL) : 0.0f;
 
   /* Versions: the header's and the library's agree. */
   check(skinspheres_version() == SKINSPHERES_VERSION, "skinspheres_version() == SKINSPHERES_VERSION", 0);
@@ -166,6 +173,13 @@ int main(int argc, char** argv) {
   check(skinspheres_asset_load_file("no_such_set.ssb", &missing) == SKINSPHERES_FILE_NOT_FOUND && missing == NULL,
         "missing file refused", 0);
   check(strstr(skinspheres_last_error(), "no_such_set.ssb: file not found") != NULL, "missing file named", 0);
+  /* The last error is one line: a newline in the name is escaped; an empty path is named as such. */
+  check(skinspheres_asset_load_file("no\nsuch.ssb", &missing) == SKINSPHERES_FILE_NOT_FOUND, "missing file refused", 0);
+  check(strstr(skinspheres_last_error(), "no\\nsuch.ssb: file not found") != NULL &&
+            strchr(skinspheres_last_error(), '\n') == NULL,
+        "a newline in the name is escaped", 0);
+  check(skinspheres_asset_load_file("", &missing) == SKINSPHERES_INVALID_ARGUMENT, "empty path refused", 0);
+  check(strstr(skinspheres_last_error(), "empty path") == skinspheres_last_error(), "empty path named", 0);
 
   /* The clip as the engine has it. */
   frames_data = (unsigned char*)read_all(join(dir, "frames.bin"), &frames_size);
@@ -210,12 +224,37 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  /* The set: binary from a file, JSON from memory, and the fast-only binary. */
-  check(skinspheres_asset_load_file(join(dir, "set.ssb"), &binary) == SKINSPHERES_OK, "load set.ssb", 0);
+  /* Options that cannot be read, and margins the narrow phase cannot use, are refused. */
+  {
+    skinspheres_asset_options bad = options;
+    bad.struct_size = sizeof(size_t);
+    check(skinspheres_asset_load_file_with(join(dir, "set.ssb"), &bad, &missing) == SKINSPHERES_INVALID_ARGUMENT &&
+              missing == NULL && strstr(skinspheres_last_error(), "struct_size") != NULL,
+          "options too small refused", 0);
+    bad.struct_size = sizeof options + 8;
+    check(skinspheres_asset_load_file_with(join(dir, "set.ssb"), &bad, &missing) == SKINSPHERES_INVALID_ARGUMENT,
+          "options from a newer header refused", 0);
+    bad = options;
+    bad.narrow_margin = -0.01f;
+    check(skinspheres_asset_load_file_with(join(dir, "set.ssb"), &bad, &missing) == SKINSPHERES_INVALID_ARGUMENT &&
+              strstr(skinspheres_last_error(), "margin") != NULL,
+          "a negative margin refused", 0);
+    bad.narrow_margin = (float)strtod("nan", NULL);
+    check(skinspheres_asset_load_file_with(join(dir, "set.ssb"), &bad, &missing) == SKINSPHERES_INVALID_ARGUMENT,
+          "a NaN margin refused", 0);
+  }
+
+  /* The set: binary from a file, JSON from memory (both with the options), and the fast-only
+     binary (plain loader). */
+  check(skinspheres_asset_load_file_with(join(dir, "set.ssb"), &options, &binary) == SKINSPHERES_OK, "load set.ssb", 0);
   json_text = (char*)read_all(join(dir, "set.json"), &json_size);
   check(json_text != NULL, "read set.json", 0);
-  check(skinspheres_asset_load_memory(json_text, json_size, "set.json", &json) == SKINSPHERES_OK, "load JSON from memory", 0);
+  check(skinspheres_asset_load_memory_with(json_text, json_size, "set.json", &options, &json) == SKINSPHERES_OK,
+        "load JSON from memory", 0);
   free(json_text); /* the asset holds its own copy */
+  check(skinspheres_asset_narrow_margin(binary) == options.narrow_margin &&
+            skinspheres_asset_narrow_margin(json) == options.narrow_margin,
+        "the assets' margin is the options'", 0);
   check(skinspheres_asset_load_file(join(dir, "set_fast.ssb"), &fast_only) == SKINSPHERES_OK, "load set_fast.ssb", 0);
   if (failures) return 1;
   check(skinspheres_asset_sphere_count(binary) == skinspheres_asset_sphere_count(json) &&
@@ -245,6 +284,15 @@ int main(int argc, char** argv) {
   check(skinspheres_instance_create(fast_only, names, joint_count, &c) == SKINSPHERES_OK, "instance c", 0);
   check(skinspheres_instance_create(binary, NULL, 0, &in_set_order) == SKINSPHERES_OK, "instance in set order", 0);
   check(skinspheres_instance_joint_count(a) == joint_count, "instance joint count", 0);
+  /* A count no vector can hold is refused as out of memory, never an "internal error". */
+  {
+    skinspheres_instance* huge = NULL;
+    check(skinspheres_instance_create(binary, names, SIZE_MAX, &huge) == SKINSPHERES_OUT_OF_MEMORY && huge == NULL,
+          "SIZE_MAX joint names refused", 0);
+    check(strstr(skinspheres_last_error(), "too large") != NULL, "the refusal says too large", 0);
+    check(skinspheres_instance_reserve_contacts(a, SIZE_MAX) == SKINSPHERES_OUT_OF_MEMORY, "SIZE_MAX contacts refused", 0);
+    check(strstr(skinspheres_last_error(), "too large") != NULL, "the refusal says too large", 0);
+  }
   skinspheres_asset_release(json);
   skinspheres_asset_release(fast_only);
   if (failures) return 1;
@@ -280,6 +328,7 @@ int main(int argc, char** argv) {
       total[m] += count;
       triangle_total[m] += check_triangle_contacts(inst, fr, m, f, vertex_count, part_buffer, part_capacity,
                                                    triangle_buffer, triangle_capacity);
+      for (k = 0; k < fr->triangle_count[m]; ++k) within_margin += fr->triangles[m][k].kind == SKINSPHERES_TRIANGLES_WITHIN_MARGIN;
     }
     /* The fast-only set: the same fast contacts; exact mode refused with a clear message. */
     check(skinspheres_instance_update_fast(c, fr->joint_world, joint_count) == SKINSPHERES_OK, "fast-only update", f);
@@ -359,9 +408,15 @@ int main(int argc, char** argv) {
     fprintf(stderr, "FAILED: no sphere or no triangle contacts in the clip, the comparison proves nothing\n");
     ++failures;
   }
-  printf("C API (%s): %u frames, %lu fast and %lu exact sphere contacts, %lu fast and %lu exact triangle contacts, %s\n",
+  if (options.narrow_margin > 0 && within_margin == 0) {
+    fprintf(stderr, "FAILED: a margin but no within-margin triangle pairs, the margin is not tested\n");
+    ++failures;
+  }
+  printf("C API (%s): %u frames, %lu fast and %lu exact sphere contacts, %lu fast and %lu exact triangle contacts "
+         "(%lu within the margin %g), %s\n",
          skinspheres_version_string(), frame_count, (unsigned long)total[0], (unsigned long)total[1],
-         (unsigned long)triangle_total[0], (unsigned long)triangle_total[1],
+         (unsigned long)triangle_total[0], (unsigned long)triangle_total[1], (unsigned long)within_margin,
+         (double)options.narrow_margin,
          failures ? "DIFFERENT from the C++ API" : "all equal to the C++ API's");
   return failures ? 1 : 0;
 }

@@ -2,6 +2,8 @@
 // JSON, fast-only binary) and, for every frame of its "touch" clip, what an engine would hand the C
 // API (joint world matrices in the engine's own joint order, skinned positions) together with the
 // contacts the C++ API (CharacterInstance, set joint order) finds in fast and exact mode.
+//   capi_reference OUT_DIR [MARGIN]   MARGIN: the narrow phase's margin (NarrowPhaseSettings),
+//                                     default 0; with MARGIN > 0 the clip must hold within-margin pairs.
 //
 // frames.bin (little-endian): u32 joint_count, u32 vertex_count, u32 frame_count; joint_count names
 // (u32 length + bytes + padding); then per frame: 16 * joint_count floats, 3 * vertex_count floats, and for
@@ -12,6 +14,7 @@
 // point[3], on_t[3], on_u[3]): the C API's structs, field by field. Names are padded
 // with zeros to a multiple of 4 bytes so that every float is 4-byte aligned in a malloc'ed copy.
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <set>
 #include <string>
@@ -43,8 +46,10 @@ void Put32(FILE* f, uint32_t v) { Put(f, &v, 4); }
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 2) return Fail("usage: capi_reference OUT_DIR");
+  if (argc != 2 && argc != 3) return Fail("usage: capi_reference OUT_DIR [MARGIN]");
   const std::filesystem::path dir = argv[1];
+  runtime::NarrowPhaseSettings narrow;
+  if (argc == 3) narrow.margin = std::strtof(argv[2], nullptr);
   std::filesystem::create_directories(dir);
   const lib::RawCharacter ch = lib::MakeBuiltinCharacter();
   auto parts = lib::SplitBodyParts(ch);
@@ -66,7 +71,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> names;
   for (int32_t j : engine_joint) names.push_back(j < 0 ? "IK_target" : ch.skeleton.joint_names[static_cast<size_t>(j)]);
 
-  auto asset = runtime::CharacterAsset::Create(set);
+  auto asset = runtime::CharacterAsset::Create(set, narrow);
   if (!asset.ok()) return Fail(asset.error().message);
   auto instance = runtime::CharacterInstance::Create(*asset);
   if (!instance.ok()) return Fail(instance.error().message);
@@ -90,7 +95,7 @@ int main(int argc, char** argv) {
   std::vector<Mat4f> world(joints), skin_matrices(ch.skin.binds.size());
   std::vector<Mat4f> engine_world(names.size(), Mat4f::Identity());
   std::vector<float> positions(3 * vertices);
-  size_t total = 0, triangle_total = 0;
+  size_t total = 0, triangle_total = 0, within_margin = 0;
   for (uint32_t k = 0; k < frames; ++k) {
     skinning::SamplingJob sampling{&clip, &ch.skeleton, k / fps, locals};
     skinning::LocalToModelJob l2m;
@@ -148,12 +153,16 @@ int main(int argc, char** argv) {
         Put(f, t.point, 12);
         Put(f, t.on_t, 12);
         Put(f, t.on_u, 12);
+        within_margin += t.kind == runtime::TriangleContactKind::kWithinMargin;
       }
       triangle_total += found.triangle_pairs.size();
     }
   }
   std::fclose(f);
-  std::printf("wrote %u frames of \"%s\", %zu sphere contacts and %zu triangle contacts in all, %zu engine joints\n",
-              frames, clip.name.c_str(), total, triangle_total, names.size());
-  return total > 0 && triangle_total > 0 ? 0 : Fail("no sphere or no triangle contacts: the test would prove nothing");
+  std::printf("wrote %u frames of \"%s\", %zu sphere contacts and %zu triangle contacts in all (%zu within the margin %g), "
+              "%zu engine joints\n",
+              frames, clip.name.c_str(), total, triangle_total, within_margin, narrow.margin, names.size());
+  if (total == 0 || triangle_total == 0) return Fail("no sphere or no triangle contacts: the test would prove nothing");
+  if (narrow.margin > 0 && within_margin == 0) return Fail("no within-margin triangle pairs: the margin is not tested");
+  return 0;
 }

@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <functional>
 #include <string>
@@ -440,13 +441,18 @@ TEST(SphereSetBinaryTest, ParamsAreAJsonObjectTheJsonReaderWouldRead) {
   ASSERT_FALSE(deep.ok());
   EXPECT_EQ(deep.error().code, ErrorCode::kInvalidData);
   EXPECT_NE(deep.error().message.find("params) nest 100001 deep (at most 128"), std::string::npos) << deep.error().message;
-  for (const char* not_object : {"[1,2]", "3", "{\"a\":", "{\"a\":\"\xff\"}"}) {
+  for (const char* not_object : {"[1,2]", "3", "{\"a\":"}) {
     set.params_json = not_object;
     auto read = Read(WriteSphereSetBinary(set));
     ASSERT_FALSE(read.ok()) << not_object;
     EXPECT_NE(read.error().message.find("the fit settings (params) are not a JSON object"), std::string::npos)
         << read.error().message;
   }
+  // Bytes that are not UTF-8 never reach the file: the writer makes them U+FFFD, as the JSON writer does.
+  set.params_json = "{\"a\":\"\xff\"}";
+  auto latin1 = Read(WriteSphereSetBinary(set));
+  ASSERT_TRUE(latin1.ok()) << latin1.error().message;
+  EXPECT_EQ(latin1->params_json, "{\"a\":\"\xEF\xBF\xBD\"}");
   set.params_json = " { \"rays\" : 80 ,\"a\":[1, 2] } ";
   auto read = Read(WriteSphereSetBinary(set));
   ASSERT_TRUE(read.ok()) << read.error().message;
@@ -459,6 +465,92 @@ TEST(SphereSetBinaryTest, ParamsAreAJsonObjectTheJsonReaderWouldRead) {
   auto none = Read(WriteSphereSetBinary(set));
   ASSERT_TRUE(none.ok()) << none.error().message;
   EXPECT_EQ(none->params_json, "{}");
+}
+
+// The layout's padding (after the table, between sections, at the end) is zero: a set has one
+// encoding, so binary -> set -> binary gives the same bytes. A non-zero padding byte is refused.
+TEST(SphereSetBinaryTest, EveryNonZeroPaddingByteIsRefused) {
+  const Bytes good = WriteSphereSetBinary(Small());
+  std::vector<bool> covered(good.size(), false);
+  const uint32_t sections = Get32(good, 32);
+  std::fill_n(covered.begin(), kSphereSetBinaryHeaderSize + sections * kSphereSetBinarySectionEntrySize, true);
+  for (uint32_t k = 0; k < sections; ++k) {
+    const size_t entry = kSphereSetBinaryHeaderSize + k * kSphereSetBinarySectionEntrySize;
+    const size_t at = Get64(good, entry + 8), bytes = Get64(good, entry + 16) * Get32(good, entry + 4);
+    std::fill_n(covered.begin() + static_cast<ptrdiff_t>(at), bytes, true);
+  }
+  size_t padding = 0;
+  for (size_t at = 0; at < good.size(); ++at) {
+    if (covered[at]) continue;
+    ++padding;
+    ASSERT_EQ(good[at], std::byte{0}) << "the writer left byte " << at << " non-zero";
+    Bytes bad = good;
+    bad[at] = std::byte{0x01};
+    FixChecksum(bad);
+    auto read = Read(bad);
+    ASSERT_FALSE(read.ok()) << "padding byte " << at << " = 1 was accepted";
+    EXPECT_NE(read.error().message.find("padding byte at offset " + std::to_string(at) + " is not 0"), std::string::npos)
+        << read.error().message;
+  }
+  EXPECT_GT(padding, 16u);  // after the table, between sections and at the end
+  auto read = Read(good);
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  EXPECT_EQ(WriteSphereSetBinary(*read), good);
+}
+
+// Strings (source file, params, joint and part names) are UTF-8, as in the JSON, so binary -> JSON
+// is lossless: the reader refuses invalid UTF-8, naming the string; the writer never writes it
+// (bytes from a Latin-1 name become U+FFFD, as the JSON writer makes them).
+TEST(SphereSetBinaryTest, StringsThatAreNotUtf8AreRefusedByName) {
+  const SphereSet set = Small();
+  const Bytes good = WriteSphereSetBinary(set);
+  const size_t offsets_at = Get64(good, EntryOf(good, SphereSetSection::kStringOffsets) + 8);
+  const size_t bytes_at = Get64(good, EntryOf(good, SphereSetSection::kStringBytes) + 8);
+  const size_t joints = set.joint_count(), strings = 2 + joints + set.parts.size();
+  auto string_at = [&](size_t k) { return bytes_at + Get32(good, offsets_at + 4 * k); };
+  auto string_length = [&](size_t k) { return Get32(good, offsets_at + 4 * (k + 1)) - Get32(good, offsets_at + 4 * k); };
+  for (size_t k = 0; k < strings; ++k) {
+    ASSERT_GT(string_length(k), 0u) << "string " << k;
+    Bytes bad = good;
+    bad[string_at(k)] = std::byte{0xFF};
+    FixChecksum(bad);
+    auto read = Read(bad);
+    ASSERT_FALSE(read.ok()) << "string " << k << " with a 0xFF byte was accepted";
+    const std::string which = k == 0 ? "source_file" : k == 1 ? "params" : k < 2 + joints
+                                  ? "joint " + std::to_string(k - 2) + "'s name"
+                                  : "part " + std::to_string(k - 2 - joints) + "'s name";
+    EXPECT_NE(read.error().message.find(which + " is not valid UTF-8 (byte 0)"), std::string::npos) << read.error().message;
+  }
+  // Each malformed form in the source file ("small.glb", 9 bytes) is refused; each valid one read.
+  ASSERT_EQ(string_length(0), 9u);
+  const std::pair<std::string_view, bool> forms[] = {
+      {"\xC3\xA9", true},          {"\xE2\x82\xAC", true},      {"\xF0\x9F\x98\x80", true},   {"\xF4\x8F\xBF\xBF", true},
+      {"\xC0\x80", false},         {"\xC1\xBF", false},         {"\xE0\x80\x80", false},      {"\xED\xA0\x80", false},
+      {"\xF0\x80\x80\x80", false}, {"\xF4\x90\x80\x80", false}, {"\xF5\x80\x80\x80", false},  {"\x80", false},
+      {"\xC3", false},             {"\xE2\x82", false},         {"\xE2\x28\xAC", false},      {"\xF0\x9F\x98", false},
+  };
+  for (const auto& [form, valid] : forms) {
+    Bytes edited = good;
+    const size_t at = string_at(0) + 9 - form.size();  // at the end: a cut sequence ends the string
+    std::memcpy(edited.data() + at, form.data(), form.size());
+    FixChecksum(edited);
+    auto read = Read(edited);
+    EXPECT_EQ(read.ok(), valid) << "form of " << form.size() << " bytes starting " << int(uint8_t(form[0]));
+  }
+  // A name that is not UTF-8 is written as the JSON writer writes it: both read back the same.
+  SphereSet latin1 = Small();
+  latin1.joint_names[0] = "h\xE9po";
+  latin1.parts[0].name = "t\xEAte";
+  latin1.source_file = std::string("cut \xE2\x82") + "|overlong \xC0\xAF|surrogate \xED\xA0\x80|end \xF0\x9F\x98";
+  auto from_binary = Read(WriteSphereSetBinary(latin1));
+  ASSERT_TRUE(from_binary.ok()) << from_binary.error().message;
+  EXPECT_EQ(from_binary->joint_names[0], "h\xEF\xBF\xBDpo");
+  EXPECT_EQ(from_binary->parts[0].name, "t\xEF\xBF\xBDte");
+  EXPECT_EQ(from_binary->source_file.find("cut \xEF\xBF\xBD|"), 0u) << from_binary->source_file;  // one per sequence
+  auto from_json = ReadSphereSetJson(WriteSphereSetJson(latin1), "latin1.json");
+  ASSERT_TRUE(from_json.ok()) << from_json.error().message;
+  EXPECT_EQ(WriteSphereSetJson(*from_binary), WriteSphereSetJson(*from_json));
+  EXPECT_EQ(WriteSphereSetBinary(*from_json), WriteSphereSetBinary(*from_binary));
 }
 
 }  // namespace

@@ -5,12 +5,18 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <future>
+#include <optional>
+#include <thread>
 #include <nlohmann/json.hpp>
 
 #include "sample_sphere_set.h"
+#include "skinspheres/runtime/file_io.h"
+#include "skinspheres/runtime/joint_mapping.h"
+#include "skinspheres/runtime/sphere_set_binary.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 #include "test_support.h"
 
@@ -71,6 +77,23 @@ TEST(SphereSetHostile, ValidateRefusesRadiiOfZeroOrLess) {
     EXPECT_NE(err->message.find("sphere 1 has radius"), std::string::npos) << err->message;
     ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "r.json"), "r.json", ErrorCode::kInvalidData, "(must be > 0)");
   }
+}
+
+TEST(SphereSetHostile, ValidateRefusesEmptyAndDuplicatePartNames) {
+  SphereSet set = TwoSpheres();
+  ASSERT_FALSE(set.Validate().has_value());
+  set.parts.push_back(set.parts[0]);  // a second part with the first one's name
+  ASSERT_TRUE(set.Validate().has_value());
+  EXPECT_NE(set.Validate()->message.find("parts 0 and " + std::to_string(set.parts.size() - 1) + " are both named '" +
+                                         set.parts[0].name + "'"),
+            std::string::npos)
+      << set.Validate()->message;
+  ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "dup.json"), "dup.json", ErrorCode::kInvalidData, "both named");
+  ExpectRefused(ReadSphereSetBinary(WriteSphereSetBinary(set), "dup.ssb"), "dup.ssb", ErrorCode::kInvalidData, "both named");
+  set = TwoSpheres();
+  set.parts[0].name.clear();
+  ASSERT_TRUE(set.Validate().has_value());
+  EXPECT_NE(set.Validate()->message.find("part 0 has an empty name"), std::string::npos) << set.Validate()->message;
 }
 
 TEST(SphereSetHostile, ValidateRefusesUnownedAndDoublyOwnedTriangles) {
@@ -142,6 +165,68 @@ TEST(SphereSetHostile, StreamedReadingKeepsEveryPartOfTheSet) {
   bad = j;
   bad["mesh"]["positions_bind"][0] = "x";
   ExpectRefused(ReadSphereSetJson(bad.dump(), "bad.json"), "bad.json", ErrorCode::kInvalidData, "$.mesh.positions_bind is not a number");
+}
+
+// An empty file and one shorter than the binary magic were reported as "not valid JSON"; an empty
+// path as ": file not found" (no name at all).
+TEST(SphereSetHostile, EmptyAndTinyFilesAndAnEmptyPathAreNamedForWhatTheyAre) {
+  const auto dir = test::TempDir("sphere_set_tiny");
+  const auto empty = dir / "empty.ssb", tiny = dir / "tiny.ssb";
+  ASSERT_FALSE(WriteWholeFile(empty, ""));
+  ASSERT_FALSE(WriteWholeFile(tiny, std::string_view(reinterpret_cast<const char*>(kSphereSetBinaryMagic), 5)));
+  ExpectRefused(LoadSphereSet(empty), empty.string(), ErrorCode::kFormatRejected, "empty file");
+  ExpectRefused(LoadSphereSet(tiny), tiny.string(), ErrorCode::kFormatRejected, "too short to be a sphere set (5 bytes)");
+  const auto no_path = LoadSphereSet("");
+  ASSERT_FALSE(no_path.ok());
+  EXPECT_EQ(no_path.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_EQ(no_path.error().message.rfind("empty path", 0), 0u) << no_path.error().message;
+}
+
+// Opening a FIFO nobody reads for writing used to block forever (convert, fit -o, --dump...): it
+// is refused at once, naming the path; a FIFO with a reader is written through.
+TEST(SphereSetHostile, AFifoOutputWithoutAReaderIsRefusedNotWaitedOn) {
+  const auto dir = test::TempDir("sphere_set_fifo_out");
+  const auto fifo = dir / "out.json";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  auto saved = std::async(std::launch::async, [&] { return SaveSphereSet(TwoSpheres(), fifo); });
+  if (saved.wait_for(std::chrono::seconds(60)) != std::future_status::ready) {
+    ADD_FAILURE() << fifo << ": still opening after 60 s";
+    std::ifstream unblock(fifo);  // a reader lets a blocked open go on
+  }
+  const auto err = saved.get();
+  ASSERT_TRUE(err.has_value());
+  EXPECT_EQ(err->message, fifo.string() + ": is a FIFO (named pipe) nobody reads: cannot write to it");
+  // With a reader already there the write goes through, and the reader gets the whole set.
+  auto reader = std::async(std::launch::async, [&] {
+    std::ifstream in(fifo, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  });
+  std::optional<Error> written;
+  for (int attempt = 0; attempt < 6000; ++attempt) {  // until the reader has opened its end
+    written = SaveSphereSet(TwoSpheres(), fifo);
+    if (!written || written->message.find("nobody reads") == std::string::npos) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_FALSE(written.has_value()) << written->message;
+  EXPECT_EQ(reader.get(), WriteSphereSetJson(TwoSpheres()) + "\n");
+}
+
+// Names are data: a joint or part name may hold a newline or a NUL (JSON escapes them, and they
+// round-trip); where an error quoting one leaves the library (C API, tool) OneLine keeps it one line.
+TEST(SphereSetHostile, ControlCharactersInNamesNeverBreakAnErrorLine) {
+  SphereSet set = TwoSpheres();
+  set.joint_names[0] = std::string("ro\not\0x", 7);
+  auto back = ReadSphereSetJson(WriteSphereSetJson(set), "names.json");
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->joint_names[0], set.joint_names[0]);
+  const std::vector<std::string> engine = {"other"};
+  auto mapping = MapJoints(*back, engine);
+  ASSERT_FALSE(mapping.ok());
+  const std::string line = OneLine(mapping.error().message);
+  EXPECT_NE(line.find("ro\\not\\x00x"), std::string::npos) << line;
+  EXPECT_TRUE(std::none_of(line.begin(), line.end(), [](unsigned char c) { return c < 0x20 || c == 0x7f; })) << line;
+  EXPECT_EQ(OneLine("a\tb\rc\x7f"), "a\\tb\\rc\\x7f");
+  EXPECT_EQ(OneLine("plain: unchanged"), "plain: unchanged");
 }
 
 }  // namespace

@@ -29,9 +29,21 @@ set(cli_cases
   "input_dev_zero|fit|/dev/zero|device"
   "spheres_dev_zero|play|@GLB@|--spheres|/dev/zero|device"
   "parts_dev_zero|fit|@GLB@|--parts|/dev/zero|device"
+  # Outputs that are FIFOs nobody reads: refused at once (opening one for writing used to block
+  # forever, waiting for a reader).
+  "fit_output_fifo|fit|@GLB@|-o|@FIFO_SSB@|fifo.ssb: is a FIFO"
+  "fit_output_fifo_json|fit|@GLB@|-o|@FIFO_JSON@|fifo.json: is a FIFO"
+  "convert_output_fifo|convert|@SET@|@FIFO_SSB@|fifo.ssb: is a FIFO"
+  "convert_output_fifo_json|convert|@SSB@|@FIFO_JSON@|fifo.json: is a FIFO"
+  "dump_fifo|play|@GLB@|--frames|3|--dump|@FIFO@|fifo: is a FIFO"
+  "report_fifo|play|@GLB@|--frames|3|--report|@FIFO@|fifo: is a FIFO"
+  "html_fifo|play|@GLB@|--frames|3|--html|@FIFO@|fifo: is a FIFO"
+  "export_glb_fifo|play|@GLB@|--frames|3|--export-glb|@FIFO@|fifo: is a FIFO"
+  "export_builtin_fifo|export-builtin|@FIFO_GLB@|fifo.glb: is a FIFO"
   # Sphere-set outputs the tool cannot tell the format of, and a truncated binary set.
   "fit_output_unknown_extension|fit|@GLB@|-o|@DIR@/set.spheres|unknown sphere-set extension"
   "fast_only_json|convert|@SET@|@DIR@/fast.json|--fast-only|--fast-only needs a binary (.ssb) output"
+  "fit_fast_only_no_output|fit|@GLB@|--fast-only|--fast-only needs a binary output (-o OUT.ssb)"
   "spheres_truncated_binary|play|@GLB@|--spheres|@SHORT_SSB@|short.ssb: "
   # A sphere set nested 100,000 deep (it crashed play with SIGSEGV).
   "spheres_deep|play|@GLB@|--spheres|@DEEP@|nests 100002 deep"

@@ -5,9 +5,11 @@
 #   @FIFO@  a FIFO nobody writes to                      @DEEP@  a sphere set whose params nest 100,000 deep
 #   @FULL_GLB@, @FULL_JSON@, @FULL_SSB@  full.<ext>, a symbolic link to /dev/full (a write that
 #               fails, under a name whose extension picks the format)
+#   @FIFO_JSON@, @FIFO_SSB@  fifo.<ext>, a FIFO nobody reads, under a name whose extension picks
+#               the format (an output that must be refused, not waited on)
 #   @SSB@   the sphere set as binary (.ssb)              @SHORT_SSB@  its first 100 bytes
 #   @DIR@   the test's folder
-# The tool runs with a 60 s timeout: a hang (a FIFO read) fails the test instead of stalling CTest.
+# The tool runs with a 60 s timeout: a hang (a FIFO read or write) fails the test instead of stalling CTest.
 file(MAKE_DIRECTORY ${DIR})
 if(ARGS MATCHES "@GLB@|@SET@|@DEEP@|@SSB@|@SHORT_SSB@" AND NOT EXISTS ${DIR}/builtin.glb)
   execute_process(COMMAND ${TOOL} export-builtin ${DIR}/builtin.glb RESULT_VARIABLE rc OUTPUT_QUIET)
@@ -37,6 +39,13 @@ if(ARGS MATCHES "@DEEP@")
 endif()
 foreach(ext GLB JSON SSB)
   string(TOLOWER ${ext} lower)
+  if(ARGS MATCHES "@FIFO_${ext}@" AND NOT EXISTS ${DIR}/fifo.${lower})
+    execute_process(COMMAND mkfifo ${DIR}/fifo.${lower} RESULT_VARIABLE rc)
+    if(NOT rc EQUAL 0)
+      message(FATAL_ERROR "mkfifo failed")
+    endif()
+  endif()
+  string(REPLACE "@FIFO_${ext}@" "${DIR}/fifo.${lower}" ARGS "${ARGS}")
   if(ARGS MATCHES "@FULL_${ext}@" AND NOT EXISTS ${DIR}/full.${lower})
     file(CREATE_LINK /dev/full ${DIR}/full.${lower} SYMBOLIC)
   endif()

@@ -118,6 +118,29 @@ SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_file(const char* pat
    (NULL: "<memory>"). */
 SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_memory(const void* data, size_t size, const char* name,
                                                                     skinspheres_asset** out_asset);
+/* How an asset is set up at load (the *_with loaders). Zero it, set struct_size =
+   sizeof(skinspheres_asset_options), then the fields you need; the plain loaders use the defaults
+   (all zero). struct_size lets later versions add fields: a size smaller than this version's first
+   struct, or larger than this library's, is refused (SKINSPHERES_INVALID_ARGUMENT). */
+typedef struct skinspheres_asset_options {
+  size_t struct_size;
+  /* The narrow phase's margin (set units, >= 0, finite): triangle pairs apart but nearer than this
+     are reported as SKINSPHERES_TRIANGLES_WITHIN_MARGIN with their distance and closest points.
+     0: intersections only. Pairs within the margin at rest are never reported, so it is fixed
+     when the asset is loaded. */
+  float narrow_margin;
+} skinspheres_asset_options;
+
+/* skinspheres_asset_load_file / _load_memory with options (NULL: the defaults). */
+SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_file_with(const char* path,
+                                                                      const skinspheres_asset_options* options,
+                                                                      skinspheres_asset** out_asset);
+SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_memory_with(const void* data, size_t size,
+                                                                        const char* name,
+                                                                        const skinspheres_asset_options* options,
+                                                                        skinspheres_asset** out_asset);
+/* The narrow-phase margin the asset was loaded with (0 for NULL and for a set without its mesh). */
+SKINSPHERES_C_API float skinspheres_asset_narrow_margin(const skinspheres_asset* asset);
 /* Drops the caller's reference: the set is freed once every instance made from it is destroyed.
    NULL is ignored. */
 SKINSPHERES_C_API void skinspheres_asset_release(skinspheres_asset* asset);

@@ -8,7 +8,9 @@
 // grows past the limit while being read (/proc files report size 0).
 //
 // Writing checks every write, the flush and the close (a full disk or /dev/full fails at the
-// flush or the close, never silently), and reports the first failure in one line.
+// flush or the close, never silently), and reports the first failure in one line. The output is
+// opened non-blocking, so a FIFO nobody reads is refused at once instead of waited on (a pipe
+// with a reader is written as usual).
 #pragma once
 
 #include <cstddef>
@@ -41,7 +43,8 @@ Result<std::vector<std::byte>> ReadRegularFileBytes(const std::filesystem::path&
 Result<std::vector<uint8_t>> ReadRegularFilePrefix(const std::filesystem::path& path, uint64_t length);
 
 // Creates or truncates `path` and writes `bytes` to it, checked through the close. Error
-// (kFileUnreadable): "<path>: cannot open for writing (reason)" or "<path>: write failed (reason)".
+// (kFileUnreadable): "<path>: cannot open for writing (reason)", "<path>: is a FIFO (named pipe)
+// nobody reads: cannot write to it" or "<path>: write failed (reason)".
 // A failed write may leave a partial file: the path is never deleted (it may be a device).
 std::optional<Error> WriteWholeFile(const std::filesystem::path& path, std::string_view bytes);
 
@@ -67,6 +70,11 @@ class CheckedFileWriter {
   std::FILE* file_ = nullptr;
   std::optional<Error> error_;
 };
+
+// `message` as one line: control characters (a newline or NUL in a quoted joint, part or file
+// name) written as escapes ("\n", "\x00"). Where an error leaves the library (the C API's last
+// error, the tool's stderr line), so a name from a file never splits the line.
+std::string OneLine(std::string message);
 
 // The shape of JSON text, from one linear pass that skips strings (escapes included), with no
 // recursion, whatever the text (malformed text gives some shape; the parser then refuses it):

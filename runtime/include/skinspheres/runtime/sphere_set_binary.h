@@ -124,13 +124,15 @@ uint64_t Xxh64(std::span<const std::byte> data, uint64_t seed = 0);
 bool IsSphereSetBinary(std::span<const std::byte> data);
 
 // The encoded file. A set with fast_only set is always written fast-only. Deterministic: the same
-// set gives the same bytes (padding is zero).
+// set gives the same bytes (padding is zero). A string that is not valid UTF-8 (a Latin-1 name)
+// is written with U+FFFD for each byte that is not, as the JSON writer writes it.
 std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set,
                                             SphereSetBinaryContent content = SphereSetBinaryContent::kFull);
 
 // A checked, read-only view of an encoded set: every span points into the caller's bytes, which
 // must stay alive and unchanged while the view is used. Open checks the header, the checksum and
-// the structure (sizes, offsets, alignment, CSR offsets), so every span and CSR list can be read
+// the structure (sizes, offsets, alignment, CSR offsets, zero padding, strings that are valid
+// UTF-8), so every span and CSR list can be read
 // without leaving the buffer; the values themselves (indices into other arrays, finite numbers)
 // are checked by ToSphereSet (SphereSet::Validate). O(file size) for the checksum, O(spheres +
 // strings) for the rest; allocates only the source name.
