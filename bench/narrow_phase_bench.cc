@@ -25,6 +25,7 @@
 //     unbounded). range `fcl`: 0 enable_contact on (FCL computes a contact point and depth per
 //     triangle pair, as we compute points), 1 off (the pairs only), 2 the refit alone.
 //   BM_ClusterSize/char/work/size  mode (a) with clusters of at most `size` triangles.
+//   BM_LazySkin/char/work/way  the skinning of mode (b) alone (see there) against the whole mesh.
 // Checks before timing (set-up; a failure skips the row with the reason): fast + lazy gives the
 // same contacts as fast + full skin on every frame, and FCL's intersecting triangle pairs, after
 // our exclusion rules (sphere pairs the filter excludes, shared vertex, intersecting at rest,
@@ -397,6 +398,98 @@ void BM_ClusterSize(benchmark::State& state) {
 BENCHMARK(BM_ClusterSize)
     ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}, {4, 8, 16, 32, 64}})
     ->ArgNames({"char", "work", "size"})
+    ->Unit(benchmark::kMicrosecond);
+
+// The skinning of mode (b) alone, on each frame's fast pairs (the groups of the spheres in pairs):
+//   way 0  the marked runs of NarrowPhaseData::lazy_influences(), adjacent runs merged (mode b's path);
+//   way 1  one PreparedInfluences per vertex group, each run as its own job (the former layout);
+//   way 2  every vertex of the mesh (prepared, SIMD): what fast + whole-mesh skin pays.
+// Joint matrices are computed outside the timed part here (every way needs them).
+void BM_LazySkin(benchmark::State& state) {
+  const int work = int(state.range(1)), way = int(state.range(2));
+  Character* c = Get(state, int(state.range(0)), work);
+  if (!c) return;
+  const Workload& w = c->work[work];
+  const rt::NarrowPhaseData& data = *c->asset->narrow_phase();
+  const sk::PreparedInfluences& lazy = data.lazy_influences();
+  const auto& skin = c->ch.skin;
+  // Per frame: the slot spans to skin (way 0) and the groups (way 1).
+  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> spans(w.frames.size());
+  std::vector<std::vector<uint32_t>> groups(w.frames.size());
+  std::vector<sk::PreparedInfluences> per_group(data.group_count());
+  if (way == 1) {
+    for (uint32_t g = 0; g < data.group_count(); ++g) {
+      std::vector<uint32_t> members;
+      for (uint32_t r = data.group_run_offsets()[g]; r < data.group_run_offsets()[g + 1]; ++r) {
+        const uint32_t run = data.group_runs()[r];
+        for (uint32_t slot = data.run_begin()[run]; slot < data.run_begin()[run + 1]; ++slot) members.push_back(lazy.vertices()[slot]);
+      }
+      std::sort(members.begin(), members.end());
+      per_group[g].Build(skin.vertex_count(), skin.influence_offsets, skin.influence_binds, skin.influence_weights, members);
+    }
+  }
+  size_t marked_vertices = 0;
+  for (size_t k = 0; k < w.frames.size(); ++k) {
+    std::vector<char> group_on(data.group_count(), 0), run_on(data.run_count(), 0);
+    for (const rt::Contact& p : w.frames[k].pairs_fast) {
+      for (uint32_t s : {p.i, p.j}) {
+        for (uint32_t q = data.sphere_group_offsets()[s]; q < data.sphere_group_offsets()[s + 1]; ++q) group_on[data.sphere_groups()[q]] = 1;
+      }
+    }
+    for (uint32_t g = 0; g < data.group_count(); ++g) {
+      if (!group_on[g]) continue;
+      groups[k].push_back(g);
+      marked_vertices += data.group_sizes()[g];
+      for (uint32_t r = data.group_run_offsets()[g]; r < data.group_run_offsets()[g + 1]; ++r) run_on[data.group_runs()[r]] = 1;
+    }
+    for (uint32_t r = 0; r < data.run_count(); ++r) {
+      if (!run_on[r]) continue;
+      if (!spans[k].empty() && spans[k].back().second == data.run_begin()[r]) {
+        spans[k].back().second = data.run_begin()[r + 1];
+      } else {
+        spans[k].emplace_back(data.run_begin()[r], data.run_begin()[r + 1]);
+      }
+    }
+  }
+  std::vector<Eigen::Vector3f> out(skin.vertex_count(), Eigen::Vector3f::Zero());
+  std::vector<std::vector<Mat4f>> mats(w.frames.size(), std::vector<Mat4f>(skin.binds.size()));
+  for (size_t k = 0; k < w.frames.size(); ++k) {
+    if (!sk::SkinningMatricesJob{skin.binds, w.frames[k].joint_world, mats[k]}.Run()) return state.SkipWithError("matrices");
+  }
+  sk::SkinningJob job;
+  job.vertex_count = skin.vertex_count();
+  job.in_positions = Floats(skin.positions_bind);
+  job.out_positions = Floats(out);
+  size_t frame = 0;
+  for (auto _ : state) {
+    const size_t k = frame % w.frames.size();
+    job.joint_matrices = mats[k];
+    bool ok = true;
+    if (way == 0) {
+      job.prepared = &lazy;
+      for (const auto& [begin, end] : spans[k]) ok &= job.RunRange(begin, end);
+    } else if (way == 1) {
+      for (uint32_t g : groups[k]) {
+        job.prepared = &per_group[g];
+        ok &= job.Run();
+      }
+    } else {
+      job.prepared = &c->prepared_all;
+      ok &= job.Run();
+    }
+    if (!ok) return state.SkipWithError("skinning refused");
+    benchmark::ClobberMemory();
+    ++frame;
+  }
+  state.counters["skinned"] = way == 2 ? double(skin.vertex_count()) : double(marked_vertices) / double(w.frames.size());
+  state.counters["vertices"] = double(skin.vertex_count());
+  size_t span_count = 0;
+  for (const auto& s : spans) span_count += s.size();
+  state.counters["spans"] = way == 0 ? double(span_count) / double(w.frames.size()) : 0.0;
+}
+BENCHMARK(BM_LazySkin)
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}, {0, 1, 2}})
+    ->ArgNames({"char", "work", "way"})
     ->Unit(benchmark::kMicrosecond);
 
 #if SKINSPHERES_HAVE_FCL

@@ -6,6 +6,8 @@
 //   skinspheres export-builtin OUT.glb           write the built-in character as glTF
 #include <CLI/CLI.hpp>
 #include <exception>
+#include <new>
+#include <string>
 
 #include "playback.h"
 
@@ -25,9 +27,12 @@ int main(int argc, char** argv) {
     // own exit() adds a second, "Run with --help ..."), exit 2.
     if (e.get_exit_code() == 0) return app.exit(e);
     return skinspheres::tool::Fail(e.what());
+  } catch (const std::bad_alloc&) {
+    // Last line of defence: one line that says what happened ("std::bad_alloc" did not), never an abort.
+    return skinspheres::tool::Fail("out of memory (the input or the options ask for more than this machine gives)");
   } catch (const std::exception& e) {
-    // Last line of defence (out of memory, a library throwing): one line, never an abort.
-    return skinspheres::tool::Fail(e.what());
+    // Last line of defence (a library throwing): one line, never an abort.
+    return skinspheres::tool::Fail(std::string("internal error: ") + e.what());
   }
   return exit_code;
 }

@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <optional>
 #include <random>
@@ -282,6 +283,60 @@ TEST(NarrowPhase, FastModeWithLazySkinningEqualsExactModeOnTheFullySkinnedMesh) 
   }
 }
 
+// Mode (b)'s layout: the runs tile the prepared slots, every sphere vertex has exactly one slot, and
+// a sphere's groups' runs hold exactly the vertices of its triangles (what the job must skin for it).
+TEST(NarrowPhase, LazySkinningRunsHoldEachSpheresVerticesOnce) {
+  std::vector<std::string> names = {"builtin"};
+  for (const auto& n : test::SharedCharacters()) {
+    if (!test::Asset(n).empty()) names.push_back(n);
+  }
+  for (const std::string& name : names) {
+    auto fc = test::LoadFitted(name);
+    ASSERT_TRUE(fc);
+    auto asset = CharacterAsset::Create(fc->set);
+    ASSERT_TRUE(asset.ok());
+    const NarrowPhaseData& d = *(*asset)->narrow_phase();
+    const auto& lazy = d.lazy_influences();
+    ASSERT_EQ(d.run_begin().front(), 0u);
+    ASSERT_EQ(d.run_begin().back(), lazy.size()) << name;
+    for (size_t r = 0; r < d.run_count(); ++r) EXPECT_LT(d.run_begin()[r], d.run_begin()[r + 1]) << name;
+    std::vector<uint32_t> slots_of(fc->set.source_vertex_count, 0);
+    for (uint32_t v : lazy.vertices()) ++slots_of[v];
+    std::vector<uint32_t> owner_of_run(d.run_count(), UINT32_MAX);
+    for (uint32_t g = 0; g < d.group_count(); ++g) {
+      uint32_t size = 0;
+      for (uint32_t k = d.group_run_offsets()[g]; k < d.group_run_offsets()[g + 1]; ++k) {
+        const uint32_t r = d.group_runs()[k];
+        EXPECT_EQ(owner_of_run[r], UINT32_MAX) << name << ": run " << r << " in two groups";
+        owner_of_run[r] = g;
+        size += d.run_begin()[r + 1] - d.run_begin()[r];
+      }
+      EXPECT_EQ(size, d.group_sizes()[g]) << name << ": group " << g;
+    }
+    for (uint32_t owner : owner_of_run) EXPECT_NE(owner, UINT32_MAX) << name << ": a run of no group";
+    for (uint32_t s = 0; s < d.sphere_count(); ++s) {
+      std::vector<uint32_t> skinned;
+      for (uint32_t k = d.sphere_group_offsets()[s]; k < d.sphere_group_offsets()[s + 1]; ++k) {
+        const uint32_t g = d.sphere_groups()[k];
+        for (uint32_t q = d.group_run_offsets()[g]; q < d.group_run_offsets()[g + 1]; ++q) {
+          const uint32_t r = d.group_runs()[q];
+          for (uint32_t slot = d.run_begin()[r]; slot < d.run_begin()[r + 1]; ++slot) skinned.push_back(lazy.vertices()[slot]);
+        }
+      }
+      std::sort(skinned.begin(), skinned.end());
+      // Oracle: the vertices of the triangles sphere s owns, straight from the set.
+      std::vector<uint32_t> needed;
+      for (uint32_t k = fc->set.triangle_offsets[s]; k < fc->set.triangle_offsets[s + 1]; ++k) {
+        for (int c = 0; c < 3; ++c) needed.push_back(fc->set.triangle_vertices[3 * size_t{fc->set.triangles[k]} + c]);
+      }
+      std::sort(needed.begin(), needed.end());
+      needed.erase(std::unique(needed.begin(), needed.end()), needed.end());
+      ASSERT_EQ(skinned, needed) << name << ": sphere " << s;
+      for (uint32_t v : needed) EXPECT_EQ(slots_of[v], 1u) << name << ": vertex " << v;
+    }
+  }
+}
+
 TEST(NarrowPhase, IdenticalForAnyThreadCount) {
   auto fc = test::LoadFitted("builtin");
   ASSERT_TRUE(fc);
@@ -391,6 +446,38 @@ TEST(NarrowPhaseData, VersionOneSetsAreRefusedWithTheReason) {
   // A negative margin is refused.
   EXPECT_FALSE(CharacterAsset::Create(fc->set, NarrowPhaseSettings{-1.0f}).ok());
   EXPECT_FALSE(CharacterAsset::Create(fc->set, NarrowPhaseSettings{NAN}).ok());
+}
+
+// A margin beyond kMaxMarginShareOfSize of the character's rest size (the largest extent of its
+// mesh at rest, computed here independently) is refused naming that size; at the limit it is
+// accepted and finds within-margin pairs.
+TEST(NarrowPhaseData, MarginsBeyondAShareOfTheCharactersSizeAreRefused) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  Eigen::AlignedBox3f box;
+  for (const auto& p : fc->character.skin.positions_bind) box.extend(p);
+  const float size = box.sizes().maxCoeff();
+  ASSERT_GT(size, 1.0f);  // the built-in character is about 1.9 m tall
+  auto filter = PairFilter::FromSphereSet(fc->set);
+  ASSERT_TRUE(filter.ok());
+  for (const float margin : {1e30f, 2.0f * kMaxMarginShareOfSize * size, 1.01f * kMaxMarginShareOfSize * size}) {
+    auto data = NarrowPhaseData::Create(fc->set, *filter, NarrowPhaseSettings{margin});
+    ASSERT_FALSE(data.ok()) << margin;
+    EXPECT_EQ(data.error().code, ErrorCode::kInvalidArgument);
+    EXPECT_NE(data.error().message.find("is more than 0.05 of the character's rest size"), std::string::npos)
+        << data.error().message;
+  }
+  auto at_limit = CharacterAsset::Create(fc->set, NarrowPhaseSettings{0.99f * kMaxMarginShareOfSize * size});
+  ASSERT_TRUE(at_limit.ok()) << at_limit.error().message;
+  auto inst = CharacterInstance::Create(*at_limit);
+  ASSERT_TRUE(inst.ok());
+  size_t within = 0;
+  for (const auto& pose : test::ClipPoses(fc->character, 4)) {
+    ASSERT_TRUE(inst->UpdateFast(pose.world).ok());
+    ASSERT_TRUE(inst->FindContacts().ok());
+    for (const auto& t : inst->frame_contacts().triangle_pairs) within += t.kind == TriangleContactKind::kWithinMargin;
+  }
+  EXPECT_GT(within, 0u);
 }
 
 TEST(NarrowPhase, ModeBNeedsJointMatricesAndFiniteInput) {

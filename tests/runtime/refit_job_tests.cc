@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <bit>
 #include <cfloat>
 #include <cmath>
 #include <limits>
@@ -133,12 +134,89 @@ void CheckCharacter(const std::string& name, int frames_per_clip, int random_pos
 
 TEST(RefitJobTest, BuiltinCharacterIsCoveredInBothModes) { CheckCharacter("builtin", 1000, 100); }
 
+// The fast refit as the plain scalar formula of the header, one Eigen operation after the other
+// (the implementation before it was vectorised): the bit-equality reference of the SIMD path.
+std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, const RefitRestData& rest,
+                                                std::span<const skinspheres::Mat4f> world) {
+  const auto apply = [](const skinspheres::Mat4f& g, const Eigen::Vector3f& p) -> Eigen::Vector3f {
+    return g.topLeftCorner<3, 3>() * p + g.topRightCorner<3, 1>();
+  };
+  std::vector<skinspheres::Vec4f> out(set.size());
+  const auto q = rest.center_in_joint();
+  const auto w = rest.weights();
+  const auto rinv = rest.rest_linear_inverse();
+  for (size_t s = 0; s < set.size(); ++s) {
+    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
+    Eigen::Vector3f c = Eigen::Vector3f::Zero();
+    for (uint32_t k = k0; k < k1; ++k) c += w[k] * apply(world[set.influence_joints[k]], q[k]);
+    float spread2 = 0.0f, s2 = 0.0f;
+    for (uint32_t k = k0; k < k1; ++k) {
+      const uint16_t j = set.influence_joints[k];
+      const float d2 = (apply(world[j], q[k]) - c).squaredNorm();
+      const Eigen::Matrix3f a = world[j].topLeftCorner<3, 3>() * rinv[j];
+      const Eigen::Matrix3f ata = a.transpose() * a;
+      spread2 = std::max(spread2, d2);
+      s2 = std::max(s2, ata.cwiseAbs().rowwise().sum().maxCoeff());
+    }
+    const float r = std::sqrt(s2) * set.radii_fast[s] + std::sqrt(spread2);
+    const float radius = r + 16.0f * FLT_EPSILON * (c.cwiseAbs().maxCoeff() + r);
+    out[s] = skinspheres::Vec4f(c.x(), c.y(), c.z(), radius);
+  }
+  return out;
+}
+
+// The SIMD fast refit gives the scalar formula's bits: random poses with non-uniform scale, then
+// the same joint matrices with every coefficient perturbed and far translations (any affine map),
+// whole set and split ranges.
+void CheckFastBits(const std::string& name, int poses) {
+  auto fc = test::LoadFitted(name);
+  ASSERT_TRUE(fc);
+  auto rest = RefitRestData::Create(fc->set);
+  ASSERT_TRUE(rest.ok());
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> noise(-0.05f, 0.05f), far(-300.0f, 300.0f);
+  size_t compared = 0;
+  for (int p = 0; p < poses; ++p) {
+    Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 90.0f, 0.3f), "random");
+    if (p % 2 == 1) {
+      for (auto& g : pose.world) {
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) g(i, j) += noise(rng);
+        for (int i = 0; i < 3; ++i) g(i, 3) += far(rng);
+      }
+    }
+    const auto want = ScalarFastRefit(fc->set, *rest, pose.world);
+    std::vector<skinspheres::Vec4f> got(fc->set.size()), split(fc->set.size());
+    RefitJob job{RefitMode::kFast, &fc->set, &*rest, pose.world, {}, got};
+    ASSERT_TRUE(job.Run());
+    job.out = split;
+    for (size_t b = 0; b < fc->set.size(); b += 5) ASSERT_TRUE(job.RunRange(b, std::min(b + 5, fc->set.size())));
+    for (size_t s = 0; s < fc->set.size(); ++s) {
+      for (int c = 0; c < 4; ++c) {
+        ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c]))
+            << name << " pose " << p << " sphere " << s << " coordinate " << c << ": " << got[s][c] << " vs " << want[s][c];
+        ASSERT_EQ(std::bit_cast<uint32_t>(split[s][c]), std::bit_cast<uint32_t>(want[s][c])) << name << " sphere " << s;
+      }
+      ++compared;
+    }
+  }
+  std::printf("%s: %zu fast spheres bit-identical to the scalar formula\n", name.c_str(), compared);
+}
+
+TEST(RefitJobTest, FastModeBitIdenticalToScalarFormulaBuiltin) { CheckFastBits("builtin", 200); }
+
 class SharedCharacterRefit : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(SharedCharacterRefit, IsCoveredInBothModes) {
   SKINSPHERES_REQUIRE_ASSET(path, GetParam());
   (void)path;
   CheckCharacter(GetParam(), 30, 40);
+}
+
+TEST_P(SharedCharacterRefit, FastModeBitIdenticalToScalarFormula) {
+  SKINSPHERES_REQUIRE_ASSET(path, GetParam());
+  (void)path;
+  CheckFastBits(GetParam(), 20);
 }
 
 INSTANTIATE_TEST_SUITE_P(Assets, SharedCharacterRefit, ::testing::ValuesIn(test::SharedCharacters()),

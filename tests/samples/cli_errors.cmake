@@ -9,6 +9,8 @@ set(cli_cases
   "unknown_flag|play|@GLB@|--no-such-flag|--no-such-flag"
   "no_subcommand||subcommand"
   "missing_input|fit|input"
+  # A margin that is a search radius, not a contact distance (it asked for gigabytes at set-up).
+  "margin_too_large|play|@GLB@|--frames|3|--margin|1e30|is more than 0.05 of the character's rest size"
   # Failed writes, including at the close (/dev/full fails the flush).
   "dump_full|play|@GLB@|--frames|3|--dump|/dev/full|/dev/full: write failed"
   "report_full|play|@GLB@|--frames|3|--report|/dev/full|/dev/full: write failed"

@@ -37,10 +37,14 @@
 //      positions must be those the spheres hold, i.e. the same buffer, or the LBS of the same joint
 //      matrices in fast mode);
 //  (b) joint matrices only: the job skins just the vertices of the spheres in this frame's pairs
-//      (and of the spheres the depth estimate visits), each vertex once: the vertices are grouped
-//      at set-up by the spheres that use them, each group with prepared influences (the SIMD
-//      skinning path). A fast-mode frame thus never skins a vertex no pair needs. The positions are
-//      bit-identical to skinning the whole mesh with SkinningJob.
+//      (and of the spheres the depth estimate visits), each vertex once. At set-up the vertices
+//      are grouped by the spheres that use them and laid out in one set of prepared influences
+//      (the SIMD skinning path), influence count first, then group by group, so that each group
+//      is a few runs of slots; a frame marks the groups it needs and skins the marked runs, the
+//      adjacent ones merged into long spans (tens per frame), at the whole-mesh path's cost per
+//      vertex, so skinning what a frame tests never costs more than skinning the whole mesh
+//      (bench/narrow_phase_bench.cc, BM_LazySkin). The positions are bit-identical to skinning
+//      the whole mesh with SkinningJob.
 // Both need the mesh of a version-2 sphere set (SphereSet::has_mesh()): triangle indices, rest
 // positions and influences. A version-1 set (no mesh) is refused by NarrowPhaseData::Create with
 // kVersionMismatch, in both modes: its exclusions cannot be computed without the rest mesh.
@@ -71,7 +75,7 @@
 // Cost and memory: per frame no allocation once the outputs and scratch have held the largest
 // frame so far (FrameContacts::Reserve and NarrowPhaseContext sizes pin them), no exception. The
 // shared NarrowPhaseData holds about what the mesh holds (welded indices, clusters, prepared
-// influences per vertex group). Mode (b) keeps a skinned-position buffer of 12 bytes per mesh
+// influences of the spheres' vertices). Mode (b) keeps a skinned-position buffer of 12 bytes per mesh
 // vertex in the context (allocated by Resize(data, true), or by the first mode-(b) run). Output is identical for any ParallelFor and
 // thread count: work is split into a fixed number of chunks of sphere pairs whose results are
 // merged in order, and everything is sorted by indices.
@@ -81,6 +85,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "skinspheres/skinning/math_types.h"
@@ -93,9 +98,15 @@
 
 namespace skinspheres::runtime {
 
+// The largest margin NarrowPhaseData::Create accepts, as a share of the character's rest size (the
+// largest extent of its mesh at rest): beyond it nearly every triangle pair near a joint is within
+// the margin, and set-up memory and per-frame contacts grow with the square of the triangle count.
+inline constexpr float kMaxMarginShareOfSize = 0.05f;
+
 struct NarrowPhaseSettings {
   // > 0: also report triangle pairs whose distance is below this (model units); 0: intersections
-  // only. Pairs within this distance at rest are excluded, so it is fixed at set-up.
+  // only. Pairs within this distance at rest are excluded, so it is fixed at set-up. At most
+  // kMaxMarginShareOfSize times the character's rest size (else kInvalidArgument).
   float margin = 0.0f;
   // Triangles per cluster at most, 1..256 (bench/narrow_phase_bench.cc, BM_ClusterSize, chose 16).
   uint32_t cluster_triangles = 16;
@@ -190,10 +201,19 @@ class NarrowPhaseData {
   // The rest-pose positions (mesh skinned with the rest transforms), per source vertex.
   std::span<const Eigen::Vector3f> rest_positions() const { return rest_positions_; }
   size_t cluster_count() const { return cluster_vertex_offsets_.empty() ? 0 : cluster_vertex_offsets_.size() - 1; }
-  size_t group_count() const { return groups_.size(); }
-  const skinning::PreparedInfluences& group(uint32_t g) const { return groups_[g]; }
+  // Mode (b): vertex groups (the vertices used by the same spheres), CSR per sphere.
+  size_t group_count() const { return group_run_offsets_.empty() ? 0 : group_run_offsets_.size() - 1; }
   std::span<const uint32_t> sphere_group_offsets() const { return sphere_group_offsets_; }
   std::span<const uint32_t> sphere_groups() const { return sphere_groups_; }
+  // Every vertex of a sphere, once, as prepared influences: slots by influence count, then by group.
+  const skinning::PreparedInfluences& lazy_influences() const { return lazy_influences_; }
+  // Runs: run r is slots [run_begin()[r], run_begin()[r + 1]) of lazy_influences(), all of one
+  // group; the runs tile the slots in order. Group g owns runs group_runs()[group_run_offsets()[g] ..).
+  size_t run_count() const { return run_begin_.empty() ? 0 : run_begin_.size() - 1; }
+  std::span<const uint32_t> run_begin() const { return run_begin_; }
+  std::span<const uint32_t> group_run_offsets() const { return group_run_offsets_; }
+  std::span<const uint32_t> group_runs() const { return group_runs_; }
+  std::span<const uint32_t> group_sizes() const { return group_sizes_; }  // vertices per group
 
  private:
   friend struct NarrowPhaseAccess;
@@ -205,9 +225,9 @@ class NarrowPhaseData {
   std::vector<uint32_t> cluster_offsets_;
   std::vector<uint32_t> cluster_triangle_offsets_, cluster_triangles_;
   std::vector<uint32_t> cluster_vertex_offsets_, cluster_vertices_;
-  // Mode (b): vertex groups (vertices used by the same spheres) with their prepared influences;
-  // sphere s uses groups sphere_groups_[sphere_group_offsets_[s] ..).
-  std::vector<skinning::PreparedInfluences> groups_;
+  // Mode (b): see the accessors.
+  skinning::PreparedInfluences lazy_influences_;
+  std::vector<uint32_t> run_begin_, group_run_offsets_, group_runs_, group_sizes_;
   std::vector<uint32_t> sphere_group_offsets_, sphere_groups_;
   std::vector<uint32_t> welded_;
   std::vector<uint64_t> rest_excluded_;
@@ -279,8 +299,10 @@ class NarrowPhaseContext {
   uint32_t frame_stamp_ = 0;
   // Mode (b).
   std::vector<Eigen::Vector3f> skinned_;   // per vertex
-  std::vector<uint32_t> group_mark_;       // per vertex group: frame stamp when it was skinned
-  std::vector<uint32_t> group_list_;       // the groups to skin
+  std::vector<uint32_t> group_mark_;       // per vertex group: frame stamp when it was marked
+  std::vector<uint64_t> run_bits_;         // per run, one bit: marked, not yet skinned
+  std::vector<std::pair<uint32_t, uint32_t>> spans_;  // slot spans to skin (<= runs + slots / block + 1)
+  size_t pending_vertices_ = 0;            // vertices in the marked runs
   std::vector<Mat4f> bind_matrices_;       // per bind entry
   Stats stats_;
 };

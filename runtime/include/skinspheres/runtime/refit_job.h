@@ -101,6 +101,9 @@ class RefitRestData {
   std::span<const float> weights() const { return weights_; }
   // Per joint: the 3x3 linear part of G_j(rest)^-1 (A_j = linear(G_j(t)) · this).
   std::span<const Eigen::Matrix3f> rest_linear_inverse() const { return rest_linear_inverse_; }
+  // The same matrices by rows for the vector code: 12 floats per joint, rows 0..2 of
+  // rest_linear_inverse()[j] at 12 j, 12 j + 4, 12 j + 8, each padded with a 0.
+  std::span<const float> rest_inverse_rows() const { return rest_inverse_rows_; }
 
  private:
   size_t sphere_count_ = 0;
@@ -108,6 +111,7 @@ class RefitRestData {
   std::vector<Eigen::Vector3f> center_in_joint_;
   std::vector<float> weights_;
   std::vector<Eigen::Matrix3f> rest_linear_inverse_;
+  std::vector<float> rest_inverse_rows_;
 };
 
 struct RefitJob {
