@@ -5,8 +5,13 @@
 #if defined(SKINSPHERES_BROAD_PHASE_X86)
 #include <immintrin.h>
 
+// GCC takes the target from the pragma; clang ignores it and needs the attribute on every function.
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx512f,avx2,bmi,popcnt"))), apply_to = function)
+#else
 #pragma GCC push_options
 #pragma GCC target("avx512f,avx2,bmi,popcnt")
+#endif
 
 namespace skinspheres::runtime::kernels {
 namespace avx512 {
@@ -55,5 +60,9 @@ const Kernels& Avx512Kernels() { return avx512::KernelTable(); }
 
 }  // namespace skinspheres::runtime::kernels
 
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
 #pragma GCC pop_options
+#endif
 #endif  // SKINSPHERES_BROAD_PHASE_X86

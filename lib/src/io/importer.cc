@@ -53,8 +53,12 @@ std::optional<std::string> AppendVertex(skinning::SkinnedMesh& skin, const Eigen
   if (merged.empty() || !(sum > 0.0)) return std::string("skin weights sum to zero");
   if (skin.influence_offsets.empty()) skin.influence_offsets.push_back(0);
   for (const Influence& m : merged) {
+    // A weight so far below the vertex's largest (1e-43 beside 1e25) that it normalises to 0 in
+    // float moves nothing: it is dropped like a zero weight, never stored as an influence of 0.
+    const float w = static_cast<float>(m.weight / sum);
+    if (w == 0.0f) continue;
     skin.influence_binds.push_back(static_cast<uint16_t>(m.bind));
-    skin.influence_weights.push_back(static_cast<float>(m.weight / sum));
+    skin.influence_weights.push_back(w);
   }
   skin.influence_offsets.push_back(static_cast<uint32_t>(skin.influence_binds.size()));
   skin.positions_bind.push_back(p_bind);

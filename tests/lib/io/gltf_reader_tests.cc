@@ -362,6 +362,24 @@ TEST(ImporterTiny, ValidSkinnedTriangleRestPose) {
   EXPECT_EQ(glb->positions_rest, r->positions_rest);
 }
 
+// A weight that normalises to 0 in float beside the vertex's others (1.5e-43 beside 1e25) is
+// dropped like a zero weight: no stored influence has weight 0 (found by fuzzing).
+TEST(ImporterTiny, WeightVanishingWhenNormalisedIsDropped) {
+  TinyOptions o;
+  o.weights.assign(16, 0.0f);
+  for (int v = 0; v < 4; ++v) {
+    o.weights[4 * v] = 1e25f;        // joint 1
+    o.weights[4 * v + 1] = 1.5e-43f;  // joint 0
+  }
+  const auto r = ImportCharacter(Write(test::TempDir("importer_vanishing_weight"), "tiny.gltf", MakeTiny(o).dump()));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->skin.influence_offsets, (std::vector<uint32_t>{0, 1, 2, 3, 4}));
+  for (size_t k = 0; k < 4; ++k) {
+    EXPECT_EQ(r->skin.influence_weights[k], 1.0f);
+    EXPECT_EQ(r->skin.binds[r->skin.influence_binds[k]].joint, 1);
+  }
+}
+
 TEST(ImporterTiny, StepAndCubicSplineSamplersAreKept) {
   TinyOptions o;
   o.animations = true;
