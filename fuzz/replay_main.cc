@@ -1,7 +1,9 @@
 // Replays fuzz inputs through a fuzz target without libFuzzer, in any build (g++ included): every
 // regular file under the folders (or the files) given on the command line, in sorted order.
-// Fails when a target's property check aborts, and when nothing at all was found to replay (a
-// moved corpus must not pass silently).
+// Fails when a target's property check aborts, when a path given does not exist (a moved or
+// renamed corpus folder must not pass silently), and when nothing at all was found to replay.
+// CMake also fails the test on any sanitizer report in its output (fuzz/CMakeLists.txt), so a
+// UBSan report that does not halt still fails it.
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -25,6 +27,9 @@ int main(int argc, char** argv) {
       }
     } else if (std::filesystem::is_regular_file(p, ec)) {
       files.push_back(p);
+    } else {
+      std::fprintf(stderr, "replay: %s: no such file or folder\n", p.c_str());
+      return 1;
     }
   }
   std::sort(files.begin(), files.end());
