@@ -97,7 +97,7 @@ struct Scenario {
   size_t characters = 0;             // 0: not a crowd
 };
 
-// Workload (a)'s generator, box sx x sy x sz (the box is 1.8 x 1.8 x 0.3).
+// Workload (a)'s generator, box sx x sy x sz (workload (a)'s box is 1.8 x 1.8 x 0.3).
 Spheres CloudBase(size_t n, double sx, double sy, double sz) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);

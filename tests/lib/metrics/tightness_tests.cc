@@ -1,4 +1,4 @@
-// The fitter issue's tightness figures, measured by lib/metrics/fit_metrics.h (an independent tool: voxel
+// The fitter's tightness targets, measured by lib/metrics/fit_metrics.h (an independent tool: voxel
 // volumes and exact point-triangle distances) on the default fit of every character we have:
 // at most 300 spheres, the union at most 2x the body's volume, the union's boundary on average
 // within 1.5% of the body height, no triangle outside its sphere. RobotExpressive misses the
