@@ -1,5 +1,7 @@
 // Tests of mesh_distance.h: MeshDistances equals the brute-force minimum of ClosestPointOnTriangle
 // over every triangle (a sphere and a box as two pieces), exactly.
+#include "skinspheres/lib/geometry/mesh_distance.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,7 +12,6 @@
 #include "shapes/box_mesh.h"
 #include "shapes/uv_sphere.h"
 #include "skinspheres/lib/geometry/closest_point.h"
-#include "skinspheres/lib/geometry/mesh_distance.h"
 
 namespace skinspheres::lib {
 namespace {
