@@ -8,7 +8,6 @@
 #include "shapes/uv_sphere.h"
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/character/raw_character.h"
-
 #include "skinspheres/skinning/math_types.h"
 
 namespace skinspheres::test {

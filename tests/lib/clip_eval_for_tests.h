@@ -7,7 +7,6 @@
 #include <vector>
 
 #include "skinspheres/lib/character/raw_character.h"
-
 #include "skinspheres/skinning/math_types.h"
 
 namespace skinspheres::test {
@@ -83,7 +82,8 @@ inline std::vector<skinning::Transform> SampleLocal(const lib::RawCharacter& c, 
   return local;
 }
 
-inline std::vector<skinspheres::Mat4f> WorldOf(const lib::RawCharacter& c, const std::vector<skinning::Transform>& local) {
+inline std::vector<skinspheres::Mat4f> WorldOf(const lib::RawCharacter& c,
+                                               const std::vector<skinning::Transform>& local) {
   std::vector<skinspheres::Mat4f> w(local.size());
   for (size_t j = 0; j < local.size(); ++j) {
     const skinspheres::Mat4f m = local[j].ToMatrix();

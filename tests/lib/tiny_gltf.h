@@ -19,7 +19,6 @@ namespace skinspheres::lib {
 
 using nlohmann::json;
 
-
 inline std::string Base64(const std::vector<uint8_t>& data) {
   static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
@@ -50,7 +49,8 @@ struct TinyGltf {
   }
   int AddAccessor(const void* data, size_t bytes, int component_type, const std::string& type, size_t count) {
     const int view = AddView(data, bytes);
-    j["accessors"].push_back({{"bufferView", view}, {"componentType", component_type}, {"type", type}, {"count", count}});
+    j["accessors"].push_back(
+        {{"bufferView", view}, {"componentType", component_type}, {"type", type}, {"count", count}});
     return static_cast<int>(j["accessors"].size() - 1);
   }
   // Makes accessor `a` sparse (glTF §3.6.2.3): element indices[i] becomes the i-th element of
@@ -75,21 +75,22 @@ struct TinyGltf {
     return AddAccessor(v.data(), v.size() * 4, 5126, type, v.size() / static_cast<size_t>(per));
   }
   json Finish() {
-    j["buffers"] = json::array({{{"byteLength", bin.size()}, {"uri", "data:application/octet-stream;base64," + Base64(bin)}}});
+    j["buffers"] =
+        json::array({{{"byteLength", bin.size()}, {"uri", "data:application/octet-stream;base64," + Base64(bin)}}});
     return j;
   }
 };
 
 struct TinyOptions {
-  float position_x0 = 0.0f;       // NaN to poison
-  float weight = 1.0f;            // 0 for all-zero weights
-  uint8_t joint = 1;              // >= 2 is out of range
-  int mode = 4;                   // 1 = lines (no triangles)
+  float position_x0 = 0.0f;  // NaN to poison
+  float weight = 1.0f;       // 0 for all-zero weights
+  uint8_t joint = 1;         // >= 2 is out of range
+  int mode = 4;              // 1 = lines (no triangles)
   bool skinned = true;
   bool animations = false;
-  std::vector<float> positions;          // non-empty: replaces the 4 POSITION values (12 floats)
-  std::vector<float> weights;            // non-empty: replaces WEIGHTS_0 (16 floats)
-  std::vector<float> step_out;           // non-empty: replaces the STEP sampler's output (9 floats)
+  std::vector<float> positions;         // non-empty: replaces the 4 POSITION values (12 floats)
+  std::vector<float> weights;           // non-empty: replaces WEIGHTS_0 (16 floats)
+  std::vector<float> step_out;          // non-empty: replaces the STEP sampler's output (9 floats)
   std::function<void(TinyGltf&)> edit;  // last changes, before the buffer is encoded
 };
 
@@ -112,7 +113,8 @@ inline json MakeTiny(const TinyOptions& o) {
   if (o.skinned) {
     const uint8_t joints[16] = {o.joint, 0, 0, 0, o.joint, 0, 0, 0, o.joint, 0, 0, 0, o.joint, 0, 0, 0};
     attrs["JOINTS_0"] = t.AddAccessor(joints, 16, 5121, "VEC4", 4);
-    attrs["WEIGHTS_0"] = t.Floats(o.weights.empty() ? std::vector<float>{o.weight, 0, 0, 0, o.weight, 0, 0, 0, o.weight, 0, 0, 0, o.weight, 0, 0, 0}
+    attrs["WEIGHTS_0"] = t.Floats(o.weights.empty() ? std::vector<float>{o.weight, 0, 0, 0, o.weight, 0, 0, 0, o.weight,
+                                                                         0, 0, 0, o.weight, 0, 0, 0}
                                                     : o.weights,
                                   "VEC4", 4);
     std::vector<float> ibm;
@@ -126,35 +128,39 @@ inline json MakeTiny(const TinyOptions& o) {
   prim = {{"attributes", attrs}, {"indices", idx}, {"mode", o.mode}};
   t.j["meshes"] = json::array({{{"name", "tri"}, {"primitives", json::array({prim})}}});
   json mesh_node = {{"name", "body"}, {"mesh", 0}};
-  if (o.skinned) mesh_node["skin"] = 0;
-  else mesh_node["translation"] = {5, 0, 0};
-  t.j["nodes"] = json::array({{{"name", "hips"}, {"children", {1}}},
-                              {{"name", "spine"}, {"translation", {0, 1, 0}}},
-                              mesh_node});
+  if (o.skinned)
+    mesh_node["skin"] = 0;
+  else
+    mesh_node["translation"] = {5, 0, 0};
+  t.j["nodes"] =
+      json::array({{{"name", "hips"}, {"children", {1}}}, {{"name", "spine"}, {"translation", {0, 1, 0}}}, mesh_node});
   t.j["scenes"] = json::array({{{"nodes", {0, 2}}}});
   if (o.animations) {
     const int times = t.Floats({0.0f, 0.5f, 1.0f}, "SCALAR", 1);
-    const int step_out = t.Floats(o.step_out.empty() ? std::vector<float>{0, 0, 0, 0, 1, 0, 0, 2, 0} : o.step_out, "VEC3", 3);
+    const int step_out =
+        t.Floats(o.step_out.empty() ? std::vector<float>{0, 0, 0, 0, 1, 0, 0, 2, 0} : o.step_out, "VEC3", 3);
     // CUBICSPLINE: (in-tangent, value, out-tangent) per key.
     std::vector<float> cubic;
     for (int k = 0; k < 3; ++k) {
-      for (float v : {0.f, 0.f, 0.f, 1.f}) cubic.push_back(v);   // in-tangent
-      for (float v : {0.f, 0.f, 0.f, 1.f}) cubic.push_back(v);   // value
-      for (float v : {0.f, 0.f, 0.f, 1.f}) cubic.push_back(v);   // out-tangent
+      for (float v : {0.f, 0.f, 0.f, 1.f}) cubic.push_back(v);  // in-tangent
+      for (float v : {0.f, 0.f, 0.f, 1.f}) cubic.push_back(v);  // value
+      for (float v : {0.f, 0.f, 0.f, 1.f}) cubic.push_back(v);  // out-tangent
     }
     const int cubic_out = t.Floats(cubic, "VEC4", 4);
-    t.j["animations"] = json::array({{{"name", "wiggle"},
-                                      {"samplers", json::array({{{"input", times}, {"output", step_out}, {"interpolation", "STEP"}},
-                                                                {{"input", times}, {"output", cubic_out}, {"interpolation", "CUBICSPLINE"}}})},
-                                      {"channels", json::array({{{"sampler", 0}, {"target", {{"node", 1}, {"path", "translation"}}}},
-                                                                {{"sampler", 1}, {"target", {{"node", 0}, {"path", "rotation"}}}},
-                                                                {{"sampler", 0}, {"target", {{"node", 2}, {"path", "translation"}}}}})}}});
+    t.j["animations"] = json::array(
+        {{{"name", "wiggle"},
+          {"samplers", json::array({{{"input", times}, {"output", step_out}, {"interpolation", "STEP"}},
+                                    {{"input", times}, {"output", cubic_out}, {"interpolation", "CUBICSPLINE"}}})},
+          {"channels", json::array({{{"sampler", 0}, {"target", {{"node", 1}, {"path", "translation"}}}},
+                                    {{"sampler", 1}, {"target", {{"node", 0}, {"path", "rotation"}}}},
+                                    {{"sampler", 0}, {"target", {{"node", 2}, {"path", "translation"}}}}})}}});
   }
   if (o.edit) o.edit(t);
   return t.Finish();
 }
 
-inline std::filesystem::path Write(const std::filesystem::path& dir, const std::string& name, const std::string& content) {
+inline std::filesystem::path Write(const std::filesystem::path& dir, const std::string& name,
+                                   const std::string& content) {
   const auto path = dir / name;
   std::ofstream(path, std::ios::binary) << content;
   return path;
@@ -170,7 +176,8 @@ inline std::string ToGlb(const json& gltf_with_data_uri) {
   int bits = 0;
   for (char ch : b64) {
     if (ch == '=') break;
-    const int v = static_cast<int>(std::string("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/").find(ch));
+    const int v =
+        static_cast<int>(std::string("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/").find(ch));
     acc = (acc << 6) | static_cast<uint32_t>(v);
     bits += 6;
     if (bits >= 8) {

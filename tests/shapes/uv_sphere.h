@@ -25,8 +25,8 @@ namespace skinspheres::test {
 
 enum class Poles { kShared, kRingOfCopies };
 
-inline TriangleMesh UvEllipsoid(const Eigen::Vector3f& center, const Eigen::Vector3f& axes, int rings,
-                                int segments, int pole_axis = 2, Poles poles = Poles::kShared) {
+inline TriangleMesh UvEllipsoid(const Eigen::Vector3f& center, const Eigen::Vector3f& axes, int rings, int segments,
+                                int pole_axis = 2, Poles poles = Poles::kShared) {
   TriangleMesh m;
   auto point = [&](int i, int j) {
     const double th = std::numbers::pi * i / rings, ph = 2.0 * std::numbers::pi * j / segments;
@@ -71,8 +71,8 @@ inline TriangleMesh UvEllipsoid(const Eigen::Vector3f& center, const Eigen::Vect
   return m;
 }
 
-inline TriangleMesh UvSphere(const Eigen::Vector3f& center, float radius, int rings, int segments,
-                             int pole_axis = 2, Poles poles = Poles::kShared) {
+inline TriangleMesh UvSphere(const Eigen::Vector3f& center, float radius, int rings, int segments, int pole_axis = 2,
+                             Poles poles = Poles::kShared) {
   return UvEllipsoid(center, Eigen::Vector3f::Constant(radius), rings, segments, pole_axis, poles);
 }
 

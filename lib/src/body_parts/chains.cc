@@ -58,7 +58,8 @@ void BuildChains(const WeightedSkeleton& ws, BodyParts* out) {
   for (int32_t j = 0; j < ws.n; ++j) {
     if (out->joint_part[j] < 0 && !ws.sub[j] && ws.parent[j] >= 0) out->joint_part[j] = out->joint_part[ws.parent[j]];
   }
-  for (size_t i = 0; i < out->parts.size(); ++i) FillJoints(ws, out->joint_part, static_cast<int32_t>(i), {}, &out->parts[i]);
+  for (size_t i = 0; i < out->parts.size(); ++i)
+    FillJoints(ws, out->joint_part, static_cast<int32_t>(i), {}, &out->parts[i]);
 }
 
 }  // namespace skinspheres::lib

@@ -115,7 +115,7 @@ void BuildHumanoid(const RawCharacter& ch, const WeightedSkeleton& ws, const Hum
     if (i > 0) part_roots[remap[i]].push_back(roots[i]);
     part_roots[remap[i]].insert(part_roots[remap[i]].end(), extra_roots[i].begin(), extra_roots[i].end());
   }
-  const PartKind kinds[6] = {PartKind::kTorso,   PartKind::kHead,    PartKind::kArmLeft,
+  const PartKind kinds[6] = {PartKind::kTorso,    PartKind::kHead,    PartKind::kArmLeft,
                              PartKind::kArmRight, PartKind::kLegLeft, PartKind::kLegRight};
   for (int i = 0; i < 6; ++i) {
     parts[i].kind = kinds[i];

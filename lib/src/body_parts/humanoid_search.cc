@@ -55,8 +55,8 @@ double Score(const WeightedSkeleton& ws, const HumanoidCandidate& c) {
   // Coverage: share of the weighted vertices (or joints) that the six parts' cores hold.
   double covered = ws.subtree_vertices[c.leg[0]] + ws.subtree_vertices[c.leg[1]] + ws.subtree_vertices[c.arm[0]] +
                    ws.subtree_vertices[c.arm[1]] + ws.subtree_vertices[c.head];
-  double covered_joints = ws.subtree_weighted[c.leg[0]] + ws.subtree_weighted[c.leg[1]] + ws.subtree_weighted[c.arm[0]] +
-                          ws.subtree_weighted[c.arm[1]] + ws.subtree_weighted[c.head];
+  double covered_joints = ws.subtree_weighted[c.leg[0]] + ws.subtree_weighted[c.leg[1]] +
+                          ws.subtree_weighted[c.arm[0]] + ws.subtree_weighted[c.arm[1]] + ws.subtree_weighted[c.head];
   for (int32_t x = c.chest; x >= 0; x = ws.parent[x]) {  // the spine path and everything above P
     covered += ws.own_vertices[x];
     covered_joints += ws.weighted[x] ? 1 : 0;

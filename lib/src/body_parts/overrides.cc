@@ -34,8 +34,9 @@ Result<PartOverrides> LoadPartOverrides(const std::filesystem::path& file, const
   Result<std::string> text = runtime::ReadRegularFile(file, kMaxPartsFileBytes, "parts file");
   if (!text.ok()) return text.error();
   if (const size_t depth = runtime::ScanJson(*text).depth; depth > runtime::kMaxJsonDepth) {
-    return MakeError(ErrorCode::kFormatRejected, name + ": the JSON nests " + std::to_string(depth) + " deep (at most " +
-                                                     std::to_string(runtime::kMaxJsonDepth) + " is read)");
+    return MakeError(ErrorCode::kFormatRejected, name + ": the JSON nests " + std::to_string(depth) +
+                                                     " deep (at most " + std::to_string(runtime::kMaxJsonDepth) +
+                                                     " is read)");
   }
   nlohmann::json j;
   try {
@@ -44,20 +45,23 @@ Result<PartOverrides> LoadPartOverrides(const std::filesystem::path& file, const
     return MakeError(ErrorCode::kFormatRejected, name + ": malformed JSON: " + e.what());
   }
   if (!j.is_object()) {
-    return MakeError(ErrorCode::kFormatRejected, name + ": expected a JSON object {\"joint name\": \"part name\", ...}, got " +
-                                                     std::string(j.type_name()));
+    return MakeError(
+        ErrorCode::kFormatRejected,
+        name + ": expected a JSON object {\"joint name\": \"part name\", ...}, got " + std::string(j.type_name()));
   }
   PartOverrides out;
   out.source_file = name;
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (!it.value().is_string()) {
       return MakeError(ErrorCode::kFormatRejected, name + ": joint '" + it.key() + "' maps to a " +
-                                                       std::string(it.value().type_name()) + ", expected a part name string");
+                                                       std::string(it.value().type_name()) +
+                                                       ", expected a part name string");
     }
     const std::string part = it.value().get<std::string>();
     if (!IsValidPartName(part)) {
-      return MakeError(ErrorCode::kInvalidArgument, name + ": joint '" + it.key() + "' -> unknown part '" + part +
-                                                        "' (expected torso, head, arm_l, arm_r, leg_l, leg_r or chain_<k>)");
+      return MakeError(ErrorCode::kInvalidArgument,
+                       name + ": joint '" + it.key() + "' -> unknown part '" + part +
+                           "' (expected torso, head, arm_l, arm_r, leg_l, leg_r or chain_<k>)");
     }
     if (skeleton != nullptr && skeleton->Find(it.key()) < 0) {
       return MakeError(ErrorCode::kNotFound, name + ": unknown joint '" + it.key() + "' (not in the skeleton)");
@@ -72,8 +76,9 @@ std::optional<Error> ApplyOverrides(const RawCharacter& ch, const PartOverrides&
   for (const auto& [joint_name, part_name] : ov.joint_to_part) {
     const int32_t j = ch.skeleton.Find(joint_name);
     if (j < 0) {
-      return MakeError(ErrorCode::kNotFound, src + ": joint '" + joint_name + "' is not in " +
-                                                 (ch.source_file.empty() ? std::string("the character") : ch.source_file));
+      return MakeError(ErrorCode::kNotFound,
+                       src + ": joint '" + joint_name + "' is not in " +
+                           (ch.source_file.empty() ? std::string("the character") : ch.source_file));
     }
     const int32_t p = out->Find(part_name);
     if (p < 0) {

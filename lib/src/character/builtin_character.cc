@@ -28,9 +28,7 @@ constexpr float kUpperArmOffset = 0.19f;
 constexpr float kArm = kShoulderOffset + kUpperArmOffset;
 float Deg(float d) { return d * kPi / 180.0f; }
 
-Quatf AxisAngle(float radians, const Vector3f& axis) {
-  return Quatf(Eigen::AngleAxisf(radians, axis.normalized()));
-}
+Quatf AxisAngle(float radians, const Vector3f& axis) { return Quatf(Eigen::AngleAxisf(radians, axis.normalized())); }
 Quatf Rx(float deg) { return AxisAngle(Deg(deg), Vector3f::UnitX()); }
 Quatf Ry(float deg) { return AxisAngle(Deg(deg), Vector3f::UnitY()); }
 Quatf Rz(float deg) { return AxisAngle(Deg(deg), Vector3f::UnitZ()); }
@@ -45,10 +43,9 @@ struct JointDef {
 
 std::vector<JointDef> JointDefs() {
   std::vector<JointDef> d = {
-      {"Armature", "", {0, 0, 0}},            {"Hips", "Armature", {0, 1.00f, 0}},
-      {"Spine", "Hips", {0, 0.10f, 0}},       {"Spine1", "Spine", {0, 0.12f, 0}},
-      {"Spine2", "Spine1", {0, 0.12f, 0}},    {"Neck", "Spine2", {0, 0.16f, 0}},
-      {"Head", "Neck", {0, 0.10f, 0}},        {"HeadTop_End", "Head", {0, 0.20f, 0}},
+      {"Armature", "", {0, 0, 0}},        {"Hips", "Armature", {0, 1.00f, 0}},    {"Spine", "Hips", {0, 0.10f, 0}},
+      {"Spine1", "Spine", {0, 0.12f, 0}}, {"Spine2", "Spine1", {0, 0.12f, 0}},    {"Neck", "Spine2", {0, 0.16f, 0}},
+      {"Head", "Neck", {0, 0.10f, 0}},    {"HeadTop_End", "Head", {0, 0.20f, 0}},
   };
   for (const float side : {1.0f, -1.0f}) {
     const std::string s = side > 0 ? "Left" : "Right";
@@ -224,9 +221,8 @@ void AddPiece(const PieceDef& p, const skinning::Skeleton& sk, MeshBuilder& mb) 
 // Torso section profile (y, half-width along X, half-depth along Z): also used to place the
 // touch targets on the chest surface.
 const std::vector<ProfileKey>& TorsoProfile() {
-  static const std::vector<ProfileKey> p = {{0.90f, 0.15f, 0.10f},  {1.00f, 0.16f, 0.105f},
-                                            {1.12f, 0.14f, 0.095f}, {1.25f, 0.16f, 0.11f},
-                                            {1.38f, 0.17f, 0.11f},  {1.44f, 0.155f, 0.095f}};
+  static const std::vector<ProfileKey> p = {{0.90f, 0.15f, 0.10f}, {1.00f, 0.16f, 0.105f}, {1.12f, 0.14f, 0.095f},
+                                            {1.25f, 0.16f, 0.11f}, {1.38f, 0.17f, 0.11f},  {1.44f, 0.155f, 0.095f}};
   return p;
 }
 const Vector3f kHeadCenter(0.0f, 1.70f, 0.01f);
@@ -238,21 +234,65 @@ constexpr float kTouchApproach = 0.4f;  // the hands' halfway spot: this far in 
 std::vector<PieceDef> PieceDefs() {
   const Vector3f X = Vector3f::UnitX(), Y = Vector3f::UnitY(), Z = Vector3f::UnitZ();
   std::vector<PieceDef> d;
-  d.push_back({"TorsoMesh", Vector3f::Zero(), Y, X, Z, TorsoProfile(), 26, 0.06f, 0.05f, 5, 32,
-               {{"Hips", 0}, {"Spine", 1.10f}, {"Spine1", 1.22f}, {"Spine2", 1.34f}}, 0.04f});
-  d.push_back({"NeckMesh", Vector3f::Zero(), Y, X, Z, {{1.44f, 0.05f, 0.05f}, {1.62f, 0.045f, 0.045f}}, 8,
-               0.02f, 0.02f, 2, 16, {{"Spine2", 0}, {"Neck", 1.50f}, {"Head", 1.60f}}, 0.03f});
-  d.push_back({"HeadMesh", Vector3f(kHeadCenter.x(), 0.0f, kHeadCenter.z()), Y, X, Z,
-               {{kHeadCenter.y(), kHeadSemiAxes.x(), kHeadSemiAxes.z()}}, 1, kHeadSemiAxes.y(),
-               kHeadSemiAxes.y(), 9, 24, {{"Head", 0}}, 0.02f});
+  d.push_back({"TorsoMesh",
+               Vector3f::Zero(),
+               Y,
+               X,
+               Z,
+               TorsoProfile(),
+               26,
+               0.06f,
+               0.05f,
+               5,
+               32,
+               {{"Hips", 0}, {"Spine", 1.10f}, {"Spine1", 1.22f}, {"Spine2", 1.34f}},
+               0.04f});
+  d.push_back({"NeckMesh",
+               Vector3f::Zero(),
+               Y,
+               X,
+               Z,
+               {{1.44f, 0.05f, 0.05f}, {1.62f, 0.045f, 0.045f}},
+               8,
+               0.02f,
+               0.02f,
+               2,
+               16,
+               {{"Spine2", 0}, {"Neck", 1.50f}, {"Head", 1.60f}},
+               0.03f});
+  d.push_back({"HeadMesh",
+               Vector3f(kHeadCenter.x(), 0.0f, kHeadCenter.z()),
+               Y,
+               X,
+               Z,
+               {{kHeadCenter.y(), kHeadSemiAxes.x(), kHeadSemiAxes.z()}},
+               1,
+               kHeadSemiAxes.y(),
+               kHeadSemiAxes.y(),
+               9,
+               24,
+               {{"Head", 0}},
+               0.02f});
   for (const float side : {1.0f, -1.0f}) {
     const bool left = side > 0;
     // Arm tube along ±X: u = Z carries the hand's width, v = Y its thickness.
-    d.push_back({left ? "LeftArmMesh" : "RightArmMesh", Vector3f(0, 1.44f, 0), side * X, Z, Y,
-                 {{kArm + 0.03f, 0.055f, 0.055f}, {kArm + 0.14f, 0.05f, 0.05f}, {kArm + 0.27f, 0.04f, 0.04f},
-                  {kArm + 0.40f, 0.037f, 0.037f}, {kArm + 0.51f, 0.03f, 0.028f}, {kArm + 0.55f, 0.045f, kHandHalfThickness},
+    d.push_back({left ? "LeftArmMesh" : "RightArmMesh",
+                 Vector3f(0, 1.44f, 0),
+                 side * X,
+                 Z,
+                 Y,
+                 {{kArm + 0.03f, 0.055f, 0.055f},
+                  {kArm + 0.14f, 0.05f, 0.05f},
+                  {kArm + 0.27f, 0.04f, 0.04f},
+                  {kArm + 0.40f, 0.037f, 0.037f},
+                  {kArm + 0.51f, 0.03f, 0.028f},
+                  {kArm + 0.55f, 0.045f, kHandHalfThickness},
                   {kArm + 0.66f, 0.045f, kHandHalfThickness}},
-                 28, 0.03f, 0.04f, 3, 16,
+                 28,
+                 0.03f,
+                 0.04f,
+                 3,
+                 16,
                  {{left ? "LeftShoulder" : "RightShoulder", 0},
                   {left ? "LeftArm" : "RightArm", kArm + 0.04f},
                   {left ? "LeftForeArm" : "RightForeArm", kArm + 0.27f},
@@ -261,16 +301,37 @@ std::vector<PieceDef> PieceDefs() {
   }
   for (const float side : {1.0f, -1.0f}) {
     const bool left = side > 0;
-    d.push_back({left ? "LeftLegMesh" : "RightLegMesh", Vector3f(side * 0.10f, 0, 0), -Y, X, Z,
-                 {{-0.97f, 0.075f, 0.075f}, {-0.75f, 0.065f, 0.065f}, {-0.52f, 0.047f, 0.047f},
-                  {-0.35f, 0.045f, 0.045f}, {-0.10f, 0.035f, 0.035f}},
-                 28, 0.04f, 0.035f, 3, 16,
-                 {{"Hips", 0}, {left ? "LeftUpLeg" : "RightUpLeg", -0.93f},
-                  {left ? "LeftLeg" : "RightLeg", -0.52f}, {left ? "LeftFoot" : "RightFoot", -0.10f}},
+    d.push_back({left ? "LeftLegMesh" : "RightLegMesh",
+                 Vector3f(side * 0.10f, 0, 0),
+                 -Y,
+                 X,
+                 Z,
+                 {{-0.97f, 0.075f, 0.075f},
+                  {-0.75f, 0.065f, 0.065f},
+                  {-0.52f, 0.047f, 0.047f},
+                  {-0.35f, 0.045f, 0.045f},
+                  {-0.10f, 0.035f, 0.035f}},
+                 28,
+                 0.04f,
+                 0.035f,
+                 3,
+                 16,
+                 {{"Hips", 0},
+                  {left ? "LeftUpLeg" : "RightUpLeg", -0.93f},
+                  {left ? "LeftLeg" : "RightLeg", -0.52f},
+                  {left ? "LeftFoot" : "RightFoot", -0.10f}},
                  0.04f});
-    d.push_back({left ? "LeftFootMesh" : "RightFootMesh", Vector3f(side * 0.10f, 0.045f, 0), Z, X, Y,
-                 {{-0.02f, 0.045f, 0.04f}, {0.08f, 0.045f, 0.035f}, {0.16f, 0.04f, 0.025f}}, 10, 0.04f,
-                 0.05f, 3, 12,
+    d.push_back({left ? "LeftFootMesh" : "RightFootMesh",
+                 Vector3f(side * 0.10f, 0.045f, 0),
+                 Z,
+                 X,
+                 Y,
+                 {{-0.02f, 0.045f, 0.04f}, {0.08f, 0.045f, 0.035f}, {0.16f, 0.04f, 0.025f}},
+                 10,
+                 0.04f,
+                 0.05f,
+                 3,
+                 12,
                  {{left ? "LeftFoot" : "RightFoot", 0}, {left ? "LeftToeBase" : "RightToeBase", 0.12f}},
                  0.03f});
   }
@@ -336,9 +397,9 @@ skinning::AnimationClip MakeWalk(const skinning::Skeleton& sk) {
     const float ph = 2.0f * kPi * static_cast<float>(k % (kKeys - 1)) / (kKeys - 1);
     const float omega = 2.0f * 2.0f * kPi / kWalkDuration_s;
     const Vector3f tangent(0.0f, -0.015f * omega * std::sin(2.0f * ph), 0.0f);
-    hips.translation.values.push_back(tangent);                                          // in
+    hips.translation.values.push_back(tangent);  // in
     hips.translation.values.push_back(Vector3f(0.0f, 1.0f + 0.015f * std::cos(2.0f * ph), 0.0f));
-    hips.translation.values.push_back(tangent);                                          // out
+    hips.translation.values.push_back(tangent);  // out
   }
   clip.tracks.push_back(hips);
   return clip;
@@ -348,9 +409,8 @@ skinning::AnimationClip MakeWalk(const skinning::Skeleton& sk) {
 // rotations are the rest ones, i.e. identity) so that the wrist lands on `wrist`, the elbow bends
 // toward `pole`, the hand points along `hand_dir` and its thickness axis (local Y) along
 // `palm_back` (the palm, local -Y, faces -palm_back).
-std::array<Quatf, 3> SolveArm(const Vector3f& shoulder, float l1, float l2, float side,
-                                    const Vector3f& wrist, const Vector3f& pole, const Vector3f& hand_dir,
-                                    const Vector3f& palm_back) {
+std::array<Quatf, 3> SolveArm(const Vector3f& shoulder, float l1, float l2, float side, const Vector3f& wrist,
+                              const Vector3f& pole, const Vector3f& hand_dir, const Vector3f& palm_back) {
   const Vector3f sw = wrist - shoulder;
   const float d = std::min(sw.norm(), 0.999f * (l1 + l2));
   const Vector3f n = sw.normalized();
@@ -410,8 +470,13 @@ skinning::AnimationClip MakeTouch(const skinning::Skeleton& sk) {
   clip.duration_s = kTouchDuration_s;
   // The hands first come to a spot in front of the chest, so that on the way they pass in front of
   // the body, never through it.
-  const std::vector<float> times = {0.0f, 0.5f * kTouchChestBegin_s, kTouchChestBegin_s, kTouchChestEnd_s,
-                                    kTouchHeadBegin_s, kTouchHeadEnd_s, kTouchDuration_s};
+  const std::vector<float> times = {0.0f,
+                                    0.5f * kTouchChestBegin_s,
+                                    kTouchChestBegin_s,
+                                    kTouchChestEnd_s,
+                                    kTouchHeadBegin_s,
+                                    kTouchHeadEnd_s,
+                                    kTouchDuration_s};
   for (const float side : {1.0f, -1.0f}) {
     const std::string s = side > 0 ? "Left" : "Right";
     const int32_t arm = sk.Find(s + "Arm"), fore = sk.Find(s + "ForeArm"), hand = sk.Find(s + "Hand");
@@ -431,7 +496,8 @@ skinning::AnimationClip MakeTouch(const skinning::Skeleton& sk) {
     // Head: palms on the sides of the head, fingers up.
     const Vector3f hand_dir_head = Vector3f(-side * 0.1f, 1.0f, 0.0f).normalized();
     const float y_head = kHeadCenter.y() + 0.01f, z_head = kHeadCenter.z() + 0.01f;
-    const float ry = (y_head - kHeadCenter.y()) / kHeadSemiAxes.y(), rz = (z_head - kHeadCenter.z()) / kHeadSemiAxes.z();
+    const float ry = (y_head - kHeadCenter.y()) / kHeadSemiAxes.y(),
+                rz = (z_head - kHeadCenter.z()) / kHeadSemiAxes.z();
     const float x_surface = kHeadSemiAxes.x() * std::sqrt(1.0f - ry * ry - rz * rz);
     const Vector3f head_center(side * (x_surface + kHandHalfThickness - inside), y_head, z_head);
     const Vector3f head_wrist = head_center - kHandCenterOffset * hand_dir_head;
@@ -440,7 +506,8 @@ skinning::AnimationClip MakeTouch(const skinning::Skeleton& sk) {
     const Quatf id = Quatf::Identity();
     const int32_t joints[3] = {arm, fore, hand};
     for (int b = 0; b < 3; ++b) {
-      clip.tracks.push_back(RotationTrack(joints[b], times, {id, approach[b], chest[b], chest[b], head[b], head[b], id}));
+      clip.tracks.push_back(
+          RotationTrack(joints[b], times, {id, approach[b], chest[b], chest[b], head[b], head[b], id}));
     }
   }
   // A STEP track on a joint no vertex depends on (exercises STEP in readers and the exporter).

@@ -33,12 +33,14 @@ int CountUncoveredTriangles(const RawCharacter& ch, const runtime::SphereSet& se
 
 std::optional<Error> CheckFittedSet(const RawCharacter& ch, const runtime::SphereSet& set) {
   const std::string name = ch.Name();
-  if (auto err = set.Validate()) return MakeError(ErrorCode::kInvalidData, name + ": fitted set is inconsistent: " + err->message);
+  if (auto err = set.Validate())
+    return MakeError(ErrorCode::kInvalidData, name + ": fitted set is inconsistent: " + err->message);
   int first_bad = -1;
   const int uncovered = CountUncoveredTriangles(ch, set, &first_bad);
   if (uncovered) {
-    return MakeError(ErrorCode::kCheckFailed, name + ": bind-pose check failed: " + std::to_string(uncovered) +
-                                                  " triangles outside their sphere (first: " + std::to_string(first_bad) + ")");
+    return MakeError(ErrorCode::kCheckFailed,
+                     name + ": bind-pose check failed: " + std::to_string(uncovered) +
+                         " triangles outside their sphere (first: " + std::to_string(first_bad) + ")");
   }
   return std::nullopt;
 }

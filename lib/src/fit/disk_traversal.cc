@@ -66,7 +66,8 @@ DiskPath BuildDiskPath(std::span<const Eigen::Vector3f> chain, std::span<const E
       tmin = std::min(tmin, (v - mean).dot(axis));
       tmax = std::max(tmax, (v - mean).dot(axis));
     }
-    const float floor = std::max(1e-3f * (hi - lo).norm(), 64.0f * std::numeric_limits<float>::epsilon() * mean.cwiseAbs().maxCoeff());
+    const float floor =
+        std::max(1e-3f * (hi - lo).norm(), 64.0f * std::numeric_limits<float>::epsilon() * mean.cwiseAbs().maxCoeff());
     if (tmax - tmin < floor) {
       tmin = -floor;
       tmax = floor;

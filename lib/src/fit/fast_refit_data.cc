@@ -23,10 +23,12 @@ void WriteFastRefitData(const RawCharacter& ch, std::span<const Mat4f> rest_worl
     // Joints influencing the source vertices (mean weights) and the radius holding every rest copy
     // M_b(rest)·p_bind of every source vertex for each of its entries, and the vertices themselves.
     double fast_sq = 0.0;
-    for (uint32_t v : vlist) fast_sq = std::max(fast_sq, (ch.positions_rest[v].cast<double>() - c.cast<double>()).squaredNorm());
+    for (uint32_t v : vlist)
+      fast_sq = std::max(fast_sq, (ch.positions_rest[v].cast<double>() - c.cast<double>()).squaredNorm());
     if (have_skin) {
       for (uint32_t v : vlist) {
-        const Eigen::Vector4d pb(ch.skin.positions_bind[v].x(), ch.skin.positions_bind[v].y(), ch.skin.positions_bind[v].z(), 1.0);
+        const Eigen::Vector4d pb(ch.skin.positions_bind[v].x(), ch.skin.positions_bind[v].y(),
+                                 ch.skin.positions_bind[v].z(), 1.0);
         for (uint32_t k = ch.skin.influence_offsets[v]; k < ch.skin.influence_offsets[v + 1]; ++k) {
           const uint16_t b = ch.skin.influence_binds[k];
           joint_weight[ch.skin.binds[b].joint] += ch.skin.influence_weights[k];

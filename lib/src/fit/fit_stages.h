@@ -50,7 +50,7 @@ void ParallelIndices(size_t n, F f) {
 
 // One sphere of a part before ownership.
 struct CandidateSphere {
-  Ball ball;        // as fitted by M1 / M2 / M1-A on its sector
+  Ball ball;  // as fitted by M1 / M2 / M1-A on its sector
   uint16_t level = 0;
   FitErrorStats f;  // the paper's F on its sector's contact points
   int points = 0;

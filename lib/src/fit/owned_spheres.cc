@@ -28,7 +28,8 @@ void WriteOwnedSpheres(const RawCharacter& ch, const BodyParts& parts, const Own
     std::vector<uint32_t> vlist = unique.Indices(triangles);
     std::sort(vlist.begin(), vlist.end());
     double max_sq = 0.0;
-    for (uint32_t v : vlist) max_sq = std::max(max_sq, (ch.positions_rest[v].cast<double>() - c.cast<double>()).squaredNorm());
+    for (uint32_t v : vlist)
+      max_sq = std::max(max_sq, (ch.positions_rest[v].cast<double>() - c.cast<double>()).squaredNorm());
     const float radius = HoldingRadius(max_sq);
     const float fit_r = owned.spheres[s].ball.radius;
     if (radius > fit_r * (1.0f + 1e-5f)) {

@@ -27,8 +27,8 @@ void AssignToNearest(const RawCharacter& ch, const BodyParts& parts, std::span<c
         if (b.radius < 0.0f) continue;  // dropped
         // max_v |p_v - c| with one sqrt: sqrt is monotonic and correctly rounded, so this is
         // bit-identical to the max of the three norms.
-        const float need = std::sqrt(std::max({(p0 - b.center).squaredNorm(), (p1 - b.center).squaredNorm(),
-                                               (p2 - b.center).squaredNorm()}));
+        const float need = std::sqrt(
+            std::max({(p0 - b.center).squaredNorm(), (p1 - b.center).squaredNorm(), (p2 - b.center).squaredNorm()}));
         if (need < best) {
           best = need;
           best_s = static_cast<int32_t>(s);

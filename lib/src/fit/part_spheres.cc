@@ -55,9 +55,8 @@ Result<PartSpheres> FitPartSpheres(const RawCharacter& ch, const BodyPart& part,
 Result<std::vector<PartSpheres>> FitPaperSpheres(const RawCharacter& ch, const BodyParts& parts,
                                                  std::span<const Mat4f> rest_world, const FitSettings& settings) {
   std::vector<std::optional<Result<PartSpheres>>> fitted(parts.parts.size());
-  ParallelIndices(parts.parts.size(), [&](size_t k) {
-    fitted[k] = FitPartSpheres(ch, parts.parts[k], rest_world, settings);
-  });
+  ParallelIndices(parts.parts.size(),
+                  [&](size_t k) { fitted[k] = FitPartSpheres(ch, parts.parts[k], rest_world, settings); });
   std::vector<PartSpheres> out;
   out.reserve(fitted.size());
   for (auto& f : fitted) {

@@ -30,7 +30,8 @@ std::optional<Error> ValidateFitInput(const RawCharacter& ch, const BodyParts& p
   // a triangle in two parts would make the result depend on the threads).
   for (size_t t = 0; t < ch.triangle_count(); ++t) {
     if (parts.triangle_joint[t] < 0 || parts.triangle_joint[t] >= static_cast<int32_t>(joints)) {
-      return MakeError(ErrorCode::kInvalidData, name + ": body parts give triangle " + std::to_string(t) + " no valid joint");
+      return MakeError(ErrorCode::kInvalidData,
+                       name + ": body parts give triangle " + std::to_string(t) + " no valid joint");
     }
   }
   for (size_t k = 0; k < parts.parts.size(); ++k) {
@@ -42,7 +43,8 @@ std::optional<Error> ValidateFitInput(const RawCharacter& ch, const BodyParts& p
     }
     for (int32_t j : parts.parts[k].chain) {
       if (j < 0 || j >= static_cast<int32_t>(joints)) {
-        return MakeError(ErrorCode::kInvalidData, name + ": body part " + parts.parts[k].name + " names joint " + std::to_string(j));
+        return MakeError(ErrorCode::kInvalidData,
+                         name + ": body part " + parts.parts[k].name + " names joint " + std::to_string(j));
       }
     }
   }

@@ -45,8 +45,8 @@ void RobustBox(std::span<const Eigen::Vector3f> positions, std::span<const Eigen
 }
 }  // namespace
 
-DistanceField DistanceField::Build(std::span<const Eigen::Vector3f> positions, std::span<const Eigen::Vector3i> triangles,
-                                   int resolution, float padding) {
+DistanceField DistanceField::Build(std::span<const Eigen::Vector3f> positions,
+                                   std::span<const Eigen::Vector3i> triangles, int resolution, float padding) {
   DistanceField f;
   if (triangles.empty() || positions.empty()) return f;
   resolution = std::clamp(resolution, 2, kMaxResolution);
@@ -110,7 +110,8 @@ DistanceField DistanceField::Build(std::span<const Eigen::Vector3f> positions, s
   // (the 13 before it in the sweep order), forward then backward, kRounds times.
   for (int round = 0; round < kRounds; ++round) {
     for (int dir : {+1, -1}) {
-      const int zs = dir > 0 ? 0 : f.dims_.z() - 1, ys = dir > 0 ? 0 : f.dims_.y() - 1, xs = dir > 0 ? 0 : f.dims_.x() - 1;
+      const int zs = dir > 0 ? 0 : f.dims_.z() - 1, ys = dir > 0 ? 0 : f.dims_.y() - 1,
+                xs = dir > 0 ? 0 : f.dims_.x() - 1;
       for (int z = zs; z >= 0 && z < f.dims_.z(); z += dir) {
         for (int y = ys; y >= 0 && y < f.dims_.y(); y += dir) {
           for (int x = xs; x >= 0 && x < f.dims_.x(); x += dir) {
@@ -122,7 +123,8 @@ DistanceField DistanceField::Build(std::span<const Eigen::Vector3f> positions, s
                   // The 13 neighbours that precede (x, y, z) in this sweep.
                   if (dz == 0 && (dy > 0 || (dy == 0 && dx >= 0))) continue;
                   const int nx = x + dir * dx, ny = y + dir * dy, nz = z + dir * dz;
-                  if (nx < 0 || ny < 0 || nz < 0 || nx >= f.dims_.x() || ny >= f.dims_.y() || nz >= f.dims_.z()) continue;
+                  if (nx < 0 || ny < 0 || nz < 0 || nx >= f.dims_.x() || ny >= f.dims_.y() || nz >= f.dims_.z())
+                    continue;
                   const size_t n = f.Index(nx, ny, nz);
                   const Eigen::Vector3f& cp = f.closest_[n];
                   if (!std::isfinite(cp.x())) continue;
@@ -155,7 +157,8 @@ float DistanceField::OutsideDistance(const Eigen::Vector3f& q, float d) const {
   if ((q.array() >= origin_.array()).all() && (q.array() <= grid_hi_.array()).all()) return d;
   for (int32_t t : outside_) {
     const auto& tri = triangles_[static_cast<size_t>(t)];
-    d = std::min(d, (q - ClosestPointOnTriangleFloat(q, positions_[tri[0]], positions_[tri[1]], positions_[tri[2]])).norm());
+    d = std::min(
+        d, (q - ClosestPointOnTriangleFloat(q, positions_[tri[0]], positions_[tri[1]], positions_[tri[2]])).norm());
   }
   return d;
 }
@@ -168,7 +171,8 @@ float DistanceField::Distance(const Eigen::Vector3f& q) const {
 float DistanceField::TriangleDistance(const Eigen::Vector3f& q) const {
   if (closest_.empty()) return std::numeric_limits<float>::infinity();
   const auto& tri = triangles_[static_cast<size_t>(closest_triangle_[Nearest(q)])];
-  const float d = (q - ClosestPointOnTriangleFloat(q, positions_[tri[0]], positions_[tri[1]], positions_[tri[2]])).norm();
+  const float d =
+      (q - ClosestPointOnTriangleFloat(q, positions_[tri[0]], positions_[tri[1]], positions_[tri[2]])).norm();
   // Far beyond the mesh (|q| ~ 1e19 and up) the float products overflow: fall back to the point.
   return std::isfinite(d) ? OutsideDistance(q, d) : Distance(q);
 }

@@ -281,9 +281,9 @@ Ball AdjustM1(const Ball& m1, std::span<const Eigen::Vector3f> points, const Eig
   Eval cur = Evaluate(c, points);  // scaling: r = max distance at c
   const double tiny = 1e-12 * std::max(cur.r, 1e-30);
   for (int round = 0; round < 64; ++round) {
-    const Vec3d n = star_c - c;                 // N: from the centre of ○ to the disk centre *.c
-    const Vec3d n_0 = n.dot(g0) * g0;           // N_0
-    const Vec3d n_1 = n.dot(g1) * g1;           // N_1
+    const Vec3d n = star_c - c;        // N: from the centre of ○ to the disk centre *.c
+    const Vec3d n_0 = n.dot(g0) * g0;  // N_0
+    const Vec3d n_1 = n.dot(g1) * g1;  // N_1
     const std::array<Vec3d, 3> dirs = {n_0 + n_1, n_0, n_1};
     Vec3d best_c = c;
     Eval best = cur;

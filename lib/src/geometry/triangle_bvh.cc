@@ -95,7 +95,7 @@ class Builder {
     uint32_t mid = begin;
     if (!FindSahSplit(begin, end, cbox, &mid)) {
       if (n <= kForcedLeafSize) return;  // stays a leaf
-      mid = begin + n / 2;  // unsplittable by SAH (e.g. equal centroids): halve in order
+      mid = begin + n / 2;               // unsplittable by SAH (e.g. equal centroids): halve in order
     }
     node_count[node] = 0;
     Recurse(begin, mid, level + 1);
@@ -162,8 +162,7 @@ class Builder {
 }  // namespace
 
 Result<TriangleBvh> TriangleBvh::Build(std::span<const Eigen::Vector3f> positions,
-                                       std::span<const Eigen::Vector3i> triangles,
-                                       std::span<const int32_t> subset) {
+                                       std::span<const Eigen::Vector3i> triangles, std::span<const int32_t> subset) {
   std::vector<int32_t> selected;
   if (subset.empty()) {
     selected.resize(triangles.size());
@@ -180,16 +179,16 @@ Result<TriangleBvh> TriangleBvh::Build(std::span<const Eigen::Vector3f> position
   float magnitude = 0.0f;
   for (int32_t t : selected) {
     if (t < 0 || static_cast<size_t>(t) >= triangles.size()) {
-      return MakeError(ErrorCode::kInvalidArgument,
-                       "TriangleBvh: subset names triangle " + std::to_string(t) + " but the mesh has " +
-                           std::to_string(triangles.size()) + " triangles");
+      return MakeError(ErrorCode::kInvalidArgument, "TriangleBvh: subset names triangle " + std::to_string(t) +
+                                                        " but the mesh has " + std::to_string(triangles.size()) +
+                                                        " triangles");
     }
     const Eigen::Vector3i& tri = triangles[t];
     for (int k = 0; k < 3; ++k) {
       if (tri[k] < 0 || static_cast<size_t>(tri[k]) >= positions.size()) {
-        return MakeError(ErrorCode::kInvalidArgument,
-                         "TriangleBvh: triangle " + std::to_string(t) + " uses vertex " + std::to_string(tri[k]) +
-                             " but the mesh has " + std::to_string(positions.size()) + " vertices");
+        return MakeError(ErrorCode::kInvalidArgument, "TriangleBvh: triangle " + std::to_string(t) + " uses vertex " +
+                                                          std::to_string(tri[k]) + " but the mesh has " +
+                                                          std::to_string(positions.size()) + " vertices");
       }
     }
     const Eigen::Vector3f& a = positions[tri[0]];

@@ -3,12 +3,12 @@
 // character's skeleton.
 #include "skinspheres/lib/io/clip_import.h"
 
-#include <assimp/Importer.hpp>
 #include <assimp/config.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
 #include <algorithm>
+#include <assimp/Importer.hpp>
 #include <cctype>
 #include <cmath>
 #include <map>
@@ -33,14 +33,16 @@ Result<AnimationFile> ReadGltfAnimations(const std::filesystem::path& file, std:
     return ImportError(ErrorCode::kFormatRejected, file, p);
   }
   std::vector<int32_t> joint_of_node(node_of_joint.size(), -1);
-  for (size_t j = 0; j < node_of_joint.size(); ++j) joint_of_node[static_cast<size_t>(node_of_joint[j])] = static_cast<int32_t>(j);
+  for (size_t j = 0; j < node_of_joint.size(); ++j)
+    joint_of_node[static_cast<size_t>(node_of_joint[j])] = static_cast<int32_t>(j);
   if (std::string p = detail::ReadGltfClips(*doc, joint_of_node, &out.clips); !p.empty()) {
     return ImportError(ErrorCode::kInvalidData, file, p);
   }
   const auto& json = doc->json;
   if (json.contains("meshes") && json["meshes"].is_array()) out.mesh_count = json["meshes"].size();
   if (json.contains("nodes") && json["nodes"].is_array()) {
-    for (const auto& n : json["nodes"]) out.skinned_mesh_count += (n.is_object() && n.contains("mesh") && n.contains("skin")) ? 1 : 0;
+    for (const auto& n : json["nodes"])
+      out.skinned_mesh_count += (n.is_object() && n.contains("mesh") && n.contains("skin")) ? 1 : 0;
   }
   return out;
 }
@@ -74,7 +76,8 @@ Result<AnimationFile> ReadAssimpAnimations(const std::filesystem::path& file) {
   // A scene without meshes is flagged incomplete; that is what an animation file is.
   if (scene == nullptr || scene->mRootNode == nullptr) {
     std::string why = importer.GetErrorString();
-    return ImportError(ErrorCode::kFormatRejected, file, "rejected by Assimp: " + (why.empty() ? std::string("no scene") : why));
+    return ImportError(ErrorCode::kFormatRejected, file,
+                       "rejected by Assimp: " + (why.empty() ? std::string("no scene") : why));
   }
   auto tree = detail::ReadAssimpNodeTree(*scene, file);
   if (!tree.ok()) return tree.error();
@@ -114,15 +117,17 @@ Result<AnimationFile> ReadAssimpAnimations(const std::filesystem::path& file) {
       }
       for (unsigned k = 0; k < na->mNumRotationKeys; ++k) {
         const aiQuaternion& q = na->mRotationKeys[k].mValue;
-        finite &= AddKey(track.rotation, na->mRotationKeys[k].mTime / tps, Quatf(Quatf(q.w, q.x, q.y, q.z).normalized()));
+        finite &=
+            AddKey(track.rotation, na->mRotationKeys[k].mTime / tps, Quatf(Quatf(q.w, q.x, q.y, q.z).normalized()));
       }
       for (unsigned k = 0; k < na->mNumScalingKeys; ++k) {
         const aiVector3D& v = na->mScalingKeys[k].mValue;
         finite &= AddKey(track.scale, na->mScalingKeys[k].mTime / tps, Eigen::Vector3f(v.x, v.y, v.z));
       }
       if (!finite) {
-        return ImportError(ErrorCode::kInvalidData, file,
-                           "animation \"" + clip.name + "\" has a key value that is NaN or infinite on node " + na->mNodeName.C_Str());
+        return ImportError(
+            ErrorCode::kInvalidData, file,
+            "animation \"" + clip.name + "\" has a key value that is NaN or infinite on node " + na->mNodeName.C_Str());
       }
     }
     std::sort(clip.tracks.begin(), clip.tracks.end(),
@@ -174,7 +179,8 @@ std::string MatchKey(std::string_view name) {
   const size_t cut = name.find_last_of(":|");
   if (cut != std::string_view::npos) name.remove_prefix(cut + 1);
   std::string key(name);
-  std::transform(key.begin(), key.end(), key.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(key.begin(), key.end(), key.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   constexpr std::string_view kMixamo = "mixamorig";
   if (key.size() > kMixamo.size() && key.compare(0, kMixamo.size(), kMixamo) == 0) {
     size_t k = kMixamo.size();
@@ -204,7 +210,8 @@ Result<std::vector<skinning::AnimationClip>> MatchClips(const AnimationFile& fil
     }
   }
   std::map<std::string, std::vector<int32_t>> joints_by_key, nodes_by_key;
-  for (size_t j = 0; j < target.size(); ++j) joints_by_key[MatchKey(target.joint_names[j])].push_back(static_cast<int32_t>(j));
+  for (size_t j = 0; j < target.size(); ++j)
+    joints_by_key[MatchKey(target.joint_names[j])].push_back(static_cast<int32_t>(j));
   for (size_t n = 0; n < source.size(); ++n) {
     if (joint_of[n] < 0) nodes_by_key[MatchKey(source.joint_names[n])].push_back(static_cast<int32_t>(n));
   }
@@ -227,10 +234,10 @@ Result<std::vector<skinning::AnimationClip>> MatchClips(const AnimationFile& fil
     missing += (missing_count++ ? ", " : "") + target.joint_names[j];
   }
   if (missing_count) {
-    return MakeError(ErrorCode::kNotFound,
-                     file.source_file + ": " + std::to_string(missing_count) + " of the " + std::to_string(deforming_count) +
-                         " joints that move " + who + " have no counterpart in this file (names compared without " +
-                         "prefixes such as \"mixamorig:\" and without case): " + missing);
+    return MakeError(ErrorCode::kNotFound, file.source_file + ": " + std::to_string(missing_count) + " of the " +
+                                               std::to_string(deforming_count) + " joints that move " + who +
+                                               " have no counterpart in this file (names compared without " +
+                                               "prefixes such as \"mixamorig:\" and without case): " + missing);
   }
 
   ClipMatchReport local;
@@ -243,7 +250,8 @@ Result<std::vector<skinning::AnimationClip>> MatchClips(const AnimationFile& fil
     if (node_of[j] < 0) continue;
     const float from = source.rest_local[static_cast<size_t>(node_of[j])].translation.norm();
     const float to = target.rest_local[j].translation.norm();
-    if (from > 0.0f && to > 0.0f && std::isfinite(to / from) && std::abs(to / from - 1.0f) > 1e-3f) translation_scale[j] = to / from;
+    if (from > 0.0f && to > 0.0f && std::isfinite(to / from) && std::abs(to / from - 1.0f) > 1e-3f)
+      translation_scale[j] = to / from;
   }
   std::set<std::string> dropped, rescaled;
   std::vector<skinning::AnimationClip> clips;
@@ -256,7 +264,8 @@ Result<std::vector<skinning::AnimationClip>> MatchClips(const AnimationFile& fil
       if (tr.joint < 0 || node >= source.size()) continue;
       const int32_t j = joint_of[node];
       if (j < 0) {
-        if (!tr.translation.empty() || !tr.rotation.empty() || !tr.scale.empty()) dropped.insert(source.joint_names[node]);
+        if (!tr.translation.empty() || !tr.rotation.empty() || !tr.scale.empty())
+          dropped.insert(source.joint_names[node]);
         continue;
       }
       skinning::JointTrack out = tr;

@@ -3,11 +3,11 @@
 // as Assimp's destructors expect); the unique_ptr frees the whole tree after the export.
 #include "skinspheres/lib/io/glb_exporter.h"
 
-#include <assimp/Exporter.hpp>
 #include <assimp/scene.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <assimp/Exporter.hpp>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -28,8 +28,8 @@ using Eigen::Vector3f;
 using skinning::Interpolation;
 
 aiMatrix4x4 ToAi(const Mat4f& m) {
-  return aiMatrix4x4(m(0, 0), m(0, 1), m(0, 2), m(0, 3), m(1, 0), m(1, 1), m(1, 2), m(1, 3), m(2, 0), m(2, 1),
-                     m(2, 2), m(2, 3), m(3, 0), m(3, 1), m(3, 2), m(3, 3));
+  return aiMatrix4x4(m(0, 0), m(0, 1), m(0, 2), m(0, 3), m(1, 0), m(1, 1), m(1, 2), m(1, 3), m(2, 0), m(2, 1), m(2, 2),
+                     m(2, 3), m(3, 0), m(3, 1), m(3, 2), m(3, 3));
 }
 
 Error Invalid(const std::filesystem::path& path, const std::string& what) {
@@ -76,7 +76,8 @@ void SetNormals(aiMesh* mesh) {
   }
   const std::vector<Vector3f> normals = SmoothNormals(positions, *mesh);
   mesh->mNormals = new aiVector3D[mesh->mNumVertices];
-  for (unsigned v = 0; v < mesh->mNumVertices; ++v) mesh->mNormals[v] = aiVector3D(normals[v].x(), normals[v].y(), normals[v].z());
+  for (unsigned v = 0; v < mesh->mNumVertices; ++v)
+    mesh->mNormals[v] = aiVector3D(normals[v].x(), normals[v].y(), normals[v].z());
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -89,7 +90,7 @@ V CubicValue(const skinning::Track<V>& tr, size_t i, float u) {
   const float h00 = 2 * u3 - 3 * u2 + 1, h10 = u3 - 2 * u2 + u, h01 = -2 * u3 + 3 * u2, h11 = u3 - u2;
   if constexpr (std::is_same_v<V, Quatf>) {
     const Vec4f c = h00 * tr.values[3 * i + 1].coeffs() + h10 * dt * tr.values[3 * i + 2].coeffs() +
-                              h01 * tr.values[3 * (i + 1) + 1].coeffs() + h11 * dt * tr.values[3 * (i + 1)].coeffs();
+                    h01 * tr.values[3 * (i + 1) + 1].coeffs() + h11 * dt * tr.values[3 * (i + 1)].coeffs();
     return Quatf(c.normalized());
   } else {
     return h00 * tr.values[3 * i + 1] + h10 * dt * tr.values[3 * i + 2] + h01 * tr.values[3 * (i + 1) + 1] +
@@ -170,7 +171,8 @@ std::optional<Error> Validate(const RawCharacter& c, const GlbExtras& e, const s
   // entry per rest position, arrays that agree, bind entries on joints (checked below).
   if (s.positions_bind.size() != nv) return Invalid(path, "skin.positions_bind size differs from positions_rest");
   if (s.influence_offsets.size() != nv + 1 || s.influence_offsets.front() != 0 ||
-      s.influence_offsets.back() != s.influence_binds.size() || s.influence_weights.size() != s.influence_binds.size()) {
+      s.influence_offsets.back() != s.influence_binds.size() ||
+      s.influence_weights.size() != s.influence_binds.size()) {
     return Invalid(path, "skin influence arrays are inconsistent (CSR offsets / binds / weights)");
   }
   for (float w : s.influence_weights) {
@@ -191,14 +193,16 @@ std::optional<Error> Validate(const RawCharacter& c, const GlbExtras& e, const s
     if (!p.allFinite()) return Invalid(path, "a rest position is not finite");
   }
   for (const auto& m : c.meshes) {
-    if (uint64_t{m.first_vertex} + m.vertex_count > nv || uint64_t{m.first_triangle} + m.triangle_count > c.triangles.size()) {
+    if (uint64_t{m.first_vertex} + m.vertex_count > nv ||
+        uint64_t{m.first_triangle} + m.triangle_count > c.triangles.size()) {
       return Invalid(path, "mesh range '" + m.name + "' exceeds the vertex or triangle arrays");
     }
     for (uint32_t t = m.first_triangle; t < m.first_triangle + m.triangle_count; ++t) {
       for (int k = 0; k < 3; ++k) {
         const int64_t i = c.triangles[t][k];
         if (i < m.first_vertex || i >= int64_t{m.first_vertex} + m.vertex_count) {
-          return Invalid(path, "triangle " + std::to_string(t) + " of mesh '" + m.name + "' uses a vertex outside the mesh");
+          return Invalid(path,
+                         "triangle " + std::to_string(t) + " of mesh '" + m.name + "' uses a vertex outside the mesh");
         }
       }
     }
@@ -237,7 +241,8 @@ std::optional<Error> Validate(const RawCharacter& c, const GlbExtras& e, const s
                                  std::to_string(e.frame_times_s.size()));
       }
       for (const auto& f : e.spheres[i].per_frame_xyzr) {
-        if (!f.allFinite() || f.w() < 0.0f) return Invalid(path, "extras: sphere " + std::to_string(i) + " has a bad frame");
+        if (!f.allFinite() || f.w() < 0.0f)
+          return Invalid(path, "extras: sphere " + std::to_string(i) + " has a bad frame");
       }
     }
     if (e.sphere_segments < 3 || e.sphere_rings < 2) return Invalid(path, "extras: sphere resolution too low");
@@ -332,7 +337,8 @@ Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path
     for (size_t j = 0; j < sk.size(); ++j) {
       const std::string base = sk.joint_names[j].empty() ? "joint_" + std::to_string(j) : sk.joint_names[j];
       std::string n = base;
-      for (int k = 2; given.count(n) || (n != sk.joint_names[j] && taken.count(n)); ++k) n = base + "_" + std::to_string(k);
+      for (int k = 2; given.count(n) || (n != sk.joint_names[j] && taken.count(n)); ++k)
+        n = base + "_" + std::to_string(k);
       given.insert(n);
       joint_names[j] = n;
     }
@@ -358,7 +364,8 @@ Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path
     for (const auto& tr : clip.tracks) root_animated |= (tr.joint == 0);
   }
   // Mesh and sphere nodes hang under the scene root, whose world transform must be the identity.
-  const bool joint_is_root = roots.size() == 1 && sk.parents[0] < 0 && rest_world[0].isIdentity(1e-6f) && !root_animated;
+  const bool joint_is_root =
+      roots.size() == 1 && sk.parents[0] < 0 && rest_world[0].isIdentity(1e-6f) && !root_animated;
   aiNode* root = joint_is_root ? joint_nodes[0] : new aiNode("Root");
   std::vector<aiNode*> root_children = joint_is_root ? children[0] : roots;
   std::set<std::string> used(joint_names.begin(), joint_names.end());
@@ -390,7 +397,8 @@ Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path
     node->mNumMeshes = 1;
     node->mMeshes = new unsigned int[1]{mesh_index};
     if (range.skinned) {
-      for (uint32_t v = 0; v < range.vertex_count; ++v) mesh->mVertices[v] = ToAi(c.skin.positions_bind[range.first_vertex + v]);
+      for (uint32_t v = 0; v < range.vertex_count; ++v)
+        mesh->mVertices[v] = ToAi(c.skin.positions_bind[range.first_vertex + v]);
       // Per vertex: merge entries of the same joint, keep the 4 largest, renormalise.
       std::map<int32_t, std::vector<aiVertexWeight>> per_joint;
       std::vector<std::pair<float, int32_t>> inf;
@@ -419,7 +427,8 @@ Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path
       // joint the skin binds (even one no vertex uses, like a *_End joint) stays a skin joint.
       std::vector<int32_t> order;
       for (const auto& b : c.skin.binds) {
-        if ((per_joint.count(b.joint) || first_skinned) && std::find(order.begin(), order.end(), b.joint) == order.end()) {
+        if ((per_joint.count(b.joint) || first_skinned) &&
+            std::find(order.begin(), order.end(), b.joint) == order.end()) {
           order.push_back(b.joint);
         }
       }
@@ -431,8 +440,8 @@ Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path
           const int32_t joint = order[i];
           auto* bone = new aiBone();
           bone->mName = aiString(joint_names[joint]);
-          const auto ibm = std::find_if(c.skin.binds.begin(), c.skin.binds.end(),
-                                        [&](const auto& b) { return b.joint == joint; });
+          const auto ibm =
+              std::find_if(c.skin.binds.begin(), c.skin.binds.end(), [&](const auto& b) { return b.joint == joint; });
           bone->mOffsetMatrix = ToAi(ibm->inverse_bind);
           const auto& w = per_joint[joint];
           bone->mNumWeights = static_cast<unsigned>(w.size());
@@ -447,8 +456,8 @@ Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path
       root_children.push_back(node);
     } else {
       // Rigid: vertices in the followed joint's rest space, node under that joint.
-      const Mat4f to_local = range.rigid_joint >= 0 ? Mat4f(rest_world[range.rigid_joint].inverse())
-                                                       : Mat4f(Mat4f::Identity());
+      const Mat4f to_local =
+          range.rigid_joint >= 0 ? Mat4f(rest_world[range.rigid_joint].inverse()) : Mat4f(Mat4f::Identity());
       for (uint32_t v = 0; v < range.vertex_count; ++v) {
         const Vec4f p = to_local * c.positions_rest[range.first_vertex + v].homogeneous();
         mesh->mVertices[v] = ToAi(Vector3f(p.head<3>()));
@@ -514,8 +523,8 @@ Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path
       const auto& rest = sk.rest_local[joint];
       auto t = tr.translation.empty() ? std::vector<std::pair<float, Vector3f>>{{0.0f, rest.translation}}
                                       : BakeLinear(tr.translation);
-      auto r = tr.rotation.empty() ? std::vector<std::pair<float, Quatf>>{{0.0f, rest.rotation}}
-                                   : BakeLinear(tr.rotation);
+      auto r =
+          tr.rotation.empty() ? std::vector<std::pair<float, Quatf>>{{0.0f, rest.rotation}} : BakeLinear(tr.rotation);
       auto s = tr.scale.empty() ? std::vector<std::pair<float, Vector3f>>{{0.0f, rest.scale}} : BakeLinear(tr.scale);
       channels.push_back(MakeChannel(joint_names[joint], t, r, s));
     }
@@ -571,7 +580,8 @@ Result<BuiltScene> BuildScene(const RawCharacter& c, const std::filesystem::path
 
   summary.mesh_count = static_cast<uint32_t>(meshes.size());
   summary.animation_count = static_cast<uint32_t>(anims.size());
-  summary.node_count = static_cast<uint32_t>(sk.size() + c.meshes.size() + extras.spheres.size() + (joint_is_root ? 0 : 1));
+  summary.node_count =
+      static_cast<uint32_t>(sk.size() + c.meshes.size() + extras.spheres.size() + (joint_is_root ? 0 : 1));
   return BuiltScene{std::move(scene), summary};
 }
 
@@ -612,8 +622,8 @@ Result<GlbBlob> ExportGlbToMemory(const RawCharacter& c, const std::string& labe
   Assimp::Exporter exporter;
   const aiExportDataBlob* blob = exporter.ExportToBlob(built->scene.get(), "glb2");
   if (blob == nullptr || blob->data == nullptr) {
-    return MakeError(ErrorCode::kFileUnreadable, "ExportGlb " + label + ": Assimp could not write the GLB: " +
-                                                     exporter.GetErrorString());
+    return MakeError(ErrorCode::kFileUnreadable,
+                     "ExportGlb " + label + ": Assimp could not write the GLB: " + exporter.GetErrorString());
   }
   const auto* bytes = static_cast<const uint8_t*>(blob->data);
   return GlbBlob{std::vector<uint8_t>(bytes, bytes + blob->size), std::move(built->summary)};

@@ -3,9 +3,6 @@
 // against the buffer it points into before a byte is read.
 #include "gltf_document.h"
 
-#include "skinspheres/lib/io/importer.h"
-#include "skinspheres/runtime/file_io.h"
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -15,14 +12,17 @@
 #include <memory>
 #include <optional>
 
+#include "skinspheres/lib/io/importer.h"
+#include "skinspheres/runtime/file_io.h"
+
 namespace skinspheres::lib::detail {
 namespace {
 
 using nlohmann::json;
 
-constexpr uint32_t kGlbMagic = 0x46546C67;      // "glTF"
-constexpr uint32_t kChunkJson = 0x4E4F534A;     // "JSON"
-constexpr uint32_t kChunkBin = 0x004E4942;      // "BIN\0"
+constexpr uint32_t kGlbMagic = 0x46546C67;   // "glTF"
+constexpr uint32_t kChunkJson = 0x4E4F534A;  // "JSON"
+constexpr uint32_t kChunkBin = 0x004E4942;   // "BIN\0"
 
 Error Fail(ErrorCode code, const std::filesystem::path& file, const std::string& problem) {
   return MakeError(code, file.string() + ": " + problem);
@@ -42,14 +42,22 @@ bool DecodeBase64(std::string_view in, std::vector<uint8_t>* out) {
   int bits = 0;
   for (char c : in) {
     int v;
-    if (c >= 'A' && c <= 'Z') v = c - 'A';
-    else if (c >= 'a' && c <= 'z') v = c - 'a' + 26;
-    else if (c >= '0' && c <= '9') v = c - '0' + 52;
-    else if (c == '+' || c == '-') v = 62;
-    else if (c == '/' || c == '_') v = 63;
-    else if (c == '=') break;
-    else if (c == ' ' || c == '\n' || c == '\r' || c == '\t') continue;
-    else return false;
+    if (c >= 'A' && c <= 'Z')
+      v = c - 'A';
+    else if (c >= 'a' && c <= 'z')
+      v = c - 'a' + 26;
+    else if (c >= '0' && c <= '9')
+      v = c - '0' + 52;
+    else if (c == '+' || c == '-')
+      v = 62;
+    else if (c == '/' || c == '_')
+      v = 63;
+    else if (c == '=')
+      break;
+    else if (c == ' ' || c == '\n' || c == '\r' || c == '\t')
+      continue;
+    else
+      return false;
     acc = (acc << 6) | static_cast<uint32_t>(v);
     bits += 6;
     if (bits >= 8) {
@@ -78,8 +86,8 @@ std::string PercentDecode(const std::string& s) {
 // read, or (KHR_mesh_quantization) allow integer attributes, which it converts.
 bool IsIgnorableOrReadExtension(const std::string& ext) {
   static const char* const kExact[] = {"KHR_mesh_quantization", "KHR_texture_transform", "KHR_texture_basisu",
-                                       "EXT_texture_webp", "EXT_texture_avif", "KHR_lights_punctual", "KHR_xmp_json_ld",
-                                       "MSFT_texture_dds"};
+                                       "EXT_texture_webp",      "EXT_texture_avif",      "KHR_lights_punctual",
+                                       "KHR_xmp_json_ld",       "MSFT_texture_dds"};
   for (const char* e : kExact) {
     if (ext == e) return true;
   }
@@ -99,9 +107,12 @@ int ComponentsOf(const std::string& type) {
 
 int ComponentSize(int component_type) {
   switch (component_type) {
-    case 5120: case 5121: return 1;  // BYTE, UNSIGNED_BYTE
-    case 5122: case 5123: return 2;  // SHORT, UNSIGNED_SHORT
-    case 5125: case 5126: return 4;  // UNSIGNED_INT, FLOAT
+    case 5120:
+    case 5121: return 1;  // BYTE, UNSIGNED_BYTE
+    case 5122:
+    case 5123: return 2;  // SHORT, UNSIGNED_SHORT
+    case 5125:
+    case 5126: return 4;  // UNSIGNED_INT, FLOAT
     default: return 0;
   }
 }
@@ -160,7 +171,8 @@ bool IntField(const json& obj, const char* key, int64_t fallback, int64_t* out) 
 
 // The bytes of bufferView `bv_index` (checked to lie inside its buffer) and its byteStride (0
 // when absent). Returns the problem, empty on success.
-std::string OpenBufferView(const GltfDocument& doc, int64_t bv_index, std::span<const uint8_t>* bytes, int64_t* stride) {
+std::string OpenBufferView(const GltfDocument& doc, int64_t bv_index, std::span<const uint8_t>* bytes,
+                           int64_t* stride) {
   const json& j = doc.json;
   if (!j.contains("bufferViews") || !j["bufferViews"].is_array() || bv_index < 0 ||
       bv_index >= static_cast<int64_t>(j["bufferViews"].size())) {
@@ -169,7 +181,8 @@ std::string OpenBufferView(const GltfDocument& doc, int64_t bv_index, std::span<
   const json& bv = j["bufferViews"][static_cast<size_t>(bv_index)];
   const int64_t buffer = Integer(bv, "buffer", -1);
   if (buffer < 0 || buffer >= static_cast<int64_t>(doc.buffers.size())) {
-    return "bufferView " + std::to_string(bv_index) + " uses buffer " + std::to_string(buffer) + ", which does not exist";
+    return "bufferView " + std::to_string(bv_index) + " uses buffer " + std::to_string(buffer) +
+           ", which does not exist";
   }
   const std::vector<uint8_t>& data = doc.buffers[static_cast<size_t>(buffer)];
   const int64_t bv_offset = Integer(bv, "byteOffset", 0);
@@ -219,20 +232,23 @@ std::string MaterialiseSparse(const GltfDocument& doc, const json& a, const std:
   const json& sparse = a["sparse"];
   if (!sparse.is_object()) return name + " has a sparse entry that is not an object";
   int64_t count = -1;
-  if (!sparse.contains("count") || !IntField(sparse, "count", -1, &count)) return name + " sparse block has no valid count";
+  if (!sparse.contains("count") || !IntField(sparse, "count", -1, &count))
+    return name + " sparse block has no valid count";
   if (count < 1 || static_cast<uint64_t>(count) > view->count) {
     return name + " sparse count " + std::to_string(count) + " is not in 1.." + std::to_string(view->count) +
            " (the accessor's count)";
   }
   const uint64_t n = static_cast<uint64_t>(count);
-  if (!sparse.contains("indices") || !sparse["indices"].is_object()) return name + " sparse indices are missing (or not an object)";
+  if (!sparse.contains("indices") || !sparse["indices"].is_object())
+    return name + " sparse indices are missing (or not an object)";
   int64_t index_type = 0;
   if (!IntField(sparse["indices"], "componentType", 0, &index_type) ||
       (index_type != 5121 && index_type != 5123 && index_type != 5125)) {
     return name + " sparse indices have no valid componentType (UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT)";
   }
   const uint64_t index_size = static_cast<uint64_t>(ComponentSize(static_cast<int>(index_type)));
-  const uint64_t elem_size = static_cast<uint64_t>(ComponentSize(view->component_type)) * static_cast<uint64_t>(view->components);
+  const uint64_t elem_size =
+      static_cast<uint64_t>(ComponentSize(view->component_type)) * static_cast<uint64_t>(view->components);
   const uint8_t* indices = nullptr;
   const uint8_t* values = nullptr;
   if (std::string p = OpenSparseArray(doc, sparse, name, "indices", n, index_size, &indices); !p.empty()) return p;
@@ -241,19 +257,22 @@ std::string MaterialiseSparse(const GltfDocument& doc, const json& a, const std:
   // The dense base is bounded by the file (it lies in a bufferView) or by kMaxZeroFilledCount.
   auto owned = std::make_shared<std::vector<uint8_t>>(view->count * elem_size, uint8_t{0});
   if (view->base != nullptr) {
-    for (uint64_t e = 0; e < view->count; ++e) std::memcpy(owned->data() + e * elem_size, view->base + e * view->stride, elem_size);
+    for (uint64_t e = 0; e < view->count; ++e)
+      std::memcpy(owned->data() + e * elem_size, view->base + e * view->stride, elem_size);
   }
   uint64_t previous = 0;
   for (uint64_t i = 0; i < n; ++i) {
     const uint8_t* q = indices + i * index_size;
-    const uint64_t target = index_type == 5121 ? Load<uint8_t>(q) : index_type == 5123 ? Load<uint16_t>(q) : Load<uint32_t>(q);
+    const uint64_t target = index_type == 5121   ? Load<uint8_t>(q)
+                            : index_type == 5123 ? Load<uint16_t>(q)
+                                                 : Load<uint32_t>(q);
     if (target >= view->count) {
-      return name + " sparse index " + std::to_string(target) + " (entry " + std::to_string(i) + ") is out of range (count " +
-             std::to_string(view->count) + ")";
+      return name + " sparse index " + std::to_string(target) + " (entry " + std::to_string(i) +
+             ") is out of range (count " + std::to_string(view->count) + ")";
     }
     if (i > 0 && target <= previous) {
-      return name + " sparse indices are not strictly increasing (entry " + std::to_string(i) + ": " + std::to_string(target) +
-             " after " + std::to_string(previous) + ")";
+      return name + " sparse indices are not strictly increasing (entry " + std::to_string(i) + ": " +
+             std::to_string(target) + " after " + std::to_string(previous) + ")";
     }
     previous = target;
     std::memcpy(owned->data() + target * elem_size, values + i * elem_size, elem_size);
@@ -314,8 +333,9 @@ std::string OpenAccessor(const GltfDocument& doc, int64_t index, int components,
   // (count - 1) * stride + size must fit after the accessor's offset; checked by division so a
   // huge count cannot wrap the product around.
   const uint64_t avail = bytes.size(), off = static_cast<uint64_t>(acc_offset);
-  const bool fits = off <= avail && (view->count == 0 || (elem_size <= avail - off &&
-                                                          view->count - 1 <= (avail - off - elem_size) / view->stride));
+  const bool fits =
+      off <= avail &&
+      (view->count == 0 || (elem_size <= avail - off && view->count - 1 <= (avail - off - elem_size) / view->stride));
   if (!fits) {
     return name + " (" + std::to_string(view->count) + " elements) runs past the end of bufferView " +
            std::to_string(bv_index);
@@ -332,10 +352,22 @@ std::string OpenAccessor(const GltfDocument& doc, int64_t index, int components,
 
 float ComponentAsFloat(const uint8_t* p, int type, bool normalized) {
   switch (type) {
-    case 5120: { const float v = Load<int8_t>(p); return normalized ? std::max(v / 127.0f, -1.0f) : v; }
-    case 5121: { const float v = Load<uint8_t>(p); return normalized ? v / 255.0f : v; }
-    case 5122: { const float v = Load<int16_t>(p); return normalized ? std::max(v / 32767.0f, -1.0f) : v; }
-    case 5123: { const float v = Load<uint16_t>(p); return normalized ? v / 65535.0f : v; }
+    case 5120: {
+      const float v = Load<int8_t>(p);
+      return normalized ? std::max(v / 127.0f, -1.0f) : v;
+    }
+    case 5121: {
+      const float v = Load<uint8_t>(p);
+      return normalized ? v / 255.0f : v;
+    }
+    case 5122: {
+      const float v = Load<int16_t>(p);
+      return normalized ? std::max(v / 32767.0f, -1.0f) : v;
+    }
+    case 5123: {
+      const float v = Load<uint16_t>(p);
+      return normalized ? v / 65535.0f : v;
+    }
     case 5125: return static_cast<float>(Load<uint32_t>(p));
     default: return Load<float>(p);
   }
@@ -394,13 +426,17 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
   std::span<const uint8_t> bin;
   bool has_bin = false;
   if (bytes.size() >= 4 && ReadU32(bytes.data()) == kGlbMagic) {
-    if (bytes.size() < 20) return Fail(ErrorCode::kFormatRejected, file, "truncated GLB: shorter than its 12-byte header and first chunk header");
+    if (bytes.size() < 20)
+      return Fail(ErrorCode::kFormatRejected, file,
+                  "truncated GLB: shorter than its 12-byte header and first chunk header");
     const uint32_t version = ReadU32(bytes.data() + 4);
     const uint32_t length = ReadU32(bytes.data() + 8);
-    if (version != 2) return Fail(ErrorCode::kFormatRejected, file, "GLB version " + std::to_string(version) + " (only 2 is read)");
+    if (version != 2)
+      return Fail(ErrorCode::kFormatRejected, file, "GLB version " + std::to_string(version) + " (only 2 is read)");
     if (length > bytes.size()) {
-      return Fail(ErrorCode::kFormatRejected, file, "truncated GLB: header says " + std::to_string(length) +
-                                                        " bytes, the file has " + std::to_string(bytes.size()));
+      return Fail(ErrorCode::kFormatRejected, file,
+                  "truncated GLB: header says " + std::to_string(length) + " bytes, the file has " +
+                      std::to_string(bytes.size()));
     }
     size_t at = 12;
     bool first = true;
@@ -411,9 +447,14 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
         return Fail(ErrorCode::kFormatRejected, file, "truncated GLB: a chunk runs past the end of the file");
       }
       const std::span<const uint8_t> chunk = bytes.subspan(at + 8, chunk_length);
-      if (first && chunk_type != kChunkJson) return Fail(ErrorCode::kFormatRejected, file, "GLB does not start with a JSON chunk");
-      if (first) json_text = chunk;
-      else if (chunk_type == kChunkBin && !has_bin) { bin = chunk; has_bin = true; }
+      if (first && chunk_type != kChunkJson)
+        return Fail(ErrorCode::kFormatRejected, file, "GLB does not start with a JSON chunk");
+      if (first)
+        json_text = chunk;
+      else if (chunk_type == kChunkBin && !has_bin) {
+        bin = chunk;
+        has_bin = true;
+      }
       first = false;
       at += 8 + ((chunk_length + 3u) & ~3u);
     }
@@ -424,12 +465,14 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
   const runtime::JsonShape shape =
       runtime::ScanJson(std::string_view(reinterpret_cast<const char*>(json_text.data()), json_text.size()));
   if (shape.depth > runtime::kMaxJsonDepth) {
-    return Fail(ErrorCode::kFormatRejected, file, "the JSON nests " + std::to_string(shape.depth) + " deep (at most " +
-                                                      std::to_string(runtime::kMaxJsonDepth) + " is read)");
+    return Fail(ErrorCode::kFormatRejected, file,
+                "the JSON nests " + std::to_string(shape.depth) + " deep (at most " +
+                    std::to_string(runtime::kMaxJsonDepth) + " is read)");
   }
   if (shape.values > kMaxGltfJsonValues) {
-    return Fail(ErrorCode::kFormatRejected, file, "the JSON holds more than " + std::to_string(kMaxGltfJsonValues) +
-                                                      " values (at most that many are read)");
+    return Fail(
+        ErrorCode::kFormatRejected, file,
+        "the JSON holds more than " + std::to_string(kMaxGltfJsonValues) + " values (at most that many are read)");
   }
   doc.json = json::parse(json_text.begin(), json_text.end(), nullptr, /*allow_exceptions=*/false);
   if (doc.json.is_discarded() || !doc.json.is_object()) {
@@ -452,7 +495,8 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
       if (!e.is_string()) return Fail(ErrorCode::kFormatRejected, file, "\"extensionsRequired\" lists a non-string");
       const std::string ext = e.get<std::string>();
       if (!IsIgnorableOrReadExtension(ext)) {
-        return Fail(ErrorCode::kFormatRejected, file, "requires the glTF extension " + ext + ", which is not supported");
+        return Fail(ErrorCode::kFormatRejected, file,
+                    "requires the glTF extension " + ext + ", which is not supported");
       }
     }
   }
@@ -465,7 +509,8 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
       std::vector<uint8_t> data;
       const std::string label = "buffer " + std::to_string(b);
       if (!buffers[b].contains("uri")) {
-        if (b != 0 || !has_bin) return Fail(ErrorCode::kFormatRejected, file, label + " has no uri and there is no GLB BIN chunk");
+        if (b != 0 || !has_bin)
+          return Fail(ErrorCode::kFormatRejected, file, label + " has no uri and there is no GLB BIN chunk");
         data.assign(bin.begin(), bin.end());
       } else {
         const std::string uri = buffers[b]["uri"].get<std::string>();
@@ -485,22 +530,24 @@ Result<GltfDocument> LoadGltf(const std::filesystem::path& file, std::span<const
           if (length < 0) return Fail(ErrorCode::kFormatRejected, file, label + " has no valid byteLength");
           external_bytes += static_cast<uint64_t>(length);
           if (external_bytes > kMaxGltfExternalBufferBytes) {
-            return Fail(ErrorCode::kFormatRejected, file, "the external buffers add up to more than " +
-                                                              std::to_string(kMaxGltfExternalBufferBytes) + " bytes");
+            return Fail(
+                ErrorCode::kFormatRejected, file,
+                "the external buffers add up to more than " + std::to_string(kMaxGltfExternalBufferBytes) + " bytes");
           }
           // A regular file only (runtime/file_io.h), checked on the open file itself.
           Result<std::vector<uint8_t>> read = runtime::ReadRegularFilePrefix(external, static_cast<uint64_t>(length));
           if (!read.ok()) {
             const ErrorCode code = read.error().code == ErrorCode::kFormatRejected ? ErrorCode::kFormatRejected
-                                                                                    : ErrorCode::kFileUnreadable;
+                                                                                   : ErrorCode::kFileUnreadable;
             return Fail(code, file, label + " file " + read.error().message);
           }
           data = std::move(read).value();
         }
       }
       if (length < 0 || static_cast<uint64_t>(length) > data.size()) {
-        return Fail(ErrorCode::kFormatRejected, file, label + " holds " + std::to_string(data.size()) +
-                                                          " bytes, fewer than its byteLength " + std::to_string(length));
+        return Fail(ErrorCode::kFormatRejected, file,
+                    label + " holds " + std::to_string(data.size()) + " bytes, fewer than its byteLength " +
+                        std::to_string(length));
       }
       doc.buffers.push_back(std::move(data));
     }
@@ -518,7 +565,8 @@ int64_t Integer(const json& obj, const char* key, int64_t fallback) {
 
 int64_t Integer(const json& v, const char* array_name) {
   const std::optional<int64_t> out = AsInteger(v);
-  if (!out) throw NotAnInteger("\"" + std::string(array_name) + "\" lists " + v.dump().substr(0, 40) + ", not an integer");
+  if (!out)
+    throw NotAnInteger("\"" + std::string(array_name) + "\" lists " + v.dump().substr(0, 40) + ", not an integer");
   return *out;
 }
 

@@ -46,8 +46,10 @@ std::optional<std::string> AppendVertex(skinning::SkinnedMesh& skin, const Eigen
     if (in.weight < 0.0f) return "a skin weight is negative (" + std::to_string(in.weight) + ")";
     if (in.weight == 0.0f) continue;
     auto it = std::find_if(merged.begin(), merged.end(), [&](const Influence& m) { return m.bind == in.bind; });
-    if (it != merged.end()) it->weight += in.weight;
-    else merged.push_back(in);
+    if (it != merged.end())
+      it->weight += in.weight;
+    else
+      merged.push_back(in);
     sum += in.weight;
   }
   if (merged.empty() || !(sum > 0.0)) return std::string("skin weights sum to zero");
@@ -71,17 +73,19 @@ std::optional<Error> FinishCharacter(RawCharacter& c, const std::filesystem::pat
   if (skeleton.size() == 0 || !skeleton.Validate()) {
     return ImportError(ErrorCode::kInvalidData, file, "the skeleton is empty or not ordered parents-first");
   }
-  if (c.triangles.empty()) return ImportError(ErrorCode::kInvalidData, file, "no triangles (no triangle primitive in the scene)");
+  if (c.triangles.empty())
+    return ImportError(ErrorCode::kInvalidData, file, "no triangles (no triangle primitive in the scene)");
   // The limits of importer.h, for every reader (the glTF reader checks them before allocating).
   if (skeleton.size() > kMaxJoints) {
-    return ImportError(ErrorCode::kInvalidData, file, "the skeleton has " + std::to_string(skeleton.size()) + " joints; at most " +
-                                                          std::to_string(kMaxJoints) + " are read");
+    return ImportError(ErrorCode::kInvalidData, file,
+                       "the skeleton has " + std::to_string(skeleton.size()) + " joints; at most " +
+                           std::to_string(kMaxJoints) + " are read");
   }
   if (skin.vertex_count() > kMaxVertices || c.triangles.size() > kMaxTriangles) {
-    return ImportError(ErrorCode::kInvalidData, file, std::to_string(skin.vertex_count()) + " vertices and " +
-                                                          std::to_string(c.triangles.size()) + " triangles; at most " +
-                                                          std::to_string(kMaxVertices) + " and " + std::to_string(kMaxTriangles) +
-                                                          " are read");
+    return ImportError(ErrorCode::kInvalidData, file,
+                       std::to_string(skin.vertex_count()) + " vertices and " + std::to_string(c.triangles.size()) +
+                           " triangles; at most " + std::to_string(kMaxVertices) + " and " +
+                           std::to_string(kMaxTriangles) + " are read");
   }
   if (skin.influence_offsets.size() != skin.vertex_count() + 1) {
     return ImportError(ErrorCode::kInvalidData, file, "internal: influence table does not match the vertices");
@@ -106,14 +110,16 @@ std::optional<Error> FinishCharacter(RawCharacter& c, const std::filesystem::pat
     c.positions_rest[v] = p.head<3>();
     if (!c.positions_rest[v].allFinite()) {
       return ImportError(ErrorCode::kInvalidData, file,
-                         "vertex " + std::to_string(v) + " has a non-finite rest position (NaN/Inf in a node transform or inverse bind matrix)");
+                         "vertex " + std::to_string(v) +
+                             " has a non-finite rest position (NaN/Inf in a node transform or inverse bind matrix)");
     }
   }
   const int64_t n = static_cast<int64_t>(c.positions_rest.size());
   for (size_t t = 0; t < c.triangles.size(); ++t) {
     const Eigen::Vector3i& tri = c.triangles[t];
     if (tri.minCoeff() < 0 || tri.maxCoeff() >= n) {
-      return ImportError(ErrorCode::kInvalidData, file, "triangle " + std::to_string(t) + " has a vertex index out of range");
+      return ImportError(ErrorCode::kInvalidData, file,
+                         "triangle " + std::to_string(t) + " has a vertex index out of range");
     }
   }
   return std::nullopt;
@@ -129,12 +135,14 @@ bool LooksLikeGltf2(const std::filesystem::path& file, std::span<const uint8_t> 
   if (ext != ".gltf") return false;
   // glTF 1.0 JSON goes to Assimp; anything else that says .gltf is ours (errors included). Text
   // too deep or too large to parse safely is ours too: our reader refuses it, naming the limit.
-  const runtime::JsonShape shape = runtime::ScanJson(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+  const runtime::JsonShape shape =
+      runtime::ScanJson(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
   if (shape.depth > runtime::kMaxJsonDepth || shape.values > kMaxGltfJsonValues) return true;
   const auto json = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false);
   if (json.is_object() && json.contains("asset") && json["asset"].is_object()) {
     const auto it = json["asset"].find("version");
-    if (it != json["asset"].end() && it->is_string() && !it->get<std::string>().empty() && it->get<std::string>()[0] == '1') {
+    if (it != json["asset"].end() && it->is_string() && !it->get<std::string>().empty() &&
+        it->get<std::string>()[0] == '1') {
       return false;
     }
   }
@@ -169,7 +177,8 @@ Result<RawCharacter> ImportBytes(const std::filesystem::path& file, std::span<co
     std::optional<Error> error = result.ok() ? detail::FinishCharacter(*result, file) : result.error();
     if (error && !gltf_only && (error->code == ErrorCode::kFormatRejected || error->code == ErrorCode::kInvalidData)) {
       // Say what the file is when it is an animation without a mesh (clip_import.h).
-      if (std::string what = DescribeAnimationOnlyFile(file); !what.empty()) return ImportError(ErrorCode::kFormatRejected, file, what);
+      if (std::string what = DescribeAnimationOnlyFile(file); !what.empty())
+        return ImportError(ErrorCode::kFormatRejected, file, what);
     }
     if (error) return *error;
     result->source_file = file.string();
@@ -197,9 +206,9 @@ Result<RawCharacter> ImportCharacter(const std::filesystem::path& file, const Im
 Result<RawCharacter> ImportGltfBytes(std::span<const uint8_t> bytes, const std::filesystem::path& name,
                                      const ImportOptions& options) {
   if (bytes.size() > kMaxCharacterFileBytes) {
-    return detail::ImportError(ErrorCode::kFormatRejected, name, "is " + std::to_string(bytes.size()) +
-                                                                     " bytes; a character file may be at most " +
-                                                                     std::to_string(kMaxCharacterFileBytes) + " bytes");
+    return detail::ImportError(ErrorCode::kFormatRejected, name,
+                               "is " + std::to_string(bytes.size()) + " bytes; a character file may be at most " +
+                                   std::to_string(kMaxCharacterFileBytes) + " bytes");
   }
   return ImportBytes(name, bytes, options, /*gltf_only=*/true);
 }

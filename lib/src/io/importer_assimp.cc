@@ -5,11 +5,11 @@
 // are skipped (their vertices stay). Vertex order is Assimp's for these formats (some readers
 // split vertices per face corner). Clips: ticks / ticksPerSecond, linear (Assimp has no
 // interpolation field).
-#include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
 #include <algorithm>
+#include <assimp/Importer.hpp>
 #include <map>
 
 #include "assimp_nodes.h"
@@ -60,7 +60,8 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
       skinned_file = true;
       for (unsigned b = 0; b < mesh->mNumBones; ++b) {
         const int32_t bn = node_named(mesh->mBones[b]->mName);
-        if (bn < 0) return invalid("bone '" + std::string(mesh->mBones[b]->mName.C_Str()) + "' has no node in the scene");
+        if (bn < 0)
+          return invalid("bone '" + std::string(mesh->mBones[b]->mName.C_Str()) + "' has no node in the scene");
         needed[static_cast<size_t>(bn)] = 1;
       }
     }
@@ -75,7 +76,8 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
   }
   const uint64_t joint_count = static_cast<uint64_t>(std::count(needed.begin(), needed.end(), 1));
   if (joint_count > kMaxJoints) {
-    return invalid("the skeleton has " + std::to_string(joint_count) + " joints; at most " + std::to_string(kMaxJoints) + " are read");
+    return invalid("the skeleton has " + std::to_string(joint_count) + " joints; at most " +
+                   std::to_string(kMaxJoints) + " are read");
   }
 
   RawCharacter c;
@@ -112,13 +114,15 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
       for (unsigned b = 0; b < mesh->mNumBones; ++b) {
         const aiBone* bone = mesh->mBones[b];
         const Mat4f ibm = ToMat4f(bone->mOffsetMatrix);
-        if (!ibm.allFinite()) return invalid(where + " bone '" + bone->mName.C_Str() + "' has a non-finite offset matrix");
+        if (!ibm.allFinite())
+          return invalid(where + " bone '" + bone->mName.C_Str() + "' has a non-finite offset matrix");
         const int32_t bind = FindOrAddBind(c.skin, joint_of_node[static_cast<size_t>(node_named(bone->mName))], ibm);
         if (bind < 0) return invalid("more than 65536 distinct bind entries");
         for (unsigned w = 0; w < bone->mNumWeights; ++w) {
           const aiVertexWeight& vw = bone->mWeights[w];
           if (vw.mVertexId >= mesh->mNumVertices) {
-            return invalid(where + " bone '" + bone->mName.C_Str() + "' weights vertex " + std::to_string(vw.mVertexId) + ", out of range");
+            return invalid(where + " bone '" + bone->mName.C_Str() + "' weights vertex " +
+                           std::to_string(vw.mVertexId) + ", out of range");
           }
           per_vertex[vw.mVertexId].push_back({static_cast<uint32_t>(bind), vw.mWeight});
         }
@@ -140,20 +144,24 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
       const Eigen::Vector3f p(a.x, a.y, a.z);
       if (!p.allFinite()) return invalid(where + " vertex " + std::to_string(v) + " position is NaN or infinite");
       if (skinned) {
-        if (auto e = AppendVertex(c.skin, p, per_vertex[v])) return invalid(where + " vertex " + std::to_string(v) + ": " + *e);
+        if (auto e = AppendVertex(c.skin, p, per_vertex[v]))
+          return invalid(where + " vertex " + std::to_string(v) + ": " + *e);
       } else {
         influences.assign(1, Influence{static_cast<uint32_t>(rigid_bind), 1.0f});
-        if (auto e = AppendVertex(c.skin, (rigid_world * p.homogeneous()).head<3>(), influences)) return invalid(where + ": " + *e);
+        if (auto e = AppendVertex(c.skin, (rigid_world * p.homogeneous()).head<3>(), influences))
+          return invalid(where + ": " + *e);
       }
     }
     const uint32_t first_triangle = static_cast<uint32_t>(c.triangles.size());
     for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
       const aiFace& face = mesh->mFaces[f];
       for (unsigned k = 0; k < face.mNumIndices; ++k) {
-        if (face.mIndices[k] >= mesh->mNumVertices) return invalid(where + " face " + std::to_string(f) + " has an index out of range");
+        if (face.mIndices[k] >= mesh->mNumVertices)
+          return invalid(where + " face " + std::to_string(f) + " has an index out of range");
       }
       for (unsigned k = 1; k + 1 < face.mNumIndices; ++k) {  // fan; faces with < 3 indices add nothing
-        c.triangles.emplace_back(static_cast<int>(first_vertex + face.mIndices[0]), static_cast<int>(first_vertex + face.mIndices[k]),
+        c.triangles.emplace_back(static_cast<int>(first_vertex + face.mIndices[0]),
+                                 static_cast<int>(first_vertex + face.mIndices[k]),
                                  static_cast<int>(first_vertex + face.mIndices[k + 1]));
       }
       if (c.triangles.size() > kMaxTriangles) {
@@ -217,7 +225,8 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
           add(track.scale, na->mScalingKeys[k].mTime, Eigen::Vector3f(v.x, v.y, v.z));
         }
         if (bad_key) {
-          return invalid("clip \"" + clip.name + "\" has a key value that is NaN or infinite on node " + na->mNodeName.C_Str());
+          return invalid("clip \"" + clip.name + "\" has a key value that is NaN or infinite on node " +
+                         na->mNodeName.C_Str());
         }
         clip.tracks.push_back(std::move(track));
       }

@@ -43,7 +43,8 @@ const json& ArrayOrEmpty(const json& j, const char* key) {
 }
 
 std::string NodeLabel(const std::vector<Node>& nodes, int32_t n) {
-  return "node " + std::to_string(n) + (nodes[static_cast<size_t>(n)].name.empty() ? "" : " '" + nodes[static_cast<size_t>(n)].name + "'");
+  return "node " + std::to_string(n) +
+         (nodes[static_cast<size_t>(n)].name.empty() ? "" : " '" + nodes[static_cast<size_t>(n)].name + "'");
 }
 
 std::string ReadNodes(const json& j, std::vector<Node>* nodes) {
@@ -59,7 +60,8 @@ std::string ReadNodes(const json& j, std::vector<Node>* nodes) {
     if (jn.contains("matrix")) {
       // glTF 2.0 §3.5.3 (and node.schema.json): a node has a matrix or TRS properties, not both.
       for (const char* trs : {"translation", "rotation", "scale"}) {
-        if (jn.contains(trs)) return "node " + std::to_string(i) + " has both a matrix and a " + trs + " (glTF allows one or the other)";
+        if (jn.contains(trs))
+          return "node " + std::to_string(i) + " has both a matrix and a " + trs + " (glTF allows one or the other)";
       }
       node.has_matrix = true;
       const auto& m = jn["matrix"];
@@ -115,7 +117,8 @@ std::string ReadNodes(const json& j, std::vector<Node>* nodes) {
     }
   }
   for (int32_t i = 0; i < n_nodes; ++i) {
-    if (!reached[static_cast<size_t>(i)]) return "the node hierarchy has a cycle through or above node " + std::to_string(i);
+    if (!reached[static_cast<size_t>(i)])
+      return "the node hierarchy has a cycle through or above node " + std::to_string(i);
   }
   return {};
 }
@@ -160,8 +163,8 @@ std::string FillTrack(skinning::Interpolation interpolation, const std::vector<f
     if (!std::isfinite(times[k])) return "a sampler has a non-finite key time";
     if (k == 0 && times[k] < 0.0f) return "a sampler's first key time is negative (" + std::to_string(times[k]) + ")";
     if (k > 0 && !(times[k] > times[k - 1])) {
-      return "a sampler's key times are not strictly increasing (key " + std::to_string(k) + ": " + std::to_string(times[k]) +
-             " after " + std::to_string(times[k - 1]) + ")";
+      return "a sampler's key times are not strictly increasing (key " + std::to_string(k) + ": " +
+             std::to_string(times[k]) + " after " + std::to_string(times[k - 1]) + ")";
     }
   }
   track->interpolation = interpolation;
@@ -170,8 +173,8 @@ std::string FillTrack(skinning::Interpolation interpolation, const std::vector<f
   return {};
 }
 
-std::string ReadClips(const GltfDocument& doc, const std::vector<Node>& nodes, const std::vector<int32_t>& joint_of_node,
-                      std::vector<skinning::AnimationClip>* clips) {
+std::string ReadClips(const GltfDocument& doc, const std::vector<Node>& nodes,
+                      const std::vector<int32_t>& joint_of_node, std::vector<skinning::AnimationClip>* clips) {
   const json& anims = ArrayOrEmpty(doc.json, "animations");
   uint64_t keys = 0;  // over every clip and track, against kMaxAnimationKeys
   for (size_t a = 0; a < anims.size(); ++a) {
@@ -207,20 +210,27 @@ std::string ReadClips(const GltfDocument& doc, const std::vector<Node>& nodes, c
       const json& js = samplers[static_cast<size_t>(s)];
       const std::string interp_name = js.value("interpolation", std::string("LINEAR"));
       skinning::Interpolation interpolation;
-      if (interp_name == "LINEAR") interpolation = skinning::Interpolation::kLinear;
-      else if (interp_name == "STEP") interpolation = skinning::Interpolation::kStep;
-      else if (interp_name == "CUBICSPLINE") interpolation = skinning::Interpolation::kCubicSpline;
-      else return where + " has an unknown interpolation \"" + interp_name + "\"";
+      if (interp_name == "LINEAR")
+        interpolation = skinning::Interpolation::kLinear;
+      else if (interp_name == "STEP")
+        interpolation = skinning::Interpolation::kStep;
+      else if (interp_name == "CUBICSPLINE")
+        interpolation = skinning::Interpolation::kCubicSpline;
+      else
+        return where + " has an unknown interpolation \"" + interp_name + "\"";
       std::vector<float> times, out;
-      if (std::string p = ReadAccessorFloats(doc, Integer(js, "input", -1), 1, &times); !p.empty()) return where + ": " + p;
+      if (std::string p = ReadAccessorFloats(doc, Integer(js, "input", -1), 1, &times); !p.empty())
+        return where + ": " + p;
       const int components = path == "rotation" ? 4 : 3;
-      if (std::string p = ReadAccessorFloats(doc, Integer(js, "output", -1), components, &out); !p.empty()) return where + ": " + p;
+      if (std::string p = ReadAccessorFloats(doc, Integer(js, "output", -1), components, &out); !p.empty())
+        return where + ": " + p;
       for (float v : out) {
         if (!std::isfinite(v)) return where + " has a non-finite " + path + " value";
       }
       keys += times.size();
       if (keys > kMaxAnimationKeys) {
-        return "the animations hold more than " + std::to_string(kMaxAnimationKeys) + " keys (at most that many are read)";
+        return "the animations hold more than " + std::to_string(kMaxAnimationKeys) +
+               " keys (at most that many are read)";
       }
       auto [it, inserted] = track_of_joint.emplace(joint, clip.tracks.size());
       if (inserted) {
@@ -269,7 +279,8 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
   const json& scenes = ArrayOrEmpty(j, "scenes");
   if (!scenes.empty()) {
     const int64_t s = Integer(j, "scene", 0);
-    if (s < 0 || s >= static_cast<int64_t>(scenes.size())) return invalid("\"scene\" " + std::to_string(s) + " does not exist");
+    if (s < 0 || s >= static_cast<int64_t>(scenes.size()))
+      return invalid("\"scene\" " + std::to_string(s) + " does not exist");
     for (const auto& r : ArrayOrEmpty(scenes[static_cast<size_t>(s)], "nodes")) {
       const int64_t root = Integer(r, "nodes");
       if (root < 0 || root >= n_nodes || nodes[static_cast<size_t>(root)].parent != -1) {
@@ -297,8 +308,10 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
   for (int32_t n = 0; n < n_nodes; ++n) {
     const Node& node = nodes[static_cast<size_t>(n)];
     if (!in_scene[static_cast<size_t>(n)] || node.mesh < 0) continue;
-    if (node.mesh >= static_cast<int64_t>(meshes.size())) return invalid(NodeLabel(nodes, n) + " uses a mesh that does not exist");
-    if (node.skin >= static_cast<int64_t>(skins.size())) return invalid(NodeLabel(nodes, n) + " uses a skin that does not exist");
+    if (node.mesh >= static_cast<int64_t>(meshes.size()))
+      return invalid(NodeLabel(nodes, n) + " uses a mesh that does not exist");
+    if (node.skin >= static_cast<int64_t>(skins.size()))
+      return invalid(NodeLabel(nodes, n) + " uses a skin that does not exist");
     instances.push_back({node.mesh, n});
   }
   std::stable_sort(instances.begin(), instances.end(),
@@ -315,17 +328,22 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
   std::vector<int64_t> in_skin(nodes.size(), -1);  // the last skin listing each node
   for (const MeshInstance& m : instances) {
     const int64_t s = nodes[static_cast<size_t>(m.node)].skin;
-    if (s >= 0) skin_used[static_cast<size_t>(s)] = 1;
-    else if (skinned_file) needed[static_cast<size_t>(m.node)] = 1;
+    if (s >= 0)
+      skin_used[static_cast<size_t>(s)] = 1;
+    else if (skinned_file)
+      needed[static_cast<size_t>(m.node)] = 1;
   }
   for (size_t s = 0; s < skins.size(); ++s) {
     if (!skin_used[s]) continue;
     // glTF 2.0 §3.7.3 (skin.schema.json): joints are unique node indices.
     for (const auto& jj : ArrayOrEmpty(skins[s], "joints")) {
       const int64_t joint = Integer(jj, "joints");
-      if (joint < 0 || joint >= n_nodes) return invalid("skin " + std::to_string(s) + " lists joint node " + std::to_string(joint) + ", which does not exist");
+      if (joint < 0 || joint >= n_nodes)
+        return invalid("skin " + std::to_string(s) + " lists joint node " + std::to_string(joint) +
+                       ", which does not exist");
       if (in_skin[static_cast<size_t>(joint)] == static_cast<int64_t>(s)) {
-        return invalid("skin " + std::to_string(s) + " lists joint node " + std::to_string(joint) + " twice (glTF skin joints are unique)");
+        return invalid("skin " + std::to_string(s) + " lists joint node " + std::to_string(joint) +
+                       " twice (glTF skin joints are unique)");
       }
       in_skin[static_cast<size_t>(joint)] = static_cast<int64_t>(s);
       skin_joints[s].push_back(static_cast<int32_t>(joint));
@@ -335,15 +353,17 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
   }
   for (int32_t n = 0; n < n_nodes; ++n) {
     if (!needed[static_cast<size_t>(n)]) continue;
-    for (int32_t p = nodes[static_cast<size_t>(n)].parent; p >= 0 && !needed[static_cast<size_t>(p)]; p = nodes[static_cast<size_t>(p)].parent) {
+    for (int32_t p = nodes[static_cast<size_t>(n)].parent; p >= 0 && !needed[static_cast<size_t>(p)];
+         p = nodes[static_cast<size_t>(p)].parent) {
       needed[static_cast<size_t>(p)] = 1;
     }
   }
 
   const uint64_t joint_count = static_cast<uint64_t>(std::count(needed.begin(), needed.end(), 1));
   if (joint_count > kMaxJoints) {
-    return invalid("the skeleton has " + std::to_string(joint_count) + " joints (nodes on the paths to the skins' joints); at most " +
-                   std::to_string(kMaxJoints) + " are read");
+    return invalid("the skeleton has " + std::to_string(joint_count) +
+                   " joints (nodes on the paths to the skins' joints); at most " + std::to_string(kMaxJoints) +
+                   " are read");
   }
   RawCharacter c;
   std::vector<int32_t> joint_of_node(nodes.size(), -1);
@@ -369,7 +389,8 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
   for (int32_t n : preorder) {
     const Node& node = nodes[static_cast<size_t>(n)];
     const Mat4f local = node.local.ToMatrix();
-    node_world[static_cast<size_t>(n)] = node.parent >= 0 ? Mat4f(node_world[static_cast<size_t>(node.parent)] * local) : local;
+    node_world[static_cast<size_t>(n)] =
+        node.parent >= 0 ? Mat4f(node_world[static_cast<size_t>(node.parent)] * local) : local;
   }
 
   // Bind entries of the skins: skin_bind[s][k] for the skin's k-th joint.
@@ -382,7 +403,8 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
       if (std::string p = ReadAccessorFloats(doc, Integer(skins[s], "inverseBindMatrices", -1), 16, &ibm); !p.empty()) {
         return ImportError(ErrorCode::kFormatRejected, file, "skin " + std::to_string(s) + ": " + p);
       }
-      if (ibm.size() < 16 * n_joints) return invalid("skin " + std::to_string(s) + " has fewer inverse bind matrices than joints");
+      if (ibm.size() < 16 * n_joints)
+        return invalid("skin " + std::to_string(s) + " has fewer inverse bind matrices than joints");
     }
     for (size_t k = 0; k < n_joints; ++k) {
       Mat4f m = Mat4f::Identity();
@@ -413,7 +435,8 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
       Mat4f ibm = Mat4f::Identity();
       if (skinned_file) {
         const float det = rigid_world.topLeftCorner<3, 3>().determinant();
-        if (!(std::abs(det) > 0.0f) || !std::isfinite(det)) return invalid(NodeLabel(nodes, inst.node) + " has a singular world transform");
+        if (!(std::abs(det) > 0.0f) || !std::isfinite(det))
+          return invalid(NodeLabel(nodes, inst.node) + " has a singular world transform");
         ibm = rigid_world.inverse();  // IBM = G_joint(rest)^-1: at rest G·IBM = I
       }
       rigid_bind = FindOrAddBind(c.skin, joint, ibm);
@@ -424,7 +447,8 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
       const std::string where = "mesh '" + mesh_name + "' primitive " + std::to_string(p);
       const int64_t mode = Integer(prim, "mode", 4);
       if (mode < 4 || mode > 6) continue;  // POINTS, LINES, LINE_LOOP, LINE_STRIP: not a surface
-      if (!prim.contains("attributes") || !prim["attributes"].contains("POSITION")) return invalid(where + " has no POSITION");
+      if (!prim.contains("attributes") || !prim["attributes"].contains("POSITION"))
+        return invalid(where + " has no POSITION");
       const json& attrs = prim["attributes"];
       if (std::string e = ReadAccessorFloats(doc, Integer(attrs, "POSITION", -1), 3, &positions); !e.empty()) {
         return ImportError(ErrorCode::kFormatRejected, file, where + " POSITION: " + e);
@@ -444,12 +468,13 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
       }
       for (size_t k = 0; k < indices.size(); ++k) {
         if (indices[k] >= n_verts) {
-          return invalid(where + " index " + std::to_string(k) + " is " + std::to_string(indices[k]) + ", the primitive has " +
-                         std::to_string(n_verts) + " vertices");
+          return invalid(where + " index " + std::to_string(k) + " is " + std::to_string(indices[k]) +
+                         ", the primitive has " + std::to_string(n_verts) + " vertices");
         }
       }
       for (size_t v = 0; v < n_verts; ++v) {
-        if (!std::isfinite(positions[3 * v]) || !std::isfinite(positions[3 * v + 1]) || !std::isfinite(positions[3 * v + 2])) {
+        if (!std::isfinite(positions[3 * v]) || !std::isfinite(positions[3 * v + 1]) ||
+            !std::isfinite(positions[3 * v + 2])) {
           return invalid(where + " POSITION of vertex " + std::to_string(v) + " is NaN or infinite");
         }
       }
@@ -487,22 +512,26 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
               if (w == 0.0f) continue;  // padding; its joint index does not matter
               if (joint >= binds_of_skin.size()) {
                 return invalid(where + " vertex " + std::to_string(v) + " uses joint index " + std::to_string(joint) +
-                               " but skin " + std::to_string(node.skin) + " has " + std::to_string(binds_of_skin.size()) + " joints");
+                               " but skin " + std::to_string(node.skin) + " has " +
+                               std::to_string(binds_of_skin.size()) + " joints");
               }
               influences.push_back({static_cast<uint32_t>(binds_of_skin[joint]), w});
             }
           }
-          if (auto e = AppendVertex(c.skin, p_file, influences)) return invalid(where + " vertex " + std::to_string(v) + ": " + *e);
+          if (auto e = AppendVertex(c.skin, p_file, influences))
+            return invalid(where + " vertex " + std::to_string(v) + ": " + *e);
         } else {
           influences.push_back({static_cast<uint32_t>(rigid_bind), 1.0f});
           const Eigen::Vector3f p_world = (rigid_world * p_file.homogeneous()).head<3>();
-          if (auto e = AppendVertex(c.skin, p_world, influences)) return invalid(where + " vertex " + std::to_string(v) + ": " + *e);
+          if (auto e = AppendVertex(c.skin, p_world, influences))
+            return invalid(where + " vertex " + std::to_string(v) + ": " + *e);
         }
       }
       // Triangles (glTF §3.7.2.1): list, strip (odd triangles flipped), fan.
       const uint32_t first_triangle = static_cast<uint32_t>(c.triangles.size());
       auto add = [&](uint32_t a, uint32_t b, uint32_t d) {
-        c.triangles.emplace_back(static_cast<int>(first_vertex + indices[a]), static_cast<int>(first_vertex + indices[b]),
+        c.triangles.emplace_back(static_cast<int>(first_vertex + indices[a]),
+                                 static_cast<int>(first_vertex + indices[b]),
                                  static_cast<int>(first_vertex + indices[d]));
       };
       const size_t ni = indices.size();
@@ -511,12 +540,15 @@ Result<RawCharacter> ImportGltf(const std::filesystem::path& file, std::span<con
         return invalid("more than " + std::to_string(kMaxTriangles) + " triangles (at most that many are read)");
       }
       if (mode == 4) {
-        for (size_t t = 0; t + 2 < ni; t += 3) add(static_cast<uint32_t>(t), static_cast<uint32_t>(t + 1), static_cast<uint32_t>(t + 2));
+        for (size_t t = 0; t + 2 < ni; t += 3)
+          add(static_cast<uint32_t>(t), static_cast<uint32_t>(t + 1), static_cast<uint32_t>(t + 2));
       } else if (mode == 5) {
         for (size_t t = 0; t + 2 < ni; ++t) {
           const uint32_t i = static_cast<uint32_t>(t);
-          if (t % 2 == 0) add(i, i + 1, i + 2);
-          else add(i + 1, i, i + 2);
+          if (t % 2 == 0)
+            add(i, i + 1, i + 2);
+          else
+            add(i + 1, i, i + 2);
         }
       } else {
         for (size_t t = 0; t + 2 < ni; ++t) add(static_cast<uint32_t>(t + 1), static_cast<uint32_t>(t + 2), 0);

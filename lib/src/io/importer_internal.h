@@ -22,8 +22,8 @@ Error ImportError(ErrorCode code, const std::filesystem::path& file, const std::
 Result<std::vector<uint8_t>> ReadFileBytes(const std::filesystem::path& file);
 
 struct Influence {
-  uint32_t bind = 0;   // index into SkinnedMesh::binds
-  float weight = 0.0f; // as read; normalised by AppendVertex
+  uint32_t bind = 0;    // index into SkinnedMesh::binds
+  float weight = 0.0f;  // as read; normalised by AppendVertex
 };
 
 // Index of the bind entry (joint, ibm) in skin.binds, adding it when no entry has the same joint

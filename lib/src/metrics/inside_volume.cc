@@ -1,11 +1,12 @@
 // The body's inside volume on a voxel grid: triangles rasterised onto voxel-centre columns along X,
 // Y and Z, six parity/winding votes per voxel (fit_metrics.h explains the method).
+#include "skinspheres/lib/metrics/inside_volume.h"
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 
 #include "metrics_internal.h"
-#include "skinspheres/lib/metrics/inside_volume.h"
 
 namespace skinspheres::lib {
 namespace metrics_internal {

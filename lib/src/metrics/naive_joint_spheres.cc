@@ -1,10 +1,11 @@
 // The naive baseline of the fit metrics: one sphere per joint around the vertices it dominates.
 // See naive_joint_spheres.h.
+#include "skinspheres/lib/metrics/naive_joint_spheres.h"
+
 #include <algorithm>
 #include <limits>
 
 #include "metrics_internal.h"
-#include "skinspheres/lib/metrics/naive_joint_spheres.h"
 
 namespace skinspheres::lib {
 

@@ -43,8 +43,8 @@ void Tightener::SearchAll() {
   }
 }
 
-void Tightener::Search(const std::vector<Eigen::Vector3f>& pts, Eigen::Vector3f* c, float* r, long skip_a,
-                       long skip_b, std::span<const Ball> extras, int passes) {
+void Tightener::Search(const std::vector<Eigen::Vector3f>& pts, Eigen::Vector3f* c, float* r, long skip_a, long skip_b,
+                       std::span<const Ball> extras, int passes) {
   *r = Reach(pts, *c);
   float step = 0.25f * *r;
   Neighbours(*c, *r + 2.0f * step, skip_a, skip_b, &nbrs_, extras);

@@ -51,7 +51,8 @@ int Tightener::SplitLoop() {
         return (sp_[o].center - c).squaredNorm() < lim * lim;
       };
       for (size_t o = 0; o < sp_.size(); ++o) {
-        bool touched = o == best || o >= count_before || meets(o, old.center, old.radius) || meets(o, sp_[best].center, sp_[best].radius);
+        bool touched = o == best || o >= count_before || meets(o, old.center, old.radius) ||
+                       meets(o, sp_[best].center, sp_[best].radius);
         for (size_t n = count_before; n < sp_.size() && !touched; ++n) touched = meets(o, sp_[n].center, sp_[n].radius);
         if (touched) {
           double a = 0.0, x = 0.0;
@@ -112,7 +113,8 @@ bool Tightener::TrySplitInTwo(size_t s, double before) {
     cuts.push_back(std::move(c));
   }
   std::stable_sort(cuts.begin(), cuts.end(), [](const Cut& x, const Cut& y) { return x.exposure < y.exposure; });
-  if (cuts.size() > static_cast<size_t>(std::max(1, st_.searched_cuts))) cuts.resize(static_cast<size_t>(std::max(1, st_.searched_cuts)));
+  if (cuts.size() > static_cast<size_t>(std::max(1, st_.searched_cuts)))
+    cuts.resize(static_cast<size_t>(std::max(1, st_.searched_cuts)));
   double best = st_.split_gain * before;
   bool found = false;
   std::vector<uint32_t> best_a, best_b;

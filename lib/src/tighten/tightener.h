@@ -63,7 +63,9 @@ class Tightener {
   struct Nbrs {
     std::vector<float> x, y, z, r2;
     void clear() { x.clear(), y.clear(), z.clear(), r2.clear(); }
-    void push(const Eigen::Vector3f& c, float r) { x.push_back(c.x()), y.push_back(c.y()), z.push_back(c.z()), r2.push_back(r * r); }
+    void push(const Eigen::Vector3f& c, float r) {
+      x.push_back(c.x()), y.push_back(c.y()), z.push_back(c.z()), r2.push_back(r * r);
+    }
     void pad() {
       while (x.size() % 8 != 0) push(Eigen::Vector3f::Zero(), 0.0f), r2.back() = -1.0f;
     }

@@ -5,22 +5,20 @@
 // decide; mirrored, turned around, with IK feet under the root, with feet that give no facing
 // (names must break the tie); a snake and a spider that are not humanoid. A brute-force dominant
 // joint per triangle is the oracle for the triangle assignment. Then the shared characters.
-#include "skinspheres/lib/body_parts/body_parts.h"
-
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <random>
-#include <cstdio>
 #include <set>
 
-#include "test_support.h"
-
+#include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/io/importer.h"
+#include "test_support.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -52,8 +50,8 @@ struct Model {
 };
 
 struct HumanoidOptions {
-  bool feet_forward = true;   // feet boxes reach forward (+Z in model space) from the ankles
-  bool ik_feet = false;       // feet hang under the root, not under the shins (RobotExpressive)
+  bool feet_forward = true;  // feet boxes reach forward (+Z in model space) from the ankles
+  bool ik_feet = false;      // feet hang under the root, not under the shins (RobotExpressive)
 };
 
 // Y up, facing +Z, the character's left on +X. Roles ending in _l are on +X.
@@ -371,8 +369,8 @@ TEST(BodyPartsTest, TurnedAroundAndLyingCharacters) {
   // Facing -Z (turned 180° about Y): the character's left is world -X, still the *_l joints.
   const Eigen::Affine3f turn(Eigen::AngleAxisf(3.14159265f, Vector3f::UnitY()));
   // Z-up source under a rotated root (CesiumMan-like), shifted and scaled by 0.1.
-  const Eigen::Affine3f zup = Eigen::Translation3f(5, -2, 3) * Eigen::AngleAxisf(1.5707963f, Vector3f::UnitX()) *
-                              Eigen::Scaling(0.1f);
+  const Eigen::Affine3f zup =
+      Eigen::Translation3f(5, -2, 3) * Eigen::AngleAxisf(1.5707963f, Vector3f::UnitX()) * Eigen::Scaling(0.1f);
   for (const auto& xf : {turn, zup}) {
     const Built b = Build(MakeHumanoid(), 4, xf);
     auto r = SplitBodyParts(b.character);
@@ -573,12 +571,15 @@ struct RealCase {
 
 const std::vector<RealCase>& RealCases() {
   static const std::vector<RealCase> cases = {
-      {"Xbot.glb", "mixamorig:Hips", "mixamorig:Hips", "mixamorig:Head", "mixamorig:LeftShoulder", "mixamorig:RightShoulder",
-       "mixamorig:LeftUpLeg", "mixamorig:RightUpLeg", "mixamorig:LeftFoot", "mixamorig:LeftToeBase"},
-      {"Soldier.glb", "mixamorig:Hips", "mixamorig:Hips", "mixamorig:Head", "mixamorig:LeftShoulder", "mixamorig:RightShoulder",
-       "mixamorig:LeftUpLeg", "mixamorig:RightUpLeg", "mixamorig:LeftFoot", "mixamorig:LeftToeBase"},
-      {"CesiumMan.glb", "Skeleton_torso_joint_1", "Skeleton_torso_joint_1", "Skeleton_neck_joint_2", "Skeleton_arm_joint_L__4_",
-       "Skeleton_arm_joint_R", "leg_joint_L_1", "leg_joint_R_1", "leg_joint_L_3", "leg_joint_L_5"},
+      {"Xbot.glb", "mixamorig:Hips", "mixamorig:Hips", "mixamorig:Head", "mixamorig:LeftShoulder",
+       "mixamorig:RightShoulder", "mixamorig:LeftUpLeg", "mixamorig:RightUpLeg", "mixamorig:LeftFoot",
+       "mixamorig:LeftToeBase"},
+      {"Soldier.glb", "mixamorig:Hips", "mixamorig:Hips", "mixamorig:Head", "mixamorig:LeftShoulder",
+       "mixamorig:RightShoulder", "mixamorig:LeftUpLeg", "mixamorig:RightUpLeg", "mixamorig:LeftFoot",
+       "mixamorig:LeftToeBase"},
+      {"CesiumMan.glb", "Skeleton_torso_joint_1", "Skeleton_torso_joint_1", "Skeleton_neck_joint_2",
+       "Skeleton_arm_joint_L__4_", "Skeleton_arm_joint_R", "leg_joint_L_1", "leg_joint_R_1", "leg_joint_L_3",
+       "leg_joint_L_5"},
       // RobotExpressive: the legs branch at "Body", the spine starts at "Hips"; its feet are
       // rigid blocks on IK joints under the root; it faces +Z.
       {"RobotExpressive.glb", "Body", "Hips", "Head", "Shoulder.L", "Shoulder.R", "UpperLeg.L", "UpperLeg.R", "", ""},
@@ -629,7 +630,8 @@ TEST(BodyPartsRealTest, SharedCharactersSplitIntoSixParts) {
     sk.RestWorld(world);
     Eigen::Vector3f forward = Eigen::Vector3f::UnitZ();
     if (!rc.left_toe.empty()) {
-      forward = world[sk.Find(rc.left_toe)].topRightCorner<3, 1>() - world[sk.Find(rc.left_ankle)].topRightCorner<3, 1>();
+      forward =
+          world[sk.Find(rc.left_toe)].topRightCorner<3, 1>() - world[sk.Find(rc.left_ankle)].topRightCorner<3, 1>();
       forward.y() = 0.0f;
       forward.normalize();
     }
@@ -644,7 +646,8 @@ TEST(BodyPartsRealTest, SharedCharactersSplitIntoSixParts) {
     EXPECT_GT(r->up.y(), 0.9f) << r->up.transpose();
     EXPECT_EQ(r->facing_from, "feet");
     std::printf("  %-20s", rc.file.c_str());
-    for (const BodyPart& p : r->parts) std::printf(" %s %zuj/%zut", p.name.c_str(), p.joints.size(), p.triangles.size());
+    for (const BodyPart& p : r->parts)
+      std::printf(" %s %zuj/%zut", p.name.c_str(), p.joints.size(), p.triangles.size());
     std::printf("\n");
 
     // Names cannot decide: with every joint renamed, the same split.

@@ -1,14 +1,13 @@
 // Tests for MakeBuiltinCharacter: mesh validity per piece, skeleton, skin, shape (elliptic torso),
 // clips, and the touch clip's contacts checked with an independent FK + skinning oracle
 // (clip_eval_for_tests.h) and ray-parity point-in-mesh tests on the posed mesh.
-#include "skinspheres/lib/character/builtin_character.h"
-
 #include <gtest/gtest.h>
 
 #include <map>
 #include <set>
 
 #include "lib/clip_eval_for_tests.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/runtime/triangle_contact.h"
 
 namespace skinspheres::lib {
@@ -85,9 +84,10 @@ TEST(BuiltinCharacter, SkeletonHasMixamoNamesAndValidParents) {
   const RawCharacter& c = Character();
   EXPECT_TRUE(c.skeleton.Validate());
   EXPECT_GE(c.skeleton.size(), 20u);
-  for (const char* n : {"Hips", "Spine", "Spine1", "Spine2", "Neck", "Head", "LeftShoulder", "LeftArm", "LeftForeArm",
-                        "LeftHand", "RightShoulder", "RightArm", "RightForeArm", "RightHand", "LeftUpLeg", "LeftLeg",
-                        "LeftFoot", "LeftToeBase", "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase"}) {
+  for (const char* n : {"Hips",         "Spine",     "Spine1",      "Spine2",      "Neck",          "Head",
+                        "LeftShoulder", "LeftArm",   "LeftForeArm", "LeftHand",    "RightShoulder", "RightArm",
+                        "RightForeArm", "RightHand", "LeftUpLeg",   "LeftLeg",     "LeftFoot",      "LeftToeBase",
+                        "RightUpLeg",   "RightLeg",  "RightFoot",   "RightToeBase"}) {
     EXPECT_GE(c.skeleton.Find(n), 0) << n;
   }
   std::set<std::string> unique(c.skeleton.joint_names.begin(), c.skeleton.joint_names.end());
@@ -300,8 +300,8 @@ TEST(BuiltinCharacter, TouchClipHandsReachChestThenHead) {
       const Contact head = HandAgainst(c, test::PoseAt(c, touch, th), arm, hand, "HeadMesh");
       EXPECT_GE(head.inside, 3u) << side << " hand not in the head at t=" << th;
       if (i == 2) {
-        std::printf("[touch] %s hand: %zu vertices inside the chest at %.2f s, %zu inside the head at %.2f s\n",
-                    side, chest.inside, tc, head.inside, th);
+        std::printf("[touch] %s hand: %zu vertices inside the chest at %.2f s, %zu inside the head at %.2f s\n", side,
+                    chest.inside, tc, head.inside, th);
       }
     }
     // Back to rest at the end.
@@ -352,7 +352,9 @@ std::vector<PieceHit> PieceIntersections(const RawCharacter& c, const std::vecto
   for (size_t m = 0; m < c.meshes.size(); ++m) {
     for (size_t n = m + 1; n < c.meshes.size(); ++n) {
       if (joined.count({m, n})) continue;
-      each_pair(pos, c.meshes[m], c.meshes[n], [&](uint32_t t, uint32_t u) { hits.push_back({c.meshes[m].name, c.meshes[n].name, t, u}); });
+      each_pair(pos, c.meshes[m], c.meshes[n], [&](uint32_t t, uint32_t u) {
+        hits.push_back({c.meshes[m].name, c.meshes[n].name, t, u});
+      });
     }
   }
   return hits;
@@ -366,7 +368,8 @@ bool TouchesJoint(const RawCharacter& c, uint32_t t, const std::string& joint) {
     float best = 0;
     int32_t best_joint = -1;
     for (uint32_t i = c.skin.influence_offsets[v]; i < c.skin.influence_offsets[v + 1]; ++i) {
-      if (c.skin.influence_weights[i] > best) best = c.skin.influence_weights[i], best_joint = c.skin.binds[c.skin.influence_binds[i]].joint;
+      if (c.skin.influence_weights[i] > best)
+        best = c.skin.influence_weights[i], best_joint = c.skin.binds[c.skin.influence_binds[i]].joint;
     }
     if (best_joint == j) return true;
   }
@@ -381,8 +384,8 @@ TEST(BuiltinCharacter, TheWalkTouchesNothing) {
   for (int f = 0; f <= 30; ++f) {
     const float t = kWalkDuration_s * float(f) / 30.0f;
     const auto hits = PieceIntersections(c, test::PoseAt(c, walk, t));
-    ASSERT_TRUE(hits.empty()) << "t=" << t << ": " << hits.size() << " intersecting pairs, first " << hits[0].a << " triangle "
-                              << hits[0].t << " with " << hits[0].b << " triangle " << hits[0].u;
+    ASSERT_TRUE(hits.empty()) << "t=" << t << ": " << hits.size() << " intersecting pairs, first " << hits[0].a
+                              << " triangle " << hits[0].t << " with " << hits[0].b << " triangle " << hits[0].u;
   }
 }
 
@@ -401,14 +404,16 @@ TEST(BuiltinCharacter, TheTouchClipTouchesOnlyWithTheHands) {
       const uint32_t arm_t = arm_first ? h.t : h.u;
       ASSERT_NE(arm.find("ArmMesh"), std::string::npos) << "t=" << t << ": " << h.a << " against " << h.b;
       const std::string hand = arm.substr(0, arm.find("ArmMesh")) + "Hand";
-      ASSERT_TRUE(TouchesJoint(c, arm_t, hand)) << "t=" << t << ": " << arm << " triangle " << arm_t << " is not the hand's";
+      ASSERT_TRUE(TouchesJoint(c, arm_t, hand))
+          << "t=" << t << ": " << arm << " triangle " << arm_t << " is not the hand's";
       ASSERT_TRUE(other == "TorsoMesh" || other == "HeadMesh") << "t=" << t << ": hand against " << other;
       chest |= other == "TorsoMesh";
       head |= other == "HeadMesh";
       // Contacts stay near their windows (the hands arrive and leave within 0.1 s of them).
       const bool near_chest = t >= kTouchChestBegin_s - 0.1f && t <= kTouchChestEnd_s + 0.1f;
       const bool near_head = t >= kTouchHeadBegin_s - 0.1f && t <= kTouchHeadEnd_s + 0.1f;
-      ASSERT_TRUE(other == "TorsoMesh" ? near_chest : near_head) << "t=" << t << ": hand on " << other << " outside its window";
+      ASSERT_TRUE(other == "TorsoMesh" ? near_chest : near_head)
+          << "t=" << t << ": hand on " << other << " outside its window";
     }
     const bool in_chest = t >= kTouchChestBegin_s && t <= kTouchChestEnd_s;
     const bool in_head = t >= kTouchHeadBegin_s && t <= kTouchHeadEnd_s;

@@ -5,12 +5,12 @@
 // the fit must fail with kInvalidData naming the reason.
 #include <gtest/gtest.h>
 
+#include "lib/tiny_gltf.h"
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/character.h"
 #include "test_support.h"
-#include "lib/tiny_gltf.h"
 
 namespace skinspheres::lib {
 namespace {

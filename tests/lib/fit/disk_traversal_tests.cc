@@ -4,8 +4,6 @@
 // analytic surface; the disk frame (γ0, γ1, γ) is orthonormal and carried by parallel transport;
 // the disk is re-centred on the mean of its contacts only when at least half of its rays hit;
 // BuildDiskPath merges, extends and falls back as its contract says; the result is deterministic.
-#include "skinspheres/lib/fit/disk_traversal.h"
-
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -14,6 +12,7 @@
 #include <vector>
 
 #include "lib/analytic_shapes.h"
+#include "skinspheres/lib/fit/disk_traversal.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -110,8 +109,8 @@ TEST(TraverseDisk, ContactsOnAnEllipticPrismLieOnTheEllipse) {
 
 TEST(TraverseDisk, FrameIsOrthonormalAndCarriedByParallelTransport) {
   // A bent path (up, then up and back) with no triangles: the frame alone.
-  DiskPath path = BuildDiskPath(std::vector<V>{V(0, 0, 0), V(0, 1, 0), V(0, 2, 1)},
-                                std::vector<V>{V(0, 0, 0), V(0, 2, 1)});
+  DiskPath path =
+      BuildDiskPath(std::vector<V>{V(0, 0, 0), V(0, 1, 0), V(0, 2, 1)}, std::vector<V>{V(0, 0, 0), V(0, 2, 1)});
   ASSERT_EQ(path.points.size(), 3u);
   const std::vector<DiskLevel> levels = TraverseDisk(TriangleBvh(), path, Settings(16, 0.1f));
   ASSERT_GT(levels.size(), 20u);

@@ -1,11 +1,10 @@
-#include "skinspheres/lib/fit/sphere_fitter.h"
-
 #include <gtest/gtest.h>
-
-#include <limits>
 #include <tbb/global_control.h>
 
+#include <limits>
+
 #include "lib/analytic_shapes.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 
 namespace skinspheres::lib {
@@ -93,7 +92,8 @@ TEST(SphereFitterTest, SphereMeshWithDegenerateTrianglesIsCovered) {
   const FitResult fit = Fit(ch, parts, FitSettings{});
   ExpectEveryTriangleCovered(ch, fit.spheres);
   EXPECT_EQ(fit.report.triangles_covered, static_cast<int>(ch.triangle_count()));
-  for (size_t s = 0; s < fit.spheres.size(); ++s) EXPECT_LE(fit.spheres.radii_rest[s], 0.5f * 1.3f);  // levels 1.4 r apart: the slab between grows a sphere
+  for (size_t s = 0; s < fit.spheres.size(); ++s)
+    EXPECT_LE(fit.spheres.radii_rest[s], 0.5f * 1.3f);  // levels 1.4 r apart: the slab between grows a sphere
 }
 
 TEST(SphereFitterTest, EllipticPrismTwoAndFourSpheresPerLevelBeatOneOnMeanF) {

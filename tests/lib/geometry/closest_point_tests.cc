@@ -1,12 +1,12 @@
 // Tests of closest_point.h: the double version against a dense barycentric lattice (degenerate
 // triangles included), the float version against the double one.
-#include "skinspheres/lib/geometry/closest_point.h"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <limits>
 #include <random>
+
+#include "skinspheres/lib/geometry/closest_point.h"
 
 namespace skinspheres::lib {
 namespace {

@@ -1,11 +1,10 @@
-#include "skinspheres/lib/geometry/distance_field.h"
-
 #include <gtest/gtest.h>
 
 #include <random>
 
 #include "lib/analytic_shapes.h"
 #include "skinspheres/lib/character/builtin_character.h"
+#include "skinspheres/lib/geometry/distance_field.h"
 #include "skinspheres/lib/geometry/mesh_distance.h"
 
 namespace skinspheres::lib {
@@ -49,7 +48,8 @@ std::vector<Eigen::Vector3f> PointsNearSurface(const RawCharacter& ch, float rea
   std::vector<Eigen::Vector3f> q;
   for (size_t t = 0; t < ch.triangles.size(); t += 7) {
     const auto& tri = ch.triangles[t];
-    const Eigen::Vector3f c = (ch.positions_rest[tri[0]] + ch.positions_rest[tri[1]] + ch.positions_rest[tri[2]]) / 3.0f;
+    const Eigen::Vector3f c =
+        (ch.positions_rest[tri[0]] + ch.positions_rest[tri[1]] + ch.positions_rest[tri[2]]) / 3.0f;
     q.push_back(c + reach * Eigen::Vector3f(u(rng), u(rng), u(rng)));
   }
   return q;
@@ -141,7 +141,8 @@ TEST(DistanceField, AStrayTriangleFarAwayDoesNotCoarsenTheBody) {
   RawCharacter ch = MakeBuiltinCharacter();
   const float body_voxel = DistanceField::Build(ch.positions_rest, ch.triangles, 64).voxel_size();
   const int base = static_cast<int>(ch.positions_rest.size());
-  for (const Eigen::Vector3f& p : {Eigen::Vector3f(200, 0, 0), Eigen::Vector3f(200.01f, 0, 0), Eigen::Vector3f(200, 0.01f, 0)}) {
+  for (const Eigen::Vector3f& p :
+       {Eigen::Vector3f(200, 0, 0), Eigen::Vector3f(200.01f, 0, 0), Eigen::Vector3f(200, 0.01f, 0)}) {
     ch.positions_rest.push_back(p);
   }
   ch.triangles.emplace_back(base, base + 1, base + 2);

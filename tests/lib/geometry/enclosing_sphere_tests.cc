@@ -1,7 +1,5 @@
 // Tests for enclosing_sphere.h: M1 by hand, M2 (Welzl) against the exhaustive oracle including
 // collinear, coplanar, duplicate and cospherical sets, M1-A's guarantees, and F by hand.
-#include "skinspheres/lib/geometry/enclosing_sphere.h"
-
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -11,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "skinspheres/lib/geometry/enclosing_sphere.h"
 #include "skinspheres/skinning/math_types.h"
 
 namespace skinspheres::lib {
@@ -166,9 +165,7 @@ Points MakeSet(SetKind kind, int n, std::mt19937& rng) {
       case SetKind::kGeneral: p = V(u(rng), u(rng), u(rng)); break;
       case SetKind::kCollinear: p = u(rng) * dir; break;
       case SetKind::kCoplanar: p = u(rng) * e0 + u(rng) * e1; break;
-      case SetKind::kDuplicates:
-        p = (i > 0 && rng() % 2) ? pts[rng() % pts.size()] : V(u(rng), u(rng), u(rng));
-        break;
+      case SetKind::kDuplicates: p = (i > 0 && rng() % 2) ? pts[rng() % pts.size()] : V(u(rng), u(rng), u(rng)); break;
       case SetKind::kCospherical: p = V(g(rng), g(rng), g(rng)).normalized(); break;
       case SetKind::kClustered: p = (i % 2 ? 1e-4f : 1.0f) * V(u(rng), u(rng), u(rng)); break;
       case SetKind::kMixed: {

@@ -1,10 +1,10 @@
 // Tests of fibonacci_directions.h: unit directions, the lattice's latitudes, an even spread (mean
 // near zero, every cap of the sphere sampled in proportion to its area), none for n <= 0.
-#include "skinspheres/lib/geometry/fibonacci_directions.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
+
+#include "skinspheres/lib/geometry/fibonacci_directions.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -30,7 +30,7 @@ TEST(FibonacciDirections, SpreadEvenly) {
   EXPECT_LT((mean / n).norm(), 0.01);
   // A cap around any axis holds about its share of the sphere's area, (1 - cos θ) / 2.
   for (const Eigen::Vector3f& axis : {Eigen::Vector3f(1, 0, 0), Eigen::Vector3f(0, 0, -1),
-                                     Eigen::Vector3f(1, 1, 1).normalized(), Eigen::Vector3f(0, 1, 0)}) {
+                                      Eigen::Vector3f(1, 1, 1).normalized(), Eigen::Vector3f(0, 1, 0)}) {
     int inside = 0;
     for (const auto& u : d) inside += u.dot(axis) > 0.8f;
     EXPECT_NEAR(inside / double(n), 0.1, 0.01) << axis.transpose();

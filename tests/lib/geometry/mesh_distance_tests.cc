@@ -1,7 +1,5 @@
 // Tests of mesh_distance.h: MeshDistances equals the brute-force minimum of ClosestPointOnTriangle
 // over every triangle (a sphere and a box as two pieces), exactly.
-#include "skinspheres/lib/geometry/mesh_distance.h"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -12,6 +10,7 @@
 #include "shapes/box_mesh.h"
 #include "shapes/uv_sphere.h"
 #include "skinspheres/lib/geometry/closest_point.h"
+#include "skinspheres/lib/geometry/mesh_distance.h"
 
 namespace skinspheres::lib {
 namespace {

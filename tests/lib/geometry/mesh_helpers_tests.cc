@@ -1,8 +1,6 @@
 // Tests of mesh_helpers.h: BodyHeight by hand; UniqueVertices against a brute-force oracle (each
 // vertex of the listed triangles exactly once, in first-seen order) over many lists with one
 // lister, as the fitter and the tightening pass use it.
-#include "skinspheres/lib/geometry/mesh_helpers.h"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,6 +8,7 @@
 #include <vector>
 
 #include "shapes/uv_sphere.h"
+#include "skinspheres/lib/geometry/mesh_helpers.h"
 
 namespace skinspheres::lib {
 namespace {

@@ -1,7 +1,5 @@
 // Tests for ray_triangle.h against analytic hits: axis-aligned triangles, edges and vertices,
 // parallel rays, back faces, degenerate triangles, and crack-freedom on shared edges.
-#include "skinspheres/lib/geometry/ray_triangle.h"
-
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -9,6 +7,8 @@
 #include <limits>
 #include <random>
 #include <vector>
+
+#include "skinspheres/lib/geometry/ray_triangle.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -53,7 +53,7 @@ TEST(RayTriangle, ObliqueRayAnalytic) {
 
 TEST(RayTriangle, EdgesAndVerticesAreInclusive) {
   const std::vector<V> on_boundary = {V(0.5f, 0, 0), V(0, 0.5f, 0), V(0.5f, 0.5f, 0),  // edges
-                                      V(0, 0, 0),    V(1, 0, 0),    V(0, 1, 0)};         // vertices
+                                      V(0, 0, 0),    V(1, 0, 0),    V(0, 1, 0)};       // vertices
   for (const V& p : on_boundary) {
     for (float dz : {1.0f, -1.0f}) {
       const auto h = IntersectRayTriangle(p + V(0, 0, dz), V(0, 0, -dz), kA, kB, kC);
@@ -66,8 +66,8 @@ TEST(RayTriangle, EdgesAndVerticesAreInclusive) {
 }
 
 TEST(RayTriangle, JustOutsideMisses) {
-  const std::vector<V> outside = {V(0.5f, -1e-4f, 0), V(-1e-4f, 0.5f, 0), V(0.5f + 1e-4f, 0.5f, 0),
-                                  V(-1e-4f, -1e-4f, 0), V(1.0001f, 0, 0), V(2, 2, 0)};
+  const std::vector<V> outside = {V(0.5f, -1e-4f, 0),   V(-1e-4f, 0.5f, 0), V(0.5f + 1e-4f, 0.5f, 0),
+                                  V(-1e-4f, -1e-4f, 0), V(1.0001f, 0, 0),   V(2, 2, 0)};
   for (const V& p : outside) {
     EXPECT_FALSE(IntersectRayTriangle(p + V(0, 0, 1), V(0, 0, -1), kA, kB, kC)) << p.transpose();
   }

@@ -1,7 +1,5 @@
 // Tests for triangle_bvh.h: the BVH must return exactly what the brute-force oracle returns
 // (same triangle, same t, same point) on random soups, subsets and a closed sphere mesh.
-#include "skinspheres/lib/geometry/triangle_bvh.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,6 +8,7 @@
 #include <vector>
 
 #include "shapes/uv_sphere.h"
+#include "skinspheres/lib/geometry/triangle_bvh.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -28,7 +27,8 @@ Mesh RandomSoup(int count, uint32_t seed) {
     const V c(u(rng), u(rng), u(rng));
     const float s = size(rng);
     const int base = static_cast<int>(m.positions.size());
-    V a = c + s * V(u(rng), u(rng), u(rng)), b = c + s * V(u(rng), u(rng), u(rng)), d = c + s * V(u(rng), u(rng), u(rng));
+    V a = c + s * V(u(rng), u(rng), u(rng)), b = c + s * V(u(rng), u(rng), u(rng)),
+      d = c + s * V(u(rng), u(rng), u(rng));
     if (i % 37 == 0) d = a + 0.5f * (b - a);  // collinear: degenerate
     if (i % 41 == 0) b = a;                   // repeated vertex: degenerate
     m.positions.insert(m.positions.end(), {a, b, d});

@@ -15,16 +15,16 @@
 //  - "collada": with animations, Assimp's writer references "<joint>_matrix-input" sources it
 //    never writes and its reader rejects the file (assimp issue #2641): the clean error is
 //    checked, and the skinned mesh is round-tripped without animations.
-#include <assimp/Exporter.hpp>
 #include <assimp/cimport.h>
 #include <assimp/scene.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <assimp/Exporter.hpp>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <functional>
-#include <cmath>
 #include <map>
 #include <string>
 
@@ -103,9 +103,8 @@ void MakeRigid(aiScene* scene, const std::string& mesh_name, const std::string& 
 
 // keys_in_seconds = true rewrites every key time in seconds (mTicksPerSecond = 1) first: Assimp
 // 5.2.5's FBX writer multiplies raw tick values by the FBX time unit, ignoring mTicksPerSecond.
-std::filesystem::path ExportThroughAssimp(const std::string& format, const std::string& extension,
-                                          bool keep_animations, bool keys_in_seconds = false,
-                                          const std::string& edit_tag = "",
+std::filesystem::path ExportThroughAssimp(const std::string& format, const std::string& extension, bool keep_animations,
+                                          bool keys_in_seconds = false, const std::string& edit_tag = "",
                                           const std::function<void(aiScene*)>& edit = {}) {
   const auto dir = test::TempDir("importer_assimp_" + format + (keep_animations ? "" : "_static") +
                                  (keys_in_seconds ? "_seconds" : "") + edit_tag);
@@ -177,7 +176,8 @@ std::vector<int32_t> CornerMatch(const RawCharacter& imported, const std::map<st
     if (bm == nullptr || bm->triangle_count != m.triangle_count) continue;
     for (uint32_t f = 0; f < m.triangle_count; ++f) {
       for (int k = 0; k < 3; ++k) {
-        match[static_cast<size_t>(imported.triangles[m.first_triangle + f][k])] = b.triangles[bm->first_triangle + f][k];
+        match[static_cast<size_t>(imported.triangles[m.first_triangle + f][k])] =
+            b.triangles[bm->first_triangle + f][k];
       }
     }
   }
@@ -220,12 +220,14 @@ void ExpectSameSkinnedCharacter(const RawCharacter& c, const std::string& label)
     const int32_t p = c.skeleton.parents[static_cast<size_t>(i)];
     ASSERT_GE(p, 0) << label << " " << name;
     if (b.skeleton.parents[static_cast<size_t>(bp)] >= 0) {
-      EXPECT_EQ(c.skeleton.joint_names[static_cast<size_t>(p)], b.skeleton.joint_names[static_cast<size_t>(bp)]) << label;
+      EXPECT_EQ(c.skeleton.joint_names[static_cast<size_t>(p)], b.skeleton.joint_names[static_cast<size_t>(bp)])
+          << label;
     } else {
       EXPECT_EQ(c.skeleton.parents[static_cast<size_t>(p)], -1) << label << ": " << name << "'s parent is not the root";
     }
   }
-  std::printf("%s: %zu joints, %d weightless built-in joints missing\n", label.c_str(), c.skeleton.size(), missing_weightless);
+  std::printf("%s: %zu joints, %d weightless built-in joints missing\n", label.c_str(), c.skeleton.size(),
+              missing_weightless);
   // Weights normalised, every vertex has at least one influence.
   for (size_t v = 0; v < c.vertex_count(); ++v) {
     const uint32_t begin = c.skin.influence_offsets[v], end = c.skin.influence_offsets[v + 1];
@@ -270,7 +272,8 @@ void ExpectSameSkinnedCharacter(const RawCharacter& c, const std::string& label)
   const auto fit = FitSpheres(c, *parts, FitSettings{});
   ASSERT_TRUE(fit.ok()) << label << ": " << fit.error().message;
   int first_bad = -1;
-  EXPECT_EQ(CountUncoveredTriangles(c, fit->spheres, &first_bad), 0) << label << " first uncovered triangle " << first_bad;
+  EXPECT_EQ(CountUncoveredTriangles(c, fit->spheres, &first_bad), 0)
+      << label << " first uncovered triangle " << first_bad;
   EXPECT_EQ(fit->report.triangles_covered, static_cast<int>(c.triangle_count())) << label;
 }
 
@@ -335,7 +338,8 @@ TEST(ImporterAssimp, FbxAsciiRoundTripKeepsClips) {
     };
     float worst_keys = 0.0f, worst_between = 0.0f;
     for (float t : key_times) worst_keys = std::max(worst_keys, worst_at(t));
-    for (int s = 0; s <= 40; ++s) worst_between = std::max(worst_between, worst_at(bclip.duration_s * static_cast<float>(s) / 40.0f));
+    for (int s = 0; s <= 40; ++s)
+      worst_between = std::max(worst_between, worst_at(bclip.duration_s * static_cast<float>(s) / 40.0f));
     std::printf("clip %s: %zu key times, worst vertex error / height at keys %.2e, on a 41-sample grid %.2e\n",
                 bclip.name.c_str(), key_times.size(), worst_keys / height, worst_between / height);
     EXPECT_LT(worst_keys, 1e-3f * height) << bclip.name;
@@ -346,7 +350,8 @@ TEST(ImporterAssimp, FbxAsciiRoundTripKeepsClips) {
 // becomes a rigid range on that joint, stands where the built-in's mesh stands, and follows the
 // joint rigidly through the clips.
 TEST(ImporterAssimp, FbxAsciiRigidMeshUnderAJointFollowsThatJoint) {
-  const auto path = ExportThroughAssimp("fbxa", "fbx", true, true, "_rigid", [](aiScene* s) { MakeRigid(s, "HeadMesh", "Head"); });
+  const auto path =
+      ExportThroughAssimp("fbxa", "fbx", true, true, "_rigid", [](aiScene* s) { MakeRigid(s, "HeadMesh", "Head"); });
   ASSERT_FALSE(path.empty());
   const auto r = ImportCharacter(path);
   ASSERT_TRUE(r.ok()) << r.error().message;
@@ -364,10 +369,12 @@ TEST(ImporterAssimp, FbxAsciiRigidMeshUnderAJointFollowsThatJoint) {
   // The rigid joint is Head, or a node FBX put under Head with an identity transform.
   int32_t j = head->rigid_joint;
   while (j >= 0 && c.skeleton.joint_names[static_cast<size_t>(j)] != "Head") {
-    EXPECT_TRUE(c.skeleton.rest_local[static_cast<size_t>(j)].ToMatrix().isIdentity(1e-5f)) << c.skeleton.joint_names[static_cast<size_t>(j)];
+    EXPECT_TRUE(c.skeleton.rest_local[static_cast<size_t>(j)].ToMatrix().isIdentity(1e-5f))
+        << c.skeleton.joint_names[static_cast<size_t>(j)];
     j = c.skeleton.parents[static_cast<size_t>(j)];
   }
-  ASSERT_GE(j, 0) << "HeadMesh hangs under " << c.skeleton.joint_names[static_cast<size_t>(head->rigid_joint)] << ", not under Head";
+  ASSERT_GE(j, 0) << "HeadMesh hangs under " << c.skeleton.joint_names[static_cast<size_t>(head->rigid_joint)]
+                  << ", not under Head";
   EXPECT_EQ(head->triangle_count, FindMesh(b, "HeadMesh")->triangle_count);
   const std::vector<int32_t> match = CornerMatch(c, {{"Head", "HeadMesh"}});
   float worst_rest = 0.0f;
@@ -378,8 +385,8 @@ TEST(ImporterAssimp, FbxAsciiRigidMeshUnderAJointFollowsThatJoint) {
     worst_rest = std::max(worst_rest, (c.positions_rest[v] - b.positions_rest[static_cast<size_t>(match[v])]).norm());
   }
   EXPECT_LT(worst_rest, 1e-4f * height);
-  // Posed at the built-in's walk key times (the spine twists, so Head moves): every head vertex = G_Head(t) G_Head(rest)^-1 p_rest
-  // with the built-in's own Head (independent of the imported binds).
+  // Posed at the built-in's walk key times (the spine twists, so Head moves): every head vertex = G_Head(t)
+  // G_Head(rest)^-1 p_rest with the built-in's own Head (independent of the imported binds).
   const skinning::AnimationClip* clip = FindClip(c, "walk");
   ASSERT_NE(clip, nullptr);
   const skinning::AnimationClip* bclip = FindClip(b, "walk");
@@ -399,8 +406,8 @@ TEST(ImporterAssimp, FbxAsciiRigidMeshUnderAJointFollowsThatJoint) {
   }
   EXPECT_GT(moved, 0.01f * height);  // the check is not vacuous
   EXPECT_LT(worst_pose, 1e-3f * height);
-  std::printf("rigid HeadMesh: worst rest error / height %.2e, posed %.2e (head moves up to %.2e)\n", worst_rest / height,
-              worst_pose / height, moved / height);
+  std::printf("rigid HeadMesh: worst rest error / height %.2e, posed %.2e (head moves up to %.2e)\n",
+              worst_rest / height, worst_pose / height, moved / height);
   // The fit still covers every triangle.
   const auto parts = SplitBodyParts(c);
   ASSERT_TRUE(parts.ok()) << parts.error().message;
@@ -447,7 +454,8 @@ TEST(ImporterAssimp, ColladaRestPoseDiffersFromBindPose) {
   // Bind positions are the file's, untouched: the built-in's.
   float worst_bind = 0.0f;
   for (size_t v = 0; v < c.vertex_count(); ++v) {
-    worst_bind = std::max(worst_bind, (c.skin.positions_bind[v] - b.skin.positions_bind[static_cast<size_t>(match[v])]).norm());
+    worst_bind =
+        std::max(worst_bind, (c.skin.positions_bind[v] - b.skin.positions_bind[static_cast<size_t>(match[v])]).norm());
   }
   EXPECT_LT(worst_bind, 1e-4f * height);
 }

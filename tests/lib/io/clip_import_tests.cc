@@ -1,8 +1,6 @@
 // Tests for clips from animation files (clip_import.h). The files are the built-in character's
 // skeleton and clips without a mesh (ExportGlb / ExportFbxAscii), joints renamed as rigs name them;
 // the oracle is the built-in character's own clips, sampled by the test-only sampler.
-#include "skinspheres/lib/io/clip_import.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,6 +9,7 @@
 
 #include "lib/clip_eval_for_tests.h"
 #include "skinspheres/lib/character/builtin_character.h"
+#include "skinspheres/lib/io/clip_import.h"
 #include "skinspheres/lib/io/glb_exporter.h"
 #include "skinspheres/lib/io/importer.h"
 #include "test_support.h"
@@ -114,7 +113,8 @@ TEST(ClipImport, FbxAnimationFileMatchesAtTheKeys) {
   ASSERT_FALSE(keys.empty());
   for (float t : keys) EXPECT_LT(PoseDistance(own, read, t), 1e-4f) << "t=" << t;
   // Inside the documented hold windows the pose does not change, so it matches throughout.
-  for (float t = kTouchChestBegin_s; t <= kTouchChestEnd_s; t += 0.1f) EXPECT_LT(PoseDistance(own, read, t), 1e-4f) << "t=" << t;
+  for (float t = kTouchChestBegin_s; t <= kTouchChestEnd_s; t += 0.1f)
+    EXPECT_LT(PoseDistance(own, read, t), 1e-4f) << "t=" << t;
 }
 
 // The same rig exported in centimetres (every rest and key translation x100) drives the character
@@ -216,9 +216,7 @@ TEST(ClipImport, BadFilesAreOneLineErrors) {
   const auto directory = ReadAnimationFile(dir);
   ASSERT_FALSE(directory.ok());
   EXPECT_EQ(directory.error().code, ErrorCode::kFileUnreadable);
-  {
-    std::ofstream(dir / "junk.fbx") << "this is not an FBX file\n";
-  }
+  { std::ofstream(dir / "junk.fbx") << "this is not an FBX file\n"; }
   const auto junk = ReadAnimationFile(dir / "junk.fbx");
   ASSERT_FALSE(junk.ok());
   EXPECT_NE(junk.error().message.find("junk.fbx: "), std::string::npos);

@@ -1,7 +1,5 @@
 // Tests for ExportGlb: the written file is read back by Assimp (an independent reader) and by
 // ImportCharacter (the project's importer), and compared with what was exported.
-#include "skinspheres/lib/io/glb_exporter.h"
-
 #include <assimp/cimport.h>
 #include <assimp/scene.h>
 #include <gtest/gtest.h>
@@ -10,13 +8,14 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <nlohmann/json.hpp>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 
 #include "lib/clip_eval_for_tests.h"
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/io/clip_import.h"
+#include "skinspheres/lib/io/glb_exporter.h"
 #include "skinspheres/lib/io/importer.h"
 #include "test_support.h"
 
@@ -99,12 +98,14 @@ TEST(GlbExporter, AssimpReadsBackMeshesSkinAndClips) {
       EXPECT_NEAR(bone->mOffsetMatrix.b4, ibm(1, 3), 1e-6f);
       EXPECT_NEAR(bone->mOffsetMatrix.c4, ibm(2, 3), 1e-6f);
       for (unsigned w = 0; w < bone->mNumWeights; ++w) {
-        if (bone->mWeights[w].mWeight > 0) weights[bone->mWeights[w].mVertexId][bone->mName.C_Str()] += bone->mWeights[w].mWeight;
+        if (bone->mWeights[w].mWeight > 0)
+          weights[bone->mWeights[w].mVertexId][bone->mName.C_Str()] += bone->mWeights[w].mWeight;
       }
     }
     for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
       const uint32_t gv = range.first_vertex + v;
-      ASSERT_EQ(weights[v].size(), c.skin.influence_offsets[gv + 1] - c.skin.influence_offsets[gv]) << range.name << " " << v;
+      ASSERT_EQ(weights[v].size(), c.skin.influence_offsets[gv + 1] - c.skin.influence_offsets[gv])
+          << range.name << " " << v;
       for (uint32_t k = c.skin.influence_offsets[gv]; k < c.skin.influence_offsets[gv + 1]; ++k) {
         const std::string& joint = c.skeleton.joint_names[c.skin.binds[c.skin.influence_binds[k]].joint];
         EXPECT_NEAR(weights[v][joint], c.skin.influence_weights[k], 1e-6f);
@@ -170,8 +171,10 @@ TEST(GlbExporter, RoundTripThroughImportCharacter) {
       for (size_t j = 0; j < a.size(); ++j) {
         const int32_t jr = r.skeleton.Find(c.skeleton.joint_names[j]);
         ASSERT_GE(jr, 0);
-        EXPECT_LT((a[j].translation - b[jr].translation).norm(), 1e-4f) << clip.name << " " << c.skeleton.joint_names[j] << " t=" << t;
-        EXPECT_GT(std::abs(a[j].rotation.dot(b[jr].rotation)), 1.0f - 1e-5f) << clip.name << " " << c.skeleton.joint_names[j] << " t=" << t;
+        EXPECT_LT((a[j].translation - b[jr].translation).norm(), 1e-4f)
+            << clip.name << " " << c.skeleton.joint_names[j] << " t=" << t;
+        EXPECT_GT(std::abs(a[j].rotation.dot(b[jr].rotation)), 1.0f - 1e-5f)
+            << clip.name << " " << c.skeleton.joint_names[j] << " t=" << t;
         EXPECT_LT((a[j].scale - b[jr].scale).norm(), 1e-5f);
       }
       const auto pa = test::PoseAt(c, clip, t), pb = test::PoseAt(r, *rc, t);
@@ -348,7 +351,8 @@ TEST(GlbExporter, SkeletonAndClipsWithoutAMesh) {
   ASSERT_NE(in.scene, nullptr) << aiGetErrorString();
   EXPECT_EQ(in.scene->mNumMeshes, 0u);
   EXPECT_EQ(in.scene->mNumAnimations, c.clips.size());
-  for (const auto& name : c.skeleton.joint_names) EXPECT_NE(in.scene->mRootNode->FindNode(name.c_str()), nullptr) << name;
+  for (const auto& name : c.skeleton.joint_names)
+    EXPECT_NE(in.scene->mRootNode->FindNode(name.c_str()), nullptr) << name;
 }
 
 // Repeated joint names (glTF allows them) get a suffix, and the file still plays the same.

@@ -4,8 +4,6 @@
 // parsed here again (vertex/triangle counts from the accessors, rest positions recomputed in
 // double precision from the node tree), and small glTF files are written at test time for the
 // edge cases (NaN, zero weights, joint out of range, no triangles, STEP/CUBICSPLINE samplers).
-#include "skinspheres/lib/io/importer.h"
-
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -18,8 +16,9 @@
 #include <random>
 #include <set>
 
-#include "test_support.h"
 #include "lib/tiny_gltf.h"
+#include "skinspheres/lib/io/importer.h"
+#include "test_support.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -60,11 +59,22 @@ struct Glb {
     for (size_t e = 0; e < a["count"].get<size_t>(); ++e) {
       for (int c = 0; c < n; ++c) {
         const uint8_t* p = base + e * stride + static_cast<size_t>(c * size);
-        if (type == 5126) { float f; std::memcpy(&f, p, 4); out.push_back(f); }
-        else if (type == 5125) { uint32_t u; std::memcpy(&u, p, 4); out.push_back(u); }
-        else if (type == 5123) { uint16_t u; std::memcpy(&u, p, 2); out.push_back(a.value("normalized", false) ? u / 65535.0 : u); }
-        else if (type == 5121) { out.push_back(a.value("normalized", false) ? *p / 255.0 : *p); }
-        else ADD_FAILURE() << "componentType " << type << " not handled by the test reader";
+        if (type == 5126) {
+          float f;
+          std::memcpy(&f, p, 4);
+          out.push_back(f);
+        } else if (type == 5125) {
+          uint32_t u;
+          std::memcpy(&u, p, 4);
+          out.push_back(u);
+        } else if (type == 5123) {
+          uint16_t u;
+          std::memcpy(&u, p, 2);
+          out.push_back(a.value("normalized", false) ? u / 65535.0 : u);
+        } else if (type == 5121) {
+          out.push_back(a.value("normalized", false) ? *p / 255.0 : *p);
+        } else
+          ADD_FAILURE() << "componentType " << type << " not handled by the test reader";
       }
     }
     return out;
@@ -85,9 +95,11 @@ std::vector<Eigen::Matrix4d> NodeWorld(const json& j) {
       for (int k = 0; k < 16; ++k) m(k % 4, k / 4) = node["matrix"][k].get<double>();
     } else {
       Eigen::Affine3d a = Eigen::Affine3d::Identity();
-      if (node.contains("translation")) a.translate(Eigen::Vector3d(node["translation"][0], node["translation"][1], node["translation"][2]));
+      if (node.contains("translation"))
+        a.translate(Eigen::Vector3d(node["translation"][0], node["translation"][1], node["translation"][2]));
       if (node.contains("rotation"))
-        a.rotate(Eigen::Quaterniond(node["rotation"][3], node["rotation"][0], node["rotation"][1], node["rotation"][2]).normalized());
+        a.rotate(Eigen::Quaterniond(node["rotation"][3], node["rotation"][0], node["rotation"][1], node["rotation"][2])
+                     .normalized());
       if (node.contains("scale")) a.scale(Eigen::Vector3d(node["scale"][0], node["scale"][1], node["scale"][2]));
       m = a.matrix();
     }
@@ -115,7 +127,8 @@ std::vector<Eigen::Vector3d> OracleRestPositions(const Glb& g, size_t* triangles
         *triangles += prim.contains("indices") ? g.Count(prim["indices"].get<int>()) / 3 : pos.size() / 9;
         const size_t nv = pos.size() / 3;
         if (!node.contains("skin")) {
-          for (size_t v = 0; v < nv; ++v) out.push_back((world[n] * Eigen::Vector4d(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2], 1)).head<3>());
+          for (size_t v = 0; v < nv; ++v)
+            out.push_back((world[n] * Eigen::Vector4d(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2], 1)).head<3>());
           continue;
         }
         const json& skin = g.j["skins"][node["skin"].get<int>()];
@@ -130,7 +143,8 @@ std::vector<Eigen::Vector3d> OracleRestPositions(const Glb& g, size_t* triangles
             if (w == 0) continue;
             const int ji = static_cast<int>(joints[4 * v + k]);
             const Eigen::Matrix4d inv = Eigen::Map<const Eigen::Matrix4d>(ibm.data() + 16 * ji);
-            p += w * world[skin["joints"][ji].get<size_t>()] * inv * Eigen::Vector4d(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2], 1);
+            p += w * world[skin["joints"][ji].get<size_t>()] * inv *
+                 Eigen::Vector4d(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2], 1);
             sum += w;
           }
           out.push_back(p.head<3>() / sum);
@@ -147,8 +161,10 @@ struct Expect {
   double height;
 };
 const std::vector<Expect>& Characters() {
-  static const std::vector<Expect> e = {
-      {"Xbot.glb", 49112, 1.81}, {"Soldier.glb", 11376, 0.206}, {"CesiumMan.glb", 4672, 1.5}, {"RobotExpressive.glb", 3237, 4.44}};
+  static const std::vector<Expect> e = {{"Xbot.glb", 49112, 1.81},
+                                        {"Soldier.glb", 11376, 0.206},
+                                        {"CesiumMan.glb", 4672, 1.5},
+                                        {"RobotExpressive.glb", 3237, 4.44}};
   return e;
 }
 
@@ -181,7 +197,8 @@ TEST_P(SharedCharacter, MatchesTheFileAccessorsAndRestPose) {
   // Rest positions against the double-precision oracle, relative to the character's size.
   const double tol = 2e-4 * GetParam().height;
   double worst = 0;
-  for (size_t v = 0; v < oracle.size(); ++v) worst = std::max(worst, (c.positions_rest[v].cast<double>() - oracle[v]).norm());
+  for (size_t v = 0; v < oracle.size(); ++v)
+    worst = std::max(worst, (c.positions_rest[v].cast<double>() - oracle[v]).norm());
   EXPECT_LT(worst, tol) << "largest rest-position difference";
 
   // And against the importer's own skeleton and binds: Σ w·(G·IBM)·p_bind.
@@ -226,7 +243,8 @@ TEST_P(SharedCharacter, MatchesTheFileAccessorsAndRestPose) {
   for (const json& skin : g.j["skins"]) {
     const auto ibm = g.Read(skin["inverseBindMatrices"].get<int>());
     for (size_t k = 0; k < skin["joints"].size(); ++k) {
-      std::vector<double> m(ibm.begin() + static_cast<std::ptrdiff_t>(16 * k), ibm.begin() + static_cast<std::ptrdiff_t>(16 * k + 16));
+      std::vector<double> m(ibm.begin() + static_cast<std::ptrdiff_t>(16 * k),
+                            ibm.begin() + static_cast<std::ptrdiff_t>(16 * k + 16));
       distinct.insert({skin["joints"][k].get<int>(), m});
     }
   }
@@ -235,14 +253,16 @@ TEST_P(SharedCharacter, MatchesTheFileAccessorsAndRestPose) {
   const size_t rigid_nodes = [&] {
     std::set<int> nodes_with_rigid_mesh;
     for (size_t n = 0; n < g.j["nodes"].size(); ++n)
-      if (g.j["nodes"][n].contains("mesh") && !g.j["nodes"][n].contains("skin")) nodes_with_rigid_mesh.insert(static_cast<int>(n));
+      if (g.j["nodes"][n].contains("mesh") && !g.j["nodes"][n].contains("skin"))
+        nodes_with_rigid_mesh.insert(static_cast<int>(n));
     return nodes_with_rigid_mesh.size();
   }();
   EXPECT_EQ(c.skin.binds.size(), distinct.size() + rigid_nodes);
   EXPECT_EQ(c.source_file, path.string());
-  std::printf("%s: %zu vertices, %zu triangles, %zu joints, %zu bind entries, %zu clips, %zu meshes (%zu rigid), height %.3f\n",
-              GetParam().file.c_str(), c.vertex_count(), c.triangle_count(), c.skeleton.size(), c.skin.binds.size(), c.clips.size(),
-              c.meshes.size(), rigid, extent.y());
+  std::printf(
+      "%s: %zu vertices, %zu triangles, %zu joints, %zu bind entries, %zu clips, %zu meshes (%zu rigid), height %.3f\n",
+      GetParam().file.c_str(), c.vertex_count(), c.triangle_count(), c.skeleton.size(), c.skin.binds.size(),
+      c.clips.size(), c.meshes.size(), rigid, extent.y());
 
   // Clips: durations cover the keys; times strictly increasing; tracks on valid joints.
   for (const auto& clip : c.clips) {
@@ -368,7 +388,7 @@ TEST(ImporterTiny, WeightVanishingWhenNormalisedIsDropped) {
   TinyOptions o;
   o.weights.assign(16, 0.0f);
   for (int v = 0; v < 4; ++v) {
-    o.weights[4 * v] = 1e25f;        // joint 1
+    o.weights[4 * v] = 1e25f;         // joint 1
     o.weights[4 * v + 1] = 1.5e-43f;  // joint 0
   }
   const auto r = ImportCharacter(Write(test::TempDir("importer_vanishing_weight"), "tiny.gltf", MakeTiny(o).dump()));
@@ -445,7 +465,8 @@ TEST(ImporterBadInput, EachProblemGivesItsError) {
   // Sparse accessors are read (ImporterSparse below); an incomplete sparse block is refused.
   json sparse = MakeTiny({});
   sparse["accessors"][0]["sparse"] = {{"count", 1}};
-  ExpectError(Write(dir, "sparse.gltf", sparse.dump()), ErrorCode::kFormatRejected, "accessor 0 sparse indices are missing");
+  ExpectError(Write(dir, "sparse.gltf", sparse.dump()), ErrorCode::kFormatRejected,
+              "accessor 0 sparse indices are missing");
   // Overlapping elements (byteStride below the element size) are refused.
   json narrow = MakeTiny({});
   narrow["bufferViews"][narrow["accessors"][0]["bufferView"].get<size_t>()]["byteStride"] = 4;
@@ -537,7 +558,8 @@ void ExpectSameCharacter(const RawCharacter& a, const RawCharacter& b) {
       EXPECT_EQ(ta.scale.values, tb.scale.values);
       EXPECT_EQ(ta.rotation.times_s, tb.rotation.times_s);
       ASSERT_EQ(ta.rotation.values.size(), tb.rotation.values.size());
-      for (size_t q = 0; q < ta.rotation.values.size(); ++q) EXPECT_EQ(ta.rotation.values[q].coeffs(), tb.rotation.values[q].coeffs());
+      for (size_t q = 0; q < ta.rotation.values.size(); ++q)
+        EXPECT_EQ(ta.rotation.values[q].coeffs(), tb.rotation.values[q].coeffs());
     }
   }
 }
@@ -572,7 +594,8 @@ TEST(ImporterSparse, SparsePositionsImportLikeTheDenseFile) {
     TinyOptions o;
     o.animations = true;
     o.edit = [&](TinyGltf& t) {
-      t.MakeSparse(Attr(t, "POSITION"), {1, 3}, index_type, kMoved.data(), kMoved.size() * 4, index_type == 5123 ? 8 : 0);
+      t.MakeSparse(Attr(t, "POSITION"), {1, 3}, index_type, kMoved.data(), kMoved.size() * 4,
+                   index_type == 5123 ? 8 : 0);
     };
     const json file = MakeTiny(o);
     const RawCharacter got = ImportOk(Write(dir, "sparse.gltf", file.dump()));
@@ -605,7 +628,8 @@ TEST(ImporterSparse, WithoutBufferViewTheBaseIsZeros) {
     t.j["accessors"][a].erase("bufferView");
     t.MakeSparse(a, {1, 2, 3}, 5125, kTinyPositions + 3, 9 * 4);
   };
-  ExpectSameCharacter(ImportOk(Write(dir, "all.gltf", MakeTiny(all).dump())), ImportOk(Write(dir, "dense.gltf", MakeTiny({}).dump())));
+  ExpectSameCharacter(ImportOk(Write(dir, "all.gltf", MakeTiny(all).dump())),
+                      ImportOk(Write(dir, "dense.gltf", MakeTiny({}).dump())));
 
   // Only vertices 1 and 3 given: vertex 2 stays at the raw origin (rest (0, 1, 0)).
   TinyOptions some;
@@ -667,11 +691,15 @@ TEST(ImporterSparse, OtherAccessorKindsImportLikeTheirDenseFiles) {
     for (int i = 0; i < 4; ++i) ibm[5 * i] = 1.0f;
     ibm[13] = -1.0f;  // column-major: column 3, row 1
     TinyOptions o;
-    o.edit = [&](TinyGltf& t) { t.MakeSparse(t.j["skins"][0]["inverseBindMatrices"].get<int>(), {1}, 5121, ibm.data(), 64); };
+    o.edit = [&](TinyGltf& t) {
+      t.MakeSparse(t.j["skins"][0]["inverseBindMatrices"].get<int>(), {1}, 5121, ibm.data(), 64);
+    };
     const RawCharacter got = ImportOk(Write(dir, "ibm.gltf", MakeTiny(o).dump()));
     ASSERT_EQ(got.vertex_count(), 4u);
     for (int v = 0; v < 4; ++v) {
-      EXPECT_TRUE(got.positions_rest[static_cast<size_t>(v)].isApprox(Eigen::Vector3f(kTinyPositions[3 * v], kTinyPositions[3 * v + 1], kTinyPositions[3 * v + 2]))) << v;
+      EXPECT_TRUE(got.positions_rest[static_cast<size_t>(v)].isApprox(
+          Eigen::Vector3f(kTinyPositions[3 * v], kTinyPositions[3 * v + 1], kTinyPositions[3 * v + 2])))
+          << v;
     }
   }
   // Animation output (STEP translation, float VEC3): key 2 becomes (0, 3, 0).
@@ -679,7 +707,9 @@ TEST(ImporterSparse, OtherAccessorKindsImportLikeTheirDenseFiles) {
     const float key2[3] = {0, 3, 0};
     TinyOptions sparse;
     sparse.animations = true;
-    sparse.edit = [&](TinyGltf& t) { t.MakeSparse(t.j["animations"][0]["samplers"][0]["output"].get<int>(), {2}, 5123, key2, 12); };
+    sparse.edit = [&](TinyGltf& t) {
+      t.MakeSparse(t.j["animations"][0]["samplers"][0]["output"].get<int>(), {2}, 5123, key2, 12);
+    };
     TinyOptions dense;
     dense.animations = true;
     dense.step_out = {0, 0, 0, 0, 1, 0, 0, 3, 0};
@@ -695,7 +725,9 @@ TEST(ImporterSparse, OtherAccessorKindsImportLikeTheirDenseFiles) {
     const float t2 = 2.0f;
     TinyOptions o;
     o.animations = true;
-    o.edit = [&](TinyGltf& t) { t.MakeSparse(t.j["animations"][0]["samplers"][0]["input"].get<int>(), {2}, 5121, &t2, 4); };
+    o.edit = [&](TinyGltf& t) {
+      t.MakeSparse(t.j["animations"][0]["samplers"][0]["input"].get<int>(), {2}, 5121, &t2, 4);
+    };
     const RawCharacter got = ImportOk(Write(dir, "input.gltf", MakeTiny(o).dump()));
     ASSERT_EQ(got.clips.size(), 1u);
     EXPECT_FLOAT_EQ(got.clips[0].duration_s, 2.0f);
@@ -706,8 +738,8 @@ TEST(ImporterSparse, OtherAccessorKindsImportLikeTheirDenseFiles) {
 
 // A malformed sparse block on POSITION (accessor 0): kFormatRejected, like every other accessor
 // problem of a mesh, naming the file, the accessor, "sparse" and the problem.
-void ExpectSparseError(const std::filesystem::path& dir, const std::string& label, const std::function<void(TinyGltf&)>& edit,
-                       const std::string& needle) {
+void ExpectSparseError(const std::filesystem::path& dir, const std::string& label,
+                       const std::function<void(TinyGltf&)>& edit, const std::string& needle) {
   SCOPED_TRACE(label);
   TinyOptions o;
   o.edit = edit;
@@ -724,7 +756,7 @@ TEST(ImporterSparse, EachMalformedSparseBlockGivesItsError) {
   const auto dir = test::TempDir("importer_sparse_bad");
   // A valid block on POSITION (vertices 1 and 3), then one thing broken per case.
   auto valid = [](TinyGltf& t) { t.MakeSparse(0, {1, 3}, 5123, kMoved.data(), kMoved.size() * 4); };
-  auto with = [&](std::function<void(json& sparse, TinyGltf& t)> f) {
+  auto with = [&](std::function<void(json & sparse, TinyGltf & t)> f) {
     return [valid, f](TinyGltf& t) {
       valid(t);
       f(t.j["accessors"][0]["sparse"], t);
@@ -741,29 +773,53 @@ TEST(ImporterSparse, EachMalformedSparseBlockGivesItsError) {
   ExpectSparseError(dir, "count float", with([](json& s, TinyGltf&) { s["count"] = 2.5; }), "no valid count");
   ExpectSparseError(dir, "count 0", with([](json& s, TinyGltf&) { s["count"] = 0; }), "sparse count 0 is not in 1..4");
   ExpectSparseError(dir, "count -1", with([](json& s, TinyGltf&) { s["count"] = -1; }), "is not in 1..4");
-  ExpectSparseError(dir, "count > accessor", with([](json& s, TinyGltf&) { s["count"] = 5; }), "sparse count 5 is not in 1..4");
-  ExpectSparseError(dir, "count 2^64-1", with([](json& s, TinyGltf&) { s["count"] = std::numeric_limits<uint64_t>::max(); }),
+  ExpectSparseError(dir, "count > accessor", with([](json& s, TinyGltf&) { s["count"] = 5; }),
+                    "sparse count 5 is not in 1..4");
+  ExpectSparseError(dir, "count 2^64-1",
+                    with([](json& s, TinyGltf&) { s["count"] = std::numeric_limits<uint64_t>::max(); }),
                     "is not in 1..4");
-  ExpectSparseError(dir, "no indices", with([](json& s, TinyGltf&) { s.erase("indices"); }), "sparse indices are missing");
-  ExpectSparseError(dir, "float indices", with([](json& s, TinyGltf&) { s["indices"]["componentType"] = 5126; }), "componentType");
-  ExpectSparseError(dir, "signed indices", with([](json& s, TinyGltf&) { s["indices"]["componentType"] = 5120; }), "componentType");
-  ExpectSparseError(dir, "no index type", with([](json& s, TinyGltf&) { s["indices"].erase("componentType"); }), "componentType");
-  ExpectSparseError(dir, "decreasing", [](TinyGltf& t) { t.MakeSparse(0, {3, 1}, 5123, kMoved.data(), 24); },
-                    "not strictly increasing");
-  ExpectSparseError(dir, "duplicate", [](TinyGltf& t) { t.MakeSparse(0, {1, 1}, 5121, kMoved.data(), 24); },
-                    "not strictly increasing");
-  ExpectSparseError(dir, "index = count", [](TinyGltf& t) { t.MakeSparse(0, {1, 4}, 5123, kMoved.data(), 24); },
-                    "sparse index 4 (entry 1) is out of range");
-  ExpectSparseError(dir, "index 2^32-1", [](TinyGltf& t) { t.MakeSparse(0, {1, 0xFFFFFFFFu}, 5125, kMoved.data(), 24); },
-                    "out of range");
+  ExpectSparseError(dir, "no indices", with([](json& s, TinyGltf&) { s.erase("indices"); }),
+                    "sparse indices are missing");
+  ExpectSparseError(dir, "float indices", with([](json& s, TinyGltf&) { s["indices"]["componentType"] = 5126; }),
+                    "componentType");
+  ExpectSparseError(dir, "signed indices", with([](json& s, TinyGltf&) { s["indices"]["componentType"] = 5120; }),
+                    "componentType");
+  ExpectSparseError(dir, "no index type", with([](json& s, TinyGltf&) { s["indices"].erase("componentType"); }),
+                    "componentType");
+  ExpectSparseError(
+      dir, "decreasing",
+      [](TinyGltf& t) {
+        t.MakeSparse(0, {3, 1}, 5123, kMoved.data(), 24);
+      },
+      "not strictly increasing");
+  ExpectSparseError(
+      dir, "duplicate",
+      [](TinyGltf& t) {
+        t.MakeSparse(0, {1, 1}, 5121, kMoved.data(), 24);
+      },
+      "not strictly increasing");
+  ExpectSparseError(
+      dir, "index = count",
+      [](TinyGltf& t) {
+        t.MakeSparse(0, {1, 4}, 5123, kMoved.data(), 24);
+      },
+      "sparse index 4 (entry 1) is out of range");
+  ExpectSparseError(
+      dir, "index 2^32-1",
+      [](TinyGltf& t) {
+        t.MakeSparse(0, {1, 0xFFFFFFFFu}, 5125, kMoved.data(), 24);
+      },
+      "out of range");
   ExpectSparseError(dir, "indices view 99", with([](json& s, TinyGltf&) { s["indices"]["bufferView"] = 99; }),
                     "bufferView 99 does not exist");
-  ExpectSparseError(dir, "indices view -1", with([](json& s, TinyGltf&) { s["indices"]["bufferView"] = -1; }), "does not exist");
+  ExpectSparseError(dir, "indices view -1", with([](json& s, TinyGltf&) { s["indices"]["bufferView"] = -1; }),
+                    "does not exist");
   ExpectSparseError(dir, "indices view string", with([](json& s, TinyGltf&) { s["indices"]["bufferView"] = "0"; }),
                     "no valid bufferView");
   ExpectSparseError(dir, "indices no view", with([](json& s, TinyGltf&) { s["indices"].erase("bufferView"); }),
                     "no valid bufferView");
-  ExpectSparseError(dir, "indices view too short", with([](json& s, TinyGltf&) { s["indices"]["componentType"] = 5125; }),
+  ExpectSparseError(dir, "indices view too short",
+                    with([](json& s, TinyGltf&) { s["indices"]["componentType"] = 5125; }),
                     "sparse indices (2 elements at byteOffset 0) runs past");
   ExpectSparseError(dir, "indices view outside buffer", with([](json& s, TinyGltf& t) {
                       t.j["bufferViews"][s["indices"]["bufferView"].get<size_t>()]["byteLength"] = 1000000;
@@ -774,12 +830,18 @@ TEST(ImporterSparse, EachMalformedSparseBlockGivesItsError) {
                     }),
                     "byteStride");
   ExpectSparseError(dir, "no values", with([](json& s, TinyGltf&) { s.erase("values"); }), "sparse values is missing");
-  ExpectSparseError(dir, "values no view", with([](json& s, TinyGltf&) { s["values"].erase("bufferView"); }), "no valid bufferView");
-  ExpectSparseError(dir, "values view too short", [](TinyGltf& t) { t.MakeSparse(0, {1, 3}, 5123, kMoved.data(), 12); },
-                    "sparse values (2 elements at byteOffset 0) runs past");
-  ExpectSparseError(dir, "values offset past", with([](json& s, TinyGltf&) { s["values"]["byteOffset"] = 4; }), "runs past");
-  ExpectSparseError(dir, "values offset huge", with([](json& s, TinyGltf&) { s["values"]["byteOffset"] = 9223372036854775800ll; }),
+  ExpectSparseError(dir, "values no view", with([](json& s, TinyGltf&) { s["values"].erase("bufferView"); }),
+                    "no valid bufferView");
+  ExpectSparseError(
+      dir, "values view too short",
+      [](TinyGltf& t) {
+        t.MakeSparse(0, {1, 3}, 5123, kMoved.data(), 12);
+      },
+      "sparse values (2 elements at byteOffset 0) runs past");
+  ExpectSparseError(dir, "values offset past", with([](json& s, TinyGltf&) { s["values"]["byteOffset"] = 4; }),
                     "runs past");
+  ExpectSparseError(dir, "values offset huge",
+                    with([](json& s, TinyGltf&) { s["values"]["byteOffset"] = 9223372036854775800ll; }), "runs past");
   ExpectSparseError(dir, "values offset 2^64-1",
                     with([](json& s, TinyGltf&) { s["values"]["byteOffset"] = std::numeric_limits<uint64_t>::max(); }),
                     "invalid byteOffset");
@@ -788,19 +850,23 @@ TEST(ImporterSparse, EachMalformedSparseBlockGivesItsError) {
   // Counts that would need gigabytes: a zero base is capped like any accessor without a
   // bufferView (count * size would wrap 64 bits in the first case); a sparse count is at most the
   // accessor's and must fit its indices bufferView (checked by division, no overflow).
-  ExpectSparseError(dir, "huge count", [](TinyGltf& t) {
-                      t.j["accessors"][0].erase("bufferView");
-                      t.j["accessors"][0]["count"] = 6148914691236517206ll;
-                      t.MakeSparse(0, {1, 3}, 5123, kMoved.data(), 24);
-                      t.j["accessors"][0]["sparse"]["count"] = 6148914691236517206ll;
-                    },
-                    "sparse with no bufferView and an implausible count");
-  ExpectSparseError(dir, "big zero base", [](TinyGltf& t) {
-                      t.j["accessors"][0].erase("bufferView");
-                      t.j["accessors"][0]["count"] = 268435456;
-                      t.MakeSparse(0, {1, 3}, 5123, kMoved.data(), 24);
-                    },
-                    "implausible count");
+  ExpectSparseError(
+      dir, "huge count",
+      [](TinyGltf& t) {
+        t.j["accessors"][0].erase("bufferView");
+        t.j["accessors"][0]["count"] = 6148914691236517206ll;
+        t.MakeSparse(0, {1, 3}, 5123, kMoved.data(), 24);
+        t.j["accessors"][0]["sparse"]["count"] = 6148914691236517206ll;
+      },
+      "sparse with no bufferView and an implausible count");
+  ExpectSparseError(
+      dir, "big zero base",
+      [](TinyGltf& t) {
+        t.j["accessors"][0].erase("bufferView");
+        t.j["accessors"][0]["count"] = 268435456;
+        t.MakeSparse(0, {1, 3}, 5123, kMoved.data(), 24);
+      },
+      "implausible count");
   ExpectSparseError(dir, "count past the indices", with([](json& s, TinyGltf& t) {
                       t.j["accessors"][0]["count"] = 4;
                       s["count"] = 4;
@@ -815,7 +881,8 @@ TEST(ImporterSparse, EachMalformedSparseBlockGivesItsError) {
       const float keys[6] = {0, 3, 0, 0, 4, 0};
       t.MakeSparse(t.j["animations"][0]["samplers"][0]["output"].get<int>(), {2, 1}, 5123, keys, 24);
     };
-    ExpectError(Write(dir, "bad_output.gltf", MakeTiny(o).dump()), ErrorCode::kInvalidData, "sparse indices are not strictly increasing");
+    ExpectError(Write(dir, "bad_output.gltf", MakeTiny(o).dump()), ErrorCode::kInvalidData,
+                "sparse indices are not strictly increasing");
   }
 }
 

@@ -7,19 +7,18 @@
 // finish within a minute (the fixed code takes milliseconds; the old one blocked forever or ran
 // for minutes), so a regression fails instead of stalling CTest.
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
-
-#include <gtest/gtest.h>
 
 #include <chrono>
 #include <functional>
 #include <future>
 
+#include "lib/tiny_gltf.h"
 #include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/file_io.h"
 #include "test_support.h"
-#include "lib/tiny_gltf.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -38,7 +37,8 @@ Result<RawCharacter> ImportWithin60s(const std::filesystem::path& path, const st
   return future.get();
 }
 
-void ExpectRefused(const Result<RawCharacter>& r, const std::filesystem::path& path, ErrorCode code, const std::string& needle) {
+void ExpectRefused(const Result<RawCharacter>& r, const std::filesystem::path& path, ErrorCode code,
+                   const std::string& needle) {
   ASSERT_FALSE(r.ok()) << path << " imported";
   EXPECT_EQ(r.error().code, code) << r.error().message;
   EXPECT_EQ(r.error().message.rfind(path.string() + ": ", 0), 0u) << r.error().message;
@@ -57,9 +57,7 @@ TEST(HostileFiles, NonRegularFilesAreRefusedWithoutReading) {
 
 TEST(HostileFiles, AFileBeyondTheSizeLimitIsRefusedFromItsSize) {
   const auto path = test::TempDir("hostile_size") / "huge.glb";
-  {
-    std::ofstream(path, std::ios::binary) << "glTF";
-  }
+  { std::ofstream(path, std::ios::binary) << "glTF"; }
   // A sparse file: no disk used, nothing read.
   ASSERT_EQ(::truncate(path.c_str(), static_cast<off_t>(kMaxCharacterFileBytes + 1)), 0);
   ExpectRefused(ImportWithin60s(path), path, ErrorCode::kFormatRejected, "may be at most 1073741824 bytes");
@@ -89,7 +87,8 @@ TEST(HostileStructure, DeeplyNestedJsonIsRefusedBeforeParsing) {
     text.pop_back();  // the closing brace: append "extras" nested `depth` deep
     text += ",\"extras\":" + std::string(depth, '[') + std::string(depth, ']') + "}";
     const auto path = Write(dir, "deep.gltf", text);
-    ExpectRefused(ImportWithin60s(path), path, ErrorCode::kFormatRejected, "nests " + std::to_string(depth + 1) + " deep");
+    ExpectRefused(ImportWithin60s(path), path, ErrorCode::kFormatRejected,
+                  "nests " + std::to_string(depth + 1) + " deep");
   }
   // The limit itself is fine: extras nested 120 deep import.
   std::string text = MakeTiny({}).dump();
@@ -180,7 +179,10 @@ TEST(GltfRules, IntegerPropertiesMustBeIntegers) {
       {[](json& j) { j["accessors"][0]["componentType"] = "5126"; }, "\"componentType\" is \"5126\", not an integer"},
       {[](json& j) { j["nodes"][2]["mesh"] = 1e300; }, "\"mesh\" is 1e+300, not an integer"},
       {[](json& j) { j["nodes"][0]["children"] = {1.5}; }, "\"children\" lists 1.5, not an integer"},
-      {[](json& j) { j["skins"][0]["joints"] = {0, -0.5}; }, "\"joints\" lists -0.5, not an integer"},
+      {[](json& j) {
+         j["skins"][0]["joints"] = {0, -0.5};
+       },
+       "\"joints\" lists -0.5, not an integer"},
   };
   for (const Case& c : cases) {
     json j = MakeTiny({});
@@ -201,7 +203,8 @@ TEST(GltfRules, IntegerPropertiesMustBeIntegers) {
 
 TEST(GltfRules, UnsupportedRequiredExtensionsAreRefused) {
   const auto dir = test::TempDir("gltf_extensions");
-  for (const char* ext : {"KHR_draco_mesh_compression", "EXT_meshopt_compression", "EXT_mesh_gpu_instancing", "VENDOR_unknown"}) {
+  for (const char* ext :
+       {"KHR_draco_mesh_compression", "EXT_meshopt_compression", "EXT_mesh_gpu_instancing", "VENDOR_unknown"}) {
     json j = MakeTiny({});
     j["extensionsUsed"] = {ext};
     j["extensionsRequired"] = {ext};
@@ -246,7 +249,8 @@ TEST(GltfRules, ATargetAnimatedTwiceOrAMatrixNodeAnimatedIsRefused) {
   twice.edit = [](TinyGltf& t) {
     t.j["animations"][0]["channels"].push_back({{"sampler", 0}, {"target", {{"node", 1}, {"path", "translation"}}}});
   };
-  ExpectError(Write(dir, "twice.gltf", MakeTiny(twice).dump()), ErrorCode::kInvalidData, "animates node 1 translation twice");
+  ExpectError(Write(dir, "twice.gltf", MakeTiny(twice).dump()), ErrorCode::kInvalidData,
+              "animates node 1 translation twice");
   TinyOptions matrix;
   matrix.animations = true;
   matrix.edit = [](TinyGltf& t) {
@@ -263,7 +267,7 @@ TEST(GltfRules, ATargetAnimatedTwiceOrAMatrixNodeAnimatedIsRefused) {
 TEST(FileIo, ScanJsonCountsDepthAndValuesOutsideStrings) {
   EXPECT_EQ(runtime::ScanJson("").depth, 0u);
   EXPECT_EQ(runtime::ScanJson("[[1,2],{\"a\":[3]}]").depth, 3u);
-  EXPECT_EQ(runtime::ScanJson("[[1,2],{\"a\":[3]}]").values, 6u);  // 4 arrays and objects, 2 commas
+  EXPECT_EQ(runtime::ScanJson("[[1,2],{\"a\":[3]}]").values, 6u);       // 4 arrays and objects, 2 commas
   EXPECT_EQ(runtime::ScanJson("[\"[[[\\\"[[[\", \"]]]\"]").depth, 1u);  // brackets and escaped quotes in strings
   EXPECT_EQ(runtime::ScanJson(std::string(100000, '[')).depth, 100000u);
 }

@@ -1,14 +1,13 @@
 // Tests of inside_volume.h against analytic oracles: closed sphere and box meshes (exact volumes by
 // the divergence theorem), a unit cube whose shared edges pass through voxel centres, an open box,
 // overlapping and nested pieces (one of them inside-out).
-#include "skinspheres/lib/metrics/inside_volume.h"
-
 #include <gtest/gtest.h>
 
 #include <numbers>
 
 #include "shapes/box_mesh.h"
 #include "shapes/uv_sphere.h"
+#include "skinspheres/lib/metrics/inside_volume.h"
 
 namespace skinspheres::lib {
 namespace {

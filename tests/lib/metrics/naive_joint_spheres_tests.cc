@@ -1,11 +1,11 @@
 // Tests of naive_joint_spheres.h: boxes and radii by hand, and refusals. (The baseline measured on a
 // capsule and on the shared characters: fit_metrics_tests.cc.)
-#include "skinspheres/lib/metrics/naive_joint_spheres.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
+
+#include "skinspheres/lib/metrics/naive_joint_spheres.h"
 
 namespace skinspheres::lib {
 namespace {

@@ -1,5 +1,3 @@
-#include "skinspheres/lib/tighten/sphere_tightener.h"
-
 #include <gtest/gtest.h>
 
 #include "lib/analytic_shapes.h"
@@ -7,6 +5,7 @@
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/metrics/fit_metrics.h"
+#include "skinspheres/lib/tighten/sphere_tightener.h"
 
 namespace skinspheres::lib {
 namespace {
@@ -26,7 +25,8 @@ std::vector<TightSphere> Untightened(const RawCharacter& ch, const BodyParts& pa
     t.reference_radius = set.radii_rest[s];
     t.part = set.sphere_part[s];
     t.origin = static_cast<uint32_t>(s);
-    t.triangles.assign(set.triangles.begin() + set.triangle_offsets[s], set.triangles.begin() + set.triangle_offsets[s + 1]);
+    t.triangles.assign(set.triangles.begin() + set.triangle_offsets[s],
+                       set.triangles.begin() + set.triangle_offsets[s + 1]);
     out.push_back(std::move(t));
   }
   return out;
@@ -137,7 +137,8 @@ TEST_F(TightenBuiltin, AStrayTriangleFarAwayDoesNotInflateTheSet) {
   RawCharacter stray = ch_;
   BodyParts stray_parts = parts_;
   const int base = static_cast<int>(stray.positions_rest.size());
-  for (const Eigen::Vector3f& p : {Eigen::Vector3f(200, 0, 0), Eigen::Vector3f(200.01f, 0, 0), Eigen::Vector3f(200, 0.01f, 0)}) {
+  for (const Eigen::Vector3f& p :
+       {Eigen::Vector3f(200, 0, 0), Eigen::Vector3f(200.01f, 0, 0), Eigen::Vector3f(200, 0.01f, 0)}) {
     stray.positions_rest.push_back(p);
   }
   stray.triangles.emplace_back(base, base + 1, base + 2);

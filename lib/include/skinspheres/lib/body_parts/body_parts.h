@@ -81,7 +81,7 @@ struct BodyParts {
 
 // Joint name -> part name, as read from a JSON object {"joint name": "part name", ...}.
 struct PartOverrides {
-  std::string source_file;                         // for messages ("" when built in code)
+  std::string source_file;  // for messages ("" when built in code)
   std::map<std::string, std::string> joint_to_part;
 };
 
@@ -96,8 +96,8 @@ Result<PartOverrides> LoadPartOverrides(const std::filesystem::path& file,
                                         const skinning::Skeleton* skeleton = nullptr);
 
 // Errors: kInvalidData (RawCharacter::Validate refuses the character: skeleton arrays disagree,
-// influences / binds / triangle indices out of range), kNotFound (an override names a joint the skeleton lacks), kInvalidArgument (an
-// override names a part this character does not have, e.g. "arm_l" on a snake).
+// influences / binds / triangle indices out of range), kNotFound (an override names a joint the skeleton lacks),
+// kInvalidArgument (an override names a part this character does not have, e.g. "arm_l" on a snake).
 Result<BodyParts> SplitBodyParts(const RawCharacter& character, const PartOverrides* overrides = nullptr);
 
 }  // namespace skinspheres::lib

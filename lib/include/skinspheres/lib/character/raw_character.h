@@ -17,7 +17,6 @@
 #include <vector>
 
 #include "skinspheres/runtime/error.h"
-
 #include "skinspheres/skinning/animation_clip.h"
 #include "skinspheres/skinning/skeleton.h"
 #include "skinspheres/skinning/skinned_mesh.h"
@@ -33,13 +32,13 @@ struct MeshRange {
 };
 
 struct RawCharacter {
-  std::string source_file;                         // path as given, for messages
-  skinning::Skeleton skeleton;                     // >= 1 joint (a static file gets one)
+  std::string source_file;      // path as given, for messages
+  skinning::Skeleton skeleton;  // >= 1 joint (a static file gets one)
   std::vector<skinning::AnimationClip> clips;
-  skinning::SkinnedMesh skin;                      // bind-space positions, bind entries, influences
+  skinning::SkinnedMesh skin;  // bind-space positions, bind entries, influences
 
-  std::vector<Eigen::Vector3f> positions_rest;     // world space, rest pose (what is fitted)
-  std::vector<Eigen::Vector3i> triangles;          // indices into positions_rest
+  std::vector<Eigen::Vector3f> positions_rest;  // world space, rest pose (what is fitted)
+  std::vector<Eigen::Vector3i> triangles;       // indices into positions_rest
   std::vector<MeshRange> meshes;
 
   size_t vertex_count() const { return positions_rest.size(); }

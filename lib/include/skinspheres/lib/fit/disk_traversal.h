@@ -42,24 +42,24 @@ DiskPath BuildDiskPath(std::span<const Eigen::Vector3f> chain_joint_positions,
                        std::span<const Eigen::Vector3f> part_vertices);
 
 struct DiskContact {
-  uint16_t ray = 0;                   // r_i, i in [0, Nr)
-  int32_t triangle = -1;              // r_i.Δ
+  uint16_t ray = 0;       // r_i, i in [0, Nr)
+  int32_t triangle = -1;  // r_i.Δ
   Eigen::Vector3f point = Eigen::Vector3f::Zero();
 };
 
 // One disk position *_h and its surrounding region ⊗_h.
 struct DiskLevel {
-  float s = 0.0f;                      // arc length along the path
-  Eigen::Vector3f center = Eigen::Vector3f::Zero();  // *.c, where the rays started
+  float s = 0.0f;                                      // arc length along the path
+  Eigen::Vector3f center = Eigen::Vector3f::Zero();    // *.c, where the rays started
   Eigen::Vector3f tangent = Eigen::Vector3f::UnitY();  // γ
-  Eigen::Vector3f n0 = Eigen::Vector3f::UnitX();        // γ0 (ray r_0 points along it)
-  Eigen::Vector3f n1 = Eigen::Vector3f::UnitZ();        // γ1 = γ × γ0
-  std::vector<DiskContact> contacts;   // hits only, in ray order; misses are the rays not listed
+  Eigen::Vector3f n0 = Eigen::Vector3f::UnitX();       // γ0 (ray r_0 points along it)
+  Eigen::Vector3f n1 = Eigen::Vector3f::UnitZ();       // γ1 = γ × γ0
+  std::vector<DiskContact> contacts;                   // hits only, in ray order; misses are the rays not listed
 };
 
 struct DiskSettings {
-  int rays = 80;          // Nr, α = 360° / Nr
-  float step = 0.0f;      // δ, absolute (the fitter derives it from the part's size)
+  int rays = 80;            // Nr, α = 360° / Nr
+  float step = 0.0f;        // δ, absolute (the fitter derives it from the part's size)
   float ray_length = 0.0f;  // t_max of every ray
 };
 

@@ -60,13 +60,13 @@ enum class SphereMethod { kM1, kM2, kM1A };
 const char* ToString(SphereMethod method);  // "m1", "m2", "m1a"; "?" outside the enum
 
 struct FitSettings {
-  int rays = 80;                  // Nr (α = 360°/Nr), 3..65535
-  int per_level = 2;              // p for the torso (non-tubular): 1, 2 or 4
+  int rays = 80;                     // Nr (α = 360°/Nr), 3..65535
+  int per_level = 2;                 // p for the torso (non-tubular): 1, 2 or 4
   bool per_level_all_parts = false;  // also use p for limbs and head (the paper's comparison)
   SphereMethod method = SphereMethod::kM1A;
-  float overlap = 0.3f;           // PD in [0, 1)
-  float step = 0.02f;             // δ as a fraction of each part's path length, (0, 1]
-  int adjacent_hops = 1;          // exclude pairs whose joints are <= this many bones apart (0..2)
+  float overlap = 0.3f;   // PD in [0, 1)
+  float step = 0.02f;     // δ as a fraction of each part's path length, (0, 1]
+  int adjacent_hops = 1;  // exclude pairs whose joints are <= this many bones apart (0..2)
   bool exclude_bind_overlaps = true;
   // Refinement after ownership: rounds of "each sphere becomes the minimum ball of the vertices it
   // owns, then ownership is redone" (0 keeps the paper's centres and only grows/shrinks radii).
@@ -88,12 +88,12 @@ struct FitSettings {
   // The first reason the settings are refused (kInvalidArgument; the message names the setting, its
   // range and the value given), or nullopt when they are fine.
   std::optional<Error> Validate() const;
-  std::string ToJson() const;     // the "params" object of the sphere-set file
+  std::string ToJson() const;  // the "params" object of the sphere-set file
 };
 
 struct PartFitReport {
   std::string name;
-  int levels_traversed = 0;       // disk positions
+  int levels_traversed = 0;  // disk positions
   int levels_kept = 0;
   int spheres = 0;
   int triangles = 0;
@@ -103,11 +103,11 @@ struct PartFitReport {
 
 struct FitReport {
   std::vector<PartFitReport> parts;
-  float body_height = 0.0f;       // extent along +Y of the rest-pose mesh
-  int triangles_covered = 0;      // triangles proven inside their owner sphere
-  int spheres_grown = 0;          // spheres whose radius grew to hold their triangles
-  float growth_max = 0.0f;        // largest growth, relative to body height
-  float growth_mean = 0.0f;       // mean growth over the grown spheres, relative to body height
+  float body_height = 0.0f;   // extent along +Y of the rest-pose mesh
+  int triangles_covered = 0;  // triangles proven inside their owner sphere
+  int spheres_grown = 0;      // spheres whose radius grew to hold their triangles
+  float growth_max = 0.0f;    // largest growth, relative to body height
+  float growth_mean = 0.0f;   // mean growth over the grown spheres, relative to body height
   int spheres_shrunk = 0;
   int spheres_dropped = 0;        // owned no triangle
   int spheres_split = 0;          // splits taken by the tightening pass
@@ -134,7 +134,6 @@ Result<FitResult> FitSpheres(const RawCharacter& character, const BodyParts& par
 // The bind-pose proof: every triangle's three vertices inside its owner sphere (in double, with a
 // relative tolerance of 1e-6 of the radius). Returns the number of triangles outside (0 = sound);
 // `first_bad` gets the first offending triangle. Triangles owned by no sphere count as outside.
-int CountUncoveredTriangles(const RawCharacter& character, const runtime::SphereSet& spheres,
-                            int* first_bad = nullptr);
+int CountUncoveredTriangles(const RawCharacter& character, const runtime::SphereSet& spheres, int* first_bad = nullptr);
 
 }  // namespace skinspheres::lib

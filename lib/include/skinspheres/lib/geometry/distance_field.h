@@ -59,7 +59,7 @@ class DistanceField {
   bool empty() const { return closest_.empty(); }
 
  private:
-  size_t Nearest(const Eigen::Vector3f& q) const;  // index of the voxel nearest q (clamped)
+  size_t Nearest(const Eigen::Vector3f& q) const;                  // index of the voxel nearest q (clamped)
   float OutsideDistance(const Eigen::Vector3f& q, float d) const;  // min(d, outside triangles) beyond the grid
   size_t Index(int x, int y, int z) const {
     return (static_cast<size_t>(z) * dims_.y() + static_cast<size_t>(y)) * dims_.x() + static_cast<size_t>(x);
@@ -68,9 +68,9 @@ class DistanceField {
   float voxel_ = 0.0f;
   float inv_voxel_ = 0.0f;
   Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
-  std::vector<Eigen::Vector3f> closest_;  // per voxel: a point on the mesh (nearest found)
-  std::vector<int32_t> closest_triangle_;  // per voxel: the triangle that point lies on
-  std::vector<int32_t> outside_;           // triangles not wholly inside the grid
+  std::vector<Eigen::Vector3f> closest_;               // per voxel: a point on the mesh (nearest found)
+  std::vector<int32_t> closest_triangle_;              // per voxel: the triangle that point lies on
+  std::vector<int32_t> outside_;                       // triangles not wholly inside the grid
   Eigen::Vector3f grid_hi_ = Eigen::Vector3f::Zero();  // centre of the last voxel
   std::span<const Eigen::Vector3f> positions_;
   std::span<const Eigen::Vector3i> triangles_;

@@ -37,9 +37,9 @@ namespace skinspheres::lib {
 inline constexpr double kBarycentricTolerance = 1e-9;
 
 struct RayTriangleHit {
-  float t = 0.0f;        // ray parameter of the hit: point = origin + t·dir
-  float u = 0.0f;        // barycentric weight of vertex b
-  float v = 0.0f;        // barycentric weight of vertex c; weight of a is 1 - u - v
+  float t = 0.0f;           // ray parameter of the hit: point = origin + t·dir
+  float u = 0.0f;           // barycentric weight of vertex b
+  float v = 0.0f;           // barycentric weight of vertex c; weight of a is 1 - u - v
   bool front_face = false;  // dir·((b-a)×(c-a)) < 0
 };
 
@@ -48,9 +48,9 @@ struct RayTriangleHit {
 bool IsDegenerateTriangle(const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c);
 
 // The hit of the ray with triangle (a, b, c) for t in [t_min, t_max], or nullopt.
-std::optional<RayTriangleHit> IntersectRayTriangle(
-    const Eigen::Vector3f& origin, const Eigen::Vector3f& dir,
-    const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c,
-    float t_min = 0.0f, float t_max = std::numeric_limits<float>::infinity());
+std::optional<RayTriangleHit> IntersectRayTriangle(const Eigen::Vector3f& origin, const Eigen::Vector3f& dir,
+                                                   const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                                                   const Eigen::Vector3f& c, float t_min = 0.0f,
+                                                   float t_max = std::numeric_limits<float>::infinity());
 
 }  // namespace skinspheres::lib

@@ -28,11 +28,11 @@
 namespace skinspheres::lib {
 
 struct TriangleHit {
-  float t = 0.0f;               // ray parameter: point = origin + t·dir
-  int32_t triangle = -1;        // index into the `triangles` span given to Build
+  float t = 0.0f;                                   // ray parameter: point = origin + t·dir
+  int32_t triangle = -1;                            // index into the `triangles` span given to Build
   Eigen::Vector3f point = Eigen::Vector3f::Zero();  // the contact point, from the barycentrics
-  float u = 0.0f, v = 0.0f;     // barycentrics of vertices 1 and 2 (vertex 0: 1 - u - v)
-  bool front_face = false;      // see RayTriangleHit
+  float u = 0.0f, v = 0.0f;                         // barycentrics of vertices 1 and 2 (vertex 0: 1 - u - v)
+  bool front_face = false;                          // see RayTriangleHit
 };
 
 class TriangleBvh {
@@ -40,8 +40,7 @@ class TriangleBvh {
   TriangleBvh() = default;  // empty: FirstHit always misses
 
   static Result<TriangleBvh> Build(std::span<const Eigen::Vector3f> positions,
-                                   std::span<const Eigen::Vector3i> triangles,
-                                   std::span<const int32_t> subset = {});
+                                   std::span<const Eigen::Vector3i> triangles, std::span<const int32_t> subset = {});
 
   std::optional<TriangleHit> FirstHit(const Eigen::Vector3f& origin, const Eigen::Vector3f& dir,
                                       float t_max = std::numeric_limits<float>::infinity()) const;
@@ -69,8 +68,8 @@ class TriangleBvh {
 // TriangleBvh::FirstHit. Out-of-range indices are skipped (the BVH refuses them at build).
 std::optional<TriangleHit> BruteForceFirstHit(std::span<const Eigen::Vector3f> positions,
                                               std::span<const Eigen::Vector3i> triangles,
-                                              std::span<const int32_t> subset,
-                                              const Eigen::Vector3f& origin, const Eigen::Vector3f& dir,
+                                              std::span<const int32_t> subset, const Eigen::Vector3f& origin,
+                                              const Eigen::Vector3f& dir,
                                               float t_max = std::numeric_limits<float>::infinity());
 
 }  // namespace skinspheres::lib

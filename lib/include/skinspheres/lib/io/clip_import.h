@@ -49,8 +49,8 @@ Result<AnimationFile> ReadAnimationFile(const std::filesystem::path& file);
 std::string MatchKey(std::string_view name);
 
 struct ClipMatchReport {
-  size_t matched_joints = 0;               // character joints that found a file node
-  std::vector<std::string> dropped_nodes;  // file nodes with tracks and no character joint
+  size_t matched_joints = 0;                 // character joints that found a file node
+  std::vector<std::string> dropped_nodes;    // file nodes with tracks and no character joint
   std::vector<std::string> rescaled_joints;  // joints whose translation tracks were scaled
 };
 

@@ -48,9 +48,9 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/skinning/math_types.h"
 #include "skinspheres/lib/character/raw_character.h"
 #include "skinspheres/runtime/error.h"
+#include "skinspheres/skinning/math_types.h"
 
 namespace skinspheres::lib {
 
@@ -70,9 +70,9 @@ struct GlbExtras {
 };
 
 struct GlbExportSummary {
-  uint32_t mesh_count = 0;       // character pieces + spheres
+  uint32_t mesh_count = 0;  // character pieces + spheres
   uint32_t node_count = 0;
-  uint32_t animation_count = 0;  // clips written (character clips + the sphere clip if any)
+  uint32_t animation_count = 0;              // clips written (character clips + the sphere clip if any)
   std::vector<std::string> mesh_node_names;  // per MeshRange, the name of the node holding it
 };
 
@@ -85,7 +85,8 @@ Result<GlbExportSummary> ExportGlb(const RawCharacter& character, const std::fil
                                    const GlbExtras& extras = {});
 
 // The GLB bytes ExportGlb would write, in memory. Error messages name `label` (e.g. the source file).
-Result<GlbBlob> ExportGlbToMemory(const RawCharacter& character, const std::string& label, const GlbExtras& extras = {});
+Result<GlbBlob> ExportGlbToMemory(const RawCharacter& character, const std::string& label,
+                                  const GlbExtras& extras = {});
 
 // The same scene as ASCII FBX 7.4 (Assimp's "fbxa"; key times written in seconds). Assimp 5.2.5's
 // binary FBX writer makes files its own reader refuses, hence ASCII. Limits as above; Assimp's FBX

@@ -53,7 +53,7 @@
 namespace skinspheres::lib {
 
 // The character file itself, and a .gltf's external buffer files together.
-inline constexpr uint64_t kMaxCharacterFileBytes = uint64_t{1} << 30;     // 1 GiB
+inline constexpr uint64_t kMaxCharacterFileBytes = uint64_t{1} << 30;       // 1 GiB
 inline constexpr uint64_t kMaxGltfExternalBufferBytes = uint64_t{1} << 30;  // 1 GiB
 // glTF JSON: nesting depth (runtime::kMaxJsonDepth, 128) and values (arrays, objects and the
 // separators between values), which bound the parsed document's memory (~100 bytes a value).
@@ -63,8 +63,8 @@ inline constexpr uint64_t kMaxGltfJsonValues = uint64_t{1} << 23;  // 8,388,608
 inline constexpr uint64_t kMaxAccessorValues = uint64_t{1} << 27;  // 134,217,728
 // The character: vertices, triangles, skeleton joints (nodes on a path from a root to a joint),
 // and animation keys over every clip and track.
-inline constexpr uint64_t kMaxVertices = uint64_t{1} << 24;       // 16,777,216
-inline constexpr uint64_t kMaxTriangles = uint64_t{1} << 25;      // 33,554,432
+inline constexpr uint64_t kMaxVertices = uint64_t{1} << 24;   // 16,777,216
+inline constexpr uint64_t kMaxTriangles = uint64_t{1} << 25;  // 33,554,432
 inline constexpr uint64_t kMaxJoints = 4096;
 inline constexpr uint64_t kMaxAnimationKeys = uint64_t{1} << 24;  // 16,777,216
 

@@ -44,10 +44,9 @@
 // searches (bench/fitter_bench.cc).
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "skinspheres/lib/character/raw_character.h"
 
@@ -55,30 +54,30 @@ namespace skinspheres::lib {
 
 struct TightSphere {
   Eigen::Vector3f center = Eigen::Vector3f::Zero();
-  float radius = 0.0f;           // holding radius of `triangles` around `center` (recomputed)
+  float radius = 0.0f;            // holding radius of `triangles` around `center` (recomputed)
   float reference_radius = 0.0f;  // what growth is measured against: the paper's radius in, the
                                   // minimum ball of a half for spheres made by a split
   uint16_t part = 0;
-  uint32_t origin = 0;            // index of the input sphere it descends from
+  uint32_t origin = 0;              // index of the input sphere it descends from
   std::vector<uint32_t> triangles;  // owned triangles (ascending on output)
 };
 
 struct TightenSettings {
-  int max_spheres = 200;     // splitting stops at this many spheres (all parts together)
+  int max_spheres = 200;  // splitting stops at this many spheres (all parts together)
   // Splitting also stops once the union's estimated mean standoff, Σ E / Σ exposed area, is at
   // most this fraction of the body height (extent along +Y); 0: split while it pays.
   float target_standoff = 0.0125f;
-  float split_gain = 0.9f;   // take a split when the halves expose <= this x the sphere; 0: never
-  int search_rounds = 1;     // centre-search rounds before and after splitting (0: no search)
-  int passes = 5;            // pattern-search passes per centre search
-  int split_passes = 3;      // the same for the halves of a tentative split
-  int searched_cuts = 2;     // of the 3 median cuts, how many (least exposed first) are searched
-  int samples = 48;          // N, directions per sphere for the exposure
+  float split_gain = 0.9f;    // take a split when the halves expose <= this x the sphere; 0: never
+  int search_rounds = 1;      // centre-search rounds before and after splitting (0: no search)
+  int passes = 5;             // pattern-search passes per centre search
+  int split_passes = 3;       // the same for the halves of a tentative split
+  int searched_cuts = 2;      // of the 3 median cuts, how many (least exposed first) are searched
+  int samples = 48;           // N, directions per sphere for the exposure
   int field_resolution = 64;  // DistanceField voxels along the body's largest extent
 };
 
 struct TightenReport {
-  int splits = 0;                // spheres added by splitting
+  int splits = 0;  // spheres added by splitting
   int merges = 0;
   int triangles_handed_over = 0;
   int dropped = 0;               // spheres removed for owning nothing (after hand-over or merge)
