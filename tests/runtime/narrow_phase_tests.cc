@@ -242,12 +242,18 @@ TEST(NarrowPhase, BuiltinWalkTouchesNothingAndTouchOnlyWithTheHands) {
 
 // ------------------------------------------------------------------ lazy skinning, threads
 
-TEST(NarrowPhase, FastModeWithLazySkinningEqualsExactModeOnTheFullySkinnedMesh) {
+// The built-in character, then each shared character present on this machine (the shared ones
+// absent here are reported by the parameterised NarrowPhaseShared tests, which skip them).
+std::vector<std::string> BuiltinAndPresentSharedCharacters() {
   std::vector<std::string> names = {"builtin"};
   for (const auto& n : test::SharedCharacters()) {
     if (!test::Asset(n).empty()) names.push_back(n);
   }
-  for (const std::string& name : names) {
+  return names;
+}
+
+TEST(NarrowPhase, FastModeWithLazySkinningEqualsExactModeOnTheFullySkinnedMesh) {
+  for (const std::string& name : BuiltinAndPresentSharedCharacters()) {
     auto fc = test::LoadFitted(name);
     ASSERT_TRUE(fc);
     auto asset = CharacterAsset::Create(fc->set);
@@ -286,11 +292,7 @@ TEST(NarrowPhase, FastModeWithLazySkinningEqualsExactModeOnTheFullySkinnedMesh) 
 // Mode (b)'s layout: the runs tile the prepared slots, every sphere vertex has exactly one slot, and
 // a sphere's groups' runs hold exactly the vertices of its triangles (what the job must skin for it).
 TEST(NarrowPhase, LazySkinningRunsHoldEachSpheresVerticesOnce) {
-  std::vector<std::string> names = {"builtin"};
-  for (const auto& n : test::SharedCharacters()) {
-    if (!test::Asset(n).empty()) names.push_back(n);
-  }
-  for (const std::string& name : names) {
+  for (const std::string& name : BuiltinAndPresentSharedCharacters()) {
     auto fc = test::LoadFitted(name);
     ASSERT_TRUE(fc);
     auto asset = CharacterAsset::Create(fc->set);

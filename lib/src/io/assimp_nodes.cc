@@ -1,6 +1,9 @@
 // The Assimp node tree shared by the Assimp readers (assimp_nodes.h).
 #include "assimp_nodes.h"
 
+#include <cmath>
+#include <type_traits>
+
 #include "importer_internal.h"
 
 namespace skinspheres::lib::detail {
@@ -38,6 +41,64 @@ Result<AssimpNodeTree> ReadAssimpNodeTree(const aiScene& scene, const std::files
     for (unsigned c = n->mNumChildren; c-- > 0;) stack.push_back({n->mChildren[c], index});
   }
   return tree;
+}
+
+Result<ClipHeader> ReadClipHeader(const aiAnimation& anim, unsigned index, const std::filesystem::path& file) {
+  ClipHeader h;
+  h.clip.name = anim.mName.length > 0 ? anim.mName.C_Str() : "animation_" + std::to_string(index);
+  if (anim.mTicksPerSecond > 0.0) h.ticks_per_second = anim.mTicksPerSecond;
+  h.clip.duration_s = static_cast<float>(anim.mDuration / h.ticks_per_second);
+  if (!std::isfinite(h.clip.duration_s) || h.clip.duration_s < 0.0f) {
+    return ImportError(ErrorCode::kInvalidData, file, "animation \"" + h.clip.name + "\" has a bad duration");
+  }
+  return h;
+}
+
+namespace {
+
+// One key of AppendChannelKeys. False when the value is not finite.
+template <typename V>
+bool AddKey(skinning::Track<V>& track, double seconds, const V& value) {
+  if constexpr (std::is_same_v<V, Quatf>) {
+    if (!value.coeffs().allFinite()) return false;
+  } else {
+    if (!value.allFinite()) return false;
+  }
+  const float t = static_cast<float>(seconds);
+  if (!std::isfinite(t)) return true;
+  if (!track.times_s.empty() && t <= track.times_s.back()) {
+    if (t < track.times_s.back()) return true;
+    track.times_s.pop_back();
+    track.values.pop_back();
+  }
+  track.times_s.push_back(t);
+  track.values.push_back(value);
+  return true;
+}
+
+}  // namespace
+
+std::optional<Error> AppendChannelKeys(const aiNodeAnim& channel, const ClipHeader& header,
+                                       const std::filesystem::path& file, skinning::JointTrack* track) {
+  const double tps = header.ticks_per_second;
+  bool finite = true;
+  for (unsigned k = 0; k < channel.mNumPositionKeys; ++k) {
+    const aiVector3D& v = channel.mPositionKeys[k].mValue;
+    finite &= AddKey(track->translation, channel.mPositionKeys[k].mTime / tps, Eigen::Vector3f(v.x, v.y, v.z));
+  }
+  for (unsigned k = 0; k < channel.mNumRotationKeys; ++k) {
+    const aiQuaternion& q = channel.mRotationKeys[k].mValue;
+    finite &=
+        AddKey(track->rotation, channel.mRotationKeys[k].mTime / tps, Quatf(Quatf(q.w, q.x, q.y, q.z).normalized()));
+  }
+  for (unsigned k = 0; k < channel.mNumScalingKeys; ++k) {
+    const aiVector3D& v = channel.mScalingKeys[k].mValue;
+    finite &= AddKey(track->scale, channel.mScalingKeys[k].mTime / tps, Eigen::Vector3f(v.x, v.y, v.z));
+  }
+  if (finite) return std::nullopt;
+  return ImportError(ErrorCode::kInvalidData, file,
+                     "animation \"" + header.clip.name + "\" has a key value that is NaN or infinite on node " +
+                         channel.mNodeName.C_Str());
 }
 
 }  // namespace skinspheres::lib::detail

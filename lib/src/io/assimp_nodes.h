@@ -8,10 +8,12 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "skinspheres/runtime/error.h"
+#include "skinspheres/skinning/animation_clip.h"
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/skeleton.h"
 
@@ -37,5 +39,24 @@ struct AssimpNodeTree {
 // The tree of `scene` (its root must be non-null). Error kInvalidData "<file>: node '<name>' has a
 // non-finite transform" for the first such node in preorder.
 Result<AssimpNodeTree> ReadAssimpNodeTree(const aiScene& scene, const std::filesystem::path& file);
+
+// An animation's clip before its tracks: the name (the animation's, or "animation_<index>" when it
+// has none), the duration in seconds, and the ticks per second its keys are timed in (Assimp's
+// default of 25 when the file gives none). Error kInvalidData "<file>: animation "<name>" has a
+// bad duration" when the duration is negative or not finite.
+struct ClipHeader {
+  skinning::AnimationClip clip;  // name and duration_s set, no tracks
+  double ticks_per_second = 25.0;
+};
+Result<ClipHeader> ReadClipHeader(const aiAnimation& anim, unsigned index, const std::filesystem::path& file);
+
+// Appends the translation, rotation (normalised) and scale keys of `channel` to `track`, times in
+// seconds. A key at the time of the previous one replaces it; an earlier one, or one at a
+// non-finite time, is ignored (times strictly increasing, as Track requires). Error kInvalidData
+// "<file>: animation "<clip>" has a key value that is NaN or infinite on node <node>" when a key
+// value is not finite (`track` is then partly filled: drop it), nullopt otherwise; the
+// optional<Error> of RawCharacter::Validate.
+std::optional<Error> AppendChannelKeys(const aiNodeAnim& channel, const ClipHeader& header,
+                                       const std::filesystem::path& file, skinning::JointTrack* track);
 
 }  // namespace skinspheres::lib::detail

@@ -47,27 +47,6 @@ Result<AnimationFile> ReadGltfAnimations(const std::filesystem::path& file, std:
   return out;
 }
 
-// Appends a key; a key at the time of the previous one replaces it, an earlier one is ignored
-// (times strictly increasing, as Track requires). False when the value is not finite.
-template <typename V>
-bool AddKey(skinning::Track<V>& track, double seconds, const V& value) {
-  const float t = static_cast<float>(seconds);
-  if constexpr (std::is_same_v<V, Quatf>) {
-    if (!value.coeffs().allFinite()) return false;
-  } else {
-    if (!value.allFinite()) return false;
-  }
-  if (!std::isfinite(t)) return true;
-  if (!track.times_s.empty() && t <= track.times_s.back()) {
-    if (t < track.times_s.back()) return true;
-    track.times_s.pop_back();
-    track.values.pop_back();
-  }
-  track.times_s.push_back(t);
-  track.values.push_back(value);
-  return true;
-}
-
 Result<AnimationFile> ReadAssimpAnimations(const std::filesystem::path& file) {
   Assimp::Importer importer;
   // FBX: no "<bone>_$AssimpFbx$_Rotation" helper nodes; channels land on the bones themselves.
@@ -92,13 +71,9 @@ Result<AnimationFile> ReadAssimpAnimations(const std::filesystem::path& file) {
   for (unsigned m = 0; m < scene->mNumMeshes; ++m) out.skinned_mesh_count += scene->mMeshes[m]->HasBones() ? 1 : 0;
   for (unsigned a = 0; a < scene->mNumAnimations; ++a) {
     const aiAnimation* anim = scene->mAnimations[a];
-    skinning::AnimationClip clip;
-    clip.name = anim->mName.length > 0 ? anim->mName.C_Str() : "animation_" + std::to_string(a);
-    const double tps = anim->mTicksPerSecond > 0.0 ? anim->mTicksPerSecond : 25.0;  // Assimp's default
-    clip.duration_s = static_cast<float>(anim->mDuration / tps);
-    if (!std::isfinite(clip.duration_s) || clip.duration_s < 0.0f) {
-      return ImportError(ErrorCode::kInvalidData, file, "animation \"" + clip.name + "\" has a bad duration");
-    }
+    auto header = detail::ReadClipHeader(*anim, a, file);
+    if (!header.ok()) return header.error();
+    skinning::AnimationClip clip = header->clip;
     std::map<int32_t, size_t> track_of_node;
     for (unsigned ch = 0; ch < anim->mNumChannels; ++ch) {
       const aiNodeAnim* na = anim->mChannels[ch];
@@ -109,26 +84,7 @@ Result<AnimationFile> ReadAssimpAnimations(const std::filesystem::path& file) {
         clip.tracks.emplace_back();
         clip.tracks.back().joint = node;
       }
-      skinning::JointTrack& track = clip.tracks[slot->second];
-      bool finite = true;
-      for (unsigned k = 0; k < na->mNumPositionKeys; ++k) {
-        const aiVector3D& v = na->mPositionKeys[k].mValue;
-        finite &= AddKey(track.translation, na->mPositionKeys[k].mTime / tps, Eigen::Vector3f(v.x, v.y, v.z));
-      }
-      for (unsigned k = 0; k < na->mNumRotationKeys; ++k) {
-        const aiQuaternion& q = na->mRotationKeys[k].mValue;
-        finite &=
-            AddKey(track.rotation, na->mRotationKeys[k].mTime / tps, Quatf(Quatf(q.w, q.x, q.y, q.z).normalized()));
-      }
-      for (unsigned k = 0; k < na->mNumScalingKeys; ++k) {
-        const aiVector3D& v = na->mScalingKeys[k].mValue;
-        finite &= AddKey(track.scale, na->mScalingKeys[k].mTime / tps, Eigen::Vector3f(v.x, v.y, v.z));
-      }
-      if (!finite) {
-        return ImportError(
-            ErrorCode::kInvalidData, file,
-            "animation \"" + clip.name + "\" has a key value that is NaN or infinite on node " + na->mNodeName.C_Str());
-      }
+      if (auto bad = detail::AppendChannelKeys(*na, *header, file, &clip.tracks[slot->second])) return *bad;
     }
     std::sort(clip.tracks.begin(), clip.tracks.end(),
               [](const skinning::JointTrack& x, const skinning::JointTrack& y) { return x.joint < y.joint; });

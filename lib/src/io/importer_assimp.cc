@@ -183,10 +183,9 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
   if (options.read_clips && skinned_file) {
     for (unsigned a = 0; a < scene->mNumAnimations; ++a) {
       const aiAnimation* anim = scene->mAnimations[a];
-      skinning::AnimationClip clip;
-      clip.name = anim->mName.length > 0 ? anim->mName.C_Str() : "animation_" + std::to_string(a);
-      const double tps = anim->mTicksPerSecond > 0.0 ? anim->mTicksPerSecond : 25.0;  // Assimp's default
-      clip.duration_s = static_cast<float>(anim->mDuration / tps);
+      auto header = ReadClipHeader(*anim, a, file);
+      if (!header.ok()) return header.error();
+      skinning::AnimationClip clip = header->clip;
       for (unsigned ch = 0; ch < anim->mNumChannels; ++ch) {
         const aiNodeAnim* na = anim->mChannels[ch];
         const int32_t n = node_named(na->mNodeName);
@@ -194,40 +193,7 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
         if (n < 0 || joint_of_node[static_cast<size_t>(n)] < 0) continue;
         skinning::JointTrack track;
         track.joint = joint_of_node[static_cast<size_t>(n)];
-        bool bad_key = false;  // a NaN/Inf key value: the file is refused (as the glTF reader does)
-        // Keys at the same time as the previous one replace it (times strictly increasing).
-        auto add = [&](auto& tr, double ticks, auto value) {
-          const float t = static_cast<float>(ticks / tps);
-          if (!std::isfinite(t)) return;
-          if constexpr (requires { value.coeffs(); }) {
-            if (!value.coeffs().allFinite()) bad_key = true;
-          } else {
-            if (!value.allFinite()) bad_key = true;
-          }
-          if (!tr.times_s.empty() && t <= tr.times_s.back()) {
-            if (t < tr.times_s.back()) return;  // out of order: ignore
-            tr.times_s.pop_back();
-            tr.values.pop_back();
-          }
-          tr.times_s.push_back(t);
-          tr.values.push_back(value);
-        };
-        for (unsigned k = 0; k < na->mNumPositionKeys; ++k) {
-          const aiVector3D& v = na->mPositionKeys[k].mValue;
-          add(track.translation, na->mPositionKeys[k].mTime, Eigen::Vector3f(v.x, v.y, v.z));
-        }
-        for (unsigned k = 0; k < na->mNumRotationKeys; ++k) {
-          const aiQuaternion& q = na->mRotationKeys[k].mValue;
-          add(track.rotation, na->mRotationKeys[k].mTime, Quatf(q.w, q.x, q.y, q.z));
-        }
-        for (unsigned k = 0; k < na->mNumScalingKeys; ++k) {
-          const aiVector3D& v = na->mScalingKeys[k].mValue;
-          add(track.scale, na->mScalingKeys[k].mTime, Eigen::Vector3f(v.x, v.y, v.z));
-        }
-        if (bad_key) {
-          return invalid("clip \"" + clip.name + "\" has a key value that is NaN or infinite on node " +
-                         na->mNodeName.C_Str());
-        }
+        if (auto bad = AppendChannelKeys(*na, *header, file, &track)) return *bad;
         clip.tracks.push_back(std::move(track));
       }
       std::sort(clip.tracks.begin(), clip.tracks.end(),
