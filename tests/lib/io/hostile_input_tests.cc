@@ -17,7 +17,6 @@
 
 #include "lib/tiny_gltf.h"
 #include "skinspheres/lib/io/importer.h"
-#include "skinspheres/runtime/file_io.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {
@@ -259,52 +258,6 @@ TEST(GltfRules, ATargetAnimatedTwiceOrAMatrixNodeAnimatedIsRefused) {
   };
   ExpectError(Write(dir, "matrix.gltf", MakeTiny(matrix).dump()), ErrorCode::kInvalidData,
               "animates the translation of node 1, which has a matrix");
-}
-
-// ------------------------------------------------------------------------------------------
-// The helpers themselves (runtime/file_io.h).
-
-TEST(FileIo, ScanJsonCountsDepthAndValuesOutsideStrings) {
-  EXPECT_EQ(runtime::ScanJson("").depth, 0u);
-  EXPECT_EQ(runtime::ScanJson("[[1,2],{\"a\":[3]}]").depth, 3u);
-  EXPECT_EQ(runtime::ScanJson("[[1,2],{\"a\":[3]}]").values, 6u);       // 4 arrays and objects, 2 commas
-  EXPECT_EQ(runtime::ScanJson("[\"[[[\\\"[[[\", \"]]]\"]").depth, 1u);  // brackets and escaped quotes in strings
-  EXPECT_EQ(runtime::ScanJson(std::string(100000, '[')).depth, 100000u);
-}
-
-TEST(FileIo, ReadRegularFileCapsWhatItReads) {
-  const auto dir = test::TempDir("file_io_read");
-  const auto path = Write(dir, "ten.txt", "0123456789");
-  auto ten = runtime::ReadRegularFile(path, 10);
-  ASSERT_TRUE(ten.ok()) << ten.error().message;
-  EXPECT_EQ(*ten, "0123456789");
-  auto nine = runtime::ReadRegularFile(path, 9, "test file");
-  ASSERT_FALSE(nine.ok());
-  EXPECT_EQ(nine.error().message, path.string() + ": is 10 bytes; a test file may be at most 9 bytes");
-  // /proc files report size 0 and are read to their end, within the cap.
-  auto proc = runtime::ReadRegularFile("/proc/self/status", 1 << 20);
-  ASSERT_TRUE(proc.ok()) << proc.error().message;
-  EXPECT_NE(proc->find("Name:"), std::string::npos);
-  EXPECT_FALSE(runtime::ReadRegularFile("/proc/self/status", 16).ok());
-  auto prefix = runtime::ReadRegularFilePrefix(path, 4);
-  ASSERT_TRUE(prefix.ok());
-  EXPECT_EQ(std::string(prefix->begin(), prefix->end()), "0123");
-  EXPECT_EQ(runtime::ReadRegularFilePrefix(path, 11).error().code, ErrorCode::kFormatRejected);
-}
-
-TEST(FileIo, WritesAreCheckedThroughTheClose) {
-  // /dev/full accepts the open and the buffered write, and fails the flush: never reported as written.
-  const auto err = runtime::WriteWholeFile("/dev/full", "some bytes");
-  ASSERT_TRUE(err.has_value());
-  EXPECT_EQ(err->message, "/dev/full: write failed (No space left on device)");
-  runtime::CheckedFileWriter out("/dev/full");
-  for (int k = 0; k < 1000; ++k) out.Write(std::string(1000, 'x'));  // fails once the stdio buffer flushes
-  EXPECT_FALSE(out.ok());
-  EXPECT_TRUE(out.Close().has_value());
-  const auto dir = test::TempDir("file_io_write");
-  EXPECT_TRUE(runtime::WriteWholeFile(dir / "no_such_dir" / "x", "x").has_value());
-  EXPECT_FALSE(runtime::WriteWholeFile(dir / "ok.txt", "fine").has_value());
-  EXPECT_EQ(*runtime::ReadRegularFile(dir / "ok.txt", 100), "fine");
 }
 
 }  // namespace
