@@ -26,6 +26,8 @@
 //     triangle pair, as we compute points), 1 off (the pairs only), 2 the refit alone.
 //   BM_ClusterSize/char/work/size  mode (a) with clusters of at most `size` triangles.
 //   BM_LazySkin/char/work/way  the skinning of mode (b) alone (see there) against the whole mesh.
+//   BM_LazyVsWhole/char/work   modes 1 and 2 paired frame by frame (see there): their ratio under
+//     one machine load.
 // Checks before timing (set-up; a failure skips the row with the reason): fast + lazy gives the
 // same contacts as fast + full skin on every frame, and FCL's intersecting triangle pairs, after
 // our exclusion rules (sphere pairs the filter excludes, shared vertex, intersecting at rest,
@@ -35,6 +37,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -257,20 +260,20 @@ struct WholeMeshSkinner {
   bool Skin(const Frame& f) { return sk::SkinningMatricesJob{c.ch.skin.binds, f.joint_world, mats}.Run() && job.Run(); }
 };
 
-void BM_Narrow(benchmark::State& state) {
-  const int work = int(state.range(1)), mode = int(state.range(2));
-  Character* c = Get(state, int(state.range(0)), work);
-  if (!c) return;
-  const Workload& w = c->work[work];
-  const rt::NarrowPhaseData& data = *c->asset->narrow_phase();
+// One of BM_Narrow's modes on one frame, with its own context (and, for mode 2, its own
+// whole-mesh skinning buffers).
+struct NarrowRunner {
+  const Character& c;
+  const int mode;
+  const rt::NarrowPhaseData& data;
   rt::NarrowPhaseContext ctx;
-  ctx.Resize(data, mode == 1);
-  rt::FrameContacts out, check;
-  out.Reserve(4096);
-  WholeMeshSkinner whole(*c);
-  auto run = [&](const Frame& f, rt::FrameContacts* result) {
+  WholeMeshSkinner whole;
+  NarrowRunner(const Character& character, int m) : c(character), mode(m), data(*character.asset->narrow_phase()), whole(character) {
+    ctx.Resize(data, mode == 1);
+  }
+  bool Run(const Frame& f, rt::FrameContacts* result) {
     rt::NarrowPhaseJob job;
-    job.set = &c->set;
+    job.set = &c.set;
     job.data = &data;
     job.context = &ctx;
     job.out = result;
@@ -289,24 +292,38 @@ void BM_Narrow(benchmark::State& state) {
       }
     }
     return job.Run();
-  };
-  // Check: fast + lazy == fast + full skin == the frame's own positions (bit for bit).
-  if (mode != 0) {
+  }
+  // Fast + lazy == fast + full skin == the frame's own positions, bit for bit, on every frame.
+  bool FastModeMatchesFullSkin(const Workload& w, rt::FrameContacts* out, rt::FrameContacts* check) {
     for (const Frame& f : w.frames) {
       rt::NarrowPhaseContext other;
       other.Resize(data, false);
-      rt::NarrowPhaseJob job{&c->set, &data, f.spheres_fast, f.pairs_fast, f.positions, {}, &other, &check};
-      if (!run(f, &out) || !job.Run() || !(out == check)) return state.SkipWithError("fast-mode contacts differ between lazy and full skinning");
+      rt::NarrowPhaseJob job{&c.set, &data, f.spheres_fast, f.pairs_fast, f.positions, {}, &other, check};
+      if (!Run(f, out) || !job.Run() || !(*out == *check)) return false;
     }
+    return true;
+  }
+};
+
+void BM_Narrow(benchmark::State& state) {
+  const int work = int(state.range(1)), mode = int(state.range(2));
+  Character* c = Get(state, int(state.range(0)), work);
+  if (!c) return;
+  const Workload& w = c->work[work];
+  NarrowRunner runner(*c, mode);
+  rt::FrameContacts out, check;
+  out.Reserve(4096);
+  if (mode != 0 && !runner.FastModeMatchesFullSkin(w, &out, &check)) {
+    return state.SkipWithError("fast-mode contacts differ between lazy and full skinning");
   }
   size_t frame = 0, pairs = 0, contacts = 0;
   rt::NarrowPhaseContext::Stats stats;
   for (auto _ : state) {
     const Frame& f = w.frames[frame % w.frames.size()];
-    if (!run(f, &out)) return state.SkipWithError("narrow phase refused a frame");
+    if (!runner.Run(f, &out)) return state.SkipWithError("narrow phase refused a frame");
     pairs += mode == 0 ? f.pairs_exact.size() : f.pairs_fast.size();
     contacts += out.triangle_pairs.size();
-    AddStats(&stats, ctx.last_stats());
+    AddStats(&stats, runner.ctx.last_stats());
     ++frame;
   }
   Counters(state, *c, frame, pairs, stats, contacts);
@@ -315,6 +332,55 @@ BENCHMARK(BM_Narrow)
     ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}, {0, 1, 2}})
     ->ArgNames({"char", "work", "mode"})
     ->Unit(benchmark::kMicrosecond);
+
+// BM_Narrow's modes 1 and 2 paired: each iteration runs the next frame in both, fast + lazy
+// skinning and fast + whole-mesh skin, in alternating order, each timed on its own (steady clock,
+// ~20 ns per reading against 1-600 us per call). Both modes see the same frames under the same
+// machine load, so a load change between two separate rows cannot decide their ratio.
+// Counters: lazy_us and whole_us per frame, lazy_over_whole (sum over sum), lazy_faster (the share
+// of frames where lazy took less time), skinned (lazy's vertices per frame) against vertices.
+void BM_LazyVsWhole(benchmark::State& state) {
+  const int work = int(state.range(1));
+  Character* c = Get(state, int(state.range(0)), work);
+  if (!c) return;
+  const Workload& w = c->work[work];
+  NarrowRunner lazy(*c, 1), whole(*c, 2);
+  rt::FrameContacts out_lazy, out_whole;
+  out_lazy.Reserve(4096);
+  out_whole.Reserve(4096);
+  if (!lazy.FastModeMatchesFullSkin(w, &out_lazy, &out_whole)) {
+    return state.SkipWithError("fast-mode contacts differ between lazy and full skinning");
+  }
+  using Clock = std::chrono::steady_clock;
+  auto timed = [](NarrowRunner& r, const Frame& f, rt::FrameContacts* out, double* seconds) {
+    const auto t0 = Clock::now();
+    const bool ok = r.Run(f, out);
+    *seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+    return ok;
+  };
+  size_t frame = 0, lazy_faster = 0;
+  double lazy_s = 0.0, whole_s = 0.0;
+  rt::NarrowPhaseContext::Stats stats;
+  for (auto _ : state) {
+    const Frame& f = w.frames[frame % w.frames.size()];
+    const double l0 = lazy_s, w0 = whole_s;
+    const bool ok = (frame % 2 == 0) ? timed(lazy, f, &out_lazy, &lazy_s) && timed(whole, f, &out_whole, &whole_s)
+                                     : timed(whole, f, &out_whole, &whole_s) && timed(lazy, f, &out_lazy, &lazy_s);
+    if (!ok) return state.SkipWithError("narrow phase refused a frame");
+    if (out_lazy.triangle_pairs.size() != out_whole.triangle_pairs.size()) return state.SkipWithError("modes differ");
+    lazy_faster += (lazy_s - l0) < (whole_s - w0) ? 1 : 0;
+    AddStats(&stats, lazy.ctx.last_stats());
+    ++frame;
+  }
+  const double n = frame ? double(frame) : 1.0;
+  state.counters["lazy_us"] = 1e6 * lazy_s / n;
+  state.counters["whole_us"] = 1e6 * whole_s / n;
+  state.counters["lazy_over_whole"] = whole_s > 0.0 ? lazy_s / whole_s : 0.0;
+  state.counters["lazy_faster"] = double(lazy_faster) / n;
+  state.counters["skinned"] = double(stats.skinned_vertices) / n;
+  state.counters["vertices"] = double(c->ch.vertex_count());
+}
+BENCHMARK(BM_LazyVsWhole)->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}})->ArgNames({"char", "work"})->Unit(benchmark::kMicrosecond);
 
 void BM_Stage(benchmark::State& state) {
   const int work = int(state.range(1)), stage = int(state.range(2));
