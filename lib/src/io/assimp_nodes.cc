@@ -2,7 +2,6 @@
 #include "assimp_nodes.h"
 
 #include <cmath>
-#include <type_traits>
 
 #include "importer_internal.h"
 
@@ -46,34 +45,42 @@ Result<AssimpNodeTree> ReadAssimpNodeTree(const aiScene& scene, const std::files
 Result<ClipHeader> ReadClipHeader(const aiAnimation& anim, unsigned index, const std::filesystem::path& file) {
   ClipHeader h;
   h.clip.name = anim.mName.length > 0 ? anim.mName.C_Str() : "animation_" + std::to_string(index);
-  if (anim.mTicksPerSecond > 0.0) h.ticks_per_second = anim.mTicksPerSecond;
-  h.clip.duration_s = static_cast<float>(anim.mDuration / h.ticks_per_second);
-  if (!std::isfinite(h.clip.duration_s) || h.clip.duration_s < 0.0f) {
-    return ImportError(ErrorCode::kInvalidData, file, "animation \"" + h.clip.name + "\" has a bad duration");
+  const auto bad = [&](const std::string& what) {
+    return ImportError(ErrorCode::kInvalidData, file, "animation \"" + h.clip.name + "\" has a bad " + what);
+  };
+  if (anim.mTicksPerSecond != 0.0) {  // 0: not given (Assimp's convention), the default stays
+    if (!(anim.mTicksPerSecond > 0.0) || !std::isfinite(anim.mTicksPerSecond)) return bad("tick rate");
+    h.ticks_per_second = anim.mTicksPerSecond;
   }
+  h.clip.duration_s = static_cast<float>(anim.mDuration / h.ticks_per_second);
+  if (!std::isfinite(h.clip.duration_s) || h.clip.duration_s < 0.0f) return bad("duration");
   return h;
 }
 
 namespace {
 
-// One key of AppendChannelKeys. False when the value is not finite.
+// One key of AppendChannelKeys (its value finite).
 template <typename V>
-bool AddKey(skinning::Track<V>& track, double seconds, const V& value) {
-  if constexpr (std::is_same_v<V, Quatf>) {
-    if (!value.coeffs().allFinite()) return false;
-  } else {
-    if (!value.allFinite()) return false;
-  }
+void AddKey(skinning::Track<V>& track, double seconds, const V& value) {
   const float t = static_cast<float>(seconds);
-  if (!std::isfinite(t)) return true;
+  if (!std::isfinite(t)) return;
   if (!track.times_s.empty() && t <= track.times_s.back()) {
-    if (t < track.times_s.back()) return true;
+    if (t < track.times_s.back()) return;
     track.times_s.pop_back();
     track.values.pop_back();
   }
   track.times_s.push_back(t);
   track.values.push_back(value);
-  return true;
+}
+
+// A finite rotation key as a unit quaternion, normalised in double (the float norm of components
+// above ~1.8e19 overflows, and Eigen's normalized() then returns zeros); nullopt for a key of
+// zero length, which is no rotation.
+std::optional<Quatf> UnitRotation(const aiQuaternion& q) {
+  const double n = std::sqrt(double(q.w) * q.w + double(q.x) * q.x + double(q.y) * q.y + double(q.z) * q.z);
+  if (!(n > 0.0)) return std::nullopt;
+  return Quatf(static_cast<float>(q.w / n), static_cast<float>(q.x / n), static_cast<float>(q.y / n),
+               static_cast<float>(q.z / n));
 }
 
 }  // namespace
@@ -81,24 +88,31 @@ bool AddKey(skinning::Track<V>& track, double seconds, const V& value) {
 std::optional<Error> AppendChannelKeys(const aiNodeAnim& channel, const ClipHeader& header,
                                        const std::filesystem::path& file, skinning::JointTrack* track) {
   const double tps = header.ticks_per_second;
-  bool finite = true;
+  const auto bad = [&](const std::string& what) {
+    return ImportError(ErrorCode::kInvalidData, file,
+                       "animation \"" + header.clip.name + "\" has " + what + " on node " + channel.mNodeName.C_Str());
+  };
+  const std::string not_finite = "a key value that is NaN or infinite";
   for (unsigned k = 0; k < channel.mNumPositionKeys; ++k) {
     const aiVector3D& v = channel.mPositionKeys[k].mValue;
-    finite &= AddKey(track->translation, channel.mPositionKeys[k].mTime / tps, Eigen::Vector3f(v.x, v.y, v.z));
+    const Eigen::Vector3f p(v.x, v.y, v.z);
+    if (!p.allFinite()) return bad(not_finite);
+    AddKey(track->translation, channel.mPositionKeys[k].mTime / tps, p);
   }
   for (unsigned k = 0; k < channel.mNumRotationKeys; ++k) {
     const aiQuaternion& q = channel.mRotationKeys[k].mValue;
-    finite &=
-        AddKey(track->rotation, channel.mRotationKeys[k].mTime / tps, Quatf(Quatf(q.w, q.x, q.y, q.z).normalized()));
+    if (!Quatf(q.w, q.x, q.y, q.z).coeffs().allFinite()) return bad(not_finite);
+    const auto unit = UnitRotation(q);
+    if (!unit) return bad("a rotation key of zero length");
+    AddKey(track->rotation, channel.mRotationKeys[k].mTime / tps, *unit);
   }
   for (unsigned k = 0; k < channel.mNumScalingKeys; ++k) {
     const aiVector3D& v = channel.mScalingKeys[k].mValue;
-    finite &= AddKey(track->scale, channel.mScalingKeys[k].mTime / tps, Eigen::Vector3f(v.x, v.y, v.z));
+    const Eigen::Vector3f s(v.x, v.y, v.z);
+    if (!s.allFinite()) return bad(not_finite);
+    AddKey(track->scale, channel.mScalingKeys[k].mTime / tps, s);
   }
-  if (finite) return std::nullopt;
-  return ImportError(ErrorCode::kInvalidData, file,
-                     "animation \"" + header.clip.name + "\" has a key value that is NaN or infinite on node " +
-                         channel.mNodeName.C_Str());
+  return std::nullopt;
 }
 
 }  // namespace skinspheres::lib::detail

@@ -1,6 +1,7 @@
-// Private to io/: an Assimp scene's node tree, read the one way both Assimp readers need it, the
-// character reader (importer_assimp.cc) and the animation-file reader (clip_import.cc). Not
-// installed; include only from lib/src/io/.
+// Private to io/: what both Assimp readers, the character reader (importer_assimp.cc) and the
+// animation-file reader (clip_import.cc), read the same way from an Assimp scene: the node tree,
+// and each animation's clip header and keys. Not installed; included from lib/src/io/ and by its
+// unit tests (tests/lib/io/assimp_clip_tests.cc).
 #pragma once
 
 #include <assimp/scene.h>
@@ -42,20 +43,24 @@ Result<AssimpNodeTree> ReadAssimpNodeTree(const aiScene& scene, const std::files
 
 // An animation's clip before its tracks: the name (the animation's, or "animation_<index>" when it
 // has none), the duration in seconds, and the ticks per second its keys are timed in (Assimp's
-// default of 25 when the file gives none). Error kInvalidData "<file>: animation "<name>" has a
-// bad duration" when the duration is negative or not finite.
+// default of 25 when the file gives 0, Assimp's "not given"). Error kInvalidData "<file>:
+// animation "<name>" has a bad tick rate" for a rate that is negative or not finite, "... has a
+// bad duration" for a duration that is negative or not finite. Callers skip animations with no
+// node channel (morph or camera animation only): they move no joint, and Assimp leaves their
+// duration at -1.
 struct ClipHeader {
   skinning::AnimationClip clip;  // name and duration_s set, no tracks
   double ticks_per_second = 25.0;
 };
 Result<ClipHeader> ReadClipHeader(const aiAnimation& anim, unsigned index, const std::filesystem::path& file);
 
-// Appends the translation, rotation (normalised) and scale keys of `channel` to `track`, times in
-// seconds. A key at the time of the previous one replaces it; an earlier one, or one at a
-// non-finite time, is ignored (times strictly increasing, as Track requires). Error kInvalidData
-// "<file>: animation "<clip>" has a key value that is NaN or infinite on node <node>" when a key
-// value is not finite (`track` is then partly filled: drop it), nullopt otherwise; the
-// optional<Error> of RawCharacter::Validate.
+// Appends the translation, rotation (normalised, in double) and scale keys of `channel` to
+// `track`, times in seconds. A key at the time of the previous one replaces it; an earlier one,
+// or one at a non-finite time, is ignored (times strictly increasing, as Track requires). Error
+// kInvalidData "<file>: animation "<clip>" has a key value that is NaN or infinite on node
+// <node>" for the first key value that is not finite, "... has a rotation key of zero length on
+// node <node>" for a rotation that is no rotation (`track` is then partly filled: drop it);
+// nullopt otherwise (the optional<Error> of RawCharacter::Validate).
 std::optional<Error> AppendChannelKeys(const aiNodeAnim& channel, const ClipHeader& header,
                                        const std::filesystem::path& file, skinning::JointTrack* track);
 

@@ -71,6 +71,7 @@ Result<AnimationFile> ReadAssimpAnimations(const std::filesystem::path& file) {
   for (unsigned m = 0; m < scene->mNumMeshes; ++m) out.skinned_mesh_count += scene->mMeshes[m]->HasBones() ? 1 : 0;
   for (unsigned a = 0; a < scene->mNumAnimations; ++a) {
     const aiAnimation* anim = scene->mAnimations[a];
+    if (anim->mNumChannels == 0) continue;  // morph or camera animation only (assimp_nodes.h)
     auto header = detail::ReadClipHeader(*anim, a, file);
     if (!header.ok()) return header.error();
     skinning::AnimationClip clip = header->clip;

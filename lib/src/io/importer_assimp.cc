@@ -183,6 +183,7 @@ Result<RawCharacter> ImportWithAssimp(const std::filesystem::path& file, std::sp
   if (options.read_clips && skinned_file) {
     for (unsigned a = 0; a < scene->mNumAnimations; ++a) {
       const aiAnimation* anim = scene->mAnimations[a];
+      if (anim->mNumChannels == 0) continue;  // morph or camera animation only (assimp_nodes.h)
       auto header = ReadClipHeader(*anim, a, file);
       if (!header.ok()) return header.error();
       skinning::AnimationClip clip = header->clip;

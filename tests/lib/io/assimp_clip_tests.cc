@@ -68,13 +68,21 @@ TEST(AssimpClip, HeaderNamesTheClipAndTimesItInSeconds) {
   EXPECT_FLOAT_EQ(h->clip.duration_s, 2.0f);
   EXPECT_EQ(h->ticks_per_second, 30.0);
   EXPECT_TRUE(h->clip.tracks.empty());
-  // No name: "animation_<index>"; no (or a non-positive) rate: Assimp's default of 25 per second.
-  for (double tps : {0.0, -5.0}) {
-    const auto d = ReadClipHeader(*MakeAnimation("", 50.0, tps), 3, kFile);
-    ASSERT_TRUE(d.ok()) << d.error().message;
-    EXPECT_EQ(d->clip.name, "animation_3");
-    EXPECT_EQ(d->ticks_per_second, 25.0);
-    EXPECT_FLOAT_EQ(d->clip.duration_s, 2.0f);
+  // No name: "animation_<index>"; a rate of 0 (Assimp's "not given"): Assimp's default of 25 per
+  // second.
+  const auto d = ReadClipHeader(*MakeAnimation("", 50.0, 0.0), 3, kFile);
+  ASSERT_TRUE(d.ok()) << d.error().message;
+  EXPECT_EQ(d->clip.name, "animation_3");
+  EXPECT_EQ(d->ticks_per_second, 25.0);
+  EXPECT_FLOAT_EQ(d->clip.duration_s, 2.0f);
+}
+
+TEST(AssimpClip, BadTickRatesAreRefusedNamingFileAndClip) {
+  for (double tps : {-5.0, kNaN, kInf}) {
+    const auto h = ReadClipHeader(*MakeAnimation("run", 30.0, tps), 0, kFile);
+    ASSERT_FALSE(h.ok()) << tps;
+    EXPECT_EQ(h.error().code, ErrorCode::kInvalidData);
+    EXPECT_EQ(h.error().message, "dir/anim.fbx: animation \"run\" has a bad tick rate");
   }
 }
 
@@ -133,6 +141,25 @@ TEST(AssimpClip, NonFiniteKeyValuesAreRefusedNamingClipAndNode) {
     EXPECT_EQ(e->message,
               "dir/anim.fbx: animation \"wave\" has a key value that is NaN or infinite on node mixamorig:LeftHand");
   }
+}
+
+// A rotation key is normalised in double: components far beyond float's squared range still give
+// a unit quaternion, and one of zero length, which is no rotation, is refused.
+TEST(AssimpClip, RotationKeysBecomeUnitOrAreRefusedWhenOfZeroLength) {
+  const auto h = ReadClipHeader(*MakeAnimation("wave", 30.0, 30.0), 0, kFile);
+  ASSERT_TRUE(h.ok());
+  skinning::JointTrack track;
+  const auto huge = MakeChannel("spine", {.rotations = {{0, 3e30f, 4e30f}}});
+  ASSERT_EQ(AppendChannelKeys(*huge, *h, kFile, &track), std::nullopt);
+  ASSERT_EQ(track.rotation.values.size(), 1u);
+  EXPECT_FLOAT_EQ(track.rotation.values[0].w(), 0.6f);
+  EXPECT_FLOAT_EQ(track.rotation.values[0].x(), 0.8f);
+  const auto zero = MakeChannel("spine", {.rotations = {{0, 1, 0}, {10, 0, 0}}});
+  skinning::JointTrack other;
+  const auto e = AppendChannelKeys(*zero, *h, kFile, &other);
+  ASSERT_TRUE(e.has_value());
+  EXPECT_EQ(e->code, ErrorCode::kInvalidData);
+  EXPECT_EQ(e->message, "dir/anim.fbx: animation \"wave\" has a rotation key of zero length on node spine");
 }
 
 }  // namespace
