@@ -1,7 +1,9 @@
 #include "skinspheres/runtime/sphere_set.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -26,6 +28,13 @@ std::optional<ExclusionReason> ExclusionReasonFromString(std::string_view text) 
 namespace {
 
 Error Invalid(const std::string& what) { return MakeError(ErrorCode::kInvalidData, what); }
+
+// A float in as many digits as tell it from its neighbours (a reach one ulp too small must read so).
+std::string Digits(float x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.9g", static_cast<double>(x));
+  return text;
+}
 
 // Offsets of a CSR list: n+1 entries, starting at 0, non-decreasing, ending at the list's size.
 bool CsrOk(const std::vector<uint32_t>& offsets, size_t n, size_t list_size) {
@@ -185,6 +194,20 @@ std::optional<Error> SphereSet::Validate() const {
     if (influence_joints[k] >= joints) return Invalid("a sphere influence names joint out of range");
     if (!(influence_weights[k] >= 0.0f) || !std::isfinite(influence_weights[k])) return Invalid("a sphere influence weight is negative or not finite");
   }
+  if (!influence_reach.empty()) {
+    if (influence_reach.size() != influence_joints.size()) {
+      return Invalid("the spheres have " + std::to_string(influence_reach.size()) + " influence reach entries for " +
+                     std::to_string(influence_joints.size()) + " influences (one each, or none)");
+    }
+    for (size_t s = 0; s < n; ++s) {
+      for (uint32_t k = influence_offsets[s]; k < influence_offsets[s + 1]; ++k) {
+        if (!(influence_reach[k] >= 0.0f && influence_reach[k] <= 1.0f)) {
+          return Invalid("sphere " + std::to_string(s) + " has influence reach " + Digits(influence_reach[k]) +
+                         " on joint " + std::to_string(influence_joints[k]) + " (must be within [0, 1])");
+        }
+      }
+    }
+  }
   for (size_t k = 0; k < excluded_pairs.size(); ++k) {
     const auto& p = excluded_pairs[k];
     if (p.i >= p.j || p.j >= n) return Invalid("excluded pair " + std::to_string(k) + " is not i < j < sphere count");
@@ -196,7 +219,60 @@ std::optional<Error> SphereSet::Validate() const {
   if (fast_only && (!vertices.empty() || !triangles.empty() || has_mesh())) {
     return Invalid("a fast-only set has vertex or triangle lists or a mesh");
   }
-  return ValidateMesh(*this);
+  if (auto err = ValidateMesh(*this)) return err;
+  if (!has_mesh()) return std::nullopt;
+  // The fast bound's premises the mesh can check: every weighted joint of a source vertex is among
+  // its sphere's influences, and a stored reach is no smaller than the weights (a smaller one from a
+  // hostile file would give spheres that miss vertices).
+  auto from_mesh = InfluenceReachFromMesh(*this);
+  if (!from_mesh.ok()) return from_mesh.error();
+  if (influence_reach.empty()) return std::nullopt;
+  for (size_t s = 0; s < n; ++s) {
+    for (uint32_t k = influence_offsets[s]; k < influence_offsets[s + 1]; ++k) {
+      if (influence_reach[k] < (*from_mesh)[k]) {
+        return Invalid("sphere " + std::to_string(s) + " has influence reach " + Digits(influence_reach[k]) +
+                       " on joint " + std::to_string(influence_joints[k]) + ", below the weight " +
+                       Digits((*from_mesh)[k]) + " one of its source vertices gives that joint");
+      }
+    }
+  }
+  return std::nullopt;
+}
+
+Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set) {
+  const skinning::SkinnedMesh& mesh = set.mesh;
+  std::vector<float> reach(set.influence_joints.size(), 0.0f);
+  // entry_of[j]: the current sphere's first influence entry on joint j (UINT32_MAX: none); total:
+  // per entry of the current sphere, the current vertex's weight on its joint.
+  std::vector<uint32_t> entry_of(set.joint_count(), UINT32_MAX);
+  std::vector<float> total;
+  for (size_t s = 0; s < set.size(); ++s) {
+    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
+    for (uint32_t k = k1; k-- > k0;) entry_of[set.influence_joints[k]] = k;
+    total.assign(k1 - k0, 0.0f);
+    for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
+      const uint32_t v = set.vertices[i];
+      const uint32_t q0 = mesh.influence_offsets[v], q1 = mesh.influence_offsets[v + 1];
+      for (uint32_t q = q0; q < q1; ++q) {
+        if (!(mesh.influence_weights[q] > 0.0f)) continue;
+        const int32_t j = mesh.binds[mesh.influence_binds[q]].joint;
+        if (entry_of[j] == UINT32_MAX) {
+          return Invalid("sphere " + std::to_string(s) + ": its source vertex " + std::to_string(v) +
+                         " is weighted on joint " + std::to_string(j) + ", which is not among the sphere's influences");
+        }
+        total[entry_of[j] - k0] += mesh.influence_weights[q];
+      }
+      for (uint32_t q = q0; q < q1; ++q) {  // each joint's total, once (a second entry finds 0)
+        const uint32_t k = entry_of[mesh.binds[mesh.influence_binds[q]].joint];
+        if (k == UINT32_MAX) continue;  // weight 0
+        reach[k] = std::max(reach[k], std::min(total[k - k0], 1.0f));  // a float sum may pass 1 by an ulp
+        total[k - k0] = 0.0f;
+      }
+    }
+    for (uint32_t k = k0; k < k1; ++k) reach[k] = reach[entry_of[set.influence_joints[k]]];  // repeated joints
+    for (uint32_t k = k0; k < k1; ++k) entry_of[set.influence_joints[k]] = UINT32_MAX;
+  }
+  return reach;
 }
 
 }  // namespace skinspheres::runtime

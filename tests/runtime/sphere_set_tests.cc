@@ -4,6 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cfloat>
+#include <cmath>
+#include <limits>
+#include <string>
+
 namespace skinspheres::runtime {
 namespace {
 
@@ -50,6 +55,48 @@ TEST(SphereSetTest, EveryBrokenRuleIsRefused) {
   s = TwoSpheres();
   s.joint_parents = {0};
   EXPECT_TRUE(s.Validate().has_value());
+}
+
+// The influences' reach (sphere_set.h): in [0, 1], one per influence or none, and with a mesh never
+// below what the mesh's weights give (by hand for TwoJointsWithMesh: sphere 0 a 1, b 0.5; sphere 1
+// a 0.75, b 1); a source vertex weighted on a joint outside its sphere's influences is refused.
+TEST(SphereSetTest, InfluenceReachBelowTheMeshOrOutOfRangeIsRefused) {
+  auto message = [](const SphereSet& s) { return s.Validate() ? s.Validate()->message : std::string("accepted"); };
+  SphereSet s = TwoJointsWithMesh();
+  EXPECT_EQ(message(s), "accepted");
+  s.influence_reach = {1.0f, 0.5f, 0.75f, 1.0f};
+  EXPECT_EQ(message(s), "accepted") << "the mesh's own reach";
+  s.influence_reach = {1.0f, 0.6f, 1.0f, 1.0f};
+  EXPECT_EQ(message(s), "accepted") << "a larger reach only loosens the bound";
+  s.influence_reach = {1.0f, std::nextafter(0.5f, 0.0f), 0.75f, 1.0f};
+  EXPECT_EQ(message(s), "sphere 0 has influence reach 0.49999997 on joint 1, below the weight 0.5 one of its source "
+                        "vertices gives that joint");
+  s.influence_reach = {1.0f, 0.5f, 0.0f, 1.0f};
+  EXPECT_EQ(message(s), "sphere 1 has influence reach 0 on joint 0, below the weight 0.75 one of its source vertices "
+                        "gives that joint");
+  s.influence_reach = {1.0f, 0.5f, 0.75f, 1.0f + FLT_EPSILON};
+  EXPECT_EQ(message(s), "sphere 1 has influence reach 1.00000012 on joint 1 (must be within [0, 1])");
+  s.influence_reach = {1.0f, std::numeric_limits<float>::quiet_NaN(), 0.75f, 1.0f};
+  EXPECT_EQ(message(s), "sphere 0 has influence reach nan on joint 1 (must be within [0, 1])");
+  s.influence_reach = {-0.0f, 0.5f, 0.75f, 1.0f};
+  EXPECT_NE(message(s).find("below the weight 1"), std::string::npos) << message(s);
+  s.influence_reach = {1.0f, 0.5f, 0.75f};
+  EXPECT_EQ(message(s), "the spheres have 3 influence reach entries for 4 influences (one each, or none)");
+  // Without a mesh (version 1, fast-only) only the range is checked.
+  SphereSet no_mesh = TwoSpheres();
+  no_mesh.influence_reach = {0.0f, 0.25f};
+  EXPECT_EQ(message(no_mesh), "accepted");
+  no_mesh.influence_reach = {-1.0f, 0.25f};
+  EXPECT_EQ(message(no_mesh), "sphere 0 has influence reach -1 on joint 0 (must be within [0, 1])");
+  // Sphere 0 without joint b among its influences: vertices 1 and 2 are weighted on it.
+  s = TwoJointsWithMesh();
+  s.influence_offsets = {0, 1, 3};
+  s.influence_joints = {0, 0, 1};
+  s.influence_weights = {1.0f, 0.5f, 0.5f};
+  EXPECT_EQ(message(s), "sphere 0: its source vertex 1 is weighted on joint 1, which is not among the sphere's influences");
+  auto reach = InfluenceReachFromMesh(s);
+  ASSERT_FALSE(reach.ok());
+  EXPECT_EQ(reach.error().message, message(s));
 }
 
 TEST(SphereSetTest, ReasonNamesRoundTrip) {

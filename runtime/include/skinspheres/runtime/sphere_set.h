@@ -11,7 +11,8 @@
 // Fast refit (no vertex skinning) reads, per sphere, the joints that influence its vertices with
 // their blend weights, and radius_fast: the radius around center_rest that holds every copy of
 // every source vertex carried rigidly by each of its joints at rest (equal to the plain radius when
-// the file's rest pose is its bind pose).
+// the file's rest pose is its bind pose), and per influence its reach: the largest weight any of the
+// sphere's source vertices gives that joint, which tightens the fast bound (refit_job.h).
 //
 // Version 2 adds the skinned mesh itself (`mesh`, `triangle_vertices`): what a triangle-level test
 // behind the spheres needs, and what lets fast mode skin only the vertices it tests. A set read
@@ -86,6 +87,15 @@ struct SphereSet {
   std::vector<uint32_t> influence_offsets;
   std::vector<uint16_t> influence_joints;
   std::vector<float> influence_weights;  // sum to 1 per sphere
+  // Per influence entry (same CSR, influence_joints.size() entries) or empty: the entry's reach W,
+  // in [0, 1], at least the largest total weight any source vertex of the sphere gives the entry's
+  // joint in the mesh's skin (InfluenceReachFromMesh). Fast refit bounds the spread of the joints
+  // by Σ_k W_k |T_j(k) c - c'| where that is below max_k |T_j(k) c - c'| (refit_job.h). The fitter
+  // writes it; files written before it have none, and an empty array means: computed from the mesh
+  // when the set has one, else 1 for every entry (the bound without it, exactly). A fast-only
+  // binary file keeps it (it has no mesh to compute it from). It holds for the skin weights in the
+  // mesh: an engine that re-quantises or prunes them must not rely on a reach below 1.
+  std::vector<float> influence_reach;
 
   std::vector<ExcludedPair> excluded_pairs;  // sorted by (i, j), i < j, unique
 
@@ -114,10 +124,21 @@ struct SphereSet {
   bool has_mesh() const { return !triangle_vertices.empty(); }
   size_t joint_count() const { return joint_names.size(); }
   // Every reason the set is inconsistent (no spheres, a radius <= 0, a triangle owned by no sphere
-  // or by two, sizes, offsets, index ranges, NaNs, pair order; with a
-  // mesh: its sizes, indices, finite values, and each sphere's vertices covering its triangles');
+  // or by two, sizes, offsets, index ranges, NaNs, pair order, an influence reach outside [0, 1];
+  // with a mesh: its sizes, indices, finite values, each sphere's vertices covering its triangles',
+  // a source vertex weighted on a joint that is not among its sphere's influences, and an influence
+  // reach below the one the mesh gives, which would make the fast bound too small);
   // std::nullopt when it is sound.
   std::optional<Error> Validate() const;
 };
+
+// The reach of every influence entry as the set's mesh gives it (set.has_mesh() and the set's lists
+// and mesh well formed, i.e. Validate() passes apart from this): for entry k of sphere s, the
+// largest over the sphere's source vertices of the vertex's total weight on joint
+// influence_joints[k] (its bind entries on that joint summed in order, in float, at most 1), 0 when
+// none weighs it. An error naming the sphere when a source vertex has a weight > 0 on a joint that is
+// not among its sphere's influences (no reach then bounds it). What the fitter stores and what
+// Validate() compares a stored reach with, bit for bit.
+Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set);
 
 }  // namespace skinspheres::runtime
