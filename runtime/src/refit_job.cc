@@ -1,6 +1,6 @@
 // Per-frame sphere refit (refit_job.h). Exact mode: centre c' = Σ w_j T_j c, radius = max distance
 // to the skinned source vertices. Fast mode: Kavan & Žára's bound r' = s_max·radius_fast +
-// max_j |T_j c - c'| (derivation in the header).
+// max_j |T_j c - c'|, its second term capped by Σ_j W_j |T_j c - c'| (derivation in the header).
 #include "skinspheres/runtime/refit_job.h"
 
 
@@ -82,6 +82,19 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
       d.weights_[k] = static_cast<float>(set.influence_weights[k] / wsum);
     }
   }
+  // The reach (sphere_set.h): stored, else the mesh's, else 1 (the bound without it).
+  if (!set.influence_reach.empty()) {
+    d.reach_ = set.influence_reach;
+  } else if (set.has_mesh()) {
+    auto from_mesh = InfluenceReachFromMesh(set);  // cannot fail on a set Validate() passed
+    if (!from_mesh.ok()) {
+      return MakeError(from_mesh.error().code,
+                       "RefitRestData: sphere set '" + set.source_file + "': " + from_mesh.error().message);
+    }
+    d.reach_ = std::move(*from_mesh);
+  } else {
+    d.reach_.assign(set.influence_joints.size(), 1.0f);
+  }
   return d;
 }
 
@@ -94,7 +107,7 @@ bool RefitJob::Validate() const {
   if (need_joints) {
     if (rest == nullptr) return false;
     if (rest->sphere_count() != n || rest->joint_count() != spheres->joint_count() ||
-        rest->influence_count() != spheres->influence_joints.size() ||
+        rest->influence_count() != spheres->influence_joints.size() || rest->reach().size() != rest->influence_count() ||
         spheres->influence_weights.size() != spheres->influence_joints.size() ||
         spheres->radii_fast.size() != n) {
       return false;
@@ -229,6 +242,7 @@ bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
   const auto& set = *job.spheres;
   const Eigen::Vector3f* q = job.rest->center_in_joint().data();
   const float* w = job.rest->weights().data();
+  const float* reach = job.rest->reach().data();
   const float* rinv_rows = job.rest->rest_inverse_rows().data();
   const uint32_t* offsets = set.influence_offsets.data();
   const uint16_t* joints = set.influence_joints.data();
@@ -251,6 +265,7 @@ bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
       c = _mm_add_ps(c, _mm_mul_ps(_mm_set1_ps(w[k]), p));
     }
     float spread2 = 0.0f;  // max_j |T_j c - c'|^2
+    float reached = 0.0f;  // Σ_j W_j |T_j c - c'|
     float s2 = 0.0f;       // s_max^2
     bool finite = true;
     for (uint32_t k = k0; k < k1; ++k) {
@@ -266,12 +281,13 @@ bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
       }
       finite &= (d2 <= FLT_MAX) & (row <= FLT_MAX);
       spread2 = std::max(spread2, d2);
+      reached += reach[k] * std::sqrt(d2);
       s2 = std::max(s2, row);
     }
     alignas(16) float cc[4];
     _mm_store_ps(cc, c);
     const Eigen::Vector3f centre(cc[0], cc[1], cc[2]);
-    const float r = std::sqrt(s2) * radii[s] + std::sqrt(spread2);
+    const float r = std::sqrt(s2) * radii[s] + std::min(std::sqrt(spread2), reached);
     const float radius = r + Margin(centre, r);
     job.out[s] = Vec4f(cc[0], cc[1], cc[2], radius);
     ok &= finite && centre.allFinite() && std::isfinite(radius);

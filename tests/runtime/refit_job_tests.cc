@@ -1,11 +1,15 @@
 // RefitJob: conservativeness on the built-in and shared characters (clip frames and random poses
 // with non-uniform scale, against a naive LBS of every vertex), exact radius = brute-force max
-// distance, fast >= exact, analytic single-joint cases, 1 vs 2 threads, Validate() refusals, NaN.
+// distance, fast >= exact, the fast bound with the influences' reach never above the bound without
+// it (and below it on a case built for it), analytic single-joint and two-joint cases, 1 vs 2
+// threads, Validate() refusals, NaN.
 #include "skinspheres/runtime/refit_job.h"
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <bit>
 #include <cfloat>
 #include <cmath>
@@ -20,6 +24,43 @@ namespace {
 
 using test::FittedCharacter;
 using test::Pose;
+
+// The fast refit as the plain scalar formula of the header, one Eigen operation after the other
+// (the implementation before it was vectorised): the bit-equality reference of the SIMD path.
+// reach: W per influence entry (the rest data's when the caller passes rest.reach()); nullptr: the
+// bound without it, Kavan & Žára's r' = s_max · radius_fast + max_j |d_j| as written before reach
+// existed (no min), the oracle of "never above the old bound" and "a set without reach is the old
+// bound".
+std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, const RefitRestData& rest,
+                                                std::span<const skinspheres::Mat4f> world, const float* reach) {
+  const auto apply = [](const skinspheres::Mat4f& g, const Eigen::Vector3f& p) -> Eigen::Vector3f {
+    return g.topLeftCorner<3, 3>() * p + g.topRightCorner<3, 1>();
+  };
+  std::vector<skinspheres::Vec4f> out(set.size());
+  const auto q = rest.center_in_joint();
+  const auto w = rest.weights();
+  const auto rinv = rest.rest_linear_inverse();
+  for (size_t s = 0; s < set.size(); ++s) {
+    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
+    Eigen::Vector3f c = Eigen::Vector3f::Zero();
+    for (uint32_t k = k0; k < k1; ++k) c += w[k] * apply(world[set.influence_joints[k]], q[k]);
+    float spread2 = 0.0f, reached = 0.0f, s2 = 0.0f;
+    for (uint32_t k = k0; k < k1; ++k) {
+      const uint16_t j = set.influence_joints[k];
+      const float d2 = (apply(world[j], q[k]) - c).squaredNorm();
+      const Eigen::Matrix3f a = world[j].topLeftCorner<3, 3>() * rinv[j];
+      const Eigen::Matrix3f ata = a.transpose() * a;
+      spread2 = std::max(spread2, d2);
+      if (reach != nullptr) reached += reach[k] * std::sqrt(d2);
+      s2 = std::max(s2, ata.cwiseAbs().rowwise().sum().maxCoeff());
+    }
+    const float spread = reach != nullptr ? std::min(std::sqrt(spread2), reached) : std::sqrt(spread2);
+    const float r = std::sqrt(s2) * set.radii_fast[s] + spread;
+    const float radius = r + 16.0f * FLT_EPSILON * (c.cwiseAbs().maxCoeff() + r);
+    out[s] = skinspheres::Vec4f(c.x(), c.y(), c.z(), radius);
+  }
+  return out;
+}
 
 struct Refits {
   std::vector<skinspheres::Vec4f> exact, exact_box, fast;
@@ -51,14 +92,18 @@ Refits RunAll(const SphereSet& set, const RefitRestData& rest, const Pose& pose)
 // Every vertex of every owned triangle inside (in double, 1e-5 relative tolerance); exact radius =
 // brute-force max distance over the source vertices; fast radius >= exact radius (same centre).
 // Returns the number of failures found (stops reporting after a few).
-double g_sum_exact = 0, g_sum_fast = 0;  // radius sums over the poses checked, for the printout
+double g_sum_exact = 0, g_sum_fast = 0, g_sum_old = 0;  // radius sums over the poses checked, for the printout
+size_t g_old_spheres = 0, g_tighter = 0;  // fast spheres compared with the bound without reach, and how many are smaller
 
 int CheckPose(const FittedCharacter& fc, const RefitRestData& rest, const Pose& pose) {
   const SphereSet& set = fc.set;
   const Refits r = RunAll(set, rest, pose);
+  // The same frame under the bound without reach (the formula as it was, in the scalar reference).
+  const std::vector<skinspheres::Vec4f> old = ScalarFastRefit(set, rest, pose.world, nullptr);
   for (size_t s = 0; s < set.size(); ++s) {
     g_sum_exact += r.exact[s].w();
     g_sum_fast += r.fast[s].w();
+    g_sum_old += old[s].w();
   }
   int failures = 0;
   auto fail = [&](const std::string& what) {
@@ -88,6 +133,20 @@ int CheckPose(const FittedCharacter& fc, const RefitRestData& rest, const Pose& 
       fail("exact radius " + std::to_string(r.exact[s].w()) + " != max distance " + std::to_string(dmax));
     }
     if (r.fast[s].head<3>() != r.exact[s].head<3>()) fail("fast and exact centres differ");
+    // Every source vertex (not only those of owned triangles) inside the fast sphere: what the
+    // bound's derivation covers, reach included.
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+      if (!inside(r.fast[s], pose.positions[set.vertices[k]])) {
+        fail("fast sphere " + std::to_string(s) + " misses its source vertex " + std::to_string(set.vertices[k]));
+      }
+    }
+    // Never above the bound without reach (min(max, sum) <= max, and the margin grows with r).
+    if (old[s].head<3>() != r.fast[s].head<3>() || !(r.fast[s].w() <= old[s].w())) {
+      fail("fast sphere " + std::to_string(s) + " radius " + std::to_string(r.fast[s].w()) +
+           " above the bound without reach " + std::to_string(old[s].w()));
+    }
+    ++g_old_spheres;
+    g_tighter += r.fast[s].w() < old[s].w();
     // fast >= exact up to the rounding margin (both add ~2e-6 of the coordinates, refit_job.h).
     if (!(r.fast[s].w() >= r.exact[s].w() - 4e-6 * (coord + dmax))) {
       fail("fast radius " + std::to_string(r.fast[s].w()) + " below exact radius " + std::to_string(r.exact[s].w()));
@@ -102,7 +161,9 @@ void CheckCharacter(const std::string& name, int frames_per_clip, int random_pos
   auto rest = RefitRestData::Create(fc->set);
   ASSERT_TRUE(rest.ok()) << rest.error().message;
   int failures = 0, poses = 0;
-  g_sum_exact = g_sum_fast = 0;
+  g_sum_exact = g_sum_fast = g_sum_old = 0;
+  g_old_spheres = g_tighter = 0;
+  EXPECT_EQ(fc->set.influence_reach.size(), fc->set.influence_joints.size()) << "the fitter writes the reach";
   for (const Pose& pose : test::ClipPoses(fc->character, frames_per_clip)) {
     failures += CheckPose(*fc, *rest, pose);
     ++poses;
@@ -117,7 +178,8 @@ void CheckCharacter(const std::string& name, int frames_per_clip, int random_pos
   }
   EXPECT_EQ(failures, 0);
   EXPECT_GT(poses, random_poses - 1);
-  const double posed_ratio = g_sum_fast / g_sum_exact;
+  const double posed_ratio = g_sum_fast / g_sum_exact, old_ratio = g_sum_old / g_sum_exact;
+  const double tighter_share = static_cast<double>(g_tighter) / static_cast<double>(g_old_spheres);
   // Tightness figure, for the record: at the rest pose exact radii equal the fitted radii.
   const Pose rest_pose = test::MakePose(fc->character, fc->character.skeleton.rest_local, "rest");
   const Refits r = RunAll(fc->set, *rest, rest_pose);
@@ -128,42 +190,13 @@ void CheckCharacter(const std::string& name, int frames_per_clip, int random_pos
     sum_fit += fc->set.radii_rest[s];
     EXPECT_NEAR(r.exact[s].w(), fc->set.radii_rest[s], 1e-4 * (fc->set.radii_rest[s] + fc->set.centers_rest[s].norm()));
   }
-  std::printf("%s: %zu spheres, %d poses; rest pose sum of radii exact/fit %.4f fast/fit %.4f; posed fast/exact %.3f\n",
-              name.c_str(), fc->set.size(), poses, sum_exact / sum_fit, sum_fast / sum_fit, posed_ratio);
+  std::printf("%s: %zu spheres, %d poses; rest pose sum of radii exact/fit %.4f fast/fit %.4f; posed fast/exact %.3f "
+              "(without reach %.3f; %.0f%% of the fast spheres smaller with it)\n",
+              name.c_str(), fc->set.size(), poses, sum_exact / sum_fit, sum_fast / sum_fit, posed_ratio, old_ratio,
+              100.0 * tighter_share);
 }
 
 TEST(RefitJobTest, BuiltinCharacterIsCoveredInBothModes) { CheckCharacter("builtin", 1000, 100); }
-
-// The fast refit as the plain scalar formula of the header, one Eigen operation after the other
-// (the implementation before it was vectorised): the bit-equality reference of the SIMD path.
-std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, const RefitRestData& rest,
-                                                std::span<const skinspheres::Mat4f> world) {
-  const auto apply = [](const skinspheres::Mat4f& g, const Eigen::Vector3f& p) -> Eigen::Vector3f {
-    return g.topLeftCorner<3, 3>() * p + g.topRightCorner<3, 1>();
-  };
-  std::vector<skinspheres::Vec4f> out(set.size());
-  const auto q = rest.center_in_joint();
-  const auto w = rest.weights();
-  const auto rinv = rest.rest_linear_inverse();
-  for (size_t s = 0; s < set.size(); ++s) {
-    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
-    Eigen::Vector3f c = Eigen::Vector3f::Zero();
-    for (uint32_t k = k0; k < k1; ++k) c += w[k] * apply(world[set.influence_joints[k]], q[k]);
-    float spread2 = 0.0f, s2 = 0.0f;
-    for (uint32_t k = k0; k < k1; ++k) {
-      const uint16_t j = set.influence_joints[k];
-      const float d2 = (apply(world[j], q[k]) - c).squaredNorm();
-      const Eigen::Matrix3f a = world[j].topLeftCorner<3, 3>() * rinv[j];
-      const Eigen::Matrix3f ata = a.transpose() * a;
-      spread2 = std::max(spread2, d2);
-      s2 = std::max(s2, ata.cwiseAbs().rowwise().sum().maxCoeff());
-    }
-    const float r = std::sqrt(s2) * set.radii_fast[s] + std::sqrt(spread2);
-    const float radius = r + 16.0f * FLT_EPSILON * (c.cwiseAbs().maxCoeff() + r);
-    out[s] = skinspheres::Vec4f(c.x(), c.y(), c.z(), radius);
-  }
-  return out;
-}
 
 // The SIMD fast refit gives the scalar formula's bits: random poses with non-uniform scale, then
 // the same joint matrices with every coefficient perturbed and far translations (any affine map),
@@ -185,7 +218,7 @@ void CheckFastBits(const std::string& name, int poses) {
         for (int i = 0; i < 3; ++i) g(i, 3) += far(rng);
       }
     }
-    const auto want = ScalarFastRefit(fc->set, *rest, pose.world);
+    const auto want = ScalarFastRefit(fc->set, *rest, pose.world, rest->reach().data());
     std::vector<skinspheres::Vec4f> got(fc->set.size()), split(fc->set.size());
     RefitJob job{RefitMode::kFast, &fc->set, &*rest, pose.world, {}, got};
     ASSERT_TRUE(job.Run());
@@ -281,6 +314,122 @@ TEST(RefitJobTest, TwoJointSpreadTermIsAdded) {
   ASSERT_TRUE(job.Run());
   EXPECT_NEAR(out[0].x(), 1.0f, 1e-6f);
   EXPECT_NEAR(out[0].w(), set.radii_fast[0] + 1.0f, 1e-5f);
+}
+
+// The influences' reach, by hand (sample_sphere_set.h, TwoJointsWithMesh): the mesh gives it, the
+// rest data takes it from the mesh when the set stores none, and 1 without a mesh.
+TEST(RefitJobTest, InfluenceReachComesFromTheMeshWeights) {
+  SphereSet set = TwoJointsWithMesh();
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  auto reach = InfluenceReachFromMesh(set);
+  ASSERT_TRUE(reach.ok()) << reach.error().message;
+  EXPECT_EQ(*reach, (std::vector<float>{1.0f, 0.5f, 0.75f, 1.0f}));
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  EXPECT_TRUE(std::ranges::equal(rest->reach(), *reach));
+  set.influence_reach = {1.0f, 0.75f, 0.75f, 1.0f};  // stored (larger than the mesh's: allowed)
+  rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  EXPECT_TRUE(std::ranges::equal(rest->reach(), set.influence_reach));
+  SphereSet no_mesh = TwoSpheres();
+  rest = RefitRestData::Create(no_mesh);
+  ASSERT_TRUE(rest.ok());
+  EXPECT_TRUE(std::ranges::equal(rest->reach(), std::vector<float>(no_mesh.influence_joints.size(), 1.0f)));
+}
+
+// Joint b moves by t = (10, 0, 0). Sphere 0 (weights a 0.75, b 0.25): c' = c + 2.5 x, d_a = 2.5,
+// d_b = 7.5; without reach the spread term is 7.5, with reach (a 1, b 0.5) 1 · 2.5 + 0.5 · 7.5 =
+// 6.25. Sphere 1 (a 5/12, b 7/12): d_a = 70/12, d_b = 50/12; the weighted sum (0.75 · 70/12 +
+// 50/12 = 102.5/12) exceeds the max, which stays.
+TEST(RefitJobTest, FastModeReachAnalyticTwoJoints) {
+  const SphereSet set = TwoJointsWithMesh();
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::vector<skinspheres::Mat4f> world(2, skinspheres::Mat4f::Identity());
+  world[1](0, 3) = 10.0f;
+  std::vector<skinspheres::Vec4f> out(2);
+  RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
+  ASSERT_TRUE(job.Run());
+  EXPECT_NEAR(out[0].x(), 2.75f, 1e-5f);
+  EXPECT_NEAR(out[0].w(), 0.5f + 6.25f, 1e-4f);
+  EXPECT_NEAR(out[1].x(), 0.75f + 70.0f / 12.0f, 1e-5f);
+  EXPECT_NEAR(out[1].w(), 0.5f + 70.0f / 12.0f, 1e-4f);
+  const auto old = ScalarFastRefit(set, *rest, world, nullptr);
+  EXPECT_NEAR(old[0].w(), 0.5f + 7.5f, 1e-4f);
+  EXPECT_LT(out[0].w(), old[0].w()) << "strictly tighter where the reach is below 1";
+  EXPECT_EQ(out[1].w(), old[1].w()) << "the max where it is the smaller";
+}
+
+// Random poses of the two joints (rotations, translations, non-uniform scales), the four vertices
+// skinned by the linear blend skinning formula in double: every vertex inside its fast spheres, the
+// bound never above the one without reach, and below it on some poses.
+TEST(RefitJobTest, FastModeWithReachHoldsEveryVertexOnRandomPoses) {
+  const SphereSet set = TwoJointsWithMesh();
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::mt19937 rng(2026);
+  std::uniform_real_distribution<float> angle(-3.1f, 3.1f), move(-3.0f, 3.0f), scale(0.3f, 3.0f);
+  std::vector<skinspheres::Mat4f> world(2);
+  std::vector<skinspheres::Vec4f> out(2);
+  int tighter = 0;
+  for (int p = 0; p < 2000; ++p) {
+    for (auto& g : world) {
+      const Eigen::Vector3f axis = Eigen::Vector3f(move(rng), move(rng), move(rng)).normalized();
+      Eigen::Affine3f t = Eigen::Translation3f(move(rng), move(rng), move(rng)) * Eigen::AngleAxisf(angle(rng), axis);
+      if (p % 2) t = t * Eigen::Scaling(Eigen::Vector3f(scale(rng), scale(rng), scale(rng)));
+      g = t.matrix();
+    }
+    RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
+    ASSERT_TRUE(job.Run());
+    const auto old = ScalarFastRefit(set, *rest, world, nullptr);
+    for (size_t s = 0; s < 2; ++s) {
+      ASSERT_LE(out[s].w(), old[s].w()) << "pose " << p << " sphere " << s;
+      tighter += out[s].w() < old[s].w();
+      for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+        const uint32_t v = set.vertices[k];
+        Eigen::Vector3d skinned = Eigen::Vector3d::Zero();
+        for (uint32_t q = set.mesh.influence_offsets[v]; q < set.mesh.influence_offsets[v + 1]; ++q) {
+          const skinning::BindEntry& b = set.mesh.binds[set.mesh.influence_binds[q]];
+          const Eigen::Matrix4d m = world[static_cast<size_t>(b.joint)].cast<double>() * b.inverse_bind.cast<double>();
+          skinned += double{set.mesh.influence_weights[q]} * (m * set.mesh.positions_bind[v].cast<double>().homogeneous()).head<3>();
+        }
+        const double d = (skinned - out[s].head<3>().cast<double>()).norm();
+        ASSERT_LE(d, out[s].w()) << "pose " << p << " sphere " << s << " vertex " << v;
+      }
+    }
+  }
+  EXPECT_GT(tighter, 100);
+  std::printf("two joints: %d of 4000 fast spheres tighter with reach\n", tighter);
+}
+
+// A set with neither reach nor mesh (a version-1 file, or a fast-only one written before reach)
+// refits with the bound without reach bit for bit, and so does any set whose reach is all 1.
+TEST(RefitJobTest, WithoutReachOrMeshTheFastBoundIsTheOldOneBitForBit) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  SphereSet old_set = fc->set;
+  old_set.influence_reach.clear();
+  old_set.mesh = {};
+  old_set.triangle_vertices.clear();
+  ASSERT_FALSE(old_set.Validate().has_value()) << old_set.Validate()->message;
+  SphereSet ones = fc->set;
+  ones.influence_reach.assign(ones.influence_joints.size(), 1.0f);
+  std::mt19937 rng(5);
+  for (const SphereSet* set : {&old_set, &ones}) {
+    auto rest = RefitRestData::Create(*set);
+    ASSERT_TRUE(rest.ok()) << rest.error().message;
+    for (int p = 0; p < 40; ++p) {
+      const Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 90.0f, 0.3f), "random");
+      const auto want = ScalarFastRefit(*set, *rest, pose.world, nullptr);
+      std::vector<skinspheres::Vec4f> got(set->size());
+      ASSERT_TRUE((RefitJob{RefitMode::kFast, set, &*rest, pose.world, {}, got}.Run()));
+      for (size_t s = 0; s < set->size(); ++s) {
+        for (int c = 0; c < 4; ++c) {
+          ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c])) << "sphere " << s;
+        }
+      }
+    }
+  }
 }
 
 TEST(RefitJobTest, SameOutputForOneAndTwoThreads) {

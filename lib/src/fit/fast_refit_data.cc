@@ -55,4 +55,12 @@ void WriteFastRefitData(const RawCharacter& ch, std::span<const Mat4f> rest_worl
   }
 }
 
+void WriteInfluenceReach(runtime::SphereSet* set) {
+  if (!set->has_mesh()) return;  // no skin: no reach, fast refit takes 1 (runtime/sphere_set.h)
+  // The runtime's own computation, so SphereSet::Validate's comparison with the mesh holds bit for
+  // bit. It fails only for a vertex weighted on a joint outside its sphere's influences, which
+  // WriteFastRefitData never leaves (and the self-check would refuse).
+  if (auto reach = runtime::InfluenceReachFromMesh(*set); reach.ok()) set->influence_reach = std::move(*reach);
+}
+
 }  // namespace skinspheres::lib

@@ -11,6 +11,7 @@
 //   5. WriteExcludedPairs               exclusions.cc
 //   6. WriteFastRefitData               fast_refit_data.cc
 //   7. WriteSetMesh                     set_mesh.cc
+//      WriteInfluenceReach              fast_refit_data.cc
 //   report: SummarisePartReports        fit_report.cc
 //   self-check: CheckFittedSet          bind_pose_check.cc
 #pragma once
@@ -118,6 +119,10 @@ void WriteFastRefitData(const RawCharacter& ch, std::span<const Mat4f> rest_worl
 // 7. The mesh (sphere-set version 2): the skin as imported and the triangles in file order, when
 // the character has a skin and triangles.
 void WriteSetMesh(const RawCharacter& ch, runtime::SphereSet* set);
+// 7b. Per sphere influence, its reach from the mesh just written (runtime::InfluenceReachFromMesh:
+// the largest weight any source vertex of the sphere gives that joint), which tightens the fast
+// refit bound; none without a mesh.
+void WriteInfluenceReach(runtime::SphereSet* set);
 
 // The per-part reports with their final sphere counts, and the paper's F over all parts (weighted
 // by the contact points).

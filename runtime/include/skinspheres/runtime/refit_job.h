@@ -27,9 +27,12 @@
 //   positions, and its radius is at most sqrt(3) times the minimum enclosing ball's (half the
 //   box diagonal <= sqrt(3)/2 · the largest extent <= sqrt(3) · R_min); it can jump between frames.
 //
-// Fast mode (kFast): no vertex is skinned; input is G_j(t) per skeleton joint.
-//     r' = s_max · radius_fast + max_j |T_j c - c'| + margin       (Kavan & Žára 2005,
-//          "Fast collision detection for skeletally deformable models", bounding-sphere refit)
+// Fast mode (kFast): no vertex is skinned; input is G_j(t) per skeleton joint. With
+// d_j = T_j c - c' and W_j the reach of the sphere's influence on joint j (RefitRestData::reach():
+// the largest total weight any of the sphere's source vertices gives j, SphereSet::influence_reach),
+//     r' = s_max · radius_fast + min(max_j |d_j|, Σ_j W_j |d_j|) + margin
+//   Kavan & Žára 2005 ("Fast collision detection for skeletally deformable models", bounding-sphere
+//   refit) with its spread term max_j |d_j| capped by the weighted sum.
 //   Derivation. A source vertex is skinned as v' = Σ_b w_b M_b(t) p_bind over its bind entries b
 //   (weights >= 0, Σ w_b = 1), M_b(t) = G_j(b)(t) · IBM_b. Write p_b = M_b(rest) · p_bind, the
 //   rest copy of the vertex carried rigidly by entry b; then M_b(t) = T_j(b) · M_b(rest), so
@@ -39,9 +42,19 @@
 //     <= Σ_b w_b |A_j(b)| |p_b - c| <= s_max · radius_fast
 //   since radius_fast holds every rest copy p_b of every source vertex (sphere_set.h) and s_max
 //   bounds the largest singular value of every A_j of the sphere's influence joints. The second
-//   term is a convex combination of the points T_j c minus c', so its norm is
-//     <= max_j |T_j c - c'|   (the joints of a vertex are among the sphere's influence joints).
-//   Hence |v' - c'| <= r'. s_max: σ_max(A)^2 = λ_max(AᵀA) <= max_i Σ_k |(AᵀA)_ik| (the spectral
+//   term, with w_vj the vertex's total weight on joint j (Σ_j w_vj = 1; the joints of a vertex are
+//   among the sphere's influence joints, which SphereSet::Validate checks against the mesh), is
+//     Σ_j w_vj (T_j c - c') = Σ_j w_vj d_j,
+//   a convex combination of the d_j, so its norm is at most max_j |d_j|; and by the triangle
+//   inequality at most Σ_j w_vj |d_j| <= Σ_j W_j |d_j|, since w_vj <= W_j. Both hold for every
+//   source vertex, hence their minimum does, and |v' - c'| <= r'. The sum is the smaller one when
+//   the sphere's vertices give some of its joints only small weights (a sphere on a joint's border
+//   whose vertices lean to one side): a joint that moves far from c' then counts at its weight,
+//   not in full. With every W_j = 1 (a set with neither reach nor mesh) the sum is
+//   Σ_j |d_j| >= max_j |d_j| and r' is the plain Kavan & Žára bound, bit for bit (a float sum of
+//   non-negative terms is never below its largest term). The sums run in influence order, the
+//   same operations in the vector code and in the tests' scalar reference.
+//   s_max: σ_max(A)^2 = λ_max(AᵀA) <= max_i Σ_k |(AᵀA)_ik| (the spectral
 //   radius is below any induced norm, here the infinity norm of the symmetric AᵀA), so
 //     s_max = max_j sqrt(max_i Σ_k |(A_jᵀ A_j)_ik|),
 //   exact for rotations and uniform scales (AᵀA = s²I), an over-estimate under non-uniform scale.
@@ -99,6 +112,9 @@ class RefitRestData {
   // joint's rest frame, so T_j c = G_j(t) · center_in_joint[k]; and w_k renormalised to sum 1.
   std::span<const Eigen::Vector3f> center_in_joint() const { return center_in_joint_; }
   std::span<const float> weights() const { return weights_; }
+  // Per influence entry: the reach W_k the fast bound uses, SphereSet::influence_reach when the set
+  // has one, else computed from its mesh (InfluenceReachFromMesh), else 1 (the bound without it).
+  std::span<const float> reach() const { return reach_; }
   // Per joint: the 3x3 linear part of G_j(rest)^-1 (A_j = linear(G_j(t)) · this).
   std::span<const Eigen::Matrix3f> rest_linear_inverse() const { return rest_linear_inverse_; }
   // The same matrices by rows for the vector code: 12 floats per joint, rows 0..2 of
@@ -110,6 +126,7 @@ class RefitRestData {
   size_t source_vertex_count_ = 0;
   std::vector<Eigen::Vector3f> center_in_joint_;
   std::vector<float> weights_;
+  std::vector<float> reach_;
   std::vector<Eigen::Matrix3f> rest_linear_inverse_;
   std::vector<float> rest_inverse_rows_;
 };

@@ -40,7 +40,9 @@
 //     weights, and radius_fast covering every rest copy of every source vertex carried rigidly by
 //     each of its bind entries (see runtime/sphere_set.h).
 //  7. The mesh: the character's skin (bind positions, bind entries, influences) and its triangles,
-//     so the runtime can test triangles and skin single vertices (sphere-set version 2).
+//     so the runtime can test triangles and skin single vertices (sphere-set version 2); and from
+//     it each sphere influence's reach, the largest weight a source vertex gives that joint, which
+//     tightens the fast refit (runtime/sphere_set.h, influence_reach).
 // Finally a self-check proves, in double precision, every triangle inside its owner in the bind
 // pose. The result does not depend on the thread count.
 #pragma once
