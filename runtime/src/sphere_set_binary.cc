@@ -63,11 +63,12 @@ constexpr std::array<SectionInfo, kSphereSetSectionCount> kSections = {{
     {"influence_joints", 2}, {"influence_weights", 4}, {"excluded_pairs", 4}, {"vertex_offsets", 4},
     {"vertices", 4}, {"triangle_offsets", 4}, {"triangles", 4}, {"triangle_vertices", 4},
     {"positions_bind", 4}, {"bind_joints", 4}, {"bind_inverse", 4}, {"mesh_influence_offsets", 4},
-    {"mesh_influence_binds", 2}, {"mesh_influence_weights", 4},
+    {"mesh_influence_binds", 2}, {"mesh_influence_weights", 4}, {"influence_reach", 4},
 }};
 
-// Which sections a file with these flags holds (index id - 1).
-bool SectionPresent(size_t id, uint32_t flags) {
+// Which sections a file of this layout version with these flags holds (index id - 1).
+bool SectionPresent(size_t id, uint32_t flags, uint32_t version) {
+  if (id == static_cast<size_t>(SphereSetSection::kInfluenceReach)) return version >= kSphereSetBinaryVersion;
   if (id >= kFirstMeshSection) return (flags & kSphereSetBinaryFlagHasMesh) != 0;
   if (id >= kFirstFastOnlyOmitted) return (flags & kSphereSetBinaryFlagFastOnly) == 0;
   return true;
@@ -302,6 +303,14 @@ std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set, SphereSetBinar
     w.Add(SphereSetSection::kTriangleOffsets, set.triangle_offsets);
     w.Add(SphereSetSection::kTriangles, set.triangles);
   }
+  // The fast-only variant keeps the mesh's reach when the set has no reach of its own: its reader
+  // has no mesh to compute it from (sphere_set.h). Only from a sound set (the mesh's indices are
+  // read); an unsound one is written as it is, and its reader refuses it.
+  std::vector<float> reach_from_mesh;
+  if (fast_only && set.influence_reach.empty() && set.has_mesh() && !set.Validate()) {
+    if (auto reach = InfluenceReachFromMesh(set); reach.ok()) reach_from_mesh = std::move(*reach);
+  }
+  w.Add(SphereSetSection::kInfluenceReach, reach_from_mesh.empty() ? set.influence_reach : reach_from_mesh);
   if (mesh) {
     const skinning::SkinnedMesh& m = set.mesh;
     std::vector<int32_t> bind_joints;
@@ -343,8 +352,9 @@ Result<SphereSetBinaryView> SphereSetBinaryView::Open(std::span<const std::byte>
   }
   const std::byte* base = bytes.data();
   const uint32_t version = Load32(base + kVersionAt);
-  if (version != kSphereSetBinaryVersion) {
-    return Refuse(src, "layout version " + std::to_string(version) + " is not supported (this build reads version " +
+  if (version != kSphereSetBinaryVersion && version != kSphereSetBinaryVersionWithoutReach) {
+    return Refuse(src, "layout version " + std::to_string(version) + " is not supported (this build reads versions " +
+                           std::to_string(kSphereSetBinaryVersionWithoutReach) + " and " +
                            std::to_string(kSphereSetBinaryVersion) + ")",
                   ErrorCode::kVersionMismatch);
   }
@@ -362,6 +372,7 @@ Result<SphereSetBinaryView> SphereSetBinaryView::Open(std::span<const std::byte>
 
   SphereSetBinaryView v;
   v.bytes_ = bytes;
+  v.version_ = version;
   v.flags_ = Load32(base + kFlagsAt);
   v.sphere_count_ = Load32(base + kSphereCountAt);
   v.joint_count_ = Load32(base + kJointCountAt);
@@ -392,9 +403,11 @@ Result<SphereSetBinaryView> SphereSetBinaryView::Open(std::span<const std::byte>
     const SectionInfo& info = kSections[id - 1];
     const std::string name = std::string("section ") + info.name;
     if (id <= previous_id) return Refuse(src, name + " is out of order or repeated");
-    if (!SectionPresent(id, v.flags_)) return Refuse(src, name + " is not expected with these flags");
+    if (!SectionPresent(id, v.flags_, version)) {
+      return Refuse(src, name + " is not expected with these flags in layout version " + std::to_string(version));
+    }
     for (uint32_t missing = previous_id + 1; missing < id; ++missing) {
-      if (SectionPresent(missing, v.flags_)) return Refuse(src, std::string("section ") + kSections[missing - 1].name + " is missing");
+      if (SectionPresent(missing, v.flags_, version)) return Refuse(src, std::string("section ") + kSections[missing - 1].name + " is missing");
     }
     previous_id = id;
     if (element_size != info.element_size) {
@@ -410,7 +423,7 @@ Result<SphereSetBinaryView> SphereSetBinaryView::Open(std::span<const std::byte>
     v.sections_[id - 1] = {static_cast<size_t>(offset), static_cast<size_t>(count)};
   }
   for (uint32_t missing = previous_id + 1; missing <= kSphereSetSectionCount; ++missing) {
-    if (SectionPresent(missing, v.flags_)) return Refuse(src, std::string("section ") + kSections[missing - 1].name + " is missing");
+    if (SectionPresent(missing, v.flags_, version)) return Refuse(src, std::string("section ") + kSections[missing - 1].name + " is missing");
   }
 
   // Counts: every section's length follows from the header counts and the CSR offsets.
@@ -445,6 +458,12 @@ Result<SphereSetBinaryView> SphereSetBinaryView::Open(std::span<const std::byte>
       (err = csr(S::kInfluenceOffsets, n, {S::kInfluenceJoints, S::kInfluenceWeights}))) {
     return *err;
   }
+  const size_t reach = v.sections_[static_cast<uint32_t>(S::kInfluenceReach) - 1].count;
+  const size_t influences = v.sections_[static_cast<uint32_t>(S::kInfluenceJoints) - 1].count;
+  if (reach != 0 && reach != influences) {
+    return Refuse(src, "section influence_reach has " + std::to_string(reach) + " elements, expected " +
+                           std::to_string(influences) + " (one per influence) or 0");
+  }
   if (v.sections_[static_cast<uint32_t>(S::kExcludedPairs) - 1].count % 3 != 0) {
     return Refuse(src, "section excluded_pairs does not hold whole (i, j, reason) triples");
   }
@@ -466,7 +485,7 @@ Result<SphereSetBinaryView> SphereSetBinaryView::Open(std::span<const std::byte>
   uint64_t covered = table_end;
   for (size_t k = 0; k <= kSphereSetSectionCount; ++k) {
     const bool last = k == kSphereSetSectionCount;
-    if (!last && !SectionPresent(k + 1, v.flags_)) continue;
+    if (!last && !SectionPresent(k + 1, v.flags_, version)) continue;
     const uint64_t start = last ? file_size : v.sections_[k].offset;
     for (uint64_t at = covered; at < start; ++at) {
       if (base[at] != std::byte{0}) return Refuse(src, "padding byte at offset " + std::to_string(at) + " is not 0");
@@ -532,6 +551,7 @@ Result<SphereSet> SphereSetBinaryView::ToSphereSet() const {
   CopyInto(set.influence_offsets, influence_offsets());
   CopyInto(set.influence_joints, influence_joints());
   CopyInto(set.influence_weights, influence_weights());
+  CopyInto(set.influence_reach, influence_reach());
   const auto pairs = excluded_pairs();
   set.excluded_pairs.resize(pairs.size() / 3);
   for (size_t k = 0; k < set.excluded_pairs.size(); ++k) {

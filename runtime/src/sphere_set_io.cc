@@ -56,6 +56,10 @@ std::string WriteSphereSetJson(const SphereSet& set) {
                                             set.triangles.begin() + set.triangle_offsets[s + 1])},
         {"influences", influences},
     });
+    if (!set.influence_reach.empty()) {
+      spheres.back()["influence_reach"] = std::vector<float>(set.influence_reach.begin() + set.influence_offsets[s],
+                                                             set.influence_reach.begin() + set.influence_offsets[s + 1]);
+    }
   }
   j["spheres"] = spheres;
 
@@ -176,8 +180,9 @@ void ReadMesh(const json& m, StreamedMesh&& streamed, SphereSet* set) {
   mesh.influence_weights = std::move(streamed.influence_weights);
 }
 
-// One element of "spheres", appended to the set's per-sphere arrays and CSR lists.
-void ParseSphere(const json& sp, size_t s, SphereSet* set) {
+// One element of "spheres", appended to the set's per-sphere arrays and CSR lists. "influence_reach"
+// is optional, but all spheres have it or none does (the first sphere decides: *has_reach).
+void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach) {
   const std::string where = "$.spheres[" + std::to_string(s) + "]";
   if (Number<uint32_t>(Field(sp, "id", where), where + ".id") != s) throw ReadError{where + ".id is not its index"};
   set->sphere_part.push_back(Number<uint16_t>(Field(sp, "part", where), where + ".part"));
@@ -200,6 +205,23 @@ void ParseSphere(const json& sp, size_t s, SphereSet* set) {
     const json& pair = Array(v, where + ".influences[]", 2);
     set->influence_joints.push_back(Number<uint16_t>(pair[0], where + ".influences[][0]"));
     set->influence_weights.push_back(Number<float>(pair[1], where + ".influences[][1]"));
+  }
+  const auto reach = sp.find("influence_reach");
+  if (s == 0) *has_reach = reach != sp.end();
+  if ((reach != sp.end()) != *has_reach) {
+    throw ReadError{where + (*has_reach ? ".influence_reach is missing (the first sphere has one)"
+                                        : ".influence_reach is given but the first sphere has none")};
+  }
+  if (*has_reach) {
+    const size_t influences = set->influence_joints.size() - set->influence_offsets.back();
+    for (const json& v : Array(*reach, where + ".influence_reach", influences)) {
+      set->influence_reach.push_back(Number<float>(v, where + ".influence_reach"));
+    }
+    // Array() reads an exact size of 0 as any size: entries for a sphere without influences end here.
+    if (set->influence_reach.size() != set->influence_joints.size()) {
+      throw ReadError{where + ".influence_reach has " + std::to_string(reach->size()) + " entries, expected " +
+                      std::to_string(influences)};
+    }
   }
   set->influence_offsets.push_back(static_cast<uint32_t>(set->influence_joints.size()));
 }
@@ -240,7 +262,7 @@ class SetStream {
         return true;
       case E::object_end:
         if (d == 2 && array_[1] && key_[1] == "spheres") {
-          ParseSphere(parsed, set_.size(), &set_);
+          ParseSphere(parsed, set_.size(), &set_, &has_reach_);
           return false;
         }
         return true;
@@ -273,6 +295,7 @@ class SetStream {
     return true;
   }
   SphereSet set_;
+  bool has_reach_ = false;
   StreamedMesh mesh_;
   std::string key_[3];
   bool array_[3] = {false, false, false};

@@ -22,6 +22,7 @@
 #include "runtime/sample_sphere_set.h"
 #include "skinspheres/runtime/character.h"
 #include "skinspheres/runtime/file_io.h"
+#include "skinspheres/runtime/refit_job.h"
 #include "skinspheres/runtime/sphere_set_io.h"
 #include "test_support.h"
 
@@ -74,6 +75,44 @@ size_t EntryOf(const Bytes& b, SphereSetSection id) {
   }
   ADD_FAILURE() << "no section " << static_cast<uint32_t>(id);
   return 0;
+}
+
+// The same file as a version-1 writer (before the influence reach) wrote it: section 28 dropped,
+// the others laid out again as the writer lays them out (table, then each section on the next
+// 16-byte boundary, zero padding), version 1, checksum.
+Bytes DowngradeToVersion1(const Bytes& v2) {
+  struct Entry {
+    uint32_t id, element_size;
+    uint64_t offset, count;
+  };
+  std::vector<Entry> entries;
+  for (uint32_t k = 0; k < Get32(v2, 32); ++k) {
+    const size_t at = kSphereSetBinaryHeaderSize + k * kSphereSetBinarySectionEntrySize;
+    const Entry e{Get32(v2, at), Get32(v2, at + 4), Get64(v2, at + 8), Get64(v2, at + 16)};
+    if (e.id != static_cast<uint32_t>(SphereSetSection::kInfluenceReach)) entries.push_back(e);
+  }
+  const auto align = [](size_t n) { return (n + 15) / 16 * 16; };
+  size_t at = align(kSphereSetBinaryHeaderSize + entries.size() * kSphereSetBinarySectionEntrySize);
+  Bytes out(kSphereSetBinaryHeaderSize + entries.size() * kSphereSetBinarySectionEntrySize, std::byte{0});
+  std::copy_n(v2.begin(), kSphereSetBinaryHeaderSize, out.begin());
+  for (size_t k = 0; k < entries.size(); ++k) {
+    const Entry& e = entries[k];
+    const size_t entry = kSphereSetBinaryHeaderSize + k * kSphereSetBinarySectionEntrySize;
+    Put32(out, entry, e.id);
+    Put32(out, entry + 4, e.element_size);
+    Put64(out, entry + 8, at);
+    Put64(out, entry + 16, e.count);
+    out.resize(at + e.count * e.element_size, std::byte{0});
+    std::copy_n(v2.begin() + static_cast<ptrdiff_t>(e.offset), e.count * e.element_size,
+                out.begin() + static_cast<ptrdiff_t>(at));
+    at = align(at + e.count * e.element_size);
+  }
+  out.resize(at, std::byte{0});
+  Put32(out, 16, 1);
+  Put32(out, 32, static_cast<uint32_t>(entries.size()));
+  Put64(out, 24, out.size());
+  FixChecksum(out);
+  return out;
 }
 
 // Reads, watching the largest allocation; checks a refusal names the source in one line.
@@ -372,7 +411,10 @@ TEST(SphereSetBinaryTest, AbsurdHeadersAndTablesAreRefusedByName) {
   const std::vector<Case> cases = {
       {"magic", [](Bytes& b) { b[1] = std::byte{'X'}; }, ErrorCode::kFormatRejected, "wrong magic number"},
       {"json", [](Bytes& b) { b.assign(5, std::byte{'{'}); }, ErrorCode::kFormatRejected, "shorter than its magic"},
-      {"version", [](Bytes& b) { Put32(b, 16, 2); }, ErrorCode::kVersionMismatch, "layout version 2 is not supported"},
+      {"version", [](Bytes& b) { Put32(b, 16, 3); }, ErrorCode::kVersionMismatch,
+       "layout version 3 is not supported (this build reads versions 1 and 2)"},
+      {"version 1 with a reach section", [](Bytes& b) { Put32(b, 16, 1); }, ErrorCode::kInvalidData,
+       "section influence_reach is not expected with these flags in layout version 1"},
       {"checksum", [](Bytes& b) { b[100] ^= std::byte{1}; }, ErrorCode::kInvalidData, "checksum mismatch", false},
       {"file size huge", [](Bytes& b) { Put64(b, 24, ~uint64_t{0}); }, ErrorCode::kInvalidData, "truncated"},
       {"flags", [](Bytes& b) { Put32(b, 20, 3); }, ErrorCode::kInvalidData, "contradictory flags"},
@@ -427,6 +469,67 @@ TEST(SphereSetBinaryTest, AbsurdHeadersAndTablesAreRefusedByName) {
     EXPECT_NE(read.error().message.find(c.message_part), std::string::npos) << c.what << ": " << read.error().message;
     EXPECT_LE(largest, 2 * good.size() + 4096) << c.what;
   }
+}
+
+// Layout version 2 adds section 28, influence_reach (sphere_set.h). Version-1 files still read, as
+// sets without reach: with a mesh the rest data computes it (the same as the fitter's), without one
+// it is 1 (the bound without reach, refit_job_tests.cc checks the bits). The fast-only variant keeps
+// the reach, from the mesh when the set has none of its own.
+TEST(SphereSetBinaryTest, VersionOneFilesReadWithoutReachAndFastOnlyFilesKeepIt) {
+  const SphereSet& fitted = Builtin();
+  ASSERT_EQ(fitted.influence_reach.size(), fitted.influence_joints.size());
+  const Bytes v2 = WriteSphereSetBinary(fitted);
+  EXPECT_EQ(Get32(v2, 16), 2u);
+  const Bytes v1 = DowngradeToVersion1(v2);
+  EXPECT_EQ(Get32(v1, 16), 1u);
+  EXPECT_EQ(Get32(v1, 32), Get32(v2, 32) - 1);
+  auto old = Read(v1);
+  ASSERT_TRUE(old.ok()) << old.error().message;
+  EXPECT_TRUE(old->influence_reach.empty());
+  EXPECT_TRUE(old->has_mesh());
+  SphereSet expected = fitted;
+  expected.influence_reach.clear();
+  EXPECT_EQ(WriteSphereSetJson(*old), WriteSphereSetJson(expected));
+  auto rest = RefitRestData::Create(*old);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  EXPECT_TRUE(std::ranges::equal(rest->reach(), fitted.influence_reach)) << "the mesh's reach, as the fitter wrote it";
+  // Written again: version 2, an empty reach section, and back to the same set.
+  const Bytes rewritten = WriteSphereSetBinary(*old);
+  EXPECT_EQ(Get32(rewritten, 16), 2u);
+  EXPECT_EQ(Get64(rewritten, EntryOf(rewritten, SphereSetSection::kInfluenceReach) + 16), 0u);
+  EXPECT_TRUE(Read(rewritten)->influence_reach.empty());
+
+  // A version-1 fast-only file (no mesh to compute the reach from): reach 1.
+  SphereSet no_mesh = expected;
+  no_mesh.mesh = {};
+  no_mesh.triangle_vertices.clear();
+  auto old_fast = Read(DowngradeToVersion1(WriteSphereSetBinary(no_mesh, SphereSetBinaryContent::kFastOnly)));
+  ASSERT_TRUE(old_fast.ok()) << old_fast.error().message;
+  EXPECT_TRUE(old_fast->fast_only && old_fast->influence_reach.empty());
+  rest = RefitRestData::Create(*old_fast);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  EXPECT_TRUE(std::ranges::all_of(rest->reach(), [](float w) { return w == 1.0f; }));
+
+  // Fast-only files keep the reach: the set's own, or the mesh's when it has none.
+  const SphereSet* with_and_without[] = {&fitted, &expected};
+  for (const SphereSet* set : with_and_without) {
+    auto fast = Read(WriteSphereSetBinary(*set, SphereSetBinaryContent::kFastOnly));
+    ASSERT_TRUE(fast.ok()) << fast.error().message;
+    EXPECT_EQ(fast->influence_reach, fitted.influence_reach);
+  }
+
+  // The reach section holds one entry per influence, or none.
+  SphereSet small = Small();
+  small.influence_reach = {1.0f, 1.0f};
+  Bytes bad = WriteSphereSetBinary(small);
+  ASSERT_TRUE(Read(bad).ok());
+  Put64(bad, EntryOf(bad, SphereSetSection::kInfluenceReach) + 16, 1);
+  FixChecksum(bad);
+  auto refused = Read(bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("section influence_reach has 1 elements, expected 2 (one per influence) or 0"),
+            std::string::npos)
+      << refused.error().message;
 }
 
 // The fit settings (params) become the JSON's "params" object when a binary set is converted:

@@ -38,6 +38,7 @@ void ExpectSame(const SphereSet& a, const SphereSet& b) {
   EXPECT_EQ(a.influence_offsets, b.influence_offsets);
   EXPECT_EQ(a.influence_joints, b.influence_joints);
   EXPECT_EQ(a.influence_weights, b.influence_weights);
+  EXPECT_EQ(a.influence_reach, b.influence_reach);
   EXPECT_EQ(a.triangle_vertices, b.triangle_vertices);
   EXPECT_EQ(a.mesh.positions_bind, b.mesh.positions_bind);
   ASSERT_EQ(a.mesh.binds.size(), b.mesh.binds.size());
@@ -94,6 +95,33 @@ TEST(SphereSetIoTest, VersionOneFilesLoadWithoutAMesh) {
   auto mixed = ReadSphereSetJson(j.dump(), "v1.json");
   ASSERT_FALSE(mixed.ok());
   EXPECT_NE(mixed.error().message.find("$.mesh is not part of version 1"), std::string::npos) << mixed.error().message;
+}
+
+// "influence_reach" (sphere_set.h): written per sphere when the set has it, read back bit for bit;
+// a file without it (written before it existed) reads as a set without reach, which refits as the
+// mesh gives (version 2) or as the bound without reach (version 1: no mesh, reach 1).
+TEST(SphereSetIoTest, InfluenceReachIsOptionalAndExact) {
+  SphereSet set = TwoJointsWithMesh();
+  set.influence_reach = {1.0f, 0.50000006f, 0.75f, 1.0f};
+  const std::string text = WriteSphereSetJson(set);
+  nlohmann::json j = nlohmann::json::parse(text);
+  EXPECT_EQ(j["spheres"][0]["influence_reach"].size(), 2u);
+  auto read = ReadSphereSetJson(text, "mem");
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  ExpectSame(set, *read);
+  EXPECT_EQ(WriteSphereSetJson(*read), text);
+  for (auto& sphere : j["spheres"]) sphere.erase("influence_reach");
+  auto without = ReadSphereSetJson(j.dump(), "old.json");
+  ASSERT_TRUE(without.ok()) << without.error().message;
+  EXPECT_TRUE(without->influence_reach.empty());
+  EXPECT_EQ(WriteSphereSetJson(*without), j.dump()) << "a set without reach is written without it";
+  EXPECT_FALSE(nlohmann::json::parse(WriteSphereSetJson(TwoSpheres()))["spheres"][0].contains("influence_reach"));
+  // A version-1 file with it (a set without a mesh that has a reach, e.g. from a fast-only one).
+  SphereSet v1 = TwoSpheres();
+  v1.influence_reach = {0.5f, 1.0f};
+  auto v1_read = ReadSphereSetJson(WriteSphereSetJson(v1), "v1.json");
+  ASSERT_TRUE(v1_read.ok()) << v1_read.error().message;
+  EXPECT_EQ(v1_read->influence_reach, v1.influence_reach);
 }
 
 TEST(SphereSetIoTest, EveryTruncationOfAMeshSetIsAClearError) {
@@ -175,23 +203,38 @@ TEST(SphereSetIoTest, WrongContentIsRefusedWithItsPlace) {
       {"owned vertex", [](json& j) { j["mesh"]["triangles"][0] = 3; }, ErrorCode::kInvalidData,
        "sphere 0 owns triangle 0 but not its vertex 3"},
   };
-  for (const auto& c : mesh_cases) {
-    json j = good_mesh;
-    c.edit(j);
-    auto read = ReadSphereSetJson(j.dump(), "bad.json");
-    ASSERT_FALSE(read.ok()) << c.what;
-    EXPECT_EQ(read.error().code, c.code) << c.what << ": " << read.error().message;
-    EXPECT_NE(read.error().message.find(c.message_part), std::string::npos) << c.what << ": " << read.error().message;
-  }
-  for (const auto& c : cases) {
-    json j = good;
-    c.edit(j);
-    auto read = ReadSphereSetJson(j.dump(), "bad.json");
-    ASSERT_FALSE(read.ok()) << c.what;
-    EXPECT_EQ(read.error().code, c.code) << c.what << ": " << read.error().message;
-    EXPECT_NE(read.error().message.find(c.message_part), std::string::npos) << c.what << ": " << read.error().message;
-    EXPECT_EQ(read.error().message.rfind("bad.json: ", 0), 0u) << read.error().message;
-  }
+  SphereSet reach_set = TwoJointsWithMesh();
+  reach_set.influence_reach = {1.0f, 0.5f, 0.75f, 1.0f};
+  const json good_reach = json::parse(WriteSphereSetJson(reach_set));
+  const std::vector<Case> reach_cases = {
+      {"reach missing on one sphere", [](json& j) { j["spheres"][1].erase("influence_reach"); }, ErrorCode::kInvalidData,
+       "$.spheres[1].influence_reach is missing (the first sphere has one)"},
+      {"reach only on a later sphere", [](json& j) { j["spheres"][0].erase("influence_reach"); }, ErrorCode::kInvalidData,
+       "$.spheres[1].influence_reach is given but the first sphere has none"},
+      {"reach count", [](json& j) { j["spheres"][0]["influence_reach"] = {1}; }, ErrorCode::kInvalidData,
+       "$.spheres[0].influence_reach has 1 entries, expected 2"},
+      {"reach type", [](json& j) { j["spheres"][0]["influence_reach"][1] = "all"; }, ErrorCode::kInvalidData,
+       "$.spheres[0].influence_reach is not a number"},
+      {"reach above 1", [](json& j) { j["spheres"][1]["influence_reach"][0] = 2; }, ErrorCode::kInvalidData,
+       "sphere 1 has influence reach 2 on joint 0 (must be within [0, 1])"},
+      {"reach below the mesh", [](json& j) { j["spheres"][0]["influence_reach"][1] = 0.25; }, ErrorCode::kInvalidData,
+       "sphere 0 has influence reach 0.25 on joint 1, below the weight 0.5"},
+  };
+  // Each case edits a good document; the reader refuses it with its code, naming the place.
+  const auto refuse_all = [](const json& base, const std::vector<Case>& edits) {
+    for (const auto& c : edits) {
+      json j = base;
+      c.edit(j);
+      auto read = ReadSphereSetJson(j.dump(), "bad.json");
+      ASSERT_FALSE(read.ok()) << c.what;
+      EXPECT_EQ(read.error().code, c.code) << c.what << ": " << read.error().message;
+      EXPECT_NE(read.error().message.find(c.message_part), std::string::npos) << c.what << ": " << read.error().message;
+      EXPECT_EQ(read.error().message.rfind("bad.json: ", 0), 0u) << read.error().message;
+    }
+  };
+  refuse_all(good_reach, reach_cases);
+  refuse_all(good_mesh, mesh_cases);
+  refuse_all(good, cases);
 }
 
 }  // namespace

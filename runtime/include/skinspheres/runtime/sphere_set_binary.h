@@ -3,15 +3,16 @@
 // stays the interchange and debugging format; both hold the same set, and converting one into the
 // other and back is bit-exact (`skinspheres convert`).
 //
-// Layout, version 1. Every integer and float is little-endian; offsets count bytes from the start
-// of the file (never pointers), so the file works at any address.
+// Layout, version 2 (version 1, the same without section 28, is still read). Every integer and
+// float is little-endian; offsets count bytes from the start of the file (never pointers), so the
+// file works at any address.
 //
 //   offset size  header (64 bytes)
 //     0     8    magic 89 53 53 42 0D 0A 1A 0A ("\x89SSB\r\n\x1a\n": a high bit, CR LF and ^Z
 //                catch 7-bit and text-mode transfers)
 //     8     8    u64 checksum: XXH64, seed 0 (Xxh64 below; xxhsum -H1 computes the same), of the
 //                bytes [16, file_size)
-//    16     4    u32 layout version (kSphereSetBinaryVersion)
+//    16     4    u32 layout version (kSphereSetBinaryVersion; kSphereSetBinaryVersionWithoutReach read too)
 //    20     4    u32 flags: bit 0 fast-only, bit 1 has a mesh (never both); other bits 0
 //    24     8    u64 file_size: the file's exact length
 //    32     4    u32 section_count
@@ -61,10 +62,15 @@
 //   25  mesh_influence_offsets  u32   V + 1            CSR over 26, 27
 //   26  mesh_influence_binds    u16   o[V]
 //   27  mesh_influence_weights  f32   o[V]
-// A file holds exactly the sections its flags call for. A change of layout bumps the version.
+//   28  influence_reach         f32   o[N] or 0        per entry of 14 (version 2, every file; 0
+//                                                       elements: the set has none, sphere_set.h)
+// A file holds exactly the sections its flags and version call for. A change of layout bumps the
+// version. A version-1 file reads as a set without influence reach.
 //
 // Fast-only variant: sections 17-27 left out, i.e. everything fast refit never reads (Xbot: 16 KB
-// instead of 1.6 MB; its JSON takes 3.5 MB). A set read from it has SphereSet::fast_only set; exact refit and
+// instead of 1.6 MB; its JSON takes 3.5 MB). It keeps section 28, filled from the mesh when the set
+// has a mesh and no reach of its own (a fast-only set has no mesh to compute it from later), so it
+// refits exactly as the whole set does. A set read from it has SphereSet::fast_only set; exact refit and
 // triangle tests refuse it with an error saying so.
 //
 // Reading refuses, with one line "<source>: <problem>", a wrong magic (kFormatRejected), another
@@ -96,7 +102,8 @@
 namespace skinspheres::runtime {
 
 inline constexpr unsigned char kSphereSetBinaryMagic[8] = {0x89, 'S', 'S', 'B', '\r', '\n', 0x1A, '\n'};
-inline constexpr uint32_t kSphereSetBinaryVersion = 1;
+inline constexpr uint32_t kSphereSetBinaryVersion = 2;              // written
+inline constexpr uint32_t kSphereSetBinaryVersionWithoutReach = 1;  // read (no section 28)
 inline constexpr size_t kSphereSetBinaryHeaderSize = 64;
 inline constexpr size_t kSphereSetBinarySectionEntrySize = 24;
 inline constexpr size_t kSphereSetBinaryAlignment = 16;
@@ -108,9 +115,9 @@ enum class SphereSetSection : uint32_t {
   kCentersRest, kRadiiRest, kRadiiFast, kSpherePart, kSphereJoint, kSphereLevel, kInfluenceOffsets,
   kInfluenceJoints, kInfluenceWeights, kExcludedPairs, kVertexOffsets, kVertices, kTriangleOffsets,
   kTriangles, kTriangleVertices, kPositionsBind, kBindJoints, kBindInverse, kMeshInfluenceOffsets,
-  kMeshInfluenceBinds, kMeshInfluenceWeights,
+  kMeshInfluenceBinds, kMeshInfluenceWeights, kInfluenceReach,
 };
-inline constexpr uint32_t kSphereSetSectionCount = 27;  // ids 1..27
+inline constexpr uint32_t kSphereSetSectionCount = 28;  // ids 1..28
 
 enum class SphereSetBinaryContent : uint8_t {
   kFull,      // everything, mesh included: converts back to the same JSON
@@ -184,6 +191,9 @@ class SphereSetBinaryView {
   std::span<const uint32_t> mesh_influence_offsets() const { return Get<uint32_t>(SphereSetSection::kMeshInfluenceOffsets); }
   std::span<const uint16_t> mesh_influence_binds() const { return Get<uint16_t>(SphereSetSection::kMeshInfluenceBinds); }
   std::span<const float> mesh_influence_weights() const { return Get<float>(SphereSetSection::kMeshInfluenceWeights); }
+  // Empty in a version-1 file and when the set has none.
+  std::span<const float> influence_reach() const { return Get<float>(SphereSetSection::kInfluenceReach); }
+  uint32_t version() const { return version_; }
 
   // Copies into a SphereSet (loaded_from = source_name()) and validates it (errors name the source).
   Result<SphereSet> ToSphereSet() const;
@@ -202,6 +212,7 @@ class SphereSetBinaryView {
 
   std::span<const std::byte> bytes_;
   std::string source_name_;
+  uint32_t version_ = 0;
   uint32_t flags_ = 0;
   uint32_t sphere_count_ = 0, joint_count_ = 0, part_count_ = 0;
   uint32_t source_vertex_count_ = 0, source_triangle_count_ = 0, bind_count_ = 0;

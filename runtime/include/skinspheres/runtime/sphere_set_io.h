@@ -7,14 +7,18 @@
 //  "skeleton":{"joints":[{"name","parent","rest_world":[16 floats, column-major]}]},
 //  "parts":[{"name","joints":[joint indices]}],
 //  "spheres":[{"id","part","joint","level","center":[x,y,z],"radius","radius_fast",
-//              "vertices":[...],"triangles":[...],"influences":[[joint,weight],...]}],
+//              "vertices":[...],"triangles":[...],"influences":[[joint,weight],...],
+//              "influence_reach":[one per influence]}],
 //  "excluded_pairs":[[i,j,"same_joint"|"adjacent_joints"|"bind_overlap"],...],
 //  "mesh":{"triangles":[3 source vertex indices per source triangle],
 //          "positions_bind":[x,y,z per source vertex],
 //          "binds":[{"joint","inverse_bind":[16 floats, column-major]}],
 //          "influence_offsets":[vertices + 1],"influence_binds":[...],"influence_weights":[...]}}
 // "mesh" is version 2 (sphere_set.h); a version-1 file has none and is read as a set without a
-// mesh; a set without a mesh is written as version 1.
+// mesh; a set without a mesh is written as version 1. "influence_reach" (SphereSet::influence_reach)
+// is optional in either version: every sphere has it or none does, and a file without it (written
+// before it existed) reads as a set without reach, which fast refit computes from the mesh or
+// takes as 1 (sphere_set.h); it is written when the set has it.
 // Everything in the rest pose, in the source file's world space. Sphere "id" is its index.
 // A reader refuses another format name, a newer version, a malformed or truncated file, or a set
 // that fails SphereSet::Validate(), with a message naming the file and the problem.
