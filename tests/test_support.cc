@@ -7,6 +7,8 @@
 #include <system_error>
 #include <thread>
 
+#include "skinspheres/lib/character/builtin_character.h"
+
 namespace skinspheres::test {
 
 std::filesystem::path AssetDir() {
@@ -27,6 +29,11 @@ const std::vector<std::string>& SharedCharacters() {
   static const std::vector<std::string> names = {"CesiumMan.glb", "RobotExpressive.glb",
                                                  "Soldier.glb", "Xbot.glb"};
   return names;
+}
+
+const lib::RawCharacter& BuiltinCharacter() {
+  static const lib::RawCharacter c = lib::MakeBuiltinCharacter();
+  return c;
 }
 
 std::filesystem::path TempDir(const std::string& name) {

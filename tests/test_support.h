@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "skinspheres/lib/character/raw_character.h"
 #include "skinspheres/skinning/parallel_for.h"
 
 namespace skinspheres::test {
@@ -15,6 +16,8 @@ std::filesystem::path AssetDir();
 std::filesystem::path Asset(const std::string& file_name);
 // The four shared characters' file names.
 const std::vector<std::string>& SharedCharacters();
+// The built-in character (lib::MakeBuiltinCharacter()), made once per test process.
+const lib::RawCharacter& BuiltinCharacter();
 // A fresh, empty folder under the build tree for this test's files (one per running test).
 std::filesystem::path TempDir(const std::string& name);
 // A stand-in for an engine's job system: splits [0, count) into ranges of `grain` items and runs

@@ -9,16 +9,12 @@
 #include "lib/clip_eval_for_tests.h"
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/runtime/triangle_contact.h"
+#include "test_support.h"
 
 namespace skinspheres::lib {
 namespace {
 
 using Eigen::Vector3f;
-
-const RawCharacter& Character() {
-  static const RawCharacter c = MakeBuiltinCharacter();
-  return c;
-}
 
 const MeshRange& Piece(const RawCharacter& c, const std::string& name) {
   for (const auto& m : c.meshes) {
@@ -81,7 +77,7 @@ std::vector<uint32_t> DominatedBy(const RawCharacter& c, const std::string& piec
 }
 
 TEST(BuiltinCharacter, SkeletonHasMixamoNamesAndValidParents) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   EXPECT_TRUE(c.skeleton.Validate());
   EXPECT_GE(c.skeleton.size(), 20u);
   for (const char* n : {"Hips",         "Spine",     "Spine1",      "Spine2",      "Neck",          "Head",
@@ -95,7 +91,7 @@ TEST(BuiltinCharacter, SkeletonHasMixamoNamesAndValidParents) {
 }
 
 TEST(BuiltinCharacter, SizesAndRanges) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   EXPECT_GE(c.triangle_count(), 3000u);
   EXPECT_LE(c.triangle_count(), 10000u);
   EXPECT_EQ(c.skin.vertex_count(), c.vertex_count());
@@ -119,7 +115,7 @@ TEST(BuiltinCharacter, SizesAndRanges) {
 }
 
 TEST(BuiltinCharacter, EveryPieceIsClosedOrientedAndOutward) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   for (const auto& m : c.meshes) {
     // Every directed edge once and its reverse once: closed (2 triangles per edge), consistent.
     std::map<std::pair<int, int>, int> directed;
@@ -140,7 +136,7 @@ TEST(BuiltinCharacter, EveryPieceIsClosedOrientedAndOutward) {
 }
 
 TEST(BuiltinCharacter, NoDegenerateTriangles) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   for (const auto& tri : c.triangles) {
     const Vector3f& a = c.positions_rest[tri[0]];
     const float area = 0.5f * (c.positions_rest[tri[1]] - a).cross(c.positions_rest[tri[2]] - a).norm();
@@ -149,7 +145,7 @@ TEST(BuiltinCharacter, NoDegenerateTriangles) {
 }
 
 TEST(BuiltinCharacter, WeightsNormalisedAtMostFourInfluences) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   const auto& s = c.skin;
   ASSERT_EQ(s.influence_offsets.size(), s.vertex_count() + 1);
   size_t multi = 0;
@@ -170,7 +166,7 @@ TEST(BuiltinCharacter, WeightsNormalisedAtMostFourInfluences) {
 }
 
 TEST(BuiltinCharacter, RestPositionsEqualLbsAtRestAndBindEqualsRest) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   std::vector<skinspheres::Mat4f> rest(c.skeleton.size());
   c.skeleton.RestWorld(rest);
   const auto skinned = test::Skin(c, rest);
@@ -184,7 +180,7 @@ TEST(BuiltinCharacter, RestPositionsEqualLbsAtRestAndBindEqualsRest) {
 }
 
 TEST(BuiltinCharacter, HumanSizedYUpAndEllipticTorso) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   Eigen::AlignedBox3f box;
   for (const auto& p : c.positions_rest) box.extend(p);
   EXPECT_NEAR(box.min().y(), 0.0f, 0.02f);
@@ -204,7 +200,7 @@ TEST(BuiltinCharacter, HumanSizedYUpAndEllipticTorso) {
 }
 
 TEST(BuiltinCharacter, ArmsAreClearOfTheTorsoAtRest) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   const MeshRange& torso = Piece(c, "TorsoMesh");
   for (const char* arm : {"LeftArmMesh", "RightArmMesh"}) {
     const MeshRange& a = Piece(c, arm);
@@ -219,7 +215,7 @@ TEST(BuiltinCharacter, ArmsAreClearOfTheTorsoAtRest) {
 }
 
 TEST(BuiltinCharacter, ClipsAreWellFormed) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   ASSERT_NE(Clip(c, "walk"), nullptr);
   ASSERT_NE(Clip(c, "touch"), nullptr);
   EXPECT_FLOAT_EQ(Clip(c, "walk")->duration_s, kWalkDuration_s);
@@ -249,7 +245,7 @@ TEST(BuiltinCharacter, ClipsAreWellFormed) {
 }
 
 TEST(BuiltinCharacter, WalkLoopsAndMovesLimbs) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   const auto& walk = *Clip(c, "walk");
   const auto p0 = test::PoseAt(c, walk, 0.0f);
   const auto p1 = test::PoseAt(c, walk, kWalkDuration_s);
@@ -281,7 +277,7 @@ Contact HandAgainst(const RawCharacter& c, const std::vector<Vector3f>& pos, con
 }
 
 TEST(BuiltinCharacter, TouchClipHandsReachChestThenHead) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   const auto& touch = *Clip(c, "touch");
   ASSERT_GT(DominatedBy(c, "LeftArmMesh", "LeftHand").size(), 20u);
   const auto rest = test::PoseAt(c, touch, 0.0f);
@@ -377,7 +373,7 @@ bool TouchesJoint(const RawCharacter& c, uint32_t t, const std::string& joint) {
 }
 
 TEST(BuiltinCharacter, TheWalkTouchesNothing) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   // The arms are among the pieces checked: apart at rest.
   ASSERT_TRUE(PieceIntersections(c, c.positions_rest).empty());
   const auto& walk = *Clip(c, "walk");
@@ -390,7 +386,7 @@ TEST(BuiltinCharacter, TheWalkTouchesNothing) {
 }
 
 TEST(BuiltinCharacter, TheTouchClipTouchesOnlyWithTheHands) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   const auto& touch = *Clip(c, "touch");
   int chest_frames = 0, head_frames = 0;
   for (int f = 0; f <= 60; ++f) {  // 15 frames per second

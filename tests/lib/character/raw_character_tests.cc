@@ -12,14 +12,10 @@
 #include "skinspheres/lib/character/raw_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/io/glb_exporter.h"
+#include "test_support.h"
 
 namespace skinspheres::lib {
 namespace {
-
-const RawCharacter& Builtin() {
-  static const RawCharacter c = MakeBuiltinCharacter();
-  return c;
-}
 
 struct BrokenRule {
   std::string rule;
@@ -34,34 +30,35 @@ std::vector<BrokenRule> BrokenRules() {
        "skeleton arrays disagree in size or parents are not ordered parents-first"},
       {"triangle index past the vertices",
        [](RawCharacter& c) { c.triangles[7][1] = static_cast<int>(c.positions_rest.size()); },
-       "triangle 7 uses vertex " + std::to_string(Builtin().vertex_count()) + " of " +
-           std::to_string(Builtin().vertex_count())},
+       "triangle 7 uses vertex " + std::to_string(test::BuiltinCharacter().vertex_count()) + " of " +
+           std::to_string(test::BuiltinCharacter().vertex_count())},
       {"negative triangle index", [](RawCharacter& c) { c.triangles[0][2] = -1; },
-       "triangle 0 uses vertex -1 of " + std::to_string(Builtin().vertex_count())},
+       "triangle 0 uses vertex -1 of " + std::to_string(test::BuiltinCharacter().vertex_count())},
       {"skin for another mesh", [](RawCharacter& c) { c.skin.positions_bind.pop_back(); },
-       "skin has " + std::to_string(Builtin().vertex_count() - 1) + " vertices, mesh has " +
-           std::to_string(Builtin().vertex_count())},
+       "skin has " + std::to_string(test::BuiltinCharacter().vertex_count() - 1) + " vertices, mesh has " +
+           std::to_string(test::BuiltinCharacter().vertex_count())},
       {"influence arrays of different sizes", [](RawCharacter& c) { c.skin.influence_weights.pop_back(); },
        "skin influence arrays disagree in size"},
       {"offsets that decrease",
        [](RawCharacter& c) { std::swap(c.skin.influence_offsets[3], c.skin.influence_offsets[4]); },
        "skin influence offsets decrease at vertex 3"},
       {"bind entry on no joint", [](RawCharacter& c) { c.skin.binds[2].joint = 1000; },
-       "bind entry 2 names joint 1000 of " + std::to_string(Builtin().skeleton.size())},
+       "bind entry 2 names joint 1000 of " + std::to_string(test::BuiltinCharacter().skeleton.size())},
       {"influence on no bind entry",
        [](RawCharacter& c) { c.skin.influence_binds[5] = static_cast<uint16_t>(c.skin.binds.size()); },
-       "influence 5 uses bind entry " + std::to_string(Builtin().skin.binds.size()) + " of " +
-           std::to_string(Builtin().skin.binds.size())},
+       "influence 5 uses bind entry " + std::to_string(test::BuiltinCharacter().skin.binds.size()) + " of " +
+           std::to_string(test::BuiltinCharacter().skin.binds.size())},
       {"non-finite weight", [](RawCharacter& c) { c.skin.influence_weights[9] = std::nanf(""); },
        "influence 9 has a non-finite weight"},
       {"rigid joint past the skeleton", [](RawCharacter& c) { c.meshes[1].rigid_joint = 500; },
-       "mesh '" + Builtin().meshes[1].name + "' follows joint 500 of " + std::to_string(Builtin().skeleton.size())},
+       "mesh '" + test::BuiltinCharacter().meshes[1].name + "' follows joint 500 of " +
+           std::to_string(test::BuiltinCharacter().skeleton.size())},
   };
 }
 
 TEST(RawCharacterValidate, TheBuiltinCharacterPasses) {
-  EXPECT_FALSE(Builtin().Validate().has_value());
-  RawCharacter without_skin = Builtin();
+  EXPECT_FALSE(test::BuiltinCharacter().Validate().has_value());
+  RawCharacter without_skin = test::BuiltinCharacter();
   without_skin.skin = {};  // a character without a skin skips the skin's rules
   EXPECT_FALSE(without_skin.Validate().has_value());
 }
@@ -69,7 +66,7 @@ TEST(RawCharacterValidate, TheBuiltinCharacterPasses) {
 TEST(RawCharacterValidate, EachBrokenRuleIsNamedOnOneLine) {
   for (const BrokenRule& b : BrokenRules()) {
     SCOPED_TRACE(b.rule);
-    RawCharacter c = Builtin();
+    RawCharacter c = test::BuiltinCharacter();
     c.source_file = "broken.glb";
     b.do_break(c);
     const auto error = c.Validate();
@@ -81,7 +78,7 @@ TEST(RawCharacterValidate, EachBrokenRuleIsNamedOnOneLine) {
 }
 
 TEST(RawCharacterValidate, UnnamedCharactersAreCalledCharacter) {
-  RawCharacter c = Builtin();
+  RawCharacter c = test::BuiltinCharacter();
   c.source_file.clear();
   EXPECT_EQ(c.Name(), "<character>");
   c.skeleton = {};
@@ -91,11 +88,11 @@ TEST(RawCharacterValidate, UnnamedCharactersAreCalledCharacter) {
 
 // The split, the fitter and the exporter start with Validate: the same refusal, word for word.
 TEST(RawCharacterValidate, TheStagesRefuseWithValidatesMessage) {
-  const auto parts = SplitBodyParts(Builtin());
+  const auto parts = SplitBodyParts(test::BuiltinCharacter());
   ASSERT_TRUE(parts.ok()) << parts.error().message;
   for (const BrokenRule& b : BrokenRules()) {
     SCOPED_TRACE(b.rule);
-    RawCharacter c = Builtin();
+    RawCharacter c = test::BuiltinCharacter();
     c.source_file = "broken.glb";
     b.do_break(c);
     const std::string expected = "broken.glb: " + b.message;
@@ -105,7 +102,7 @@ TEST(RawCharacterValidate, TheStagesRefuseWithValidatesMessage) {
     EXPECT_EQ(split.error().code, ErrorCode::kInvalidData);
     EXPECT_EQ(split.error().message, expected);
 
-    if (c.triangle_count() == Builtin().triangle_count()) {  // parts made for this mesh
+    if (c.triangle_count() == test::BuiltinCharacter().triangle_count()) {  // parts made for this mesh
       const auto fit = FitSpheres(c, *parts, FitSettings{});
       ASSERT_FALSE(fit.ok());
       EXPECT_EQ(fit.error().code, ErrorCode::kInvalidData);

@@ -41,11 +41,6 @@ namespace {
 
 using Eigen::Vector3f;
 
-const RawCharacter& Builtin() {
-  static const RawCharacter c = MakeBuiltinCharacter();
-  return c;
-}
-
 float BodyHeight(const RawCharacter& c) {
   float lo = INFINITY, hi = -INFINITY;
   for (const Vector3f& p : c.positions_rest) {
@@ -109,7 +104,7 @@ std::filesystem::path ExportThroughAssimp(const std::string& format, const std::
   const auto dir = test::TempDir("importer_assimp_" + format + (keep_animations ? "" : "_static") +
                                  (keys_in_seconds ? "_seconds" : "") + edit_tag);
   const auto glb = dir / "builtin.glb";
-  const auto written = ExportGlb(Builtin(), glb);
+  const auto written = ExportGlb(test::BuiltinCharacter(), glb);
   EXPECT_TRUE(written.ok()) << (written.ok() ? "" : written.error().message);
   const aiScene* in = aiImportFile(glb.string().c_str(), 0);
   EXPECT_NE(in, nullptr) << aiGetErrorString();
@@ -168,7 +163,7 @@ std::map<std::string, float> WeightsOf(const RawCharacter& c, uint32_t v) {
 // (same mesh name, same triangle index, same corner). -1 where no triangle uses it. `alias`:
 // imported mesh name -> built-in mesh name, where they differ.
 std::vector<int32_t> CornerMatch(const RawCharacter& imported, const std::map<std::string, std::string>& alias = {}) {
-  const RawCharacter& b = Builtin();
+  const RawCharacter& b = test::BuiltinCharacter();
   std::vector<int32_t> match(imported.vertex_count(), -1);
   for (const MeshRange& m : imported.meshes) {
     const auto a = alias.find(m.name);
@@ -187,7 +182,7 @@ std::vector<int32_t> CornerMatch(const RawCharacter& imported, const std::map<st
 // The checks every skinned round trip passes: meshes, triangles, joints, weights, rest positions
 // (through the corner match), skin weights equal to the built-in's, and a sound fit.
 void ExpectSameSkinnedCharacter(const RawCharacter& c, const std::string& label) {
-  const RawCharacter& b = Builtin();
+  const RawCharacter& b = test::BuiltinCharacter();
   const float tolerance = 1e-4f * BodyHeight(b);
   EXPECT_NEAR(BodyHeight(c), BodyHeight(b), tolerance) << label;
   EXPECT_EQ(c.triangle_count(), b.triangle_count()) << label;
@@ -291,7 +286,7 @@ TEST(ImporterAssimp, FbxAsciiRoundTripKeepsMeshSkinAndRestPose) {
   ASSERT_TRUE(r.ok()) << r.error().message;
   const RawCharacter& c = *r;
   // Assimp's FBX reader: one vertex per face corner.
-  EXPECT_EQ(c.vertex_count(), 3 * Builtin().triangle_count());
+  EXPECT_EQ(c.vertex_count(), 3 * test::BuiltinCharacter().triangle_count());
   ExpectSameSkinnedCharacter(c, "fbxa");
 }
 
@@ -301,7 +296,7 @@ TEST(ImporterAssimp, FbxAsciiRoundTripKeepsClips) {
   const auto r = ImportCharacter(path);
   ASSERT_TRUE(r.ok()) << r.error().message;
   const RawCharacter& c = *r;
-  const RawCharacter& b = Builtin();
+  const RawCharacter& b = test::BuiltinCharacter();
   ASSERT_EQ(c.clips.size(), b.clips.size());
   const std::vector<int32_t> match = CornerMatch(c);
   const float height = BodyHeight(b);
@@ -356,7 +351,7 @@ TEST(ImporterAssimp, FbxAsciiRigidMeshUnderAJointFollowsThatJoint) {
   const auto r = ImportCharacter(path);
   ASSERT_TRUE(r.ok()) << r.error().message;
   const RawCharacter& c = *r;
-  const RawCharacter& b = Builtin();
+  const RawCharacter& b = test::BuiltinCharacter();
   const float height = BodyHeight(b);
   // Assimp's FBX writer names a mesh that sits on a joint's node after that node.
   const MeshRange* head = nullptr;
@@ -434,7 +429,7 @@ TEST(ImporterAssimp, ColladaRestPoseDiffersFromBindPose) {
   const auto r = ImportCharacter(path);
   ASSERT_TRUE(r.ok()) << r.error().message;
   const RawCharacter& c = *r;
-  const RawCharacter& b = Builtin();
+  const RawCharacter& b = test::BuiltinCharacter();
   std::vector<skinning::Transform> local = b.skeleton.rest_local;
   const int32_t fore = b.skeleton.Find("LeftForeArm");
   local[static_cast<size_t>(fore)].rotation = skinspheres::Quatf(Eigen::AngleAxisf(angle, Vector3f::UnitZ()));

@@ -17,11 +17,6 @@
 namespace skinspheres::lib {
 namespace {
 
-const RawCharacter& Builtin() {
-  static const RawCharacter c = MakeBuiltinCharacter();
-  return c;
-}
-
 // The built-in character's skeleton and clips only, joints named prefix + name.
 RawCharacter AnimationOnly(const std::string& prefix) {
   RawCharacter c = WithoutMesh(MakeBuiltinCharacter());
@@ -48,7 +43,7 @@ const skinning::AnimationClip& ClipNamed(const std::vector<skinning::AnimationCl
 // Largest distance between the skinned built-in character under clip `a` and under clip `b`
 // (both on the built-in's skeleton) at time t.
 float PoseDistance(const skinning::AnimationClip& a, const skinning::AnimationClip& b, float t) {
-  const auto pa = test::PoseAt(Builtin(), a, t), pb = test::PoseAt(Builtin(), b, t);
+  const auto pa = test::PoseAt(test::BuiltinCharacter(), a, t), pb = test::PoseAt(test::BuiltinCharacter(), b, t);
   float worst = 0.0f;
   for (size_t v = 0; v < pa.size(); ++v) worst = std::max(worst, (pa[v] - pb[v]).norm());
   return worst;
@@ -74,15 +69,15 @@ TEST(ClipImport, GlbAnimationFileDrivesTheCharacterAsItsOwnClips) {
   const auto file = ReadAnimationFile(path);
   ASSERT_TRUE(file.ok()) << file.error().message;
   EXPECT_EQ(file->mesh_count, 0u);
-  EXPECT_EQ(file->nodes.size(), Builtin().skeleton.size());
-  ASSERT_EQ(file->clips.size(), Builtin().clips.size());
+  EXPECT_EQ(file->nodes.size(), test::BuiltinCharacter().skeleton.size());
+  ASSERT_EQ(file->clips.size(), test::BuiltinCharacter().clips.size());
   ClipMatchReport report;
-  const auto clips = MatchClips(*file, Builtin(), &report);
+  const auto clips = MatchClips(*file, test::BuiltinCharacter(), &report);
   ASSERT_TRUE(clips.ok()) << clips.error().message;
-  EXPECT_EQ(report.matched_joints, Builtin().skeleton.size());
+  EXPECT_EQ(report.matched_joints, test::BuiltinCharacter().skeleton.size());
   EXPECT_TRUE(report.dropped_nodes.empty());
   EXPECT_TRUE(report.rescaled_joints.empty());
-  for (const auto& own : Builtin().clips) {
+  for (const auto& own : test::BuiltinCharacter().clips) {
     const auto& read = ClipNamed(*clips, own.name);
     EXPECT_NEAR(read.duration_s, own.duration_s, 1e-5f);
     for (int i = 0; i <= 40; ++i) {
@@ -99,10 +94,10 @@ TEST(ClipImport, FbxAnimationFileMatchesAtTheKeys) {
   const auto file = ReadAnimationFile(path);
   ASSERT_TRUE(file.ok()) << file.error().message;
   EXPECT_EQ(file->mesh_count, 0u);
-  EXPECT_GE(file->nodes.size(), Builtin().skeleton.size());
-  const auto clips = MatchClips(*file, Builtin());
+  EXPECT_GE(file->nodes.size(), test::BuiltinCharacter().skeleton.size());
+  const auto clips = MatchClips(*file, test::BuiltinCharacter());
   ASSERT_TRUE(clips.ok()) << clips.error().message;
-  const auto& own = ClipNamed(Builtin().clips, "touch");
+  const auto& own = ClipNamed(test::BuiltinCharacter().clips, "touch");
   const auto& read = ClipNamed(*clips, "touch");
   std::vector<float> keys;
   for (const auto& tr : own.tracks) {  // the arms' keys (HeadTop_End's STEP keys fall mid-transition)
@@ -131,10 +126,10 @@ TEST(ClipImport, OtherUnitsAreRescaled) {
   const auto file = ReadAnimationFile(path);
   ASSERT_TRUE(file.ok()) << file.error().message;
   ClipMatchReport report;
-  const auto clips = MatchClips(*file, Builtin(), &report);
+  const auto clips = MatchClips(*file, test::BuiltinCharacter(), &report);
   ASSERT_TRUE(clips.ok()) << clips.error().message;
   EXPECT_FALSE(report.rescaled_joints.empty());
-  const auto& own = ClipNamed(Builtin().clips, "walk");
+  const auto& own = ClipNamed(test::BuiltinCharacter().clips, "walk");
   for (int i = 0; i <= 20; ++i) {
     const float t = own.duration_s * static_cast<float>(i) / 20.0f;
     EXPECT_LT(PoseDistance(own, ClipNamed(*clips, "walk"), t), 5e-4f) << "t=" << t;
@@ -147,7 +142,7 @@ TEST(ClipImport, UnmatchedJointsAreListed) {
   const auto path = Write(AnimationOnly("Rig_"), "clip_import_unmatched", "other_rig.glb");
   const auto file = ReadAnimationFile(path);
   ASSERT_TRUE(file.ok()) << file.error().message;
-  const auto clips = MatchClips(*file, Builtin());
+  const auto clips = MatchClips(*file, test::BuiltinCharacter());
   ASSERT_FALSE(clips.ok());
   const std::string& m = clips.error().message;
   EXPECT_EQ(clips.error().code, ErrorCode::kNotFound);
@@ -164,7 +159,7 @@ TEST(ClipImport, UnmatchedJointsAreListed) {
   const auto file1 = ReadAnimationFile(path1);
   ASSERT_TRUE(file1.ok()) << file1.error().message;
   ClipMatchReport report;
-  const auto clips1 = MatchClips(*file1, Builtin(), &report);
+  const auto clips1 = MatchClips(*file1, test::BuiltinCharacter(), &report);
   ASSERT_FALSE(clips1.ok());
   EXPECT_NE(clips1.error().message.find("1 of the"), std::string::npos) << clips1.error().message;
   EXPECT_NE(clips1.error().message.find(": LeftHand"), std::string::npos) << clips1.error().message;
@@ -184,11 +179,12 @@ TEST(ClipImport, AnimatedNodesTheCharacterLacksAreDroppedAndReported) {
   const auto file = ReadAnimationFile(path);
   ASSERT_TRUE(file.ok()) << file.error().message;
   ClipMatchReport report;
-  const auto clips = MatchClips(*file, Builtin(), &report);
+  const auto clips = MatchClips(*file, test::BuiltinCharacter(), &report);
   ASSERT_TRUE(clips.ok()) << clips.error().message;
   EXPECT_EQ(report.dropped_nodes, std::vector<std::string>{"Prop"});
   for (const auto& clip : *clips) {
-    for (const auto& tr : clip.tracks) EXPECT_LT(static_cast<size_t>(tr.joint), Builtin().skeleton.size());
+    for (const auto& tr : clip.tracks)
+      EXPECT_LT(static_cast<size_t>(tr.joint), test::BuiltinCharacter().skeleton.size());
   }
 }
 
@@ -227,7 +223,7 @@ TEST(ClipImport, BadFilesAreOneLineErrors) {
   const auto path = Write(still, "clip_import_still", "still.glb");
   const auto file = ReadAnimationFile(path);
   ASSERT_TRUE(file.ok()) << file.error().message;
-  const auto clips = MatchClips(*file, Builtin());
+  const auto clips = MatchClips(*file, test::BuiltinCharacter());
   ASSERT_FALSE(clips.ok());
   EXPECT_NE(clips.error().message.find("still.glb: has no animations"), std::string::npos);
 }

@@ -24,11 +24,6 @@ namespace {
 
 using Eigen::Vector3f;
 
-const RawCharacter& Character() {
-  static const RawCharacter c = MakeBuiltinCharacter();
-  return c;
-}
-
 struct AiScene {
   const aiScene* scene = nullptr;
   explicit AiScene(const std::filesystem::path& p) : scene(aiImportFile(p.string().c_str(), 0)) {}
@@ -53,13 +48,13 @@ const aiNodeAnim* FindChannel(const aiAnimation* a, const std::string& node) {
 
 std::filesystem::path ExportBuiltin(const std::string& folder, const GlbExtras& extras = {}) {
   const auto path = test::TempDir(folder) / "builtin.glb";
-  const auto r = ExportGlb(Character(), path, extras);
+  const auto r = ExportGlb(test::BuiltinCharacter(), path, extras);
   EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
   return path;
 }
 
 TEST(GlbExporter, AssimpReadsBackMeshesSkinAndClips) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   const auto path = ExportBuiltin("glb_exporter_assimp");
   AiScene in(path);
   ASSERT_NE(in.scene, nullptr) << aiGetErrorString();
@@ -139,7 +134,7 @@ TEST(GlbExporter, AssimpReadsBackMeshesSkinAndClips) {
 }
 
 TEST(GlbExporter, RoundTripThroughImportCharacter) {
-  const RawCharacter& c = Character();
+  const RawCharacter& c = test::BuiltinCharacter();
   const auto path = ExportBuiltin("glb_exporter_roundtrip");
   const auto imported = ImportCharacter(path);
   ASSERT_TRUE(imported.ok()) << imported.error().message;
@@ -287,7 +282,7 @@ TEST(GlbExporter, AnimatedSpheresJoinTheNamedClip) {
   AiScene in(path);
   ASSERT_NE(in.scene, nullptr) << aiGetErrorString();
   const aiScene* s = in.scene;
-  EXPECT_EQ(s->mNumAnimations, Character().clips.size());
+  EXPECT_EQ(s->mNumAnimations, test::BuiltinCharacter().clips.size());
   EXPECT_EQ(FindAnim(s, "spheres"), nullptr);
   const aiAnimation* touch = FindAnim(s, "touch");
   ASSERT_NE(touch, nullptr);
@@ -312,7 +307,7 @@ TEST(GlbExporter, MemoryExportIsTheFileAndNamesTheMeshNodes) {
   const auto path = ExportBuiltin("glb_exporter_memory");
   std::ifstream f(path, std::ios::binary);
   const std::vector<uint8_t> file((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  const auto blob = ExportGlbToMemory(Character(), "builtin");
+  const auto blob = ExportGlbToMemory(test::BuiltinCharacter(), "builtin");
   ASSERT_TRUE(blob.ok()) << blob.error().message;
   // Same JSON chunk and same bufferView bytes (Assimp 5.2.5 leaves the padding between
   // bufferViews uninitialised, so two exports of one scene differ there, and only there).
@@ -328,14 +323,14 @@ TEST(GlbExporter, MemoryExportIsTheFileAndNamesTheMeshNodes) {
     ASSERT_LE(end, file.size());
     EXPECT_TRUE(std::equal(file.begin() + begin, file.begin() + end, blob->bytes.begin() + begin));
   }
-  ASSERT_EQ(blob->summary.mesh_node_names.size(), Character().meshes.size());
+  ASSERT_EQ(blob->summary.mesh_node_names.size(), test::BuiltinCharacter().meshes.size());
   AiScene in(path);
   ASSERT_NE(in.scene, nullptr);
-  for (size_t m = 0; m < Character().meshes.size(); ++m) {
+  for (size_t m = 0; m < test::BuiltinCharacter().meshes.size(); ++m) {
     const aiNode* node = in.scene->mRootNode->FindNode(blob->summary.mesh_node_names[m].c_str());
     ASSERT_NE(node, nullptr) << blob->summary.mesh_node_names[m];
     ASSERT_EQ(node->mNumMeshes, 1u);
-    EXPECT_EQ(in.scene->mMeshes[node->mMeshes[0]]->mNumFaces, Character().meshes[m].triangle_count);
+    EXPECT_EQ(in.scene->mMeshes[node->mMeshes[0]]->mNumFaces, test::BuiltinCharacter().meshes[m].triangle_count);
   }
 }
 
@@ -402,7 +397,8 @@ TEST(GlbExporter, RefusesInconsistentInputWithAMessage) {
 }
 
 TEST(GlbExporter, UnwritablePathIsAnErrorNotACrash) {
-  const auto r = ExportGlb(Character(), test::TempDir("glb_exporter_unwritable") / "no_such_dir" / "x.glb");
+  const auto r =
+      ExportGlb(test::BuiltinCharacter(), test::TempDir("glb_exporter_unwritable") / "no_such_dir" / "x.glb");
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, ErrorCode::kFileUnreadable);
   EXPECT_NE(r.error().message.find("x.glb"), std::string::npos);
