@@ -36,6 +36,10 @@ std::string Digits(float x) {
   return text;
 }
 
+// How far a vertex's float weights may sum from 1 (normalised in double then rounded: n ulps for
+// n weights; 1e-5 leaves room for ~80).
+constexpr double kWeightSumTolerance = 1e-5;
+
 // Offsets of a CSR list: n+1 entries, starting at 0, non-decreasing, ending at the list's size.
 bool CsrOk(const std::vector<uint32_t>& offsets, size_t n, size_t list_size) {
   if (offsets.size() != n + 1 || offsets.front() != 0 || offsets.back() != list_size) return false;
@@ -90,6 +94,16 @@ std::optional<Error> ValidateMesh(const SphereSet& set) {
     if (mesh.influence_binds[k] >= mesh.binds.size()) return Invalid("a mesh influence names a bind entry out of range");
     if (!(mesh.influence_weights[k] >= 0.0f) || !std::isfinite(mesh.influence_weights[k])) {
       return Invalid("a mesh influence weight is negative or not finite");
+    }
+  }
+  // Each vertex's weights sum to 1 (the importers normalise them in double; float leaves a few
+  // ulps): skinning is then a convex blend, which the fast bound's derivation needs (refit_job.h).
+  for (size_t v = 0; v < vertices; ++v) {
+    double sum = 0.0;
+    for (uint32_t k = mesh.influence_offsets[v]; k < mesh.influence_offsets[v + 1]; ++k) sum += mesh.influence_weights[k];
+    if (!(std::abs(sum - 1.0) <= kWeightSumTolerance)) {
+      return Invalid("mesh vertex " + std::to_string(v) + " has skin weights summing to " + Digits(float(sum)) +
+                     ", not 1");
     }
   }
   std::vector<uint32_t> marked(vertices, UINT32_MAX);  // marked[v] == s: v is a source vertex of sphere s
@@ -205,6 +219,15 @@ std::optional<Error> SphereSet::Validate() const {
           return Invalid("sphere " + std::to_string(s) + " has influence reach " + Digits(influence_reach[k]) +
                          " on joint " + std::to_string(influence_joints[k]) + " (must be within [0, 1])");
         }
+      }
+      // Any one source vertex's weights sum to 1 over joints among the sphere's influences, each at
+      // most its reach: the reaches sum to at least 1. Checked for sets with no mesh too (fast-only
+      // and version-1 files), where nothing else can check the reach.
+      double sum = 0.0;
+      for (uint32_t k = influence_offsets[s]; k < influence_offsets[s + 1]; ++k) sum += influence_reach[k];
+      if (!(sum >= 1.0 - kWeightSumTolerance)) {
+        return Invalid("sphere " + std::to_string(s) + " has influence reaches summing to " + Digits(float(sum)) +
+                       ", below 1 (one source vertex's weights alone sum to 1)");
       }
     }
   }

@@ -56,7 +56,7 @@ std::string WriteSphereSetJson(const SphereSet& set) {
                                             set.triangles.begin() + set.triangle_offsets[s + 1])},
         {"influences", influences},
     });
-    if (!set.influence_reach.empty()) {
+    if (!set.influence_reach.empty() && set.influence_reach.size() == set.influence_joints.size()) {
       spheres.back()["influence_reach"] = std::vector<float>(set.influence_reach.begin() + set.influence_offsets[s],
                                                              set.influence_reach.begin() + set.influence_offsets[s + 1]);
     }

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cfloat>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -118,7 +119,7 @@ TEST(SphereSetIoTest, InfluenceReachIsOptionalAndExact) {
   EXPECT_FALSE(nlohmann::json::parse(WriteSphereSetJson(TwoSpheres()))["spheres"][0].contains("influence_reach"));
   // A version-1 file with it (a set without a mesh that has a reach, e.g. from a fast-only one).
   SphereSet v1 = TwoSpheres();
-  v1.influence_reach = {0.5f, 1.0f};
+  v1.influence_reach = {1.0f, 1.0f - 2 * FLT_EPSILON};  // one joint per sphere: every vertex weighs it fully
   auto v1_read = ReadSphereSetJson(WriteSphereSetJson(v1), "v1.json");
   ASSERT_TRUE(v1_read.ok()) << v1_read.error().message;
   EXPECT_EQ(v1_read->influence_reach, v1.influence_reach);

@@ -79,13 +79,34 @@ TEST(SphereSetTest, InfluenceReachBelowTheMeshOrOutOfRangeIsRefused) {
   s.influence_reach = {1.0f, std::numeric_limits<float>::quiet_NaN(), 0.75f, 1.0f};
   EXPECT_EQ(message(s), "sphere 0 has influence reach nan on joint 1 (must be within [0, 1])");
   s.influence_reach = {-0.0f, 0.5f, 0.75f, 1.0f};
-  EXPECT_NE(message(s).find("below the weight 1"), std::string::npos) << message(s);
+  EXPECT_EQ(message(s), "sphere 0 has influence reaches summing to 0.5, below 1 (one source vertex's weights alone sum to 1)");
+  s.influence_reach = {0.5f, 0.5f, 0.75f, 1.0f};
+  EXPECT_EQ(message(s), "sphere 0 has influence reach 0.5 on joint 0, below the weight 1 one of its source vertices "
+                        "gives that joint")
+      << "summing to 1, still below the mesh's";
   s.influence_reach = {1.0f, 0.5f, 0.75f};
   EXPECT_EQ(message(s), "the spheres have 3 influence reach entries for 4 influences (one each, or none)");
-  // Without a mesh (version 1, fast-only) only the range is checked.
+  // A mesh vertex whose weights do not sum to 1 (skinning would not be a convex blend, which every
+  // fast bound assumes): refused, by the vertex; a few ulps of rounding pass.
+  s = TwoJointsWithMesh();
+  s.mesh.influence_weights[1] = 0.95f;
+  EXPECT_EQ(message(s).rfind("mesh vertex 1 has skin weights summing to 1.2", 0), 0u) << message(s);
+  s = TwoJointsWithMesh();
+  s.mesh.influence_weights[0] = 0.5f;
+  EXPECT_EQ(message(s), "mesh vertex 0 has skin weights summing to 0.5, not 1");
+  s = TwoJointsWithMesh();
+  s.mesh.influence_weights[1] = std::nextafter(0.75f, 1.0f);
+  EXPECT_EQ(message(s), "accepted") << "one ulp over 1";
+  // Without a mesh (version 1, fast-only) the range and the sum are checked: a sphere's reaches
+  // sum to at least 1, since any one of its source vertices has weights summing to 1.
   SphereSet no_mesh = TwoSpheres();
-  no_mesh.influence_reach = {0.0f, 0.25f};
+  no_mesh.influence_reach = {1.0f, 1.0f};
   EXPECT_EQ(message(no_mesh), "accepted");
+  no_mesh.influence_reach = {1.0f, 0.25f};
+  EXPECT_EQ(message(no_mesh), "sphere 1 has influence reaches summing to 0.25, below 1 (one source vertex's weights alone "
+                              "sum to 1)");
+  no_mesh.influence_reach = {1.0f, 1.0f - 4 * FLT_EPSILON};
+  EXPECT_EQ(message(no_mesh), "accepted") << "rounding of a normalised sum";
   no_mesh.influence_reach = {-1.0f, 0.25f};
   EXPECT_EQ(message(no_mesh), "sphere 0 has influence reach -1 on joint 0 (must be within [0, 1])");
   // Sphere 0 without joint b among its influences: vertices 1 and 2 are weighted on it.
