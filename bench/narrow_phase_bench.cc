@@ -547,7 +547,7 @@ void BM_LazySkin(benchmark::State& state) {
     bool ok = true;
     if (way == 0) {
       job.prepared = &lazy;
-      for (const auto& [begin, end] : spans[k]) ok &= job.RunRange(begin, end);
+      ok &= job.RunRanges(spans[k]);
     } else if (way == 1) {
       for (uint32_t g : groups[k]) {
         job.prepared = &per_group[g];

@@ -709,9 +709,7 @@ struct NarrowPhaseAccess {
       job.prepared = &data.lazy_influences();
       std::atomic<bool> good{true};
       parallel_for(ctx.spans_.size(), 1, [&](size_t begin, size_t end) {
-        for (size_t k = begin; k < end; ++k) {
-          if (!job.RunRange(ctx.spans_[k].first, ctx.spans_[k].second)) good.store(false, std::memory_order_relaxed);
-        }
+        if (!job.RunRanges(std::span(ctx.spans_).subspan(begin, end - begin))) good.store(false, std::memory_order_relaxed);
       });
       ok &= good.load();
       return good.load();

@@ -172,6 +172,17 @@ bool SkinningJob::RunRange(size_t begin, size_t end) const {
   return true;
 }
 
+bool SkinningJob::RunRanges(std::span<const std::pair<uint32_t, uint32_t>> ranges) const {
+  if (!ValidateShape(*this)) return false;
+  const size_t work = WorkSize();
+  for (const auto& [begin, end] : ranges) {
+    if (begin > end || end > work) return false;
+    if (prepared == nullptr && !ValidateCsrRange(*this, begin, end)) return false;
+  }
+  for (const auto& [begin, end] : ranges) RunUnchecked(*this, begin, end);
+  return true;
+}
+
 bool SkinParallel(const SkinningJob& job, size_t grain, const ParallelFor& parallel_for) {
   if (!job.Validate()) return false;
   parallel_for(job.WorkSize(), std::max<size_t>(grain, 1),

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <utility>
 #include <vector>
 
 #include "skinning/synthetic_mesh.h"
@@ -232,6 +233,23 @@ TEST(SkinningJob, OneAndManyThreadsAreBitIdentical) {
     ASSERT_TRUE(sj.RunRange(n / 3, n / 3));  // empty range
     ASSERT_TRUE(sj.RunRange(n / 3, n));
     EXPECT_EQ(0, std::memcmp(serial.data(), split.data(), serial.size() * sizeof(float)));
+    // The same split as one list of ranges, out of order, one empty and one overlapping.
+    std::vector<float> listed(m.positions.size(), kSentinel);
+    sj.out_positions = listed;
+    const std::vector<std::pair<uint32_t, uint32_t>> ranges = {
+        {uint32_t(n / 2), uint32_t(n)}, {uint32_t(n / 3), uint32_t(n / 3)}, {0, uint32_t(n / 2)}, {1, 7}};
+    ASSERT_TRUE(sj.RunRanges(ranges));
+    EXPECT_EQ(0, std::memcmp(serial.data(), listed.data(), serial.size() * sizeof(float))) << "variant " << variant;
+    // Only the ranges listed are written.
+    std::vector<float> part(m.positions.size(), kSentinel);
+    sj.out_positions = part;
+    const std::vector<std::pair<uint32_t, uint32_t>> some = {{2, 9}, {uint32_t(n / 2), uint32_t(n / 2 + 5)}};
+    ASSERT_TRUE(sj.RunRanges(some));
+    std::vector<float> by_range(m.positions.size(), kSentinel);
+    sj.out_positions = by_range;
+    for (const auto& [b, e] : some) ASSERT_TRUE(sj.RunRange(b, e));
+    EXPECT_EQ(0, std::memcmp(by_range.data(), part.data(), part.size() * sizeof(float))) << "variant " << variant;
+    EXPECT_NE(0, std::memcmp(serial.data(), part.data(), part.size() * sizeof(float))) << "more than the ranges written";
   }
 }
 
@@ -323,6 +341,21 @@ TEST_F(SkinningJobValidate, RefusesBadSubsetAndRanges) {
   EXPECT_FALSE(j.RunRange(1, 3));
   EXPECT_FALSE(j.RunRange(2, 1));
   EXPECT_FALSE(Good().RunRange(0, m.vertex_count + 1));
+  // RunRanges checks every range before it writes anything.
+  const uint32_t all = uint32_t(m.vertex_count);
+  using Ranges = std::vector<std::pair<uint32_t, uint32_t>>;
+  EXPECT_TRUE(j.RunRanges(Ranges{{0, 2}, {1, 2}})) << "the valid part of the subset still runs";
+  std::fill(out.begin(), out.end(), kSentinel);
+  for (const Ranges& bad : {Ranges{{0, 2}, {1, 3}}, Ranges{{0, 2}, {2, 1}}}) {
+    EXPECT_FALSE(j.RunRanges(bad));
+    for (float f : out) ASSERT_EQ(f, kSentinel) << "output written by a refused list of ranges";
+  }
+  EXPECT_FALSE(Good().RunRanges(Ranges{{0, 10}, {0, all + 1}}));
+  for (float f : out) ASSERT_EQ(f, kSentinel) << "output written by a refused list of ranges";
+  SkinningJob no_matrices = Good();
+  no_matrices.joint_matrices = {};
+  EXPECT_FALSE(no_matrices.RunRanges(Ranges{{0, 10}}));
+  EXPECT_TRUE(Good().RunRanges({})) << "no range: nothing to do";
 }
 
 TEST_F(SkinningJobValidate, RefusesBadPreparedJobs) {

@@ -16,13 +16,15 @@
 //      fields and subset must then be empty. The CSR path is for one-off use: it re-checks every
 //      influence it reads and runs ~1.2-1.3x the plain loop.
 // Work: WorkSize() items (subset entries, vertices, or prepared slots). RunRange(begin, end) skins
-// items [begin, end) so any scheduler can split the job; SkinParallel() does it through a
+// items [begin, end) so any scheduler can split the job; RunRanges() skins a list of such ranges
+// (e.g. the runs of a prepared subset that a frame needs) for one validation of the job;
+// SkinParallel() does it through a
 // ParallelFor (an engine's job system, or TBB). Each vertex is computed by the same instructions whatever the split, so
 // results are bit-identical for any thread count and grain.
 // Validate() refuses every job that could read or write out of bounds (null or short spans, bad
 // strides, bind or subset indices out of range, decreasing CSR offsets, ...). It is O(1) for a
-// prepared job and O(influences) for a CSR job. A default job is invalid. Run()/RunRange()
-// validate (RunRange only what its range reads), never allocate, never throw.
+// prepared job and O(influences) for a CSR job. A default job is invalid. Run()/RunRange()/
+// RunRanges() validate (RunRange(s) only what their ranges read), never allocate, never throw.
 // SIMD: SSE2 on every x86-64; AVX2+FMA chosen at run time when the CPU has it (or always, when
 // built with SKINSPHERES_AVX2). `simd` can force a level (tests, benchmarks); levels differ in
 // rounding (FMA), never in bounds.
@@ -32,6 +34,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <utility>
 
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/parallel_for.h"
@@ -71,6 +74,11 @@ struct SkinningJob {
   bool Validate() const;
   bool Run() const;
   bool RunRange(size_t begin, size_t end) const;
+  // Items [first, second) of every range, in order; ranges may be empty, unordered or overlap. The
+  // job and every range are checked before any vertex is written: false (nothing skinned) when
+  // RunRange would refuse one of them. For a prepared job, the job is checked once (O(1)) and each
+  // range in O(1), where a RunRange call per range re-checks the whole job.
+  bool RunRanges(std::span<const std::pair<uint32_t, uint32_t>> ranges) const;
 };
 
 // Validates once, then runs [0, WorkSize()) through parallel_for (parallel_for.h; TBB by default) in
