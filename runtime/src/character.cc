@@ -50,10 +50,9 @@ Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const Charac
   inst.contacts_.reserve(std::max<size_t>(64, 4 * n));
   inst.joint_world_.assign(asset->joint_count(), Mat4f::Identity());
   inst.joint_input_count_ = asset->joint_count();
-  if (const NarrowPhaseData* data = asset->narrow_phase()) {
-    inst.narrow_context_.Resize(*data, /*lazy_skinning=*/false);
-    inst.frame_contacts_.Reserve(std::max<size_t>(64, 4 * n));
-  }
+  // The narrow phase's buffers (a few hundred KB for a large mesh) are sized by the first
+  // FindContacts: an instance that only runs the broad phase (a crowd, most of a frame's
+  // characters) never holds them.
   inst.asset_ = std::move(asset);
   return inst;
 }
@@ -202,6 +201,10 @@ FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> ski
   if (!skinned_positions.empty() && skinned_positions.size() < asset_->source_vertex_count()) {
     status_ = {ErrorCode::kInvalidArgument, "fewer skinned positions than the asset's source vertices"};
     return status_;
+  }
+  if (!narrow_context_.sized_for(*data)) {  // first call: warm-up allocation (Create says why)
+    narrow_context_.Resize(*data, /*lazy_skinning=*/skinned_positions.empty());
+    frame_contacts_.Reserve(std::max<size_t>(64, 4 * asset_->size()));
   }
   NarrowPhaseJob job;
   job.set = &asset_->sphere_set();

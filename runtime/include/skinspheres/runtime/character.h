@@ -18,10 +18,13 @@
 // it through a shared_ptr.
 //
 // CharacterInstance: refitted spheres (refit_job.h) + the self-collision broad phase
-// (broad_phase.h) + the narrow phase (narrow_phase.h). Its buffers are sized at Create; per frame
-// nothing is allocated, except that the output lists grow (geometrically) the first time a frame
-// has more contacts than any before (ReserveContacts pins them), and the first FindContacts in
-// mode (b) allocates its skinned-position buffer (12 bytes per mesh vertex). Per-frame calls never
+// (broad_phase.h) + the narrow phase (narrow_phase.h). Its buffers are sized at Create, apart from
+// the narrow phase's: the first FindContacts sizes them (a few hundred KB for a mesh of tens of
+// thousands of vertices, so an instance that only runs the broad phase never holds them), and the
+// first FindContacts in mode (b) after mode (a) sizes them again with its skinned-position buffer
+// (12 bytes per mesh vertex). Per frame after that nothing is allocated, except that the output
+// lists grow (geometrically) the first time a frame has more contacts than any before
+// (ReserveContacts pins them). Per-frame calls never
 // throw; they return a FrameStatus whose message is a static string (no allocation). A failed
 // update (non-finite input, short spans) marks the instance's spheres invalid, so Query() then
 // returns no contacts and status() says why; other instances are untouched. Not thread-safe per
@@ -126,7 +129,10 @@ class CharacterInstance {
   // The narrow phase (narrow_phase.h) behind this frame's sphere pairs (Query() runs first if it
   // has not since the last update). Positions:
   //  - skinned_positions given: mode (a), the positions the spheres were refitted from (UpdateExact's
-  //    buffer), or the LBS of the same joint matrices after UpdateFast;
+  //    buffer), or the LBS of the same joint matrices after UpdateFast, with the asset's own skin
+  //    weights: the fast spheres bound exactly those (refit_job.h; their bound uses the largest
+  //    weight each joint has in each sphere, SphereSet::influence_reach), so positions skinned with
+  //    weights an engine pruned or re-normalised may lie outside them and their contacts be missed;
   //  - empty: mode (b), the instance skins only the vertices of the spheres it tests, from the
   //    joint matrices of the last update (kInvalidArgument when that update had none).
   // Refused (kVersionMismatch) when the asset has no mesh. parallel_for spreads the sphere pairs
