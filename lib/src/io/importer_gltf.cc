@@ -90,6 +90,9 @@ std::string ReadNodes(const json& j, std::vector<Node>* nodes) {
           !node.local.scale.allFinite()) {
         return "node " + std::to_string(i) + " has a non-finite transform";
       }
+      if (!(node.local.rotation.coeffs().cast<double>().norm() > 0.0)) {
+        return "node " + std::to_string(i) + " has a rotation of zero length";
+      }
     }
     for (const auto& c : ArrayOrEmpty(jn, "children")) {
       const int64_t child = Integer(c, "children");
@@ -242,6 +245,14 @@ std::string ReadClips(const GltfDocument& doc, const std::vector<Node>& nodes,
       if (path == "rotation") {
         std::vector<Quatf> q(out.size() / 4);
         for (size_t k = 0; k < q.size(); ++k) q[k] = Quatf(out[4 * k + 3], out[4 * k], out[4 * k + 1], out[4 * k + 2]);
+        // A key of zero length is no rotation (the sampler would have to guess one); CUBICSPLINE
+        // tangents (the first and last of each triple) may be zero.
+        const size_t per_key = interpolation == skinning::Interpolation::kCubicSpline ? 3 : 1;
+        for (size_t k = per_key / 2; k < q.size(); k += per_key) {
+          if (!(q[k].coeffs().cast<double>().norm() > 0.0)) {
+            return where + " has a rotation key of zero length (key " + std::to_string(k / per_key) + ")";
+          }
+        }
         problem = FillTrack(interpolation, times, q, &track.rotation);
       } else {
         std::vector<Eigen::Vector3f> v(out.size() / 3);

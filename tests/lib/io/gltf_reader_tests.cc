@@ -400,6 +400,37 @@ TEST(ImporterTiny, WeightVanishingWhenNormalisedIsDropped) {
   }
 }
 
+// A rotation of zero length is no rotation: refused in a node and in a sampler's keys, naming
+// them; CUBICSPLINE tangents of zero are fine.
+TEST(ImporterTiny, RotationsOfZeroLengthAreRefused) {
+  const auto dir = test::TempDir("importer_zero_rotation");
+  TinyOptions node;
+  node.edit = [](TinyGltf& t) { t.j["nodes"][1]["rotation"] = {0.0, 0.0, 0.0, 0.0}; };
+  ExpectError(Write(dir, "node.gltf", MakeTiny(node).dump()), ErrorCode::kFormatRejected,
+              "node 1 has a rotation of zero length");
+  auto cubic = [](int zero_key, bool zero_tangents) {
+    TinyOptions o;
+    o.animations = true;
+    o.edit = [=](TinyGltf& t) {
+      std::vector<float> out;
+      for (int k = 0; k < 3; ++k) {
+        const float tangent_w = zero_tangents ? 0.0f : 1.0f, value_w = k == zero_key ? 0.0f : 1.0f;
+        for (float v : {0.f, 0.f, 0.f, tangent_w}) out.push_back(v);
+        for (float v : {0.f, 0.f, 0.f, value_w}) out.push_back(v);
+        for (float v : {0.f, 0.f, 0.f, tangent_w}) out.push_back(v);
+      }
+      t.j["animations"][0]["samplers"][1]["output"] = t.Floats(out, "VEC4", 4);
+    };
+    return MakeTiny(o).dump();
+  };
+  ExpectError(Write(dir, "key.gltf", cubic(1, false)), ErrorCode::kInvalidData,
+              "has a rotation key of zero length (key 1)");
+  const auto ok = ImportCharacter(Write(dir, "tangents.gltf", cubic(-1, true)));
+  ASSERT_TRUE(ok.ok()) << ok.error().message;
+  ASSERT_EQ(ok->clips.size(), 1u);
+  EXPECT_EQ(ok->clips[0].tracks[0].rotation.values.size(), 9u);
+}
+
 TEST(ImporterTiny, StepAndCubicSplineSamplersAreKept) {
   TinyOptions o;
   o.animations = true;

@@ -31,11 +31,11 @@
 //   kFileNotFound (missing), kFileUnreadable (a directory, no permission, I/O failure),
 //   kFormatRejected (empty, not a format the readers accept, truncated GLB, bad JSON, a
 //   malformed mesh or skin accessor, its sparse block included (sparse accessors are read),
-//   glTF features we do not read: Draco/meshopt compression),
+//   glTF features we do not read: Draco/meshopt compression, a node rotation of zero length),
 //   kInvalidData (no triangles, NaN/Inf positions or matrices, skin weights summing to zero or
 //   negative, joint index out of range (only where its weight is > 0), index out of range; in a
-//   clip: a NaN/Inf key value, and through Assimp a negative or non-finite duration or tick
-//   rate, or a rotation key of zero length).
+//   clip: a NaN/Inf key value, a rotation key of zero length, and through Assimp a negative or
+//   non-finite duration or tick rate).
 // Never throws; never crashes on malformed input; no recursion whose depth the file decides, and
 // work on the node tree is linear in its size (in our glTF reader; Assimp's readers are Assimp's).
 //
