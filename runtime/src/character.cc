@@ -90,6 +90,11 @@ Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const Charac
 
 FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joint_world,
                                       std::span<const Eigen::Vector3f> skinned_positions) {
+  return Update(mode, joint_world, skinned_positions, /*keep_joints=*/true);
+}
+
+FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joint_world,
+                                      std::span<const Eigen::Vector3f> skinned_positions, bool keep_joints) {
   valid_ = false;
   queried_ = false;
   has_joints_ = false;
@@ -137,7 +142,7 @@ FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joi
     return status_;
   }
   valid_ = true;
-  if (!joint_world.empty()) {  // kept (set order) for FindContacts mode (b); already there when gathered
+  if (keep_joints && !joint_world.empty()) {  // kept (set order) for FindContacts mode (b); already there when gathered
     if (joint_world.data() != joint_world_.data()) std::copy_n(joint_world.begin(), joint_world_.size(), joint_world_.begin());
     has_joints_ = true;
   }
@@ -195,7 +200,9 @@ FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> ski
     return status_;
   }
   if (skinned_positions.empty() && !has_joints_) {
-    status_ = {ErrorCode::kInvalidArgument, "no skinned positions and the last update had no joint matrices"};
+    status_ = {ErrorCode::kInvalidArgument,
+               "no skinned positions, and the last update kept no joint matrices (it had none, or was an "
+               "UpdateAndQueryCrowd)"};
     return status_;
   }
   if (!skinned_positions.empty() && skinned_positions.size() < asset_->source_vertex_count()) {
@@ -224,6 +231,12 @@ FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> ski
   return status_;
 }
 
+struct CrowdAccess {
+  static FrameStatus Update(CharacterInstance& inst, RefitMode mode, const CharacterFrameInput& input, bool keep_joints) {
+    return inst.Update(mode, input.joint_world, input.skinned_positions, keep_joints);
+  }
+};
+
 namespace {
 
 // Update + Query (+ FindContacts) of every instance through parallel_for.
@@ -239,7 +252,7 @@ FrameStatus RunCrowd(std::span<CharacterInstance* const> instances, std::span<co
   parallel_for(instances.size(), 1, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       CharacterInstance& inst = *instances[i];
-      const FrameStatus st = inst.Update(mode, inputs[i].joint_world, inputs[i].skinned_positions);
+      const FrameStatus st = CrowdAccess::Update(inst, mode, inputs[i], /*keep_joints=*/find_contacts);
       if (!st.ok()) {
         all_ok.store(false, std::memory_order_relaxed);
         continue;

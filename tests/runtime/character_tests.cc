@@ -256,6 +256,16 @@ TEST(CharacterCrowdTest, CrowdEqualsSerialAndNaNFailsOnlyItsInstance) {
         EXPECT_EQ(std::vector<Contact>(crowd[i].contacts().begin(), crowd[i].contacts().end()),
                   std::vector<Contact>(serial[i].contacts().begin(), serial[i].contacts().end()));
       }
+      if (mode == RefitMode::kFast) {
+        // The broad-phase-only call keeps no joint matrices: FindContacts without positions (mode b)
+        // is refused, saying why, until an update that keeps them.
+        CharacterInstance& first = crowd[0];
+        EXPECT_EQ(first.FindContacts().code, ErrorCode::kInvalidArgument);
+        EXPECT_NE(std::string(first.status().message).find("UpdateAndQueryCrowd"), std::string::npos)
+            << first.status().message;
+        ASSERT_TRUE(first.UpdateFast(poses[0].world).ok());
+        EXPECT_TRUE(first.FindContacts().ok()) << first.status().message;
+      }
     }
   }
   // Caller errors: mismatched spans, null instance.

@@ -36,8 +36,9 @@
 
    Allocation: loading and creating allocate (the calling thread). Updates and queries do not,
    except that the contact buffers grow the first time a frame has more contacts than any before
-   (skinspheres_instance_reserve_contacts pins them), and that the first
-   skinspheres_instance_find_contacts without positions allocates its skinned-position buffer.
+   (skinspheres_instance_reserve_contacts pins them), and that an instance's first
+   skinspheres_instance_find_contacts sizes its narrow-phase scratch (and, without positions, its
+   skinned-position buffer).
 
    Queries follow one pattern: a call computes and gives the count (skinspheres_instance_query for
    the overlapping spheres, skinspheres_instance_find_contacts for the triangles behind them); a
@@ -303,8 +304,11 @@ typedef struct skinspheres_frame_input {
 
 /* Update then query instances[i] with inputs[i], for i < count, through parallel_for (NULL: the
    library's default: TBB, or serial in a build without TBB). Results are identical to calling each
-   instance alone. SKINSPHERES_INVALID_DATA when at least one instance failed (query it for its
-   own status); SKINSPHERES_INVALID_ARGUMENT (nothing runs) for a null array or instance. */
+   instance alone. It keeps no joint matrices for a later skinspheres_instance_find_contacts without
+   positions (refused until the instance's next update that keeps them: the single-instance updates
+   and skinspheres_crowd_update_and_find_contacts). SKINSPHERES_INVALID_DATA when at least one
+   instance failed (query it for its own status); SKINSPHERES_INVALID_ARGUMENT (nothing runs) for a
+   null array or instance. */
 SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_query(skinspheres_instance* const* instances,
                                                                        const skinspheres_frame_input* inputs,
                                                                        size_t count, skinspheres_refit_mode mode,

@@ -160,7 +160,12 @@ class CharacterInstance {
   const std::shared_ptr<const CharacterAsset>& shared_asset() const { return asset_; }
 
  private:
+  friend struct CrowdAccess;
   CharacterInstance() = default;
+  // Update; keep_joints: also keep the joint matrices for FindContacts mode (b) (a copy of one
+  // matrix per set joint; the broad-phase-only crowd call skips it).
+  FrameStatus Update(RefitMode mode, std::span<const Mat4f> joint_world,
+                     std::span<const Eigen::Vector3f> skinned_positions, bool keep_joints);
   std::shared_ptr<const CharacterAsset> asset_;
   std::vector<Vec4f> spheres_;
   BroadPhaseContext context_;
@@ -188,7 +193,10 @@ struct CharacterFrameInput {
 };
 
 // Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (parallel_for, grain
-// 1 instance). Returns kInvalidArgument (and runs nothing) when the spans differ in
+// 1 instance). It does not keep the joint matrices for FindContacts mode (b) (a copy of every
+// joint's matrix per instance and frame, a tenth of a 10,000-character crowd's frame): a
+// FindContacts without positions after it is refused until the next Update, UpdateFast or
+// UpdateAndFindContactsCrowd. Returns kInvalidArgument (and runs nothing) when the spans differ in
 // size or an instance pointer is null (listing the same instance twice is a data race the caller
 // must avoid); kInvalidData when at least one instance failed (each instance's
 // status() says why; the others are fully updated); kOk otherwise.
