@@ -97,6 +97,9 @@ TEST(SphereSetTest, InfluenceReachBelowTheMeshOrOutOfRangeIsRefused) {
   s = TwoJointsWithMesh();
   s.mesh.influence_weights[1] = std::nextafter(0.75f, 1.0f);
   EXPECT_EQ(message(s), "accepted") << "one ulp over 1";
+  s.mesh.influence_weights[1] = 0.75f + 16 * FLT_EPSILON;
+  EXPECT_EQ(message(s).rfind("mesh vertex 1 has skin weights summing to 1.0000", 0), 0u)
+      << "16 epsilons over 1 is past the tolerance: " << message(s);
   // Without a mesh (version 1, fast-only) the range and the sum are checked: a sphere's reaches
   // sum to at least 1, since any one of its source vertices has weights summing to 1.
   SphereSet no_mesh = TwoSpheres();
