@@ -6,3 +6,13 @@ execute_process(COMMAND ${TOOL} export-builtin ${DIR}/builtin.glb RESULT_VARIABL
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "export-builtin failed: ${rc}")
 endif()
+
+# run_tool(<what> <arguments>...): runs TOOL with the arguments, its standard output in `out` (a
+# macro, so in the caller's scope); a non-zero exit fails the test with "<what> failed" and the
+# output.
+macro(run_tool what)
+  execute_process(COMMAND ${TOOL} ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "${what} failed: ${rc}\n${out}")
+  endif()
+endmacro()

@@ -3,12 +3,7 @@
 # JSON summary. The touch clip puts the hands on the chest at frame 30; the walk (1 s) loops, so
 # frame 35 samples the clip at 5/30 s while "time" says 35/30 s.
 include(${CMAKE_CURRENT_LIST_DIR}/builtin_glb.cmake)
-execute_process(COMMAND ${TOOL} play ${DIR}/builtin.glb --clip touch --frames 40 --dump ${DIR}/touch.jsonl
-                        --report ${DIR}/report.json
-                RESULT_VARIABLE rc OUTPUT_VARIABLE out)
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "play failed: ${rc}\n${out}")
-endif()
+run_tool("play" play ${DIR}/builtin.glb --clip touch --frames 40 --dump ${DIR}/touch.jsonl --report ${DIR}/report.json)
 file(STRINGS ${DIR}/touch.jsonl lines LENGTH_MAXIMUM 100000000)
 list(LENGTH lines n)
 if(NOT n EQUAL 40)
@@ -51,11 +46,7 @@ if(NOT frames EQUAL 40 OR NOT per_frame EQUAL 40 OR NOT report_contacts EQUAL 2)
 endif()
 
 # clip_time: the pose actually sampled.
-execute_process(COMMAND ${TOOL} play ${DIR}/builtin.glb --clip walk --frames 40 --dump ${DIR}/walk.jsonl
-                RESULT_VARIABLE rc OUTPUT_VARIABLE out)
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "play walk failed: ${rc}\n${out}")
-endif()
+run_tool("play walk" play ${DIR}/builtin.glb --clip walk --frames 40 --dump ${DIR}/walk.jsonl)
 if(NOT out MATCHES "clip \"walk\"[^\n]*\n  no contacts")
   message(FATAL_ERROR "the walk should touch nothing:\n${out}")
 endif()
