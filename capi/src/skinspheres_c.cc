@@ -185,16 +185,11 @@ struct CrowdWork {
 void RunCrowdRange(void* context, size_t begin, size_t end) {
   auto* work = static_cast<CrowdWork*>(context);
   for (size_t i = begin; i < end; ++i) {
-    rt::CharacterInstance& inst = work->instances[i]->instance;
     const skinspheres_frame_input& in = work->inputs[i];
-    const rt::FrameStatus st = inst.Update(work->mode, Joints(in.joint_world, in.joint_count),
-                                           Positions(in.positions, in.vertex_count));
-    if (st.ok()) inst.Query();
-    if (st.ok() && inst.status().ok() && work->find_contacts) {
-      inst.FindContacts(work->mode == rt::RefitMode::kExact ? Positions(in.positions, in.vertex_count)
-                                                            : std::span<const Eigen::Vector3f>());
+    const rt::CharacterFrameInput input{Joints(in.joint_world, in.joint_count), Positions(in.positions, in.vertex_count)};
+    if (!rt::CrowdStep(work->instances[i]->instance, work->mode, input, work->find_contacts).ok()) {
+      work->all_ok.store(false, std::memory_order_relaxed);
     }
-    if (!st.ok() || !inst.status().ok()) work->all_ok.store(false, std::memory_order_relaxed);
   }
 }
 

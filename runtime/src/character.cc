@@ -231,11 +231,23 @@ FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> ski
   return status_;
 }
 
-struct CrowdAccess {
-  static FrameStatus Update(CharacterInstance& inst, RefitMode mode, const CharacterFrameInput& input, bool keep_joints) {
-    return inst.Update(mode, input.joint_world, input.skinned_positions, keep_joints);
+void CharacterInstance::ReserveContacts(size_t count) {
+  contacts_.reserve(count);
+  frame_contacts_.Reserve(count);
+  if (const NarrowPhaseData* data = asset_->narrow_phase(); data != nullptr && !narrow_context_.sized_for(*data)) {
+    narrow_context_.Resize(*data, /*lazy_skinning=*/false);
   }
-};
+}
+
+FrameStatus CrowdStep(CharacterInstance& inst, RefitMode mode, const CharacterFrameInput& input, bool find_contacts) {
+  const FrameStatus st = inst.Update(mode, input.joint_world, input.skinned_positions, /*keep_joints=*/find_contacts);
+  if (!st.ok()) return st;
+  inst.Query();
+  if (inst.status().ok() && find_contacts) {
+    inst.FindContacts(mode == RefitMode::kExact ? input.skinned_positions : std::span<const Eigen::Vector3f>());
+  }
+  return inst.status();
+}
 
 namespace {
 
@@ -251,17 +263,7 @@ FrameStatus RunCrowd(std::span<CharacterInstance* const> instances, std::span<co
   std::atomic<bool> all_ok{true};
   parallel_for(instances.size(), 1, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
-      CharacterInstance& inst = *instances[i];
-      const FrameStatus st = CrowdAccess::Update(inst, mode, inputs[i], /*keep_joints=*/find_contacts);
-      if (!st.ok()) {
-        all_ok.store(false, std::memory_order_relaxed);
-        continue;
-      }
-      inst.Query();
-      if (inst.status().ok() && find_contacts) {
-        inst.FindContacts(mode == RefitMode::kExact ? inputs[i].skinned_positions : std::span<const Eigen::Vector3f>());
-      }
-      if (!inst.status().ok()) all_ok.store(false, std::memory_order_relaxed);
+      if (!CrowdStep(*instances[i], mode, inputs[i], find_contacts).ok()) all_ok.store(false, std::memory_order_relaxed);
     }
   });
   if (!all_ok.load()) return {ErrorCode::kInvalidData, "at least one instance failed; see its status()"};

@@ -388,6 +388,26 @@ int main(int argc, char** argv) {
       }
     }
     check(parallel_calls == 3, "the engine's loop ran every instance", 0);
+    /* The broad-phase-only crowd call keeps no joint matrices: a find without positions is refused
+       until an update that keeps them; the contacts are those of the crowd call with contacts. */
+    {
+      size_t n0 = 0;
+      const skinspheres_contact* c0;
+      const char* why = NULL;
+      check(skinspheres_crowd_update_and_query(crowd, inputs, 2, SKINSPHERES_MODE_FAST, NULL, NULL) == SKINSPHERES_OK,
+            "crowd query", frame_count / 2);
+      c0 = skinspheres_instance_contacts(a, &n0);
+      check(same_contacts(c0, n0, fr->contacts[0], fr->contact_count[0]), "crowd query contacts equal the C++ API's",
+            frame_count / 2);
+      check(skinspheres_instance_find_contacts(a, NULL, 0, NULL, NULL) == SKINSPHERES_INVALID_ARGUMENT,
+            "no find without positions after the crowd query", frame_count / 2);
+      check(skinspheres_instance_status(a, &why) == SKINSPHERES_INVALID_ARGUMENT && why &&
+                strstr(why, "UpdateAndQueryCrowd") != NULL,
+            "and its status says why", frame_count / 2);
+      check(skinspheres_instance_update_fast(a, fr->joint_world, joint_count) == SKINSPHERES_OK &&
+                skinspheres_instance_find_contacts(a, NULL, 0, NULL, NULL) == SKINSPHERES_OK,
+            "a find without positions after update_fast", frame_count / 2);
+    }
   }
 
   skinspheres_instance_destroy(a);

@@ -276,6 +276,35 @@ TEST(CharacterCrowdTest, CrowdEqualsSerialAndNaNFailsOnlyItsInstance) {
             ErrorCode::kInvalidArgument);
 }
 
+// ReserveContacts at set-up sizes the narrow phase's scratch too: the first FindContacts (with
+// positions) then allocates nothing; without it, the first FindContacts sizes the scratch itself.
+TEST(CharacterInstanceTest, ReserveContactsSizesTheNarrowPhase) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  ASSERT_NE(asset->narrow_phase(), nullptr);
+  const std::vector<test::Pose> poses = test::ClipPoses(fc->character, 15);
+  const test::Pose& pose = poses[poses.size() / 2];
+  CharacterInstance reserved = MakeInstance(asset);
+  reserved.ReserveContacts(4096);
+  ASSERT_TRUE(reserved.UpdateExact(pose.positions, pose.world).ok());
+  reserved.Query();
+  {
+    test::AllocationCounter counter;
+    EXPECT_TRUE(reserved.FindContacts(pose.positions).ok());
+    EXPECT_EQ(counter.count(), 0);
+  }
+  CharacterInstance plain = MakeInstance(asset);
+  ASSERT_TRUE(plain.UpdateExact(pose.positions, pose.world).ok());
+  plain.Query();
+  {
+    test::AllocationCounter counter;
+    EXPECT_TRUE(plain.FindContacts(pose.positions).ok());
+    EXPECT_GE(counter.count(), 1);
+  }
+  EXPECT_EQ(reserved.frame_contacts(), plain.frame_contacts());
+}
+
 TEST(CharacterInstanceTest, NoAllocationPerFrameAfterTheFirst) {
   std::shared_ptr<const test::FittedCharacter> fc;
   auto asset = BuiltinAsset(&fc);

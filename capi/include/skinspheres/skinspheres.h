@@ -37,8 +37,8 @@
    Allocation: loading and creating allocate (the calling thread). Updates and queries do not,
    except that the contact buffers grow the first time a frame has more contacts than any before
    (skinspheres_instance_reserve_contacts pins them), and that an instance's first
-   skinspheres_instance_find_contacts sizes its narrow-phase scratch (and, without positions, its
-   skinned-position buffer).
+   skinspheres_instance_find_contacts sizes its narrow-phase scratch unless
+   skinspheres_instance_reserve_contacts did (and, without positions, its skinned-position buffer).
 
    Queries follow one pattern: a call computes and gives the count (skinspheres_instance_query for
    the overlapping spheres, skinspheres_instance_find_contacts for the triangles behind them); a
@@ -208,7 +208,8 @@ SKINSPHERES_C_API const float* skinspheres_instance_spheres(const skinspheres_in
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_status(const skinspheres_instance* instance,
                                                                 const char** message);
 /* Sizes the contact buffers so that frames with up to `count` sphere contacts, and as many part and
-   triangle pairs, never allocate. */
+   triangle pairs, never allocate; for an asset with a mesh, also the narrow phase's scratch (else
+   sized by the first skinspheres_instance_find_contacts). */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_contacts(skinspheres_instance* instance, size_t count);
 
 /* ---- Triangle contacts (the narrow phase) ----
@@ -266,8 +267,9 @@ SKINSPHERES_C_API int skinspheres_asset_has_triangle_contacts(const skinspheres_
    the instance then skins only the vertices it tests, from the last update's joint matrices (the
    usual choice after update_fast). *out_part_pairs and *out_triangle_pairs (either may be NULL) get
    the counts. Allocates nothing per frame once the buffers have held the largest frame
-   (skinspheres_instance_reserve_contacts sizes them), except that the first call without positions
-   allocates its skinned-position buffer (12 bytes per vertex). */
+   (skinspheres_instance_reserve_contacts sizes them and the narrow phase's scratch; else the first
+   call sizes that scratch), except that the first call without positions allocates its
+   skinned-position buffer (12 bytes per vertex). */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_find_contacts(skinspheres_instance* instance,
                                                                        const float* positions, size_t vertex_count,
                                                                        size_t* out_part_pairs,

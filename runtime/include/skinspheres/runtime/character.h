@@ -19,8 +19,9 @@
 //
 // CharacterInstance: refitted spheres (refit_job.h) + the self-collision broad phase
 // (broad_phase.h) + the narrow phase (narrow_phase.h). Its buffers are sized at Create, apart from
-// the narrow phase's: the first FindContacts sizes them (a few hundred KB for a mesh of tens of
-// thousands of vertices, so an instance that only runs the broad phase never holds them), and the
+// the narrow phase's: ReserveContacts (at set-up) or else the first FindContacts sizes them (a few
+// hundred KB for a mesh of tens of thousands of vertices, so an instance that only runs the broad
+// phase never holds them), and the
 // first FindContacts in mode (b) after mode (a) sizes them again with its skinned-position buffer
 // (12 bytes per mesh vertex). Per frame after that nothing is allocated, except that the output
 // lists grow (geometrically) the first time a frame has more contacts than any before
@@ -97,6 +98,8 @@ class CharacterAsset {
   std::optional<NarrowPhaseData> narrow_;
 };
 
+struct CharacterFrameInput;
+
 class CharacterInstance {
  public:
   // Sizes every buffer for the asset (kInvalidArgument for a null asset). Joint matrices are then
@@ -151,16 +154,15 @@ class CharacterInstance {
   // Outcome of the last Update*/Query call.
   FrameStatus status() const { return status_; }
 
-  // Room for this many sphere pairs and as many triangle pairs, so later frames do not allocate.
-  void ReserveContacts(size_t count) {
-    contacts_.reserve(count);
-    frame_contacts_.Reserve(count);
-  }
+  // Room for this many sphere pairs and as many triangle pairs, and (an asset with a mesh) the
+  // narrow phase's scratch, so later frames do not allocate (but for the skinned-position buffer
+  // of the first FindContacts without positions).
+  void ReserveContacts(size_t count);
   const CharacterAsset& asset() const { return *asset_; }
   const std::shared_ptr<const CharacterAsset>& shared_asset() const { return asset_; }
 
  private:
-  friend struct CrowdAccess;
+  friend FrameStatus CrowdStep(CharacterInstance&, RefitMode, const CharacterFrameInput&, bool);
   CharacterInstance() = default;
   // Update; keep_joints: also keep the joint matrices for FindContacts mode (b) (a copy of one
   // matrix per set joint; the broad-phase-only crowd call skips it).
@@ -200,6 +202,14 @@ struct CharacterFrameInput {
 // size or an instance pointer is null (listing the same instance twice is a data race the caller
 // must avoid); kInvalidData when at least one instance failed (each instance's
 // status() says why; the others are fully updated); kOk otherwise.
+// One instance's step of the crowd calls below, for an engine that writes its own crowd loop:
+// Update(mode, input), then Query(), then, when find_contacts, FindContacts (mode (a) with the
+// input's positions in exact mode, mode (b) in fast mode). Without find_contacts the joint
+// matrices are not kept for a later FindContacts without positions (see below). The instance's
+// status() after the step, kOk or why it failed.
+FrameStatus CrowdStep(CharacterInstance& instance, RefitMode mode, const CharacterFrameInput& input,
+                      bool find_contacts);
+
 FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
                                 std::span<const CharacterFrameInput> inputs, RefitMode mode,
                                 const ParallelFor& parallel_for = DefaultParallelFor());
