@@ -37,11 +37,7 @@ std::string Digits(float x) {
   return text;
 }
 
-// How far a vertex's float weights may sum from 1. The importers normalise in double and round each
-// weight once, so the sum is within half an epsilon of 1; 8 epsilons leave room for other
-// writers. The fast bounds assume the sum is 1 and absorb the rest in their rounding margin of 16
-// epsilons of the coordinates (refit_job.h), so the tolerance stays well inside it.
-constexpr double kWeightSumTolerance = 8.0 * FLT_EPSILON;
+using skinning::kWeightSumTolerance;  // skinned_mesh.h
 
 // Offsets of a CSR list: n+1 entries, starting at 0, non-decreasing, ending at the list's size.
 bool CsrOk(const std::vector<uint32_t>& offsets, size_t n, size_t list_size) {

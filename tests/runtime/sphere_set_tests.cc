@@ -108,7 +108,7 @@ TEST(SphereSetTest, InfluenceReachBelowTheMeshOrOutOfRangeIsRefused) {
   no_mesh.influence_reach = {1.0f, 0.25f};
   EXPECT_EQ(message(no_mesh), "sphere 1 has influence reaches summing to 0.25, below 1 (one source vertex's weights alone "
                               "sum to 1)");
-  no_mesh.influence_reach = {1.0f, 1.0f - 4 * FLT_EPSILON};
+  no_mesh.influence_reach = {1.0f, 1.0f - 2 * FLT_EPSILON};
   EXPECT_EQ(message(no_mesh), "accepted") << "rounding of a normalised sum";
   no_mesh.influence_reach = {-1.0f, 0.25f};
   EXPECT_EQ(message(no_mesh), "sphere 0 has influence reach -1 on joint 0 (must be within [0, 1])");

@@ -53,6 +53,17 @@ std::optional<Error> RawCharacter::Validate() const {
       return fail("influence " + std::to_string(i) + " has a non-finite weight");
     }
   }
+  // Weights sum to 1 per vertex (the importers normalise them): the fitted set's fast bounds assume
+  // it, so a character built in code with other sums is refused here, before the fit, by vertex.
+  for (size_t v = 0; v + 1 < skin.influence_offsets.size(); ++v) {
+    double sum = 0.0;
+    for (uint32_t k = skin.influence_offsets[v]; k < skin.influence_offsets[v + 1]; ++k)
+      sum += skin.influence_weights[k];
+    if (!(std::abs(sum - 1.0) <= skinning::kWeightSumTolerance)) {
+      return fail("vertex " + std::to_string(v) + " has skin weights summing to " + std::to_string(sum) +
+                  ", not 1 (normalise them)");
+    }
+  }
   for (const MeshRange& m : meshes) {
     if (m.rigid_joint >= n) {
       return fail("mesh '" + m.name + "' follows joint " + std::to_string(m.rigid_joint) + " of " + std::to_string(n));

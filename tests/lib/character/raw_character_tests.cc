@@ -23,6 +23,14 @@ struct BrokenRule {
   std::string message;  // what Validate says after "<name>: "
 };
 
+// Vertex 0's weight sum once its first weight is 2 (the rule below), summed as Validate sums.
+double WeightSumWithFirstSetTo2() {
+  const auto& skin = test::BuiltinCharacter().skin;
+  double sum = 2.0;
+  for (uint32_t k = skin.influence_offsets[0] + 1; k < skin.influence_offsets[1]; ++k) sum += skin.influence_weights[k];
+  return sum;
+}
+
 std::vector<BrokenRule> BrokenRules() {
   return {
       {"no joints", [](RawCharacter& c) { c.skeleton = {}; }, "skeleton has no joints"},
@@ -50,6 +58,10 @@ std::vector<BrokenRule> BrokenRules() {
            std::to_string(test::BuiltinCharacter().skin.binds.size())},
       {"non-finite weight", [](RawCharacter& c) { c.skin.influence_weights[9] = std::nanf(""); },
        "influence 9 has a non-finite weight"},
+      {"weights not summing to 1",
+       [](RawCharacter& c) { c.skin.influence_weights[c.skin.influence_offsets[0]] = 2.0f; },
+       "vertex 0 has skin weights summing to " + std::to_string(WeightSumWithFirstSetTo2()) +
+           ", not 1 (normalise them)"},
       {"rigid joint past the skeleton", [](RawCharacter& c) { c.meshes[1].rigid_joint = 500; },
        "mesh '" + test::BuiltinCharacter().meshes[1].name + "' follows joint 500 of " +
            std::to_string(test::BuiltinCharacter().skeleton.size())},

@@ -20,6 +20,13 @@ struct BindEntry {
   Mat4f inverse_bind = Mat4f::Identity();
 };
 
+// How far a vertex's float weights may sum from 1 where the sum is checked (the fitter's input,
+// SphereSet::Validate). Normalised in double and rounded once per weight, a sum is within half an
+// epsilon of 1; the fast refit's bounds take the sum as 1 and leave the rest to their rounding
+// margin of 16 epsilons of the coordinates (refit_job.h), of which a centre off by 4 epsilons
+// (times up to sqrt(3) for its norm) takes under half.
+inline constexpr double kWeightSumTolerance = 4.0 * 1.1920928955078125e-07;  // 4 float epsilons
+
 struct SkinnedMesh {
   std::vector<Eigen::Vector3f> positions_bind;  // per vertex, in the space IBMs map from
   std::vector<BindEntry> binds;
