@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "gltf_document.h"
@@ -36,6 +37,21 @@ struct MeshInstance {
   int64_t mesh;
   int32_t node;
 };
+
+// A node rotation or rotation key that float arithmetic can normalise (the sampler and the skeleton
+// normalise in float): unchanged when its float squared norm lies within [1e-30, 1e30] (every file
+// written with unit quaternions, to the bit), else normalised in double, whose range holds the
+// square of every finite float (a float squared norm over/underflows past ~1.8e19 and below ~1e-19
+// per component, and normalized() then gives zeros or no rotation at all); nullopt when its length
+// is zero.
+std::optional<Quatf> UsableRotation(const Quatf& q) {
+  const float n2 = q.squaredNorm();
+  if (n2 >= 1e-30f && n2 <= 1e30f) return q;
+  const Eigen::Vector4d c = q.coeffs().cast<double>();
+  const double n = c.norm();
+  if (!(n > 0.0)) return std::nullopt;
+  return Quatf(Vec4f((c / n).cast<float>()));
+}
 
 const json& ArrayOrEmpty(const json& j, const char* key) {
   static const json kEmpty = json::array();
@@ -90,9 +106,9 @@ std::string ReadNodes(const json& j, std::vector<Node>* nodes) {
           !node.local.scale.allFinite()) {
         return "node " + std::to_string(i) + " has a non-finite transform";
       }
-      if (!(node.local.rotation.coeffs().cast<double>().norm() > 0.0)) {
-        return "node " + std::to_string(i) + " has a rotation of zero length";
-      }
+      const auto rotation = UsableRotation(node.local.rotation);
+      if (!rotation) return "node " + std::to_string(i) + " has a rotation of zero length";
+      node.local.rotation = *rotation;
     }
     for (const auto& c : ArrayOrEmpty(jn, "children")) {
       const int64_t child = Integer(c, "children");
@@ -245,13 +261,14 @@ std::string ReadClips(const GltfDocument& doc, const std::vector<Node>& nodes,
       if (path == "rotation") {
         std::vector<Quatf> q(out.size() / 4);
         for (size_t k = 0; k < q.size(); ++k) q[k] = Quatf(out[4 * k + 3], out[4 * k], out[4 * k + 1], out[4 * k + 2]);
-        // A key of zero length is no rotation (the sampler would have to guess one); CUBICSPLINE
-        // tangents (the first and last of each triple) may be zero.
+        // A key of zero length is no rotation (the sampler would have to guess one); one too small
+        // or too large for float normalisation is normalised in double (UsableRotation).
+        // CUBICSPLINE tangents (the first and last of each triple) may be zero and stay as they are.
         const size_t per_key = interpolation == skinning::Interpolation::kCubicSpline ? 3 : 1;
         for (size_t k = per_key / 2; k < q.size(); k += per_key) {
-          if (!(q[k].coeffs().cast<double>().norm() > 0.0)) {
-            return where + " has a rotation key of zero length (key " + std::to_string(k / per_key) + ")";
-          }
+          const auto unit = UsableRotation(q[k]);
+          if (!unit) return where + " has a rotation key of zero length (key " + std::to_string(k / per_key) + ")";
+          q[k] = *unit;
         }
         problem = FillTrack(interpolation, times, q, &track.rotation);
       } else {

@@ -425,6 +425,35 @@ TEST(ImporterTiny, RotationsOfZeroLengthAreRefused) {
   };
   ExpectError(Write(dir, "key.gltf", cubic(1, false)), ErrorCode::kInvalidData,
               "has a rotation key of zero length (key 1)");
+  // LINEAR and STEP: one zero key refused; keys too small or too large for a float norm
+  // (components 1e-25, 1e25) read as unit rotations.
+  auto linear = [](const char* interpolation, float scale_of_key_1) {
+    TinyOptions o;
+    o.animations = true;
+    o.edit = [=](TinyGltf& t) {
+      std::vector<float> out;
+      for (int k = 0; k < 3; ++k) {
+        const float s = k == 1 ? scale_of_key_1 : 1.0f;
+        for (float v : {0.0f, 0.6f * s, 0.0f, 0.8f * s}) out.push_back(v);
+      }
+      t.j["animations"][0]["samplers"][1]["output"] = t.Floats(out, "VEC4", 4);
+      t.j["animations"][0]["samplers"][1]["interpolation"] = interpolation;
+    };
+    return MakeTiny(o).dump();
+  };
+  for (const char* interpolation : {"LINEAR", "STEP"}) {
+    SCOPED_TRACE(interpolation);
+    ExpectError(Write(dir, "zero.gltf", linear(interpolation, 0.0f)), ErrorCode::kInvalidData,
+                "has a rotation key of zero length (key 1)");
+    for (float scale : {1e-25f, 1e25f}) {
+      const auto r = ImportCharacter(Write(dir, "scaled.gltf", linear(interpolation, scale)));
+      ASSERT_TRUE(r.ok()) << r.error().message;
+      const auto& q = r->clips[0].tracks[0].rotation.values[1];
+      EXPECT_NEAR(q.norm(), 1.0f, 1e-6f) << scale;
+      EXPECT_NEAR(q.y(), 0.6f, 1e-6f) << scale;
+      EXPECT_NEAR(q.w(), 0.8f, 1e-6f) << scale;
+    }
+  }
   const auto ok = ImportCharacter(Write(dir, "tangents.gltf", cubic(-1, true)));
   ASSERT_TRUE(ok.ok()) << ok.error().message;
   ASSERT_EQ(ok->clips.size(), 1u);
