@@ -594,6 +594,24 @@ struct NarrowPhaseAccess {
       d->sphere_groups_.insert(d->sphere_groups_.end(), list.begin(), list.end());
       d->sphere_group_offsets_.push_back(uint32_t(d->sphere_groups_.size()));
     }
+    // Per sphere, its groups' runs as the non-zero words of a run bitset.
+    d->sphere_run_offsets_.assign(1, 0);
+    std::vector<uint32_t> runs;
+    for (const auto& list : groups_of) {
+      runs.clear();
+      for (uint32_t g : list) {
+        for (uint32_t k = d->group_run_offsets_[g]; k < d->group_run_offsets_[g + 1]; ++k) runs.push_back(d->group_runs_[k]);
+      }
+      std::sort(runs.begin(), runs.end());
+      for (uint32_t r : runs) {
+        if (d->sphere_run_words_.size() == d->sphere_run_offsets_.back() || d->sphere_run_words_.back() != r >> 6) {
+          d->sphere_run_words_.push_back(r >> 6);
+          d->sphere_run_bits_.push_back(0);
+        }
+        d->sphere_run_bits_.back() |= uint64_t{1} << (r & 63);
+      }
+      d->sphere_run_offsets_.push_back(uint32_t(d->sphere_run_words_.size()));
+    }
     return true;
   }
 
@@ -643,9 +661,9 @@ struct NarrowPhaseAccess {
   }
 
   // Mode (b): skins the vertex groups of the spheres asked for, each group once per frame: Collect
-  // marks a sphere's groups' runs, Skin skins the marked runs, adjacent runs merged into one span.
-  // Every vertex is skinned by the same instructions as on the whole-mesh path, so the positions are
-  // bit-identical to skinning the whole mesh with SkinningJob.
+  // marks a sphere's groups' runs (a few words of the run bitset, ORed), Skin skins the marked runs,
+  // adjacent runs merged into one span. Every vertex is skinned by the same instructions as on the
+  // whole-mesh path, so the positions are bit-identical to skinning the whole mesh with SkinningJob.
   struct LazySkinner {
     static constexpr uint32_t kBlock = 1024;  // slots per span at most: work items for parallel_for
 
@@ -655,24 +673,23 @@ struct NarrowPhaseAccess {
     std::span<const Mat4f> matrices;
     bool ok = true;
 
-    // Marks the runs of sphere's groups not marked yet this frame.
-    void Collect(uint32_t sphere) {
-      const auto offsets = data.sphere_group_offsets();
-      const auto run_offsets = data.group_run_offsets();
-      const auto runs = data.group_runs();
+    // Marks the runs of sphere's groups not skinned yet this frame; false when there are none.
+    bool Collect(uint32_t sphere) {
+      const auto offsets = data.sphere_run_offsets();
+      const auto words = data.sphere_run_words();
+      const auto bits = data.sphere_run_bits();
+      uint64_t added = 0;
       for (uint32_t k = offsets[sphere]; k < offsets[sphere + 1]; ++k) {
-        const uint32_t g = data.sphere_groups()[k];
-        if (ctx.group_mark_[g] == ctx.frame_stamp_) continue;
-        ctx.group_mark_[g] = ctx.frame_stamp_;
-        ctx.pending_vertices_ += data.group_sizes()[g];
-        for (uint32_t r = run_offsets[g]; r < run_offsets[g + 1]; ++r) {
-          ctx.run_bits_[runs[r] >> 6] |= uint64_t{1} << (runs[r] & 63);
-        }
+        const uint64_t mark = bits[k] & ~ctx.run_done_[words[k]];
+        ctx.run_bits_[words[k]] |= mark;
+        added |= mark;
       }
+      return added != 0;
     }
 
     // Appends [begin, end) to the spans, cut into blocks of at most kBlock slots.
     void AddSpan(uint32_t begin, uint32_t end) {
+      ctx.stats_.skinned_vertices += end - begin;
       for (; begin < end; begin += std::min(kBlock, end - begin)) {
         ctx.spans_.emplace_back(begin, begin + std::min(kBlock, end - begin));
       }
@@ -680,14 +697,15 @@ struct NarrowPhaseAccess {
 
     // Skins what Collect marked. False on a job the skinning library refuses.
     bool Skin(const ParallelFor& parallel_for) {
-      if (ctx.pending_vertices_ == 0) return true;
       const auto run_begin = data.run_begin();
       ctx.spans_.clear();
       // Maximal sequences of marked runs: runs tile the slots, so consecutive runs are adjacent.
       uint32_t open_begin = 0, open_end = 0;  // the span being extended (empty: none)
       for (size_t word = 0; word < ctx.run_bits_.size(); ++word) {
         uint64_t bits = ctx.run_bits_[word];
+        if (bits == 0) continue;
         ctx.run_bits_[word] = 0;
+        ctx.run_done_[word] |= bits;
         while (bits != 0) {
           const uint32_t r = uint32_t(word * 64 + size_t(std::countr_zero(bits)));
           bits &= bits - 1;
@@ -699,8 +717,7 @@ struct NarrowPhaseAccess {
         }
       }
       AddSpan(open_begin, open_end);
-      ctx.stats_.skinned_vertices += ctx.pending_vertices_;
-      ctx.pending_vertices_ = 0;
+      if (ctx.spans_.empty()) return true;
       skinning::SkinningJob job;
       job.joint_matrices = matrices;
       job.vertex_count = set.mesh.vertex_count();
@@ -720,8 +737,7 @@ struct NarrowPhaseAccess {
     void operator()(uint32_t sphere) {
       if (ctx.sphere_seen_[sphere] == ctx.frame_stamp_) return;
       ctx.sphere_seen_[sphere] = ctx.frame_stamp_;
-      Collect(sphere);
-      Skin(SerialFor());
+      if (Collect(sphere)) Skin(SerialFor());
       const auto offsets = data.sphere_vertex_offsets();
       for (uint32_t k = offsets[sphere]; k < offsets[sphere + 1]; ++k) {
         ok &= ctx.skinned_[data.sphere_vertices()[k]].allFinite();
@@ -914,17 +930,16 @@ void NarrowPhaseContext::Resize(const NarrowPhaseData& data, bool lazy_skinning)
   frame_stamp_ = 0;
   if (lazy_skinning) {
     skinned_.assign(data.vertex_count(), Eigen::Vector3f::Zero());
-    group_mark_.assign(data.group_count(), 0);
     run_bits_.assign((data.run_count() + 63) / 64, 0);
+    run_done_.assign(run_bits_.size(), 0);
     spans_.reserve(data.run_count() + data.lazy_influences().size() / Access::LazySkinner::kBlock + 1);
-    pending_vertices_ = 0;
   } else {
     skinned_.clear();
     skinned_.shrink_to_fit();
-    group_mark_.clear();
-    group_mark_.shrink_to_fit();
     run_bits_.clear();
     run_bits_.shrink_to_fit();
+    run_done_.clear();
+    run_done_.shrink_to_fit();
     spans_.clear();
     spans_.shrink_to_fit();
   }
@@ -963,7 +978,7 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
   const bool lazy = positions.empty();
   if (lazy && !ctx.has_lazy_skinning()) ctx.Resize(*data, true);  // first mode-(b) run: warm-up allocation
   if (++ctx.frame_stamp_ == 0) {
-    for (auto* v : {&ctx.sphere_seen_, &ctx.group_mark_}) std::fill(v->begin(), v->end(), 0u);
+    std::fill(ctx.sphere_seen_.begin(), ctx.sphere_seen_.end(), 0u);
     ctx.frame_stamp_ = 1;
   }
   Access::Involved(pairs, ctx);
@@ -976,7 +991,7 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
     if (!skinning::SkinningMatricesJob{set->mesh.binds, joint_world.first(set->joint_count()), ctx.bind_matrices_}.Run()) {
       return false;
     }
-    ctx.pending_vertices_ = 0;
+    std::fill(ctx.run_done_.begin(), ctx.run_done_.end(), uint64_t{0});
     skinner.emplace(Access::LazySkinner{*set, *data, ctx, ctx.bind_matrices_});
     for (uint32_t s : ctx.involved_) skinner->Collect(s);
     // Non-finite positions are caught by PrepareClusters, which boxes every vertex skinned here.

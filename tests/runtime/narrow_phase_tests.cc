@@ -290,7 +290,8 @@ TEST(NarrowPhase, FastModeWithLazySkinningEqualsExactModeOnTheFullySkinnedMesh) 
 }
 
 // Mode (b)'s layout: the runs tile the prepared slots, every sphere vertex has exactly one slot, and
-// a sphere's groups' runs hold exactly the vertices of its triangles (what the job must skin for it).
+// a sphere's groups' runs, and its run bitset, hold exactly the vertices of its triangles (what the
+// job must skin for it).
 TEST(NarrowPhase, LazySkinningRunsHoldEachSpheresVerticesOnce) {
   for (const std::string& name : BuiltinAndPresentSharedCharacters()) {
     auto fc = test::LoadFitted(name);
@@ -335,6 +336,23 @@ TEST(NarrowPhase, LazySkinningRunsHoldEachSpheresVerticesOnce) {
       needed.erase(std::unique(needed.begin(), needed.end()), needed.end());
       ASSERT_EQ(skinned, needed) << name << ": sphere " << s;
       for (uint32_t v : needed) EXPECT_EQ(slots_of[v], 1u) << name << ": vertex " << v;
+      // The same runs as the bitset a frame ORs in: words ascending, no empty mask.
+      std::vector<uint32_t> from_bits;
+      for (uint32_t k = d.sphere_run_offsets()[s]; k < d.sphere_run_offsets()[s + 1]; ++k) {
+        const uint32_t word = d.sphere_run_words()[k];
+        if (k > d.sphere_run_offsets()[s]) {
+          EXPECT_LT(d.sphere_run_words()[k - 1], word) << name << ": sphere " << s;
+        }
+        EXPECT_NE(d.sphere_run_bits()[k], 0u) << name << ": sphere " << s;
+        for (int b = 0; b < 64; ++b) {
+          if (!(d.sphere_run_bits()[k] >> b & 1)) continue;
+          const size_t r = size_t{word} * 64 + size_t(b);
+          ASSERT_LT(r, d.run_count()) << name << ": sphere " << s;
+          for (uint32_t slot = d.run_begin()[r]; slot < d.run_begin()[r + 1]; ++slot) from_bits.push_back(lazy.vertices()[slot]);
+        }
+      }
+      std::sort(from_bits.begin(), from_bits.end());
+      EXPECT_EQ(from_bits, needed) << name << ": sphere " << s << "'s run bitset";
     }
   }
 }

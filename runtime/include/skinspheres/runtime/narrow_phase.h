@@ -40,11 +40,11 @@
 //      (and of the spheres the depth estimate visits), each vertex once. At set-up the vertices
 //      are grouped by the spheres that use them and laid out in one set of prepared influences
 //      (the SIMD skinning path), influence count first, then group by group, so that each group
-//      is a few runs of slots; a frame marks the groups it needs and skins the marked runs, the
-//      adjacent ones merged into long spans (tens per frame), at the whole-mesh path's cost per
-//      vertex, so skinning what a frame tests never costs more than skinning the whole mesh
-//      (bench/narrow_phase_bench.cc, BM_LazySkin). The positions are bit-identical to skinning
-//      the whole mesh with SkinningJob.
+//      is a few runs of slots; a frame marks the runs of the spheres it needs (a few words of a
+//      run bitset per sphere) and skins the marked runs, the adjacent ones merged into long spans
+//      (tens per frame), near the whole-mesh path's cost per vertex (bench/narrow_phase_bench.cc,
+//      BM_LazySkin, BM_LazyVsWhole). The positions are bit-identical to skinning the whole mesh
+//      with SkinningJob.
 // Both need the mesh of a version-2 sphere set (SphereSet::has_mesh()): triangle indices, rest
 // positions and influences. A version-1 set (no mesh) is refused by NarrowPhaseData::Create with
 // kVersionMismatch, in both modes: its exclusions cannot be computed without the rest mesh.
@@ -214,6 +214,12 @@ class NarrowPhaseData {
   std::span<const uint32_t> group_run_offsets() const { return group_run_offsets_; }
   std::span<const uint32_t> group_runs() const { return group_runs_; }
   std::span<const uint32_t> group_sizes() const { return group_sizes_; }  // vertices per group
+  // The same per sphere, as a bitset over runs (bit r of word r / 64): sphere s's runs are the bits
+  // sphere_run_bits()[k] of words sphere_run_words()[k], k in [sphere_run_offsets()[s],
+  // sphere_run_offsets()[s + 1]), words ascending, no zero mask (what a frame ORs in per sphere).
+  std::span<const uint32_t> sphere_run_offsets() const { return sphere_run_offsets_; }
+  std::span<const uint32_t> sphere_run_words() const { return sphere_run_words_; }
+  std::span<const uint64_t> sphere_run_bits() const { return sphere_run_bits_; }
 
  private:
   friend struct NarrowPhaseAccess;
@@ -229,6 +235,8 @@ class NarrowPhaseData {
   skinning::PreparedInfluences lazy_influences_;
   std::vector<uint32_t> run_begin_, group_run_offsets_, group_runs_, group_sizes_;
   std::vector<uint32_t> sphere_group_offsets_, sphere_groups_;
+  std::vector<uint32_t> sphere_run_offsets_, sphere_run_words_;
+  std::vector<uint64_t> sphere_run_bits_;
   std::vector<uint32_t> welded_;
   std::vector<uint64_t> rest_excluded_;
   std::vector<uint32_t> sphere_vertex_offsets_, sphere_vertices_;
@@ -248,7 +256,7 @@ class NarrowPhaseContext {
   // Set-up only (allocates). lazy_skinning: also the mode-(b) buffers (skinned positions, marks).
   void Resize(const NarrowPhaseData& data, bool lazy_skinning);
   bool sized_for(const NarrowPhaseData& data) const { return sized_for_ == &data; }
-  bool has_lazy_skinning() const { return !group_mark_.empty() || skinned_.size() > 0; }
+  bool has_lazy_skinning() const { return !run_done_.empty() || skinned_.size() > 0; }
 
   struct Stats {
     size_t sphere_pairs = 0;         // pairs examined
@@ -299,10 +307,9 @@ class NarrowPhaseContext {
   uint32_t frame_stamp_ = 0;
   // Mode (b).
   std::vector<Eigen::Vector3f> skinned_;   // per vertex
-  std::vector<uint32_t> group_mark_;       // per vertex group: frame stamp when it was marked
   std::vector<uint64_t> run_bits_;         // per run, one bit: marked, not yet skinned
+  std::vector<uint64_t> run_done_;         // per run, one bit: skinned this frame
   std::vector<std::pair<uint32_t, uint32_t>> spans_;  // slot spans to skin (<= runs + slots / block + 1)
-  size_t pending_vertices_ = 0;            // vertices in the marked runs
   std::vector<Mat4f> bind_matrices_;       // per bind entry
   Stats stats_;
 };
