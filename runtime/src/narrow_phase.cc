@@ -21,6 +21,10 @@
 #include "skinspheres/skinning/skinning_job.h"
 #include "skinspheres/skinning/skinning_matrices_job.h"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace skinspheres::runtime {
 
 const char* ToString(TriangleContactKind kind) {
@@ -147,17 +151,39 @@ struct NarrowPhaseAccess {
 
   // The box of the cluster's skinned vertices. False when one is not finite.
   static bool PositionBox(const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t c, Box* box) {
-    Eigen::Vector3f lo = Eigen::Vector3f::Constant(INFINITY), hi = Eigen::Vector3f::Constant(-INFINITY);
-    bool finite = true;
-    for (uint32_t k = d.cluster_vertex_offsets_[c]; k < d.cluster_vertex_offsets_[c + 1]; ++k) {
-      const Eigen::Vector3f& p = pos[d.cluster_vertices_[k]];
-      finite &= p.allFinite();
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
+    const uint32_t* vertex = d.cluster_vertices_.data() + d.cluster_vertex_offsets_[c];
+    const uint32_t* const end = d.cluster_vertices_.data() + d.cluster_vertex_offsets_[c + 1];
+#if defined(__SSE2__)
+    // One vertex per register (x, y, z, 0), loaded without reading past it; p - p is 0 exactly when
+    // p is finite, so a sum of them stays 0 only if every vertex was.
+    __m128 lo = _mm_set1_ps(INFINITY), hi = _mm_set1_ps(-INFINITY), zero = _mm_setzero_ps();
+    for (; vertex != end; ++vertex) {
+      const float* q = pos[*vertex].data();
+      const __m128 p = _mm_movelh_ps(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(q))), _mm_load_ss(q + 2));
+      zero = _mm_add_ps(zero, _mm_sub_ps(p, p));
+      lo = _mm_min_ps(lo, p);
+      hi = _mm_max_ps(hi, p);
     }
+    alignas(16) float l[4], h[4], z[4];
+    _mm_store_ps(l, lo);
+    _mm_store_ps(h, hi);
+    _mm_store_ps(z, zero);
+    const bool finite = z[0] == 0.0f && z[1] == 0.0f && z[2] == 0.0f;
+#else
+    Eigen::Vector3f lo_v = Eigen::Vector3f::Constant(INFINITY), hi_v = Eigen::Vector3f::Constant(-INFINITY);
+    bool finite = true;
+    for (; vertex != end; ++vertex) {
+      const Eigen::Vector3f& p = pos[*vertex];
+      finite &= p.allFinite();
+      lo_v = lo_v.cwiseMin(p);
+      hi_v = hi_v.cwiseMax(p);
+    }
+    const float* l = lo_v.data();
+    const float* h = hi_v.data();
+#endif
     for (int k = 0; k < 3; ++k) {
-      box->lo[k] = lo[k];
-      box->hi[k] = hi[k];
+      box->lo[k] = l[k];
+      box->hi[k] = h[k];
     }
     box->id = c;
     return finite;
@@ -706,14 +732,16 @@ struct NarrowPhaseAccess {
         if (bits == 0) continue;
         ctx.run_bits_[word] = 0;
         ctx.run_done_[word] |= bits;
-        while (bits != 0) {
-          const uint32_t r = uint32_t(word * 64 + size_t(std::countr_zero(bits)));
-          bits &= bits - 1;
+        while (bits != 0) {  // per sequence of set bits: runs [r, r + length), adjacent slots
+          const int first = std::countr_zero(bits);
+          const int length = std::countr_one(bits >> first);
+          const uint32_t r = uint32_t(word * 64 + size_t(first));
+          bits = first + length == 64 ? 0 : bits & (~uint64_t{0} << (first + length));
           if (open_end != run_begin[r]) {
             AddSpan(open_begin, open_end);
             open_begin = run_begin[r];
           }
-          open_end = run_begin[r + 1];
+          open_end = run_begin[r + size_t(length)];
         }
       }
       AddSpan(open_begin, open_end);
