@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -97,13 +98,10 @@ std::optional<Error> ValidateMesh(const SphereSet& set) {
   }
   // Each vertex's weights sum to 1 (the importers normalise them in double; float leaves a few
   // ulps): skinning is then a convex blend, which the fast bound's derivation needs (refit_job.h).
-  for (size_t v = 0; v < vertices; ++v) {
-    double sum = 0.0;
-    for (uint32_t k = mesh.influence_offsets[v]; k < mesh.influence_offsets[v + 1]; ++k) sum += mesh.influence_weights[k];
-    if (!(std::abs(sum - 1.0) <= kWeightSumTolerance)) {
-      return Invalid("mesh vertex " + std::to_string(v) + " has skin weights summing to " + Digits(float(sum)) +
-                     ", not 1");
-    }
+  double sum = 0.0;
+  if (const size_t v = skinning::FirstVertexNotSummingToOne(mesh.influence_offsets, mesh.influence_weights, &sum);
+      v != std::numeric_limits<size_t>::max()) {
+    return Invalid("mesh vertex " + std::to_string(v) + " has skin weights summing to " + Digits(float(sum)) + ", not 1");
   }
   std::vector<uint32_t> marked(vertices, UINT32_MAX);  // marked[v] == s: v is a source vertex of sphere s
   for (size_t s = 0; s < set.size(); ++s) {

@@ -2,6 +2,7 @@
 #include "skinspheres/lib/character/raw_character.h"
 
 #include <cmath>
+#include <limits>
 
 namespace skinspheres::lib {
 
@@ -55,14 +56,11 @@ std::optional<Error> RawCharacter::Validate() const {
   }
   // Weights sum to 1 per vertex (the importers normalise them): the fitted set's fast bounds assume
   // it, so a character built in code with other sums is refused here, before the fit, by vertex.
-  for (size_t v = 0; v + 1 < skin.influence_offsets.size(); ++v) {
-    double sum = 0.0;
-    for (uint32_t k = skin.influence_offsets[v]; k < skin.influence_offsets[v + 1]; ++k)
-      sum += skin.influence_weights[k];
-    if (!(std::abs(sum - 1.0) <= skinning::kWeightSumTolerance)) {
-      return fail("vertex " + std::to_string(v) + " has skin weights summing to " + std::to_string(sum) +
-                  ", not 1 (normalise them)");
-    }
+  double sum = 0.0;
+  if (const size_t v = skinning::FirstVertexNotSummingToOne(skin.influence_offsets, skin.influence_weights, &sum);
+      v != std::numeric_limits<size_t>::max()) {
+    return fail("vertex " + std::to_string(v) + " has skin weights summing to " + std::to_string(sum) +
+                ", not 1 (normalise them)");
   }
   for (const MeshRange& m : meshes) {
     if (m.rigid_joint >= n) {

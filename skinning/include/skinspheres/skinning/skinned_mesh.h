@@ -8,7 +8,11 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <limits>
+#include <span>
 #include <vector>
 
 #include "skinspheres/skinning/math_types.h"
@@ -26,6 +30,22 @@ struct BindEntry {
 // margin of 16 epsilons of the coordinates (refit_job.h), of which a centre off by 4 epsilons
 // (times up to sqrt(3) for its norm) takes under half.
 inline constexpr double kWeightSumTolerance = 4.0 * 1.1920928955078125e-07;  // 4 float epsilons
+
+// The first vertex whose weights, summed in double, are not within kWeightSumTolerance of 1 (a NaN
+// sum is not), or SIZE_MAX if there is none; *sum gets that vertex's sum. offsets: CSR offsets into
+// weights (vertex count + 1 entries, each within weights, checked by the caller).
+inline size_t FirstVertexNotSummingToOne(std::span<const uint32_t> offsets, std::span<const float> weights,
+                                         double* sum) {
+  for (size_t v = 0; v + 1 < offsets.size(); ++v) {
+    double s = 0.0;
+    for (uint32_t k = offsets[v]; k < offsets[v + 1]; ++k) s += weights[k];
+    if (!(std::abs(s - 1.0) <= kWeightSumTolerance)) {
+      *sum = s;
+      return v;
+    }
+  }
+  return std::numeric_limits<size_t>::max();
+}
 
 struct SkinnedMesh {
   std::vector<Eigen::Vector3f> positions_bind;  // per vertex, in the space IBMs map from
