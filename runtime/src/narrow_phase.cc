@@ -21,8 +21,11 @@
 #include "skinspheres/skinning/skinning_job.h"
 #include "skinspheres/skinning/skinning_matrices_job.h"
 
-#if defined(__SSE2__)
+#if defined(__SSE2__) || defined(_M_X64)
+#define SKINSPHERES_NARROW_SSE2 1
 #include <emmintrin.h>
+#else
+#define SKINSPHERES_NARROW_SSE2 0
 #endif
 
 namespace skinspheres::runtime {
@@ -153,13 +156,16 @@ struct NarrowPhaseAccess {
   static bool PositionBox(const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t c, Box* box) {
     const uint32_t* vertex = d.cluster_vertices_.data() + d.cluster_vertex_offsets_[c];
     const uint32_t* const end = d.cluster_vertices_.data() + d.cluster_vertex_offsets_[c + 1];
-#if defined(__SSE2__)
-    // One vertex per register (x, y, z, 0), loaded without reading past it; p - p is 0 exactly when
-    // p is finite, so a sum of them stays 0 only if every vertex was.
+#if SKINSPHERES_NARROW_SSE2
+    // One vertex per register (x, y, z, 0), loaded without reading past it (_mm_loadl_epi64 reads
+    // through an unaligned, may-alias type); p - p is 0 exactly when p is finite, so a sum of them
+    // stays 0 only if every vertex was. min / max return the second operand on ties, so a bound may
+    // be -0 where a scalar min gave +0: equal in every comparison.
     __m128 lo = _mm_set1_ps(INFINITY), hi = _mm_set1_ps(-INFINITY), zero = _mm_setzero_ps();
     for (; vertex != end; ++vertex) {
       const float* q = pos[*vertex].data();
-      const __m128 p = _mm_movelh_ps(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(q))), _mm_load_ss(q + 2));
+      const __m128 xy = _mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(q)));
+      const __m128 p = _mm_movelh_ps(xy, _mm_load_ss(q + 2));
       zero = _mm_add_ps(zero, _mm_sub_ps(p, p));
       lo = _mm_min_ps(lo, p);
       hi = _mm_max_ps(hi, p);
@@ -704,12 +710,17 @@ struct NarrowPhaseAccess {
       const auto offsets = data.sphere_run_offsets();
       const auto words = data.sphere_run_words();
       const auto bits = data.sphere_run_bits();
+      const uint32_t k0 = offsets[sphere], k1 = offsets[sphere + 1];
+      if (k0 == k1) return false;
       uint64_t added = 0;
-      for (uint32_t k = offsets[sphere]; k < offsets[sphere + 1]; ++k) {
+      for (uint32_t k = k0; k < k1; ++k) {
         const uint64_t mark = bits[k] & ~ctx.run_done_[words[k]];
         ctx.run_bits_[words[k]] |= mark;
         added |= mark;
       }
+      // Words ascending: the range Skin scans grows to this sphere's first and last.
+      ctx.marked_begin_ = std::min<size_t>(ctx.marked_begin_, words[k0]);
+      ctx.marked_end_ = std::max<size_t>(ctx.marked_end_, size_t{words[k1 - 1]} + 1);
       return added != 0;
     }
 
@@ -727,7 +738,7 @@ struct NarrowPhaseAccess {
       ctx.spans_.clear();
       // Maximal sequences of marked runs: runs tile the slots, so consecutive runs are adjacent.
       uint32_t open_begin = 0, open_end = 0;  // the span being extended (empty: none)
-      for (size_t word = 0; word < ctx.run_bits_.size(); ++word) {
+      for (size_t word = ctx.marked_begin_; word < ctx.marked_end_; ++word) {
         uint64_t bits = ctx.run_bits_[word];
         if (bits == 0) continue;
         ctx.run_bits_[word] = 0;
@@ -745,6 +756,8 @@ struct NarrowPhaseAccess {
         }
       }
       AddSpan(open_begin, open_end);
+      ctx.marked_begin_ = ctx.run_bits_.size();
+      ctx.marked_end_ = 0;
       if (ctx.spans_.empty()) return true;
       skinning::SkinningJob job;
       job.joint_matrices = matrices;
@@ -960,6 +973,8 @@ void NarrowPhaseContext::Resize(const NarrowPhaseData& data, bool lazy_skinning)
     skinned_.assign(data.vertex_count(), Eigen::Vector3f::Zero());
     run_bits_.assign((data.run_count() + 63) / 64, 0);
     run_done_.assign(run_bits_.size(), 0);
+    marked_begin_ = run_bits_.size();
+    marked_end_ = 0;
     spans_.reserve(data.run_count() + data.lazy_influences().size() / Access::LazySkinner::kBlock + 1);
   } else {
     skinned_.clear();

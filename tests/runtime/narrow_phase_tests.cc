@@ -518,6 +518,20 @@ TEST(NarrowPhase, ModeBNeedsJointMatricesAndFiniteInput) {
   for (auto& p : bad) p.x() = NAN;
   EXPECT_FALSE(inst->FindContacts(bad).ok());
   EXPECT_TRUE(inst->frame_contacts().empty());
+  // One non-finite coordinate, y or z, of one vertex of a sphere in a reported pair is enough.
+  ASSERT_FALSE(inst->contacts().empty());
+  const SphereSet& set = fc->set;
+  const uint32_t s = inst->contacts().front().i;
+  ASSERT_LT(set.triangle_offsets[s], set.triangle_offsets[s + 1]);
+  const uint32_t v = set.triangle_vertices[3 * size_t{set.triangles[set.triangle_offsets[s]]} + 1];
+  for (int axis : {1, 2}) {
+    for (float value : {INFINITY, -INFINITY, NAN}) {
+      std::vector<Vector3f> one = pose.positions;
+      one[v][axis] = value;
+      EXPECT_FALSE(inst->FindContacts(one).ok()) << "axis " << axis << ", " << value;
+      EXPECT_TRUE(inst->FindContacts(pose.positions).ok());
+    }
+  }
 }
 
 // A hand-made set: one root joint, part "a" and part "b", one sphere per closed mesh, no excluded

@@ -201,7 +201,8 @@ class NarrowPhaseData {
   // The rest-pose positions (mesh skinned with the rest transforms), per source vertex.
   std::span<const Eigen::Vector3f> rest_positions() const { return rest_positions_; }
   size_t cluster_count() const { return cluster_vertex_offsets_.empty() ? 0 : cluster_vertex_offsets_.size() - 1; }
-  // Mode (b): vertex groups (the vertices used by the same spheres), CSR per sphere.
+  // Mode (b): vertex groups (the vertices used by the same spheres), CSR per sphere. The groups'
+  // lists are the layout's description (tests, benchmarks); a frame reads the run bitsets below.
   size_t group_count() const { return group_run_offsets_.empty() ? 0 : group_run_offsets_.size() - 1; }
   std::span<const uint32_t> sphere_group_offsets() const { return sphere_group_offsets_; }
   std::span<const uint32_t> sphere_groups() const { return sphere_groups_; }
@@ -300,7 +301,7 @@ class NarrowPhaseContext {
   std::vector<uint32_t> sphere_mark_;      // per sphere: the depth estimate's visits
   std::vector<uint32_t> queue_;            // per sphere
   uint32_t sphere_stamp_ = 0;
-  std::vector<uint32_t> sphere_seen_;      // per sphere: frame stamp when it was listed in involved_
+  std::vector<uint32_t> sphere_seen_;      // per sphere: frame stamp when listed in involved_ or skinned on demand
   std::vector<uint32_t> involved_;         // the spheres in this frame's pairs
   std::vector<Box> cluster_box_;           // per cluster: this frame's box
   std::vector<Box> sphere_box_;            // per sphere: the union of its clusters' boxes
@@ -309,6 +310,7 @@ class NarrowPhaseContext {
   std::vector<Eigen::Vector3f> skinned_;   // per vertex
   std::vector<uint64_t> run_bits_;         // per run, one bit: marked, not yet skinned
   std::vector<uint64_t> run_done_;         // per run, one bit: skinned this frame
+  size_t marked_begin_ = 0, marked_end_ = 0;  // words of run_bits_ that may be non-zero (begin >= end: none)
   std::vector<std::pair<uint32_t, uint32_t>> spans_;  // slot spans to skin (<= runs + slots / block + 1)
   std::vector<Mat4f> bind_matrices_;       // per bind entry
   Stats stats_;
