@@ -270,6 +270,10 @@ class NarrowPhaseContext {
     size_t depth_vertices = 0;       // vertices examined by the depth estimate
   };
   const Stats& last_stats() const { return stats_; }
+  // Mode (b), diagnostics: the positions the last run skinned, by source vertex (empty before the
+  // first mode-(b) run). Current only for the vertices of the spheres it skinned: those in its pairs
+  // and those the depth estimate visited; the others hold earlier frames' values.
+  std::span<const Eigen::Vector3f> lazy_positions() const { return skinned_; }
 
  private:
   friend struct NarrowPhaseJob;
