@@ -149,7 +149,7 @@ class Writer {
 // ---- Reader ------------------------------------------------------------------------------------
 
 Error Refuse(const std::string& source, const std::string& what, ErrorCode code = ErrorCode::kInvalidData) {
-  return MakeError(code, source + ": " + what);
+  return MakeError(code, OneLine(source + ": " + what));
 }
 
 // CSR offsets: first 0 (when any), never decreasing, last == total.

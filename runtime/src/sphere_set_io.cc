@@ -378,17 +378,20 @@ Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& so
     }
     SphereSet set = Parse(j, std::move(stream));
     if (auto err = set.Validate()) {
-      return MakeError(ErrorCode::kInvalidData, source_name + ": " + err->message);
+      return MakeError(ErrorCode::kInvalidData, OneLine(source_name + ": " + err->message));
     }
     set.loaded_from = source_name;
     return set;
   } catch (const ReadError& e) {
     const bool version = e.what.rfind("version", 0) == 0;
-    return MakeError(version ? ErrorCode::kVersionMismatch : ErrorCode::kInvalidData, source_name + ": " + e.what);
+    // OneLine: a message may quote a string of the file (an unknown reason, a name), which JSON
+    // escapes can fill with newlines or NULs.
+    return MakeError(version ? ErrorCode::kVersionMismatch : ErrorCode::kInvalidData,
+                     OneLine(source_name + ": " + e.what));
   } catch (const json::exception& e) {
-    return MakeError(ErrorCode::kInvalidData, source_name + ": " + e.what());
+    return MakeError(ErrorCode::kInvalidData, OneLine(source_name + ": " + e.what()));
   } catch (const std::bad_alloc&) {
-    return MakeError(ErrorCode::kFormatRejected, source_name + ": implausible sizes (out of memory while reading)");
+    return MakeError(ErrorCode::kFormatRejected, OneLine(source_name + ": implausible sizes (out of memory while reading)"));
   }
 }
 

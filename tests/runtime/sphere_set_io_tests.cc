@@ -177,6 +177,9 @@ TEST(SphereSetIoTest, WrongContentIsRefusedWithItsPlace) {
       {"vertex range", [](json& j) { j["spheres"][0]["vertices"][0] = 99; }, ErrorCode::kInvalidData, "vertex 99"},
       {"negative index", [](json& j) { j["spheres"][0]["vertices"][0] = -1; }, ErrorCode::kInvalidData, "out of range"},
       {"reason", [](json& j) { j["excluded_pairs"][0][2] = "because"; }, ErrorCode::kInvalidData, "because"},
+      // A quoted string of the file with control characters stays on one line, escaped.
+      {"reason with a newline", [](json& j) { j["excluded_pairs"][0][2] = std::string("be\ncause\0", 9); },
+       ErrorCode::kInvalidData, "unknown reason \"be\\ncause\\x00\""},
       {"pair order", [](json& j) { j["excluded_pairs"][0] = {1, 0, "same_joint"}; }, ErrorCode::kInvalidData, "i < j"},
       {"id", [](json& j) { j["spheres"][1]["id"] = 5; }, ErrorCode::kInvalidData, "id is not its index"},
       {"huge unsigned", [](json& j) { j["skeleton"]["joints"][0]["parent"] = 18446744073709551615ull; },
@@ -231,6 +234,7 @@ TEST(SphereSetIoTest, WrongContentIsRefusedWithItsPlace) {
       EXPECT_EQ(read.error().code, c.code) << c.what << ": " << read.error().message;
       EXPECT_NE(read.error().message.find(c.message_part), std::string::npos) << c.what << ": " << read.error().message;
       EXPECT_EQ(read.error().message.rfind("bad.json: ", 0), 0u) << read.error().message;
+      EXPECT_EQ(read.error().message.find_first_of(std::string("\n\0", 2)), std::string::npos) << c.what;
     }
   };
   refuse_all(good_reach, reach_cases);
