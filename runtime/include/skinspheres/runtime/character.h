@@ -21,9 +21,8 @@
 // (broad_phase.h) + the narrow phase (narrow_phase.h). Its buffers are sized at Create, apart from
 // the narrow phase's: ReserveContacts (at set-up) or else the first FindContacts sizes them (a few
 // hundred KB for a mesh of tens of thousands of vertices, so an instance that only runs the broad
-// phase never holds them), and the
-// first FindContacts in mode (b) after mode (a) sizes them again with its skinned-position buffer
-// (12 bytes per mesh vertex). Per frame after that nothing is allocated, except that the output
+// phase never holds them), and the first FindContacts in mode (b) after mode (a) sizes them again
+// with its skinned-position buffer (12 bytes per mesh vertex). Per frame after that nothing is allocated, except that the output
 // lists grow (geometrically) the first time a frame has more contacts than any before
 // (ReserveContacts pins them). Per-frame calls never
 // throw; they return a FrameStatus whose message is a static string (no allocation). A failed
@@ -194,14 +193,6 @@ struct CharacterFrameInput {
   std::span<const Eigen::Vector3f> skinned_positions;  // exact mode only
 };
 
-// Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (parallel_for, grain
-// 1 instance). It does not keep the joint matrices for FindContacts mode (b) (a copy of every
-// joint's matrix per instance and frame, a tenth of a 10,000-character crowd's frame): a
-// FindContacts without positions after it is refused until the next Update, UpdateFast or
-// UpdateAndFindContactsCrowd. Returns kInvalidArgument (and runs nothing) when the spans differ in
-// size or an instance pointer is null (listing the same instance twice is a data race the caller
-// must avoid); kInvalidData when at least one instance failed (each instance's
-// status() says why; the others are fully updated); kOk otherwise.
 // One instance's step of the crowd calls below, for an engine that writes its own crowd loop:
 // Update(mode, input), then Query(), then, when find_contacts, FindContacts (mode (a) with the
 // input's positions in exact mode, mode (b) in fast mode). Without find_contacts the joint
@@ -210,6 +201,14 @@ struct CharacterFrameInput {
 FrameStatus CrowdStep(CharacterInstance& instance, RefitMode mode, const CharacterFrameInput& input,
                       bool find_contacts);
 
+// Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (parallel_for, grain
+// 1 instance). It does not keep the joint matrices for FindContacts mode (b) (a copy of every
+// joint's matrix per instance and frame, a tenth of a 10,000-character crowd's frame): a
+// FindContacts without positions after it is refused until the next Update, UpdateFast or
+// UpdateAndFindContactsCrowd. Returns kInvalidArgument (and runs nothing) when the spans differ in
+// size or an instance pointer is null (listing the same instance twice is a data race the caller
+// must avoid); kInvalidData when at least one instance failed (each instance's
+// status() says why; the others are fully updated); kOk otherwise.
 FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
                                 std::span<const CharacterFrameInput> inputs, RefitMode mode,
                                 const ParallelFor& parallel_for = DefaultParallelFor());
