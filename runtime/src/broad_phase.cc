@@ -206,18 +206,23 @@ void BroadPhaseContext::Resize(size_t max_spheres, size_t max_candidates) {
   sphere_.assign(padded, 0);
   row_.assign(max_spheres + 1, 0);
   if (max_spheres > kAllPairsMax) {
-    order_.assign(max_spheres, SortItem{0, 0});
-    order_by_strip_.assign(max_spheres, SortItem{0, 0});
+    order_.assign(max_spheres, SortItem{0, 0, 0});
+    order_by_strip_.assign(max_spheres, SortItem{0, 0, 0});
     runs_.assign(max_spheres, ColumnRun{0, 0, 0});
     pi_.assign(max_candidates_ + kPad, 0);
     pj_.assign(max_candidates_ + kPad, 0);
+    near_.assign(kernels::kNearWords * max_spheres, 0);
+    far_.assign(max_spheres, 0);
   } else {
     order_.clear();
     order_by_strip_.clear();
     runs_.clear();
     pi_.clear();
     pj_.clear();
+    near_.clear();
+    far_.clear();
   }
+  near_count_ = 0;
   stage_.assign(kStage + kPad, Contact{});
   Invalidate();
   rung_ = 3;
@@ -418,38 +423,72 @@ struct BroadPhaseContext::Impl {
     }
     const auto key_of = [&](size_t s) { return (uint64_t{strip_of(Sphere(s))} << 32) | OrderBits(start_by_sphere[s]); };
 
-    // Sort by (strip, start): a stable counting sort by strip of the previous order (at most n / 4
-    // strips), then an insertion sort (near-linear under coherent motion) with a move budget,
-    // else std::sort.
+    // Sort by (strip, start), from the previous order when there is one: a stable counting sort by
+    // the new strip, after which each strip's run is a few segments, one per strip its spheres
+    // came from (in that strip order), each nearly sorted by start under coherent motion: an
+    // insertion sort per segment (with a move budget for the whole, else std::sort), then the
+    // segments merged. (An insertion sort of the whole run would move every sphere that changed
+    // strips across most of the run: a crowd of walking characters overran the budget every frame.)
     SortItem* order = ctx.order_.data();
     bool full_sort = !keep_order;
     if (keep_order) {
-      for (size_t q = 0; q < n; ++q) order[q].key = key_of(order[q].sphere);
+      for (size_t q = 0; q < n; ++q) {
+        order[q].from = static_cast<uint32_t>(order[q].key >> 32);
+        order[q].key = key_of(order[q].sphere);
+      }
+      SortItem* src = order;
       if (count > 1) {
         uint32_t* at = ctx.row_.data();
         std::fill(at, at + count + 1, 0u);
         for (size_t q = 0; q < n; ++q) ++at[(order[q].key >> 32) + 1];
         for (int64_t c = 0; c < count; ++c) at[c + 1] += at[c];
-        SortItem* by_strip = ctx.order_by_strip_.data();
-        for (size_t q = 0; q < n; ++q) by_strip[at[order[q].key >> 32]++] = order[q];
-        std::copy(by_strip, by_strip + n, order);
+        src = ctx.order_by_strip_.data();
+        for (size_t q = 0; q < n; ++q) src[at[order[q].key >> 32]++] = order[q];
       }
+      const auto by_key = [](const SortItem& a, const SortItem& b) { return a.key < b.key; };
       size_t moves = 0;
       const size_t budget = 4 * n + 64;
-      for (size_t q = 1; q < n && moves <= budget; ++q) {
-        const SortItem item = order[q];
-        if (!(item.key < order[q - 1].key)) continue;
-        size_t m = q;
-        do {
-          order[m] = order[m - 1];
-          --m;
-          ++moves;
-        } while (m > 0 && item.key < order[m - 1].key);
-        order[m] = item;
+      for (size_t b = 0; b < n && !full_sort;) {
+        // The run of one strip, [b, e), and its segments.
+        const uint64_t strip = src[b].key >> 32;
+        size_t e = b + 1;
+        while (e < n && (src[e].key >> 32) == strip) ++e;
+        size_t segment_end = b;
+        SortItem* merged = src;  // holds [b, segment_end) sorted
+        while (segment_end < e) {
+          const size_t begin = segment_end;
+          size_t end = begin + 1;
+          while (end < e && src[end].from == src[begin].from) ++end;
+          for (size_t q = begin + 1; q < end; ++q) {
+            const SortItem item = src[q];
+            if (!(item.key < src[q - 1].key)) continue;
+            size_t m = q;
+            do {
+              src[m] = src[m - 1];
+              --m;
+              ++moves;
+            } while (m > begin && item.key < src[m - 1].key);
+            src[m] = item;
+          }
+          if (moves > budget) {
+            full_sort = true;
+            break;
+          }
+          if (begin > b) {
+            // Merge [b, begin) of `merged` with this segment (in src, at the tail of the output
+            // range, so merging into src itself is safe) into the other array.
+            SortItem* out = merged == src ? (src == order ? ctx.order_by_strip_.data() : order) : src;
+            std::merge(merged + b, merged + begin, src + begin, src + end, out + b, by_key);
+            merged = out;
+          }
+          segment_end = end;
+        }
+        if (!full_sort && merged != order) std::copy(merged + b, merged + e, order + b);
+        b = e;
       }
-      full_sort = moves > budget;
+      if (full_sort && src != order) std::copy(src, src + n, order);
     } else {
-      for (size_t q = 0; q < n; ++q) order[q] = SortItem{key_of(q), static_cast<uint32_t>(q)};
+      for (size_t q = 0; q < n; ++q) order[q] = SortItem{key_of(q), static_cast<uint32_t>(q), 0};
     }
     if (full_sort) {
       std::sort(order, order + n, [](const SortItem& a, const SortItem& b) { return a.key < b.key; });
@@ -511,22 +550,52 @@ struct BroadPhaseContext::Impl {
     return kernels::SoaSpheres{Soa(0), Soa(1), Soa(2), Soa(3), Soa(4), Soa(5), ctx.sphere_.data()};
   }
 
+  // The filter's listed exclusions as bits for the sweep (ctx.near_, ctx.far_), made once per
+  // filter: a set whose spheres overlap their listed neighbours (a fitted character) would
+  // otherwise send mostly listed pairs through the sort (96% of them for a crowd of CesiumMan).
+  kernels::FilterView SweepView() {
+    kernels::FilterView v = view;
+    if (filter.excluded_pair_count() == 0) return v;
+    if (ctx.near_count_ != n || ctx.near_filter_ != filter.id()) {
+      uint64_t* near = ctx.near_.data();
+      std::fill(near, near + kernels::kNearWords * n, uint64_t{0});
+      for (uint32_t i = 0; i < n; ++i) {
+        uint8_t far = 0;
+        for (const uint32_t j : filter.excluded_partners(i)) {
+          const uint32_t d = j + kernels::kNearRange - i;  // modulo 2^32
+          if (d < 2 * kernels::kNearRange) {
+            near[size_t{i} * kernels::kNearWords + (d >> 6)] |= uint64_t{1} << (d & 63u);
+          } else {
+            far = 1;
+          }
+        }
+        ctx.far_[i] = far;
+      }
+      ctx.near_filter_ = filter.id();
+      ctx.near_count_ = n;
+    }
+    v.near = ctx.near_.data();
+    v.far = ctx.far_.data();
+    return v;
+  }
+
   // Sort and sweep in strips of the spheres with radii Soa(kGrown): the pairs whose balls touch
-  // into (pi_, pj_). False when they do not fit.
+  // and the filter allows (listed exclusions included) into (pi_, pj_). False when they do not fit.
   bool SweepBuild(size_t* pair_count) {
     const size_t run_count = Order(true);
     const ColumnRun* runs = ctx.runs_.data();
     const kernels::SoaSpheres soa = SweepSoa();
+    const kernels::FilterView sweep_view = SweepView();
     kernels::PairSink sink{ctx.pi_.data(), ctx.pj_.data(), ctx.max_candidates_, 0, false};
     size_t tests = 0;
     for (size_t ri = 0; ri < run_count && !sink.full; ++ri) {
       const ColumnRun& ra = runs[ri];
-      tests += k.sweep_blocks(soa, ra.begin, ra.end, 0, 0, 0.0f, view, &sink);
+      tests += k.sweep_blocks(soa, ra.begin, ra.end, 0, 0, 0.0f, sweep_view, &sink);
       // The next strip, if it holds spheres: both ways (blocks of A against B, then B against A
       // would count pairs twice, so one call with B's longest interval as reach).
       if (ri + 1 < run_count && runs[ri + 1].column == ra.column + 1 && !sink.full) {
         const ColumnRun& rb = runs[ri + 1];
-        tests += k.sweep_blocks(soa, ra.begin, ra.end, rb.begin, rb.end, RunLength(rb), view, &sink);
+        tests += k.sweep_blocks(soa, ra.begin, ra.end, rb.begin, rb.end, RunLength(rb), sweep_view, &sink);
       }
     }
     ctx.last_build_tests_ += tests;
@@ -556,13 +625,10 @@ struct BroadPhaseContext::Impl {
   }
 
   // The unsorted pairs (pi_, pj_)[0, m) into the cache, sorted by (i, j) (two counting-sort
-  // passes: by j, then stably by i), listed exclusions removed.
+  // passes: by j, then stably by i; the arrays then swap roles). The sweep left out every pair the
+  // filter excludes.
   void SortPairsIntoCache(size_t m) {
     uint32_t* count = ctx.row_.data();
-    uint32_t* pi = ctx.pi_.data();
-    uint32_t* pj = ctx.pj_.data();
-    uint32_t* ci = ctx.ci_.data();
-    uint32_t* cj = ctx.cj_.data();
     const auto pass = [&](const uint32_t* key, const uint32_t* other, uint32_t* key_out, uint32_t* other_out) {
       std::fill(count, count + n + 1, 0u);
       for (size_t p = 0; p < m; ++p) ++count[key[p] + 1];
@@ -573,34 +639,11 @@ struct BroadPhaseContext::Impl {
         other_out[at] = other[p];
       }
     };
-    pass(pj, pi, cj, ci);  // by j into (ci, cj)
-    pass(ci, cj, pi, pj);  // stably by i back into (pi, pj)
-    size_t w = 0;
-    if (filter.excluded_pair_count() == 0) {
-      std::copy(pi, pi + m, ci);
-      std::copy(pj, pj + m, cj);
-      w = m;
-    } else {
-      const uint32_t* row_begin = filter.row_begin();
-      const uint32_t* partners = filter.partners();
-      const uint32_t* e = partners;
-      const uint32_t* e_end = partners;
-      uint32_t row = std::numeric_limits<uint32_t>::max();
-      for (size_t p = 0; p < m; ++p) {
-        const uint32_t i = pi[p], j = pj[p];
-        if (i != row) {
-          row = i;
-          e = partners + row_begin[i];
-          e_end = partners + row_begin[i + 1];
-        }
-        while (e < e_end && *e < j) ++e;
-        const bool listed = e < e_end && *e == j;
-        ci[w] = i;
-        cj[w] = j;
-        w += listed ? 0 : 1;
-      }
-    }
-    ctx.candidate_count_ = w;
+    pass(ctx.pj_.data(), ctx.pi_.data(), ctx.cj_.data(), ctx.ci_.data());  // by j into (ci, cj)
+    pass(ctx.ci_.data(), ctx.cj_.data(), ctx.pi_.data(), ctx.pj_.data());  // stably by i into (pi, pj)
+    std::swap(ctx.ci_, ctx.pi_);
+    std::swap(ctx.cj_, ctx.pj_);
+    ctx.candidate_count_ = m;
   }
 
   // Pads the cache's pair arrays with valid indices for the vector reads past its end.

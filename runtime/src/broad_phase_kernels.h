@@ -18,6 +18,12 @@ namespace skinspheres::runtime::kernels {
 // Lanes of the widest level: every padded array below has this many readable entries past its end.
 inline constexpr size_t kMaxWidth = 16;
 
+// Listed exclusions as bits, for the sweep (FilterView::near): sphere i's listed partners
+// j in [i - kNearRange, i + kNearRange) are bit j - i + kNearRange of its kNearWords words (one
+// cache line: the sweep reads only the rows of the few spheres it tests against the others).
+inline constexpr uint32_t kNearRange = 256;
+inline constexpr size_t kNearWords = 2 * kNearRange / 64;
+
 // The exclusion rules of a PairFilter as raw arrays (pair_filter.h).
 struct FilterView {
   const uint32_t* row_begin = nullptr;  // n + 1
@@ -26,6 +32,11 @@ struct FilterView {
   const uint16_t* parts = nullptr;      // n
   bool within = true;
   bool between = true;
+  // Optional (sweep_blocks only): the listed exclusions as bits, kNearWords per sphere, and per
+  // sphere whether it has listed partners outside its bits (looked up in partners). When set,
+  // sweep_blocks leaves out listed pairs too.
+  const uint64_t* near = nullptr;
+  const uint8_t* far = nullptr;
 };
 
 // Spheres in structure-of-arrays form, padded by kMaxWidth entries. In index order for the
@@ -92,7 +103,8 @@ struct Kernels {
   // b_begin == b_end), or between runs [a_begin, a_end) and [b_begin, b_end) (b_len: the
   // longest interval of the second run), that lies in two blocks whose intervals can overlap,
   // whose balls touch and whose groups the filter allows (listed exclusions are applied later),
-  // written as (min, max) sphere indices. Each pair once. Returns the number of pair tests; sets
+  // written as (min, max) sphere indices (without the listed exclusions when f.near is set).
+  // Each pair once. Returns the number of pair tests; sets
   // sink->full (and stops; the pairs written so far stay) when the sink has no room for one more
   // block pair's kW x kW pairs.
   size_t (*sweep_blocks)(const SoaSpheres& s, uint32_t a_begin, uint32_t a_end, uint32_t b_begin, uint32_t b_end,

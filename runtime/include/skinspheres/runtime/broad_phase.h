@@ -19,8 +19,9 @@
 // then all pairs (up to kAllPairsMax spheres, in index order: already sorted) or a sweep in
 // blocks along the axis of largest spread, inside strips across the next axis when that saves
 // work (touching spheres lie in the same or adjacent strips, so the work grows linearly with the
-// count at constant density), then two counting-sort passes. The sweep order is kept between
-// builds (insertion sort). The lookahead adapts per context to the cheapest counted work per
+// count at constant density), listed exclusions left out as it goes, then two counting-sort
+// passes. The sweep order is kept between builds (insertion sort per strip and strip of origin,
+// then merged). The lookahead adapts per context to the cheapest counted work per
 // frame (lifetime of the cache against its size); motion that breaks every cache gets no skin,
 // and a small set then skips the cache and writes all pairs straight into the output. Every
 // test is SIMD: SSE2, AVX2 or AVX-512, picked at run time (or forced with
@@ -92,8 +93,9 @@ const char* ToString(BroadPhaseMethod method);
 
 // Per-character scratch and frame-to-frame memory (candidate cache, sweep order and axis, skins).
 // Sized at set-up; one per character or space that runs concurrently (never share one between
-// jobs running at once). Memory: about 100 bytes per sphere plus 8 bytes per candidate (16 above
-// kAllPairsMax spheres).
+// jobs running at once). Memory: about 100 bytes per sphere plus 8 bytes per candidate (above
+// kAllPairsMax spheres: about 170 bytes per sphere, with the listed exclusions as 64 bytes of bits
+// for the sweep, and 16 bytes per candidate).
 class BroadPhaseContext {
  public:
   // Sets of up to this many spheres build their cache by all pairs, larger ones by the sweep.
@@ -135,6 +137,7 @@ class BroadPhaseContext {
   struct SortItem {
     uint64_t key;      // column << 32 | interval start (order-preserving bits)
     uint32_t sphere;   // index into the job's spheres
+    uint32_t from;     // while sorting: the column at the previous build
   };
   struct ColumnRun {
     uint32_t column, begin, end;
@@ -167,6 +170,10 @@ class BroadPhaseContext {
   std::vector<ColumnRun> runs_;            // max_spheres: columns in sweep order
   std::vector<uint32_t> pi_, pj_;    // max_candidates + pad (above kAllPairsMax): unsorted pairs
   std::vector<uint32_t> row_;        // max_spheres + 1: counting sort
+  std::vector<uint64_t> near_;       // kernels::kNearWords x max_spheres (above kAllPairsMax): listed pairs as bits
+  std::vector<uint8_t> far_;         // max_spheres (above kAllPairsMax): has listed partners past the bits
+  uint64_t near_filter_ = 0;         // PairFilter::id() near_ and far_ were made from
+  size_t near_count_ = 0;            // and its size (0: not made)
   std::vector<Contact> stage_;       // kStage + pad: contacts before they go to the output
   size_t order_count_ = 0;           // sphere count the order is for (0: none)
   bool order_columns_ = false;       // whether the order has grid columns
