@@ -426,8 +426,8 @@ struct BroadPhaseContext::Impl {
     // Sort by (strip, start), from the previous order when there is one: a stable counting sort by
     // the new strip, after which each strip's run is a few segments, one per strip its spheres
     // came from (in that strip order), each nearly sorted by start under coherent motion: an
-    // insertion sort per segment (with a move budget for the whole, else std::sort), then the
-    // segments merged. (An insertion sort of the whole run would move every sphere that changed
+    // insertion sort per segment, then the segments merged (moves of both within a budget for the
+    // whole, else std::sort). (An insertion sort of the whole run would move every sphere that changed
     // strips across most of the run: a crowd of walking characters overran the budget every frame.)
     SortItem* order = ctx.order_.data();
     bool full_sort = !keep_order;
@@ -445,7 +445,6 @@ struct BroadPhaseContext::Impl {
         src = ctx.order_by_strip_.data();
         for (size_t q = 0; q < n; ++q) src[at[order[q].key >> 32]++] = order[q];
       }
-      const auto by_key = [](const SortItem& a, const SortItem& b) { return a.key < b.key; };
       size_t moves = 0;
       const size_t budget = 4 * n + 64;
       for (size_t b = 0; b < n && !full_sort;) {
@@ -459,7 +458,7 @@ struct BroadPhaseContext::Impl {
           const size_t begin = segment_end;
           size_t end = begin + 1;
           while (end < e && src[end].from == src[begin].from) ++end;
-          for (size_t q = begin + 1; q < end; ++q) {
+          for (size_t q = begin + 1; q < end && moves <= budget; ++q) {
             const SortItem item = src[q];
             if (!(item.key < src[q - 1].key)) continue;
             size_t m = q;
@@ -475,11 +474,16 @@ struct BroadPhaseContext::Impl {
             break;
           }
           if (begin > b) {
-            // Merge [b, begin) of `merged` with this segment (in src, at the tail of the output
-            // range, so merging into src itself is safe) into the other array.
+            // Merge [b, begin) of `merged` with this segment into the other array (which may be
+            // src itself: the segment is the tail of the output range, and a forward merge
+            // never writes past what it has read of it). Counted against the budget.
             SortItem* out = merged == src ? (src == order ? ctx.order_by_strip_.data() : order) : src;
-            std::merge(merged + b, merged + begin, src + begin, src + end, out + b, by_key);
+            size_t x = b, y = begin, w = b;
+            while (x < begin && y < end) out[w++] = src[y].key < merged[x].key ? src[y++] : merged[x++];
+            while (x < begin) out[w++] = merged[x++];
+            while (y < end) out[w++] = src[y++];
             merged = out;
+            moves += end - b;
           }
           segment_end = end;
         }

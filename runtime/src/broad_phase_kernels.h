@@ -19,8 +19,8 @@ namespace skinspheres::runtime::kernels {
 inline constexpr size_t kMaxWidth = 16;
 
 // Listed exclusions as bits, for the sweep (FilterView::near): sphere i's listed partners
-// j in [i - kNearRange, i + kNearRange) are bit j - i + kNearRange of its kNearWords words (one
-// cache line: the sweep reads only the rows of the few spheres it tests against the others).
+// j in [i - kNearRange, i + kNearRange) are bit j - i + kNearRange of its kNearWords words (64
+// bytes: the sweep reads only the rows of the few spheres it tests against the others).
 inline constexpr uint32_t kNearRange = 256;
 inline constexpr size_t kNearWords = 2 * kNearRange / 64;
 
@@ -102,9 +102,9 @@ struct Kernels {
   // Sweep in blocks of kW positions of the sweep order: every pair in run [a_begin, a_end) (when
   // b_begin == b_end), or between runs [a_begin, a_end) and [b_begin, b_end) (b_len: the
   // longest interval of the second run), that lies in two blocks whose intervals can overlap,
-  // whose balls touch and whose groups the filter allows (listed exclusions are applied later),
-  // written as (min, max) sphere indices (without the listed exclusions when f.near is set).
-  // Each pair once. Returns the number of pair tests; sets
+  // whose balls touch and whose groups the filter allows, and, when f.near is set, that the
+  // filter does not list (otherwise listed pairs are left to the caller), written as (min, max)
+  // sphere indices. Each pair once. Returns the number of pair tests; sets
   // sink->full (and stops; the pairs written so far stay) when the sink has no room for one more
   // block pair's kW x kW pairs.
   size_t (*sweep_blocks)(const SoaSpheres& s, uint32_t a_begin, uint32_t a_end, uint32_t b_begin, uint32_t b_end,

@@ -351,26 +351,56 @@ TEST(BroadPhaseTest, SpheresChangingStripsKeepTheSweepOrderWithoutAFullSort) {
   Spheres base(n);
   for (auto& v : base) v = {60.0f * u(rng), 0.3f * u(rng), 40.0f * u(rng), 0.05f + 0.1f * u(rng)};
   const PairFilter f = MakeFilter(n, 0.0, rng);
+  for (auto level : SupportedLevels()) {
+    BroadPhaseContext ctx(n);
+    std::vector<Contact> out;
+    size_t builds = 0, full_sorts = 0;
+    for (int frame = 0; frame < 40; ++frame) {
+      Spheres s = base;
+      for (size_t k = 0; k < n; ++k) {
+        s[k].x() += 0.02f * std::sin(0.7f * float(frame) + float(k));
+        s[k].z() += 0.4f * std::cos(0.7f * float(frame) + float(k));
+      }
+      SelfCollisionJob job{s, &f, &ctx, &out};
+      job.simd = level;
+      ASSERT_TRUE(job.Run());
+      ASSERT_EQ(out, GridOracle(s, f)) << frame << " " << ToString(ctx.last_method());
+      if (frame > 0 && ctx.last_method() == BroadPhaseMethod::kSweepBuild) {
+        ++builds;
+        full_sorts += ctx.last_full_sort() ? 1 : 0;
+      }
+    }
+    // The first builds may still change the strip width while the skins settle (that sorts from
+    // scratch by design); an insertion sort of whole strips overran its budget on every build here.
+    EXPECT_GT(builds, 15u) << ToString(level);
+    EXPECT_LE(full_sorts, builds / 4) << "of " << builds << " builds, " << ToString(level);
+  }
+}
+
+TEST(BroadPhaseTest, OneContextAcrossFiltersAndSizesNeverUsesAnotherFiltersExclusions) {
+  // The sweep's exclusion bits are made per filter and size: one context serves filter A, then
+  // B (other listed pairs), then A again, then a smaller set, each checked against the oracle.
+  std::mt19937 rng(31);
+  const size_t n = 1500, m = 900;
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  Spheres s(n);
+  for (auto& v : s) v = {3.0f * u(rng), 3.0f * u(rng), 0.2f * u(rng), 0.15f};  // ~6 contacts per sphere
+  const Spheres small(s.begin(), s.begin() + m);
+  const PairFilter a = MakeFilter(n, 0.2, rng);
+  const PairFilter b = MakeFilter(n, 0.2, rng);
+  const PairFilter c = MakeFilter(m, 0.2, rng);
   BroadPhaseContext ctx(n);
   std::vector<Contact> out;
-  size_t builds = 0, full_sorts = 0;
-  for (int frame = 0; frame < 40; ++frame) {
-    Spheres s = base;
-    for (size_t k = 0; k < n; ++k) {
-      s[k].x() += 0.02f * std::sin(0.7f * float(frame) + float(k));
-      s[k].z() += 0.4f * std::cos(0.7f * float(frame) + float(k));
-    }
-    ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
-    ASSERT_EQ(out, GridOracle(s, f)) << frame << " " << ToString(ctx.last_method());
-    if (frame > 0 && ctx.last_method() == BroadPhaseMethod::kSweepBuild) {
-      ++builds;
-      full_sorts += ctx.last_full_sort() ? 1 : 0;
-    }
+  size_t sweeps = 0;
+  const std::vector<std::pair<const Spheres*, const PairFilter*>> runs = {
+      {&s, &a}, {&s, &b}, {&s, &a}, {&small, &c}, {&s, &b}};
+  for (const auto& [set, filter] : runs) {
+    ASSERT_TRUE((SelfCollisionJob{*set, filter, &ctx, &out}.Run()));
+    ASSERT_EQ(out, Oracle(*set, *filter)) << ToString(ctx.last_method());
+    sweeps += ctx.last_method() == BroadPhaseMethod::kSweepBuild ? 1 : 0;
   }
-  // The first builds may still change the strip width while the skins settle (that sorts from
-  // scratch by design); an insertion sort of whole strips overran its budget on every build here.
-  EXPECT_GT(builds, 15u);
-  EXPECT_LE(full_sorts, builds / 4) << "of " << builds << " builds";
+  EXPECT_EQ(sweeps, 5u);
+  EXPECT_NE(Oracle(s, a), Oracle(s, b));  // the filters do differ where it shows
 }
 
 TEST(BroadPhaseTest, FiftyThousandSpheresWithExclusionsMatchAGridOracle) {
