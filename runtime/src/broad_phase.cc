@@ -427,8 +427,10 @@ struct BroadPhaseContext::Impl {
     // the new strip, after which each strip's run is a few segments, one per strip its spheres
     // came from (in that strip order), each nearly sorted by start under coherent motion: an
     // insertion sort per segment, then the segments merged (moves of both within a budget for the
-    // whole, else std::sort). (An insertion sort of the whole run would move every sphere that changed
-    // strips across most of the run: a crowd of walking characters overran the budget every frame.)
+    // whole, else std::sort). An insertion sort of the whole run would move every sphere that
+    // changed strips across most of the run: a crowd of walking characters overran the budget on
+    // every build. Without strips there is one run of one segment (the previous order had no
+    // strips either, or it is not kept), so merges only happen with src = order_by_strip_.
     SortItem* order = ctx.order_.data();
     bool full_sort = !keep_order;
     if (keep_order) {
@@ -477,7 +479,7 @@ struct BroadPhaseContext::Impl {
             // Merge [b, begin) of `merged` with this segment into the other array (which may be
             // src itself: the segment is the tail of the output range, and a forward merge
             // never writes past what it has read of it). Counted against the budget.
-            SortItem* out = merged == src ? (src == order ? ctx.order_by_strip_.data() : order) : src;
+            SortItem* out = merged == src ? order : src;
             size_t x = b, y = begin, w = b;
             while (x < begin && y < end) out[w++] = src[y].key < merged[x].key ? src[y++] : merged[x++];
             while (x < begin) out[w++] = merged[x++];
