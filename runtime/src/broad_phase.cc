@@ -183,6 +183,8 @@ const char* ToString(BroadPhaseMethod method) {
       return "all-pairs direct";
     case BroadPhaseMethod::kSweepDirect:
       return "sweep direct";
+    case BroadPhaseMethod::kGroups:
+      return "groups";
   }
   return "unknown";
 }
@@ -224,6 +226,9 @@ void BroadPhaseContext::Resize(size_t max_spheres, size_t max_candidates) {
   }
   near_count_ = 0;
   stage_.assign(kStage + kPad, Contact{});
+  group_contexts_.clear();
+  group_filters_.clear();
+  groups_filter_ = 0;
   Invalidate();
   rung_ = 3;
   std::fill(rung_cost_, rung_cost_ + kRungs, 0.0);
@@ -244,6 +249,7 @@ void BroadPhaseContext::Invalidate() {
   axis_ = -1;
   cell_ = 0.0;
   build_cost_ = 0.0;
+  for (BroadPhaseContext& c : group_contexts_) c.Invalidate();
 }
 
 // ------------------------------------------------------------------------------------- the job
@@ -791,6 +797,220 @@ struct BroadPhaseContext::Impl {
     ctx.last_candidates_ = count;
   }
 
+  // ------------------------------------------------------------------ a space of several characters
+  //
+  // With the filter of PairFilter::Combine, one cache for the whole space would end whenever any
+  // one character's sphere left its skin: with ten walking characters that is every frame, and
+  // each build sweeps every character's own pairs again. Instead each character (group) keeps its
+  // own context and cache, as if it were alone, and the pairs between characters come from a
+  // sweep of the characters' bounding boxes: for each pair of characters whose boxes overlap, the
+  // spheres of each that lie inside the other's box, every pair of them given the exact test. The
+  // two lists are merged by (i, j): within a row, a character's own pairs come first (their j lies
+  // in its own index range, before every later character's).
+
+  // Whether the space is worth splitting: several groups of 16 or more spheres on average, and
+  // more spheres than one all-pairs build takes.
+  bool UseGroups() const {
+    const size_t groups = filter.group_count();
+    return groups >= 2 && n > kAllPairsMax && n >= 16 * groups;
+  }
+
+  // The per-group filters and contexts, made once per filter. False if a group's filter cannot
+  // be made (it can: Combine made the same rows; then the space runs as one set).
+  bool SetUpGroups() {
+    if (ctx.groups_filter_ == filter.id() && ctx.group_filters_.size() == filter.group_count()) return true;
+    const size_t groups = filter.group_count();
+    ctx.groups_filter_ = 0;
+    ctx.group_filters_.clear();
+    ctx.group_filters_.reserve(groups);
+    ctx.group_contexts_.resize(groups);
+    std::vector<ExcludedPair> listed;
+    size_t largest = 0;
+    for (uint32_t g = 0; g < groups; ++g) {
+      const uint32_t b = filter.group_begin(g), e = filter.group_begin(g + 1);
+      listed.clear();
+      for (uint32_t i = b; i < e; ++i) {
+        for (const uint32_t j : filter.excluded_partners(i)) {
+          if (j > i && j < e) listed.push_back(ExcludedPair{i - b, j - b, ExclusionReason::kSameJoint});
+        }
+      }
+      auto made = PairFilter::Create(e - b, filter.parts().subspan(b, e - b), listed);
+      if (!made.ok()) return false;
+      ctx.group_filters_.push_back(std::move(*made));
+      BroadPhaseContext& c = ctx.group_contexts_[g];
+      if (c.max_spheres() != e - b) {
+        c.Resize(e - b);
+      } else {
+        c.Invalidate();
+      }
+      largest = std::max<size_t>(largest, e - b);
+    }
+    ctx.group_box_.assign(8 * groups, 0.0f);
+    ctx.group_order_.resize(groups);
+    for (uint32_t g = 0; g < groups; ++g) ctx.group_order_[g] = g;
+    ctx.cross_a_.reserve(largest);
+    ctx.cross_b_.reserve(largest);
+    ctx.cross_.clear();
+    ctx.cross_.shrink_to_fit();
+    ctx.cross_.reserve(n);
+    ctx.group_out_.reserve(4 * largest);
+    ctx.groups_filter_ = filter.id();
+    return true;
+  }
+
+  // A sphere's box, padded as the sweep pads its intervals (two spheres that the exact test finds
+  // touching have overlapping padded boxes on every axis).
+  static void PaddedBox(const float* sphere, __m128* lo, __m128* hi) {
+    const __m128 v = _mm_loadu_ps(sphere);
+    const __m128 r = _mm_shuffle_ps(v, v, _MM_SHUFFLE(3, 3, 3, 3));
+    const __m128 abs = _mm_andnot_ps(_mm_set1_ps(-0.0f), v);
+    const __m128 pad = _mm_add_ps(_mm_mul_ps(_mm_add_ps(abs, r), _mm_set1_ps(kPadRelative)), _mm_set1_ps(kPadAbsolute));
+    *lo = _mm_sub_ps(_mm_sub_ps(v, r), pad);
+    *hi = _mm_add_ps(_mm_add_ps(v, r), pad);
+  }
+
+  static bool BoxesOverlap(const float* a, const float* b) {  // 8 floats each (low, high)
+    const int lo_ok = _mm_movemask_ps(_mm_cmple_ps(_mm_loadu_ps(a), _mm_loadu_ps(b + 4)));
+    const int hi_ok = _mm_movemask_ps(_mm_cmple_ps(_mm_loadu_ps(b), _mm_loadu_ps(a + 4)));
+    return (lo_ok & hi_ok & 7) == 7;
+  }
+
+  // The contacts between characters into ctx.cross_ (sorted by (i, j)), or, with `to_out`, appended
+  // to the output unsorted. Returns the candidates tested, or SIZE_MAX when ctx.cross_ (room for n
+  // contacts, never grown) cannot hold them.
+  size_t CrossGroups(bool to_out) {
+    const size_t groups = filter.group_count();
+    float* box = ctx.group_box_.data();
+    for (uint32_t g = 0; g < groups; ++g) {
+      __m128 lo = _mm_set1_ps(std::numeric_limits<float>::infinity());
+      __m128 hi = _mm_set1_ps(-std::numeric_limits<float>::infinity());
+      for (uint32_t s = filter.group_begin(g); s < filter.group_begin(g + 1); ++s) {
+        __m128 l, h;
+        PaddedBox(spheres + 4 * size_t{s}, &l, &h);
+        lo = _mm_min_ps(lo, l);
+        hi = _mm_max_ps(hi, h);
+      }
+      _mm_storeu_ps(box + 8 * g, lo);
+      _mm_storeu_ps(box + 8 * g + 4, hi);
+    }
+    // Characters by low x: an insertion sort from last frame's order (coherent motion).
+    uint32_t* order = ctx.group_order_.data();
+    const auto low_x = [&](uint32_t g) { return box[8 * g]; };
+    for (size_t q = 1; q < groups; ++q) {
+      const uint32_t g = order[q];
+      size_t m = q;
+      while (m > 0 && low_x(order[m - 1]) > low_x(g)) {
+        order[m] = order[m - 1];
+        --m;
+      }
+      order[m] = g;
+    }
+    // Candidates of one pair of characters at a time, rows ascending (test_candidates reads a
+    // block as one row when its first and last rows agree, so the rows must not go back).
+    ctx.cross_.clear();
+    uint32_t* pi = ctx.pi_.data();
+    uint32_t* pj = ctx.pj_.data();
+    const size_t capacity = ctx.max_candidates_;
+    const uint16_t* parts = filter.parts().data();
+    size_t count = 0, candidates = 0;
+    bool room = true;
+    const auto test = [&] {
+      std::fill(pi + count, pi + count + kPad, 0u);
+      std::fill(pj + count, pj + count + kPad, 0u);
+      kernels::ContactSink sink{ctx.stage_.data(), kStage, 0};
+      for (size_t pos = 0; pos < count;) {
+        pos = k.test_candidates(spheres, pi, pj, pos, count, parts, &sink);
+        std::vector<Contact>& into = to_out ? *job.out : ctx.cross_;
+        if (!to_out && ctx.cross_.size() + sink.count > ctx.cross_.capacity()) room = false;
+        if (room) into.insert(into.end(), ctx.stage_.data(), ctx.stage_.data() + sink.count);
+        sink.count = 0;
+      }
+      candidates += count;
+      count = 0;
+    };
+    const auto inside = [&](uint32_t g, const float* other, std::vector<uint32_t>* list) {
+      list->clear();
+      alignas(16) float sphere_box[8];
+      for (uint32_t s = filter.group_begin(g); s < filter.group_begin(g + 1); ++s) {
+        __m128 l, h;
+        PaddedBox(spheres + 4 * size_t{s}, &l, &h);
+        _mm_store_ps(sphere_box, l);
+        _mm_store_ps(sphere_box + 4, h);
+        if (BoxesOverlap(sphere_box, other)) list->push_back(s);
+      }
+    };
+    // A sweep along x over the characters' boxes; each pair whose boxes overlap, as it is found.
+    for (size_t q = 0; q < groups && room; ++q) {
+      const uint32_t first = order[q];
+      const float high_x = box[8 * first + 4];
+      for (size_t q2 = q + 1; q2 < groups && low_x(order[q2]) <= high_x && room; ++q2) {
+        const uint32_t g = std::min(first, order[q2]), h = std::max(first, order[q2]);
+        if (!BoxesOverlap(box + 8 * g, box + 8 * h)) continue;
+        inside(g, box + 8 * h, &ctx.cross_a_);
+        if (ctx.cross_a_.empty()) continue;
+        inside(h, box + 8 * g, &ctx.cross_b_);
+        for (const uint32_t a : ctx.cross_a_) {
+          if (count + ctx.cross_b_.size() > capacity) test();
+          for (const uint32_t b : ctx.cross_b_) {
+            pi[count] = a;
+            pj[count] = b;
+            ++count;
+          }
+        }
+        test();
+      }
+    }
+    if (!room) return SIZE_MAX;
+    if (!to_out) std::sort(ctx.cross_.begin(), ctx.cross_.end(), ByPair);
+    return candidates;
+  }
+
+  // The whole space by groups (UseGroups, SetUpGroups done): each character's own contacts, the
+  // contacts between characters merged in by (i, j).
+  void RunGroups() {
+    const size_t groups = filter.group_count();
+    const bool between = filter.pairs_between_groups();
+    size_t cross_candidates = between ? CrossGroups(false) : 0;
+    const bool merged = cross_candidates != SIZE_MAX;
+    if (!between || !merged) ctx.cross_.clear();
+    size_t candidates = 0, tests = 0, builds = 0;
+    double lookahead = 0.0;
+    const std::vector<Contact>& cross = ctx.cross_;
+    size_t c = 0;
+    std::vector<Contact>& out = *job.out;
+    if (filter.pairs_within_groups()) {
+      for (uint32_t g = 0; g < groups; ++g) {
+        const uint32_t b = filter.group_begin(g), e = filter.group_begin(g + 1);
+        BroadPhaseContext& gc = ctx.group_contexts_[g];
+        const uint64_t builds_before = gc.build_count_;
+        const SelfCollisionJob sub{job.spheres.subspan(b, e - b), &ctx.group_filters_[g], &gc, &ctx.group_out_, job.simd};
+        ctx.group_out_.clear();
+        Impl(sub, k).Run();  // cannot fail: the values were checked, the sizes match
+        candidates += gc.last_candidates_;
+        tests += gc.last_build_tests_;
+        builds += gc.build_count_ - builds_before;
+        lookahead += gc.last_lookahead_;
+        for (Contact w : ctx.group_out_) {
+          w.i += b;
+          w.j += b;
+          while (c < cross.size() && ByPair(cross[c], w)) out.push_back(cross[c++]);
+          out.push_back(w);
+        }
+      }
+    }
+    out.insert(out.end(), cross.begin() + static_cast<ptrdiff_t>(c), cross.end());
+    if (!merged) {
+      // More contacts between characters than the context holds: appended, then all sorted.
+      cross_candidates = CrossGroups(true);
+      std::sort(out.begin(), out.end(), ByPair);
+    }
+    ctx.method_ = BroadPhaseMethod::kGroups;
+    ctx.last_candidates_ = candidates + cross_candidates;
+    ctx.last_build_tests_ = tests + cross_candidates;
+    ctx.build_count_ += builds;
+    ctx.last_lookahead_ = float(lookahead / double(groups));
+  }
+
   bool Run() {
     ctx.method_ = BroadPhaseMethod::kNone;
     ctx.last_candidates_ = 0;
@@ -798,6 +1018,10 @@ struct BroadPhaseContext::Impl {
     float sum[3];
     if (!k.check_values(spheres, n, internal::kMaxMagnitude, sum)) return false;
     if (n < 2 || NoPairAllowed(filter)) return true;
+    if (UseGroups() && SetUpGroups()) {
+      RunGroups();
+      return true;
+    }
     const bool same_set = ctx.cache_valid_ && ctx.cache_count_ == n && ctx.cache_filter_ == filter.id();
     if (same_set) {
       ++ctx.age_;

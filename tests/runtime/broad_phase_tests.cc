@@ -56,6 +56,13 @@ std::vector<Contact> Oracle(const Spheres& s, const PairFilter& f) {
   return out;
 }
 
+// One space of the members' spheres laid end to end (PairFilter::Combine).
+PairFilter Combined(const std::vector<PairFilter>& members, PairFilter::CombineOptions options) {
+  std::vector<const PairFilter*> pointers;
+  for (const auto& m : members) pointers.push_back(&m);
+  return PairFilter::Combine(pointers, options).value();
+}
+
 // ------------------------------------------------------------------------------------------ oracle
 
 TEST(BroadPhaseTest, OracleOnAHandMadeSet) {
@@ -269,11 +276,9 @@ TEST(BroadPhaseTest, SeveralCharactersInOneSpaceMatchTheOracle) {
     all.insert(all.end(), s.begin(), s.end());
     members.push_back(MakeFilter(n, 0.3, rng));
   }
-  std::vector<const PairFilter*> pointers;
-  for (const auto& m : members) pointers.push_back(&m);
   for (bool between : {true, false}) {
     for (bool within : {true, false}) {
-      const PairFilter space = PairFilter::Combine(pointers, {within, between}).value();
+      const PairFilter space = Combined(members, {within, between});
       // The oracle from the members' own filters, independently of Combine.
       std::vector<Contact> expected;
       for (uint32_t i = 0; i < all.size(); ++i) {
@@ -300,6 +305,142 @@ TEST(BroadPhaseTest, SeveralCharactersInOneSpaceMatchTheOracle) {
       }
     }
   }
+}
+
+TEST(BroadPhaseTest, ASpaceOfCharactersRunsEachOnItsOwnCacheAndMatchesTheOracleEveryFrame) {
+  // Twelve characters of 20..270 spheres, of every kind of set, laid 1.0 apart along x (their
+  // sets are 2 wide, so neighbours interpenetrate), stepping a whole unit along x every 8 frames
+  // and wiggling in between (the lattice and clump kinds keep exact coordinates, so pairs between
+  // characters touch exactly). Checked every frame, on every instruction set, with pairs within
+  // and between characters on and off.
+  std::mt19937 rng(41);
+  const size_t characters = 12;
+  std::vector<PairFilter> members;
+  std::vector<Spheres> bodies;
+  for (size_t c = 0; c < characters; ++c) {
+    const size_t n = 20 + (c * 53) % 251;
+    const int kind = static_cast<int>(c % kKinds);
+    bodies.push_back(RandomSpheres(n, kind == 4 ? 0 : kind, rng));  // kind 4 sits far away
+    members.push_back(MakeFilter(n, 0.2, rng));
+  }
+  const auto frame_of = [&](int frame) {
+    Spheres all;
+    for (size_t c = 0; c < characters; ++c) {
+      const float step = float(c) + float((frame / 8 + int(c)) % 3) - 1.0f;
+      const int kind = static_cast<int>(c % kKinds);
+      const bool exact = kind == 1 || kind == 2;
+      for (size_t k = 0; k < bodies[c].size(); ++k) {
+        Vec4f v = bodies[c][k];
+        v.x() += step;
+        if (!exact) v.y() += 0.002f * std::sin(0.3f * float(frame) + float(k));
+        all.push_back(v);
+      }
+    }
+    return all;
+  };
+  const size_t total = frame_of(0).size();
+  ASSERT_GT(total, BroadPhaseContext::kAllPairsMax);
+  const int frames = 30;
+  for (bool between : {true, false}) {
+    for (bool within : {true, false}) {
+      const PairFilter space = Combined(members, {within, between});
+      const std::vector<BroadPhaseSimd> levels = SupportedLevels();
+      std::vector<BroadPhaseContext> contexts(levels.size());
+      for (auto& c : contexts) c.Resize(total);
+      // And a context with the least room for candidates: the pairs between characters go
+      // through it in many chunks.
+      BroadPhaseContext small(total, 1);
+      size_t across = 0, within_count = 0;
+      std::vector<Contact> out;
+      for (int frame = 0; frame < frames; ++frame) {
+        const Spheres all = frame_of(frame);
+        const std::vector<Contact> expected = Oracle(all, space);
+        for (size_t l = 0; l < levels.size(); ++l) {
+          ASSERT_TRUE((SelfCollisionJob{all, &space, &contexts[l], &out, levels[l]}.Run()));
+          ASSERT_EQ(out, expected) << "between " << between << " within " << within << " frame " << frame << " "
+                                   << ToString(levels[l]);
+          // (With no pair allowed at all the job answers before choosing a method.)
+          ASSERT_EQ(contexts[l].last_method(), within || between ? BroadPhaseMethod::kGroups : BroadPhaseMethod::kNone);
+        }
+        ASSERT_TRUE((SelfCollisionJob{all, &space, &small, &out}.Run()));
+        ASSERT_EQ(out, expected) << "least room, frame " << frame;
+        for (const auto& c : out) (space.group(c.i) != space.group(c.j) ? across : within_count) += 1;
+      }
+      EXPECT_EQ(across > 0, between) << within;
+      EXPECT_EQ(within_count > 0, within) << between;
+      // Each character kept its own cache while only it wiggled: far fewer builds than one per
+      // character and frame (a cache over the whole space would rebuild on every frame).
+      if (within) {
+        EXPECT_LT(contexts[0].build_count(), characters * frames / 3) << between;
+      }
+      // The same context then serves another filter of the same size (one group), and the space again.
+      const PairFilter one = MakeFilter(total, 0.1, rng);
+      const Spheres all = frame_of(frames);
+      ASSERT_TRUE((SelfCollisionJob{all, &one, &contexts[0], &out}.Run()));
+      EXPECT_EQ(out, Oracle(all, one));
+      EXPECT_NE(contexts[0].last_method(), BroadPhaseMethod::kGroups);
+      ASSERT_TRUE((SelfCollisionJob{all, &space, &contexts[0], &out}.Run()));
+      EXPECT_EQ(out, Oracle(all, space));
+    }
+  }
+}
+
+TEST(BroadPhaseTest, ASpaceOfCharactersInOneClumpHasMoreContactsBetweenThemThanTheContextHolds) {
+  // Three clumps of 200 spheres at one place: about 120,000 contacts between characters, more
+  // than the n the context keeps for them, so they go straight to the output, which is sorted.
+  std::mt19937 rng(45);
+  std::vector<PairFilter> members;
+  Spheres all;
+  for (int c = 0; c < 3; ++c) {
+    const Spheres s = RandomSpheres(200, 2, rng);
+    all.insert(all.end(), s.begin(), s.end());
+    members.push_back(MakeFilter(200, 0.3, rng));
+  }
+  const PairFilter space = Combined(members, {true, true});
+  const std::vector<Contact> expected = Oracle(all, space);
+  size_t across = 0;
+  for (const auto& c : expected) across += space.group(c.i) != space.group(c.j) ? 1 : 0;
+  ASSERT_GT(across, all.size());
+  for (const BroadPhaseSimd level : SupportedLevels()) {
+    BroadPhaseContext ctx(all.size());
+    std::vector<Contact> out;
+    for (int frame = 0; frame < 3; ++frame) {
+      ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out, level}.Run()));
+      ASSERT_EQ(out, expected) << ToString(level) << " " << frame;
+      ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kGroups);
+    }
+  }
+}
+
+TEST(BroadPhaseTest, ASpaceOfCharactersAllocatesNothingAfterItsFirstFrame) {
+  std::mt19937 rng(43);
+  std::vector<PairFilter> members;
+  Spheres all;
+  for (int c = 0; c < 10; ++c) {
+    Spheres s = RandomSpheres(100, 0, rng);
+    for (auto& v : s) v.x() += 1.5f * float(c);
+    all.insert(all.end(), s.begin(), s.end());
+    members.push_back(MakeFilter(100, 0.2, rng));
+  }
+  const PairFilter space = Combined(members, {true, true});
+  BroadPhaseContext ctx(all.size());
+  std::vector<Contact> out;
+  out.reserve(all.size() * 50);
+  ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out}.Run()));
+  ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kGroups);
+  bool ok = true;
+  long allocations = 0;
+  {
+    test::AllocationCounter counter;
+    for (int frame = 0; frame < 30; ++frame) {
+      for (auto& v : all) v.y() += (frame % 10 == 9 ? 0.3f : 0.001f) * float(frame % 5);
+      ok &= SelfCollisionJob{all, &space, &ctx, &out}.Run();
+    }
+    allocations = counter.count();
+  }
+  EXPECT_TRUE(ok);
+  EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(out, Oracle(all, space));
 }
 
 TEST(BroadPhaseTest, ListedExclusionsAtEveryIndexDistanceAreLeftOutByTheSweep) {

@@ -88,6 +88,8 @@ enum class BroadPhaseMethod : uint8_t {
   kSweepBuild,       // cache rebuilt by sort and sweep in grid columns, then tested
   kAllPairsDirect,   // no cache fits: all pairs straight into the output
   kSweepDirect,      // no cache fits: sweep straight into the output, then sorted
+  kGroups,           // a space of several characters: each character's own cache, then the
+                     // pairs between characters whose bounding boxes overlap
 };
 const char* ToString(BroadPhaseMethod method);
 
@@ -187,6 +189,17 @@ class BroadPhaseContext {
   bool last_full_sort_ = false;
   uint64_t build_count_ = 0;
   float last_lookahead_ = 0.0f;
+
+  // A space of several characters (a filter from PairFilter::Combine, more than kAllPairsMax
+  // spheres): one context and one filter per character, made on the first frame with that filter.
+  std::vector<BroadPhaseContext> group_contexts_;
+  std::vector<PairFilter> group_filters_;
+  uint64_t groups_filter_ = 0;                // PairFilter::id() they were made from (0: none)
+  std::vector<Contact> group_out_;            // one character's contacts
+  std::vector<Contact> cross_;                // room for n: contacts between characters, sorted by (i, j)
+  std::vector<float> group_box_;              // 8 per character: low x, y, z, -, high x, y, z, -
+  std::vector<uint32_t> group_order_;         // characters by low x (kept between frames)
+  std::vector<uint32_t> cross_a_, cross_b_;   // spheres of g (of h) inside the other's box
 };
 
 struct SelfCollisionJob {
