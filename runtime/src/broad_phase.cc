@@ -41,7 +41,8 @@ constexpr float kGrow = 1.0f + 1.0f / 65536.0f;         // grown radius factor o
 constexpr float kAllowFactor = 1.0f - 1.0f / 65536.0f;  // of the skin, for the cache check
 constexpr float kSlackRelative = 1.0f / 1048576.0f;     // 2^-20 of |shift|_inf
 constexpr float kPadRelative = 1.0f / 262144.0f;        // 2^-18: sweep interval pad
-constexpr float kPadAbsolute = 1e-30f;
+constexpr float kPadAbsolute = 0x1p-60f;                // spheres closer than ~2^-75 touch whatever
+                                                        // their radii (the squares underflow)
 constexpr float kSkinMin = 0x1p-60f;                    // skins^2 stay normal floats
 constexpr float kSkinFloorRelative = 1.0f / 64.0f;      // of the radius: the skin of a still sphere
 // The lookahead ladder (skin = lookahead x speed per frame; rung 0: no cache, all pairs straight
@@ -60,6 +61,8 @@ constexpr double kPairTestWork = 0.3;
 constexpr double kPairWork = 6.0;
 constexpr double kCellMargin = 1.0 + 1.0 / 256.0;       // strips are (2 max grown r)(1 + 2^-8) wide
 constexpr double kSweepCallCost = 48.0;                 // one sweep call, in interval tests
+constexpr size_t kGroupsCrossMax = 16;                  // pairs between characters per sphere, at most
+constexpr uint32_t kGroupsPause = 64;                   // frames as one set when they were more
 // Per-sphere float arrays of the build (BroadPhaseContext::soa_): 0..3 x, y, z, grown radius and
 // 4..5 interval start and end, in the order the kernel reads (index or sweep order); then, in
 // index order, the grown radii and the interval starts.
@@ -229,6 +232,7 @@ void BroadPhaseContext::Resize(size_t max_spheres, size_t max_candidates) {
   group_contexts_.clear();
   group_filters_.clear();
   groups_filter_ = 0;
+  groups_pause_ = 0;
   Invalidate();
   rung_ = 3;
   std::fill(rung_cost_, rung_cost_ + kRungs, 0.0);
@@ -250,6 +254,7 @@ void BroadPhaseContext::Invalidate() {
   cell_ = 0.0;
   build_cost_ = 0.0;
   for (BroadPhaseContext& c : group_contexts_) c.Invalidate();
+  groups_pause_ = 0;
 }
 
 // ------------------------------------------------------------------------------------- the job
@@ -853,7 +858,12 @@ struct BroadPhaseContext::Impl {
     ctx.cross_.clear();
     ctx.cross_.shrink_to_fit();
     ctx.cross_.reserve(n);
-    ctx.group_out_.reserve(4 * largest);
+    // A character's contacts: at most its cache's room while it has a cache (more only on the
+    // frames it is answered without one, see Direct).
+    size_t most = 0;
+    for (const BroadPhaseContext& c : ctx.group_contexts_) most = std::max(most, c.max_candidates());
+    ctx.group_out_.clear();
+    ctx.group_out_.reserve(most + kPad);
     ctx.groups_filter_ = filter.id();
     return true;
   }
@@ -893,18 +903,31 @@ struct BroadPhaseContext::Impl {
       _mm_storeu_ps(box + 8 * g, lo);
       _mm_storeu_ps(box + 8 * g + 4, hi);
     }
-    // Characters by low x: an insertion sort from last frame's order (coherent motion).
+    // Characters by the low end of their boxes along the axis of largest spread of those ends:
+    // an insertion sort from last frame's order (coherent motion), std::sort past 4G moves.
+    float lo_end[3], hi_end[3];
+    for (int a = 0; a < 3; ++a) {
+      lo_end[a] = std::numeric_limits<float>::infinity();
+      hi_end[a] = -std::numeric_limits<float>::infinity();
+      for (uint32_t g = 0; g < groups; ++g) {
+        if (!(box[8 * g] <= box[8 * g + 4])) continue;  // no sphere
+        lo_end[a] = std::min(lo_end[a], box[8 * g + a]);
+        hi_end[a] = std::max(hi_end[a], box[8 * g + a]);
+      }
+    }
+    int axis = 0;
+    for (int a = 1; a < 3; ++a) axis = hi_end[a] - lo_end[a] > hi_end[axis] - lo_end[axis] ? a : axis;
     uint32_t* order = ctx.group_order_.data();
-    const auto low_x = [&](uint32_t g) { return box[8 * g]; };
-    for (size_t q = 1; q < groups; ++q) {
+    const auto low = [&](uint32_t g) { return box[8 * g + axis]; };
+    const auto before = [&](uint32_t g, uint32_t h) { return low(g) < low(h) || (low(g) == low(h) && g < h); };
+    size_t moves = 0;
+    for (size_t q = 1; q < groups && moves <= 4 * groups; ++q) {
       const uint32_t g = order[q];
       size_t m = q;
-      while (m > 0 && low_x(order[m - 1]) > low_x(g)) {
-        order[m] = order[m - 1];
-        --m;
-      }
+      for (; m > 0 && before(g, order[m - 1]); --m, ++moves) order[m] = order[m - 1];
       order[m] = g;
     }
+    if (moves > 4 * groups) std::sort(order, order + groups, before);
     // Candidates of one pair of characters at a time, rows ascending (test_candidates reads a
     // block as one row when its first and last rows agree, so the rows must not go back).
     ctx.cross_.clear();
@@ -939,11 +962,12 @@ struct BroadPhaseContext::Impl {
         if (BoxesOverlap(sphere_box, other)) list->push_back(s);
       }
     };
-    // A sweep along x over the characters' boxes; each pair whose boxes overlap, as it is found.
+    // A sweep along that axis over the characters' boxes; each pair whose boxes overlap, as it is
+    // found.
     for (size_t q = 0; q < groups && room; ++q) {
       const uint32_t first = order[q];
-      const float high_x = box[8 * first + 4];
-      for (size_t q2 = q + 1; q2 < groups && low_x(order[q2]) <= high_x && room; ++q2) {
+      const float high = box[8 * first + 4 + axis];
+      for (size_t q2 = q + 1; q2 < groups && low(order[q2]) <= high && room; ++q2) {
         const uint32_t g = std::min(first, order[q2]), h = std::max(first, order[q2]);
         if (!BoxesOverlap(box + 8 * g, box + 8 * h)) continue;
         inside(g, box + 8 * h, &ctx.cross_a_);
@@ -1004,6 +1028,9 @@ struct BroadPhaseContext::Impl {
       cross_candidates = CrossGroups(true);
       std::sort(out.begin(), out.end(), ByPair);
     }
+    // Characters piled into each other: their pairs, tested afresh every frame, cost more than
+    // one cache over the whole space would hold; run the space as one set for a while.
+    if (cross_candidates > kGroupsCrossMax * n + 1024) ctx.groups_pause_ = kGroupsPause;
     ctx.method_ = BroadPhaseMethod::kGroups;
     ctx.last_candidates_ = candidates + cross_candidates;
     ctx.last_build_tests_ = tests + cross_candidates;
@@ -1018,10 +1045,11 @@ struct BroadPhaseContext::Impl {
     float sum[3];
     if (!k.check_values(spheres, n, internal::kMaxMagnitude, sum)) return false;
     if (n < 2 || NoPairAllowed(filter)) return true;
-    if (UseGroups() && SetUpGroups()) {
+    if (UseGroups() && ctx.groups_pause_ == 0 && SetUpGroups()) {
       RunGroups();
       return true;
     }
+    if (ctx.groups_pause_ > 0) --ctx.groups_pause_;
     const bool same_set = ctx.cache_valid_ && ctx.cache_count_ == n && ctx.cache_filter_ == filter.id();
     if (same_set) {
       ++ctx.age_;

@@ -404,10 +404,81 @@ TEST(BroadPhaseTest, ASpaceOfCharactersInOneClumpHasMoreContactsBetweenThemThanT
   for (const BroadPhaseSimd level : SupportedLevels()) {
     BroadPhaseContext ctx(all.size());
     std::vector<Contact> out;
-    for (int frame = 0; frame < 3; ++frame) {
+    // By character on the first frame; then, the pairs between characters being far more than 16
+    // per sphere, as one set for 64 frames; then by character again, and so on.
+    std::vector<int> by_character;
+    for (int frame = 0; frame < 67; ++frame) {
       ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out, level}.Run()));
       ASSERT_EQ(out, expected) << ToString(level) << " " << frame;
-      ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kGroups);
+      if (ctx.last_method() == BroadPhaseMethod::kGroups) by_character.push_back(frame);
+    }
+    EXPECT_EQ(by_character, (std::vector<int>{0, 65})) << ToString(level);
+  }
+}
+
+TEST(BroadPhaseTest, SpheresCloserThanTheirSquaresResolveTouchOnEveryPath) {
+  // Centres closer than about 2^-75 touch whatever their radii (the squares underflow to 0), so
+  // the boxes and intervals the paths compare must be padded by more than that.
+  for (const BroadPhaseSimd level : SupportedLevels()) {
+    // 600 zero-radius spheres 1e-25 apart on a line: ~260 neighbours each touch, far more than
+    // any cache holds, so the job sweeps straight into the output.
+    Spheres line(600);
+    for (size_t k = 0; k < line.size(); ++k) line[k] = {1e-25f * float(k), 0.0f, 0.0f, 0.0f};
+    std::mt19937 rng(47);
+    const PairFilter f = MakeFilter(line.size(), 0.0, rng);
+    BroadPhaseContext ctx(line.size());
+    std::vector<Contact> out;
+    ASSERT_TRUE((SelfCollisionJob{line, &f, &ctx, &out, level}.Run()));
+    EXPECT_EQ(ctx.last_method(), BroadPhaseMethod::kSweepDirect);
+    const std::vector<Contact> expected = Oracle(line, f);
+    EXPECT_GT(expected.size(), 100 * line.size());
+    EXPECT_EQ(out, expected) << ToString(level);
+    // Two characters whose only contact is two zero-radius spheres 1e-23 apart.
+    Spheres two(600);
+    for (size_t k = 0; k < 300; ++k) {
+      two[k] = {k == 0 ? 0.0f : -float(k), 0.0f, 0.0f, k == 0 ? 0.0f : 0.1f};
+      two[300 + k] = {k == 0 ? 1e-23f : float(k), 0.0f, 0.0f, k == 0 ? 0.0f : 0.1f};
+    }
+    const std::vector<PairFilter> members = {MakeFilter(300, 0.0, rng), MakeFilter(300, 0.0, rng)};
+    const PairFilter space = Combined(members, {.pairs_within_members = false});
+    BroadPhaseContext space_ctx(two.size());
+    ASSERT_TRUE((SelfCollisionJob{two, &space, &space_ctx, &out, level}.Run()));
+    EXPECT_EQ(space_ctx.last_method(), BroadPhaseMethod::kGroups);
+    ASSERT_EQ(Oracle(two, space).size(), 1u);
+    EXPECT_EQ(out, Oracle(two, space)) << ToString(level);
+  }
+}
+
+TEST(BroadPhaseTest, ASpaceOfCharactersAtLargeCoordinatesAndInARowAlongEachAxis) {
+  // Six characters of 150..400 spheres (2 wide) in a row along x, y or z (the sweep of their boxes
+  // picks the axis), 2.4 apart, far from the origin, moving a little each frame.
+  for (float offset : {0.0f, -3.0e4f}) {  // float steps of 0.002 there
+    for (int axis = 0; axis < 3; ++axis) {
+      std::mt19937 rng(unsigned(49 + axis));
+      std::vector<PairFilter> members;
+      Spheres all;
+      for (int c = 0; c < 6; ++c) {
+        const size_t n = 150 + 50 * size_t(c);
+        Spheres s = RandomSpheres(n, 0, rng);
+        for (auto& v : s) {
+          v[axis] += 2.4f * float(c);
+          v.head<3>() += Eigen::Vector3f::Constant(offset);
+        }
+        all.insert(all.end(), s.begin(), s.end());
+        members.push_back(MakeFilter(n, 0.2, rng));
+      }
+      const PairFilter space = Combined(members, {true, true});
+      BroadPhaseContext ctx(all.size());
+      std::vector<Contact> out;
+      size_t across = 0;
+      for (int frame = 0; frame < 6; ++frame) {
+        for (size_t k = 0; k < all.size(); ++k) all[k][(axis + 1) % 3] += (offset * 1e-7f + 0.01f) * float(k % 3);
+        ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out}.Run()));
+        ASSERT_EQ(out, Oracle(all, space)) << offset << " " << axis << " " << frame;
+        ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kGroups) << offset << " " << axis << " " << frame;
+        for (const Contact& c : out) across += space.group(c.i) != space.group(c.j) ? 1 : 0;
+      }
+      EXPECT_GT(across, 0u) << offset << " " << axis;
     }
   }
 }
@@ -418,7 +489,7 @@ TEST(BroadPhaseTest, ASpaceOfCharactersAllocatesNothingAfterItsFirstFrame) {
   Spheres all;
   for (int c = 0; c < 10; ++c) {
     Spheres s = RandomSpheres(100, 0, rng);
-    for (auto& v : s) v.x() += 1.5f * float(c);
+    for (auto& v : s) v.x() += 1.8f * float(c);
     all.insert(all.end(), s.begin(), s.end());
     members.push_back(MakeFilter(100, 0.2, rng));
   }
@@ -430,15 +501,18 @@ TEST(BroadPhaseTest, ASpaceOfCharactersAllocatesNothingAfterItsFirstFrame) {
   ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kGroups);
   bool ok = true;
   long allocations = 0;
+  int by_character = 0;
   {
     test::AllocationCounter counter;
     for (int frame = 0; frame < 30; ++frame) {
       for (auto& v : all) v.y() += (frame % 10 == 9 ? 0.3f : 0.001f) * float(frame % 5);
       ok &= SelfCollisionJob{all, &space, &ctx, &out}.Run();
+      by_character += ctx.last_method() == BroadPhaseMethod::kGroups ? 1 : 0;
     }
     allocations = counter.count();
   }
   EXPECT_TRUE(ok);
+  EXPECT_EQ(by_character, 30);
   EXPECT_EQ(allocations, 0);
   EXPECT_EQ(out, Oracle(all, space));
 }

@@ -42,7 +42,17 @@
 // Characters that may touch each other: one job over their spheres laid end to end, with the
 // filter of PairFilter::Combine (pairs between characters on or off; each character keeps its
 // own exclusions). Sphere k of character g is index filter.group_begin(g) + k; a contact (i, j)
-// belongs to characters filter.group(i) and filter.group(j).
+// belongs to characters filter.group(i) and filter.group(j). Above kAllPairsMax spheres (and 16
+// or more per character on average) the context runs such a space by character (method kGroups):
+// each character on a context and cache of its own, exactly as if it were alone, so one walking
+// character no longer ends the whole space's cache; the pairs between characters come from a
+// sweep of the characters' bounding boxes, then the exact test on the spheres of each that lie
+// inside the other's box. Those per-character contexts and filters are made on the first frame
+// with the filter (that frame allocates; a context that alternates between two such filters
+// makes them again at every switch: give each space its own context). Contacts between
+// characters are kept in room for n and, beyond it, written to the output, which is then sorted.
+// Characters piled into each other (more than 16 pairs between characters per sphere, tested
+// afresh every frame) are run as one set for the next 64 frames.
 //
 //   std::vector<const PairFilter*> members = {&a->filter(), &b->filter(), ...};   // set-up
 //   PairFilter space = PairFilter::Combine(members, {.pairs_between_members = true}).value();
@@ -97,7 +107,10 @@ const char* ToString(BroadPhaseMethod method);
 // Sized at set-up; one per character or space that runs concurrently (never share one between
 // jobs running at once). Memory: about 100 bytes per sphere plus 8 bytes per candidate (above
 // kAllPairsMax spheres: about 170 bytes per sphere, with the listed exclusions as 64 bytes of bits
-// for the sweep, and 16 bytes per candidate).
+// for the sweep, and 16 bytes per candidate). A space run by character (kGroups) adds, from its
+// first frame, each character's own context and filter (with the default candidate room, about
+// 250 bytes per sphere for a character of up to kAllPairsMax spheres) and 16 bytes per sphere for
+// the contacts between characters.
 class BroadPhaseContext {
  public:
   // Sets of up to this many spheres build their cache by all pairs, larger ones by the sweep.
@@ -195,7 +208,8 @@ class BroadPhaseContext {
   std::vector<BroadPhaseContext> group_contexts_;
   std::vector<PairFilter> group_filters_;
   uint64_t groups_filter_ = 0;                // PairFilter::id() they were made from (0: none)
-  std::vector<Contact> group_out_;            // one character's contacts
+  uint32_t groups_pause_ = 0;                 // frames left to run the space as one set
+  std::vector<Contact> group_out_;            // one character's contacts (room: its cache's)
   std::vector<Contact> cross_;                // room for n: contacts between characters, sorted by (i, j)
   std::vector<float> group_box_;              // 8 per character: low x, y, z, -, high x, y, z, -
   std::vector<uint32_t> group_order_;         // characters by low x (kept between frames)
