@@ -24,7 +24,9 @@
 //   BM_XbotSkinSources/prepared:1  the same with PreparedInfluences (the fast layout), SIMD auto
 //   BM_XbotRefitExact        CharacterInstance::UpdateExact (RefitJob, exact radii); the frame's
 //                            skinned positions are copied (untimed) into one hot buffer first
-//   BM_XbotRefitFast         CharacterInstance::UpdateFast (RefitJob, Kavan-Žára radii)
+//   BM_XbotRefitFast/simd:0|1|2  CharacterInstance::UpdateFast (RefitJob, Kavan-Žára radii), the
+//                            refit's loop at the CPU's best level, pinned to SSE2, pinned to AVX2
+//                            (runtime/src/refit_internal.h; same bits at every level)
 //   BM_XbotQuery/fast:0|1    SelfCollisionJob (sort and sweep) on the exact- or fast-refitted spheres
 //   BM_XbotAllPairs/fast:0|1 SelfCollisionAllPairs on the same spheres (the naive reference)
 //   BM_XbotFrameExact        pose + skin sources (prepared) + UpdateExact + Query
@@ -38,6 +40,8 @@
 //                            instances, on a TBB arena of exactly 1 or 2 threads (thread_cpu.h),
 //                            with each thread's CPU time in the work next to the wall time. G_j(t)
 //                            per instance is precomputed per frame OUTSIDE the timed region.
+//                            simd: the refit's level as in BM_XbotRefitFast (1000 and 10,000
+//                            instances also at SSE2 and AVX2 side by side).
 //   BM_CrowdPose             the separate row for that input: LocalToModelJob per instance under
 //                            tbb::parallel_for (what an engine's animation system would do).
 //
@@ -70,6 +74,7 @@
 #include "skinspheres/skinning/skinning_matrices_job.h"
 
 #include "peer_broad_phases.h"
+#include "refit_internal.h"  // runtime/src: pins the fast refit's instruction set for a row
 #include "thread_cpu.h"
 
 namespace {
@@ -371,9 +376,30 @@ void BM_XbotRefitExact(benchmark::State& state) {
 }
 BENCHMARK(BM_XbotRefitExact)->Arg(0)->Arg(1)->ArgName("fit")->Unit(benchmark::kMicrosecond);
 
+// The fast refit's instruction set for a row (range: 0 the CPU's best, 1 SSE2, 2 AVX2), unpinned
+// again when the row ends. False (row skipped) when the CPU lacks it.
+class PinnedRefit {
+ public:
+  PinnedRefit(benchmark::State& state, int64_t level) {
+    constexpr rt::internal::RefitSimd kLevels[] = {rt::internal::RefitSimd::kAuto, rt::internal::RefitSimd::kSse2,
+                                                   rt::internal::RefitSimd::kAvx2};
+    ok_ = rt::internal::PinRefitSimd(kLevels[level]);
+    if (!ok_) state.SkipWithError("the CPU lacks this instruction set");
+    else state.SetLabel(rt::internal::ToString(rt::internal::RefitSimdInUse()));
+  }
+  ~PinnedRefit() { rt::internal::PinRefitSimd(rt::internal::RefitSimd::kAuto); }
+  bool ok() const { return ok_; }
+
+ private:
+  bool ok_ = false;
+};
+
+// range(0): fit variant; range(1): refit instruction set (PinnedRefit).
 void BM_XbotRefitFast(benchmark::State& state) {
   const Xbot* x = GetXbot(state, int(state.range(0)));
   if (!x) return;
+  const PinnedRefit pin(state, state.range(1));
+  if (!pin.ok()) return;
   auto instance = rt::CharacterInstance::Create(x->asset);
   size_t frame = 0;
   for (auto _ : state) {
@@ -384,7 +410,7 @@ void BM_XbotRefitFast(benchmark::State& state) {
   SphereCounters(state, *x);
   state.counters["influences"] = double(x->set.influence_joints.size());
 }
-BENCHMARK(BM_XbotRefitFast)->Arg(0)->Arg(1)->ArgName("fit")->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_XbotRefitFast)->ArgsProduct({{0, 1}, {0, 1, 2}})->ArgNames({"fit", "simd"})->Unit(benchmark::kMicrosecond);
 
 // range(0): fit variant; range(1): 0 exact spheres, 1 fast spheres.
 void BM_XbotQuery(benchmark::State& state) {
@@ -496,11 +522,13 @@ BENCHMARK(BM_XbotFrameFast)->Arg(0)->Arg(1)->ArgName("fit")->Unit(benchmark::kMi
 
 constexpr size_t kPhaseShift = 7;  // instance k plays the loop 7k frames ahead
 
-// range(0) fit variant, range(1) instances, range(2) threads. Fast-mode refit + query for every instance; G_j(t) of each
-// instance precomputed (per frame, outside the timed region).
+// range(0) fit variant, range(1) instances, range(2) threads, range(3) refit instruction set (PinnedRefit). Fast-mode
+// refit + query for every instance; G_j(t) of each instance precomputed (per frame, outside the timed region).
 void BM_CrowdFast(benchmark::State& state) {
   const Xbot* x = GetXbot(state, int(state.range(0)));
   if (!x) return;
+  const PinnedRefit pin(state, state.range(3));
+  if (!pin.ok()) return;
   const size_t count = size_t(state.range(1));
   skinspheres::bench::TimedParallelFor pf(int(state.range(2)));
   std::vector<rt::CharacterInstance> instances;
@@ -535,8 +563,9 @@ void BM_CrowdFast(benchmark::State& state) {
   pf.Report(state);
 }
 BENCHMARK(BM_CrowdFast)
-    ->ArgsProduct({{0, 1}, {1, 10, 100, 1000, 10000}, {1, 2}})
-    ->ArgNames({"fit", "instances", "threads"})
+    ->ArgsProduct({{0, 1}, {1, 10, 100, 1000, 10000}, {1, 2}, {0}})
+    ->ArgsProduct({{0}, {1000, 10000}, {1, 2}, {1, 2}})  // SSE2 and AVX2 refit side by side
+    ->ArgNames({"fit", "instances", "threads", "simd"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

@@ -15,6 +15,8 @@
 
 #include <emmintrin.h>
 
+#include "refit_internal.h"
+
 namespace skinspheres::runtime {
 
 // Unaligned double types (math_types.h: no Eigen type of 32 bytes or more is aligned here).
@@ -127,6 +129,51 @@ bool RefitJob::Validate() const {
   return true;
 }
 
+namespace internal {
+namespace sse2 {
+#include "refit_fast.inc"
+}  // namespace sse2
+
+namespace {
+std::atomic<RefitSimd> g_pinned{RefitSimd::kAuto};
+}  // namespace
+
+bool RefitSimdSupported(RefitSimd level) {
+#if defined(SKINSPHERES_REFIT_X86)
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  return level != RefitSimd::kAvx2 || avx2;
+#else
+  return level != RefitSimd::kAvx2;
+#endif
+}
+
+RefitSimd RefitSimdInUse() {
+  const RefitSimd pinned = g_pinned.load(std::memory_order_relaxed);
+  if (pinned != RefitSimd::kAuto) return pinned;
+  static const RefitSimd best = RefitSimdSupported(RefitSimd::kAvx2) ? RefitSimd::kAvx2 : RefitSimd::kSse2;
+  return best;
+}
+
+bool PinRefitSimd(RefitSimd level) {
+  if (!RefitSimdSupported(level)) return false;
+  g_pinned.store(level, std::memory_order_relaxed);
+  return true;
+}
+
+const char* ToString(RefitSimd level) {
+  switch (level) {
+    case RefitSimd::kAuto:
+      return "auto";
+    case RefitSimd::kSse2:
+      return "sse2";
+    case RefitSimd::kAvx2:
+      return "avx2";
+  }
+  return "unknown";
+}
+
+}  // namespace internal
+
 namespace {
 
 // 16 ulps of the coordinates: covers float rounding of c', the distances and the caller's skinning.
@@ -185,114 +232,26 @@ bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
   return ok;
 }
 
-// s_max^2 of joint j: max_i Σ_k |(A_jᵀ A_j)_ik| with A_j = linear(G_j(t)) · R_j, R_j =
-// linear(G_j(rest)^-1) given by rows (rest_inverse_rows). Four lanes, in the order in which Eigen
-// evaluates the scalar expression (each 3-term sum as a0 + (a1 + a2)), so the same bits:
-//   row m of A:  a_m = R_0 G(m,0) + (R_1 G(m,1) + R_2 G(m,2))     (lane k: A(m,k))
-//   column k of AᵀA: a_0 A(0,k) + (a_1 A(1,k) + a_2 A(2,k))        (lane i: (AᵀA)(i,k))
-//   row sums: |col 0| + (|col 1| + |col 2|), then the largest of lanes 0..2.
-inline float JointStretch2(const Mat4f& world, const float* rows) {
-  const float* g = world.data();  // column-major: G(m, c) at 4 c + m
-  const __m128 r0 = _mm_loadu_ps(rows), r1 = _mm_loadu_ps(rows + 4), r2 = _mm_loadu_ps(rows + 8);
-  const auto row_of_a = [&](int m) {
-    return _mm_add_ps(_mm_mul_ps(r0, _mm_set1_ps(g[m])),
-                      _mm_add_ps(_mm_mul_ps(r1, _mm_set1_ps(g[4 + m])), _mm_mul_ps(r2, _mm_set1_ps(g[8 + m]))));
-  };
-  const __m128 a0 = row_of_a(0), a1 = row_of_a(1), a2 = row_of_a(2);
-  const __m128 sign = _mm_set1_ps(-0.0f);
-  const auto abs_column = [&](auto lane) {
-    constexpr int k = decltype(lane)::value;
-    constexpr int mask = k | (k << 2) | (k << 4) | (k << 6);
-    const __m128 col = _mm_add_ps(_mm_mul_ps(a0, _mm_shuffle_ps(a0, a0, mask)),
-                                  _mm_add_ps(_mm_mul_ps(a1, _mm_shuffle_ps(a1, a1, mask)),
-                                             _mm_mul_ps(a2, _mm_shuffle_ps(a2, a2, mask))));
-    return _mm_andnot_ps(sign, col);
-  };
-  const __m128 sums = _mm_add_ps(abs_column(std::integral_constant<int, 0>()),
-                                 _mm_add_ps(abs_column(std::integral_constant<int, 1>()),
-                                            abs_column(std::integral_constant<int, 2>())));
-  if ((_mm_movemask_ps(_mm_cmpunord_ps(sums, sums)) & 7) != 0) return std::numeric_limits<float>::quiet_NaN();
-  alignas(16) float lanes[4];
-  _mm_store_ps(lanes, sums);
-  return std::max(std::max(lanes[0], lanes[1]), lanes[2]);
-}
-
-// G · (q, 1) in four lanes (lane 3 is G's last row, ignored): (g0 qx + (g1 qy + g2 qz)) + g3 per
-// lane, the order in which Eigen evaluates Apply() (a 3-term inner product sums as a0 + (a1 + a2)),
-// so the bits are Apply()'s; the refit tests compare the two bit for bit.
-inline __m128 ApplySse(const Mat4f& g, const Eigen::Vector3f& q) {
-  const float* m = g.data();  // column-major: columns at 0, 4, 8, 12
-  const __m128 x = _mm_mul_ps(_mm_loadu_ps(m), _mm_set1_ps(q.x()));
-  const __m128 y = _mm_mul_ps(_mm_loadu_ps(m + 4), _mm_set1_ps(q.y()));
-  const __m128 z = _mm_mul_ps(_mm_loadu_ps(m + 8), _mm_set1_ps(q.z()));
-  return _mm_add_ps(_mm_add_ps(x, _mm_add_ps(y, z)), _mm_loadu_ps(m + 12));
-}
-
-// |d|^2 of lanes 0..2 as Eigen's squaredNorm of a Vector3f sums them: d0^2 + (d1^2 + d2^2).
-inline float SquaredNorm3(__m128 d) {
-  const __m128 sq = _mm_mul_ps(d, d);
-  const __m128 s12 = _mm_add_ss(_mm_shuffle_ps(sq, sq, 1), _mm_shuffle_ps(sq, sq, 2));
-  return _mm_cvtss_f32(_mm_add_ss(sq, s12));
-}
-
-// Fast mode, four lanes per transformed point (SSE2, every x86-64): the same operations in the
-// same order as the scalar formula in the header, so the same bits on every build. Each joint's
-// s_max^2 is computed once per call (on first use, on the stack for up to kJointCache joints).
+// Fast mode: the vector loop of refit_fast.inc at the level RefitSimdInUse() picks (same bits).
 bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
+  static_assert(sizeof(Mat4f) == 16 * sizeof(float) && sizeof(Eigen::Vector3f) == 3 * sizeof(float) &&
+                sizeof(Vec4f) == 4 * sizeof(float));
   const auto& set = *job.spheres;
-  const Eigen::Vector3f* q = job.rest->center_in_joint().data();
-  const float* w = job.rest->weights().data();
-  const float* reach = job.rest->reach().data();
-  const float* rinv_rows = job.rest->rest_inverse_rows().data();
-  const uint32_t* offsets = set.influence_offsets.data();
-  const uint16_t* joints = set.influence_joints.data();
-  const float* radii = set.radii_fast.data();
-  const Mat4f* world = job.joint_world.data();
-  constexpr size_t kJointCache = 256;
-  const bool cache = set.joint_count() <= kJointCache;
-  float joint_row[kJointCache];  // -1: not computed yet (a stretch is >= 0 or NaN)
-  if (cache) std::fill_n(joint_row, set.joint_count(), -1.0f);
-  constexpr uint32_t kPointCache = 16;  // T_j c per influence of one sphere, when it has at most this many
-  alignas(16) float moved[kPointCache * 4];
-  bool ok = true;
-  for (size_t s = begin; s < end; ++s) {
-    const uint32_t k0 = offsets[s], k1 = offsets[s + 1];
-    const bool keep = k1 - k0 <= kPointCache;
-    __m128 c = _mm_setzero_ps();
-    for (uint32_t k = k0; k < k1; ++k) {
-      const __m128 p = ApplySse(world[joints[k]], q[k]);
-      if (keep) _mm_store_ps(moved + 4 * (k - k0), p);
-      c = _mm_add_ps(c, _mm_mul_ps(_mm_set1_ps(w[k]), p));
-    }
-    float spread2 = 0.0f;  // max_j |T_j c - c'|^2
-    float reached = 0.0f;  // Σ_j W_j |T_j c - c'|
-    float s2 = 0.0f;       // s_max^2
-    bool finite = true;
-    for (uint32_t k = k0; k < k1; ++k) {
-      const uint16_t j = joints[k];
-      const __m128 p = keep ? _mm_load_ps(moved + 4 * (k - k0)) : ApplySse(world[j], q[k]);
-      const float d2 = SquaredNorm3(_mm_sub_ps(p, c));
-      float row;
-      if (cache) {
-        if (joint_row[j] < 0.0f) joint_row[j] = JointStretch2(world[j], rinv_rows + 12 * size_t(j));
-        row = joint_row[j];
-      } else {
-        row = JointStretch2(world[j], rinv_rows + 12 * size_t(j));
-      }
-      finite &= (d2 <= FLT_MAX) & (row <= FLT_MAX);
-      spread2 = std::max(spread2, d2);
-      reached += reach[k] * std::sqrt(d2);
-      s2 = std::max(s2, row);
-    }
-    alignas(16) float cc[4];
-    _mm_store_ps(cc, c);
-    const Eigen::Vector3f centre(cc[0], cc[1], cc[2]);
-    const float r = std::sqrt(s2) * radii[s] + std::min(std::sqrt(spread2), reached);
-    const float radius = r + Margin(centre, r);
-    job.out[s] = Vec4f(cc[0], cc[1], cc[2], radius);
-    ok &= finite && centre.allFinite() && std::isfinite(radius);
-  }
-  return ok;
+  internal::FastRefitArrays a;
+  a.world = job.joint_world.data()->data();
+  a.joint_count = set.joint_count();
+  a.center_in_joint = job.rest->center_in_joint().data()->data();
+  a.weights = job.rest->weights().data();
+  a.reach = job.rest->reach().data();
+  a.rest_inverse_rows = job.rest->rest_inverse_rows().data();
+  a.influence_offsets = set.influence_offsets.data();
+  a.influence_joints = set.influence_joints.data();
+  a.radii_fast = set.radii_fast.data();
+  a.out = job.out.data()->data();
+#if defined(SKINSPHERES_REFIT_X86)
+  if (internal::RefitSimdInUse() == internal::RefitSimd::kAvx2) return internal::avx2::RefitFastRange(a, begin, end);
+#endif
+  return internal::sse2::RefitFastRange(a, begin, end);
 }
 
 }  // namespace

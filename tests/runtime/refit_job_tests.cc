@@ -17,6 +17,7 @@
 #include <random>
 
 #include "posed_characters.h"
+#include "refit_internal.h"  // runtime/src: pins the instruction set of the fast refit
 #include "runtime/sample_sphere_set.h"
 
 namespace skinspheres::runtime {
@@ -202,10 +203,49 @@ void CheckCharacter(const std::string& name, int frames_per_clip, int random_pos
 
 TEST(RefitJobTest, BuiltinCharacterIsCoveredInBothModes) { CheckCharacter("builtin", 1000, 100); }
 
+// Pins the fast refit's instruction set for a scope (internal::PinRefitSimd), unpinned after.
+class PinnedRefit {
+ public:
+  explicit PinnedRefit(internal::RefitSimd level) : ok_(internal::PinRefitSimd(level)) {}
+  ~PinnedRefit() { internal::PinRefitSimd(internal::RefitSimd::kAuto); }
+  PinnedRefit(const PinnedRefit&) = delete;
+  PinnedRefit& operator=(const PinnedRefit&) = delete;
+  bool ok() const { return ok_; }
+
+ private:
+  bool ok_;
+};
+
+// Runs check() with the fast refit at each instruction set the CPU has (SSE2 always; AVX2 when
+// present, said when not), and checks that each pin took.
+template <class Check>
+void AtEveryRefitLevel(const std::string& what, Check&& check) {
+  for (const internal::RefitSimd level : {internal::RefitSimd::kSse2, internal::RefitSimd::kAvx2}) {
+    const PinnedRefit pin(level);
+    if (!pin.ok()) {
+      ASSERT_NE(level, internal::RefitSimd::kSse2);
+      std::printf("%s: %s not checked, the CPU lacks it\n", what.c_str(), internal::ToString(level));
+      continue;
+    }
+    ASSERT_EQ(internal::RefitSimdInUse(), level);
+    check();
+    if (::testing::Test::HasFatalFailure()) {
+      ADD_FAILURE() << "at " << internal::ToString(level);
+      return;
+    }
+    std::printf("%s: checked at %s\n", what.c_str(), internal::ToString(level));
+  }
+}
+
 // The SIMD fast refit gives the scalar formula's bits: random poses with non-uniform scale, then
 // the same joint matrices with every coefficient perturbed and far translations (any affine map),
-// whole set and split ranges.
+// whole set and split ranges, at every instruction set.
+void CheckFastBitsAtOneLevel(const std::string& name, int poses);
 void CheckFastBits(const std::string& name, int poses) {
+  AtEveryRefitLevel(name, [&] { CheckFastBitsAtOneLevel(name, poses); });
+}
+
+void CheckFastBitsAtOneLevel(const std::string& name, int poses) {
   auto fc = test::LoadFitted(name);
   ASSERT_TRUE(fc);
   auto rest = RefitRestData::Create(fc->set);
@@ -241,6 +281,61 @@ void CheckFastBits(const std::string& name, int poses) {
 }
 
 TEST(RefitJobTest, FastModeBitIdenticalToScalarFormulaBuiltin) { CheckFastBits("builtin", 200); }
+
+// The paths the characters do not take: a sphere of more influences than the loop keeps moved
+// points for (16), and more joints than a call keeps stretches for on the stack (256). 300 joints
+// in a chain, sphere 0 on 20 of them, sphere 1 on the last; random affine joint matrices.
+TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
+  SphereSet set = TwoSpheres();
+  constexpr int kJoints = 300;
+  set.joint_names.clear();
+  set.joint_parents.clear();
+  for (int j = 0; j < kJoints; ++j) {
+    std::string name = "j";  // (not "j" + to_string: GCC 12 warns falsely of overlapping memcpy)
+    name += std::to_string(j);
+    set.joint_names.push_back(name);
+    set.joint_parents.push_back(j - 1);
+  }
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  const auto random_affine = [&](float scale) {
+    skinspheres::Mat4f g = skinspheres::Mat4f::Identity();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) g(r, c) = (r == c ? 1.0f : 0.0f) + scale * u(rng);
+      g(r, 3) = 3.0f * u(rng);
+    }
+    return g;
+  };
+  set.joint_rest_world.clear();
+  for (int j = 0; j < kJoints; ++j) set.joint_rest_world.push_back(random_affine(0.2f));
+  set.sphere_joint = {0, kJoints - 1};
+  set.influence_joints.clear();
+  set.influence_weights.clear();
+  for (int k = 0; k < 20; ++k) {
+    set.influence_joints.push_back(static_cast<uint16_t>(k * 15));
+    set.influence_weights.push_back(0.1f + 0.05f * static_cast<float>(k));
+  }
+  set.influence_joints.push_back(kJoints - 1);
+  set.influence_weights.push_back(1.0f);
+  set.influence_offsets = {0, 20, 21};
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  AtEveryRefitLevel("20 influences, 300 joints", [&] {
+    for (int p = 0; p < 50; ++p) {
+      std::vector<skinspheres::Mat4f> world;
+      for (int j = 0; j < kJoints; ++j) world.push_back(random_affine(0.5f));
+      const auto want = ScalarFastRefit(set, *rest, world, rest->reach().data());
+      std::vector<skinspheres::Vec4f> got(2);
+      ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, got}.Run()));
+      for (size_t s = 0; s < 2; ++s) {
+        for (int c = 0; c < 4; ++c) {
+          ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c])) << "pose " << p << " sphere " << s;
+        }
+      }
+    }
+  });
+}
 
 class SharedCharacterRefit : public ::testing::TestWithParam<std::string> {};
 

@@ -1,0 +1,50 @@
+// The fast refit's vector code (refit_fast.inc), compiled once for SSE2 (every x86-64) and once for
+// AVX2 (refit_fast_avx2.cc), and the choice between them at run time. Both levels evaluate the
+// header's formula with the same float operations in the same order, so they give the same bits
+// (tests/runtime/refit_job_tests.cc compares each with the scalar formula); the choice is a matter
+// of speed only, and RefitJob has no field for it. Tests and benchmarks pin a level here.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace skinspheres::runtime::internal {
+
+// What the fast refit of one range reads and writes, as plain arrays (no Eigen types in the code
+// compiled for AVX2: an inline Eigen function instantiated there could be the copy the linker keeps
+// for the whole program).
+struct FastRefitArrays {
+  const float* world = nullptr;      // G_j(t): 16 floats per joint, column-major
+  size_t joint_count = 0;
+  const float* center_in_joint = nullptr;  // 3 floats per influence entry
+  const float* weights = nullptr;          // per influence entry
+  const float* reach = nullptr;            // per influence entry
+  const float* rest_inverse_rows = nullptr;  // 12 floats per joint (RefitRestData)
+  const uint32_t* influence_offsets = nullptr;  // per sphere, CSR
+  const uint16_t* influence_joints = nullptr;   // per influence entry
+  const float* radii_fast = nullptr;            // per sphere
+  float* out = nullptr;                         // 4 floats per sphere: centre, radius
+};
+
+enum class RefitSimd : uint8_t { kAuto, kSse2, kAvx2 };
+
+// The level the fast refit runs at: the one pinned by PinRefitSimd, else AVX2 when the CPU has it,
+// else SSE2.
+RefitSimd RefitSimdInUse();
+bool RefitSimdSupported(RefitSimd level);
+// Pins the level for the whole process (kAuto: unpin); false, and nothing changes, when the CPU
+// lacks it. For tests and benchmarks: not to be called while a refit runs.
+bool PinRefitSimd(RefitSimd level);
+const char* ToString(RefitSimd level);
+
+namespace sse2 {
+bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
+}
+#if defined(__x86_64__) || defined(__i386__)
+#define SKINSPHERES_REFIT_X86 1
+namespace avx2 {
+bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
+}
+#endif
+
+}  // namespace skinspheres::runtime::internal
