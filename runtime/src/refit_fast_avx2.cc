@@ -3,7 +3,8 @@
 // so the same bits; the VEX encoding (three operands, no register copies) makes it faster.
 #include "refit_internal.h"
 
-#if defined(SKINSPHERES_REFIT_X86)
+#if defined(__x86_64__) || defined(__i386__)
+// Every header refit_fast.inc needs, before the target pragma (standard templates stay baseline).
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
@@ -21,6 +22,7 @@
 #endif
 
 namespace skinspheres::runtime::internal::avx2 {
+constexpr RefitSimd kThisLevel = RefitSimd::kAvx2;
 #include "refit_fast.inc"
 }  // namespace skinspheres::runtime::internal::avx2
 
@@ -29,4 +31,4 @@ namespace skinspheres::runtime::internal::avx2 {
 #else
 #pragma GCC pop_options
 #endif
-#endif  // SKINSPHERES_REFIT_X86
+#endif  // x86

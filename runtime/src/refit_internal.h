@@ -3,6 +3,8 @@
 // header's formula with the same float operations in the same order, so they give the same bits
 // (tests/runtime/refit_job_tests.cc compares each with the scalar formula); the choice is a matter
 // of speed only, and RefitJob has no field for it. Tests and benchmarks pin a level here.
+// With -DSKINSPHERES_AVX2=ON the whole runtime is compiled for AVX2, and the "SSE2" copy is then
+// VEX code too: compare the two levels in the default build.
 #pragma once
 
 #include <cstddef>
@@ -36,15 +38,16 @@ bool RefitSimdSupported(RefitSimd level);
 // lacks it. For tests and benchmarks: not to be called while a refit runs.
 bool PinRefitSimd(RefitSimd level);
 const char* ToString(RefitSimd level);
+// The level of the copy that ran the calling thread's latest fast refit (kAuto: none yet), so that a
+// test can tell which ran (they give the same bits). Each copy calls NoteRefitSimdRun.
+RefitSimd LastRefitSimdRun();
+void NoteRefitSimdRun(RefitSimd level);
 
 namespace sse2 {
 bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
 }
-#if defined(__x86_64__) || defined(__i386__)
-#define SKINSPHERES_REFIT_X86 1
-namespace avx2 {
+namespace avx2 {  // refit_fast_avx2.cc (x86 only, like the whole fast refit)
 bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
 }
-#endif
 
 }  // namespace skinspheres::runtime::internal

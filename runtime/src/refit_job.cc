@@ -131,6 +131,7 @@ bool RefitJob::Validate() const {
 
 namespace internal {
 namespace sse2 {
+constexpr RefitSimd kThisLevel = RefitSimd::kSse2;
 #include "refit_fast.inc"
 }  // namespace sse2
 
@@ -139,13 +140,16 @@ std::atomic<RefitSimd> g_pinned{RefitSimd::kAuto};
 }  // namespace
 
 bool RefitSimdSupported(RefitSimd level) {
-#if defined(SKINSPHERES_REFIT_X86)
-  static const bool avx2 = __builtin_cpu_supports("avx2");
+  static const bool avx2 = __builtin_cpu_supports("avx2");  // (this file is x86-only: <emmintrin.h>)
   return level != RefitSimd::kAvx2 || avx2;
-#else
-  return level != RefitSimd::kAvx2;
-#endif
 }
+
+namespace {
+thread_local RefitSimd t_last_run = RefitSimd::kAuto;
+}  // namespace
+
+RefitSimd LastRefitSimdRun() { return t_last_run; }
+void NoteRefitSimdRun(RefitSimd level) { t_last_run = level; }
 
 RefitSimd RefitSimdInUse() {
   const RefitSimd pinned = g_pinned.load(std::memory_order_relaxed);
@@ -248,9 +252,7 @@ bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
   a.influence_joints = set.influence_joints.data();
   a.radii_fast = set.radii_fast.data();
   a.out = job.out.data()->data();
-#if defined(SKINSPHERES_REFIT_X86)
   if (internal::RefitSimdInUse() == internal::RefitSimd::kAvx2) return internal::avx2::RefitFastRange(a, begin, end);
-#endif
   return internal::sse2::RefitFastRange(a, begin, end);
 }
 

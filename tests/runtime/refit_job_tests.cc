@@ -228,11 +228,14 @@ void AtEveryRefitLevel(const std::string& what, Check&& check) {
       continue;
     }
     ASSERT_EQ(internal::RefitSimdInUse(), level);
+    internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
     check();
     if (::testing::Test::HasFatalFailure()) {
       ADD_FAILURE() << "at " << internal::ToString(level);
       return;
     }
+    // The copy of that level ran (both give the same bits, so the results alone cannot say).
+    ASSERT_EQ(internal::LastRefitSimdRun(), level) << what;
     std::printf("%s: checked at %s\n", what.c_str(), internal::ToString(level));
   }
 }
@@ -318,14 +321,20 @@ TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
   set.influence_joints.push_back(kJoints - 1);
   set.influence_weights.push_back(1.0f);
   set.influence_offsets = {0, 20, 21};
+  // Small reaches (summing to more than 1, as Validate asks), so that the bound's sum term
+  // Σ W_j |d_j|, which reads every recomputed point, is the smaller one on some poses.
+  for (int k = 0; k < 20; ++k) set.influence_reach.push_back(0.06f + 0.01f * static_cast<float>(k % 3));
+  set.influence_reach.push_back(1.0f);
   ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
   auto rest = RefitRestData::Create(set);
   ASSERT_TRUE(rest.ok()) << rest.error().message;
+  int sum_term_smaller = 0;
   AtEveryRefitLevel("20 influences, 300 joints", [&] {
     for (int p = 0; p < 50; ++p) {
       std::vector<skinspheres::Mat4f> world;
       for (int j = 0; j < kJoints; ++j) world.push_back(random_affine(0.5f));
       const auto want = ScalarFastRefit(set, *rest, world, rest->reach().data());
+      sum_term_smaller += want[0].w() < ScalarFastRefit(set, *rest, world, nullptr)[0].w() ? 1 : 0;
       std::vector<skinspheres::Vec4f> got(2);
       ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, got}.Run()));
       for (size_t s = 0; s < 2; ++s) {
@@ -335,6 +344,8 @@ TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
       }
     }
   });
+  EXPECT_GT(sum_term_smaller, 10) << "the sum term decided too few of the big sphere's radii";
+  std::printf("sum term smaller on %d of the poses checked\n", sum_term_smaller);
 }
 
 class SharedCharacterRefit : public ::testing::TestWithParam<std::string> {};
@@ -632,7 +643,14 @@ TEST(RefitJobTest, ValidateRefusesBadJobs) {
   EXPECT_NE(r.error().message.find("not invertible"), std::string::npos) << r.error().message;
 }
 
+void NonFiniteInputFails();
+
+// Every refusal, at every instruction set of the fast refit (exact mode has one).
 TEST(RefitJobTest, NonFiniteInputFailsWithoutCrashing) {
+  AtEveryRefitLevel("non-finite input", [] { NonFiniteInputFails(); });
+}
+
+void NonFiniteInputFails() {
   const SphereSet set = TwoSpheres();
   auto rest = RefitRestData::Create(set);
   ASSERT_TRUE(rest.ok());
