@@ -16,12 +16,12 @@ namespace skinspheres::runtime::internal {
 // compiled for AVX2: an inline Eigen function instantiated there could be the copy the linker keeps
 // for the whole program).
 struct FastRefitArrays {
-  const float* world = nullptr;      // G_j(t): 16 floats per joint, column-major
+  const float* world = nullptr;                 // G_j(t): 16 floats per joint, column-major
   size_t joint_count = 0;
-  const float* center_in_joint = nullptr;  // 3 floats per influence entry
-  const float* weights = nullptr;          // per influence entry
-  const float* reach = nullptr;            // per influence entry
-  const float* rest_inverse_rows = nullptr;  // 12 floats per joint (RefitRestData)
+  const float* center_in_joint = nullptr;       // 3 floats per influence entry
+  const float* weights = nullptr;               // per influence entry
+  const float* reach = nullptr;                 // per influence entry
+  const float* rest_inverse_rows = nullptr;     // 12 floats per joint (RefitRestData)
   const uint32_t* influence_offsets = nullptr;  // per sphere, CSR
   const uint16_t* influence_joints = nullptr;   // per influence entry
   const float* radii_fast = nullptr;            // per sphere

@@ -241,17 +241,17 @@ bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
   static_assert(sizeof(Mat4f) == 16 * sizeof(float) && sizeof(Eigen::Vector3f) == 3 * sizeof(float) &&
                 sizeof(Vec4f) == 4 * sizeof(float));
   const auto& set = *job.spheres;
-  internal::FastRefitArrays a;
-  a.world = job.joint_world.data()->data();
+  internal::FastRefitArrays a;  // (casts, not ->data(): a span of an empty set may hold a null pointer)
+  a.world = reinterpret_cast<const float*>(job.joint_world.data());
   a.joint_count = set.joint_count();
-  a.center_in_joint = job.rest->center_in_joint().data()->data();
+  a.center_in_joint = reinterpret_cast<const float*>(job.rest->center_in_joint().data());
   a.weights = job.rest->weights().data();
   a.reach = job.rest->reach().data();
   a.rest_inverse_rows = job.rest->rest_inverse_rows().data();
   a.influence_offsets = set.influence_offsets.data();
   a.influence_joints = set.influence_joints.data();
   a.radii_fast = set.radii_fast.data();
-  a.out = job.out.data()->data();
+  a.out = reinterpret_cast<float*>(job.out.data());
   if (internal::RefitSimdInUse() == internal::RefitSimd::kAvx2) return internal::avx2::RefitFastRange(a, begin, end);
   return internal::sse2::RefitFastRange(a, begin, end);
 }
