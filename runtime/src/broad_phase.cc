@@ -116,6 +116,10 @@ kernels::FilterView View(const PairFilter& f) {
   return v;
 }
 
+// Words per bit row of the listed exclusions for the all-pairs kernels (FilterView::row_bits): bits
+// up to n + kMaxWidth readable.
+size_t AllPairsRowWords(size_t n) { return (n + kernels::kMaxWidth) / 64 + 1; }
+
 bool NoPairAllowed(const PairFilter& f) {
   return !f.pairs_within_groups() && (f.groups() == nullptr || !f.pairs_between_groups());
 }
@@ -224,7 +228,7 @@ void BroadPhaseContext::Resize(size_t max_spheres, size_t max_candidates) {
     runs_.clear();
     pi_.clear();
     pj_.clear();
-    near_.clear();
+    near_.assign(AllPairsRowWords(max_spheres) * max_spheres, 0);  // the all-pairs kernels' bit rows
     far_.clear();
   }
   near_count_ = 0;
@@ -339,12 +343,37 @@ struct BroadPhaseContext::Impl {
     }
   }
 
+  // The filter's listed exclusions as bit rows for the all-pairs kernels (in ctx.near_, sized by
+  // Resize for sets of up to kAllPairsMax spheres), made once per filter: the kernels then mask a
+  // vector's listed pairs at once instead of walking the partner list at every vector that hits.
+  kernels::FilterView AllPairsView() {
+    kernels::FilterView v = view;
+    const size_t words = AllPairsRowWords(n);
+    if (filter.excluded_pair_count() == 0 || ctx.near_.size() < words * n) return v;
+    if (ctx.near_count_ != n || ctx.near_filter_ != filter.id()) {
+      uint64_t* rows = ctx.near_.data();
+      std::fill(rows, rows + words * n, uint64_t{0});
+      for (uint32_t i = 0; i < n; ++i) {
+        for (const uint32_t j : filter.excluded_partners(i)) {
+          if (j > i) rows[i * words + (j >> 6)] |= uint64_t{1} << (j & 63u);
+        }
+      }
+      ctx.near_filter_ = filter.id();
+      ctx.near_count_ = n;
+    }
+    v.row_bits = ctx.near_.data();
+    v.row_words = words;
+    return v;
+  }
+
   // All pairs of grown spheres into the cache (index order: already sorted). False if it does not fit.
   bool AllPairsBuild() {
     kernels::SoaSpheres s{Soa(0), Soa(1), Soa(2), Soa(kGrown), nullptr, nullptr, nullptr};
     kernels::PairSink sink{ctx.ci_.data(), ctx.cj_.data(), ctx.max_candidates_, 0, false};
     size_t tests = 0;
-    const uint32_t next = k.all_pairs_build(s, static_cast<uint32_t>(n), 0, static_cast<uint32_t>(n), view, &sink, &tests);
+    const kernels::FilterView rows_view = AllPairsView();
+    const uint32_t next =
+        k.all_pairs_build(s, static_cast<uint32_t>(n), 0, static_cast<uint32_t>(n), rows_view, &sink, &tests);
     ctx.last_build_tests_ += tests;
     ctx.candidate_count_ = sink.count;
     return next == n;
@@ -774,8 +803,9 @@ struct BroadPhaseContext::Impl {
       kernels::SoaSpheres s{Soa(0), Soa(1), Soa(2), Soa(kGrown), nullptr, nullptr, nullptr};
       kernels::ContactSink sink{ctx.stage_.data(), kStage, 0};
       size_t tests = 0;
+      const kernels::FilterView rows_view = AllPairsView();
       for (uint32_t row = 0; row < n;) {
-        row = k.all_pairs_contacts(s, static_cast<uint32_t>(n), row, static_cast<uint32_t>(n), view, &sink, &tests);
+        row = k.all_pairs_contacts(s, static_cast<uint32_t>(n), row, static_cast<uint32_t>(n), rows_view, &sink, &tests);
         job.out->insert(job.out->end(), ctx.stage_.data(), ctx.stage_.data() + sink.count);
         sink.count = 0;
       }

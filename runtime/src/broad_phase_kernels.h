@@ -37,6 +37,12 @@ struct FilterView {
   // sweep_blocks leaves out listed pairs too.
   const uint64_t* near = nullptr;
   const uint8_t* far = nullptr;
+  // Optional (all_pairs_build, all_pairs_contacts): the listed exclusions as bit rows, row_words
+  // words per sphere, bit j of row i set when the filter lists {i, j} (j > i); every row readable
+  // up to bit n + kMaxWidth. When set, the all-pairs kernels mask listed pairs with them instead
+  // of walking the partner lists.
+  const uint64_t* row_bits = nullptr;
+  size_t row_words = 0;
 };
 
 // Spheres in structure-of-arrays form, padded by kMaxWidth entries. In index order for the

@@ -185,7 +185,7 @@ class BroadPhaseContext {
   std::vector<ColumnRun> runs_;            // max_spheres: columns in sweep order
   std::vector<uint32_t> pi_, pj_;    // max_candidates + pad (above kAllPairsMax): unsorted pairs
   std::vector<uint32_t> row_;        // max_spheres + 1: counting sort
-  std::vector<uint64_t> near_;       // kernels::kNearWords x max_spheres (above kAllPairsMax): listed pairs as bits
+  std::vector<uint64_t> near_;       // listed pairs as bits: for the sweep above kAllPairsMax, else bit rows
   std::vector<uint8_t> far_;         // max_spheres (above kAllPairsMax): has listed partners past the bits
   uint64_t near_filter_ = 0;         // PairFilter::id() near_ and far_ were made from
   size_t near_count_ = 0;            // and its size (0: not made)
