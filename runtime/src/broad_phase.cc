@@ -220,7 +220,9 @@ void BroadPhaseContext::Resize(size_t max_spheres, size_t max_candidates) {
     runs_.assign(max_spheres, ColumnRun{0, 0, 0});
     pi_.assign(max_candidates_ + kPad, 0);
     pj_.assign(max_candidates_ + kPad, 0);
-    near_.assign(kernels::kNearWords * max_spheres, 0);
+    // The sweep's bits, with room for the all-pairs rows of any set of up to kAllPairsMax spheres
+    // (a context this large may run a small set; no extra memory from 576 spheres up).
+    near_.assign(std::max(kernels::kNearWords * max_spheres, AllPairsRowWords(kAllPairsMax) * kAllPairsMax), 0);
     far_.assign(max_spheres, 0);
   } else {
     order_.clear();
@@ -805,7 +807,8 @@ struct BroadPhaseContext::Impl {
       size_t tests = 0;
       const kernels::FilterView rows_view = AllPairsView();
       for (uint32_t row = 0; row < n;) {
-        row = k.all_pairs_contacts(s, static_cast<uint32_t>(n), row, static_cast<uint32_t>(n), rows_view, &sink, &tests);
+        row = k.all_pairs_contacts(s, static_cast<uint32_t>(n), row, static_cast<uint32_t>(n), rows_view, &sink,
+                                   &tests);
         job.out->insert(job.out->end(), ctx.stage_.data(), ctx.stage_.data() + sink.count);
         sink.count = 0;
       }

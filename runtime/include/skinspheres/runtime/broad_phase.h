@@ -105,9 +105,9 @@ const char* ToString(BroadPhaseMethod method);
 
 // Per-character scratch and frame-to-frame memory (candidate cache, sweep order and axis, skins).
 // Sized at set-up; one per character or space that runs concurrently (never share one between
-// jobs running at once). Memory: about 100 bytes per sphere plus 8 bytes per candidate (above
-// kAllPairsMax spheres: about 170 bytes per sphere, with the listed exclusions as 64 bytes of bits
-// for the sweep, and 16 bytes per candidate). A space run by character (kGroups) adds, from its
+// jobs running at once). Memory: about 100 bytes per sphere, 16-72 more for the listed pairs as bit
+// rows, plus 8 bytes per candidate (above kAllPairsMax: about 170 bytes per sphere, with the listed
+// exclusions as 64 bytes of sweep bits, 16 bytes per candidate). A space run by character (kGroups) adds, from its
 // first frame, each character's own context and filter (with the default candidate room, about
 // 250 bytes per sphere for a character of up to kAllPairsMax spheres) and 16 bytes per sphere for
 // the contacts between characters.
@@ -185,9 +185,9 @@ class BroadPhaseContext {
   std::vector<ColumnRun> runs_;            // max_spheres: columns in sweep order
   std::vector<uint32_t> pi_, pj_;    // max_candidates + pad (above kAllPairsMax): unsorted pairs
   std::vector<uint32_t> row_;        // max_spheres + 1: counting sort
-  std::vector<uint64_t> near_;       // listed pairs as bits: for the sweep above kAllPairsMax, else bit rows
+  std::vector<uint64_t> near_;       // listed pairs as bits: the sweep's, or the all-pairs rows (broad_phase.cc)
   std::vector<uint8_t> far_;         // max_spheres (above kAllPairsMax): has listed partners past the bits
-  uint64_t near_filter_ = 0;         // PairFilter::id() near_ and far_ were made from
+  uint64_t near_filter_ = 0;         // PairFilter::id() the bits in near_ (and far_) were made from
   size_t near_count_ = 0;            // and its size (0: not made)
   std::vector<Contact> stage_;       // kStage + pad: contacts before they go to the output
   size_t order_count_ = 0;           // sphere count the order is for (0: none)
