@@ -413,6 +413,14 @@ skinspheres_status skinspheres_instance_reserve_contacts(skinspheres_instance* i
   });
 }
 
+skinspheres_status skinspheres_instance_reserve_sphere_contacts(skinspheres_instance* instance, size_t count) {
+  return Guard([&] {
+    if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
+    instance->instance.ReserveSphereContacts(count);
+    return SKINSPHERES_OK;
+  });
+}
+
 int skinspheres_asset_has_triangle_contacts(const skinspheres_asset* asset) {
   return asset && asset->asset->narrow_phase() != nullptr ? 1 : 0;
 }

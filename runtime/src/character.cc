@@ -239,6 +239,8 @@ void CharacterInstance::ReserveContacts(size_t count) {
   }
 }
 
+void CharacterInstance::ReserveSphereContacts(size_t count) { contacts_.reserve(count); }
+
 FrameStatus CrowdStep(CharacterInstance& inst, RefitMode mode, const CharacterFrameInput& input, bool find_contacts) {
   const FrameStatus st = inst.Update(mode, input.joint_world, input.skinned_positions, /*keep_joints=*/find_contacts);
   if (!st.ok()) return st;

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdlib>
 #include <limits>
@@ -303,6 +304,48 @@ TEST(CharacterInstanceTest, ReserveContactsSizesTheNarrowPhase) {
     EXPECT_GE(counter.count(), 1);
   }
   EXPECT_EQ(reserved.frame_contacts(), plain.frame_contacts());
+}
+
+// ReserveSphereContacts pins Query's list without the narrow phase's scratch. Every vertex on one
+// point makes the spheres collapse onto it, so nearly every allowed pair touches: far more
+// contacts than Create's room (4 per sphere). The reserved instance's first frame allocates
+// nothing, an unreserved one grows its list, both give the same contacts, and the reserved
+// instance's first FindContacts still sizes the narrow phase's scratch (ReserveSphereContacts
+// did not).
+TEST(CharacterInstanceTest, ReserveSphereContactsPinsOnlyTheSphereContacts) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  ASSERT_NE(asset->narrow_phase(), nullptr);
+  const size_t n = asset->size();
+  const std::vector<Eigen::Vector3f> collapsed(fc->character.vertex_count(), Eigen::Vector3f(0.1f, 1.0f, 0.05f));
+  const size_t room = n * (n - 1) / 2;
+  CharacterInstance reserved = MakeInstance(asset);
+  reserved.ReserveSphereContacts(room);
+  CharacterInstance plain = MakeInstance(asset);
+  std::vector<Contact> from_reserved;
+  from_reserved.reserve(room);
+  {
+    test::AllocationCounter counter;
+    ASSERT_TRUE(reserved.UpdateExact(collapsed, {}).ok());
+    const std::span<const Contact> got = reserved.Query();
+    from_reserved.assign(got.begin(), got.end());
+    EXPECT_EQ(counter.count(), 0);
+  }
+  ASSERT_TRUE(reserved.status().ok());
+  EXPECT_GT(from_reserved.size(), 4 * n);
+  {
+    test::AllocationCounter counter;
+    ASSERT_TRUE(plain.UpdateExact(collapsed, {}).ok());
+    plain.Query();
+    EXPECT_GE(counter.count(), 1);
+  }
+  EXPECT_TRUE(std::ranges::equal(plain.contacts(), from_reserved));
+  {
+    test::AllocationCounter counter;
+    reserved.FindContacts(collapsed);
+    EXPECT_GE(counter.count(), 1);
+  }
 }
 
 TEST(CharacterInstanceTest, NoAllocationPerFrameAfterTheFirst) {

@@ -36,7 +36,8 @@
 
    Allocation: loading and creating allocate (the calling thread). Updates and queries do not,
    except that the contact buffers grow the first time a frame has more contacts than any before
-   (skinspheres_instance_reserve_contacts pins them), and that an instance's first
+   (skinspheres_instance_reserve_contacts pins them; skinspheres_instance_reserve_sphere_contacts
+   pins only the sphere contacts' buffer), and that an instance's first
    skinspheres_instance_find_contacts sizes its narrow-phase scratch unless
    skinspheres_instance_reserve_contacts did (and, without positions, its skinned-position buffer).
 
@@ -211,6 +212,11 @@ SKINSPHERES_C_API skinspheres_status skinspheres_instance_status(const skinspher
    triangle pairs, never allocate; for an asset with a mesh, also the narrow phase's scratch (else
    sized by the first skinspheres_instance_find_contacts). */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_contacts(skinspheres_instance* instance, size_t count);
+/* Sizes only the sphere-contact buffer (skinspheres_instance_query's) for up to `count` contacts: for
+   an instance that runs only the broad phase (a crowd), which then holds no triangle-pair room and no
+   narrow-phase scratch (a later skinspheres_instance_find_contacts sizes those itself). */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_sphere_contacts(skinspheres_instance* instance,
+                                                                               size_t count);
 
 /* ---- Triangle contacts (the narrow phase) ----
    Behind the sphere pairs, the triangles that really touch: pairs of source triangles (the set's
