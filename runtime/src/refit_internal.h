@@ -10,6 +10,11 @@
 #include <cstddef>
 #include <cstdint>
 
+namespace skinspheres::runtime {
+class RefitRestData;
+struct SphereSet;
+}  // namespace skinspheres::runtime
+
 namespace skinspheres::runtime::internal {
 
 // What the fast refit of one range reads and writes, as plain arrays (no Eigen types in the code
@@ -28,10 +33,12 @@ struct FastRefitArrays {
   float* out = nullptr;                         // 4 floats per sphere: centre, radius
 };
 
-enum class RefitSimd : uint8_t { kAuto, kSse2, kAvx2 };
+// kAvx512: the crowd calls refit 16 instances of one set at once (RefitFastBatch16), one instance
+// alone at AVX2; not a level of RefitJob.
+enum class RefitSimd : uint8_t { kAuto, kSse2, kAvx2, kAvx512 };
 
-// The level the fast refit runs at: the one pinned by PinRefitSimd, else AVX2 when the CPU has it,
-// else SSE2.
+// The level the fast refit runs at: the one pinned by PinRefitSimd, else AVX-512 when the CPU has it
+// (so the crowd batches), else AVX2, else SSE2.
 RefitSimd RefitSimdInUse();
 bool RefitSimdSupported(RefitSimd level);
 // Pins the level for the whole process (kAuto: unpin); false, and nothing changes, when the CPU
@@ -48,6 +55,26 @@ bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
 }
 namespace avx2 {  // refit_fast_avx2.cc (x86 only, like the whole fast refit)
 bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
+}
+
+// The fast refit of kRefitBatchLanes instances of one set at once (refit_batch_avx512.cc): lane b
+// reads world[b] (a's world is not read) and writes out[b], with the same bits as
+// RefitFastRange(a, 0, sphere_count) for that instance alone. Returns the mask of lanes whose
+// spheres are finite (RefitFastRange's result per lane); 0 when the set has more than
+// kRefitBatchMaxJoints joints (then nothing is written: refit one by one). A lane may repeat
+// another's world and out (the same bits are written twice). Only when the CPU has AVX-512F.
+constexpr size_t kRefitBatchLanes = 16;
+constexpr size_t kRefitBatchMaxJoints = 128;  // each joint's stretch on the stack: 64 bytes per joint
+// Whether the crowd calls refit this set's instances kRefitBatchLanes at a time (RefitSimdInUse() is
+// kAvx512 and the set has at most kRefitBatchMaxJoints joints), and the call that does it (refit_job.cc;
+// world[b]: 16 floats per set joint, out[b]: 4 floats per sphere). The caller has checked every
+// lane's inputs as RefitJob::Validate does.
+bool RefitBatchUsable(const SphereSet& set);
+uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
+                        float* const out[kRefitBatchLanes]);
+namespace avx512 {
+uint32_t RefitFastBatch16(const FastRefitArrays& a, size_t sphere_count, const float* const world[kRefitBatchLanes],
+                          float* const out[kRefitBatchLanes]);
 }
 
 }  // namespace skinspheres::runtime::internal

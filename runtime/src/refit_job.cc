@@ -141,7 +141,15 @@ std::atomic<RefitSimd> g_pinned{RefitSimd::kAuto};
 
 bool RefitSimdSupported(RefitSimd level) {
   static const bool avx2 = __builtin_cpu_supports("avx2");  // (this file is x86-only: <emmintrin.h>)
-  return level != RefitSimd::kAvx2 || avx2;
+  static const bool avx512 = avx2 && __builtin_cpu_supports("avx512f");
+  switch (level) {
+    case RefitSimd::kAvx2:
+      return avx2;
+    case RefitSimd::kAvx512:
+      return avx512;
+    default:
+      return true;
+  }
 }
 
 namespace {
@@ -154,7 +162,9 @@ void NoteRefitSimdRun(RefitSimd level) { t_last_run = level; }
 RefitSimd RefitSimdInUse() {
   const RefitSimd pinned = g_pinned.load(std::memory_order_relaxed);
   if (pinned != RefitSimd::kAuto) return pinned;
-  static const RefitSimd best = RefitSimdSupported(RefitSimd::kAvx2) ? RefitSimd::kAvx2 : RefitSimd::kSse2;
+  static const RefitSimd best = RefitSimdSupported(RefitSimd::kAvx512) ? RefitSimd::kAvx512
+                                : RefitSimdSupported(RefitSimd::kAvx2) ? RefitSimd::kAvx2
+                                                                       : RefitSimd::kSse2;
   return best;
 }
 
@@ -172,6 +182,8 @@ const char* ToString(RefitSimd level) {
       return "sse2";
     case RefitSimd::kAvx2:
       return "avx2";
+    case RefitSimd::kAvx512:
+      return "avx512 (crowd batches)";
   }
   return "unknown";
 }
@@ -236,23 +248,28 @@ bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
   return ok;
 }
 
-// Fast mode: the vector loop of refit_fast.inc at the level RefitSimdInUse() picks (same bits).
-bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
+// The arrays of the fast refit of one set (world and out left to the caller).
+internal::FastRefitArrays SharedArrays(const SphereSet& set, const RefitRestData& rest) {
   static_assert(sizeof(Mat4f) == 16 * sizeof(float) && sizeof(Eigen::Vector3f) == 3 * sizeof(float) &&
                 sizeof(Vec4f) == 4 * sizeof(float));
-  const auto& set = *job.spheres;
   internal::FastRefitArrays a;  // (casts, not ->data(): a span of an empty set may hold a null pointer)
-  a.world = reinterpret_cast<const float*>(job.joint_world.data());
   a.joint_count = set.joint_count();
-  a.center_in_joint = reinterpret_cast<const float*>(job.rest->center_in_joint().data());
-  a.weights = job.rest->weights().data();
-  a.reach = job.rest->reach().data();
-  a.rest_inverse_rows = job.rest->rest_inverse_rows().data();
+  a.center_in_joint = reinterpret_cast<const float*>(rest.center_in_joint().data());
+  a.weights = rest.weights().data();
+  a.reach = rest.reach().data();
+  a.rest_inverse_rows = rest.rest_inverse_rows().data();
   a.influence_offsets = set.influence_offsets.data();
   a.influence_joints = set.influence_joints.data();
   a.radii_fast = set.radii_fast.data();
+  return a;
+}
+
+// Fast mode: the vector loop of refit_fast.inc at the level RefitSimdInUse() picks (same bits).
+bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
+  internal::FastRefitArrays a = SharedArrays(*job.spheres, *job.rest);
+  a.world = reinterpret_cast<const float*>(job.joint_world.data());
   a.out = reinterpret_cast<float*>(job.out.data());
-  if (internal::RefitSimdInUse() == internal::RefitSimd::kAvx2) return internal::avx2::RefitFastRange(a, begin, end);
+  if (internal::RefitSimdInUse() != internal::RefitSimd::kSse2) return internal::avx2::RefitFastRange(a, begin, end);
   return internal::sse2::RefitFastRange(a, begin, end);
 }
 
@@ -277,5 +294,19 @@ bool RefitParallel(const RefitJob& job, size_t grain, const ParallelFor& paralle
   });
   return ok.load();
 }
+
+namespace internal {
+
+bool RefitBatchUsable(const SphereSet& set) {
+  return RefitSimdInUse() == RefitSimd::kAvx512 && set.joint_count() <= kRefitBatchMaxJoints;
+}
+
+uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
+                        float* const out[kRefitBatchLanes]) {
+  if (!RefitBatchUsable(set)) return 0;
+  return avx512::RefitFastBatch16(SharedArrays(set, rest), set.size(), world, out);
+}
+
+}  // namespace internal
 
 }  // namespace skinspheres::runtime

@@ -3,12 +3,10 @@
 // distance, fast >= exact, the fast bound with the influences' reach never above the bound without
 // it (and below it on a case built for it), analytic single-joint and two-joint cases, 1 vs 2
 // threads, Validate() refusals, NaN.
-#include "skinspheres/runtime/refit_job.h"
-
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <bit>
 #include <cfloat>
@@ -19,6 +17,7 @@
 #include "posed_characters.h"
 #include "refit_internal.h"  // runtime/src: pins the instruction set of the fast refit
 #include "runtime/sample_sphere_set.h"
+#include "skinspheres/runtime/refit_job.h"
 
 namespace skinspheres::runtime {
 namespace {
@@ -240,6 +239,26 @@ void AtEveryRefitLevel(const std::string& what, Check&& check) {
   }
 }
 
+// count random poses of the character's joints (seeded); every second one with every linear
+// coefficient perturbed and far translations, so any affine map, not a skeleton's motion.
+std::vector<std::vector<skinspheres::Mat4f>> AnyAffinePoses(const FittedCharacter& fc, uint32_t seed, int count) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> noise(-0.05f, 0.05f), far(-300.0f, 300.0f);
+  std::vector<std::vector<skinspheres::Mat4f>> worlds;
+  for (int p = 0; p < count; ++p) {
+    Pose pose = test::MakePose(fc.character, test::RandomLocal(fc.character, rng, 90.0f, 0.3f), "random");
+    if (p % 2 == 1) {
+      for (auto& g : pose.world) {
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) g(i, j) += noise(rng);
+        for (int i = 0; i < 3; ++i) g(i, 3) += far(rng);
+      }
+    }
+    worlds.push_back(std::move(pose.world));
+  }
+  return worlds;
+}
+
 // The SIMD fast refit gives the scalar formula's bits: random poses with non-uniform scale, then
 // the same joint matrices with every coefficient perturbed and far translations (any affine map),
 // whole set and split ranges, at every instruction set.
@@ -253,21 +272,13 @@ void CheckFastBitsAtOneLevel(const std::string& name, int poses) {
   ASSERT_TRUE(fc);
   auto rest = RefitRestData::Create(fc->set);
   ASSERT_TRUE(rest.ok());
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<float> noise(-0.05f, 0.05f), far(-300.0f, 300.0f);
   size_t compared = 0;
+  const std::vector<std::vector<skinspheres::Mat4f>> worlds = AnyAffinePoses(*fc, 11, poses);
   for (int p = 0; p < poses; ++p) {
-    Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 90.0f, 0.3f), "random");
-    if (p % 2 == 1) {
-      for (auto& g : pose.world) {
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) g(i, j) += noise(rng);
-        for (int i = 0; i < 3; ++i) g(i, 3) += far(rng);
-      }
-    }
-    const auto want = ScalarFastRefit(fc->set, *rest, pose.world, rest->reach().data());
+    const std::vector<skinspheres::Mat4f>& world = worlds[p];
+    const auto want = ScalarFastRefit(fc->set, *rest, world, rest->reach().data());
     std::vector<skinspheres::Vec4f> got(fc->set.size()), split(fc->set.size());
-    RefitJob job{RefitMode::kFast, &fc->set, &*rest, pose.world, {}, got};
+    RefitJob job{RefitMode::kFast, &fc->set, &*rest, world, {}, got};
     ASSERT_TRUE(job.Run());
     job.out = split;
     for (size_t b = 0; b < fc->set.size(); b += 5) ASSERT_TRUE(job.RunRange(b, std::min(b + 5, fc->set.size())));
@@ -285,46 +296,58 @@ void CheckFastBitsAtOneLevel(const std::string& name, int poses) {
 
 TEST(RefitJobTest, FastModeBitIdenticalToScalarFormulaBuiltin) { CheckFastBits("builtin", 200); }
 
-// The paths the characters do not take: a sphere of more influences than the loop keeps moved
-// points for (16), and more joints than a call keeps stretches for on the stack (256). 300 joints
-// in a chain, sphere 0 on 20 of them, sphere 1 on the last; random affine joint matrices.
-TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
-  SphereSet set = TwoSpheres();
-  constexpr int kJoints = 300;
-  set.joint_names.clear();
-  set.joint_parents.clear();
-  for (int j = 0; j < kJoints; ++j) {
-    std::string name = "j";  // (not "j" + to_string: GCC 12 warns falsely of overlapping memcpy)
-    name += std::to_string(j);
-    set.joint_names.push_back(name);
-    set.joint_parents.push_back(j - 1);
-  }
-  std::mt19937 rng(17);
-  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  const auto random_affine = [&](float scale) {
+// A set of `joints` joints in a chain, sphere 0 on 20 of them (every 15th, modulo the chain), sphere 1
+// on the last; random affine rest matrices. RandomAffine(scale): identity plus scale x U(-1, 1) per
+// linear coefficient, translations U(-3, 3).
+struct ManyInfluences {
+  SphereSet set;
+  std::mt19937 rng{17};
+  skinspheres::Mat4f RandomAffine(float scale) {
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
     skinspheres::Mat4f g = skinspheres::Mat4f::Identity();
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) g(r, c) = (r == c ? 1.0f : 0.0f) + scale * u(rng);
       g(r, 3) = 3.0f * u(rng);
     }
     return g;
-  };
-  set.joint_rest_world.clear();
-  for (int j = 0; j < kJoints; ++j) set.joint_rest_world.push_back(random_affine(0.2f));
-  set.sphere_joint = {0, kJoints - 1};
-  set.influence_joints.clear();
-  set.influence_weights.clear();
-  for (int k = 0; k < 20; ++k) {
-    set.influence_joints.push_back(static_cast<uint16_t>(k * 15));
-    set.influence_weights.push_back(0.1f + 0.05f * static_cast<float>(k));
   }
-  set.influence_joints.push_back(kJoints - 1);
-  set.influence_weights.push_back(1.0f);
-  set.influence_offsets = {0, 20, 21};
-  // Small reaches (summing to more than 1, as Validate asks), so that the bound's sum term
-  // Σ W_j |d_j|, which reads every recomputed point, is the smaller one on some poses.
-  for (int k = 0; k < 20; ++k) set.influence_reach.push_back(0.06f + 0.01f * static_cast<float>(k % 3));
-  set.influence_reach.push_back(1.0f);
+  explicit ManyInfluences(int joints) {
+    set = TwoSpheres();
+    set.joint_names.clear();
+    set.joint_parents.clear();
+    for (int j = 0; j < joints; ++j) {
+      std::string name = "j";  // (not "j" + to_string: GCC 12 warns falsely of overlapping memcpy)
+      name += std::to_string(j);
+      set.joint_names.push_back(name);
+      set.joint_parents.push_back(j - 1);
+    }
+    set.joint_rest_world.clear();
+    for (int j = 0; j < joints; ++j) set.joint_rest_world.push_back(RandomAffine(0.2f));
+    set.sphere_joint = {0, static_cast<uint16_t>(joints - 1)};
+    set.influence_joints.clear();
+    set.influence_weights.clear();
+    for (int k = 0; k < 20; ++k) {
+      set.influence_joints.push_back(static_cast<uint16_t>((k * 15) % (joints - 1)));
+      set.influence_weights.push_back(0.1f + 0.05f * static_cast<float>(k));
+    }
+    set.influence_joints.push_back(static_cast<uint16_t>(joints - 1));
+    set.influence_weights.push_back(1.0f);
+    set.influence_offsets = {0, 20, 21};
+    // Small reaches (summing to more than 1, as Validate asks), so that the bound's sum term
+    // Σ W_j |d_j|, which reads every recomputed point, is the smaller one on some poses.
+    for (int k = 0; k < 20; ++k) set.influence_reach.push_back(0.06f + 0.01f * static_cast<float>(k % 3));
+    set.influence_reach.push_back(1.0f);
+  }
+};
+
+// The paths the characters do not take: a sphere of more influences than the loop keeps moved
+// points for (16), and more joints than a call keeps stretches for on the stack (256). 300 joints
+// in a chain, sphere 0 on 20 of them, sphere 1 on the last; random affine joint matrices.
+TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
+  constexpr int kJoints = 300;
+  ManyInfluences many(kJoints);
+  const SphereSet& set = many.set;
+  const auto random_affine = [&](float scale) { return many.RandomAffine(scale); };
   ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
   auto rest = RefitRestData::Create(set);
   ASSERT_TRUE(rest.ok()) << rest.error().message;
@@ -346,6 +369,102 @@ TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
   });
   EXPECT_GT(sum_term_smaller, 10) << "the sum term decided too few of the big sphere's radii";
   std::printf("sum term smaller on %d of the poses checked\n", sum_term_smaller);
+}
+
+// The crowd's batch (internal::RefitFastBatch: 16 instances of one set at once, one per AVX-512
+// lane) against the scalar formula, lane by lane, bit for bit. worlds: one joint-matrix array per
+// lane (lanes may share one, and then their output); bad: lanes expected to fail (non-finite).
+void CheckBatchLanes(const SphereSet& set, const RefitRestData& rest,
+                     const std::vector<const std::vector<skinspheres::Mat4f>*>& worlds, uint32_t bad,
+                     const std::string& what) {
+  ASSERT_EQ(worlds.size(), internal::kRefitBatchLanes);
+  std::vector<std::vector<skinspheres::Vec4f>> outs(worlds.size(), std::vector<skinspheres::Vec4f>(set.size()));
+  const float* world[internal::kRefitBatchLanes];
+  float* out[internal::kRefitBatchLanes];
+  for (size_t b = 0; b < worlds.size(); ++b) {
+    world[b] = reinterpret_cast<const float*>(worlds[b]->data());
+    size_t first = b;  // lanes that share a world share the output of the first of them
+    while (first > 0 && worlds[first - 1] == worlds[b]) --first;
+    out[b] = reinterpret_cast<float*>(outs[first].data());
+  }
+  internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
+  const uint32_t finite = internal::RefitFastBatch(set, rest, world, out);
+  ASSERT_EQ(internal::LastRefitSimdRun(), internal::RefitSimd::kAvx512) << what;
+  EXPECT_EQ(finite, 0xFFFFu & ~bad) << what;
+  for (size_t b = 0; b < worlds.size(); ++b) {
+    if ((bad >> b) & 1u) continue;
+    size_t first = b;
+    while (first > 0 && worlds[first - 1] == worlds[b]) --first;
+    const auto want = ScalarFastRefit(set, rest, *worlds[b], rest.reach().data());
+    for (size_t s = 0; s < set.size(); ++s) {
+      for (int c = 0; c < 4; ++c) {
+        ASSERT_EQ(std::bit_cast<uint32_t>(outs[first][s][c]), std::bit_cast<uint32_t>(want[s][c]))
+            << what << ": lane " << b << " sphere " << s << " coordinate " << c;
+      }
+    }
+  }
+}
+
+// 16 poses of the built-in character per batch, random (half of them with every coefficient
+// perturbed and far translations, any affine map), then a batch with a NaN in lane 7 (it alone
+// fails) and one whose lanes 5..15 repeat lane 4 (a crowd's last, partial batch).
+TEST(RefitJobTest, CrowdBatchGivesEachInstanceTheScalarBits) {
+  const PinnedRefit pin(internal::RefitSimd::kAvx512);
+  if (!pin.ok()) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd refits one instance at a time";
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  auto rest = RefitRestData::Create(fc->set);
+  ASSERT_TRUE(rest.ok());
+  ASSERT_TRUE(internal::RefitBatchUsable(fc->set));
+  const std::vector<std::vector<skinspheres::Mat4f>> poses = AnyAffinePoses(*fc, 23, 16 * 12);
+  for (size_t batch = 0; batch < poses.size() / 16; ++batch) {
+    std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
+    for (size_t b = 0; b < 16; ++b) lanes.push_back(&poses[16 * batch + b]);
+    CheckBatchLanes(fc->set, *rest, lanes, 0, "batch " + std::to_string(batch));
+  }
+  std::vector<skinspheres::Mat4f> nan_pose = poses[7];
+  nan_pose[fc->set.influence_joints[0]](1, 3) = std::numeric_limits<float>::quiet_NaN();
+  std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
+  for (size_t b = 0; b < 16; ++b) lanes.push_back(b == 7 ? &nan_pose : &poses[b]);
+  CheckBatchLanes(fc->set, *rest, lanes, 1u << 7, "NaN in lane 7");
+  for (size_t b = 5; b < 16; ++b) lanes[b] = lanes[4];
+  CheckBatchLanes(fc->set, *rest, lanes, 0, "lanes 5..15 repeat lane 4");
+}
+
+// The batch on a sphere of more influences than it keeps moved points for (20 > 16), and its limit
+// on joints: a set of more than kRefitBatchMaxJoints joints is not batched (nothing written).
+TEST(RefitJobTest, CrowdBatchManyInfluencesAndItsJointLimit) {
+  const PinnedRefit pin(internal::RefitSimd::kAvx512);
+  if (!pin.ok()) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd refits one instance at a time";
+  constexpr int kJoints = static_cast<int>(internal::kRefitBatchMaxJoints);
+  ManyInfluences many(kJoints);
+  ASSERT_FALSE(many.set.Validate().has_value()) << many.set.Validate()->message;
+  auto rest = RefitRestData::Create(many.set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  ASSERT_TRUE(internal::RefitBatchUsable(many.set));
+  for (int batch = 0; batch < 8; ++batch) {
+    std::vector<std::vector<skinspheres::Mat4f>> worlds(16);
+    std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
+    for (auto& w : worlds) {
+      for (int j = 0; j < kJoints; ++j) w.push_back(many.RandomAffine(0.5f));
+      lanes.push_back(&w);
+    }
+    CheckBatchLanes(many.set, *rest, lanes, 0, "20 influences, batch " + std::to_string(batch));
+  }
+  ManyInfluences too_many(kJoints + 1);
+  auto too_many_rest = RefitRestData::Create(too_many.set);
+  ASSERT_TRUE(too_many_rest.ok());
+  EXPECT_FALSE(internal::RefitBatchUsable(too_many.set));
+  std::vector<skinspheres::Mat4f> world(kJoints + 1, skinspheres::Mat4f::Identity());
+  std::vector<skinspheres::Vec4f> untouched(2, skinspheres::Vec4f::Constant(-1.0f));
+  const float* worlds[internal::kRefitBatchLanes];
+  float* outs[internal::kRefitBatchLanes];
+  for (size_t b = 0; b < internal::kRefitBatchLanes; ++b) {
+    worlds[b] = reinterpret_cast<const float*>(world.data());
+    outs[b] = reinterpret_cast<float*>(untouched.data());
+  }
+  EXPECT_EQ(internal::RefitFastBatch(too_many.set, *too_many_rest, worlds, outs), 0u);
+  EXPECT_EQ(untouched[0], skinspheres::Vec4f::Constant(-1.0f));
 }
 
 class SharedCharacterRefit : public ::testing::TestWithParam<std::string> {};
