@@ -41,8 +41,9 @@
 //                            instances, on a TBB arena of exactly 1 or 2 threads (thread_cpu.h),
 //                            with each thread's CPU time in the work next to the wall time. G_j(t)
 //                            per instance is precomputed per frame OUTSIDE the timed region.
-//                            simd: the refit's level as in BM_XbotRefitFast (1000 and 10,000
-//                            instances also at SSE2 and AVX2 side by side).
+//                            simd: the refit's level as in BM_XbotRefitFast, 3 = AVX-512 batches of
+//                            16 instances (0 picks it when the CPU has AVX-512F); 1000 and 10,000
+//                            instances also at SSE2, AVX2 (one at a time) and 3 side by side.
 //   BM_CrowdPose             the separate row for that input: LocalToModelJob per instance under
 //                            tbb::parallel_for (what an engine's animation system would do).
 //
@@ -377,13 +378,14 @@ void BM_XbotRefitExact(benchmark::State& state) {
 }
 BENCHMARK(BM_XbotRefitExact)->Arg(0)->Arg(1)->ArgName("fit")->Unit(benchmark::kMicrosecond);
 
-// The fast refit's instruction set for a row (range: 0 the CPU's best, 1 SSE2, 2 AVX2), unpinned
-// again when the row ends. False (row skipped) when the CPU lacks it.
+// The fast refit's instruction set for a row (range: 0 the CPU's best, 1 SSE2, 2 AVX2, 3 AVX-512: the
+// crowd's 16-instance batches, one instance alone at AVX2), unpinned again when the row ends. False
+// (row skipped) when the CPU lacks it.
 class PinnedRefit {
  public:
   PinnedRefit(benchmark::State& state, int64_t level) {
     constexpr rt::internal::RefitSimd kLevels[] = {rt::internal::RefitSimd::kAuto, rt::internal::RefitSimd::kSse2,
-                                                   rt::internal::RefitSimd::kAvx2};
+                                                   rt::internal::RefitSimd::kAvx2, rt::internal::RefitSimd::kAvx512};
     ok_ = rt::internal::PinRefitSimd(kLevels[level]);
     if (!ok_) state.SkipWithError("the CPU lacks this instruction set");
     else state.SetLabel(rt::internal::ToString(rt::internal::RefitSimdInUse()));
@@ -570,7 +572,7 @@ void BM_CrowdFast(benchmark::State& state) {
 }
 BENCHMARK(BM_CrowdFast)
     ->ArgsProduct({{0, 1}, {1, 10, 100, 1000, 10000}, {1, 2}, {0}})
-    ->ArgsProduct({{0}, {1000, 10000}, {1, 2}, {1, 2}})  // SSE2 and AVX2 refit side by side
+    ->ArgsProduct({{0}, {1000, 10000}, {1, 2}, {1, 2, 3}})  // SSE2, AVX2 and the AVX-512 batch side by side
     ->ArgNames({"fit", "instances", "threads", "simd"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();

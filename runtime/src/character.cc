@@ -9,6 +9,8 @@
 #include <cmath>
 #include <utility>
 
+#include "refit_internal.h"
+
 namespace skinspheres::runtime {
 
 Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet set, const NarrowPhaseSettings& narrow) {
@@ -95,6 +97,13 @@ FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joi
 
 FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joint_world,
                                       std::span<const Eigen::Vector3f> skinned_positions, bool keep_joints) {
+  RefitJob job;
+  if (!PrepareUpdate(mode, joint_world, skinned_positions, &job)) return status_;
+  return FinishUpdate(job.Run(), job.joint_world, keep_joints);
+}
+
+bool CharacterInstance::PrepareUpdate(RefitMode mode, std::span<const Mat4f> joint_world,
+                                      std::span<const Eigen::Vector3f> skinned_positions, RefitJob* job) {
   valid_ = false;
   queried_ = false;
   has_joints_ = false;
@@ -102,16 +111,16 @@ FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joi
   const SphereSet& set = asset_->sphere_set();
   if (mode != RefitMode::kExact && mode != RefitMode::kFast) {
     status_ = {ErrorCode::kInvalidArgument, "unknown refit mode"};
-    return status_;
+    return false;
   }
   if (mode == RefitMode::kExact && set.fast_only) {
     status_ = {ErrorCode::kInvalidArgument, "exact mode needs the full sphere set; this one was loaded fast-only"};
-    return status_;
+    return false;
   }
   if (mapped_ && !joint_world.empty()) {  // engine joint order: gather the joints the refit reads
     if (joint_world.size() < joint_input_count_) {
       status_ = {ErrorCode::kInvalidArgument, "fewer joint matrices than the engine joints the mapping was made for"};
-      return status_;
+      return false;
     }
     for (const auto& [set_joint, engine_joint] : gather_) joint_world_[set_joint] = joint_world[engine_joint];
     joint_world = joint_world_;
@@ -119,25 +128,28 @@ FrameStatus CharacterInstance::Update(RefitMode mode, std::span<const Mat4f> joi
   if (mode == RefitMode::kFast || !joint_world.empty()) {
     if (joint_world.size() < set.joint_count()) {
       status_ = {ErrorCode::kInvalidArgument, "fewer joint matrices than the asset's joints"};
-      return status_;
+      return false;
     }
   }
   if (mode == RefitMode::kExact && skinned_positions.size() < set.source_vertex_count) {
     status_ = {ErrorCode::kInvalidArgument, "fewer skinned positions than the asset's source vertices"};
-    return status_;
+    return false;
   }
-  RefitJob job;
-  job.mode = mode;
-  job.spheres = &set;
-  job.rest = &asset_->rest();
-  job.joint_world = joint_world;
-  job.positions = mode == RefitMode::kExact ? skinned_positions : std::span<const Eigen::Vector3f>();
-  job.out = spheres_;
-  if (!job.Validate()) {
+  job->mode = mode;
+  job->spheres = &set;
+  job->rest = &asset_->rest();
+  job->joint_world = joint_world;
+  job->positions = mode == RefitMode::kExact ? skinned_positions : std::span<const Eigen::Vector3f>();
+  job->out = spheres_;
+  if (!job->Validate()) {
     status_ = {ErrorCode::kInvalidArgument, "refit job refused (inconsistent asset or inputs)"};
-    return status_;
+    return false;
   }
-  if (!job.Run()) {
+  return true;
+}
+
+FrameStatus CharacterInstance::FinishUpdate(bool refit_ok, std::span<const Mat4f> joint_world, bool keep_joints) {
+  if (!refit_ok) {
     status_ = {ErrorCode::kInvalidData, "non-finite joint matrix or skinned position: spheres not updated"};
     return status_;
   }
@@ -241,14 +253,81 @@ void CharacterInstance::ReserveContacts(size_t count) {
 
 void CharacterInstance::ReserveSphereContacts(size_t count) { contacts_.reserve(count); }
 
+// The crowd calls' fast refit of up to kRefitBatchLanes instances of one asset at once (one per
+// AVX-512 lane, the same bits as each alone: refit_internal.h), then each instance's query (and
+// narrow phase) as CrowdStep runs them.
+struct CrowdBatch {
+  static FrameStatus AfterUpdate(CharacterInstance& inst, RefitMode mode, const CharacterFrameInput& input,
+                                 bool find_contacts) {
+    inst.Query();
+    if (inst.status().ok() && find_contacts) {
+      inst.FindContacts(mode == RefitMode::kExact ? input.skinned_positions : std::span<const Eigen::Vector3f>());
+    }
+    return inst.status();
+  }
+
+  // Instances [begin, end) with their inputs; true when all succeeded. Consecutive instances of one
+  // asset whose set the batch takes are refitted together, the others one by one (CrowdStep).
+  static bool Run(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
+                  RefitMode mode, bool find_contacts, size_t begin, size_t end) {
+    constexpr size_t kLanes = internal::kRefitBatchLanes;
+    bool all_ok = true;
+    for (size_t i = begin; i < end;) {
+      const CharacterAsset* asset = instances[i]->asset_.get();
+      size_t last = i + 1;  // the run of instances of this asset, at most kLanes
+      while (last < end && last - i < kLanes && instances[last]->asset_.get() == asset) ++last;
+      if (mode != RefitMode::kFast || last - i < 2 || !internal::RefitBatchUsable(asset->sphere_set())) {
+        for (; i < last; ++i) all_ok &= CrowdStep(*instances[i], mode, inputs[i], find_contacts).ok();
+        continue;
+      }
+      // Check each instance's inputs as Update does; the ones refused drop out of the batch.
+      RefitJob jobs[kLanes];
+      bool prepared[kLanes] = {};
+      size_t lane_of[kLanes];
+      const float* world[kLanes];
+      float* out[kLanes];
+      size_t lanes = 0;
+      for (size_t k = i; k < last; ++k) {
+        CharacterInstance& inst = *instances[k];
+        RefitJob& job = jobs[k - i];
+        if (!inst.PrepareUpdate(mode, inputs[k].joint_world, inputs[k].skinned_positions, &job)) {
+          all_ok = false;
+          continue;
+        }
+        prepared[k - i] = true;
+        lane_of[k - i] = lanes;
+        world[lanes] = reinterpret_cast<const float*>(job.joint_world.data());
+        out[lanes] = reinterpret_cast<float*>(job.out.data());
+        ++lanes;
+      }
+      uint32_t finite = 0;
+      if (lanes > 0) {
+        for (size_t b = lanes; b < kLanes; ++b) {  // idle lanes repeat the first (same bits, written twice)
+          world[b] = world[0];
+          out[b] = out[0];
+        }
+        finite = internal::RefitFastBatch(asset->sphere_set(), asset->rest(), world, out);
+      }
+      for (size_t k = i; k < last; ++k) {
+        CharacterInstance& inst = *instances[k];
+        if (!prepared[k - i]) continue;  // refused: status_ says why
+        const bool ok = (finite >> lane_of[k - i]) & 1u;
+        if (!inst.FinishUpdate(ok, jobs[k - i].joint_world, /*keep_joints=*/find_contacts).ok()) {
+          all_ok = false;
+          continue;
+        }
+        all_ok &= AfterUpdate(inst, mode, inputs[k], find_contacts).ok();
+      }
+      i = last;
+    }
+    return all_ok;
+  }
+};
+
 FrameStatus CrowdStep(CharacterInstance& inst, RefitMode mode, const CharacterFrameInput& input, bool find_contacts) {
   const FrameStatus st = inst.Update(mode, input.joint_world, input.skinned_positions, /*keep_joints=*/find_contacts);
   if (!st.ok()) return st;
-  inst.Query();
-  if (inst.status().ok() && find_contacts) {
-    inst.FindContacts(mode == RefitMode::kExact ? input.skinned_positions : std::span<const Eigen::Vector3f>());
-  }
-  return inst.status();
+  return CrowdBatch::AfterUpdate(inst, mode, input, find_contacts);
 }
 
 namespace {
@@ -264,9 +343,7 @@ FrameStatus RunCrowd(std::span<CharacterInstance* const> instances, std::span<co
   }
   std::atomic<bool> all_ok{true};
   parallel_for(instances.size(), 1, [&](size_t begin, size_t end) {
-    for (size_t i = begin; i < end; ++i) {
-      if (!CrowdStep(*instances[i], mode, inputs[i], find_contacts).ok()) all_ok.store(false, std::memory_order_relaxed);
-    }
+    if (!CrowdBatch::Run(instances, inputs, mode, find_contacts, begin, end)) all_ok.store(false, std::memory_order_relaxed);
   });
   if (!all_ok.load()) return {ErrorCode::kInvalidData, "at least one instance failed; see its status()"};
   return {};

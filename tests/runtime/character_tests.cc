@@ -3,8 +3,6 @@
 // is found, NaN input fails only its instance, crowd = serial for 1 and 2 threads, no allocation
 // per frame after the first.
 
-#include "skinspheres/runtime/character.h"
-
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
@@ -19,6 +17,8 @@
 
 #include "allocation_counter.h"
 #include "posed_characters.h"
+#include "refit_internal.h"  // runtime/src: pins the crowd's refit (batched or one at a time)
+#include "skinspheres/runtime/character.h"
 
 namespace skinspheres::runtime {
 namespace {
@@ -275,6 +275,102 @@ TEST(CharacterCrowdTest, CrowdEqualsSerialAndNaNFailsOnlyItsInstance) {
             ErrorCode::kInvalidArgument);
   EXPECT_EQ(UpdateAndQueryCrowd(none, std::span<const CharacterFrameInput>(inputs).first(2), RefitMode::kFast).code,
             ErrorCode::kInvalidArgument);
+}
+
+// The crowd calls refit up to 16 instances of one asset at once (one per AVX-512 lane, when the CPU
+// has it) and must give every instance the spheres, contacts and triangle contacts it gets alone.
+// 37 instances: 32 of one asset (two full batches) then 5 of another (a batch ends where the asset
+// changes: a partial one), two of them in an engine's joint order (a mapping), one with a NaN joint matrix
+// (it alone fails), one given too few joint matrices (refused before the refit); both crowd calls,
+// on the calling thread and on TBB, with the batch and with the crowd pinned to one instance at a
+// time (AVX2).
+TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto first = BuiltinAsset(&fc);
+  ASSERT_TRUE(first);
+  auto second = BuiltinAsset();  // the same set, another asset: batches do not mix assets
+  ASSERT_TRUE(second);
+  const auto& names = fc->character.skeleton.joint_names;
+  std::vector<std::string> reversed(names.rbegin(), names.rend());
+  auto mapping = MapJoints(first->sphere_set(), reversed);
+  ASSERT_TRUE(mapping.ok()) << mapping.error().message;
+  constexpr int kCount = 37;
+  const int nan_at = 20, short_at = 9;
+  const std::set<int> mapped = {3, 30};
+  std::mt19937 rng(5);
+  std::vector<test::Pose> poses;
+  std::vector<std::vector<Mat4f>> engine_order(kCount);
+  for (int i = 0; i < kCount; ++i) {
+    poses.push_back(test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, 0.2f), "r"));
+    engine_order[i].assign(poses[i].world.rbegin(), poses[i].world.rend());
+  }
+  poses[nan_at].world[fc->set.influence_joints[0]](0, 3) = std::numeric_limits<float>::quiet_NaN();
+  const auto asset_of = [&](int i) { return i < 32 ? first : second; };
+  const auto make = [&](int i) {
+    if (mapped.count(i)) {
+      auto inst = CharacterInstance::Create(asset_of(i), *mapping);
+      EXPECT_TRUE(inst.ok());
+      return std::move(inst).value();
+    }
+    return MakeInstance(asset_of(i));
+  };
+  std::vector<CharacterFrameInput> inputs;
+  for (int i = 0; i < kCount; ++i) {
+    std::span<const Mat4f> world = mapped.count(i) ? engine_order[i] : poses[i].world;
+    if (i == short_at) world = world.first(world.size() - 1);
+    inputs.push_back({world, {}});
+  }
+  // Each instance alone, one at a time (AVX2 or SSE2: the batch is not used by Update).
+  std::vector<CharacterInstance> alone;
+  for (int i = 0; i < kCount; ++i) {
+    alone.push_back(make(i));
+    alone.back().Update(RefitMode::kFast, inputs[i].joint_world, {});
+    if (alone.back().status().ok()) {
+      alone.back().Query();
+      alone.back().FindContacts();
+    }
+  }
+  ASSERT_FALSE(alone[nan_at].status().ok());
+  ASSERT_FALSE(alone[short_at].status().ok());
+  for (const bool batch : {true, false}) {
+    const internal::RefitSimd level = batch ? internal::RefitSimd::kAvx512 : internal::RefitSimd::kAvx2;
+    if (!internal::PinRefitSimd(level)) {
+      std::printf("crowd at %s not checked: the CPU lacks it\n", internal::ToString(level));
+      continue;
+    }
+    for (const bool find_contacts : {false, true}) {
+      for (const bool on_tbb : {false, true}) {
+        std::vector<CharacterInstance> crowd;
+        for (int i = 0; i < kCount; ++i) crowd.push_back(make(i));
+        std::vector<CharacterInstance*> ptrs;
+        for (auto& c : crowd) ptrs.push_back(&c);
+        internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
+        const ParallelFor& loop = on_tbb ? DefaultParallelFor() : SerialFor();
+        const FrameStatus st = find_contacts ? UpdateAndFindContactsCrowd(ptrs, inputs, RefitMode::kFast, loop)
+                                             : UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, loop);
+        const std::string what = std::string(internal::ToString(level)) +
+                                 (find_contacts ? ", find contacts" : ", query") + (on_tbb ? ", TBB" : ", serial");
+        if (!on_tbb) {
+          EXPECT_EQ(internal::LastRefitSimdRun(), level) << what;
+        }
+        EXPECT_EQ(st.code, ErrorCode::kInvalidData) << what;
+        for (int i = 0; i < kCount; ++i) {
+          ASSERT_EQ(crowd[i].status().ok(), alone[i].status().ok()) << what << ", instance " << i;
+          ASSERT_EQ(crowd[i].status().code, alone[i].status().code) << what << ", instance " << i;
+          EXPECT_EQ(crowd[i].spheres_valid(), alone[i].spheres_valid()) << what << ", instance " << i;
+          if (!alone[i].status().ok()) continue;
+          for (size_t s = 0; s < crowd[i].spheres().size(); ++s) {
+            ASSERT_EQ(crowd[i].spheres()[s], alone[i].spheres()[s]) << what << ", instance " << i << ", sphere " << s;
+          }
+          EXPECT_TRUE(std::ranges::equal(crowd[i].contacts(), alone[i].contacts())) << what << ", instance " << i;
+          if (find_contacts) {
+            EXPECT_EQ(crowd[i].frame_contacts(), alone[i].frame_contacts()) << what << ", instance " << i;
+          }
+        }
+      }
+    }
+  }
+  internal::PinRefitSimd(internal::RefitSimd::kAuto);
 }
 
 // ReserveContacts at set-up sizes the narrow phase's scratch too: the first FindContacts (with

@@ -166,11 +166,17 @@ class CharacterInstance {
 
  private:
   friend FrameStatus CrowdStep(CharacterInstance&, RefitMode, const CharacterFrameInput&, bool);
+  friend struct CrowdBatch;  // character.cc: the crowd calls' refit of several instances at once
   CharacterInstance() = default;
   // Update; keep_joints: also keep the joint matrices for FindContacts mode (b) (a copy of one
   // matrix per set joint; the broad-phase-only crowd call skips it).
   FrameStatus Update(RefitMode mode, std::span<const Mat4f> joint_world,
                      std::span<const Eigen::Vector3f> skinned_positions, bool keep_joints);
+  // Update in three steps: Prepare checks the inputs and gathers mapped joints (false: status_
+  // says why; *job then refits the spheres), the refit runs, Finish records its outcome.
+  bool PrepareUpdate(RefitMode mode, std::span<const Mat4f> joint_world,
+                     std::span<const Eigen::Vector3f> skinned_positions, RefitJob* job);
+  FrameStatus FinishUpdate(bool refit_ok, std::span<const Mat4f> joint_world, bool keep_joints);
   std::shared_ptr<const CharacterAsset> asset_;
   std::vector<Vec4f> spheres_;
   BroadPhaseContext context_;
