@@ -541,7 +541,7 @@ void BM_CrowdFast(benchmark::State& state) {
   instances.reserve(count);
   for (size_t k = 0; k < count; ++k) {
     // No ReserveContacts: it also sizes the narrow phase's scratch (about 570 KB for Xbot), which a
-    // broad-phase-only crowd never uses (10,000 instances: 5.7 GB of RSS with it, 0.47 GB without;
+    // broad-phase-only crowd never uses (10,000 instances: 5.3 GB of RSS with it, 0.47 GB without;
     // ReserveSphereContacts is the call for such a crowd). Create's room (4 contacts per sphere)
     // holds the ~22 contacts of a frame.
     instances.push_back(rt::CharacterInstance::Create(x->asset).value());

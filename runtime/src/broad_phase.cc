@@ -132,25 +132,6 @@ uint32_t OrderBits(float f) {
 
 bool ByPair(const Contact& p, const Contact& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; }
 
-// Removes, from contacts sorted by (i, j), the pairs the filter lists (merge with each row).
-void RemoveListed(const PairFilter& filter, std::vector<Contact>* contacts) {
-  size_t w = 0;
-  const size_t m = contacts->size();
-  Contact* c = contacts->data();
-  for (size_t r = 0; r < m;) {
-    const uint32_t i = c[r].i;
-    const std::span<const uint32_t> row = filter.excluded_partners(i);
-    const uint32_t* p = row.data();
-    const uint32_t* p_end = p + row.size();
-    for (; r < m && c[r].i == i; ++r) {
-      while (p < p_end && *p < c[r].j) ++p;
-      if (p < p_end && *p == c[r].j) continue;
-      c[w++] = c[r];
-    }
-  }
-  contacts->resize(w);
-}
-
 }  // namespace
 
 bool BroadPhaseSimdSupported(BroadPhaseSimd level) { return CpuHas(level); }
@@ -652,7 +633,8 @@ struct BroadPhaseContext::Impl {
   }
 
   // The direct path's sweep (one axis, no columns: a fallback for sets too dense for any cache):
-  // every touching pair into the output, unsorted, listed exclusions still in.
+  // every touching pair the filter allows into the output, unsorted (FlushDirect leaves out the
+  // listed exclusions, so the output never holds more than the frame's contacts).
   void SweepDirect() {
     Order(false);
     const kernels::SoaSpheres soa = SweepSoa();
@@ -783,12 +765,15 @@ struct BroadPhaseContext::Impl {
     return (ctx.build_cost_ + (frames - 1.0) * cached) / frames;
   }
 
-  // Streams the unsorted pairs (pi_, pj_)[0, m) as contacts into the output (direct sweep).
+  // Streams the unsorted pairs (pi_, pj_)[0, m) as contacts into the output (direct sweep), less
+  // the listed exclusions (the sweep's view has no bits for them).
   void FlushDirect(size_t m) {
     const uint32_t* pi = ctx.pi_.data();
     const uint32_t* pj = ctx.pj_.data();
+    const bool listed = filter.excluded_pair_count() > 0;
     for (size_t p = 0; p < m; ++p) {
       const uint32_t i = pi[p], j = pj[p];
+      if (listed && filter.excluded(i, j)) continue;
       job.out->push_back(Contact{i, j, internal::PenetrationDepth(Sphere(i), Sphere(j)), filter.part(i), filter.part(j)});
     }
   }
@@ -820,7 +805,6 @@ struct BroadPhaseContext::Impl {
     for (size_t s = 0; s < n; ++s) r[s] = Sphere(s).w();
     SweepDirect();
     std::sort(job.out->begin(), job.out->end(), ByPair);
-    RemoveListed(filter, job.out);
   }
 
   void TestCache() {

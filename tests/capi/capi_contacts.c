@@ -292,11 +292,13 @@ int main(int argc, char** argv) {
     check(strstr(skinspheres_last_error(), "too large") != NULL, "the refusal says too large", 0);
     check(skinspheres_instance_reserve_contacts(a, SIZE_MAX) == SKINSPHERES_OUT_OF_MEMORY, "SIZE_MAX contacts refused", 0);
     check(strstr(skinspheres_last_error(), "too large") != NULL, "the refusal says too large", 0);
+    check(skinspheres_instance_reserve_sphere_contacts(NULL, 8) == SKINSPHERES_INVALID_ARGUMENT,
+          "null instance refused", 0);
+    check(strstr(skinspheres_last_error(), "null instance") != NULL, "the null refusal says why", 0);
     check(skinspheres_instance_reserve_sphere_contacts(a, SIZE_MAX) == SKINSPHERES_OUT_OF_MEMORY,
           "SIZE_MAX sphere contacts refused", 0);
     check(strstr(skinspheres_last_error(), "too large") != NULL, "the sphere refusal says too large", 0);
-    check(skinspheres_instance_reserve_sphere_contacts(NULL, 8) == SKINSPHERES_INVALID_ARGUMENT,
-          "null instance refused", 0);
+    check(skinspheres_instance_reserve_sphere_contacts(c, 256) == SKINSPHERES_OK, "sphere contacts reserved", 0);
   }
   skinspheres_asset_release(json);
   skinspheres_asset_release(fast_only);

@@ -416,6 +416,33 @@ TEST(BroadPhaseTest, ASpaceOfCharactersInOneClumpHasMoreContactsBetweenThemThanT
   }
 }
 
+// The direct sweep (a set above kAllPairsMax too dense for any cache) writes only the contacts the
+// filter allows. With the output reserved for exactly the frame's contacts, the frame allocates
+// nothing: the touching pairs that the filter lists (30% here) no longer pass through the output
+// first (which made ReserveContacts / ReserveSphereContacts of the contact count not enough).
+TEST(BroadPhaseTest, DirectSweepOutputHoldsNoMoreThanTheContacts) {
+  for (const BroadPhaseSimd level : SupportedLevels()) {
+    Spheres line(600);
+    for (size_t k = 0; k < line.size(); ++k) line[k] = {1e-25f * float(k), 0.0f, 0.0f, 0.0f};
+    std::mt19937 rng(53);
+    const PairFilter f = MakeFilter(line.size(), 0.3, rng);
+    const std::vector<Contact> expected = Oracle(line, f);
+    ASSERT_GT(expected.size(), 50 * line.size());
+    BroadPhaseContext ctx(line.size());
+    std::vector<Contact> out;
+    out.reserve(expected.size());
+    long allocations = 0;
+    {
+      test::AllocationCounter counter;
+      ASSERT_TRUE((SelfCollisionJob{line, &f, &ctx, &out, level}.Run()));
+      allocations = counter.count();
+    }
+    EXPECT_EQ(ctx.last_method(), BroadPhaseMethod::kSweepDirect) << ToString(level);
+    EXPECT_EQ(out, expected) << ToString(level);
+    EXPECT_EQ(allocations, 0) << ToString(level);
+  }
+}
+
 TEST(BroadPhaseTest, SpheresCloserThanTheirSquaresResolveTouchOnEveryPath) {
   // Centres closer than about 2^-75 touch whatever their radii (the squares underflow to 0), so
   // the boxes and intervals the paths compare must be padded by more than that.

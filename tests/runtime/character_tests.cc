@@ -419,29 +419,36 @@ TEST(CharacterInstanceTest, ReserveSphereContactsPinsOnlyTheSphereContacts) {
   CharacterInstance reserved = MakeInstance(asset);
   reserved.ReserveSphereContacts(room);
   CharacterInstance plain = MakeInstance(asset);
-  std::vector<Contact> from_reserved;
-  from_reserved.reserve(room);
+  CharacterInstance both = MakeInstance(asset);  // the control: ReserveContacts sizes the narrow phase
+  both.ReserveContacts(room);
   {
     test::AllocationCounter counter;
     ASSERT_TRUE(reserved.UpdateExact(collapsed, {}).ok());
-    const std::span<const Contact> got = reserved.Query();
-    from_reserved.assign(got.begin(), got.end());
+    reserved.Query();
     EXPECT_EQ(counter.count(), 0);
   }
   ASSERT_TRUE(reserved.status().ok());
-  EXPECT_GT(from_reserved.size(), 4 * n);
+  EXPECT_GT(reserved.contacts().size(), 4 * n);
   {
     test::AllocationCounter counter;
     ASSERT_TRUE(plain.UpdateExact(collapsed, {}).ok());
     plain.Query();
     EXPECT_GE(counter.count(), 1);
   }
-  EXPECT_TRUE(std::ranges::equal(plain.contacts(), from_reserved));
+  EXPECT_TRUE(std::ranges::equal(plain.contacts(), reserved.contacts()));
+  ASSERT_TRUE(both.UpdateExact(collapsed, {}).ok());
+  both.Query();
   {
     test::AllocationCounter counter;
-    reserved.FindContacts(collapsed);
+    EXPECT_TRUE(both.FindContacts(collapsed).ok()) << both.status().message;
+    EXPECT_EQ(counter.count(), 0);
+  }
+  {
+    test::AllocationCounter counter;
+    EXPECT_TRUE(reserved.FindContacts(collapsed).ok()) << reserved.status().message;
     EXPECT_GE(counter.count(), 1);
   }
+  EXPECT_EQ(reserved.frame_contacts(), both.frame_contacts());
 }
 
 TEST(CharacterInstanceTest, NoAllocationPerFrameAfterTheFirst) {
