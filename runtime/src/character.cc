@@ -276,7 +276,7 @@ struct CrowdBatch {
       const CharacterAsset* asset = instances[i]->asset_.get();
       size_t last = i + 1;  // the run of instances of this asset, at most kLanes
       while (last < end && last - i < kLanes && instances[last]->asset_.get() == asset) ++last;
-      if (mode != RefitMode::kFast || last - i < 2 || !internal::RefitBatchUsable(asset->sphere_set())) {
+      if (mode != RefitMode::kFast || last - i < 2 || !internal::RefitBatchUsable()) {
         for (; i < last; ++i) all_ok &= CrowdStep(*instances[i], mode, inputs[i], find_contacts).ok();
         continue;
       }
@@ -332,24 +332,41 @@ FrameStatus CrowdStep(CharacterInstance& inst, RefitMode mode, const CharacterFr
 
 namespace {
 
-// Update + Query (+ FindContacts) of every instance through parallel_for.
-FrameStatus RunCrowd(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
-                     RefitMode mode, bool find_contacts, const ParallelFor& parallel_for) {
+// The caller errors of the crowd calls: spans of different sizes, a null instance.
+FrameStatus CheckCrowd(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs) {
   if (instances.size() != inputs.size()) {
     return {ErrorCode::kInvalidArgument, "instances and inputs differ in count"};
   }
   for (CharacterInstance* inst : instances) {
     if (inst == nullptr) return {ErrorCode::kInvalidArgument, "null instance"};
   }
+  return {};
+}
+
+constexpr FrameStatus kSomeFailed{ErrorCode::kInvalidData, "at least one instance failed; see its status()"};
+
+// Update + Query (+ FindContacts) of every instance through parallel_for, each range as CrowdRange.
+FrameStatus RunCrowd(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
+                     RefitMode mode, bool find_contacts, const ParallelFor& parallel_for) {
+  if (const FrameStatus st = CheckCrowd(instances, inputs); !st.ok()) return st;
   std::atomic<bool> all_ok{true};
   parallel_for(instances.size(), 1, [&](size_t begin, size_t end) {
-    if (!CrowdBatch::Run(instances, inputs, mode, find_contacts, begin, end)) all_ok.store(false, std::memory_order_relaxed);
+    if (!CrowdBatch::Run(instances, inputs, mode, find_contacts, begin, end)) {
+      all_ok.store(false, std::memory_order_relaxed);
+    }
   });
-  if (!all_ok.load()) return {ErrorCode::kInvalidData, "at least one instance failed; see its status()"};
+  if (!all_ok.load()) return kSomeFailed;
   return {};
 }
 
 }  // namespace
+
+FrameStatus CrowdRange(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
+                       RefitMode mode, bool find_contacts) {
+  if (const FrameStatus st = CheckCrowd(instances, inputs); !st.ok()) return st;
+  if (!CrowdBatch::Run(instances, inputs, mode, find_contacts, 0, instances.size())) return kSomeFailed;
+  return {};
+}
 
 FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
                                 std::span<const CharacterFrameInput> inputs, RefitMode mode,

@@ -1,8 +1,9 @@
 // The fast refit's vector code (refit_fast.inc), compiled once for SSE2 (every x86-64) and once for
-// AVX2 (refit_fast_avx2.cc), and the choice between them at run time. Both levels evaluate the
-// header's formula with the same float operations in the same order, so they give the same bits
-// (tests/runtime/refit_job_tests.cc compares each with the scalar formula); the choice is a matter
-// of speed only, and RefitJob has no field for it. Tests and benchmarks pin a level here.
+// AVX2 (refit_fast_avx2.cc), and the choice between them at run time; and the crowd calls' refit of
+// 16 instances at once in AVX-512 lanes (refit_batch_avx512.cc), used when the CPU has AVX-512F.
+// All of them evaluate the header's formula with the same float operations in the same order, so
+// they give the same bits (tests/runtime/refit_job_tests.cc compares each with the scalar formula);
+// the choice is a matter of speed only, and RefitJob has no field for it. Tests and benchmarks pin a level here.
 // With -DSKINSPHERES_AVX2=ON the whole runtime is compiled for AVX2, and the "SSE2" copy is then
 // VEX code too: compare the two levels in the default build.
 #pragma once
@@ -60,16 +61,14 @@ bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
 // The fast refit of kRefitBatchLanes instances of one set at once (refit_batch_avx512.cc): lane b
 // reads world[b] (a's world is not read) and writes out[b], with the same bits as
 // RefitFastRange(a, 0, sphere_count) for that instance alone. Returns the mask of lanes whose
-// spheres are finite (RefitFastRange's result per lane); 0 when the set has more than
-// kRefitBatchMaxJoints joints (then nothing is written: refit one by one). A lane may repeat
-// another's world and out (the same bits are written twice). Only when the CPU has AVX-512F.
+// spheres are finite (RefitFastRange's result per lane). A lane may repeat another's world and out
+// (the same bits are written twice). Only when the CPU has AVX-512F.
 constexpr size_t kRefitBatchLanes = 16;
-constexpr size_t kRefitBatchMaxJoints = 128;  // each joint's stretch on the stack: 64 bytes per joint
-// Whether the crowd calls refit this set's instances kRefitBatchLanes at a time (RefitSimdInUse() is
-// kAvx512 and the set has at most kRefitBatchMaxJoints joints), and the call that does it (refit_job.cc;
-// world[b]: 16 floats per set joint, out[b]: 4 floats per sphere). The caller has checked every
+// Whether the crowd calls refit kRefitBatchLanes instances at a time (RefitSimdInUse() is kAvx512),
+// and the call that does it (refit_job.cc; world[b]: 16 floats per set joint, out[b]: 4 floats per
+// sphere), which the caller makes only when RefitBatchUsable() said yes, having checked every
 // lane's inputs as RefitJob::Validate does.
-bool RefitBatchUsable(const SphereSet& set);
+bool RefitBatchUsable();
 uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
                         float* const out[kRefitBatchLanes]);
 namespace avx512 {

@@ -183,7 +183,7 @@ const char* ToString(RefitSimd level) {
     case RefitSimd::kAvx2:
       return "avx2";
     case RefitSimd::kAvx512:
-      return "avx512 (crowd batches)";
+      return "avx512 (crowd batches; avx2 alone)";
   }
   return "unknown";
 }
@@ -297,13 +297,10 @@ bool RefitParallel(const RefitJob& job, size_t grain, const ParallelFor& paralle
 
 namespace internal {
 
-bool RefitBatchUsable(const SphereSet& set) {
-  return RefitSimdInUse() == RefitSimd::kAvx512 && set.joint_count() <= kRefitBatchMaxJoints;
-}
+bool RefitBatchUsable() { return RefitSimdInUse() == RefitSimd::kAvx512; }
 
 uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
                         float* const out[kRefitBatchLanes]) {
-  if (!RefitBatchUsable(set)) return 0;
   return avx512::RefitFastBatch16(SharedArrays(set, rest), set.size(), world, out);
 }
 

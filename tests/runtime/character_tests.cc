@@ -282,8 +282,9 @@ TEST(CharacterCrowdTest, CrowdEqualsSerialAndNaNFailsOnlyItsInstance) {
 // 37 instances: 32 of one asset (two full batches) then 5 of another (a batch ends where the asset
 // changes: a partial one), two of them in an engine's joint order (a mapping), one with a NaN joint matrix
 // (it alone fails), one given too few joint matrices (refused before the refit); both crowd calls,
-// on the calling thread and on TBB, with the batch and with the crowd pinned to one instance at a
-// time (AVX2).
+// on the calling thread and on TBB, and CrowdRange over an engine's ranges of 16; with the batch
+// and with the crowd pinned to one instance at a time (AVX2). Skipped, saying so, when the CPU
+// lacks AVX-512F (after checking the one-at-a-time crowd).
 TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
   std::shared_ptr<const test::FittedCharacter> fc;
   auto first = BuiltinAsset(&fc);
@@ -332,25 +333,42 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
   }
   ASSERT_FALSE(alone[nan_at].status().ok());
   ASSERT_FALSE(alone[short_at].status().ok());
-  for (const bool batch : {true, false}) {
+  struct Pin {  // the crowd's refit pinned for a scope
+    bool ok;
+    explicit Pin(internal::RefitSimd level) : ok(internal::PinRefitSimd(level)) {}
+    ~Pin() { internal::PinRefitSimd(internal::RefitSimd::kAuto); }
+  };
+  bool batch_checked = false;
+  for (const bool batch : {false, true}) {
     const internal::RefitSimd level = batch ? internal::RefitSimd::kAvx512 : internal::RefitSimd::kAvx2;
-    if (!internal::PinRefitSimd(level)) {
-      std::printf("crowd at %s not checked: the CPU lacks it\n", internal::ToString(level));
-      continue;
-    }
+    const Pin pin(level);
+    if (!pin.ok) continue;
+    batch_checked |= batch;
     for (const bool find_contacts : {false, true}) {
-      for (const bool on_tbb : {false, true}) {
+      for (const int loop_kind : {0, 1, 2}) {  // serial, TBB, CrowdRange over ranges of 16
         std::vector<CharacterInstance> crowd;
         for (int i = 0; i < kCount; ++i) crowd.push_back(make(i));
         std::vector<CharacterInstance*> ptrs;
         for (auto& c : crowd) ptrs.push_back(&c);
         internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
-        const ParallelFor& loop = on_tbb ? DefaultParallelFor() : SerialFor();
-        const FrameStatus st = find_contacts ? UpdateAndFindContactsCrowd(ptrs, inputs, RefitMode::kFast, loop)
-                                             : UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, loop);
+        FrameStatus st;
+        if (loop_kind == 2) {
+          for (size_t begin = 0; begin < ptrs.size(); begin += 16) {
+            const size_t count = std::min<size_t>(16, ptrs.size() - begin);
+            const FrameStatus range = CrowdRange(std::span(ptrs).subspan(begin, count),
+                                                 std::span(inputs).subspan(begin, count), RefitMode::kFast,
+                                                 find_contacts);
+            if (!range.ok()) st = range;
+          }
+        } else {
+          const ParallelFor& loop = loop_kind == 1 ? DefaultParallelFor() : SerialFor();
+          st = find_contacts ? UpdateAndFindContactsCrowd(ptrs, inputs, RefitMode::kFast, loop)
+                             : UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, loop);
+        }
         const std::string what = std::string(internal::ToString(level)) +
-                                 (find_contacts ? ", find contacts" : ", query") + (on_tbb ? ", TBB" : ", serial");
-        if (!on_tbb) {
+                                 (find_contacts ? ", find contacts" : ", query") +
+                                 (loop_kind == 0 ? ", serial" : loop_kind == 1 ? ", TBB" : ", CrowdRange");
+        if (loop_kind != 1) {
           EXPECT_EQ(internal::LastRefitSimdRun(), level) << what;
         }
         EXPECT_EQ(st.code, ErrorCode::kInvalidData) << what;
@@ -370,7 +388,7 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
       }
     }
   }
-  internal::PinRefitSimd(internal::RefitSimd::kAuto);
+  if (!batch_checked) GTEST_SKIP() << "the CPU lacks AVX-512F: only the one-at-a-time crowd was checked";
 }
 
 // ReserveContacts at set-up sizes the narrow phase's scratch too: the first FindContacts (with

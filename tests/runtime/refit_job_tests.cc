@@ -296,8 +296,8 @@ void CheckFastBitsAtOneLevel(const std::string& name, int poses) {
 
 TEST(RefitJobTest, FastModeBitIdenticalToScalarFormulaBuiltin) { CheckFastBits("builtin", 200); }
 
-// A set of `joints` joints in a chain, sphere 0 on 20 of them (every 15th, modulo the chain), sphere 1
-// on the last; random affine rest matrices. RandomAffine(scale): identity plus scale x U(-1, 1) per
+// A set of `joints` joints in a chain, sphere 0 on `influences` of them (every `stride`th, modulo the
+// chain), sphere 1 on the last; random affine rest matrices. RandomAffine(scale): identity plus scale x U(-1, 1) per
 // linear coefficient, translations U(-3, 3).
 struct ManyInfluences {
   SphereSet set;
@@ -311,7 +311,7 @@ struct ManyInfluences {
     }
     return g;
   }
-  explicit ManyInfluences(int joints) {
+  explicit ManyInfluences(int joints, int influences = 20, int stride = 15) {
     set = TwoSpheres();
     set.joint_names.clear();
     set.joint_parents.clear();
@@ -326,16 +326,17 @@ struct ManyInfluences {
     set.sphere_joint = {0, static_cast<uint16_t>(joints - 1)};
     set.influence_joints.clear();
     set.influence_weights.clear();
-    for (int k = 0; k < 20; ++k) {
-      set.influence_joints.push_back(static_cast<uint16_t>((k * 15) % (joints - 1)));
+    for (int k = 0; k < influences; ++k) {
+      set.influence_joints.push_back(static_cast<uint16_t>((k * stride) % (joints - 1)));
       set.influence_weights.push_back(0.1f + 0.05f * static_cast<float>(k));
     }
     set.influence_joints.push_back(static_cast<uint16_t>(joints - 1));
     set.influence_weights.push_back(1.0f);
-    set.influence_offsets = {0, 20, 21};
+    set.influence_offsets = {0, static_cast<uint32_t>(influences), static_cast<uint32_t>(influences) + 1};
     // Small reaches (summing to more than 1, as Validate asks), so that the bound's sum term
     // Σ W_j |d_j|, which reads every recomputed point, is the smaller one on some poses.
-    for (int k = 0; k < 20; ++k) set.influence_reach.push_back(0.06f + 0.01f * static_cast<float>(k % 3));
+    const float base = influences >= 20 ? 0.06f : 0.3f;
+    for (int k = 0; k < influences; ++k) set.influence_reach.push_back(base + 0.01f * static_cast<float>(k % 3));
     set.influence_reach.push_back(1.0f);
   }
 };
@@ -415,7 +416,7 @@ TEST(RefitJobTest, CrowdBatchGivesEachInstanceTheScalarBits) {
   ASSERT_TRUE(fc);
   auto rest = RefitRestData::Create(fc->set);
   ASSERT_TRUE(rest.ok());
-  ASSERT_TRUE(internal::RefitBatchUsable(fc->set));
+  ASSERT_TRUE(internal::RefitBatchUsable());
   const std::vector<std::vector<skinspheres::Mat4f>> poses = AnyAffinePoses(*fc, 23, 16 * 12);
   for (size_t batch = 0; batch < poses.size() / 16; ++batch) {
     std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
@@ -431,40 +432,30 @@ TEST(RefitJobTest, CrowdBatchGivesEachInstanceTheScalarBits) {
   CheckBatchLanes(fc->set, *rest, lanes, 0, "lanes 5..15 repeat lane 4");
 }
 
-// The batch on a sphere of more influences than it keeps moved points for (20 > 16), and its limit
-// on joints: a set of more than kRefitBatchMaxJoints joints is not batched (nothing written).
-TEST(RefitJobTest, CrowdBatchManyInfluencesAndItsJointLimit) {
+// The batch on a sphere of more influences than it keeps moved points for (20 > 8), and on one of 6
+// whose joints all share one slot of its stretch table (every 16th joint: each stretch evicts the
+// last, so the second pass computes them again), on a set of 300 joints.
+TEST(RefitJobTest, CrowdBatchManyInfluencesAndJoints) {
   const PinnedRefit pin(internal::RefitSimd::kAvx512);
   if (!pin.ok()) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd refits one instance at a time";
-  constexpr int kJoints = static_cast<int>(internal::kRefitBatchMaxJoints);
-  ManyInfluences many(kJoints);
-  ASSERT_FALSE(many.set.Validate().has_value()) << many.set.Validate()->message;
-  auto rest = RefitRestData::Create(many.set);
-  ASSERT_TRUE(rest.ok()) << rest.error().message;
-  ASSERT_TRUE(internal::RefitBatchUsable(many.set));
-  for (int batch = 0; batch < 8; ++batch) {
-    std::vector<std::vector<skinspheres::Mat4f>> worlds(16);
-    std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
-    for (auto& w : worlds) {
-      for (int j = 0; j < kJoints; ++j) w.push_back(many.RandomAffine(0.5f));
-      lanes.push_back(&w);
+  constexpr int kJoints = 300;
+  for (const auto& [influences, stride] : {std::pair{20, 15}, std::pair{6, 16}}) {
+    ManyInfluences many(kJoints, influences, stride);
+    ASSERT_FALSE(many.set.Validate().has_value()) << many.set.Validate()->message;
+    auto rest = RefitRestData::Create(many.set);
+    ASSERT_TRUE(rest.ok()) << rest.error().message;
+    ASSERT_TRUE(internal::RefitBatchUsable());
+    for (int batch = 0; batch < 8; ++batch) {
+      std::vector<std::vector<skinspheres::Mat4f>> worlds(16);
+      std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
+      for (auto& w : worlds) {
+        for (int j = 0; j < kJoints; ++j) w.push_back(many.RandomAffine(0.5f));
+        lanes.push_back(&w);
+      }
+      CheckBatchLanes(many.set, *rest, lanes, 0,
+                      std::to_string(influences) + " influences, 300 joints, batch " + std::to_string(batch));
     }
-    CheckBatchLanes(many.set, *rest, lanes, 0, "20 influences, batch " + std::to_string(batch));
   }
-  ManyInfluences too_many(kJoints + 1);
-  auto too_many_rest = RefitRestData::Create(too_many.set);
-  ASSERT_TRUE(too_many_rest.ok());
-  EXPECT_FALSE(internal::RefitBatchUsable(too_many.set));
-  std::vector<skinspheres::Mat4f> world(kJoints + 1, skinspheres::Mat4f::Identity());
-  std::vector<skinspheres::Vec4f> untouched(2, skinspheres::Vec4f::Constant(-1.0f));
-  const float* worlds[internal::kRefitBatchLanes];
-  float* outs[internal::kRefitBatchLanes];
-  for (size_t b = 0; b < internal::kRefitBatchLanes; ++b) {
-    worlds[b] = reinterpret_cast<const float*>(world.data());
-    outs[b] = reinterpret_cast<float*>(untouched.data());
-  }
-  EXPECT_EQ(internal::RefitFastBatch(too_many.set, *too_many_rest, worlds, outs), 0u);
-  EXPECT_EQ(untouched[0], skinspheres::Vec4f::Constant(-1.0f));
 }
 
 class SharedCharacterRefit : public ::testing::TestWithParam<std::string> {};

@@ -212,11 +212,21 @@ struct CharacterFrameInput {
 FrameStatus CrowdStep(CharacterInstance& instance, RefitMode mode, const CharacterFrameInput& input,
                       bool find_contacts);
 
+// CrowdStep for instances[i] with inputs[i], one after the other on the calling thread, except
+// that consecutive instances of one asset are refitted together in fast mode: 16 at a time, one per
+// AVX-512 lane, when the CPU has AVX-512F (each gets the bits it gets alone; several times faster
+// per instance than one at a time). What the crowd calls below run on each range their parallel_for
+// hands out; for an engine that runs its own loop, give it ranges of instances ordered by asset, 16
+// or more long. Returns kInvalidArgument (and runs nothing) when the spans differ in size or a
+// pointer is null; kInvalidData when at least one instance failed (its status() says why); kOk.
+FrameStatus CrowdRange(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
+                       RefitMode mode, bool find_contacts);
+
 // Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (parallel_for, grain
-// 1 instance). It does not keep the joint matrices for FindContacts mode (b) (a copy of every
-// joint's matrix per instance and frame, a tenth of a 10,000-character crowd's frame): a
-// FindContacts without positions after it is refused until the next Update, UpdateFast or
-// UpdateAndFindContactsCrowd. Returns kInvalidArgument (and runs nothing) when the spans differ in
+// 1 instance; each range it hands out runs as CrowdRange, so instances ordered by asset batch). It
+// does not keep the joint matrices for FindContacts mode (b) (a copy of every joint's matrix per
+// instance and frame, a tenth of a 10,000-character crowd's frame): a FindContacts without
+// positions after it is refused until the next Update, UpdateFast or UpdateAndFindContactsCrowd. Returns kInvalidArgument (and runs nothing) when the spans differ in
 // size or an instance pointer is null (listing the same instance twice is a data race the caller
 // must avoid); kInvalidData when at least one instance failed (each instance's
 // status() says why; the others are fully updated); kOk otherwise.
