@@ -266,8 +266,8 @@ struct CrowdBatch {
     return inst.status();
   }
 
-  // Instances [begin, end) with their inputs; true when all succeeded. Consecutive instances of one
-  // asset whose set the batch takes are refitted together, the others one by one (CrowdStep).
+  // Instances [begin, end) with their inputs; true when all succeeded. In fast mode, with AVX-512F,
+  // consecutive instances of one asset are refitted together; the others one by one (CrowdStep).
   static bool Run(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
                   RefitMode mode, bool find_contacts, size_t begin, size_t end) {
     constexpr size_t kLanes = internal::kRefitBatchLanes;
