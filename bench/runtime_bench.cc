@@ -42,8 +42,10 @@
 //                            with each thread's CPU time in the work next to the wall time. G_j(t)
 //                            per instance is precomputed per frame OUTSIDE the timed region.
 //                            simd: the refit's level as in BM_XbotRefitFast, 3 = AVX-512 batches of
-//                            16 instances (0 picks it when the CPU has AVX-512F); 1000 and 10,000
-//                            instances also at SSE2, AVX2 (one at a time) and 3 side by side.
+//                            16 instances refitted at once, then queried one by one, 4 = refitted
+//                            and queried at once (0 picks 4 when the CPU has AVX-512F); 1000 and
+//                            10,000 instances also at SSE2, AVX2 (one at a time), 3 and 4 side by
+//                            side, and the denser fits 2 and 3 at 1000 instances, one thread.
 //   BM_CrowdPose             the separate row for that input: LocalToModelJob per instance under
 //                            tbb::parallel_for (what an engine's animation system would do).
 //
@@ -76,7 +78,8 @@
 #include "skinspheres/skinning/skinning_matrices_job.h"
 
 #include "peer_broad_phases.h"
-#include "refit_internal.h"  // runtime/src: pins the fast refit's instruction set for a row
+#include "crowd_query_internal.h"  // runtime/src: the crowd's query batched or one by one
+#include "refit_internal.h"        // runtime/src: pins the fast refit's instruction set for a row
 #include "thread_cpu.h"
 
 namespace {
@@ -184,7 +187,9 @@ void Fail(Xbot* x, std::string message) { x->error = std::move(message); }
 
 // Fit variants: 0 = default FitSettings (tightening on: centre search, hand-over, splitting up
 // to max_spheres); 1 = FitSettings::tighten = false, the paper's spheres after ownership and
-// refinement only: fewer, looser spheres. The `spheres` counter of every row says how many.
+// refinement only: fewer, looser spheres; 2 and 3 = split on towards 160 and 256 spheres (no
+// standoff target, split_gain 0.99), denser sets for the crowd's rows. The `spheres` counter of
+// every row says how many.
 // Fills *x, or sets x->error and returns at the first failure.
 void Load(Xbot* x, int variant) {
   const std::filesystem::path file = std::filesystem::path(SKINSPHERES_ASSET_DIR) / "Xbot.glb";
@@ -202,6 +207,11 @@ void Load(Xbot* x, int variant) {
   const auto t0 = std::chrono::steady_clock::now();
   lib::FitSettings settings;
   if (variant == 1) settings.tighten = false;
+  if (variant >= 2) {  // denser sets, to see how the crowd's batched query scales with the sphere count
+    settings.target_standoff = 0.0f;
+    settings.split_gain = 0.99f;
+    settings.max_spheres = variant == 2 ? 160 : 256;
+  }
   auto fit = lib::FitSpheres(x->ch, x->parts, settings);
   x->fit_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   if (!fit.ok()) return Fail(x, fit.error().message);
@@ -269,7 +279,7 @@ std::unique_ptr<Xbot> LoadXbot(int variant) {
 
 // variant: see "Fit variants" above. Loaded once per variant, on first use.
 const Xbot* GetXbot(benchmark::State& state, int variant = 0) {
-  static std::unique_ptr<Xbot> cache[2];
+  static std::unique_ptr<Xbot> cache[4];
   std::unique_ptr<Xbot>& xbot = cache[variant];
   if (!xbot) xbot = LoadXbot(variant);
   if (!xbot->error.empty()) {
@@ -379,18 +389,25 @@ void BM_XbotRefitExact(benchmark::State& state) {
 BENCHMARK(BM_XbotRefitExact)->Arg(0)->Arg(1)->ArgName("fit")->Unit(benchmark::kMicrosecond);
 
 // The fast refit's instruction set for a row (range: 0 the CPU's best, 1 SSE2, 2 AVX2, 3 AVX-512: the
-// crowd's 16-instance batches, one instance alone at AVX2), unpinned again when the row ends. False
-// (row skipped) when the CPU lacks it.
+// crowd's 16-instance batches refitted at once and then queried one by one, 4 AVX-512 with the
+// batch's query at once too, what the CPU's best does; one instance alone refits at AVX2), unpinned
+// again when the row ends. False (row skipped) when the CPU lacks it.
 class PinnedRefit {
  public:
   PinnedRefit(benchmark::State& state, int64_t level) {
     constexpr rt::internal::RefitSimd kLevels[] = {rt::internal::RefitSimd::kAuto, rt::internal::RefitSimd::kSse2,
-                                                   rt::internal::RefitSimd::kAvx2, rt::internal::RefitSimd::kAvx512};
+                                                   rt::internal::RefitSimd::kAvx2, rt::internal::RefitSimd::kAvx512,
+                                                   rt::internal::RefitSimd::kAvx512};
     ok_ = rt::internal::PinRefitSimd(kLevels[level]);
+    rt::internal::SetCrowdQueryBatched(level != 3);
     if (!ok_) state.SkipWithError("the CPU lacks this instruction set");
-    else state.SetLabel(rt::internal::ToString(rt::internal::RefitSimdInUse()));
+    else state.SetLabel(std::string(rt::internal::ToString(rt::internal::RefitSimdInUse())) +
+                        (level == 3 ? ", query one by one" : ""));
   }
-  ~PinnedRefit() { rt::internal::PinRefitSimd(rt::internal::RefitSimd::kAuto); }
+  ~PinnedRefit() {
+    rt::internal::PinRefitSimd(rt::internal::RefitSimd::kAuto);
+    rt::internal::SetCrowdQueryBatched(true);
+  }
   PinnedRefit(const PinnedRefit&) = delete;
   PinnedRefit& operator=(const PinnedRefit&) = delete;
   bool ok() const { return ok_; }
@@ -572,7 +589,8 @@ void BM_CrowdFast(benchmark::State& state) {
 }
 BENCHMARK(BM_CrowdFast)
     ->ArgsProduct({{0, 1}, {1, 10, 100, 1000, 10000}, {1, 2}, {0}})
-    ->ArgsProduct({{0}, {1000, 10000}, {1, 2}, {1, 2, 3}})  // SSE2, AVX2 and the AVX-512 batch side by side
+    ->ArgsProduct({{0}, {1000, 10000}, {1, 2}, {1, 2, 3, 4}})  // SSE2, AVX2 and the AVX-512 batch side by side
+    ->ArgsProduct({{2, 3}, {1000}, {1}, {2, 3, 4}})  // denser sets: where the batch's query stops paying
     ->ArgNames({"fit", "instances", "threads", "simd"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();

@@ -113,7 +113,7 @@ inline V UnpackHi64(V a, V b) { return _mm512_castpd_ps(_mm512_unpackhi_pd(_mm51
 }  // namespace
 
 uint32_t RefitFastBatch16(const FastRefitArrays& a, size_t sphere_count, const float* const world[kRefitBatchLanes],
-                          float* const out[kRefitBatchLanes]) {
+                          float* const out[kRefitBatchLanes], float* soa) {
   NoteRefitSimdRun(RefitSimd::kAvx512);
   constexpr size_t kStretchSlots = 16;  // joint j in slot j % kStretchSlots
   alignas(64) float stretch[kStretchSlots][kRefitBatchLanes];
@@ -178,6 +178,13 @@ uint32_t RefitFastBatch16(const FastRefitArrays& a, size_t sphere_count, const f
           _mm512_cmp_ps_mask(_mm512_sub_ps(cy, cy), zero, _CMP_EQ_OQ) &
           _mm512_cmp_ps_mask(_mm512_sub_ps(cz, cz), zero, _CMP_EQ_OQ) &
           _mm512_cmp_ps_mask(_mm512_sub_ps(radius, radius), zero, _CMP_EQ_OQ);
+    if (soa != nullptr) {  // the same values, lanes side by side, for the crowd's batched query
+      float* q = soa + 64 * s;
+      _mm512_storeu_ps(q, cx);
+      _mm512_storeu_ps(q + 16, cy);
+      _mm512_storeu_ps(q + 32, cz);
+      _mm512_storeu_ps(q + 48, radius);
+    }
     // (x, y, z, radius) of the 16 lanes as 16 float4: v[k], 128-bit lane L is instance 4L + k.
     const V xy_lo = _mm512_unpacklo_ps(cx, cy), xy_hi = _mm512_unpackhi_ps(cx, cy);
     const V zr_lo = _mm512_unpacklo_ps(cz, radius), zr_hi = _mm512_unpackhi_ps(cz, radius);

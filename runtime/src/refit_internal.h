@@ -62,7 +62,9 @@ bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
 // reads world[b] (a's world is not read) and writes out[b], with the same bits as
 // RefitFastRange(a, 0, sphere_count) for that instance alone. Returns the mask of lanes whose
 // spheres are finite (RefitFastRange's result per lane). A lane may repeat another's world and out
-// (the same bits are written twice). Only when the CPU has AVX-512F.
+// (the same bits are written twice). soa, unless null, also receives the spheres lanes side by side
+// (64 floats per sphere: x, y, z, r of the 16 lanes; crowd_query_internal.h). Only when the CPU has
+// AVX-512F.
 constexpr size_t kRefitBatchLanes = 16;
 // Whether the crowd calls refit kRefitBatchLanes instances at a time (RefitSimdInUse() is kAvx512),
 // and the call that does it (refit_job.cc; world[b]: 16 floats per set joint, out[b]: 4 floats per
@@ -70,10 +72,10 @@ constexpr size_t kRefitBatchLanes = 16;
 // lane's inputs as RefitJob::Validate does.
 bool RefitBatchUsable();
 uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
-                        float* const out[kRefitBatchLanes]);
+                        float* const out[kRefitBatchLanes], float* soa = nullptr);
 namespace avx512 {
 uint32_t RefitFastBatch16(const FastRefitArrays& a, size_t sphere_count, const float* const world[kRefitBatchLanes],
-                          float* const out[kRefitBatchLanes]);
+                          float* const out[kRefitBatchLanes], float* soa);
 }
 
 }  // namespace skinspheres::runtime::internal

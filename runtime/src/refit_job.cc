@@ -300,8 +300,8 @@ namespace internal {
 bool RefitBatchUsable() { return RefitSimdInUse() == RefitSimd::kAvx512; }
 
 uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
-                        float* const out[kRefitBatchLanes]) {
-  return avx512::RefitFastBatch16(SharedArrays(set, rest), set.size(), world, out);
+                        float* const out[kRefitBatchLanes], float* soa) {
+  return avx512::RefitFastBatch16(SharedArrays(set, rest), set.size(), world, out, soa);
 }
 
 }  // namespace internal

@@ -296,7 +296,7 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
   auto mapping = MapJoints(first->sphere_set(), reversed);
   ASSERT_TRUE(mapping.ok()) << mapping.error().message;
   constexpr int kCount = 37;
-  const int nan_at = 20, short_at = 9;
+  const int nan_at = 20, short_at = 9, huge_at = 12;
   const std::set<int> mapped = {3, 30};
   std::mt19937 rng(5);
   std::vector<test::Pose> poses;
@@ -306,6 +306,8 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
     engine_order[i].assign(poses[i].world.rbegin(), poses[i].world.rend());
   }
   poses[nan_at].world[fc->set.influence_joints[0]](0, 3) = std::numeric_limits<float>::quiet_NaN();
+  // Finite spheres the broad phase refuses (centres beyond its 1e18 bound): the batch's query too.
+  for (Mat4f& g : poses[huge_at].world) g(0, 3) += 4e18f;
   const auto asset_of = [&](int i) { return i < 32 ? first : second; };
   const auto make = [&](int i) {
     if (mapped.count(i)) {
@@ -333,6 +335,8 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
   }
   ASSERT_FALSE(alone[nan_at].status().ok());
   ASSERT_FALSE(alone[short_at].status().ok());
+  ASSERT_FALSE(alone[huge_at].status().ok());
+  ASSERT_TRUE(alone[huge_at].spheres_valid());
   struct Pin {  // the crowd's refit pinned for a scope
     bool ok;
     explicit Pin(internal::RefitSimd level) : ok(internal::PinRefitSimd(level)) {}
@@ -389,6 +393,75 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
     }
   }
   if (!batch_checked) GTEST_SKIP() << "the CPU lacks AVX-512F: only the one-at-a-time crowd was checked";
+}
+
+// The crowd's batched query (16 instances of one asset per AVX-512 lane) against the all-pairs
+// oracle over a clip, every instance at its own point of the clip, frames of the crowd call
+// alternating with frames where each instance runs alone (its candidate cache then restarts from
+// a state the batch left behind), every frame's contacts equal to the oracle's; and the crowd call
+// allocates nothing once warm.
+TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  const std::vector<test::Pose> poses = test::ClipPoses(fc->character, 24);
+  constexpr size_t kCount = 21;  // a batch of 16 and one of 5
+  std::vector<CharacterInstance> crowd;
+  for (size_t k = 0; k < kCount; ++k) crowd.push_back(MakeInstance(asset));
+  std::vector<CharacterInstance*> ptrs;
+  for (auto& c : crowd) ptrs.push_back(&c);
+  std::vector<Contact> oracle;
+  size_t total = 0, batched_frames = 0;
+  const auto frame = [&](size_t f, bool alone) {
+    std::vector<CharacterFrameInput> inputs;
+    for (size_t k = 0; k < kCount; ++k) inputs.push_back({poses[(f + 5 * k) % poses.size()].world, {}});
+    if (alone) {
+      for (size_t k = 0; k < kCount; ++k) {
+        ASSERT_TRUE(crowd[k].UpdateFast(inputs[k].joint_world).ok());
+        crowd[k].Query();
+      }
+    } else {
+      internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
+      ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());
+      batched_frames += internal::LastRefitSimdRun() == internal::RefitSimd::kAvx512;
+    }
+    for (size_t k = 0; k < kCount; ++k) {
+      ASSERT_TRUE(crowd[k].status().ok()) << crowd[k].status().message;
+      ASSERT_TRUE(SelfCollisionAllPairs(crowd[k].spheres(), asset->filter(), &oracle));
+      ASSERT_EQ(std::vector<Contact>(crowd[k].contacts().begin(), crowd[k].contacts().end()), oracle)
+          << "frame " << f << ", instance " << k << (alone ? ", alone" : ", crowd");
+      total += oracle.size();
+    }
+  };
+  for (size_t f = 0; f < 2 * poses.size(); ++f) {
+    frame(f, f % 3 == 2);
+    if (HasFatalFailure()) return;
+  }
+  EXPECT_GT(total, 0u);
+  std::vector<CharacterFrameInput> inputs;
+  inputs.reserve(kCount);
+  for (size_t k = 0; k < kCount; ++k) inputs.push_back({poses[(3 + 5 * k) % poses.size()].world, {}});
+  ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());  // warm-up
+  {  // warm now: the crowd call allocates nothing
+    test::AllocationCounter counter;
+    for (size_t f = 0; f < poses.size(); ++f) {
+      for (size_t k = 0; k < kCount; ++k) inputs[k].joint_world = poses[(f + 5 * k) % poses.size()].world;
+      ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());
+    }
+    EXPECT_EQ(counter.count(), 0);
+  }
+  // An instance listed twice in one range (serially: CrowdRange) is updated twice, in order, as
+  // CrowdStep would: its spheres and contacts are the second input's, each contact once.
+  std::vector<CharacterInstance*> twice = {ptrs[0], ptrs[1], ptrs[2], ptrs[0], ptrs[3]};
+  std::vector<CharacterFrameInput> twice_inputs;
+  for (size_t k = 0; k < twice.size(); ++k) twice_inputs.push_back({poses[(2 + 3 * k) % poses.size()].world, {}});
+  ASSERT_TRUE(CrowdRange(twice, twice_inputs, RefitMode::kFast, false).ok());
+  CharacterInstance expected = MakeInstance(asset);
+  ASSERT_TRUE(expected.UpdateFast(twice_inputs[3].joint_world).ok());
+  expected.Query();
+  EXPECT_TRUE(std::ranges::equal(crowd[0].spheres(), expected.spheres()));
+  EXPECT_TRUE(std::ranges::equal(crowd[0].contacts(), expected.contacts()));
+  if (batched_frames == 0) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd queried one instance at a time";
 }
 
 // ReserveContacts at set-up sizes the narrow phase's scratch too: the first FindContacts (with

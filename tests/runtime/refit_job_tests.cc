@@ -373,7 +373,7 @@ TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
 }
 
 // The crowd's batch (internal::RefitFastBatch: 16 instances of one set at once, one per AVX-512
-// lane) against the scalar formula, lane by lane, bit for bit. worlds: one joint-matrix array per
+// lane) against the scalar formula, lane by lane, bit for bit, in both of its outputs. worlds: one joint-matrix array per
 // lane (lanes may share one, and then their output); bad: lanes expected to fail (non-finite).
 void CheckBatchLanes(const SphereSet& set, const RefitRestData& rest,
                      const std::vector<const std::vector<skinspheres::Mat4f>*>& worlds, uint32_t bad,
@@ -389,7 +389,8 @@ void CheckBatchLanes(const SphereSet& set, const RefitRestData& rest,
     out[b] = reinterpret_cast<float*>(outs[first].data());
   }
   internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
-  const uint32_t finite = internal::RefitFastBatch(set, rest, world, out);
+  std::vector<float> soa(64 * set.size(), -1.0f);  // the same spheres lanes side by side (crowd query)
+  const uint32_t finite = internal::RefitFastBatch(set, rest, world, out, soa.data());
   ASSERT_EQ(internal::LastRefitSimdRun(), internal::RefitSimd::kAvx512) << what;
   EXPECT_EQ(finite, 0xFFFFu & ~bad) << what;
   for (size_t b = 0; b < worlds.size(); ++b) {
@@ -401,6 +402,8 @@ void CheckBatchLanes(const SphereSet& set, const RefitRestData& rest,
       for (int c = 0; c < 4; ++c) {
         ASSERT_EQ(std::bit_cast<uint32_t>(outs[first][s][c]), std::bit_cast<uint32_t>(want[s][c]))
             << what << ": lane " << b << " sphere " << s << " coordinate " << c;
+        ASSERT_EQ(std::bit_cast<uint32_t>(soa[64 * s + 16 * c + b]), std::bit_cast<uint32_t>(want[s][c]))
+            << what << ": lanes side by side, lane " << b << " sphere " << s << " coordinate " << c;
       }
     }
   }

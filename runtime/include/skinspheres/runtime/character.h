@@ -91,11 +91,15 @@ class CharacterAsset {
   size_t source_vertex_count() const { return set_.source_vertex_count; }
 
  private:
+  friend struct CrowdBatch;  // character.cc: the crowd calls' query of several instances at once
   CharacterAsset() = default;
   SphereSet set_;
   RefitRestData rest_;
   PairFilter filter_;
   std::optional<NarrowPhaseData> narrow_;
+  // The pairs the filter allows, (i << 16) | j sorted, for the crowd calls' batched query (sets of
+  // up to kCrowdQueryMaxSpheres spheres; empty otherwise, and the instances query one by one).
+  std::vector<uint32_t> crowd_pairs_;
 };
 
 struct CharacterFrameInput;
@@ -167,7 +171,7 @@ class CharacterInstance {
 
  private:
   friend FrameStatus CrowdStep(CharacterInstance&, RefitMode, const CharacterFrameInput&, bool);
-  friend struct CrowdBatch;  // character.cc: the crowd calls' refit of several instances at once
+  friend struct CrowdBatch;  // character.cc: the crowd calls' refit and query of several instances at once
   CharacterInstance() = default;
   // Update; keep_joints: also keep the joint matrices for FindContacts mode (b) (a copy of one
   // matrix per set joint; the broad-phase-only crowd call skips it).
@@ -213,17 +217,22 @@ FrameStatus CrowdStep(CharacterInstance& instance, RefitMode mode, const Charact
                       bool find_contacts);
 
 // CrowdStep for instances[i] with inputs[i], one after the other on the calling thread, except
-// that consecutive instances of one asset are refitted together in fast mode: 16 at a time, one per
-// AVX-512 lane, when the CPU has AVX-512F (each gets the bits it gets alone; several times faster
-// per instance than one at a time). What the crowd calls below run on each range their parallel_for
-// hands out; for an engine that runs its own loop, give it ranges of instances ordered by asset, 16
-// or more long. Returns kInvalidArgument (and runs nothing) when the spans differ in size or a
+// that consecutive instances of one asset are refitted, and (an asset of up to 256 spheres) queried,
+// together in fast mode: 16 at a time, one per AVX-512 lane, when the CPU has AVX-512F (each gets
+// the spheres and contacts it gets alone, bit for bit; several times faster per instance than one at
+// a time). The batched query tests all the asset's allowed pairs and leaves the instances' candidate
+// caches as they were (a later query alone still gives exact contacts). It keeps the batch's spheres
+// in a per-thread buffer of 256 bytes per sphere, made on the thread's first batch and kept for the
+// thread's life. What the crowd calls below run on each range their parallel_for hands out; for an
+// engine that runs its own loop, give it ranges of instances ordered by asset, in multiples of 16.
+// An instance listed twice in one range is updated twice, in order, as CrowdStep would. Returns kInvalidArgument (and runs nothing) when the spans differ in size or a
 // pointer is null; kInvalidData when at least one instance failed (its status() says why); kOk.
 FrameStatus CrowdRange(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
                        RefitMode mode, bool find_contacts);
 
-// Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (parallel_for, grain
-// 1 instance; each range it hands out runs as CrowdRange, so instances ordered by asset batch). It
+// Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (parallel_for over
+// blocks of 16 instances when the CPU batches, of 1 instance otherwise; each range it hands out runs
+// as CrowdRange, so instances ordered by asset batch). It
 // does not keep the joint matrices for FindContacts mode (b) (a copy of every joint's matrix per
 // instance and frame, a tenth of a 10,000-character crowd's frame): a FindContacts without
 // positions after it is refused until the next Update, UpdateFast or UpdateAndFindContactsCrowd. Returns kInvalidArgument (and runs nothing) when the spans differ in
