@@ -179,6 +179,8 @@ struct CrowdWork {
   const skinspheres_frame_input* inputs;
   rt::RefitMode mode;
   bool find_contacts;              // then the narrow phase (skinspheres_crowd_update_and_find_contacts)
+  size_t count;                    // instances
+  size_t block;                    // instances per index of the parallel loop (16 or 1)
   std::atomic<bool> all_ok{true};  // set to false by any thread; read after the loop
 };
 
@@ -202,6 +204,12 @@ void RunCrowdRange(void* context, size_t begin, size_t end) {
   }
 }
 
+// Blocks [begin, end) of the loop: instances [begin * block, min(end * block, count)).
+void RunCrowdBlocks(void* context, size_t begin, size_t end) {
+  auto* work = static_cast<CrowdWork*>(context);
+  RunCrowdRange(work, begin * work->block, std::min(end * work->block, work->count));
+}
+
 // Update + Query (+ FindContacts) of every instance through the engine's loop or the default one.
 skinspheres_status RunCrowd(skinspheres_instance* const* instances, const skinspheres_frame_input* inputs, size_t count,
                             skinspheres_refit_mode mode, bool find_contacts, skinspheres_parallel_for_fn parallel_for,
@@ -216,12 +224,16 @@ skinspheres_status RunCrowd(skinspheres_instance* const* instances, const skinsp
     for (size_t i = 0; i < count; ++i) {
       if (instances[i] == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
     }
-    CrowdWork work{instances, inputs, mode == SKINSPHERES_MODE_FAST ? rt::RefitMode::kFast : rt::RefitMode::kExact,
-                   find_contacts};
+    const rt::RefitMode rt_mode = mode == SKINSPHERES_MODE_FAST ? rt::RefitMode::kFast : rt::RefitMode::kExact;
+    // The loop's indices are blocks of instances, as rt::UpdateAndQueryCrowd's (CrowdBlock): no range
+    // it hands out cuts a batch of 16 short.
+    const size_t block = rt::CrowdBlock(rt_mode, find_contacts);
+    CrowdWork work{instances, inputs, rt_mode, find_contacts, count, block};
+    const size_t blocks = (count + block - 1) / block;
     if (parallel_for != nullptr) {
-      if (count) parallel_for(user, count, 1, &RunCrowdRange, &work);
+      if (count) parallel_for(user, blocks, 1, &RunCrowdBlocks, &work);
     } else {
-      skinspheres::DefaultParallelFor()(count, 1, [&work](size_t begin, size_t end) { RunCrowdRange(&work, begin, end); });
+      skinspheres::DefaultParallelFor()(blocks, 1, [&work](size_t begin, size_t end) { RunCrowdBlocks(&work, begin, end); });
     }
     if (!work.all_ok.load()) {
       return FailStatic(SKINSPHERES_INVALID_DATA, "at least one instance failed; see skinspheres_instance_status");

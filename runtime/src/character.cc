@@ -8,6 +8,7 @@
 #include <atomic>
 #include <bit>
 #include <cmath>
+#include <cstdint>
 #include <utility>
 #include <vector>
 
@@ -24,6 +25,7 @@ namespace {
 constexpr size_t kCrowdQueryMaxSpheres = 256;
 
 std::atomic<bool> crowd_query_batched{true};
+thread_local uint64_t batched_queries = 0;  // batches queried at once on this thread (tests)
 
 std::vector<uint32_t> CrowdPairs(const PairFilter& filter) {
   std::vector<uint32_t> pairs;
@@ -42,6 +44,7 @@ std::vector<uint32_t> CrowdPairs(const PairFilter& filter) {
 namespace internal {
 void SetCrowdQueryBatched(bool batched) { crowd_query_batched.store(batched, std::memory_order_relaxed); }
 bool CrowdQueryBatched() { return crowd_query_batched.load(std::memory_order_relaxed); }
+uint64_t CrowdQueryBatches() { return batched_queries; }
 }  // namespace internal
 
 Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet set, const NarrowPhaseSettings& narrow) {
@@ -306,12 +309,14 @@ struct CrowdBatch {
     return inst.status();
   }
 
-  // The batch's spheres lanes side by side (RefitFastBatch's soa), per thread: 256 bytes per sphere,
-  // grown once and kept for the thread's life (not on the stack: engines run jobs on small stacks).
-  static float* SoaScratch(size_t n) {
-    thread_local std::vector<float> soa;
-    if (soa.size() < n * internal::kBatchSphereFloats) soa.resize(n * internal::kBatchSphereFloats);
-    return soa.data();
+  // The batch's spheres lanes side by side (RefitFastBatch's soa), per thread: room for the largest
+  // set batched, 64-byte aligned (each lane vector one cache line), made by the thread's first batch
+  // and kept for its life (not on the stack: engines run jobs on small stacks).
+  static float* SoaScratch() {
+    constexpr size_t kAlign = 64 / sizeof(float);
+    thread_local std::vector<float> soa(kCrowdQueryMaxSpheres * internal::kBatchSphereFloats + kAlign);
+    const uintptr_t address = reinterpret_cast<uintptr_t>(soa.data());
+    return soa.data() + ((64 - address % 64) % 64) / sizeof(float);
   }
 
   // Query of the instances in `lanes` at once: what Query() gives each, from soa. Lanes whose
@@ -347,7 +352,11 @@ struct CrowdBatch {
       one.queried_ = true;
       one.query_ok_ = true;
       one.status_ = {};
+      // The cache stays exact without this (its check is against its own build), but its motion
+      // statistics (frames since the build) would be wrong: a query alone then starts afresh.
+      one.context_.Invalidate();
     }
+    ++batched_queries;
     return lanes;
   }
 
@@ -396,7 +405,7 @@ struct CrowdBatch {
           world[b] = world[0];
           out[b] = out[0];
         }
-        if (!asset->crowd_pairs_.empty() && internal::CrowdQueryBatched()) soa = SoaScratch(asset->size());
+        if (!asset->crowd_pairs_.empty() && internal::CrowdQueryBatched()) soa = SoaScratch();
         finite = internal::RefitFastBatch(asset->sphere_set(), asset->rest(), world, out, soa);
       }
       uint32_t updated = 0;  // lanes refitted and recorded
@@ -450,9 +459,9 @@ FrameStatus RunCrowd(std::span<CharacterInstance* const> instances, std::span<co
                      RefitMode mode, bool find_contacts, const ParallelFor& parallel_for) {
   if (const FrameStatus st = CheckCrowd(instances, inputs); !st.ok()) return st;
   std::atomic<bool> all_ok{true};
-  // When the CPU batches, the loop runs over blocks of kLanes instances, so that no range the loop
-  // hands out cuts a batch short (a range of 8 instances would fill half the lanes).
-  const size_t block = mode == RefitMode::kFast && internal::RefitBatchUsable() ? CrowdBatch::kLanes : 1;
+  // Blocks of CrowdBlock instances: no range the loop hands out cuts a batch short (a range of 8
+  // instances would fill half the lanes).
+  const size_t block = CrowdBlock(mode, find_contacts);
   const size_t count = instances.size();
   parallel_for((count + block - 1) / block, 1, [&](size_t begin, size_t end) {
     if (!CrowdBatch::Run(instances, inputs, mode, find_contacts, begin * block, std::min(end * block, count))) {
@@ -464,6 +473,10 @@ FrameStatus RunCrowd(std::span<CharacterInstance* const> instances, std::span<co
 }
 
 }  // namespace
+
+size_t CrowdBlock(RefitMode mode, bool find_contacts) {
+  return mode == RefitMode::kFast && !find_contacts && internal::RefitBatchUsable() ? CrowdBatch::kLanes : 1;
+}
 
 FrameStatus CrowdRange(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
                        RefitMode mode, bool find_contacts) {

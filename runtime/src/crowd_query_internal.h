@@ -32,6 +32,8 @@ struct BatchHits {
 // be called while a crowd call runs.
 void SetCrowdQueryBatched(bool batched);
 bool CrowdQueryBatched();
+// How many batches the calling thread has queried at once (tests: that the batched query ran).
+uint64_t CrowdQueryBatches();
 
 namespace avx512 {
 // The lanes whose spheres [0, n) all have |x|, |y|, |z|, r <= max_magnitude and r >= 0 (the

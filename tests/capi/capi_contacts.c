@@ -395,6 +395,23 @@ int main(int argc, char** argv) {
       }
     }
     check(parallel_calls == 3, "the engine's loop ran every instance", 0);
+    {
+      /* The broad-phase-only crowd call through the engine's loop: its indices are blocks of
+         instances (16 on an AVX-512 CPU, else 1), every instance run once, the same contacts. */
+      int query_calls = 0;
+      size_t n0, n1;
+      const skinspheres_contact* c0;
+      const skinspheres_contact* c1;
+      check(skinspheres_crowd_update_and_query(crowd, inputs, 3, SKINSPHERES_MODE_FAST, reversed_parallel_for,
+                                               &query_calls) == SKINSPHERES_INVALID_DATA,
+            "the query-only crowd reports the failed instance", 0);
+      check(query_calls == 1 || query_calls == 3, "one block of 16, or one call per instance", 0);
+      c0 = skinspheres_instance_contacts(a, &n0);
+      c1 = skinspheres_instance_contacts(b, &n1);
+      check(same_contacts(c0, n0, fr->contacts[0], fr->contact_count[0]) &&
+                same_contacts(c1, n1, fr->contacts[0], fr->contact_count[0]),
+            "query-only crowd contacts equal the C++ API's", 0);
+    }
     /* The broad-phase-only crowd call keeps no joint matrices: a find without positions is refused
        until an update that keeps them; the contacts are those of the crowd call with contacts. */
     {

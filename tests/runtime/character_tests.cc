@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cstdlib>
 #include <limits>
 #include <memory>
@@ -17,7 +18,8 @@
 
 #include "allocation_counter.h"
 #include "posed_characters.h"
-#include "refit_internal.h"  // runtime/src: pins the crowd's refit (batched or one at a time)
+#include "crowd_query_internal.h"  // runtime/src: counts the crowd's batched queries
+#include "refit_internal.h"        // runtime/src: pins the crowd's refit (batched or one at a time)
 #include "skinspheres/runtime/character.h"
 
 namespace skinspheres::runtime {
@@ -405,6 +407,10 @@ TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
   auto asset = BuiltinAsset(&fc);
   ASSERT_TRUE(asset);
   const std::vector<test::Pose> poses = test::ClipPoses(fc->character, 24);
+  // Every joint collapsed to one point (a zero linear part): all the spheres of such an instance
+  // share one centre, so every allowed pair touches, far more than the batch's hit buffer holds.
+  std::vector<Mat4f> collapsed(poses[0].world.size(), Mat4f::Zero());
+  for (Mat4f& g : collapsed) g.col(3) << 0.5f, 1.0f, -0.25f, 1.0f;
   constexpr size_t kCount = 21;  // a batch of 16 and one of 5
   std::vector<CharacterInstance> crowd;
   for (size_t k = 0; k < kCount; ++k) crowd.push_back(MakeInstance(asset));
@@ -415,22 +421,31 @@ TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
   const auto frame = [&](size_t f, bool alone) {
     std::vector<CharacterFrameInput> inputs;
     for (size_t k = 0; k < kCount; ++k) inputs.push_back({poses[(f + 5 * k) % poses.size()].world, {}});
+    if (f % 4 == 1) {
+      for (size_t k = f % 3; k < kCount; k += 3) inputs[k].joint_world = collapsed;
+    }
     if (alone) {
       for (size_t k = 0; k < kCount; ++k) {
         ASSERT_TRUE(crowd[k].UpdateFast(inputs[k].joint_world).ok());
         crowd[k].Query();
       }
     } else {
-      internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
+      const uint64_t batches = internal::CrowdQueryBatches();
       ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());
-      batched_frames += internal::LastRefitSimdRun() == internal::RefitSimd::kAvx512;
+      batched_frames += internal::CrowdQueryBatches() > batches;
     }
     for (size_t k = 0; k < kCount; ++k) {
       ASSERT_TRUE(crowd[k].status().ok()) << crowd[k].status().message;
       ASSERT_TRUE(SelfCollisionAllPairs(crowd[k].spheres(), asset->filter(), &oracle));
       ASSERT_EQ(std::vector<Contact>(crowd[k].contacts().begin(), crowd[k].contacts().end()), oracle)
           << "frame " << f << ", instance " << k << (alone ? ", alone" : ", crowd");
+      for (size_t c = 0; c < oracle.size(); ++c) {  // == compares depths as floats: their bits too
+        ASSERT_EQ(std::bit_cast<uint32_t>(crowd[k].contacts()[c].depth), std::bit_cast<uint32_t>(oracle[c].depth));
+      }
       total += oracle.size();
+      if (f % 4 == 1 && k >= f % 3 && (k - f % 3) % 3 == 0) {
+        EXPECT_GT(oracle.size(), 64u) << "collapsed: every allowed pair touches";
+      }
     }
   };
   for (size_t f = 0; f < 2 * poses.size(); ++f) {
@@ -462,6 +477,7 @@ TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
   EXPECT_TRUE(std::ranges::equal(crowd[0].spheres(), expected.spheres()));
   EXPECT_TRUE(std::ranges::equal(crowd[0].contacts(), expected.contacts()));
   if (batched_frames == 0) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd queried one instance at a time";
+  EXPECT_EQ(batched_frames, 2 * poses.size() - poses.size() * 2 / 3) << "every crowd frame queried at once";
 }
 
 // ReserveContacts at set-up sizes the narrow phase's scratch too: the first FindContacts (with

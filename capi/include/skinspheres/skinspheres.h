@@ -312,9 +312,12 @@ typedef struct skinspheres_frame_input {
 
 /* Update then query instances[i] with inputs[i], for i < count, through parallel_for (NULL: the
    library's default: TBB, or serial in a build without TBB). Results are identical to calling each
-   instance alone. It keeps no joint matrices for a later skinspheres_instance_find_contacts without
-   positions (refused until the instance's next update that keeps them: the single-instance updates
-   and skinspheres_crowd_update_and_find_contacts). SKINSPHERES_INVALID_DATA when at least one
+   instance alone. Each index of the loop is a block of 16 consecutive instances when the CPU has
+   AVX-512F and the mode is fast (they are refitted and queried together; the last block may be
+   shorter), one instance otherwise: parallel_for's count is the number of blocks. It keeps no
+   joint matrices for a later skinspheres_instance_find_contacts without positions (refused until
+   the instance's next update that keeps them: the single-instance updates and
+   skinspheres_crowd_update_and_find_contacts). SKINSPHERES_INVALID_DATA when at least one
    instance failed (query it for its own status); SKINSPHERES_INVALID_ARGUMENT (nothing runs) for a
    null array or instance. */
 SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_query(skinspheres_instance* const* instances,
@@ -324,8 +327,8 @@ SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_query(skinsphe
                                                                        void* user);
 /* The same, then skinspheres_instance_find_contacts for every instance, on the thread that updated
    it: from the input's positions in exact mode, skinning only what it tests from the joint matrices
-   in fast mode. SKINSPHERES_INVALID_DATA also when an instance's asset has no mesh (its status says
-   so). */
+   in fast mode; each index of parallel_for is one instance. SKINSPHERES_INVALID_DATA also when an
+   instance's asset has no mesh (its status says so). */
 SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_find_contacts(
     skinspheres_instance* const* instances, const skinspheres_frame_input* inputs, size_t count,
     skinspheres_refit_mode mode, skinspheres_parallel_for_fn parallel_for, void* user);

@@ -98,7 +98,7 @@ class CharacterAsset {
   PairFilter filter_;
   std::optional<NarrowPhaseData> narrow_;
   // The pairs the filter allows, (i << 16) | j sorted, for the crowd calls' batched query (sets of
-  // up to kCrowdQueryMaxSpheres spheres; empty otherwise, and the instances query one by one).
+  // up to 256 spheres; empty otherwise, and the instances query one by one).
   std::vector<uint32_t> crowd_pairs_;
 };
 
@@ -220,23 +220,31 @@ FrameStatus CrowdStep(CharacterInstance& instance, RefitMode mode, const Charact
 // that consecutive instances of one asset are refitted, and (an asset of up to 256 spheres) queried,
 // together in fast mode: 16 at a time, one per AVX-512 lane, when the CPU has AVX-512F (each gets
 // the spheres and contacts it gets alone, bit for bit; several times faster per instance than one at
-// a time). The batched query tests all the asset's allowed pairs and leaves the instances' candidate
-// caches as they were (a later query alone still gives exact contacts). It keeps the batch's spheres
-// in a per-thread buffer of 256 bytes per sphere, made on the thread's first batch and kept for the
-// thread's life. What the crowd calls below run on each range their parallel_for hands out; for an
-// engine that runs its own loop, give it ranges of instances ordered by asset, in multiples of 16.
-// An instance listed twice in one range is updated twice, in order, as CrowdStep would. Returns kInvalidArgument (and runs nothing) when the spans differ in size or a
-// pointer is null; kInvalidData when at least one instance failed (its status() says why); kOk.
+// a time). The batched query tests all the asset's allowed pairs; it resets each instance's
+// candidate cache (BroadPhaseContext::Invalidate), whose motion statistics it does not keep, so a
+// later query alone rebuilds it (and gives exact contacts either way). The batch's spheres go to a
+// per-thread buffer (64-byte aligned, room for 256 spheres: 64 KB), allocated by the thread's first
+// batch and kept for its life. What the crowd calls below run on each range their parallel_for
+// hands out; for an engine that runs its own loop, give it ranges of instances ordered by asset, in
+// multiples of 16. An instance listed twice in one range is updated twice, in order, as CrowdStep
+// would. Returns kInvalidArgument (and runs nothing) when the spans differ in size or a pointer is
+// null; kInvalidData when at least one instance failed (its status() says why); kOk.
 FrameStatus CrowdRange(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
                        RefitMode mode, bool find_contacts);
 
+// How many consecutive instances the crowd calls below give each index of their parallel_for: 16 for
+// a broad-phase-only crowd in fast mode on a CPU that batches (AVX-512F), so that no range cuts a
+// batch short; 1 otherwise (the narrow phase's work per instance outweighs the batch's gain).
+size_t CrowdBlock(RefitMode mode, bool find_contacts);
+
 // Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (parallel_for over
-// blocks of 16 instances when the CPU batches, of 1 instance otherwise; each range it hands out runs
-// as CrowdRange, so instances ordered by asset batch). It
+// blocks of CrowdBlock instances; each range it hands out runs as CrowdRange, so instances ordered
+// by asset batch). It
 // does not keep the joint matrices for FindContacts mode (b) (a copy of every joint's matrix per
 // instance and frame, a tenth of a 10,000-character crowd's frame): a FindContacts without
-// positions after it is refused until the next Update, UpdateFast or UpdateAndFindContactsCrowd. Returns kInvalidArgument (and runs nothing) when the spans differ in
-// size or an instance pointer is null (listing the same instance twice is a data race the caller
+// positions after it is refused until the next Update, UpdateFast or UpdateAndFindContactsCrowd.
+// Returns kInvalidArgument (and runs nothing) when the spans differ in size or an instance pointer
+// is null (listing the same instance twice is a data race the caller
 // must avoid); kInvalidData when at least one instance failed (each instance's
 // status() says why; the others are fully updated); kOk otherwise.
 FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
