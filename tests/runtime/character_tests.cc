@@ -480,6 +480,97 @@ TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
   EXPECT_EQ(batched_frames, 2 * poses.size() - poses.size() * 2 / 3) << "every crowd frame queried at once";
 }
 
+// A set of n spheres on two joints (sphere s on joint s % 2, owning vertex s and triangle s), centres
+// spread over a box a few radii wide so that many pairs touch; exclusions: none, or every pair.
+SphereSet CrowdTestSet(size_t n, bool exclude_all, std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  SphereSet set;
+  set.source_vertex_count = n;
+  set.source_triangle_count = n;
+  set.joint_names = {"a", "b"};
+  set.joint_parents = {-1, 0};
+  set.joint_rest_world = {Mat4f::Identity(), Mat4f::Identity()};
+  set.parts = {{"p0", {0}}, {"p1", {1}}};
+  set.vertex_offsets = {0};
+  set.triangle_offsets = {0};
+  set.influence_offsets = {0};
+  for (uint32_t k = 0; k < n; ++k) {
+    set.centers_rest.emplace_back(2.0f * u(rng), 2.0f * u(rng), 0.5f * u(rng));
+    set.radii_rest.push_back(0.2f + 0.1f * u(rng));
+    set.radii_fast.push_back(set.radii_rest.back());
+    set.sphere_part.push_back(static_cast<uint16_t>(k % 2));
+    set.sphere_joint.push_back(static_cast<uint16_t>(k % 2));
+    set.sphere_level.push_back(0);
+    set.vertices.push_back(k);
+    set.vertex_offsets.push_back(k + 1);
+    set.triangles.push_back(k);
+    set.triangle_offsets.push_back(k + 1);
+    set.influence_joints.push_back(static_cast<uint16_t>(k % 2));
+    set.influence_weights.push_back(1.0f);
+    set.influence_offsets.push_back(k + 1);
+  }
+  for (uint32_t i = 0; exclude_all && i < n; ++i) {
+    for (uint32_t j = i + 1; j < n; ++j) set.excluded_pairs.push_back({i, j, ExclusionReason::kSameJoint});
+  }
+  return set;
+}
+
+// The batched query's bounds: sets of 1, 2, 255, 256 and 257 spheres, and one whose every pair is
+// excluded. Each crowd of 20 instances (a batch of 16 and one of 4) under random rigid motions gives
+// every instance the oracle's contacts; the batch queries at once only from 2 to 256 spheres with
+// some pair allowed, and one by one otherwise.
+TEST(CharacterCrowdTest, BatchedQueryBoundsBySphereCount) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  bool batched_any = false;
+  for (const auto& [n, exclude_all] : std::vector<std::pair<size_t, bool>>{
+           {1, false}, {2, false}, {255, false}, {256, false}, {257, false}, {40, true}}) {
+    auto asset = CharacterAsset::Create(CrowdTestSet(n, exclude_all, rng));
+    ASSERT_TRUE(asset.ok()) << asset.error().message;
+    constexpr size_t kCount = 20;
+    std::vector<CharacterInstance> crowd;
+    for (size_t k = 0; k < kCount; ++k) crowd.push_back(MakeInstance(*asset));
+    std::vector<CharacterInstance*> ptrs;
+    for (auto& c : crowd) ptrs.push_back(&c);
+    std::vector<std::vector<Mat4f>> worlds(kCount, std::vector<Mat4f>(2, Mat4f::Identity()));
+    std::vector<CharacterFrameInput> inputs(kCount);
+    std::vector<Contact> oracle;
+    const std::string what = std::to_string(n) + " spheres" + (exclude_all ? ", every pair excluded" : "");
+    for (int frame = 0; frame < 3; ++frame) {
+      for (size_t k = 0; k < kCount; ++k) {
+        for (Mat4f& g : worlds[k]) {
+          g.topLeftCorner<3, 3>() = Eigen::AngleAxisf(3.0f * u(rng), Eigen::Vector3f(u(rng), u(rng), 1.0f).normalized())
+                                        .toRotationMatrix();
+          g.col(3).head<3>() = Eigen::Vector3f(0.3f * u(rng), 0.3f * u(rng), 0.3f * u(rng));
+        }
+        inputs[k] = {worlds[k], {}};
+      }
+      const uint64_t batches = internal::CrowdQueryBatches();
+      ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok()) << what;
+      const bool batched = internal::CrowdQueryBatches() > batches;
+      batched_any |= batched;
+      if (batched) {
+        EXPECT_TRUE(n >= 2 && n <= 256 && !exclude_all) << what;
+      }
+      size_t touching = 0;
+      for (size_t k = 0; k < kCount; ++k) {
+        ASSERT_TRUE(crowd[k].status().ok()) << what;
+        ASSERT_TRUE(SelfCollisionAllPairs(crowd[k].spheres(), (*asset)->filter(), &oracle));
+        ASSERT_EQ(std::vector<Contact>(crowd[k].contacts().begin(), crowd[k].contacts().end()), oracle)
+            << what << ", frame " << frame << ", instance " << k;
+        touching += oracle.size();
+      }
+      if (n > 2 && !exclude_all) {
+        EXPECT_GT(touching, 0u) << what;
+      }
+      if (internal::RefitBatchUsable() && n >= 2 && n <= 256 && !exclude_all) {
+        EXPECT_TRUE(batched) << what;
+      }
+    }
+  }
+  if (!batched_any) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd queried one instance at a time";
+}
+
 // ReserveContacts at set-up sizes the narrow phase's scratch too: the first FindContacts (with
 // positions) then allocates nothing; without it, the first FindContacts sizes the scratch itself.
 TEST(CharacterInstanceTest, ReserveContactsSizesTheNarrowPhase) {
