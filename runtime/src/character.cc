@@ -328,7 +328,7 @@ struct CrowdBatch {
     if (lanes == 0) return 0;
     for (uint32_t m = lanes; m != 0; m &= m - 1) inst[std::countr_zero(m)]->contacts_.clear();
     constexpr size_t kHits = 16;
-    alignas(64) float depth[16 * kHits];
+    alignas(64) float depth[kLanes * kHits];
     uint32_t pair[kHits];
     uint16_t mask[kHits];
     internal::BatchHits hits{pair, mask, depth, kHits, 0};
@@ -343,7 +343,7 @@ struct CrowdBatch {
         const uint16_t part_i = filter.part(i), part_j = filter.part(j);
         for (uint32_t m = mask[h]; m != 0; m &= m - 1) {
           const int b = std::countr_zero(m);
-          inst[b]->contacts_.push_back(Contact{i, j, depth[16 * h + b], part_i, part_j});
+          inst[b]->contacts_.push_back(Contact{i, j, depth[kLanes * h + b], part_i, part_j});
         }
       }
     }

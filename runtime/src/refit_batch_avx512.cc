@@ -11,6 +11,7 @@
 // (kStretchSlots joints, 64 bytes each: consecutive spheres share their joints), recomputed on a
 // miss with the same bits. Stack: 3.6 KB (GCC 12 -O3 -fstack-usage: the table, kPointCache moved
 // points, temporaries), for engines whose jobs run on small fibre stacks.
+#include "crowd_query_internal.h"
 #include "refit_internal.h"
 
 #if defined(__x86_64__) || defined(__i386__)
@@ -179,7 +180,7 @@ uint32_t RefitFastBatch16(const FastRefitArrays& a, size_t sphere_count, const f
           _mm512_cmp_ps_mask(_mm512_sub_ps(cz, cz), zero, _CMP_EQ_OQ) &
           _mm512_cmp_ps_mask(_mm512_sub_ps(radius, radius), zero, _CMP_EQ_OQ);
     if (soa != nullptr) {  // the same values, lanes side by side, for the crowd's batched query
-      float* q = soa + 64 * s;
+      float* q = soa + kBatchSphereFloats * s;
       _mm512_storeu_ps(q, cx);
       _mm512_storeu_ps(q + 16, cy);
       _mm512_storeu_ps(q + 32, cz);
