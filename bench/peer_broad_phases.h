@@ -32,8 +32,8 @@
 #include <span>
 #include <vector>
 
-#include "skinspheres/runtime/broad_phase.h"
-#include "skinspheres/runtime/pair_filter.h"
+#include "skinspheres/runtime/broad_phase/broad_phase.h"
+#include "skinspheres/runtime/broad_phase/pair_filter.h"
 
 namespace skinspheres::bench {
 

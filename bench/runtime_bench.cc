@@ -26,7 +26,7 @@
 //                            skinned positions are copied (untimed) into one hot buffer first
 //   BM_XbotRefitFast/simd:0|1|2  CharacterInstance::UpdateFast (RefitJob, Kavan-Žára radii), the
 //                            refit's loop at the CPU's best level, pinned to SSE2, pinned to AVX2
-//                            (runtime/src/refit_internal.h; same bits at every level; in a
+//                            (runtime/src/refit/refit_internal.h; same bits at every level; in a
 //                            -DSKINSPHERES_AVX2=ON build both copies are VEX code)
 //   BM_XbotQuery/fast:0|1    SelfCollisionJob (sort and sweep) on the exact- or fast-refitted spheres
 //   BM_XbotAllPairs/fast:0|1 SelfCollisionAllPairs on the same spheres (the naive reference)
@@ -69,8 +69,8 @@
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/io/importer.h"
-#include "skinspheres/runtime/broad_phase.h"
-#include "skinspheres/runtime/character.h"
+#include "skinspheres/runtime/broad_phase/broad_phase.h"
+#include "skinspheres/runtime/api/character.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 #include "skinspheres/skinning/prepared_influences.h"
 #include "skinspheres/skinning/sampling_job.h"
@@ -78,8 +78,8 @@
 #include "skinspheres/skinning/skinning_matrices_job.h"
 
 #include "peer_broad_phases.h"
-#include "crowd_query_internal.h"  // runtime/src: the crowd's query batched or one by one
-#include "refit_internal.h"        // runtime/src: pins the fast refit's instruction set for a row
+#include "crowd/crowd_query.h"  // runtime/src: the crowd's query batched or one by one
+#include "refit/refit_internal.h"        // runtime/src: pins the fast refit's instruction set for a row
 #include "thread_cpu.h"
 
 namespace {

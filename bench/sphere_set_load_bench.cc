@@ -16,8 +16,8 @@
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
-#include "skinspheres/runtime/sphere_set_binary.h"
-#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/runtime/format/sphere_set_binary.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 
 namespace skinspheres {
 namespace {

@@ -44,6 +44,8 @@ function(skinspheres_library name)
     $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
     $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/generated/include>
     $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  # Internal headers by stage: "<stage>/<header>.h" from src/ (never installed).
+  target_include_directories(skinspheres_${name} PRIVATE ${src_dir})
   target_link_libraries(skinspheres_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
   target_compile_features(skinspheres_${name} PUBLIC cxx_std_20)
   skinspheres_warnings(skinspheres_${name})

@@ -17,8 +17,8 @@
 #include "fuzz_check.h"
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
-#include "skinspheres/runtime/character.h"
-#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 
 namespace {
 

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "fuzz_check.h"
-#include "skinspheres/runtime/character.h"
-#include "skinspheres/runtime/sphere_set.h"
+#include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/format/sphere_set.h"
 
 namespace skinspheres::fuzz {
 

@@ -1,4 +1,4 @@
-// Fuzz target: the binary sphere-set reader (runtime/src/sphere_set_binary.cc) on any bytes, from
+// Fuzz target: the binary sphere-set reader (runtime/src/format/sphere_set_binary.cc) on any bytes, from
 // memory (the checked view on an aligned buffer, and the copying reader at an odd address) and
 // from a file, then the engine API on what it accepted.
 //
@@ -24,8 +24,8 @@
 
 #include "fuzz_check.h"
 #include "fuzz_engine.h"
-#include "skinspheres/runtime/sphere_set_binary.h"
-#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/runtime/format/sphere_set_binary.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// Fuzz target: the sphere-set reader (runtime/src/sphere_set_io.cc) on any bytes, then the
+// Fuzz target: the sphere-set reader (runtime/src/format/sphere_set_io.cc) on any bytes, then the
 // engine API on what it accepted. Properties: an error is one line naming the input; an
 // accepted set passes SphereSet::Validate, writes and reads back to the same text, and an
 // asset and instance made from it update (fast and exact, at the rest pose) and query without
@@ -10,7 +10,7 @@
 
 #include "fuzz_check.h"
 #include "fuzz_engine.h"
-#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace skinspheres;

@@ -15,10 +15,10 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/runtime/character.h"
-#include "skinspheres/runtime/file_io.h"
-#include "skinspheres/runtime/joint_mapping.h"
-#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/api/joint_mapping.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 #include "skinspheres/version.h"
 
 using skinspheres::ErrorCode;

@@ -12,8 +12,8 @@
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
-#include "skinspheres/runtime/character.h"
-#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 #include "skinspheres/skinning/sampling_job.h"
 

@@ -6,7 +6,7 @@
 #include "commands.h"
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/io/importer.h"
-#include "skinspheres/runtime/file_io.h"
+#include "skinspheres/runtime/format/file_io.h"
 
 namespace skinspheres::tool {
 

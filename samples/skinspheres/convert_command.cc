@@ -6,7 +6,7 @@
 #include <memory>
 
 #include "commands.h"
-#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 
 namespace skinspheres::tool {
 

@@ -9,7 +9,7 @@
 #include "commands.h"
 #include "html_page.h"
 #include "skinspheres/lib/metrics/fit_metrics.h"
-#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 
 namespace skinspheres::tool {
 namespace {

@@ -12,7 +12,7 @@
 
 #include "skinspheres/lib/metrics/fit_metrics.h"
 #include "skinspheres/lib/io/glb_exporter.h"
-#include "skinspheres/runtime/file_io.h"
+#include "skinspheres/runtime/format/file_io.h"
 #include "skinspheres/skinning/sampling_job.h"
 #include "viewer_assets.h"
 

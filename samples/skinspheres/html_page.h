@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "playback.h"
-#include "skinspheres/runtime/sphere_set.h"
+#include "skinspheres/runtime/format/sphere_set.h"
 
 namespace skinspheres::tool {
 

@@ -13,8 +13,8 @@
 #include "html_page.h"
 #include "playback.h"
 #include "skinspheres/lib/io/glb_exporter.h"
-#include "skinspheres/runtime/file_io.h"
-#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 
 namespace skinspheres::tool {
 namespace {

@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <map>
 
-#include "skinspheres/runtime/character.h"
+#include "skinspheres/runtime/api/character.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 #include "skinspheres/skinning/prepared_influences.h"
 #include "skinspheres/skinning/sampling_job.h"

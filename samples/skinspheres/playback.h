@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "commands.h"
-#include "skinspheres/runtime/broad_phase.h"
-#include "skinspheres/runtime/narrow_phase.h"
-#include "skinspheres/runtime/sphere_set.h"
+#include "skinspheres/runtime/broad_phase/broad_phase.h"
+#include "skinspheres/runtime/narrow_phase/narrow_phase.h"
+#include "skinspheres/runtime/format/sphere_set.h"
 
 namespace skinspheres::tool {
 

@@ -1,8 +1,8 @@
 // A program that embeds skinspheres through find_package(skinspheres) after cmake --install,
 // linking skinspheres::runtime only (no Assimp): loads a sphere set and creates the asset.
 #include <cstdio>
-#include "skinspheres/runtime/character.h"
-#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 int main(int argc, char** argv) {
   auto set = skinspheres::runtime::LoadSphereSet(argc > 1 ? argv[1] : "missing.json");
   if (!set.ok()) { std::printf("%s\n", set.error().message.c_str()); return 2; }

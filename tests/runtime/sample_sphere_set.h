@@ -1,7 +1,7 @@
 // A small, valid SphereSet for runtime tests.
 #pragma once
 
-#include "skinspheres/runtime/sphere_set.h"
+#include "skinspheres/runtime/format/sphere_set.h"
 
 namespace skinspheres::runtime {
 

@@ -3,8 +3,8 @@
 #include <cstdio>
 #include <vector>
 
-#include "skinspheres/runtime/character.h"
-#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 #include "skinspheres/version.h"
 
 using namespace skinspheres;

@@ -225,7 +225,7 @@ SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_sphere_contact
    full binary file); a fast-only binary set or an older set without a mesh is refused
    (SKINSPHERES_VERSION_MISMATCH). Same pattern as the sphere contacts: find gives the counts, the
    get calls copy into the caller's buffers. What is reported and what never is (triangles sharing a
-   vertex, pairs already touching at rest, ...): runtime/include/skinspheres/runtime/narrow_phase.h. */
+   vertex, pairs already touching at rest, ...): runtime/include/skinspheres/runtime/narrow_phase/narrow_phase.h. */
 
 typedef enum skinspheres_triangle_contact_kind {
   SKINSPHERES_TRIANGLES_INTERSECTING = 0, /* the two closed triangles share a point */

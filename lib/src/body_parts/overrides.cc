@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 #include <system_error>
 
-#include "skinspheres/runtime/file_io.h"
+#include "skinspheres/runtime/format/file_io.h"
 #include "split_stages.h"
 
 namespace skinspheres::lib {

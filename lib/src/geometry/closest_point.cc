@@ -5,7 +5,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 
-#include "skinspheres/runtime/triangle_contact.h"
+#include "skinspheres/runtime/narrow_phase/triangle_contact.h"
 
 namespace skinspheres::lib {
 

@@ -19,7 +19,7 @@
 #include <utility>
 #include <vector>
 
-#include "skinspheres/runtime/file_io.h"
+#include "skinspheres/runtime/format/file_io.h"
 
 namespace skinspheres::lib {
 namespace {

@@ -13,7 +13,7 @@
 #include <optional>
 
 #include "skinspheres/lib/io/importer.h"
-#include "skinspheres/runtime/file_io.h"
+#include "skinspheres/runtime/format/file_io.h"
 
 namespace skinspheres::lib::detail {
 namespace {

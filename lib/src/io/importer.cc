@@ -14,7 +14,7 @@
 #include "gltf_document.h"
 #include "importer_internal.h"
 #include "skinspheres/lib/io/clip_import.h"
-#include "skinspheres/runtime/file_io.h"
+#include "skinspheres/runtime/format/file_io.h"
 
 namespace skinspheres::lib {
 namespace detail {

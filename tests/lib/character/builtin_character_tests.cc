@@ -8,7 +8,7 @@
 
 #include "lib/clip_eval_for_tests.h"
 #include "skinspheres/lib/character/builtin_character.h"
-#include "skinspheres/runtime/triangle_contact.h"
+#include "skinspheres/runtime/narrow_phase/triangle_contact.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

@@ -9,7 +9,7 @@
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/io/importer.h"
-#include "skinspheres/runtime/character.h"
+#include "skinspheres/runtime/api/character.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

@@ -5,7 +5,7 @@
 
 #include "lib/analytic_shapes.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
-#include "skinspheres/runtime/sphere_set_io.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 
 namespace skinspheres::lib {
 namespace {

@@ -58,7 +58,7 @@
 #include "skinspheres/lib/character/raw_character.h"
 #include "skinspheres/lib/metrics/naive_joint_spheres.h"  // the baseline the figures are compared with
 #include "skinspheres/runtime/error.h"
-#include "skinspheres/runtime/sphere_set.h"
+#include "skinspheres/runtime/format/sphere_set.h"
 
 namespace skinspheres::lib {
 

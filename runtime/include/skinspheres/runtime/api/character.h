@@ -1,0 +1,262 @@
+// The engine-facing API: one CharacterAsset per fitted character (shared, read-only), one
+// CharacterInstance per character on screen (its own scratch), and a crowd helper.
+//
+//   auto set = LoadSphereSet("xbot.ssb");                  // set-up: binary or JSON; check set.ok()
+//   auto asset = CharacterAsset::Create(std::move(set).value());
+//   auto mapping = MapJoints((*asset)->sphere_set(), my_joint_names);  // joint_mapping.h; errors name
+//   auto instance = CharacterInstance::Create(*asset, *mapping);       // missing joints and the file
+//   each frame:
+//     FrameStatus st = instance->UpdateFast(joint_world);   // my joint order; or UpdateExact(skinned, joint_world)
+//     if (st.ok()) for (const Contact& c : instance->Query()) ...          // sphere pairs (broad phase)
+//     if (instance->FindContacts().ok())                                    // triangles (narrow phase)
+//       for (const PartContact& p : instance->frame_contacts().parts) ...
+//
+// CharacterAsset holds the SphereSet, the refit's rest data (RefitRestData: G_j(rest)^-1 applied to
+// the centres), the broad phase's PairFilter and, for a set with a mesh (format version 2), the
+// narrow phase's data (narrow_phase.h: exclusions found at set-up for the margin of its
+// NarrowPhaseSettings); immutable after Create, so any number of instances on any threads share
+// it through a shared_ptr.
+//
+// CharacterInstance: refitted spheres (refit_job.h) + the self-collision broad phase
+// (broad_phase.h) + the narrow phase (narrow_phase.h). Its buffers are sized at Create, apart from
+// the narrow phase's: ReserveContacts (at set-up) or else the first FindContacts sizes them (a few
+// hundred KB for a mesh of tens of thousands of vertices, so an instance that only runs the broad
+// phase never holds them), and the first FindContacts in mode (b) after mode (a) sizes them again
+// with its skinned-position buffer (12 bytes per mesh vertex). Per frame after that nothing is
+// allocated, except that the output lists grow (geometrically) the first time a frame has more
+// contacts than any before: ReserveContacts pins them; ReserveSphereContacts only Query's, without
+// the narrow phase's scratch (for an instance that only runs the broad phase). Per-frame calls
+// never throw; they return a FrameStatus whose message is a static string (no allocation). A failed
+// update (non-finite input, short spans) marks the instance's spheres invalid, so Query() then
+// returns no contacts and status() says why; other instances are untouched. Not thread-safe per
+// instance; distinct instances may run concurrently.
+//
+// UpdateAndQueryCrowd runs Update + Query (UpdateAndFindContactsCrowd: + FindContacts) for many
+// instances through a ParallelFor (parallel_for.h: TBB by default, or the engine's job system);
+// every instance's spheres and contacts are identical to running it alone, serially.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "skinspheres/skinning/math_types.h"
+#include "skinspheres/skinning/parallel_for.h"
+#include "skinspheres/runtime/broad_phase/broad_phase.h"
+#include "skinspheres/runtime/error.h"
+#include "skinspheres/runtime/api/joint_mapping.h"
+#include "skinspheres/runtime/narrow_phase/narrow_phase.h"
+#include "skinspheres/runtime/broad_phase/pair_filter.h"
+#include "skinspheres/runtime/refit/refit_job.h"
+#include "skinspheres/runtime/format/sphere_set.h"
+
+namespace skinspheres::runtime {
+
+// Outcome of one per-frame call. message is a static string (never freed, never allocated).
+struct FrameStatus {
+  ErrorCode code = ErrorCode::kOk;
+  const char* message = "";
+  bool ok() const { return code == ErrorCode::kOk; }
+};
+
+class CharacterAsset {
+ public:
+  // Validates the set (SphereSet::Validate), inverts the rest transforms, builds the pair filter
+  // and, when the set has a mesh, the narrow phase's data with these settings (a set without a mesh
+  // is accepted: narrow_phase() is then null and FindContacts refuses). Errors name the set's
+  // source file: kInvalidData (inconsistent set, singular rest transform), kInvalidArgument (a
+  // negative or non-finite margin).
+  static Result<std::shared_ptr<const CharacterAsset>> Create(SphereSet set, const NarrowPhaseSettings& narrow = {});
+
+  // Whether the set was fitted on this character: the same vertex count (source vertex indices)
+  // and every joint the runtime reads present by name, in any order (MapJoints, joint_mapping.h:
+  // the engine's own list, e.g. a glTF skin's joints without their `Armature` ancestor, matches).
+  // std::nullopt when it matches; otherwise kMismatchedAsset with a message naming the loaded set
+  // file, the character it was fitted on, and the difference (vertex counts, missing joint names).
+  // A match says nothing of the order: unless the list is the set's own, in order, create the
+  // instances with MapJoints' mapping so that they read matrices in the list's order.
+  std::optional<Error> Matches(std::span<const std::string> joint_names, size_t vertex_count) const;
+
+  const SphereSet& sphere_set() const { return set_; }
+  const RefitRestData& rest() const { return rest_; }
+  const PairFilter& filter() const { return filter_; }
+  // The narrow phase's data; nullptr when the set has no mesh (format version 1).
+  const NarrowPhaseData* narrow_phase() const { return narrow_ ? &*narrow_ : nullptr; }
+  size_t size() const { return set_.size(); }
+  size_t joint_count() const { return set_.joint_count(); }
+  size_t source_vertex_count() const { return set_.source_vertex_count; }
+
+ private:
+  friend struct CrowdBatch;  // character.cc: the crowd calls' query of several instances at once
+  CharacterAsset() = default;
+  SphereSet set_;
+  RefitRestData rest_;
+  PairFilter filter_;
+  std::optional<NarrowPhaseData> narrow_;
+  // The pairs the filter allows, (i << 16) | j sorted, for the crowd calls' batched query (sets of
+  // up to 256 spheres; empty otherwise, and the instances query one by one).
+  std::vector<uint32_t> crowd_pairs_;
+};
+
+struct CharacterFrameInput;
+
+class CharacterInstance {
+ public:
+  // Sizes every buffer for the asset (kInvalidArgument for a null asset). Joint matrices are then
+  // in the set's joint order (SphereSet::joint_names).
+  static Result<CharacterInstance> Create(std::shared_ptr<const CharacterAsset> asset);
+  // The same, with joint matrices in the engine's own order (mapping: MapJoints on this asset's
+  // set; kInvalidArgument when it was built for another set).
+  static Result<CharacterInstance> Create(std::shared_ptr<const CharacterAsset> asset, const JointMapping& mapping);
+
+  // How many joint matrices an update reads: the engine's joint count with a mapping, the set's
+  // joint count without.
+  size_t joint_input_count() const { return joint_input_count_; }
+
+  // Fast refit from G_j(t), one world matrix per joint (>= joint_input_count()).
+  FrameStatus UpdateFast(std::span<const Mat4f> joint_world);
+  // Exact refit from skinned positions indexed by source vertex (>= source_vertex_count()), with
+  // G_j(t) for the centres (may be empty: box-centre fallback, see refit_job.h).
+  FrameStatus UpdateExact(std::span<const Eigen::Vector3f> skinned_positions,
+                          std::span<const Mat4f> joint_world);
+  // Either of the above by mode (positions ignored in fast mode).
+  FrameStatus Update(RefitMode mode, std::span<const Mat4f> joint_world,
+                     std::span<const Eigen::Vector3f> skinned_positions);
+
+  // Self-collision contacts of the current spheres (broad_phase.h: pairs i < j sorted, depth,
+  // parts). Empty, with status() set, when the last update failed or none ran. The span stays
+  // valid until the next Query().
+  std::span<const Contact> Query();
+  std::span<const Contact> contacts() const { return contacts_; }
+
+  // The narrow phase (narrow_phase.h) behind this frame's sphere pairs (Query() runs first if it
+  // has not since the last update). Positions:
+  //  - skinned_positions given: mode (a), the positions the spheres were refitted from (UpdateExact's
+  //    buffer), or the LBS of the same joint matrices after UpdateFast, with the asset's own skin
+  //    weights: the fast spheres bound exactly those (refit_job.h; their bound uses the largest
+  //    weight each joint has in each sphere, SphereSet::influence_reach), so positions skinned with
+  //    weights an engine pruned or re-normalised may lie outside them and their contacts be missed;
+  //  - empty: mode (b), the instance skins only the vertices of the spheres it tests, from the
+  //    joint matrices of the last update (kInvalidArgument when that update had none).
+  // Refused (kVersionMismatch) when the asset has no mesh. parallel_for spreads the sphere pairs
+  // over threads (same output); the default runs on the calling thread. Results: frame_contacts(),
+  // empty after a failure.
+  FrameStatus FindContacts(std::span<const Eigen::Vector3f> skinned_positions = {},
+                           const ParallelFor& parallel_for = SerialFor());
+  const FrameContacts& frame_contacts() const { return frame_contacts_; }
+  // Counters of the last FindContacts (pairs, culled triangles, tests, skinned vertices).
+  const NarrowPhaseContext::Stats& narrow_phase_stats() const { return narrow_context_.last_stats(); }
+
+  // The refitted spheres (xyz centre, w radius), one per asset sphere; meaningful when
+  // spheres_valid().
+  std::span<const Vec4f> spheres() const { return spheres_; }
+  bool spheres_valid() const { return valid_; }
+  // Outcome of the last Update*/Query call.
+  FrameStatus status() const { return status_; }
+
+  // Room for this many sphere pairs and as many triangle pairs, and (an asset with a mesh) the
+  // narrow phase's scratch, so later frames do not allocate (but for the skinned-position buffer
+  // of the first FindContacts without positions).
+  void ReserveContacts(size_t count);
+  // Room for this many sphere pairs only (Query's list), for an instance that runs only the broad
+  // phase (a crowd): no triangle-pair room and no narrow-phase scratch (about 570 KB for Xbot,
+  // which ReserveContacts would size); a later FindContacts still sizes those itself.
+  void ReserveSphereContacts(size_t count);
+  const CharacterAsset& asset() const { return *asset_; }
+  const std::shared_ptr<const CharacterAsset>& shared_asset() const { return asset_; }
+
+ private:
+  friend FrameStatus CrowdStep(CharacterInstance&, RefitMode, const CharacterFrameInput&, bool);
+  friend struct CrowdBatch;  // character.cc: the crowd calls' refit and query of several instances at once
+  CharacterInstance() = default;
+  // Update; keep_joints: also keep the joint matrices for FindContacts mode (b) (a copy of one
+  // matrix per set joint; the broad-phase-only crowd call skips it).
+  FrameStatus Update(RefitMode mode, std::span<const Mat4f> joint_world,
+                     std::span<const Eigen::Vector3f> skinned_positions, bool keep_joints);
+  // Update in three steps: Prepare checks the inputs and gathers mapped joints (false: status_
+  // says why; *job then refits the spheres), the refit runs, Finish records its outcome.
+  bool PrepareUpdate(RefitMode mode, std::span<const Mat4f> joint_world,
+                     std::span<const Eigen::Vector3f> skinned_positions, RefitJob* job);
+  FrameStatus FinishUpdate(bool refit_ok, std::span<const Mat4f> joint_world, bool keep_joints);
+  std::shared_ptr<const CharacterAsset> asset_;
+  std::vector<Vec4f> spheres_;
+  BroadPhaseContext context_;
+  std::vector<Contact> contacts_;
+  // Engine joint order (a JointMapping): per set joint read per frame, the engine joint; the
+  // matrices are gathered into joint_world_ (set order, sized at Create) before the refit. It also
+  // keeps the last update's G_j(t) in set order for FindContacts mode (b).
+  std::vector<std::pair<uint32_t, uint32_t>> gather_;  // (set joint, engine joint)
+  std::vector<Mat4f> joint_world_;
+  bool mapped_ = false;
+  size_t joint_input_count_ = 0;
+  bool has_joints_ = false;             // joint_world_ holds the last update's matrices
+  bool queried_ = false;                // Query() ran since the last update
+  bool query_ok_ = false;               // and succeeded
+  NarrowPhaseContext narrow_context_;
+  FrameContacts frame_contacts_;
+  bool valid_ = false;
+  FrameStatus status_{ErrorCode::kInvalidArgument, "no update has run yet"};
+};
+
+// One frame's input for one instance (see CharacterInstance::Update).
+struct CharacterFrameInput {
+  std::span<const Mat4f> joint_world;
+  std::span<const Eigen::Vector3f> skinned_positions;  // exact mode only
+};
+
+// One instance's step of the crowd calls below, for an engine that writes its own crowd loop:
+// Update(mode, input), then Query(), then, when find_contacts, FindContacts (mode (a) with the
+// input's positions in exact mode, mode (b) in fast mode). Without find_contacts the joint
+// matrices are not kept for a later FindContacts without positions (see below). The instance's
+// status() after the step, kOk or why it failed.
+FrameStatus CrowdStep(CharacterInstance& instance, RefitMode mode, const CharacterFrameInput& input,
+                      bool find_contacts);
+
+// CrowdStep for instances[i] with inputs[i], one after the other on the calling thread, except
+// that consecutive instances of one asset are refitted, and (an asset of up to 256 spheres) queried,
+// together in fast mode: 16 at a time, one per AVX-512 lane, when the CPU has AVX-512F (each gets
+// the spheres and contacts it gets alone, bit for bit; several times faster per instance than one at
+// a time). The batched query tests all the asset's allowed pairs; it resets each instance's
+// candidate cache (BroadPhaseContext::Invalidate), whose motion statistics it does not keep, so a
+// later query alone rebuilds it (and gives exact contacts either way). The batch's spheres go to a
+// per-thread buffer (64-byte aligned, room for 256 spheres: 64 KB), allocated by the thread's first
+// batch and kept for its life. What the crowd calls below run on each range their parallel_for
+// hands out; for an engine that runs its own loop, give it ranges of instances ordered by asset, in
+// multiples of 16. An instance listed twice in one range is updated twice, in order, as CrowdStep
+// would. Returns kInvalidArgument (and runs nothing) when the spans differ in size or a pointer is
+// null; kInvalidData when at least one instance failed (its status() says why); kOk.
+FrameStatus CrowdRange(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
+                       RefitMode mode, bool find_contacts);
+
+// How many consecutive instances the crowd calls below give each index of their parallel_for: 16 for
+// a broad-phase-only crowd in fast mode on a CPU that batches (AVX-512F), so that no range cuts a
+// batch short; 1 otherwise (the narrow phase's work per instance outweighs the batch's gain).
+size_t CrowdBlock(RefitMode mode, bool find_contacts);
+
+// Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (parallel_for over
+// blocks of CrowdBlock instances; each range it hands out runs as CrowdRange, so instances ordered
+// by asset batch). It
+// does not keep the joint matrices for FindContacts mode (b) (a copy of every joint's matrix per
+// instance and frame, a tenth of a 10,000-character crowd's frame): a FindContacts without
+// positions after it is refused until the next Update, UpdateFast or UpdateAndFindContactsCrowd.
+// Returns kInvalidArgument (and runs nothing) when the spans differ in size or an instance pointer
+// is null (listing the same instance twice is a data race the caller
+// must avoid); kInvalidData when at least one instance failed (each instance's
+// status() says why; the others are fully updated); kOk otherwise.
+FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
+                                std::span<const CharacterFrameInput> inputs, RefitMode mode,
+                                const ParallelFor& parallel_for = DefaultParallelFor());
+
+// The same, then FindContacts for every instance: mode (a) with the input's skinned positions in
+// exact mode, mode (b) (lazy skinning from the joint matrices) in fast mode. Each instance's
+// narrow phase runs on the thread that updates it. kInvalidData also when an instance's asset has
+// no mesh (its status() says so).
+FrameStatus UpdateAndFindContactsCrowd(std::span<CharacterInstance* const> instances,
+                                       std::span<const CharacterFrameInput> inputs, RefitMode mode,
+                                       const ParallelFor& parallel_for = DefaultParallelFor());
+
+}  // namespace skinspheres::runtime

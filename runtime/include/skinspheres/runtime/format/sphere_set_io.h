@@ -1,0 +1,67 @@
+// Reading and writing a SphereSet as JSON (the versioned on-disk contract between the fitter
+// and the runtime), and files in either format (JSON or binary, sphere_set_binary.h). Runtime code
+// reads both without Assimp.
+//
+// {"format":"skinspheres.sphere_set","version":2,
+//  "source":{"file","vertices","triangles"}, "params":{...},
+//  "skeleton":{"joints":[{"name","parent","rest_world":[16 floats, column-major]}]},
+//  "parts":[{"name","joints":[joint indices]}],
+//  "spheres":[{"id","part","joint","level","center":[x,y,z],"radius","radius_fast",
+//              "vertices":[...],"triangles":[...],"influences":[[joint,weight],...],
+//              "influence_reach":[one per influence]}],
+//  "excluded_pairs":[[i,j,"same_joint"|"adjacent_joints"|"bind_overlap"],...],
+//  "mesh":{"triangles":[3 source vertex indices per source triangle],
+//          "positions_bind":[x,y,z per source vertex],
+//          "binds":[{"joint","inverse_bind":[16 floats, column-major]}],
+//          "influence_offsets":[vertices + 1],"influence_binds":[...],"influence_weights":[...]}}
+// "mesh" is version 2 (sphere_set.h); a version-1 file has none and is read as a set without a
+// mesh; a set without a mesh is written as version 1. "influence_reach" (SphereSet::influence_reach)
+// is optional in either version: every sphere has it or none does, and a file without it (written
+// before it existed) reads as a set without reach, which fast refit computes from the mesh or
+// takes as 1 (sphere_set.h); it is written when the set has it.
+// Everything in the rest pose, in the source file's world space. Sphere "id" is its index.
+// A reader refuses another format name, a newer version, a malformed or truncated file, or a set
+// that fails SphereSet::Validate(), with a message naming the file and the problem.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <span>
+#include <string>
+
+#include "skinspheres/runtime/error.h"
+#include "skinspheres/runtime/format/sphere_set.h"
+
+namespace skinspheres::runtime {
+
+std::string WriteSphereSetJson(const SphereSet& set);
+Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& source_name = "<memory>");
+
+enum class SphereSetFileFormat : uint8_t {
+  kJson,            // this file's format: the interchange and debugging format
+  kBinary,          // sphere_set_binary.h, the whole set
+  kBinaryFastOnly,  // sphere_set_binary.h, what fast refit reads
+};
+// By extension: ".json" -> kJson, ".ssb" -> kBinary; std::nullopt for anything else.
+std::optional<SphereSetFileFormat> SphereSetFormatForPath(const std::filesystem::path& path);
+
+// Either format, told apart by content (the binary magic number); errors name source_name.
+Result<SphereSet> ReadSphereSet(std::span<const std::byte> bytes, const std::string& source_name = "<memory>");
+
+// Files: errors name the path. Load reads either format (told apart by content) and sets
+// loaded_from to the path. Save writes `format`, or without it the format of the extension (JSON
+// when unknown); a fast-only set cannot be written as JSON (kInvalidArgument). Saving checks every
+// write through the close (file_io.h), in both formats. Loading reads only a regular file (a FIFO
+// or device is refused without reading) of at most kMaxSphereSetBytes, refused from its size
+// before anything is allocated, in both formats; JSON nested deeper than kMaxJsonDepth (file_io.h)
+// is refused before parsing. Reading JSON streams the spheres, pairs and mesh arrays out of the
+// parsed document as they complete: it peaks at about the text plus the set (docs/LIMITS.md has
+// the figures); reading binary peaks at the file plus the set.
+inline constexpr uint64_t kMaxSphereSetBytes = uint64_t{512} << 20;  // 512 MiB
+std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path);
+std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path, SphereSetFileFormat format);
+Result<SphereSet> LoadSphereSet(const std::filesystem::path& path);
+
+}  // namespace skinspheres::runtime

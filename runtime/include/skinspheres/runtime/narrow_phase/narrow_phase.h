@@ -1,0 +1,352 @@
+// Narrow phase: behind every sphere pair the broad phase reports (broad_phase.h), the triangles the
+// two spheres own are tested against each other, and what really touches is reported, grouped by
+// body-part pair.
+//
+// What is reported, per frame:
+//  - INTERSECTING triangle pairs: the two closed triangles share a point (triangle_contact.h: exact
+//    test; touching counts; degenerate triangles never count);
+//  - WITHIN MARGIN pairs (only when NarrowPhaseSettings::margin > 0): not intersecting, and their
+//    closest points are nearer than the margin (distance computed in double).
+// What is never reported (the exclusion rules):
+//  1. pairs of triangles owned by spheres the PairFilter excludes (same joint, adjacent joints,
+//     overlapping at rest, ...): the broad phase never reports those sphere pairs; and pairs of
+//     triangles owned by one sphere (a sphere is never paired with itself);
+//  2. pairs that share a vertex, by index or by rest position: vertices with bit-identical rest
+//     positions (glTF splits vertices along UV and normal seams) count as one;
+//  3. pairs that intersect, or lie within the margin, in the rest pose (the model's own creases and
+//     layered pieces). They are found once, at set-up (NarrowPhaseData::Create), for the margin of
+//     the settings; never per frame.
+// Rest pose = the mesh skinned with the skeleton's rest transforms (SphereSet::joint_rest_world):
+// the positions the spheres were fitted on.
+//
+// How it is found. Each triangle lies in the sphere that owns it, so an intersecting or near pair
+// of a sphere pair (i, j) lies in both spheres. Under each sphere its triangles are grouped at
+// set-up into CLUSTERS of neighbouring triangles (NarrowPhaseSettings::cluster_triangles at most).
+// Per frame every cluster of a sphere in a pair gets the box of its skinned vertices, and each such
+// sphere the union of its clusters' boxes (much tighter than a fast-refit sphere). Then, per
+// sphere pair:
+//   the two spheres' boxes must meet (grown by the margin);
+//   clusters of i whose box reaches into sphere j, clusters of j whose box reaches into sphere i;
+//   pairs of those clusters whose boxes meet;
+//   in each such cluster pair, the triangles whose box meets the other cluster's box, paired by box;
+//   the exclusion rules, then the exact triangle test.
+// Every step only drops what cannot meet, so nothing is lost with exact or fast spheres.
+//
+// Positions, two ways (NarrowPhaseJob):
+//  (a) the caller's skinned positions, indexed by source vertex (what UpdateExact refits from; the
+//      positions must be those the spheres hold, i.e. the same buffer, or the LBS of the same joint
+//      matrices in fast mode);
+//  (b) joint matrices only: the job skins just the vertices of the spheres in this frame's pairs
+//      (and of the spheres the depth estimate visits), each vertex once. At set-up the vertices
+//      are grouped by the spheres that use them and laid out in one set of prepared influences
+//      (the SIMD skinning path), influence count first, then group by group, so that each group
+//      is a few runs of slots; a frame marks the runs of the spheres it needs (a few words of a
+//      run bitset per sphere) and skins the marked runs, the adjacent ones merged into long spans
+//      (tens per frame), near the whole-mesh path's cost per vertex (bench/narrow_phase_bench.cc,
+//      BM_LazySkin, BM_LazyVsWhole). The positions are bit-identical to skinning the whole mesh
+//      with SkinningJob.
+// Both need the mesh of a version-2 sphere set (SphereSet::has_mesh()): triangle indices, rest
+// positions and influences. A version-1 set (no mesh) is refused by NarrowPhaseData::Create with
+// kVersionMismatch, in both modes: its exclusions cannot be computed without the rest mesh.
+// Re-fit the character (`skinspheres fit`) to get a version-2 set.
+//
+// Output (FrameContacts), plain structs of indices and floats in flat arrays:
+//  - parts: one PartContact per body-part pair with contacts, sorted by (part_a, part_b),
+//    part_a <= part_b; each names its ranges in the two arrays below;
+//  - sphere_pairs: per part pair, the sphere pairs (i < j) that own its triangle pairs, sorted;
+//  - triangle_pairs: per part pair, sorted by (t, u): t is a source triangle of part_a, u of part_b
+//    (same part: t < u), in the SphereSet's source triangle numbering (file order).
+// Penetration depth (PartContact::depth, per part pair with at least one intersecting pair) —
+// the thickness of the overlap along the contact normal:
+//  - normal n (from part_b towards part_a): the sum over intersecting pairs of the area-weighted
+//    normal of u minus that of t (outward normals, as the mesh winds them), normalised; if that
+//    sum vanishes, the direction from the centroid of the u triangles to that of the t triangles;
+//  - centre C: the length-weighted mean of the intersection segments' midpoints; R: the largest
+//    distance of a segment end from C across n (the contour's radius);
+//  - h_a = max over vertices v of part_a with |(v - C) across n| <= R of (C - v) . n (how far part_a
+//    reaches past the contour into part_b), h_b = max of (v - C) . n over part_b likewise, both
+//    >= 0; depth = h_a + h_b. The vertices examined are those of the spheres owning the t
+//    triangles, then, sphere by sphere, the neighbours (same part, overlapping or sharing a vertex
+//    at rest) of every examined sphere with a vertex past the contour: the whole penetrating cap.
+//  For two spheres overlapping by d this is d (the lens between their caps); for a palm pressed
+//  into a flat chest it is how deep the palm sinks. It depends only on positions, so exact and fast
+//  mode give the same value. Part pairs with only within-margin pairs have depth 0.
+//
+// Cost and memory: per frame no allocation once the outputs and scratch have held the largest
+// frame so far (FrameContacts::Reserve and NarrowPhaseContext sizes pin them), no exception. The
+// shared NarrowPhaseData holds about what the mesh holds (welded indices, clusters, prepared
+// influences of the spheres' vertices). Mode (b) keeps a skinned-position buffer of 12 bytes per mesh
+// vertex in the context (allocated by Resize(data, true), or by the first mode-(b) run). Output is identical for any ParallelFor and
+// thread count: work is split into a fixed number of chunks of sphere pairs whose results are
+// merged in order, and everything is sorted by indices.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <utility>
+#include <vector>
+
+#include "skinspheres/skinning/math_types.h"
+#include "skinspheres/skinning/parallel_for.h"
+#include "skinspheres/skinning/prepared_influences.h"
+#include "skinspheres/runtime/broad_phase/broad_phase.h"
+#include "skinspheres/runtime/error.h"
+#include "skinspheres/runtime/broad_phase/pair_filter.h"
+#include "skinspheres/runtime/format/sphere_set.h"
+
+namespace skinspheres::runtime {
+
+// The largest margin NarrowPhaseData::Create accepts, as a share of the character's rest size (the
+// largest extent of its mesh at rest): beyond it nearly every triangle pair near a joint is within
+// the margin, and set-up memory and per-frame contacts grow with the square of the triangle count.
+inline constexpr float kMaxMarginShareOfSize = 0.05f;
+
+struct NarrowPhaseSettings {
+  // > 0: also report triangle pairs whose distance is below this (model units); 0: intersections
+  // only. Pairs within this distance at rest are excluded, so it is fixed at set-up. At most
+  // kMaxMarginShareOfSize times the character's rest size (else kInvalidArgument).
+  float margin = 0.0f;
+  // Triangles per cluster at most, 1..256 (bench/narrow_phase_bench.cc, BM_ClusterSize, chose 16).
+  uint32_t cluster_triangles = 16;
+};
+
+enum class TriangleContactKind : uint8_t { kIntersecting = 0, kWithinMargin = 1 };
+const char* ToString(TriangleContactKind kind);  // "intersecting", "within_margin"
+
+struct TrianglePairContact {
+  uint32_t t = 0;  // source triangle of the part pair's part_a
+  uint32_t u = 0;  // source triangle of part_b (same part: t < u)
+  TriangleContactKind kind = TriangleContactKind::kIntersecting;
+  float distance = 0.0f;  // 0 when intersecting, else the closest distance (< margin)
+  float point[3] = {0, 0, 0};  // representative point: the midpoint of on_t and on_u
+  // Intersecting: the two ends of the intersection segment (a coplanar overlap gives its centre
+  // twice). Within margin: the closest points, on t and on u.
+  float on_t[3] = {0, 0, 0};
+  float on_u[3] = {0, 0, 0};
+  friend bool operator==(const TrianglePairContact&, const TrianglePairContact&) = default;
+};
+
+struct SpherePair {
+  uint32_t i = 0;  // i < j, sphere indices
+  uint32_t j = 0;
+  friend bool operator==(const SpherePair&, const SpherePair&) = default;
+};
+
+struct PartContact {
+  uint16_t part_a = 0;  // part_a <= part_b, SphereSet::parts indices
+  uint16_t part_b = 0;
+  uint32_t first_sphere_pair = 0;    // FrameContacts::sphere_pairs[first, first + count)
+  uint32_t sphere_pair_count = 0;
+  uint32_t first_triangle_pair = 0;  // FrameContacts::triangle_pairs[first, first + count)
+  uint32_t triangle_pair_count = 0;
+  uint32_t intersecting_count = 0;   // how many of those are kIntersecting
+  float depth = 0.0f;                // penetration depth estimate (header comment); 0 without intersections
+  float min_distance = 0.0f;         // 0 with intersections, else the smallest within-margin distance
+  float normal[3] = {0, 0, 0};       // contact normal, from part_b towards part_a (0 without intersections)
+  float center[3] = {0, 0, 0};       // contact centre C (with intersections), else the closest pair's point
+  friend bool operator==(const PartContact&, const PartContact&) = default;
+};
+
+struct FrameContacts {
+  std::vector<PartContact> parts;
+  std::vector<SpherePair> sphere_pairs;
+  std::vector<TrianglePairContact> triangle_pairs;
+
+  void clear() {
+    parts.clear();
+    sphere_pairs.clear();
+    triangle_pairs.clear();
+  }
+  bool empty() const { return parts.empty(); }
+  // Set-up: room for this many triangle pairs (and as many part and sphere pairs) without allocating.
+  void Reserve(size_t triangle_pairs_capacity);
+  friend bool operator==(const FrameContacts&, const FrameContacts&) = default;
+};
+
+// What the narrow phase derives once from a sphere set (allocates; immutable afterwards, shared by
+// every instance and thread): welded vertex ids, each sphere's triangle vertices, the rest-pose
+// exclusions, the spheres' neighbours for the depth estimate.
+class NarrowPhaseData {
+ public:
+  NarrowPhaseData() = default;  // empty: usable with no set
+
+  // Needs set.has_mesh() (else kVersionMismatch naming the set's file) and a filter built from the
+  // set (same sphere count, else kInvalidArgument). The set must pass SphereSet::Validate().
+  static Result<NarrowPhaseData> Create(const SphereSet& set, const PairFilter& filter,
+                                        const NarrowPhaseSettings& settings = {});
+
+  const NarrowPhaseSettings& settings() const { return settings_; }
+  float margin() const { return settings_.margin; }
+  size_t sphere_count() const { return sphere_vertex_offsets_.empty() ? 0 : sphere_vertex_offsets_.size() - 1; }
+  size_t triangle_count() const { return welded_.size() / 3; }
+  size_t vertex_count() const { return rest_positions_.size(); }
+  size_t max_sphere_triangles() const { return max_sphere_triangles_; }
+  size_t max_sphere_clusters() const { return max_sphere_clusters_; }
+
+  // Rule 2: canonical vertex ids (the first vertex with the same rest position), 3 per triangle.
+  std::span<const uint32_t> welded_triangle_vertices() const { return welded_; }
+  bool ShareVertex(uint32_t t, uint32_t u) const;
+  // Rule 3: sorted (t << 32 | u) keys, t < u, of the triangle pairs that intersect or lie within the
+  // margin at rest (among sphere pairs the filter does not exclude).
+  std::span<const uint64_t> rest_excluded_pairs() const { return rest_excluded_; }
+  bool RestExcluded(uint32_t t, uint32_t u) const;
+  // Per sphere, the distinct vertices of the triangles it owns (CSR: offsets has sphere_count + 1).
+  std::span<const uint32_t> sphere_vertex_offsets() const { return sphere_vertex_offsets_; }
+  std::span<const uint32_t> sphere_vertices() const { return sphere_vertices_; }
+  // Per sphere, its neighbours of the same part (overlapping or sharing a vertex at rest), CSR.
+  std::span<const uint32_t> neighbour_offsets() const { return neighbour_offsets_; }
+  std::span<const uint32_t> neighbours() const { return neighbours_; }
+  // The rest-pose positions (mesh skinned with the rest transforms), per source vertex.
+  std::span<const Eigen::Vector3f> rest_positions() const { return rest_positions_; }
+  size_t cluster_count() const { return cluster_vertex_offsets_.empty() ? 0 : cluster_vertex_offsets_.size() - 1; }
+  // Mode (b): vertex groups (the vertices used by the same spheres), CSR per sphere. The groups'
+  // lists are the layout's description (tests, benchmarks); a frame reads the run bitsets below.
+  size_t group_count() const { return group_run_offsets_.empty() ? 0 : group_run_offsets_.size() - 1; }
+  std::span<const uint32_t> sphere_group_offsets() const { return sphere_group_offsets_; }
+  std::span<const uint32_t> sphere_groups() const { return sphere_groups_; }
+  // Every vertex of a sphere, once, as prepared influences: slots by influence count, then by group.
+  const skinning::PreparedInfluences& lazy_influences() const { return lazy_influences_; }
+  // Runs: run r is slots [run_begin()[r], run_begin()[r + 1]) of lazy_influences(), all of one
+  // group; the runs tile the slots in order. Group g owns runs group_runs()[group_run_offsets()[g] ..).
+  size_t run_count() const { return run_begin_.empty() ? 0 : run_begin_.size() - 1; }
+  std::span<const uint32_t> run_begin() const { return run_begin_; }
+  std::span<const uint32_t> group_run_offsets() const { return group_run_offsets_; }
+  std::span<const uint32_t> group_runs() const { return group_runs_; }
+  std::span<const uint32_t> group_sizes() const { return group_sizes_; }  // vertices per group
+  // The same per sphere, as a bitset over runs (bit r of word r / 64): sphere s's runs are the bits
+  // sphere_run_bits()[k] of words sphere_run_words()[k], k in [sphere_run_offsets()[s],
+  // sphere_run_offsets()[s + 1]), words ascending, no zero mask (what a frame ORs in per sphere).
+  std::span<const uint32_t> sphere_run_offsets() const { return sphere_run_offsets_; }
+  std::span<const uint32_t> sphere_run_words() const { return sphere_run_words_; }
+  std::span<const uint64_t> sphere_run_bits() const { return sphere_run_bits_; }
+
+ private:
+  friend struct NarrowPhaseAccess;
+  NarrowPhaseSettings settings_;
+  size_t max_sphere_triangles_ = 0;
+  size_t max_sphere_clusters_ = 0;
+  // Clusters: sphere s has clusters [cluster_offsets_[s], cluster_offsets_[s + 1]); cluster c has
+  // triangles cluster_triangles_[cluster_triangle_offsets_[c] ..), and vertices likewise.
+  std::vector<uint32_t> cluster_offsets_;
+  std::vector<uint32_t> cluster_triangle_offsets_, cluster_triangles_;
+  std::vector<uint32_t> cluster_vertex_offsets_, cluster_vertices_;
+  // Mode (b): see the accessors.
+  skinning::PreparedInfluences lazy_influences_;
+  std::vector<uint32_t> run_begin_, group_run_offsets_, group_runs_, group_sizes_;
+  std::vector<uint32_t> sphere_group_offsets_, sphere_groups_;
+  std::vector<uint32_t> sphere_run_offsets_, sphere_run_words_;
+  std::vector<uint64_t> sphere_run_bits_;
+  std::vector<uint32_t> welded_;
+  std::vector<uint64_t> rest_excluded_;
+  std::vector<uint32_t> sphere_vertex_offsets_, sphere_vertices_;
+  std::vector<uint32_t> neighbour_offsets_, neighbours_;
+  std::vector<Eigen::Vector3f> rest_positions_;
+};
+
+// Per-character scratch (one per instance running concurrently; never share between jobs running at
+// once). Resize at set-up; diagnostics of the last run.
+class NarrowPhaseContext {
+ public:
+  // Work is cut into at most this many chunks of sphere pairs (a fixed number, so the split, and
+  // the output, do not depend on the thread count).
+  static constexpr size_t kChunks = 16;
+
+  NarrowPhaseContext() = default;
+  // Set-up only (allocates). lazy_skinning: also the mode-(b) buffers (skinned positions, marks).
+  void Resize(const NarrowPhaseData& data, bool lazy_skinning);
+  bool sized_for(const NarrowPhaseData& data) const { return sized_for_ == &data; }
+  bool has_lazy_skinning() const { return !run_done_.empty() || skinned_.size() > 0; }
+
+  struct Stats {
+    size_t sphere_pairs = 0;         // pairs examined
+    size_t clusters_bounded = 0;     // clusters of the spheres in pairs, boxed this frame
+    size_t cluster_pairs = 0;        // cluster pairs compared (clusters that reached into the other sphere)
+    size_t culled_triangles = 0;     // triangles that reached the other cluster's box (both sides)
+    size_t box_tests = 0;            // triangle box pairs compared
+    size_t triangle_tests = 0;       // exact triangle-triangle tests run
+    size_t skinned_vertices = 0;     // mode (b): vertices skinned this frame
+    size_t depth_vertices = 0;       // vertices examined by the depth estimate
+  };
+  const Stats& last_stats() const { return stats_; }
+  // Mode (b), diagnostics: the positions the last run skinned, by source vertex (empty before the
+  // first mode-(b) run). Current only for the vertices of the spheres it skinned: those in its pairs
+  // and those the depth estimate visited; the others hold earlier frames' values.
+  std::span<const Eigen::Vector3f> lazy_positions() const { return skinned_; }
+
+ private:
+  friend struct NarrowPhaseJob;
+  friend struct NarrowPhaseAccess;
+
+  struct Box {
+    float lo[3], hi[3];
+    uint32_t id;  // triangle or cluster
+  };
+  struct Hit {
+    uint32_t i, j;  // sphere pair
+    uint32_t t, u;  // t owned by i, u by j
+    TriangleContactKind kind;
+    float distance;
+    float on_t[3], on_u[3];
+  };
+  struct Chunk {
+    std::vector<Box> a, b;         // a cluster's triangles (cluster_triangles each)
+    std::vector<uint32_t> ka, kb;  // a sphere's clusters (max_sphere_clusters each)
+    std::vector<Hit> hits;
+    Stats stats;
+    bool ok = true;
+  };
+
+  const NarrowPhaseData* sized_for_ = nullptr;
+  Chunk chunks_[kChunks];
+  std::vector<Hit> merged_;
+  std::vector<uint64_t> keys_;             // scratch for sorting sphere pairs
+  std::vector<uint32_t> sphere_mark_;      // per sphere: the depth estimate's visits
+  std::vector<uint32_t> queue_;            // per sphere
+  uint32_t sphere_stamp_ = 0;
+  std::vector<uint32_t> sphere_seen_;      // per sphere: frame stamp when listed in involved_ or skinned on demand
+  std::vector<uint32_t> involved_;         // the spheres in this frame's pairs
+  std::vector<Box> cluster_box_;           // per cluster: this frame's box
+  std::vector<Box> sphere_box_;            // per sphere: the union of its clusters' boxes
+  uint32_t frame_stamp_ = 0;
+  // Mode (b).
+  std::vector<Eigen::Vector3f> skinned_;   // per vertex
+  std::vector<uint64_t> run_bits_;         // per run, one bit: marked, not yet skinned
+  std::vector<uint64_t> run_done_;         // per run, one bit: skinned this frame
+  size_t marked_begin_ = 0, marked_end_ = 0;  // words of run_bits_ that may be non-zero (begin >= end: none)
+  std::vector<std::pair<uint32_t, uint32_t>> spans_;  // slot spans to skin (<= runs + slots / block + 1)
+  std::vector<Mat4f> bind_matrices_;       // per bind entry
+  Stats stats_;
+};
+
+struct NarrowPhaseJob {
+  const SphereSet* set = nullptr;            // has_mesh()
+  const NarrowPhaseData* data = nullptr;     // built from *set
+  std::span<const Vec4f> spheres;            // the refitted spheres the pairs came from, set->size()
+  std::span<const Contact> pairs;            // the broad phase's pairs (i < j < set->size())
+  // (a) skinned positions by source vertex (>= set->source_vertex_count), or, when empty,
+  // (b) G_j(t) per skeleton joint (>= set->joint_count()): the job skins what it tests.
+  std::span<const Eigen::Vector3f> positions;
+  std::span<const Mat4f> joint_world;
+  NarrowPhaseContext* context = nullptr;     // Resize(*data, ...) done
+  FrameContacts* out = nullptr;              // cleared, then filled
+
+  // Every reason the job is refused: null pointers, sizes, a context sized for other data, no
+  // positions and no joint matrices. O(1).
+  bool Validate() const;
+  // Validates and runs on the calling thread. False (out cleared) on a refused job, a pair index
+  // out of range, or non-finite positions. Never throws.
+  bool Run() const;
+  // The same through parallel_for (parallel_for.h; TBB by default): identical output.
+  bool RunParallel(const ParallelFor& parallel_for = DefaultParallelFor()) const;
+};
+
+// The oracle: every pair of spheres (i < j) the filter does not exclude, every triangle of i against
+// every triangle of j, the same rules (skipping only sphere pairs whose triangles' bounding boxes,
+// grown by the margin, are apart); positions of every source vertex. Same output format, depth
+// included. For tests, `play --verify` and benchmarks; O(triangles^2) in the worst case.
+bool FindContactsBruteForce(const SphereSet& set, const NarrowPhaseData& data, const PairFilter& filter,
+                            std::span<const Eigen::Vector3f> positions, FrameContacts* out);
+
+}  // namespace skinspheres::runtime

@@ -1,0 +1,161 @@
+// RefitJob: the per-frame sphere refit. SphereSet (rest pose) + this frame's pose -> one bounding
+// sphere per fitted sphere, written as Vec4f (xyz centre, w radius), ready for the broad
+// phase (broad_phase.h). Both modes are CONSERVATIVE: every vertex of every triangle a sphere owns
+// (sphere_set.h, `triangles`) is inside the refitted sphere, for any pose linear blend skinning
+// can produce from the given joint transforms.
+//
+// Notation: G_j(t) world (model) transform of joint j this frame, G_j(rest) its rest transform
+// (SphereSet::joint_rest_world), T_j = G_j(t) · G_j(rest)^-1 the joint's motion since rest,
+// A_j the 3x3 linear part of T_j. c = centers_rest[s]; (j, w_j) the sphere's influences
+// (influence_joints / influence_weights, renormalised to sum exactly 1 in RefitRestData).
+//
+// Centre (both modes, when joint transforms are given):
+//     c' = Σ_j w_j · T_j · c
+//   The fitted centre carried by the sphere's own blended joint transform, i.e. the same linear
+//   blend skinning the vertices get, applied to the centre. Why: it moves with the body exactly
+//   as the sphere's patch does, so when the patch moves rigidly (one joint, or all influences
+//   moving together) c' stays at the same place relative to its vertices and the radius stays at
+//   its fitted, tight value; it costs O(influences), not O(vertices); it is the same centre in
+//   both modes, so switching mode never makes a sphere jump; and it is continuous in the pose
+//   (no flicker that a per-frame bounding-box or minimum-ball centre would show).
+//
+// Exact mode (kExact): input `positions`, skinned positions indexed by SOURCE vertex index (only
+//   the spheres' source vertices are read). Radius = max_v |p_v - c'| over the sphere's source
+//   vertices — the smallest radius around c' that holds every owned triangle's vertices, the
+//   guarantee. Without joint transforms (joint_world empty) the centre falls back to the centre of
+//   the axis-aligned box of the sphere's skinned source vertices: it needs nothing but the
+//   positions, and its radius is at most sqrt(3) times the minimum enclosing ball's (half the
+//   box diagonal <= sqrt(3)/2 · the largest extent <= sqrt(3) · R_min); it can jump between frames.
+//
+// Fast mode (kFast): no vertex is skinned; input is G_j(t) per skeleton joint. With
+// d_j = T_j c - c' and W_j the reach of the sphere's influence on joint j (RefitRestData::reach():
+// the largest total weight any of the sphere's source vertices gives j, SphereSet::influence_reach),
+//     r' = s_max · radius_fast + min(max_j |d_j|, Σ_j W_j |d_j|) + margin
+//   Kavan & Žára 2005 ("Fast collision detection for skeletally deformable models", bounding-sphere
+//   refit) with its spread term max_j |d_j| capped by the weighted sum.
+//   Derivation. A source vertex is skinned as v' = Σ_b w_b M_b(t) p_bind over its bind entries b
+//   (weights >= 0, Σ w_b = 1), M_b(t) = G_j(b)(t) · IBM_b. Write p_b = M_b(rest) · p_bind, the
+//   rest copy of the vertex carried rigidly by entry b; then M_b(t) = T_j(b) · M_b(rest), so
+//     v' = Σ_b w_b T_j(b) p_b
+//     v' - c' = Σ_b w_b T_j(b)(p_b - c)  +  (Σ_b w_b T_j(b) c - c')
+//   T_j is affine, T_j(p_b) - T_j(c) = A_j (p_b - c), so the first term has norm
+//     <= Σ_b w_b |A_j(b)| |p_b - c| <= s_max · radius_fast
+//   since radius_fast holds every rest copy p_b of every source vertex (sphere_set.h) and s_max
+//   bounds the largest singular value of every A_j of the sphere's influence joints. The second
+//   term, with w_vj the vertex's total weight on joint j (Σ_j w_vj = 1; the joints of a vertex are
+//   among the sphere's influence joints, which SphereSet::Validate checks against the mesh), is
+//     Σ_j w_vj (T_j c - c') = Σ_j w_vj d_j,
+//   a convex combination of the d_j, so its norm is at most max_j |d_j|; and by the triangle
+//   inequality at most Σ_j w_vj |d_j| <= Σ_j W_j |d_j|, since w_vj <= W_j. Both hold for every
+//   source vertex, hence their minimum does, and |v' - c'| <= r'. The sum is the smaller one when
+//   the sphere's vertices give some of its joints only small weights (a sphere on a joint's border
+//   whose vertices lean to one side): a joint that moves far from c' then counts at its weight,
+//   not in full. With every W_j = 1 (a set with neither reach nor mesh) the sum is
+//   Σ_j |d_j| >= max_j |d_j| and r' is the plain Kavan & Žára bound, bit for bit (a float sum of
+//   non-negative terms is never below its largest term). The sums run in influence order, the
+//   same operations in the vector code and in the tests' scalar reference.
+//   s_max: σ_max(A)^2 = λ_max(AᵀA) <= max_i Σ_k |(AᵀA)_ik| (the spectral
+//   radius is below any induced norm, here the infinity norm of the symmetric AᵀA), so
+//     s_max = max_j sqrt(max_i Σ_k |(A_jᵀ A_j)_ik|),
+//   exact for rotations and uniform scales (AᵀA = s²I), an over-estimate under non-uniform scale.
+//   Where the file's rest pose is not its bind pose (Soldier, RobotExpressive: G_j(rest)·IBM_j
+//   differs per joint) the copies p_b of one vertex differ, and radius_fast, which covers every
+//   copy, can exceed radius_rest; where rest = bind it equals radius_rest.
+//
+// margin: both modes add 16·FLT_EPSILON·(max|c'_xyz| + r), a few ulps of the coordinates, so the
+// float evaluation (of the centre, the distances, and the caller's own skinning) cannot leave a
+// vertex outside by rounding. Exact-mode radii therefore equal the max distance to ~2e-6 relative.
+//
+// Jobs: spans in, spans out; Validate() is O(1) (sizes and pointers; the
+// SphereSet's indices were checked when RefitRestData was built from it); Run()/RunRange() never
+// allocate nor throw; RunRange(begin, end) refits spheres [begin, end), each sphere computed by the
+// same instructions whatever the split, so RefitParallel (any ParallelFor) gives bit-identical
+// output for any thread count. Non-finite input (NaN/Inf joint matrices or positions) makes
+// Run() return false; the spheres it touched then hold unspecified (possibly NaN) values.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "skinspheres/skinning/math_types.h"
+#include "skinspheres/skinning/parallel_for.h"
+#include "skinspheres/runtime/error.h"
+#include "skinspheres/runtime/format/sphere_set.h"
+
+namespace skinspheres::runtime {
+
+enum class RefitMode : uint8_t {
+  kExact,  // skinned source vertices -> tight radius (see above)
+  kFast,   // joint transforms only -> conservative radius (see above)
+};
+const char* ToString(RefitMode mode);  // "exact", "fast"
+
+// Rest-pose data the refit reads every frame, derived once from a SphereSet (allocates; then
+// immutable and shareable between threads and instances).
+class RefitRestData {
+ public:
+  RefitRestData() = default;  // empty: fits only an empty set
+
+  // Validates the set (SphereSet::Validate()) and refuses rest transforms that cannot be inverted
+  // (kInvalidData, naming the set's source file and the joint).
+  static Result<RefitRestData> Create(const SphereSet& set);
+
+  size_t sphere_count() const { return sphere_count_; }
+  size_t joint_count() const { return rest_linear_inverse_.size(); }
+  size_t influence_count() const { return center_in_joint_.size(); }
+  size_t source_vertex_count() const { return source_vertex_count_; }
+
+  // Per influence entry k of sphere s (SphereSet CSR order): G_j(rest)^-1 · c_s, the centre in the
+  // joint's rest frame, so T_j c = G_j(t) · center_in_joint[k]; and w_k renormalised to sum 1.
+  std::span<const Eigen::Vector3f> center_in_joint() const { return center_in_joint_; }
+  std::span<const float> weights() const { return weights_; }
+  // Per influence entry: the reach W_k the fast bound uses, SphereSet::influence_reach when the set
+  // has one, else computed from its mesh (InfluenceReachFromMesh), else 1 (the bound without it).
+  std::span<const float> reach() const { return reach_; }
+  // Per joint: the 3x3 linear part of G_j(rest)^-1 (A_j = linear(G_j(t)) · this).
+  std::span<const Eigen::Matrix3f> rest_linear_inverse() const { return rest_linear_inverse_; }
+  // The same matrices by rows for the vector code: 12 floats per joint, rows 0..2 of
+  // rest_linear_inverse()[j] at 12 j, 12 j + 4, 12 j + 8, each padded with a 0.
+  std::span<const float> rest_inverse_rows() const { return rest_inverse_rows_; }
+
+ private:
+  size_t sphere_count_ = 0;
+  size_t source_vertex_count_ = 0;
+  std::vector<Eigen::Vector3f> center_in_joint_;
+  std::vector<float> weights_;
+  std::vector<float> reach_;
+  std::vector<Eigen::Matrix3f> rest_linear_inverse_;
+  std::vector<float> rest_inverse_rows_;
+};
+
+struct RefitJob {
+  RefitMode mode = RefitMode::kFast;
+  const SphereSet* spheres = nullptr;     // the fitted set; must pass SphereSet::Validate()
+                                          // (RefitRestData::Create and CharacterAsset check it)
+  const RefitRestData* rest = nullptr;    // built from *spheres; required unless exact mode
+                                          // without joint_world
+  // G_j(t) per skeleton joint, >= spheres->joint_count(). Required in fast mode; optional in exact
+  // mode (empty: box-centre fallback). Affine; the last row is ignored.
+  std::span<const Mat4f> joint_world;
+  // Exact mode: skinned positions indexed by source vertex, >= spheres->source_vertex_count.
+  // Only the spheres' source vertices are read. Ignored (may be empty) in fast mode.
+  std::span<const Eigen::Vector3f> positions;
+  std::span<Vec4f> out;         // >= spheres->size(): xyz centre, w radius
+
+  // Every reason the job is refused: null pointers, short spans, rest data from another set,
+  // exact mode on a fast-only set (SphereSet::fast_only: no vertex lists).
+  bool Validate() const;
+  // Validates, refits every sphere. False on a refused job or non-finite input / output.
+  bool Run() const;
+  // Validates, refits spheres [begin, end) (end <= spheres->size(), begin <= end).
+  bool RunRange(size_t begin, size_t end) const;
+};
+
+// Validates once, then refits [0, size) through parallel_for (parallel_for.h; TBB by default) in
+// chunks of >= grain spheres. Output bit-identical to Run().
+bool RefitParallel(const RefitJob& job, size_t grain = 32, const ParallelFor& parallel_for = DefaultParallelFor());
+
+}  // namespace skinspheres::runtime

@@ -1,0 +1,298 @@
+#include "skinspheres/runtime/format/sphere_set.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace skinspheres::runtime {
+
+const char* ToString(ExclusionReason reason) {
+  switch (reason) {
+    case ExclusionReason::kSameJoint: return "same_joint";
+    case ExclusionReason::kAdjacentJoints: return "adjacent_joints";
+    case ExclusionReason::kBindOverlap: return "bind_overlap";
+  }
+  return "unknown";
+}
+
+std::optional<ExclusionReason> ExclusionReasonFromString(std::string_view text) {
+  if (text == "same_joint") return ExclusionReason::kSameJoint;
+  if (text == "adjacent_joints") return ExclusionReason::kAdjacentJoints;
+  if (text == "bind_overlap") return ExclusionReason::kBindOverlap;
+  return std::nullopt;
+}
+
+namespace {
+
+Error Invalid(const std::string& what) { return MakeError(ErrorCode::kInvalidData, what); }
+
+// A float in as many digits as tell it from its neighbours (a reach one ulp too small must read so).
+std::string Digits(float x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.9g", static_cast<double>(x));
+  return text;
+}
+
+using skinning::kWeightSumTolerance;  // skinned_mesh.h
+
+// Offsets of a CSR list: n+1 entries, starting at 0, non-decreasing, ending at the list's size.
+bool CsrOk(const std::vector<uint32_t>& offsets, size_t n, size_t list_size) {
+  if (offsets.size() != n + 1 || offsets.front() != 0 || offsets.back() != list_size) return false;
+  for (size_t s = 0; s < n; ++s) {
+    if (offsets[s] > offsets[s + 1]) return false;
+  }
+  return true;
+}
+
+// The version-2 mesh: sizes, index ranges, finite values, and every vertex of a triangle a sphere
+// owns among that sphere's source vertices (what the refit bounds is what a triangle test reads).
+std::optional<Error> ValidateMesh(const SphereSet& set) {
+  const skinning::SkinnedMesh& mesh = set.mesh;
+  if (!set.has_mesh()) {
+    if (mesh.vertex_count() != 0 || !mesh.binds.empty() || !mesh.influence_binds.empty()) {
+      return Invalid("the mesh has vertices or bind entries but no triangles");
+    }
+    return std::nullopt;
+  }
+  const size_t vertices = set.source_vertex_count;
+  if (set.triangle_vertices.size() != 3 * static_cast<size_t>(set.source_triangle_count)) {
+    return Invalid("the mesh has " + std::to_string(set.triangle_vertices.size()) + " triangle indices, expected 3 x " +
+                   std::to_string(set.source_triangle_count));
+  }
+  for (size_t k = 0; k < set.triangle_vertices.size(); ++k) {
+    if (set.triangle_vertices[k] >= vertices) {
+      return Invalid("mesh triangle " + std::to_string(k / 3) + " names vertex " +
+                     std::to_string(set.triangle_vertices[k]) + " out of range");
+    }
+  }
+  if (mesh.vertex_count() != vertices) {
+    return Invalid("the mesh has " + std::to_string(mesh.vertex_count()) + " vertices, expected " +
+                   std::to_string(vertices));
+  }
+  for (size_t v = 0; v < vertices; ++v) {
+    if (!mesh.positions_bind[v].allFinite()) return Invalid("mesh vertex " + std::to_string(v) + " is not finite");
+  }
+  for (size_t b = 0; b < mesh.binds.size(); ++b) {
+    if (mesh.binds[b].joint < 0 || static_cast<size_t>(mesh.binds[b].joint) >= set.joint_count()) {
+      return Invalid("mesh bind entry " + std::to_string(b) + " names joint " + std::to_string(mesh.binds[b].joint) +
+                     " out of range");
+    }
+    if (!mesh.binds[b].inverse_bind.allFinite()) {
+      return Invalid("mesh bind entry " + std::to_string(b) + " has a non-finite inverse bind matrix");
+    }
+  }
+  if (!CsrOk(mesh.influence_offsets, vertices, mesh.influence_binds.size()) ||
+      mesh.influence_weights.size() != mesh.influence_binds.size()) {
+    return Invalid("mesh influence lists are malformed");
+  }
+  for (size_t k = 0; k < mesh.influence_binds.size(); ++k) {
+    if (mesh.influence_binds[k] >= mesh.binds.size()) return Invalid("a mesh influence names a bind entry out of range");
+    if (!(mesh.influence_weights[k] >= 0.0f) || !std::isfinite(mesh.influence_weights[k])) {
+      return Invalid("a mesh influence weight is negative or not finite");
+    }
+  }
+  // Each vertex's weights sum to 1 (the importers normalise them in double; float leaves a few
+  // ulps): skinning is then a convex blend, which the fast bound's derivation needs (refit_job.h).
+  double sum = 0.0;
+  if (const size_t v = skinning::FirstVertexNotSummingToOne(mesh.influence_offsets, mesh.influence_weights, &sum);
+      v != std::numeric_limits<size_t>::max()) {
+    return Invalid("mesh vertex " + std::to_string(v) + " has skin weights summing to " + Digits(float(sum)) + ", not 1");
+  }
+  std::vector<uint32_t> marked(vertices, UINT32_MAX);  // marked[v] == s: v is a source vertex of sphere s
+  for (size_t s = 0; s < set.size(); ++s) {
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) marked[set.vertices[k]] = static_cast<uint32_t>(s);
+    for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
+      const uint32_t t = set.triangles[k];
+      for (int c = 0; c < 3; ++c) {
+        if (marked[set.triangle_vertices[3 * size_t{t} + c]] != s) {
+          return Invalid("sphere " + std::to_string(s) + " owns triangle " + std::to_string(t) +
+                         " but not its vertex " + std::to_string(set.triangle_vertices[3 * size_t{t} + c]));
+        }
+      }
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<Error> SphereSet::Validate() const {
+  const size_t n = size();
+  const size_t joints = joint_count();
+  if (joint_parents.size() != joints || joint_rest_world.size() != joints) {
+    return Invalid("skeleton arrays disagree in size");
+  }
+  for (size_t j = 0; j < joints; ++j) {
+    if (joint_parents[j] < -1 || joint_parents[j] >= static_cast<int32_t>(j)) {
+      return Invalid("joint " + std::to_string(j) + " has parent " + std::to_string(joint_parents[j]) +
+                     " (parents must come first)");
+    }
+    if (!joint_rest_world[j].allFinite()) return Invalid("joint " + std::to_string(j) + " rest transform is not finite");
+  }
+  // Part names are what a report says ("torso - arm_l") and what an engine looks a part up by:
+  // each is non-empty and names one part.
+  for (size_t p = 0; p < parts.size(); ++p) {
+    if (parts[p].name.empty()) return Invalid("part " + std::to_string(p) + " has an empty name");
+    for (size_t q = 0; q < p; ++q) {
+      if (parts[q].name == parts[p].name) {
+        return Invalid("parts " + std::to_string(q) + " and " + std::to_string(p) + " are both named '" + parts[p].name + "'");
+      }
+    }
+  }
+  for (const auto& part : parts) {
+    for (uint32_t j : part.joints) {
+      if (j >= joints) return Invalid("part " + part.name + " names joint " + std::to_string(j) + " out of range");
+    }
+  }
+  if (radii_rest.size() != n || radii_fast.size() != n || sphere_part.size() != n ||
+      sphere_joint.size() != n || sphere_level.size() != n) {
+    return Invalid("per-sphere arrays disagree in size");
+  }
+  if (!CsrOk(vertex_offsets, n, vertices.size())) return Invalid("sphere vertex lists are malformed");
+  if (!CsrOk(triangle_offsets, n, triangles.size())) return Invalid("sphere triangle lists are malformed");
+  if (!CsrOk(influence_offsets, n, influence_joints.size()) || influence_weights.size() != influence_joints.size()) {
+    return Invalid("sphere influence lists are malformed");
+  }
+  for (size_t s = 0; s < n; ++s) {
+    const std::string id = "sphere " + std::to_string(s);
+    if (!centers_rest[s].allFinite() || !std::isfinite(radii_rest[s])) return Invalid(id + " has a non-finite centre or radius");
+    // A sphere owns at least one triangle and holds it: a radius of zero or less holds nothing
+    // (a set of zero radii came from zero inverse bind matrices and failed every frame).
+    if (!(radii_rest[s] > 0.0f)) return Invalid(id + " has radius " + std::to_string(radii_rest[s]) + " (must be > 0)");
+    // The broad phase refuses magnitudes beyond 1e18 (its sums must stay finite): say so here.
+    if (centers_rest[s].cwiseAbs().maxCoeff() > 1e18f || radii_fast[s] > 1e18f) {
+      return Invalid(id + " lies beyond 1e18 units from the origin or is larger than that");
+    }
+    if (!std::isfinite(radii_fast[s]) || radii_fast[s] < radii_rest[s]) {
+      return Invalid(id + " has a fast radius below its radius");
+    }
+    if (sphere_part[s] >= parts.size()) return Invalid(id + " names part " + std::to_string(sphere_part[s]) + " out of range");
+    if (sphere_joint[s] >= joints) return Invalid(id + " names joint " + std::to_string(sphere_joint[s]) + " out of range");
+  }
+  for (uint32_t v : vertices) {
+    if (v >= source_vertex_count) return Invalid("a sphere names vertex " + std::to_string(v) + " out of range");
+  }
+  for (uint32_t t : triangles) {
+    if (t >= source_triangle_count) return Invalid("a sphere names triangle " + std::to_string(t) + " out of range");
+  }
+  // Every source triangle is owned by exactly one sphere: what makes a contact anywhere on the
+  // mesh visible to the broad phase (and what --verify checks). The lists then hold exactly
+  // source_triangle_count entries, compared before the per-triangle table is allocated (the count
+  // comes from the file). A fast-only set (sphere_set_binary.h) has no lists to check: they were
+  // checked when the whole set was written, and nothing that reads triangles accepts it.
+  if (n == 0) return Invalid("the set has no spheres");
+  if (!fast_only && triangles.size() != source_triangle_count) {
+    return Invalid("the spheres own " + std::to_string(triangles.size()) + " triangle entries for " +
+                   std::to_string(source_triangle_count) + " triangles (each must be owned by exactly one sphere)");
+  }
+  std::vector<uint32_t> owner(fast_only ? 0 : source_triangle_count, UINT32_MAX);
+  for (size_t s = 0; s < n; ++s) {
+    for (uint32_t k = triangle_offsets[s]; k < triangle_offsets[s + 1]; ++k) {
+      uint32_t& o = owner[triangles[k]];
+      if (o != UINT32_MAX) {
+        return Invalid("triangle " + std::to_string(triangles[k]) + " is owned by spheres " + std::to_string(o) + " and " +
+                       std::to_string(s) + " (each must be owned by exactly one)");
+      }
+      o = static_cast<uint32_t>(s);
+    }
+  }
+  for (size_t k = 0; k < influence_joints.size(); ++k) {
+    if (influence_joints[k] >= joints) return Invalid("a sphere influence names joint out of range");
+    if (!(influence_weights[k] >= 0.0f) || !std::isfinite(influence_weights[k])) return Invalid("a sphere influence weight is negative or not finite");
+  }
+  if (!influence_reach.empty()) {
+    if (influence_reach.size() != influence_joints.size()) {
+      return Invalid("the spheres have " + std::to_string(influence_reach.size()) + " influence reach entries for " +
+                     std::to_string(influence_joints.size()) + " influences (one each, or none)");
+    }
+    for (size_t s = 0; s < n; ++s) {
+      for (uint32_t k = influence_offsets[s]; k < influence_offsets[s + 1]; ++k) {
+        if (!(influence_reach[k] >= 0.0f && influence_reach[k] <= 1.0f)) {
+          return Invalid("sphere " + std::to_string(s) + " has influence reach " + Digits(influence_reach[k]) +
+                         " on joint " + std::to_string(influence_joints[k]) + " (must be within [0, 1])");
+        }
+      }
+      // Any one source vertex's weights sum to 1 over joints among the sphere's influences, each at
+      // most its reach: the reaches sum to at least 1. Checked for sets with no mesh too (fast-only
+      // and version-1 files), where nothing else can check the reach.
+      double sum = 0.0;
+      for (uint32_t k = influence_offsets[s]; k < influence_offsets[s + 1]; ++k) sum += influence_reach[k];
+      if (!(sum >= 1.0 - kWeightSumTolerance)) {
+        return Invalid("sphere " + std::to_string(s) + " has influence reaches summing to " + Digits(float(sum)) +
+                       ", below 1 (one source vertex's weights alone sum to 1)");
+      }
+    }
+  }
+  for (size_t k = 0; k < excluded_pairs.size(); ++k) {
+    const auto& p = excluded_pairs[k];
+    if (p.i >= p.j || p.j >= n) return Invalid("excluded pair " + std::to_string(k) + " is not i < j < sphere count");
+    if (k > 0) {
+      const auto& q = excluded_pairs[k - 1];
+      if (q.i > p.i || (q.i == p.i && q.j >= p.j)) return Invalid("excluded pairs are not sorted and unique");
+    }
+  }
+  if (fast_only && (!vertices.empty() || !triangles.empty() || has_mesh())) {
+    return Invalid("a fast-only set has vertex or triangle lists or a mesh");
+  }
+  if (auto err = ValidateMesh(*this)) return err;
+  if (!has_mesh()) return std::nullopt;
+  // The fast bound's premises the mesh can check: every weighted joint of a source vertex is among
+  // its sphere's influences, and a stored reach is no smaller than the weights (a smaller one from a
+  // hostile file would give spheres that miss vertices).
+  auto from_mesh = InfluenceReachFromMesh(*this);
+  if (!from_mesh.ok()) return from_mesh.error();
+  if (influence_reach.empty()) return std::nullopt;
+  for (size_t s = 0; s < n; ++s) {
+    for (uint32_t k = influence_offsets[s]; k < influence_offsets[s + 1]; ++k) {
+      if (influence_reach[k] < (*from_mesh)[k]) {
+        return Invalid("sphere " + std::to_string(s) + " has influence reach " + Digits(influence_reach[k]) +
+                       " on joint " + std::to_string(influence_joints[k]) + ", below the weight " +
+                       Digits((*from_mesh)[k]) + " one of its source vertices gives that joint");
+      }
+    }
+  }
+  return std::nullopt;
+}
+
+Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set) {
+  const skinning::SkinnedMesh& mesh = set.mesh;
+  std::vector<float> reach(set.influence_joints.size(), 0.0f);
+  // entry_of[j]: the current sphere's first influence entry on joint j (UINT32_MAX: none); total:
+  // per entry of the current sphere, the current vertex's weight on its joint.
+  std::vector<uint32_t> entry_of(set.joint_count(), UINT32_MAX);
+  std::vector<float> total;
+  for (size_t s = 0; s < set.size(); ++s) {
+    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
+    for (uint32_t k = k1; k-- > k0;) entry_of[set.influence_joints[k]] = k;
+    total.assign(k1 - k0, 0.0f);
+    for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
+      const uint32_t v = set.vertices[i];
+      const uint32_t q0 = mesh.influence_offsets[v], q1 = mesh.influence_offsets[v + 1];
+      for (uint32_t q = q0; q < q1; ++q) {
+        if (!(mesh.influence_weights[q] > 0.0f)) continue;
+        const int32_t j = mesh.binds[mesh.influence_binds[q]].joint;
+        if (entry_of[j] == UINT32_MAX) {
+          return Invalid("sphere " + std::to_string(s) + ": its source vertex " + std::to_string(v) +
+                         " is weighted on joint " + std::to_string(j) + ", which is not among the sphere's influences");
+        }
+        total[entry_of[j] - k0] += mesh.influence_weights[q];
+      }
+      for (uint32_t q = q0; q < q1; ++q) {  // each joint's total, once (a second entry finds 0)
+        const uint32_t k = entry_of[mesh.binds[mesh.influence_binds[q]].joint];
+        if (k == UINT32_MAX) continue;  // weight 0
+        reach[k] = std::max(reach[k], std::min(total[k - k0], 1.0f));  // a float sum may pass 1 by an ulp
+        total[k - k0] = 0.0f;
+      }
+    }
+    for (uint32_t k = k0; k < k1; ++k) reach[k] = reach[entry_of[set.influence_joints[k]]];  // repeated joints
+    for (uint32_t k = k0; k < k1; ++k) entry_of[set.influence_joints[k]] = UINT32_MAX;
+  }
+  return reach;
+}
+
+}  // namespace skinspheres::runtime

@@ -1,0 +1,81 @@
+// The fast refit's vector code (refit_fast.inc), compiled once for SSE2 (every x86-64) and once for
+// AVX2 (refit_fast_avx2.cc), and the choice between them at run time; and the crowd calls' refit of
+// 16 instances at once in AVX-512 lanes (refit_batch_avx512.cc), used when the CPU has AVX-512F.
+// All of them evaluate the header's formula with the same float operations in the same order, so
+// they give the same bits (tests/runtime/refit_job_tests.cc compares each with the scalar formula);
+// the choice is a matter of speed only, and RefitJob has no field for it. Tests and benchmarks pin a level here.
+// With -DSKINSPHERES_AVX2=ON the whole runtime is compiled for AVX2, and the "SSE2" copy is then
+// VEX code too: compare the two levels in the default build.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace skinspheres::runtime {
+class RefitRestData;
+struct SphereSet;
+}  // namespace skinspheres::runtime
+
+namespace skinspheres::runtime::internal {
+
+// What the fast refit of one range reads and writes, as plain arrays (no Eigen types in the code
+// compiled for AVX2: an inline Eigen function instantiated there could be the copy the linker keeps
+// for the whole program).
+struct FastRefitArrays {
+  const float* world = nullptr;                 // G_j(t): 16 floats per joint, column-major
+  size_t joint_count = 0;
+  const float* center_in_joint = nullptr;       // 3 floats per influence entry
+  const float* weights = nullptr;               // per influence entry
+  const float* reach = nullptr;                 // per influence entry
+  const float* rest_inverse_rows = nullptr;     // 12 floats per joint (RefitRestData)
+  const uint32_t* influence_offsets = nullptr;  // per sphere, CSR
+  const uint16_t* influence_joints = nullptr;   // per influence entry
+  const float* radii_fast = nullptr;            // per sphere
+  float* out = nullptr;                         // 4 floats per sphere: centre, radius
+};
+
+// kAvx512: the crowd calls refit 16 instances of one set at once (RefitFastBatch16), one instance
+// alone at AVX2; not a level of RefitJob.
+enum class RefitSimd : uint8_t { kAuto, kSse2, kAvx2, kAvx512 };
+
+// The level the fast refit runs at: the one pinned by PinRefitSimd, else AVX-512 when the CPU has it
+// (so the crowd batches), else AVX2, else SSE2.
+RefitSimd RefitSimdInUse();
+bool RefitSimdSupported(RefitSimd level);
+// Pins the level for the whole process (kAuto: unpin); false, and nothing changes, when the CPU
+// lacks it. For tests and benchmarks: not to be called while a refit runs.
+bool PinRefitSimd(RefitSimd level);
+const char* ToString(RefitSimd level);
+// The level of the copy that ran the calling thread's latest fast refit (kAuto: none yet), so that a
+// test can tell which ran (they give the same bits). Each copy calls NoteRefitSimdRun.
+RefitSimd LastRefitSimdRun();
+void NoteRefitSimdRun(RefitSimd level);
+
+namespace sse2 {
+bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
+}
+namespace avx2 {  // refit_fast_avx2.cc (x86 only, like the whole fast refit)
+bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
+}
+
+// The fast refit of kRefitBatchLanes instances of one set at once (refit_batch_avx512.cc): lane b
+// reads world[b] (a's world is not read) and writes out[b], with the same bits as
+// RefitFastRange(a, 0, sphere_count) for that instance alone. Returns the mask of lanes whose
+// spheres are finite (RefitFastRange's result per lane). A lane may repeat another's world and out
+// (the same bits are written twice). soa, unless null, also receives the spheres lanes side by side
+// (64 floats per sphere: x, y, z, r of the 16 lanes; crowd/crowd_query.h). Only when the CPU has
+// AVX-512F.
+constexpr size_t kRefitBatchLanes = 16;
+// Whether the crowd calls refit kRefitBatchLanes instances at a time (RefitSimdInUse() is kAvx512),
+// and the call that does it (refit_job.cc; world[b]: 16 floats per set joint, out[b]: 4 floats per
+// sphere), which the caller makes only when RefitBatchUsable() said yes, having checked every
+// lane's inputs as RefitJob::Validate does.
+bool RefitBatchUsable();
+uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
+                        float* const out[kRefitBatchLanes], float* soa = nullptr);
+namespace avx512 {
+uint32_t RefitFastBatch16(const FastRefitArrays& a, size_t sphere_count, const float* const world[kRefitBatchLanes],
+                          float* const out[kRefitBatchLanes], float* soa);
+}
+
+}  // namespace skinspheres::runtime::internal

@@ -1,0 +1,309 @@
+// Per-frame sphere refit (refit_job.h). Exact mode: centre c' = Σ w_j T_j c, radius = max distance
+// to the skinned source vertices. Fast mode: Kavan & Žára's bound r' = s_max·radius_fast +
+// max_j |T_j c - c'|, its second term capped by Σ_j W_j |T_j c - c'| (derivation in the header).
+#include "skinspheres/runtime/refit/refit_job.h"
+
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <atomic>
+#include <cfloat>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <type_traits>
+
+#include <emmintrin.h>
+
+#include "refit/refit_internal.h"
+
+namespace skinspheres::runtime {
+
+// Unaligned double types (math_types.h: no Eigen type of 32 bytes or more is aligned here).
+using Mat4d = Eigen::Matrix<double, 4, 4, Eigen::ColMajor | Eigen::DontAlign>;
+using Vec4d = Eigen::Matrix<double, 4, 1, Eigen::ColMajor | Eigen::DontAlign>;
+
+const char* ToString(RefitMode mode) {
+  switch (mode) {
+    case RefitMode::kExact:
+      return "exact";
+    case RefitMode::kFast:
+      return "fast";
+  }
+  return "unknown";
+}
+
+Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
+  if (auto err = set.Validate()) {
+    return MakeError(err->code, "RefitRestData: sphere set '" + set.source_file + "': " + err->message);
+  }
+  RefitRestData d;
+  d.sphere_count_ = set.size();
+  d.source_vertex_count_ = set.source_vertex_count;
+  const size_t joints = set.joint_count();
+  std::vector<Mat4d> inverse(joints);
+  d.rest_linear_inverse_.resize(joints);
+  for (size_t j = 0; j < joints; ++j) {
+    const Mat4d g = set.joint_rest_world[j].cast<double>();
+    const double det = g.topLeftCorner<3, 3>().determinant();
+    const double scale = g.topLeftCorner<3, 3>().cwiseAbs().maxCoeff();
+    if (!(std::abs(det) > 1e-12 * scale * scale * scale) || !std::isfinite(det)) {
+      return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file + "': rest transform of joint " +
+                                                    std::to_string(j) + " '" + set.joint_names[j] + "' is not invertible");
+    }
+    Mat4d inv = Mat4d::Identity();
+    const Eigen::Matrix3d li = g.topLeftCorner<3, 3>().inverse();
+    inv.topLeftCorner<3, 3>() = li;
+    inv.topRightCorner<3, 1>() = -li * g.topRightCorner<3, 1>();
+    inverse[j] = inv;
+    d.rest_linear_inverse_[j] = li.cast<float>();
+  }
+  d.rest_inverse_rows_.assign(12 * joints, 0.0f);
+  for (size_t j = 0; j < joints; ++j) {
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) d.rest_inverse_rows_[12 * j + 4 * r + c] = d.rest_linear_inverse_[j](r, c);
+    }
+  }
+  d.center_in_joint_.resize(set.influence_joints.size());
+  d.weights_.resize(set.influence_joints.size());
+  for (size_t s = 0; s < set.size(); ++s) {
+    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
+    if (k0 == k1) {
+      return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file + "': sphere " +
+                                                    std::to_string(s) + " has no joint influence");
+    }
+    double wsum = 0.0;
+    for (uint32_t k = k0; k < k1; ++k) wsum += set.influence_weights[k];
+    if (!(wsum > 0.0)) {
+      return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file + "': sphere " +
+                                                    std::to_string(s) + " has influence weights summing to 0");
+    }
+    const Vec4d c(set.centers_rest[s].x(), set.centers_rest[s].y(), set.centers_rest[s].z(), 1.0);
+    for (uint32_t k = k0; k < k1; ++k) {
+      d.center_in_joint_[k] = (inverse[set.influence_joints[k]] * c).head<3>().cast<float>();
+      d.weights_[k] = static_cast<float>(set.influence_weights[k] / wsum);
+    }
+  }
+  // The reach (sphere_set.h): stored, else the mesh's, else 1 (the bound without it).
+  if (!set.influence_reach.empty()) {
+    d.reach_ = set.influence_reach;
+  } else if (set.has_mesh()) {
+    auto from_mesh = InfluenceReachFromMesh(set);  // cannot fail on a set Validate() passed
+    if (!from_mesh.ok()) {
+      return MakeError(from_mesh.error().code,
+                       "RefitRestData: sphere set '" + set.source_file + "': " + from_mesh.error().message);
+    }
+    d.reach_ = std::move(*from_mesh);
+  } else {
+    d.reach_.assign(set.influence_joints.size(), 1.0f);
+  }
+  return d;
+}
+
+bool RefitJob::Validate() const {
+  if (spheres == nullptr) return false;
+  const size_t n = spheres->size();
+  if (out.size() < n) return false;
+  if (spheres->vertex_offsets.size() != n + 1 || spheres->influence_offsets.size() != n + 1) return false;
+  const bool need_joints = mode == RefitMode::kFast || !joint_world.empty();
+  if (need_joints) {
+    if (rest == nullptr) return false;
+    if (rest->sphere_count() != n || rest->joint_count() != spheres->joint_count() ||
+        rest->influence_count() != spheres->influence_joints.size() || rest->reach().size() != rest->influence_count() ||
+        spheres->influence_weights.size() != spheres->influence_joints.size() ||
+        spheres->radii_fast.size() != n) {
+      return false;
+    }
+    if (joint_world.size() < spheres->joint_count()) return false;
+  }
+  if (mode == RefitMode::kExact) {
+    if (spheres->fast_only) return false;  // no vertex lists to bound
+    if (positions.size() < spheres->source_vertex_count) return false;
+    // The set's vertex indices were checked against source_vertex_count when the rest data was
+    // built; without rest data check the CSR end at least (O(1)).
+    if (spheres->vertex_offsets[n] > spheres->vertices.size()) return false;
+    if (rest != nullptr && rest->source_vertex_count() != spheres->source_vertex_count) return false;
+  } else if (mode != RefitMode::kFast) {
+    return false;
+  }
+  return true;
+}
+
+namespace internal {
+namespace sse2 {
+constexpr RefitSimd kThisLevel = RefitSimd::kSse2;
+#include "refit/refit_fast.inc"
+}  // namespace sse2
+
+namespace {
+std::atomic<RefitSimd> g_pinned{RefitSimd::kAuto};
+}  // namespace
+
+bool RefitSimdSupported(RefitSimd level) {
+  static const bool avx2 = __builtin_cpu_supports("avx2");  // (this file is x86-only: <emmintrin.h>)
+  static const bool avx512 = avx2 && __builtin_cpu_supports("avx512f");
+  switch (level) {
+    case RefitSimd::kAvx2:
+      return avx2;
+    case RefitSimd::kAvx512:
+      return avx512;
+    default:
+      return true;
+  }
+}
+
+namespace {
+thread_local RefitSimd t_last_run = RefitSimd::kAuto;
+}  // namespace
+
+RefitSimd LastRefitSimdRun() { return t_last_run; }
+void NoteRefitSimdRun(RefitSimd level) { t_last_run = level; }
+
+RefitSimd RefitSimdInUse() {
+  const RefitSimd pinned = g_pinned.load(std::memory_order_relaxed);
+  if (pinned != RefitSimd::kAuto) return pinned;
+  static const RefitSimd best = RefitSimdSupported(RefitSimd::kAvx512) ? RefitSimd::kAvx512
+                                : RefitSimdSupported(RefitSimd::kAvx2) ? RefitSimd::kAvx2
+                                                                       : RefitSimd::kSse2;
+  return best;
+}
+
+bool PinRefitSimd(RefitSimd level) {
+  if (!RefitSimdSupported(level)) return false;
+  g_pinned.store(level, std::memory_order_relaxed);
+  return true;
+}
+
+const char* ToString(RefitSimd level) {
+  switch (level) {
+    case RefitSimd::kAuto:
+      return "auto";
+    case RefitSimd::kSse2:
+      return "sse2";
+    case RefitSimd::kAvx2:
+      return "avx2";
+    case RefitSimd::kAvx512:
+      return "avx512 (crowd batches; avx2 alone)";
+  }
+  return "unknown";
+}
+
+}  // namespace internal
+
+namespace {
+
+// 16 ulps of the coordinates: covers float rounding of c', the distances and the caller's skinning.
+inline float Margin(const Eigen::Vector3f& c, float r) {
+  return 16.0f * FLT_EPSILON * (c.cwiseAbs().maxCoeff() + r);
+}
+
+inline Eigen::Vector3f Apply(const Mat4f& g, const Eigen::Vector3f& p) {
+  return g.topLeftCorner<3, 3>() * p + g.topRightCorner<3, 1>();
+}
+
+// c' = Σ_k w_k G_j(k)(t) · (G_j(k)(rest)^-1 c); also returns k0, k1.
+inline Eigen::Vector3f BlendedCentre(const RefitJob& job, size_t s) {
+  const auto& set = *job.spheres;
+  const auto q = job.rest->center_in_joint();
+  const auto w = job.rest->weights();
+  Eigen::Vector3f c = Eigen::Vector3f::Zero();
+  for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
+    c += w[k] * Apply(job.joint_world[set.influence_joints[k]], q[k]);
+  }
+  return c;
+}
+
+bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
+  const auto& set = *job.spheres;
+  const bool joints = !job.joint_world.empty();
+  bool ok = true;
+  for (size_t s = begin; s < end; ++s) {
+    const uint32_t v0 = set.vertex_offsets[s], v1 = set.vertex_offsets[s + 1];
+    Eigen::Vector3f c;
+    if (joints) {
+      c = BlendedCentre(job, s);
+    } else if (v0 == v1) {
+      c = set.centers_rest[s];
+    } else {
+      Eigen::Vector3f lo = job.positions[set.vertices[v0]], hi = lo;
+      for (uint32_t k = v0 + 1; k < v1; ++k) {
+        const Eigen::Vector3f& p = job.positions[set.vertices[k]];
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+      c = 0.5f * (lo + hi);
+    }
+    float d2max = 0.0f;
+    bool finite = c.allFinite();
+    for (uint32_t k = v0; k < v1; ++k) {
+      const float d2 = (job.positions[set.vertices[k]] - c).squaredNorm();
+      finite &= d2 <= FLT_MAX;  // false for NaN and Inf (std::max would drop a NaN)
+      d2max = std::max(d2max, d2);
+    }
+    const float r = std::sqrt(d2max);
+    const float radius = r + Margin(c, r);
+    job.out[s] = Vec4f(c.x(), c.y(), c.z(), radius);
+    ok &= finite && std::isfinite(radius);
+  }
+  return ok;
+}
+
+// The arrays of the fast refit of one set (world and out left to the caller).
+internal::FastRefitArrays SharedArrays(const SphereSet& set, const RefitRestData& rest) {
+  static_assert(sizeof(Mat4f) == 16 * sizeof(float) && sizeof(Eigen::Vector3f) == 3 * sizeof(float) &&
+                sizeof(Vec4f) == 4 * sizeof(float));
+  internal::FastRefitArrays a;  // (casts, not ->data(): a span of an empty set may hold a null pointer)
+  a.joint_count = set.joint_count();
+  a.center_in_joint = reinterpret_cast<const float*>(rest.center_in_joint().data());
+  a.weights = rest.weights().data();
+  a.reach = rest.reach().data();
+  a.rest_inverse_rows = rest.rest_inverse_rows().data();
+  a.influence_offsets = set.influence_offsets.data();
+  a.influence_joints = set.influence_joints.data();
+  a.radii_fast = set.radii_fast.data();
+  return a;
+}
+
+// Fast mode: the vector loop of refit_fast.inc at the level RefitSimdInUse() picks (same bits).
+bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
+  internal::FastRefitArrays a = SharedArrays(*job.spheres, *job.rest);
+  a.world = reinterpret_cast<const float*>(job.joint_world.data());
+  a.out = reinterpret_cast<float*>(job.out.data());
+  if (internal::RefitSimdInUse() != internal::RefitSimd::kSse2) return internal::avx2::RefitFastRange(a, begin, end);
+  return internal::sse2::RefitFastRange(a, begin, end);
+}
+
+}  // namespace
+
+bool RefitJob::RunRange(size_t begin, size_t end) const {
+  if (!Validate() || begin > end || end > spheres->size()) return false;
+  return mode == RefitMode::kExact ? RefitExact(*this, begin, end) : RefitFast(*this, begin, end);
+}
+
+bool RefitJob::Run() const {
+  if (!Validate()) return false;
+  return RunRange(0, spheres->size());
+}
+
+bool RefitParallel(const RefitJob& job, size_t grain, const ParallelFor& parallel_for) {
+  if (!job.Validate()) return false;
+  std::atomic<bool> ok{true};
+  parallel_for(job.spheres->size(), std::max<size_t>(grain, 1), [&](size_t begin, size_t end) {
+    const bool good = job.mode == RefitMode::kExact ? RefitExact(job, begin, end) : RefitFast(job, begin, end);
+    if (!good) ok.store(false, std::memory_order_relaxed);
+  });
+  return ok.load();
+}
+
+namespace internal {
+
+bool RefitBatchUsable() { return RefitSimdInUse() == RefitSimd::kAvx512; }
+
+uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
+                        float* const out[kRefitBatchLanes], float* soa) {
+  return avx512::RefitFastBatch16(SharedArrays(set, rest), set.size(), world, out, soa);
+}
+
+}  // namespace internal
+
+}  // namespace skinspheres::runtime

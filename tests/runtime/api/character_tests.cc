@@ -1,0 +1,679 @@
+// CharacterAsset / CharacterInstance / UpdateAndQueryCrowd: asset matching, updates equal to the
+// RefitJob, contacts equal to the all-pairs broad-phase oracle, the touch clip's hand-chest contact
+// is found, NaN input fails only its instance, crowd = serial for 1 and 2 threads, no allocation
+// per frame after the first.
+
+#include <gtest/gtest.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <bit>
+#include <cstdlib>
+#include <limits>
+#include <memory>
+#include <new>
+#include <random>
+#include <set>
+
+#include "allocation_counter.h"
+#include "runtime/posed_characters.h"
+#include "crowd/crowd_query.h"  // runtime/src: counts the crowd's batched queries
+#include "refit/refit_internal.h"        // runtime/src: pins the crowd's refit (batched or one at a time)
+#include "skinspheres/runtime/api/character.h"
+
+namespace skinspheres::runtime {
+namespace {
+
+std::shared_ptr<const CharacterAsset> BuiltinAsset(std::shared_ptr<const test::FittedCharacter>* fitted = nullptr) {
+  auto fc = test::LoadFitted("builtin");
+  if (!fc) return nullptr;
+  if (fitted) *fitted = fc;
+  auto asset = CharacterAsset::Create(fc->set);
+  EXPECT_TRUE(asset.ok()) << (asset.ok() ? "" : asset.error().message);
+  return asset.ok() ? *asset : nullptr;
+}
+
+CharacterInstance MakeInstance(std::shared_ptr<const CharacterAsset> asset) {
+  auto inst = CharacterInstance::Create(std::move(asset));
+  EXPECT_TRUE(inst.ok());
+  return std::move(inst).value();
+}
+
+TEST(CharacterAssetTest, MatchesOnlyItsOwnCharacter) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  const auto& names = fc->character.skeleton.joint_names;
+  const size_t vertices = fc->character.vertex_count();
+  EXPECT_FALSE(asset->Matches(names, vertices).has_value());
+
+  auto err = asset->Matches(names, vertices + 1);
+  ASSERT_TRUE(err.has_value());
+  EXPECT_EQ(err->code, ErrorCode::kMismatchedAsset);
+  EXPECT_NE(err->message.find(std::to_string(vertices)), std::string::npos) << err->message;
+  EXPECT_NE(err->message.find(std::to_string(vertices + 1)), std::string::npos) << err->message;
+
+  std::vector<std::string> renamed = names;
+  renamed[3] = "mixamorig:Renamed";
+  err = asset->Matches(renamed, vertices);
+  ASSERT_TRUE(err.has_value());
+  EXPECT_EQ(err->code, ErrorCode::kMismatchedAsset);
+  EXPECT_NE(err->message.find("mixamorig:Renamed"), std::string::npos) << err->message;
+  EXPECT_NE(err->message.find(names[3]), std::string::npos) << err->message;
+
+  std::vector<std::string> fewer(names.begin(), names.end() - 1);
+  err = asset->Matches(fewer, vertices);
+  ASSERT_TRUE(err.has_value());
+  EXPECT_EQ(err->code, ErrorCode::kMismatchedAsset);
+
+  // Another character's set (a shared asset when present) is refused for the built-in one.
+  const auto other_path = test::Asset("CesiumMan.glb");
+  if (!other_path.empty()) {
+    auto other = test::LoadFitted("CesiumMan.glb");
+    ASSERT_TRUE(other);
+    auto other_asset = CharacterAsset::Create(other->set);
+    ASSERT_TRUE(other_asset.ok());
+    err = (*other_asset)->Matches(names, vertices);
+    ASSERT_TRUE(err.has_value());
+    EXPECT_NE(err->message.find("CesiumMan"), std::string::npos) << err->message;
+  }
+}
+
+TEST(CharacterAssetTest, InvalidSetsAreRefused) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  ASSERT_TRUE(BuiltinAsset(&fc));
+  SphereSet bad = fc->set;
+  bad.source_file = "bad_set.json";
+  bad.radii_rest.pop_back();
+  auto asset = CharacterAsset::Create(bad);
+  ASSERT_FALSE(asset.ok());
+  EXPECT_NE(asset.error().message.find("bad_set.json"), std::string::npos) << asset.error().message;
+  EXPECT_FALSE(CharacterInstance::Create(nullptr).ok());
+}
+
+TEST(CharacterInstanceTest, UpdatesMatchTheJobAndQueryMatchesAllPairs) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  CharacterInstance inst = MakeInstance(asset);
+  EXPECT_TRUE(inst.Query().empty()) << "no update yet";
+  EXPECT_FALSE(inst.status().ok());
+  std::vector<Contact> oracle;
+  std::vector<skinspheres::Vec4f> expected(asset->size());
+  size_t total_contacts = 0;
+  for (const test::Pose& pose : test::ClipPoses(fc->character, 20)) {
+    for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
+      const FrameStatus st = mode == RefitMode::kFast ? inst.UpdateFast(pose.world)
+                                                      : inst.UpdateExact(pose.positions, pose.world);
+      ASSERT_TRUE(st.ok()) << st.message;
+      RefitJob job{mode, &asset->sphere_set(), &asset->rest(), pose.world, pose.positions, expected};
+      ASSERT_TRUE(job.Run());
+      ASSERT_EQ(inst.spheres().size(), expected.size());
+      for (size_t s = 0; s < expected.size(); ++s) ASSERT_EQ(inst.spheres()[s], expected[s]);
+      const auto contacts = inst.Query();
+      ASSERT_TRUE(inst.status().ok()) << inst.status().message;
+      ASSERT_TRUE(SelfCollisionAllPairs(inst.spheres(), asset->filter(), &oracle));
+      ASSERT_EQ(std::vector<Contact>(contacts.begin(), contacts.end()), oracle) << pose.label;
+      total_contacts += contacts.size();
+    }
+  }
+  EXPECT_GT(total_contacts, 0u);
+}
+
+// The touch clip puts both hands into the chest (t in [0.8, 1.6] s): a conservative refit must
+// report an arm-torso contact in both modes (never miss a contact).
+TEST(CharacterInstanceTest, TouchClipHandsOnChestAndHeadAreReportedAndNotAtRest) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  const auto& set = asset->sphere_set();
+  int torso = -1, head = -1;
+  for (size_t p = 0; p < set.parts.size(); ++p) {
+    if (set.parts[p].name == "torso") torso = static_cast<int>(p);
+    if (set.parts[p].name == "head") head = static_cast<int>(p);
+  }
+  ASSERT_GE(torso, 0);
+  ASSERT_GE(head, 0);
+  // A hand sphere: its dominant joint is LeftHand or RightHand (the built-in character's names).
+  auto hand_side = [&](uint32_t s) -> int {
+    const std::string& j = set.joint_names[set.sphere_joint[s]];
+    if (j.rfind("LeftHand", 0) == 0) return 0;
+    if (j.rfind("RightHand", 0) == 0) return 1;
+    return -1;
+  };
+  const skinning::AnimationClip* touch = nullptr;
+  const skinning::AnimationClip* walk = nullptr;
+  for (const auto& clip : fc->character.clips) {
+    if (clip.name == "touch") touch = &clip;
+    if (clip.name == "walk") walk = &clip;
+  }
+  ASSERT_NE(touch, nullptr);
+  ASSERT_NE(walk, nullptr);
+  CharacterInstance inst = MakeInstance(asset);
+  // Which hands touch `target` at time t of `clip`, in `mode`.
+  auto hands_on = [&](const skinning::AnimationClip& clip, float t, RefitMode mode, int target) {
+    const test::Pose pose = test::MakePose(fc->character, test::SampleLocal(fc->character, clip, t), clip.name);
+    EXPECT_TRUE(inst.Update(mode, pose.world, pose.positions).ok());
+    std::set<int> sides;
+    for (const Contact& c : inst.Query()) {
+      if (c.part_j == target && hand_side(c.i) >= 0) sides.insert(hand_side(c.i));
+      if (c.part_i == target && hand_side(c.j) >= 0) sides.insert(hand_side(c.j));
+    }
+    return sides.size();
+  };
+  for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
+    for (float t : {0.9f, 1.2f, 1.5f}) EXPECT_EQ(hands_on(*touch, t, mode, torso), 2u) << "chest, t=" << t << " " << ToString(mode);
+    for (float t : {2.5f, 2.8f, 3.1f}) EXPECT_EQ(hands_on(*touch, t, mode, head), 2u) << "head, t=" << t << " " << ToString(mode);
+    // Rest pose (the clip's start) and the whole walk: hands touch neither.
+    for (int target : {torso, head}) {
+      EXPECT_EQ(hands_on(*touch, 0.0f, mode, target), 0u) << "rest " << ToString(mode);
+      for (float t = 0.0f; t <= walk->duration_s; t += 0.1f) {
+        EXPECT_EQ(hands_on(*walk, t, mode, target), 0u) << "walk t=" << t << " " << ToString(mode);
+      }
+    }
+  }
+}
+
+TEST(CharacterInstanceTest, BadInputFailsThatUpdateOnly) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  CharacterInstance inst = MakeInstance(asset);
+  const test::Pose pose = test::MakePose(fc->character, fc->character.skeleton.rest_local, "rest");
+  ASSERT_TRUE(inst.UpdateFast(pose.world).ok());
+  EXPECT_TRUE(inst.spheres_valid());
+  // Short spans.
+  FrameStatus st = inst.UpdateFast(std::span<const skinspheres::Mat4f>(pose.world).first(pose.world.size() - 1));
+  EXPECT_EQ(st.code, ErrorCode::kInvalidArgument);
+  EXPECT_FALSE(inst.spheres_valid());
+  EXPECT_TRUE(inst.Query().empty());
+  EXPECT_EQ(inst.status().code, ErrorCode::kInvalidArgument) << "Query keeps the update's reason";
+  st = inst.UpdateExact(std::span<const Eigen::Vector3f>(pose.positions).first(10), pose.world);
+  EXPECT_EQ(st.code, ErrorCode::kInvalidArgument);
+  // NaN joint matrix / position.
+  std::vector<skinspheres::Mat4f> world = pose.world;
+  world[5](0, 0) = std::numeric_limits<float>::quiet_NaN();
+  st = inst.UpdateFast(world);
+  EXPECT_EQ(st.code, ErrorCode::kInvalidData);
+  EXPECT_NE(std::string(st.message).find("non-finite"), std::string::npos);
+  EXPECT_TRUE(inst.Query().empty());
+  std::vector<Eigen::Vector3f> positions = pose.positions;
+  positions[asset->sphere_set().vertices[0]].x() = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(inst.UpdateExact(positions, pose.world).code, ErrorCode::kInvalidData);
+  // Recovers on good input.
+  EXPECT_TRUE(inst.UpdateExact(pose.positions, pose.world).ok());
+  inst.Query();
+  EXPECT_TRUE(inst.status().ok());
+}
+
+TEST(CharacterCrowdTest, CrowdEqualsSerialAndNaNFailsOnlyItsInstance) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  constexpr int kCount = 12;
+  std::mt19937 rng(99);
+  std::vector<test::Pose> poses;
+  for (int i = 0; i < kCount; ++i) {
+    poses.push_back(test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, 0.2f), "r"));
+  }
+  const int bad = 5;
+  poses[bad].world[2](1, 3) = std::numeric_limits<float>::quiet_NaN();
+  std::vector<CharacterFrameInput> inputs;
+  for (const auto& p : poses) inputs.push_back({p.world, p.positions});
+
+  for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
+    // Serial reference.
+    std::vector<CharacterInstance> serial;
+    for (int i = 0; i < kCount; ++i) {
+      serial.push_back(MakeInstance(asset));
+      serial.back().Update(mode, poses[i].world, poses[i].positions);
+      serial.back().Query();
+    }
+    // TBB with 1 and 2 threads, then an engine's own job system (3 threads, reversed order).
+    for (int threads : {1, 2, 3}) {
+      std::vector<CharacterInstance> crowd;
+      for (int i = 0; i < kCount; ++i) crowd.push_back(MakeInstance(asset));
+      std::vector<CharacterInstance*> ptrs;
+      for (auto& c : crowd) ptrs.push_back(&c);
+      FrameStatus st;
+      const ParallelFor engine = test::EngineStyleFor(threads);
+      // Two frames: the second exercises the broad phase's frame-to-frame memory.
+      for (int frame = 0; frame < 2; ++frame) {
+        if (threads == 3) {
+          st = UpdateAndQueryCrowd(ptrs, inputs, mode, engine);
+        } else {
+          tbb::task_arena(threads).execute([&] { st = UpdateAndQueryCrowd(ptrs, inputs, mode); });
+        }
+      }
+      EXPECT_EQ(st.code, ErrorCode::kInvalidData);
+      for (int i = 0; i < kCount; ++i) {
+        EXPECT_EQ(crowd[i].status().ok(), i != bad) << i;
+        EXPECT_EQ(crowd[i].spheres_valid(), i != bad) << i;
+        if (i == bad) {
+          EXPECT_TRUE(crowd[i].contacts().empty());
+          continue;
+        }
+        ASSERT_TRUE(serial[i].status().ok());
+        for (size_t s = 0; s < asset->size(); ++s) ASSERT_EQ(crowd[i].spheres()[s], serial[i].spheres()[s]);
+        EXPECT_EQ(std::vector<Contact>(crowd[i].contacts().begin(), crowd[i].contacts().end()),
+                  std::vector<Contact>(serial[i].contacts().begin(), serial[i].contacts().end()));
+      }
+      if (mode == RefitMode::kFast) {
+        // The broad-phase-only call keeps no joint matrices: FindContacts without positions (mode b)
+        // is refused, saying why, until an update that keeps them.
+        CharacterInstance& first = crowd[0];
+        EXPECT_EQ(first.FindContacts().code, ErrorCode::kInvalidArgument);
+        EXPECT_NE(std::string(first.status().message).find("UpdateAndQueryCrowd"), std::string::npos)
+            << first.status().message;
+        ASSERT_TRUE(first.UpdateFast(poses[0].world).ok());
+        EXPECT_TRUE(first.FindContacts().ok()) << first.status().message;
+      }
+    }
+  }
+  // Caller errors: mismatched spans, null instance.
+  std::vector<CharacterInstance*> none(2, nullptr);
+  EXPECT_EQ(UpdateAndQueryCrowd(none, std::span<const CharacterFrameInput>(inputs).first(1), RefitMode::kFast).code,
+            ErrorCode::kInvalidArgument);
+  EXPECT_EQ(UpdateAndQueryCrowd(none, std::span<const CharacterFrameInput>(inputs).first(2), RefitMode::kFast).code,
+            ErrorCode::kInvalidArgument);
+}
+
+// The crowd calls refit up to 16 instances of one asset at once (one per AVX-512 lane, when the CPU
+// has it) and must give every instance the spheres, contacts and triangle contacts it gets alone.
+// 37 instances: 32 of one asset (two full batches) then 5 of another (a batch ends where the asset
+// changes: a partial one), two of them in an engine's joint order (a mapping), one with a NaN joint matrix
+// (it alone fails), one given too few joint matrices (refused before the refit); both crowd calls,
+// on the calling thread and on TBB, and CrowdRange over an engine's ranges of 16; with the batch
+// and with the crowd pinned to one instance at a time (AVX2). Skipped, saying so, when the CPU
+// lacks AVX-512F (after checking the one-at-a-time crowd).
+TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto first = BuiltinAsset(&fc);
+  ASSERT_TRUE(first);
+  auto second = BuiltinAsset();  // the same set, another asset: batches do not mix assets
+  ASSERT_TRUE(second);
+  const auto& names = fc->character.skeleton.joint_names;
+  std::vector<std::string> reversed(names.rbegin(), names.rend());
+  auto mapping = MapJoints(first->sphere_set(), reversed);
+  ASSERT_TRUE(mapping.ok()) << mapping.error().message;
+  constexpr int kCount = 37;
+  const int nan_at = 20, short_at = 9, huge_at = 12;
+  const std::set<int> mapped = {3, 30};
+  std::mt19937 rng(5);
+  std::vector<test::Pose> poses;
+  std::vector<std::vector<Mat4f>> engine_order(kCount);
+  for (int i = 0; i < kCount; ++i) {
+    poses.push_back(test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, 0.2f), "r"));
+    engine_order[i].assign(poses[i].world.rbegin(), poses[i].world.rend());
+  }
+  poses[nan_at].world[fc->set.influence_joints[0]](0, 3) = std::numeric_limits<float>::quiet_NaN();
+  // Finite spheres the broad phase refuses (centres beyond its 1e18 bound): the batch's query too.
+  for (Mat4f& g : poses[huge_at].world) g(0, 3) += 4e18f;
+  const auto asset_of = [&](int i) { return i < 32 ? first : second; };
+  const auto make = [&](int i) {
+    if (mapped.count(i)) {
+      auto inst = CharacterInstance::Create(asset_of(i), *mapping);
+      EXPECT_TRUE(inst.ok());
+      return std::move(inst).value();
+    }
+    return MakeInstance(asset_of(i));
+  };
+  std::vector<CharacterFrameInput> inputs;
+  for (int i = 0; i < kCount; ++i) {
+    std::span<const Mat4f> world = mapped.count(i) ? engine_order[i] : poses[i].world;
+    if (i == short_at) world = world.first(world.size() - 1);
+    inputs.push_back({world, {}});
+  }
+  // Each instance alone, one at a time (AVX2 or SSE2: the batch is not used by Update).
+  std::vector<CharacterInstance> alone;
+  for (int i = 0; i < kCount; ++i) {
+    alone.push_back(make(i));
+    alone.back().Update(RefitMode::kFast, inputs[i].joint_world, {});
+    if (alone.back().status().ok()) {
+      alone.back().Query();
+      alone.back().FindContacts();
+    }
+  }
+  ASSERT_FALSE(alone[nan_at].status().ok());
+  ASSERT_FALSE(alone[short_at].status().ok());
+  ASSERT_FALSE(alone[huge_at].status().ok());
+  ASSERT_TRUE(alone[huge_at].spheres_valid());
+  struct Pin {  // the crowd's refit pinned for a scope
+    bool ok;
+    explicit Pin(internal::RefitSimd level) : ok(internal::PinRefitSimd(level)) {}
+    ~Pin() { internal::PinRefitSimd(internal::RefitSimd::kAuto); }
+  };
+  bool batch_checked = false;
+  for (const bool batch : {false, true}) {
+    const internal::RefitSimd level = batch ? internal::RefitSimd::kAvx512 : internal::RefitSimd::kAvx2;
+    const Pin pin(level);
+    if (!pin.ok) continue;
+    batch_checked |= batch;
+    for (const bool find_contacts : {false, true}) {
+      for (const int loop_kind : {0, 1, 2}) {  // serial, TBB, CrowdRange over ranges of 16
+        std::vector<CharacterInstance> crowd;
+        for (int i = 0; i < kCount; ++i) crowd.push_back(make(i));
+        std::vector<CharacterInstance*> ptrs;
+        for (auto& c : crowd) ptrs.push_back(&c);
+        internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
+        FrameStatus st;
+        if (loop_kind == 2) {
+          for (size_t begin = 0; begin < ptrs.size(); begin += 16) {
+            const size_t count = std::min<size_t>(16, ptrs.size() - begin);
+            const FrameStatus range = CrowdRange(std::span(ptrs).subspan(begin, count),
+                                                 std::span(inputs).subspan(begin, count), RefitMode::kFast,
+                                                 find_contacts);
+            if (!range.ok()) st = range;
+          }
+        } else {
+          const ParallelFor& loop = loop_kind == 1 ? DefaultParallelFor() : SerialFor();
+          st = find_contacts ? UpdateAndFindContactsCrowd(ptrs, inputs, RefitMode::kFast, loop)
+                             : UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, loop);
+        }
+        const std::string what = std::string(internal::ToString(level)) +
+                                 (find_contacts ? ", find contacts" : ", query") +
+                                 (loop_kind == 0 ? ", serial" : loop_kind == 1 ? ", TBB" : ", CrowdRange");
+        if (loop_kind != 1) {
+          EXPECT_EQ(internal::LastRefitSimdRun(), level) << what;
+        }
+        EXPECT_EQ(st.code, ErrorCode::kInvalidData) << what;
+        for (int i = 0; i < kCount; ++i) {
+          ASSERT_EQ(crowd[i].status().ok(), alone[i].status().ok()) << what << ", instance " << i;
+          ASSERT_EQ(crowd[i].status().code, alone[i].status().code) << what << ", instance " << i;
+          EXPECT_EQ(crowd[i].spheres_valid(), alone[i].spheres_valid()) << what << ", instance " << i;
+          if (!alone[i].status().ok()) continue;
+          for (size_t s = 0; s < crowd[i].spheres().size(); ++s) {
+            ASSERT_EQ(crowd[i].spheres()[s], alone[i].spheres()[s]) << what << ", instance " << i << ", sphere " << s;
+          }
+          EXPECT_TRUE(std::ranges::equal(crowd[i].contacts(), alone[i].contacts())) << what << ", instance " << i;
+          if (find_contacts) {
+            EXPECT_EQ(crowd[i].frame_contacts(), alone[i].frame_contacts()) << what << ", instance " << i;
+          }
+        }
+      }
+    }
+  }
+  if (!batch_checked) GTEST_SKIP() << "the CPU lacks AVX-512F: only the one-at-a-time crowd was checked";
+}
+
+// The crowd's batched query (16 instances of one asset per AVX-512 lane) against the all-pairs
+// oracle over a clip, every instance at its own point of the clip, frames of the crowd call
+// alternating with frames where each instance runs alone (its candidate cache then restarts from
+// a state the batch left behind), every frame's contacts equal to the oracle's; and the crowd call
+// allocates nothing once warm.
+TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  const std::vector<test::Pose> poses = test::ClipPoses(fc->character, 24);
+  // Every joint collapsed to one point (a zero linear part): all the spheres of such an instance
+  // share one centre, so every allowed pair touches, far more than the batch's hit buffer holds.
+  std::vector<Mat4f> collapsed(poses[0].world.size(), Mat4f::Zero());
+  for (Mat4f& g : collapsed) g.col(3) << 0.5f, 1.0f, -0.25f, 1.0f;
+  constexpr size_t kCount = 21;  // a batch of 16 and one of 5
+  std::vector<CharacterInstance> crowd;
+  for (size_t k = 0; k < kCount; ++k) crowd.push_back(MakeInstance(asset));
+  std::vector<CharacterInstance*> ptrs;
+  for (auto& c : crowd) ptrs.push_back(&c);
+  std::vector<Contact> oracle;
+  size_t total = 0, batched_frames = 0;
+  const auto frame = [&](size_t f, bool alone) {
+    std::vector<CharacterFrameInput> inputs;
+    for (size_t k = 0; k < kCount; ++k) inputs.push_back({poses[(f + 5 * k) % poses.size()].world, {}});
+    if (f % 4 == 1) {
+      for (size_t k = f % 3; k < kCount; k += 3) inputs[k].joint_world = collapsed;
+    }
+    if (alone) {
+      for (size_t k = 0; k < kCount; ++k) {
+        ASSERT_TRUE(crowd[k].UpdateFast(inputs[k].joint_world).ok());
+        crowd[k].Query();
+      }
+    } else {
+      const uint64_t batches = internal::CrowdQueryBatches();
+      ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());
+      batched_frames += internal::CrowdQueryBatches() > batches;
+    }
+    for (size_t k = 0; k < kCount; ++k) {
+      ASSERT_TRUE(crowd[k].status().ok()) << crowd[k].status().message;
+      ASSERT_TRUE(SelfCollisionAllPairs(crowd[k].spheres(), asset->filter(), &oracle));
+      ASSERT_EQ(std::vector<Contact>(crowd[k].contacts().begin(), crowd[k].contacts().end()), oracle)
+          << "frame " << f << ", instance " << k << (alone ? ", alone" : ", crowd");
+      for (size_t c = 0; c < oracle.size(); ++c) {  // == compares depths as floats: their bits too
+        ASSERT_EQ(std::bit_cast<uint32_t>(crowd[k].contacts()[c].depth), std::bit_cast<uint32_t>(oracle[c].depth));
+      }
+      total += oracle.size();
+      if (f % 4 == 1 && k >= f % 3 && (k - f % 3) % 3 == 0) {
+        EXPECT_GT(oracle.size(), 64u) << "collapsed: every allowed pair touches";
+      }
+    }
+  };
+  for (size_t f = 0; f < 2 * poses.size(); ++f) {
+    frame(f, f % 3 == 2);
+    if (HasFatalFailure()) return;
+  }
+  EXPECT_GT(total, 0u);
+  std::vector<CharacterFrameInput> inputs;
+  inputs.reserve(kCount);
+  for (size_t k = 0; k < kCount; ++k) inputs.push_back({poses[(3 + 5 * k) % poses.size()].world, {}});
+  ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());  // warm-up
+  {  // warm now: the crowd call allocates nothing
+    test::AllocationCounter counter;
+    for (size_t f = 0; f < poses.size(); ++f) {
+      for (size_t k = 0; k < kCount; ++k) inputs[k].joint_world = poses[(f + 5 * k) % poses.size()].world;
+      ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());
+    }
+    EXPECT_EQ(counter.count(), 0);
+  }
+  // An instance listed twice in one range (serially: CrowdRange) is updated twice, in order, as
+  // CrowdStep would: its spheres and contacts are the second input's, each contact once.
+  std::vector<CharacterInstance*> twice = {ptrs[0], ptrs[1], ptrs[2], ptrs[0], ptrs[3]};
+  std::vector<CharacterFrameInput> twice_inputs;
+  for (size_t k = 0; k < twice.size(); ++k) twice_inputs.push_back({poses[(2 + 3 * k) % poses.size()].world, {}});
+  ASSERT_TRUE(CrowdRange(twice, twice_inputs, RefitMode::kFast, false).ok());
+  CharacterInstance expected = MakeInstance(asset);
+  ASSERT_TRUE(expected.UpdateFast(twice_inputs[3].joint_world).ok());
+  expected.Query();
+  EXPECT_TRUE(std::ranges::equal(crowd[0].spheres(), expected.spheres()));
+  EXPECT_TRUE(std::ranges::equal(crowd[0].contacts(), expected.contacts()));
+  if (batched_frames == 0) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd queried one instance at a time";
+  EXPECT_EQ(batched_frames, 2 * poses.size() - poses.size() * 2 / 3) << "every crowd frame queried at once";
+}
+
+// A set of n spheres on two joints (sphere s on joint s % 2, owning vertex s and triangle s), centres
+// spread over a box a few radii wide so that many pairs touch; exclusions: none, or every pair.
+SphereSet CrowdTestSet(size_t n, bool exclude_all, std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  SphereSet set;
+  set.source_vertex_count = n;
+  set.source_triangle_count = n;
+  set.joint_names = {"a", "b"};
+  set.joint_parents = {-1, 0};
+  set.joint_rest_world = {Mat4f::Identity(), Mat4f::Identity()};
+  set.parts = {{"p0", {0}}, {"p1", {1}}};
+  set.vertex_offsets = {0};
+  set.triangle_offsets = {0};
+  set.influence_offsets = {0};
+  for (uint32_t k = 0; k < n; ++k) {
+    set.centers_rest.emplace_back(2.0f * u(rng), 2.0f * u(rng), 0.5f * u(rng));
+    set.radii_rest.push_back(0.2f + 0.1f * u(rng));
+    set.radii_fast.push_back(set.radii_rest.back());
+    set.sphere_part.push_back(static_cast<uint16_t>(k % 2));
+    set.sphere_joint.push_back(static_cast<uint16_t>(k % 2));
+    set.sphere_level.push_back(0);
+    set.vertices.push_back(k);
+    set.vertex_offsets.push_back(k + 1);
+    set.triangles.push_back(k);
+    set.triangle_offsets.push_back(k + 1);
+    set.influence_joints.push_back(static_cast<uint16_t>(k % 2));
+    set.influence_weights.push_back(1.0f);
+    set.influence_offsets.push_back(k + 1);
+  }
+  for (uint32_t i = 0; exclude_all && i < n; ++i) {
+    for (uint32_t j = i + 1; j < n; ++j) set.excluded_pairs.push_back({i, j, ExclusionReason::kSameJoint});
+  }
+  return set;
+}
+
+// The batched query's bounds: sets of 1, 2, 255, 256 and 257 spheres, and one whose every pair is
+// excluded. Each crowd of 20 instances (a batch of 16 and one of 4) under random rigid motions gives
+// every instance the oracle's contacts; the batch queries at once only from 2 to 256 spheres with
+// some pair allowed, and one by one otherwise.
+TEST(CharacterCrowdTest, BatchedQueryBoundsBySphereCount) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  bool batched_any = false;
+  for (const auto& [n, exclude_all] : std::vector<std::pair<size_t, bool>>{
+           {1, false}, {2, false}, {255, false}, {256, false}, {257, false}, {40, true}}) {
+    auto asset = CharacterAsset::Create(CrowdTestSet(n, exclude_all, rng));
+    ASSERT_TRUE(asset.ok()) << asset.error().message;
+    constexpr size_t kCount = 20;
+    std::vector<CharacterInstance> crowd;
+    for (size_t k = 0; k < kCount; ++k) crowd.push_back(MakeInstance(*asset));
+    std::vector<CharacterInstance*> ptrs;
+    for (auto& c : crowd) ptrs.push_back(&c);
+    std::vector<std::vector<Mat4f>> worlds(kCount, std::vector<Mat4f>(2, Mat4f::Identity()));
+    std::vector<CharacterFrameInput> inputs(kCount);
+    std::vector<Contact> oracle;
+    const std::string what = std::to_string(n) + " spheres" + (exclude_all ? ", every pair excluded" : "");
+    for (int frame = 0; frame < 3; ++frame) {
+      for (size_t k = 0; k < kCount; ++k) {
+        for (Mat4f& g : worlds[k]) {
+          g.topLeftCorner<3, 3>() = Eigen::AngleAxisf(3.0f * u(rng), Eigen::Vector3f(u(rng), u(rng), 1.0f).normalized())
+                                        .toRotationMatrix();
+          g.col(3).head<3>() = Eigen::Vector3f(0.3f * u(rng), 0.3f * u(rng), 0.3f * u(rng));
+        }
+        inputs[k] = {worlds[k], {}};
+      }
+      const uint64_t batches = internal::CrowdQueryBatches();
+      ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok()) << what;
+      const bool batched = internal::CrowdQueryBatches() > batches;
+      batched_any |= batched;
+      if (batched) {
+        EXPECT_TRUE(n >= 2 && n <= 256 && !exclude_all) << what;
+      }
+      size_t touching = 0;
+      for (size_t k = 0; k < kCount; ++k) {
+        ASSERT_TRUE(crowd[k].status().ok()) << what;
+        ASSERT_TRUE(SelfCollisionAllPairs(crowd[k].spheres(), (*asset)->filter(), &oracle));
+        ASSERT_EQ(std::vector<Contact>(crowd[k].contacts().begin(), crowd[k].contacts().end()), oracle)
+            << what << ", frame " << frame << ", instance " << k;
+        touching += oracle.size();
+      }
+      if (n > 2 && !exclude_all) {
+        EXPECT_GT(touching, 0u) << what;
+      }
+      if (internal::RefitBatchUsable() && n >= 2 && n <= 256 && !exclude_all) {
+        EXPECT_TRUE(batched) << what;
+      }
+    }
+  }
+  if (!batched_any) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd queried one instance at a time";
+}
+
+// ReserveContacts at set-up sizes the narrow phase's scratch too: the first FindContacts (with
+// positions) then allocates nothing; without it, the first FindContacts sizes the scratch itself.
+TEST(CharacterInstanceTest, ReserveContactsSizesTheNarrowPhase) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  ASSERT_NE(asset->narrow_phase(), nullptr);
+  const std::vector<test::Pose> poses = test::ClipPoses(fc->character, 15);
+  const test::Pose& pose = poses[poses.size() / 2];
+  CharacterInstance reserved = MakeInstance(asset);
+  reserved.ReserveContacts(4096);
+  ASSERT_TRUE(reserved.UpdateExact(pose.positions, pose.world).ok());
+  reserved.Query();
+  {
+    test::AllocationCounter counter;
+    EXPECT_TRUE(reserved.FindContacts(pose.positions).ok());
+    EXPECT_EQ(counter.count(), 0);
+  }
+  CharacterInstance plain = MakeInstance(asset);
+  ASSERT_TRUE(plain.UpdateExact(pose.positions, pose.world).ok());
+  plain.Query();
+  {
+    test::AllocationCounter counter;
+    EXPECT_TRUE(plain.FindContacts(pose.positions).ok());
+    EXPECT_GE(counter.count(), 1);
+  }
+  EXPECT_EQ(reserved.frame_contacts(), plain.frame_contacts());
+}
+
+// ReserveSphereContacts pins Query's list without the narrow phase's scratch. Every vertex on one
+// point makes the spheres collapse onto it, so nearly every allowed pair touches: far more
+// contacts than Create's room (4 per sphere). The reserved instance's first frame allocates
+// nothing, an unreserved one grows its list, both give the same contacts, and the reserved
+// instance's first FindContacts still sizes the narrow phase's scratch (ReserveSphereContacts
+// did not).
+TEST(CharacterInstanceTest, ReserveSphereContactsPinsOnlyTheSphereContacts) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  ASSERT_NE(asset->narrow_phase(), nullptr);
+  const size_t n = asset->size();
+  const std::vector<Eigen::Vector3f> collapsed(fc->character.vertex_count(), Eigen::Vector3f(0.1f, 1.0f, 0.05f));
+  const size_t room = n * (n - 1) / 2;
+  CharacterInstance reserved = MakeInstance(asset);
+  reserved.ReserveSphereContacts(room);
+  CharacterInstance plain = MakeInstance(asset);
+  CharacterInstance both = MakeInstance(asset);  // the control: ReserveContacts sizes the narrow phase
+  both.ReserveContacts(room);
+  {
+    test::AllocationCounter counter;
+    ASSERT_TRUE(reserved.UpdateExact(collapsed, {}).ok());
+    reserved.Query();
+    EXPECT_EQ(counter.count(), 0);
+  }
+  ASSERT_TRUE(reserved.status().ok());
+  EXPECT_GT(reserved.contacts().size(), 4 * n);
+  {
+    test::AllocationCounter counter;
+    ASSERT_TRUE(plain.UpdateExact(collapsed, {}).ok());
+    plain.Query();
+    EXPECT_GE(counter.count(), 1);
+  }
+  EXPECT_TRUE(std::ranges::equal(plain.contacts(), reserved.contacts()));
+  ASSERT_TRUE(both.UpdateExact(collapsed, {}).ok());
+  both.Query();
+  {
+    test::AllocationCounter counter;
+    EXPECT_TRUE(both.FindContacts(collapsed).ok()) << both.status().message;
+    EXPECT_EQ(counter.count(), 0);
+  }
+  {
+    test::AllocationCounter counter;
+    EXPECT_TRUE(reserved.FindContacts(collapsed).ok()) << reserved.status().message;
+    EXPECT_GE(counter.count(), 1);
+  }
+  EXPECT_EQ(reserved.frame_contacts(), both.frame_contacts());
+}
+
+TEST(CharacterInstanceTest, NoAllocationPerFrameAfterTheFirst) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  CharacterInstance inst = MakeInstance(asset);
+  const std::vector<test::Pose> poses = test::ClipPoses(fc->character, 15);
+  auto run_all = [&] {
+    for (const auto& p : poses) {
+      inst.UpdateExact(p.positions, p.world);
+      inst.Query();
+      inst.UpdateFast(p.world);
+      inst.Query();
+    }
+  };
+  run_all();  // warm-up: the contact list reaches its largest size
+  {
+    test::AllocationCounter counter;
+    run_all();
+    EXPECT_EQ(counter.count(), 0);
+  }
+  // The counter does count (so the zero above means something).
+  test::AllocationCounter counter;
+  auto probe = std::make_unique<std::vector<int>>(10);
+  EXPECT_GE(counter.count(), 1);
+}
+
+}  // namespace
+}  // namespace skinspheres::runtime

@@ -1,0 +1,660 @@
+// The binary sphere-set asset (sphere_set_binary.h): XXH64 against the reference library's values,
+// lossless both ways with the JSON (compared as JSON text, which holds every field), the fast-only
+// variant (same fast spheres, exact mode refused), memory-mapping, and fuzz-style refusals: every
+// prefix, every byte flipped (with and without a fixed-up checksum), absurd counts and offsets,
+// none of which may crash or allocate more than the input justifies.
+
+#include "skinspheres/runtime/format/sphere_set_binary.h"
+
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstring>
+#include <functional>
+#include <string>
+
+#include "allocation_counter.h"
+#include "runtime/posed_characters.h"
+#include "runtime/sample_sphere_set.h"
+#include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/refit/refit_job.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
+#include "test_support.h"
+
+namespace skinspheres::runtime {
+namespace {
+
+using Bytes = std::vector<std::byte>;
+
+std::span<const std::byte> AsBytes(std::string_view s) { return {reinterpret_cast<const std::byte*>(s.data()), s.size()}; }
+
+// A set with everything non-trivial: the built-in character's fit (mesh, parts, exclusions, a
+// params object), or the small hand-made one when a test wants every byte position.
+const SphereSet& Builtin() {
+  static const SphereSet set = [] {
+    auto fc = test::LoadFitted("builtin");
+    return fc ? fc->set : SphereSet{};
+  }();
+  return set;
+}
+
+SphereSet Small() {
+  SphereSet set = TwoSpheresWithMesh();
+  set.source_file = "small.glb";
+  set.params_json = R"({"rays":80})";
+  set.parts.push_back({"head", {0}});
+  set.sphere_part[1] = 1;
+  return set;
+}
+
+uint32_t Get32(const Bytes& b, size_t at) {
+  uint32_t v;
+  std::memcpy(&v, b.data() + at, 4);
+  return v;
+}
+uint64_t Get64(const Bytes& b, size_t at) {
+  uint64_t v;
+  std::memcpy(&v, b.data() + at, 8);
+  return v;
+}
+void Put32(Bytes& b, size_t at, uint32_t v) { std::memcpy(b.data() + at, &v, 4); }
+void Put64(Bytes& b, size_t at, uint64_t v) { std::memcpy(b.data() + at, &v, 8); }
+void FixChecksum(Bytes& b) { Put64(b, 8, Xxh64(std::span<const std::byte>(b).subspan(16))); }
+
+// Byte offset of section `id`'s table entry (the section must be present).
+size_t EntryOf(const Bytes& b, SphereSetSection id) {
+  const uint32_t count = Get32(b, 32);
+  for (uint32_t k = 0; k < count; ++k) {
+    const size_t at = kSphereSetBinaryHeaderSize + k * kSphereSetBinarySectionEntrySize;
+    if (Get32(b, at) == static_cast<uint32_t>(id)) return at;
+  }
+  ADD_FAILURE() << "no section " << static_cast<uint32_t>(id);
+  return 0;
+}
+
+// The same file as a version-1 writer (before the influence reach) wrote it: section 28 dropped,
+// the others laid out again as the writer lays them out (table, then each section on the next
+// 16-byte boundary, zero padding), version 1, checksum.
+Bytes DowngradeToVersion1(const Bytes& v2) {
+  struct Entry {
+    uint32_t id, element_size;
+    uint64_t offset, count;
+  };
+  std::vector<Entry> entries;
+  for (uint32_t k = 0; k < Get32(v2, 32); ++k) {
+    const size_t at = kSphereSetBinaryHeaderSize + k * kSphereSetBinarySectionEntrySize;
+    const Entry e{Get32(v2, at), Get32(v2, at + 4), Get64(v2, at + 8), Get64(v2, at + 16)};
+    if (e.id != static_cast<uint32_t>(SphereSetSection::kInfluenceReach)) entries.push_back(e);
+  }
+  const auto align = [](size_t n) { return (n + 15) / 16 * 16; };
+  size_t at = align(kSphereSetBinaryHeaderSize + entries.size() * kSphereSetBinarySectionEntrySize);
+  Bytes out(kSphereSetBinaryHeaderSize + entries.size() * kSphereSetBinarySectionEntrySize, std::byte{0});
+  std::copy_n(v2.begin(), kSphereSetBinaryHeaderSize, out.begin());
+  for (size_t k = 0; k < entries.size(); ++k) {
+    const Entry& e = entries[k];
+    const size_t entry = kSphereSetBinaryHeaderSize + k * kSphereSetBinarySectionEntrySize;
+    Put32(out, entry, e.id);
+    Put32(out, entry + 4, e.element_size);
+    Put64(out, entry + 8, at);
+    Put64(out, entry + 16, e.count);
+    out.resize(at + e.count * e.element_size, std::byte{0});
+    std::copy_n(v2.begin() + static_cast<ptrdiff_t>(e.offset), e.count * e.element_size,
+                out.begin() + static_cast<ptrdiff_t>(at));
+    at = align(at + e.count * e.element_size);
+  }
+  out.resize(at, std::byte{0});
+  Put32(out, 16, 1);
+  Put32(out, 32, static_cast<uint32_t>(entries.size()));
+  Put64(out, 24, out.size());
+  FixChecksum(out);
+  return out;
+}
+
+// Reads, watching the largest allocation; checks a refusal names the source in one line.
+Result<SphereSet> Read(const Bytes& b, size_t* largest = nullptr) {
+  test::AllocationCounter counter;
+  auto read = ReadSphereSetBinary(b, "in.ssb");
+  if (largest) *largest = counter.largest();
+  if (!read.ok()) {
+    EXPECT_EQ(read.error().message.rfind("in.ssb: ", 0), 0u) << read.error().message;
+    EXPECT_EQ(read.error().message.find('\n'), std::string::npos) << read.error().message;
+  }
+  return read;
+}
+
+TEST(Xxh64Test, MatchesTheReferenceImplementation) {
+  // Values from libxxhash 0.8.1's XXH64 (the reference implementation), seed 0 unless given.
+  auto h = [](std::string_view s, uint64_t seed = 0) { return Xxh64(AsBytes(s), seed); };
+  EXPECT_EQ(h(""), 0xef46db3751d8e999ull);
+  EXPECT_EQ(h("a"), 0xd24ec4f1a98c6e5bull);
+  EXPECT_EQ(h("abc"), 0x44bc2cf5ad770999ull);
+  EXPECT_EQ(h("0123456789abcdef0123456789abcdef!"), 0x8afff4daac4e677eull);  // 33 bytes: stripes + tail
+  std::string long_input;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 256; ++c) long_input.push_back(static_cast<char>(c));
+  }
+  long_input += "xyz";
+  EXPECT_EQ(h(long_input), 0xe921a1b45bd779f8ull);  // 771 bytes
+  EXPECT_EQ(h("abc", 12345), 0x01700e64f6f23509ull);
+}
+
+TEST(SphereSetBinaryTest, LosslessBothWaysWithTheJson) {
+  ASSERT_GT(Builtin().size(), 10u);
+  const std::vector<SphereSet> sets = {Builtin(), Small(), TwoSpheres()};
+  for (const SphereSet& set_ref : sets) {
+    const SphereSet* set = &set_ref;
+    const std::string json = WriteSphereSetJson(*set);
+    auto from_json = ReadSphereSetJson(json, "a.json");
+    ASSERT_TRUE(from_json.ok()) << from_json.error().message;
+    const Bytes binary = WriteSphereSetBinary(*from_json);
+    EXPECT_EQ(binary.size() % 16, 0u);
+    EXPECT_EQ(Get64(binary, 24), binary.size());
+    auto from_binary = Read(binary);
+    ASSERT_TRUE(from_binary.ok()) << from_binary.error().message;
+    EXPECT_FALSE(from_binary->fast_only);
+    EXPECT_EQ(from_binary->has_mesh(), set->has_mesh());
+    EXPECT_EQ(from_binary->loaded_from, "in.ssb");
+    // JSON -> binary -> JSON: the same text; binary -> JSON -> binary: the same bytes.
+    EXPECT_EQ(WriteSphereSetJson(*from_binary), json);
+    EXPECT_EQ(WriteSphereSetBinary(*from_binary), binary);
+  }
+}
+
+TEST(SphereSetBinaryTest, FilesAreReadByContentWhateverTheirName) {
+  const auto dir = test::TempDir("sphere_set_binary_files");
+  const SphereSet& set = Builtin();
+  ASSERT_FALSE(SaveSphereSet(set, dir / "x.ssb").has_value());
+  ASSERT_FALSE(SaveSphereSet(set, dir / "x.json").has_value());
+  ASSERT_FALSE(SaveSphereSet(set, dir / "binary.json", SphereSetFileFormat::kBinary).has_value());
+  EXPECT_EQ(SphereSetFormatForPath(dir / "x.ssb"), SphereSetFileFormat::kBinary);
+  EXPECT_EQ(SphereSetFormatForPath(dir / "x.json"), SphereSetFileFormat::kJson);
+  EXPECT_FALSE(SphereSetFormatForPath(dir / "x.txt").has_value());
+  auto json_bytes = ReadSphereSetFile(dir / "x.json");
+  ASSERT_TRUE(json_bytes.ok());
+  EXPECT_FALSE(IsSphereSetBinary(*json_bytes));
+  for (const char* name : {"x.ssb", "x.json", "binary.json"}) {
+    auto loaded = LoadSphereSet(dir / name);
+    ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+    EXPECT_EQ(loaded->loaded_from, (dir / name).string());
+    EXPECT_EQ(WriteSphereSetJson(*loaded), WriteSphereSetJson(set)) << name;
+  }
+  auto missing = LoadSphereSetBinary(dir / "none.ssb");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.error().code, ErrorCode::kFileNotFound);
+  EXPECT_NE(missing.error().message.find("none.ssb: file not found"), std::string::npos);
+  auto directory = LoadSphereSet(dir);
+  ASSERT_FALSE(directory.ok());
+  EXPECT_NE(directory.error().message.find(dir.string()), std::string::npos);
+}
+
+// The binary reader opens files as the JSON one does (file_io.h): only a regular file, never a
+// FIFO (which would block), a device (/dev/zero never ends) or a directory; a file over
+// kMaxSphereSetBytes is refused from its size, before anything is allocated; writes are checked
+// through the close (/dev/full fails at the flush).
+TEST(SphereSetBinaryTest, OnlyRegularFilesWithinTheSizeLimitAreReadAndEveryWriteIsChecked) {
+  const auto dir = test::TempDir("sphere_set_binary_hostile");
+  const auto fifo = dir / "fifo.ssb";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const auto huge = dir / "huge.ssb";  // the magic, then a sparse file one byte over the limit
+  ASSERT_FALSE(WriteWholeFile(huge, std::string_view(reinterpret_cast<const char*>(kSphereSetBinaryMagic), 8)));
+  ASSERT_EQ(::truncate(huge.c_str(), static_cast<off_t>(kMaxSphereSetBytes + 1)), 0);
+  struct Case {
+    std::filesystem::path path;
+    ErrorCode code;
+    std::string needle;
+  };
+  const Case cases[] = {
+      {fifo, ErrorCode::kFileUnreadable, "is a FIFO"},
+      {"/dev/zero", ErrorCode::kFileUnreadable, "is a device"},
+      {dir, ErrorCode::kFileUnreadable, "is a directory"},
+      {huge, ErrorCode::kFormatRejected, "a sphere set may be at most 536870912 bytes"},
+  };
+  using Loader = std::function<Result<SphereSet>(const std::filesystem::path&)>;
+  const Loader loaders[] = {[](const auto& p) { return LoadSphereSetBinary(p); },
+                            [](const auto& p) { return LoadSphereSet(p); }};
+  for (const Case& c : cases) {
+    for (const Loader& load : loaders) {
+      test::AllocationCounter counter;
+      // A blocking open of the FIFO would hang here (no writer ever comes): the test would time out.
+      auto read = load(c.path);
+      EXPECT_LT(counter.largest(), size_t{1} << 20) << c.path;  // nothing near the file's size
+      ASSERT_FALSE(read.ok()) << c.path;
+      EXPECT_EQ(read.error().code, c.code) << read.error().message;
+      EXPECT_EQ(read.error().message.rfind(c.path.string() + ": ", 0), 0u) << read.error().message;
+      EXPECT_NE(read.error().message.find(c.needle), std::string::npos) << read.error().message;
+      EXPECT_EQ(read.error().message.find('\n'), std::string::npos) << read.error().message;
+    }
+  }
+  for (const SphereSetFileFormat format : {SphereSetFileFormat::kBinary, SphereSetFileFormat::kBinaryFastOnly}) {
+    const auto err = SaveSphereSet(Small(), "/dev/full", format);
+    ASSERT_TRUE(err.has_value());
+    EXPECT_EQ(err->message.rfind("/dev/full: write failed (", 0), 0u) << err->message;
+  }
+  const auto err = SaveSphereSetBinary(Small(), dir / "no_such_dir" / "x.ssb");
+  ASSERT_TRUE(err.has_value());
+  EXPECT_NE(err->message.find("cannot open for writing"), std::string::npos) << err->message;
+}
+
+TEST(SphereSetBinaryTest, FastOnlyGivesTheSameFastSpheresAndRefusesExactMode) {
+  const SphereSet& full = Builtin();
+  const Bytes fast_bytes = WriteSphereSetBinary(full, SphereSetBinaryContent::kFastOnly);
+  const Bytes full_bytes = WriteSphereSetBinary(full);
+  EXPECT_LT(fast_bytes.size(), full_bytes.size() / 2);
+  auto fast = Read(fast_bytes);
+  ASSERT_TRUE(fast.ok()) << fast.error().message;
+  EXPECT_TRUE(fast->fast_only);
+  EXPECT_FALSE(fast->has_mesh());
+  EXPECT_TRUE(fast->vertices.empty() && fast->triangles.empty());
+  // Writing a fast-only set again keeps it fast-only, byte for byte, even when asked for kFull.
+  EXPECT_EQ(WriteSphereSetBinary(*fast, SphereSetBinaryContent::kFull), fast_bytes);
+  EXPECT_FALSE(Read(WriteSphereSetBinary(*fast))->vertices.size());
+
+  auto full_asset = CharacterAsset::Create(full);
+  auto fast_asset = CharacterAsset::Create(*fast);
+  ASSERT_TRUE(full_asset.ok() && fast_asset.ok());
+  auto a = CharacterInstance::Create(*full_asset);
+  auto b = CharacterInstance::Create(*fast_asset);
+  ASSERT_TRUE(a.ok() && b.ok());
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  size_t frames_with_contacts = 0;
+  for (const test::Pose& pose : test::ClipPoses(fc->character, 12)) {
+    ASSERT_TRUE(a->UpdateFast(pose.world).ok());
+    ASSERT_TRUE(b->UpdateFast(pose.world).ok());
+    ASSERT_TRUE(std::equal(a->spheres().begin(), a->spheres().end(), b->spheres().begin(), b->spheres().end()));
+    const std::vector<Contact> ca(a->Query().begin(), a->Query().end());
+    const auto cb = b->Query();
+    EXPECT_TRUE(std::equal(ca.begin(), ca.end(), cb.begin(), cb.end())) << pose.label;
+    frames_with_contacts += !ca.empty();
+  }
+  EXPECT_GT(frames_with_contacts, 0u);
+
+  const std::vector<Eigen::Vector3f> positions(full.source_vertex_count, Eigen::Vector3f::Zero());
+  const FrameStatus st = b->UpdateExact(positions, {});
+  EXPECT_EQ(st.code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(std::string(st.message).find("fast-only"), std::string::npos) << st.message;
+  EXPECT_TRUE(b->Query().empty());
+  RefitJob job;
+  job.mode = RefitMode::kExact;
+  job.spheres = &*fast;
+  job.positions = positions;
+  std::vector<Vec4f> out(fast->size());
+  job.out = out;
+  EXPECT_FALSE(job.Validate());
+
+  const auto dir = test::TempDir("sphere_set_binary_fast");
+  auto err = SaveSphereSet(*fast, dir / "fast.json");
+  ASSERT_TRUE(err.has_value());
+  EXPECT_NE(err->message.find("fast-only"), std::string::npos) << err->message;
+  EXPECT_NE(err->message.find("in.ssb"), std::string::npos) << err->message;
+}
+
+TEST(SphereSetBinaryTest, AMemoryMappedFileIsReadInPlace) {
+  const auto dir = test::TempDir("sphere_set_binary_mmap");
+  const SphereSet& set = Builtin();
+  ASSERT_FALSE(SaveSphereSetBinary(set, dir / "m.ssb").has_value());
+  const int fd = ::open((dir / "m.ssb").c_str(), O_RDONLY);
+  ASSERT_GE(fd, 0);
+  const size_t size = static_cast<size_t>(::lseek(fd, 0, SEEK_END));
+  void* map = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
+  ::close(fd);
+  ASSERT_NE(map, MAP_FAILED);
+  const std::span<const std::byte> bytes(static_cast<const std::byte*>(map), size);
+  auto view = SphereSetBinaryView::Open(bytes, "m.ssb");
+  ASSERT_TRUE(view.ok()) << view.error().message;
+  EXPECT_EQ(view->size(), set.size());
+  EXPECT_EQ(view->source_file(), set.source_file);
+  EXPECT_EQ(view->joint_name(3), set.joint_names[3]);
+  EXPECT_EQ(view->part_name(0), set.parts[0].name);
+  // The spans point into the mapping, 16-byte aligned, and hold the set's values.
+  EXPECT_GE(reinterpret_cast<const std::byte*>(view->radii_rest().data()), bytes.data());
+  EXPECT_LT(reinterpret_cast<const std::byte*>(view->radii_rest().data()), bytes.data() + size);
+  EXPECT_EQ(reinterpret_cast<uintptr_t>(view->radii_rest().data()) % 16, 0u);
+  EXPECT_TRUE(std::equal(set.radii_fast.begin(), set.radii_fast.end(), view->radii_fast().begin(), view->radii_fast().end()));
+  EXPECT_TRUE(std::equal(set.influence_joints.begin(), set.influence_joints.end(), view->influence_joints().begin(),
+                         view->influence_joints().end()));
+  EXPECT_EQ(view->centers_rest()[3 * 5 + 1], set.centers_rest[5].y());
+  auto copied = view->ToSphereSet();
+  ASSERT_TRUE(copied.ok()) << copied.error().message;
+  EXPECT_EQ(WriteSphereSetJson(*copied), WriteSphereSetJson(set));
+  // A buffer off the 16-byte grid: the view refuses it, the reader copies it.
+  Bytes shifted(size + 1);
+  std::memcpy(shifted.data() + 1, map, size);
+  const std::span<const std::byte> odd(shifted.data() + 1, size);
+  auto refused = SphereSetBinaryView::Open(odd, "odd");
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_TRUE(ReadSphereSetBinary(odd, "odd").ok());
+  ::munmap(map, size);
+}
+
+TEST(SphereSetBinaryTest, EveryPrefixIsRefused) {
+  for (const SphereSet& set : {Small(), Builtin()}) {
+    const Bytes full = WriteSphereSetBinary(set);
+    const size_t step = full.size() < 4096 ? 1 : 61;
+    for (size_t n = 0; n < full.size(); n += step) {
+      const Bytes cut(full.begin(), full.begin() + static_cast<ptrdiff_t>(n));
+      auto read = Read(cut);
+      ASSERT_FALSE(read.ok()) << "a prefix of " << n << " bytes was accepted";
+      if (n >= 64) {
+        EXPECT_NE(read.error().message.find("truncated"), std::string::npos) << read.error().message;
+      }
+    }
+    Bytes longer = full;
+    longer.push_back(std::byte{0});
+    auto read = Read(longer);
+    ASSERT_FALSE(read.ok());
+    EXPECT_NE(read.error().message.find("1 bytes after the end"), std::string::npos) << read.error().message;
+  }
+}
+
+TEST(SphereSetBinaryTest, EveryFlippedByteIsCaughtByTheChecksumOrTheHeader) {
+  const Bytes good = WriteSphereSetBinary(Small());
+  for (size_t at = 0; at < good.size(); ++at) {
+    for (uint8_t mask : {0x01, 0x80, 0xFF}) {
+      Bytes bad = good;
+      bad[at] ^= std::byte{mask};
+      auto read = Read(bad);
+      ASSERT_FALSE(read.ok()) << "byte " << at << " ^ " << int(mask) << " was accepted";
+    }
+  }
+}
+
+TEST(SphereSetBinaryTest, CorruptionBehindAValidChecksumNeverCrashesNorOverAllocates) {
+  // Each byte flipped, then the checksum recomputed, so the structural checks and
+  // SphereSet::Validate are what stands between the bytes and the runtime. A flipped float can
+  // still be a valid set; everything else must be refused; nothing may crash (the sanitizer builds
+  // run this too) or allocate much more than the file holds.
+  for (const SphereSet& set : {Small(), Builtin()}) {
+    const Bytes good = WriteSphereSetBinary(set);
+    const size_t step = good.size() < 4096 ? 1 : 53;
+    size_t accepted = 0, refused = 0;
+    for (size_t at = 16; at < good.size(); at += step) {
+      for (uint8_t mask : {0x01, 0xFF}) {
+        Bytes bad = good;
+        bad[at] ^= std::byte{mask};
+        FixChecksum(bad);
+        size_t largest = 0;
+        auto read = Read(bad, &largest);
+        EXPECT_LE(largest, 2 * good.size() + 4096) << "byte " << at << " ^ " << int(mask);
+        if (read.ok()) {
+          ++accepted;
+          EXPECT_FALSE(read->Validate().has_value());
+        } else {
+          ++refused;
+        }
+      }
+    }
+    EXPECT_GT(refused, 0u);
+    std::printf("%zu-byte file: %zu corruptions refused, %zu still a valid set (changed values)\n", good.size(), refused,
+                accepted);
+  }
+}
+
+TEST(SphereSetBinaryTest, AbsurdHeadersAndTablesAreRefusedByName) {
+  const Bytes good = WriteSphereSetBinary(Small());
+  ASSERT_TRUE(Read(good).ok());
+  using S = SphereSetSection;
+  struct Case {
+    const char* what;
+    std::function<void(Bytes&)> edit;
+    ErrorCode code;
+    const char* message_part;
+    bool fix_checksum = true;
+  };
+  const size_t radii = EntryOf(good, S::kRadiiRest), strings = EntryOf(good, S::kStringOffsets);
+  const std::vector<Case> cases = {
+      {"magic", [](Bytes& b) { b[1] = std::byte{'X'}; }, ErrorCode::kFormatRejected, "wrong magic number"},
+      {"json", [](Bytes& b) { b.assign(5, std::byte{'{'}); }, ErrorCode::kFormatRejected, "shorter than its magic"},
+      {"version", [](Bytes& b) { Put32(b, 16, 3); }, ErrorCode::kVersionMismatch,
+       "layout version 3 is not supported (this build reads versions 1 and 2)"},
+      {"version 1 with a reach section", [](Bytes& b) { Put32(b, 16, 1); }, ErrorCode::kInvalidData,
+       "section influence_reach is not expected with these flags in layout version 1"},
+      {"checksum", [](Bytes& b) { b[100] ^= std::byte{1}; }, ErrorCode::kInvalidData, "checksum mismatch", false},
+      {"file size huge", [](Bytes& b) { Put64(b, 24, ~uint64_t{0}); }, ErrorCode::kInvalidData, "truncated"},
+      {"flags", [](Bytes& b) { Put32(b, 20, 3); }, ErrorCode::kInvalidData, "contradictory flags"},
+      {"unknown flag", [](Bytes& b) { Put32(b, 20, 2 | 8); }, ErrorCode::kInvalidData, "flags"},
+      {"reserved", [](Bytes& b) { Put32(b, 60, 1); }, ErrorCode::kInvalidData, "reserved"},
+      {"section count", [](Bytes& b) { Put32(b, 32, 0xFFFFFFFFu); }, ErrorCode::kInvalidData, "section table"},
+      {"sphere count", [](Bytes& b) { Put32(b, 36, 0xFFFFFFFFu); }, ErrorCode::kInvalidData, "expected"},
+      {"joint count", [](Bytes& b) { Put32(b, 40, 0x7FFFFFFFu); }, ErrorCode::kInvalidData, "string_offsets"},
+      {"vertex count", [](Bytes& b) { Put32(b, 48, 0xFFFFFFF0u); }, ErrorCode::kInvalidData, "positions_bind has 12"},
+      {"element count", [&](Bytes& b) { Put64(b, radii + 16, uint64_t{1} << 62); }, ErrorCode::kInvalidData,
+       "runs past the end"},
+      {"offset past the end", [&](Bytes& b) { Put64(b, radii + 8, uint64_t{1} << 63); }, ErrorCode::kInvalidData,
+       "runs past the end"},
+      {"misaligned", [&](Bytes& b) { Put64(b, radii + 8, Get64(b, radii + 8) + 4); }, ErrorCode::kInvalidData,
+       "not 16-byte aligned"},
+      {"overlap", [&](Bytes& b) { Put64(b, radii + 8, Get64(b, radii - 24 + 8)); }, ErrorCode::kInvalidData,
+       "overlaps"},
+      {"into the table", [&](Bytes& b) { Put64(b, strings + 8, 0); }, ErrorCode::kInvalidData, "overlaps"},
+      {"element size", [&](Bytes& b) { Put32(b, radii + 4, 8); }, ErrorCode::kInvalidData, "elements of 8 bytes"},
+      {"unknown id", [&](Bytes& b) { Put32(b, radii, 99); }, ErrorCode::kInvalidData, "unknown section id 99"},
+      {"repeated id", [&](Bytes& b) { Put32(b, radii, Get32(b, radii - 24)); }, ErrorCode::kInvalidData,
+       "out of order or repeated"},
+      {"fast-only flag with lists", [](Bytes& b) { Put32(b, 20, 1); Put32(b, 56, 0); }, ErrorCode::kInvalidData,
+       "section vertex_offsets is not expected"},
+      {"binds without a mesh", [](Bytes& b) { Put32(b, 20, 0); }, ErrorCode::kInvalidData, "bind entries without a mesh"},
+      {"missing section", [&](Bytes& b) { Put32(b, radii, static_cast<uint32_t>(S::kRadiiFast)); },
+       ErrorCode::kInvalidData, "section radii_rest is missing"},
+      {"string offsets decrease", [&](Bytes& b) { Put32(b, Get64(b, strings + 8) + 4, 0xFFFFu); },
+       ErrorCode::kInvalidData, "string_offsets does not start at 0, decreases"},
+      {"influence offsets", [&](Bytes& b) {
+         const size_t at = EntryOf(b, S::kInfluenceOffsets);
+         Put32(b, Get64(b, at + 8) + 4, 7);
+       },
+       ErrorCode::kInvalidData, "influence_offsets"},
+      {"exclusion reason", [&](Bytes& b) { Put32(b, Get64(b, EntryOf(b, S::kExcludedPairs) + 8) + 8, 9); },
+       ErrorCode::kInvalidData, "excluded pair 0 has unknown reason 9"},
+      {"pair triples", [&](Bytes& b) { Put64(b, EntryOf(b, S::kExcludedPairs) + 16, 2); }, ErrorCode::kInvalidData,
+       "triples"},
+      {"vertex out of range (Validate)", [&](Bytes& b) { Put32(b, Get64(b, EntryOf(b, S::kVertices) + 8), 99); },
+       ErrorCode::kInvalidData, "vertex 99 out of range"},
+      {"nan radius (Validate)", [&](Bytes& b) { Put32(b, Get64(b, radii + 8), 0x7FC00000u); }, ErrorCode::kInvalidData,
+       "non-finite centre or radius"},
+  };
+  for (const Case& c : cases) {
+    Bytes bad = good;
+    c.edit(bad);
+    if (c.fix_checksum && bad.size() >= 16) FixChecksum(bad);
+    size_t largest = 0;
+    auto read = Read(bad, &largest);
+    ASSERT_FALSE(read.ok()) << c.what;
+    EXPECT_EQ(read.error().code, c.code) << c.what << ": " << read.error().message;
+    EXPECT_NE(read.error().message.find(c.message_part), std::string::npos) << c.what << ": " << read.error().message;
+    EXPECT_LE(largest, 2 * good.size() + 4096) << c.what;
+  }
+}
+
+// Layout version 2 adds section 28, influence_reach (sphere_set.h). Version-1 files still read, as
+// sets without reach: with a mesh the rest data computes it (the same as the fitter's), without one
+// it is 1 (the bound without reach, refit_job_tests.cc checks the bits). The fast-only variant keeps
+// the reach, from the mesh when the set has none of its own.
+TEST(SphereSetBinaryTest, VersionOneFilesReadWithoutReachAndFastOnlyFilesKeepIt) {
+  const SphereSet& fitted = Builtin();
+  ASSERT_EQ(fitted.influence_reach.size(), fitted.influence_joints.size());
+  const Bytes v2 = WriteSphereSetBinary(fitted);
+  EXPECT_EQ(Get32(v2, 16), 2u);
+  const Bytes v1 = DowngradeToVersion1(v2);
+  EXPECT_EQ(Get32(v1, 16), 1u);
+  EXPECT_EQ(Get32(v1, 32), Get32(v2, 32) - 1);
+  auto old = Read(v1);
+  ASSERT_TRUE(old.ok()) << old.error().message;
+  EXPECT_TRUE(old->influence_reach.empty());
+  EXPECT_TRUE(old->has_mesh());
+  SphereSet expected = fitted;
+  expected.influence_reach.clear();
+  EXPECT_EQ(WriteSphereSetJson(*old), WriteSphereSetJson(expected));
+  auto rest = RefitRestData::Create(*old);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  EXPECT_TRUE(std::ranges::equal(rest->reach(), fitted.influence_reach)) << "the mesh's reach, as the fitter wrote it";
+  // Written again: version 2, an empty reach section, and back to the same set.
+  const Bytes rewritten = WriteSphereSetBinary(*old);
+  EXPECT_EQ(Get32(rewritten, 16), 2u);
+  EXPECT_EQ(Get64(rewritten, EntryOf(rewritten, SphereSetSection::kInfluenceReach) + 16), 0u);
+  EXPECT_TRUE(Read(rewritten)->influence_reach.empty());
+
+  // A version-1 fast-only file (no mesh to compute the reach from): reach 1.
+  SphereSet no_mesh = expected;
+  no_mesh.mesh = {};
+  no_mesh.triangle_vertices.clear();
+  auto old_fast = Read(DowngradeToVersion1(WriteSphereSetBinary(no_mesh, SphereSetBinaryContent::kFastOnly)));
+  ASSERT_TRUE(old_fast.ok()) << old_fast.error().message;
+  EXPECT_TRUE(old_fast->fast_only && old_fast->influence_reach.empty());
+  rest = RefitRestData::Create(*old_fast);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  EXPECT_TRUE(std::ranges::all_of(rest->reach(), [](float w) { return w == 1.0f; }));
+
+  // Fast-only files keep the reach: the set's own, or the mesh's when it has none.
+  const SphereSet* with_and_without[] = {&fitted, &expected};
+  for (const SphereSet* set : with_and_without) {
+    auto fast = Read(WriteSphereSetBinary(*set, SphereSetBinaryContent::kFastOnly));
+    ASSERT_TRUE(fast.ok()) << fast.error().message;
+    EXPECT_EQ(fast->influence_reach, fitted.influence_reach);
+  }
+
+  // The reach section holds one entry per influence, or none.
+  SphereSet small = Small();
+  small.influence_reach = {1.0f, 1.0f};
+  Bytes bad = WriteSphereSetBinary(small);
+  ASSERT_TRUE(Read(bad).ok());
+  Put64(bad, EntryOf(bad, SphereSetSection::kInfluenceReach) + 16, 1);
+  FixChecksum(bad);
+  auto refused = Read(bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("section influence_reach has 1 elements, expected 2 (one per influence) or 0"),
+            std::string::npos)
+      << refused.error().message;
+}
+
+// The fit settings (params) become the JSON's "params" object when a binary set is converted:
+// params nested deeper than the JSON reader reads (copying and writing them would recurse past the
+// stack, as a JSON file nested 100,000 deep once crashed the tool) and params that are not an
+// object are refused by name; accepted ones are kept compact, as the JSON reader gives them, so
+// that binary -> JSON -> binary gives the same bytes.
+TEST(SphereSetBinaryTest, ParamsAreAJsonObjectTheJsonReaderWouldRead) {
+  SphereSet set = Small();
+  set.params_json = "{\"x\":" + std::string(100000, '[') + std::string(100000, ']') + "}";
+  auto deep = Read(WriteSphereSetBinary(set));
+  ASSERT_FALSE(deep.ok());
+  EXPECT_EQ(deep.error().code, ErrorCode::kInvalidData);
+  EXPECT_NE(deep.error().message.find("params) nest 100001 deep (at most 128"), std::string::npos) << deep.error().message;
+  for (const char* not_object : {"[1,2]", "3", "{\"a\":"}) {
+    set.params_json = not_object;
+    auto read = Read(WriteSphereSetBinary(set));
+    ASSERT_FALSE(read.ok()) << not_object;
+    EXPECT_NE(read.error().message.find("the fit settings (params) are not a JSON object"), std::string::npos)
+        << read.error().message;
+  }
+  // Bytes that are not UTF-8 never reach the file: the writer makes them U+FFFD, as the JSON writer does.
+  set.params_json = "{\"a\":\"\xff\"}";
+  auto latin1 = Read(WriteSphereSetBinary(set));
+  ASSERT_TRUE(latin1.ok()) << latin1.error().message;
+  EXPECT_EQ(latin1->params_json, "{\"a\":\"\xEF\xBF\xBD\"}");
+  set.params_json = " { \"rays\" : 80 ,\"a\":[1, 2] } ";
+  auto read = Read(WriteSphereSetBinary(set));
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  EXPECT_EQ(read->params_json, R"({"a":[1,2],"rays":80})");
+  const Bytes binary = WriteSphereSetBinary(*read);
+  auto from_json = ReadSphereSetJson(WriteSphereSetJson(*read), "x.json");
+  ASSERT_TRUE(from_json.ok()) << from_json.error().message;
+  EXPECT_EQ(WriteSphereSetBinary(*from_json), binary);
+  set.params_json.clear();  // no settings at all: read as an empty object (SphereSet's default)
+  auto none = Read(WriteSphereSetBinary(set));
+  ASSERT_TRUE(none.ok()) << none.error().message;
+  EXPECT_EQ(none->params_json, "{}");
+}
+
+// The layout's padding (after the table, between sections, at the end) is zero: a set has one
+// encoding, so binary -> set -> binary gives the same bytes. A non-zero padding byte is refused.
+TEST(SphereSetBinaryTest, EveryNonZeroPaddingByteIsRefused) {
+  const Bytes good = WriteSphereSetBinary(Small());
+  std::vector<bool> covered(good.size(), false);
+  const uint32_t sections = Get32(good, 32);
+  std::fill_n(covered.begin(), kSphereSetBinaryHeaderSize + sections * kSphereSetBinarySectionEntrySize, true);
+  for (uint32_t k = 0; k < sections; ++k) {
+    const size_t entry = kSphereSetBinaryHeaderSize + k * kSphereSetBinarySectionEntrySize;
+    const size_t at = Get64(good, entry + 8), bytes = Get64(good, entry + 16) * Get32(good, entry + 4);
+    std::fill_n(covered.begin() + static_cast<ptrdiff_t>(at), bytes, true);
+  }
+  size_t padding = 0;
+  for (size_t at = 0; at < good.size(); ++at) {
+    if (covered[at]) continue;
+    ++padding;
+    ASSERT_EQ(good[at], std::byte{0}) << "the writer left byte " << at << " non-zero";
+    Bytes bad = good;
+    bad[at] = std::byte{0x01};
+    FixChecksum(bad);
+    auto read = Read(bad);
+    ASSERT_FALSE(read.ok()) << "padding byte " << at << " = 1 was accepted";
+    EXPECT_NE(read.error().message.find("padding byte at offset " + std::to_string(at) + " is not 0"), std::string::npos)
+        << read.error().message;
+  }
+  EXPECT_GT(padding, 16u);  // after the table, between sections and at the end
+  auto read = Read(good);
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  EXPECT_EQ(WriteSphereSetBinary(*read), good);
+}
+
+// Strings (source file, params, joint and part names) are UTF-8, as in the JSON, so binary -> JSON
+// is lossless: the reader refuses invalid UTF-8, naming the string; the writer never writes it
+// (bytes from a Latin-1 name become U+FFFD, as the JSON writer makes them).
+TEST(SphereSetBinaryTest, StringsThatAreNotUtf8AreRefusedByName) {
+  const SphereSet set = Small();
+  const Bytes good = WriteSphereSetBinary(set);
+  const size_t offsets_at = Get64(good, EntryOf(good, SphereSetSection::kStringOffsets) + 8);
+  const size_t bytes_at = Get64(good, EntryOf(good, SphereSetSection::kStringBytes) + 8);
+  const size_t joints = set.joint_count(), strings = 2 + joints + set.parts.size();
+  auto string_at = [&](size_t k) { return bytes_at + Get32(good, offsets_at + 4 * k); };
+  auto string_length = [&](size_t k) { return Get32(good, offsets_at + 4 * (k + 1)) - Get32(good, offsets_at + 4 * k); };
+  for (size_t k = 0; k < strings; ++k) {
+    ASSERT_GT(string_length(k), 0u) << "string " << k;
+    Bytes bad = good;
+    bad[string_at(k)] = std::byte{0xFF};
+    FixChecksum(bad);
+    auto read = Read(bad);
+    ASSERT_FALSE(read.ok()) << "string " << k << " with a 0xFF byte was accepted";
+    const std::string which = k == 0 ? "source_file" : k == 1 ? "params" : k < 2 + joints
+                                  ? "joint " + std::to_string(k - 2) + "'s name"
+                                  : "part " + std::to_string(k - 2 - joints) + "'s name";
+    EXPECT_NE(read.error().message.find(which + " is not valid UTF-8 (byte 0)"), std::string::npos) << read.error().message;
+  }
+  // Each malformed form in the source file ("small.glb", 9 bytes) is refused; each valid one read.
+  ASSERT_EQ(string_length(0), 9u);
+  const std::pair<std::string_view, bool> forms[] = {
+      {"\xC3\xA9", true},          {"\xE2\x82\xAC", true},      {"\xF0\x9F\x98\x80", true},   {"\xF4\x8F\xBF\xBF", true},
+      {"\xC0\x80", false},         {"\xC1\xBF", false},         {"\xE0\x80\x80", false},      {"\xED\xA0\x80", false},
+      {"\xF0\x80\x80\x80", false}, {"\xF4\x90\x80\x80", false}, {"\xF5\x80\x80\x80", false},  {"\x80", false},
+      {"\xC3", false},             {"\xE2\x82", false},         {"\xE2\x28\xAC", false},      {"\xF0\x9F\x98", false},
+  };
+  for (const auto& [form, valid] : forms) {
+    Bytes edited = good;
+    const size_t at = string_at(0) + 9 - form.size();  // at the end: a cut sequence ends the string
+    std::memcpy(edited.data() + at, form.data(), form.size());
+    FixChecksum(edited);
+    auto read = Read(edited);
+    EXPECT_EQ(read.ok(), valid) << "form of " << form.size() << " bytes starting " << int(uint8_t(form[0]));
+  }
+  // A name that is not UTF-8 is written as the JSON writer writes it: both read back the same.
+  SphereSet latin1 = Small();
+  latin1.joint_names[0] = "h\xE9po";
+  latin1.parts[0].name = "t\xEAte";
+  latin1.source_file = std::string("cut \xE2\x82") + "|overlong \xC0\xAF|surrogate \xED\xA0\x80|end \xF0\x9F\x98";
+  auto from_binary = Read(WriteSphereSetBinary(latin1));
+  ASSERT_TRUE(from_binary.ok()) << from_binary.error().message;
+  EXPECT_EQ(from_binary->joint_names[0], "h\xEF\xBF\xBDpo");
+  EXPECT_EQ(from_binary->parts[0].name, "t\xEF\xBF\xBDte");
+  EXPECT_EQ(from_binary->source_file.find("cut \xEF\xBF\xBD|"), 0u) << from_binary->source_file;  // one per sequence
+  auto from_json = ReadSphereSetJson(WriteSphereSetJson(latin1), "latin1.json");
+  ASSERT_TRUE(from_json.ok()) << from_json.error().message;
+  EXPECT_EQ(WriteSphereSetJson(*from_binary), WriteSphereSetJson(*from_json));
+  EXPECT_EQ(WriteSphereSetBinary(*from_json), WriteSphereSetBinary(*from_binary));
+}
+
+}  // namespace
+}  // namespace skinspheres::runtime

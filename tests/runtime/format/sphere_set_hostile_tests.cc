@@ -1,0 +1,233 @@
+// Sphere sets a user (or an attacker) can hand the runtime, beyond a malformed file: each case is
+// a regression test for a crash, hang, unbounded read or silent acceptance found by probing.
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <future>
+#include <optional>
+#include <thread>
+#include <nlohmann/json.hpp>
+
+#include "runtime/sample_sphere_set.h"
+#include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/api/joint_mapping.h"
+#include "skinspheres/runtime/format/sphere_set_binary.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
+#include "test_support.h"
+
+namespace skinspheres::runtime {
+namespace {
+
+void ExpectRefused(const Result<SphereSet>& r, const std::string& name, ErrorCode code, const std::string& needle) {
+  ASSERT_FALSE(r.ok()) << name << " was accepted";
+  EXPECT_EQ(r.error().code, code) << r.error().message;
+  EXPECT_EQ(r.error().message.rfind(name + ": ", 0), 0u) << r.error().message;
+  EXPECT_EQ(r.error().message.find('\n'), std::string::npos) << r.error().message;
+  EXPECT_NE(r.error().message.find(needle), std::string::npos) << r.error().message;
+}
+
+// Loads on another thread and fails after a minute (a FIFO read used to block forever).
+Result<SphereSet> LoadWithin60s(const std::filesystem::path& path) {
+  auto future = std::async(std::launch::async, [path] { return LoadSphereSet(path); });
+  if (future.wait_for(std::chrono::seconds(60)) != std::future_status::ready) {
+    ADD_FAILURE() << path << ": still loading after 60 s";
+    std::ofstream unblock(path);  // a writer lets a blocked open go on
+  }
+  return future.get();
+}
+
+TEST(SphereSetHostile, ParamsNested100000DeepAreRefusedBeforeParsing) {
+  // It crashed play --spheres with SIGSEGV (recursion on the parsed params).
+  std::string text = WriteSphereSetJson(TwoSpheres());
+  const std::string deep = std::string(100000, '[') + std::string(100000, ']');
+  const size_t at = text.find("\"params\":{}");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 11, "\"params\":{\"x\":" + deep + "}");
+  ExpectRefused(ReadSphereSetJson(text, "deep.json"), "deep.json", ErrorCode::kFormatRejected, "nests 100002 deep");
+  // Within the limit the same set reads.
+  text = WriteSphereSetJson(TwoSpheres());
+  text.replace(text.find("\"params\":{}"), 11, "\"params\":{\"x\":" + std::string(100, '[') + std::string(100, ']') + "}");
+  EXPECT_TRUE(ReadSphereSetJson(text, "ok.json").ok());
+}
+
+TEST(SphereSetHostile, OnlyRegularFilesWithinTheSizeLimitAreRead) {
+  const auto dir = test::TempDir("sphere_set_files");
+  const auto fifo = dir / "fifo.json";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  ExpectRefused(LoadWithin60s(fifo), fifo.string(), ErrorCode::kFileUnreadable, "FIFO");
+  ExpectRefused(LoadWithin60s("/dev/zero"), "/dev/zero", ErrorCode::kFileUnreadable, "device");
+  ExpectRefused(LoadWithin60s(dir), dir.string(), ErrorCode::kFileUnreadable, "directory");
+  const auto huge = dir / "huge.json";
+  std::ofstream(huge) << "{";
+  ASSERT_EQ(::truncate(huge.c_str(), static_cast<off_t>(kMaxSphereSetBytes + 1)), 0);  // sparse: no disk used
+  ExpectRefused(LoadWithin60s(huge), huge.string(), ErrorCode::kFormatRejected, "a sphere set may be at most 536870912 bytes");
+}
+
+TEST(SphereSetHostile, ValidateRefusesRadiiOfZeroOrLess) {
+  for (const float r : {0.0f, -1.0f}) {
+    SphereSet set = TwoSpheres();
+    set.radii_rest[1] = r;
+    const auto err = set.Validate();
+    ASSERT_TRUE(err.has_value()) << r;
+    EXPECT_NE(err->message.find("sphere 1 has radius"), std::string::npos) << err->message;
+    ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "r.json"), "r.json", ErrorCode::kInvalidData, "(must be > 0)");
+  }
+}
+
+TEST(SphereSetHostile, ValidateRefusesEmptyAndDuplicatePartNames) {
+  SphereSet set = TwoSpheres();
+  ASSERT_FALSE(set.Validate().has_value());
+  set.parts.push_back(set.parts[0]);  // a second part with the first one's name
+  ASSERT_TRUE(set.Validate().has_value());
+  EXPECT_NE(set.Validate()->message.find("parts 0 and " + std::to_string(set.parts.size() - 1) + " are both named '" +
+                                         set.parts[0].name + "'"),
+            std::string::npos)
+      << set.Validate()->message;
+  ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "dup.json"), "dup.json", ErrorCode::kInvalidData, "both named");
+  ExpectRefused(ReadSphereSetBinary(WriteSphereSetBinary(set), "dup.ssb"), "dup.ssb", ErrorCode::kInvalidData, "both named");
+  set = TwoSpheres();
+  set.parts[0].name.clear();
+  ASSERT_TRUE(set.Validate().has_value());
+  EXPECT_NE(set.Validate()->message.find("part 0 has an empty name"), std::string::npos) << set.Validate()->message;
+}
+
+TEST(SphereSetHostile, ValidateRefusesUnownedAndDoublyOwnedTriangles) {
+  SphereSet unowned = TwoSpheres();  // sphere 1 gives up triangle 1: no sphere holds it
+  unowned.triangles = {0};
+  unowned.triangle_offsets = {0, 1, 1};
+  ASSERT_TRUE(unowned.Validate().has_value());
+  EXPECT_NE(unowned.Validate()->message.find("own 1 triangle entries for 2 triangles"), std::string::npos)
+      << unowned.Validate()->message;
+  SphereSet twice = TwoSpheres();  // sphere 1 owns triangle 0 as well: 2 entries, but triangle 1 lost
+  twice.triangles = {0, 0};
+  ASSERT_TRUE(twice.Validate().has_value());
+  EXPECT_NE(twice.Validate()->message.find("triangle 0 is owned by spheres 0 and 1"), std::string::npos)
+      << twice.Validate()->message;
+  SphereSet none = TwoSpheres();  // "spheres": [] with no triangle either
+  none = SphereSet{};
+  none.joint_names = {"root"};
+  none.joint_parents = {-1};
+  none.joint_rest_world = {Mat4f::Identity()};
+  none.vertex_offsets = none.triangle_offsets = none.influence_offsets = {0};
+  ASSERT_TRUE(none.Validate().has_value());
+  EXPECT_NE(none.Validate()->message.find("no spheres"), std::string::npos) << none.Validate()->message;
+  SphereSet empty_list = TwoSpheres();  // "spheres": [] on a mesh of 2 triangles
+  empty_list.centers_rest.clear();
+  empty_list.radii_rest.clear();
+  empty_list.radii_fast.clear();
+  empty_list.sphere_part.clear();
+  empty_list.sphere_joint.clear();
+  empty_list.sphere_level.clear();
+  empty_list.vertices.clear();
+  empty_list.triangles.clear();
+  empty_list.influence_joints.clear();
+  empty_list.influence_weights.clear();
+  empty_list.vertex_offsets = empty_list.triangle_offsets = empty_list.influence_offsets = {0};
+  empty_list.excluded_pairs.clear();
+  ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(empty_list), "empty.json"), "empty.json", ErrorCode::kInvalidData,
+                "no spheres");
+  // A huge triangle count from a tiny file is refused from the list's length, never allocated.
+  SphereSet huge_count = TwoSpheres();
+  huge_count.source_triangle_count = 4000000000u;
+  ASSERT_TRUE(huge_count.Validate().has_value());
+  EXPECT_NE(huge_count.Validate()->message.find("for 4000000000 triangles"), std::string::npos);
+}
+
+TEST(SphereSetHostile, StreamedReadingKeepsEveryPartOfTheSet) {
+  // The reader takes spheres, pairs and mesh arrays out of the document as they complete: the
+  // round trip stays exact, and keys in any order (ours are written sorted) read the same.
+  const SphereSet set = TwoSpheresWithMesh();
+  const std::string text = WriteSphereSetJson(set);
+  auto read = ReadSphereSetJson(text, "set.json");
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  EXPECT_EQ(WriteSphereSetJson(*read), text);
+  // Reversed key order at the top level: spheres and mesh before format and version.
+  const nlohmann::json j = nlohmann::json::parse(text);
+  std::string reversed = "{";
+  std::vector<std::string> keys;
+  for (auto it = j.begin(); it != j.end(); ++it) keys.push_back(it.key());
+  for (auto k = keys.rbegin(); k != keys.rend(); ++k) {
+    reversed += (k == keys.rbegin() ? "\"" : ",\"") + *k + "\":" + j[*k].dump();
+  }
+  reversed += "}";
+  auto again = ReadSphereSetJson(reversed, "reversed.json");
+  ASSERT_TRUE(again.ok()) << again.error().message;
+  EXPECT_EQ(WriteSphereSetJson(*again), text);
+  // A mesh array of the wrong type, or missing, is named.
+  nlohmann::json bad = j;
+  bad["mesh"]["triangles"] = 5;
+  ExpectRefused(ReadSphereSetJson(bad.dump(), "bad.json"), "bad.json", ErrorCode::kInvalidData, "$.mesh.triangles is missing");
+  bad = j;
+  bad["mesh"]["positions_bind"][0] = "x";
+  ExpectRefused(ReadSphereSetJson(bad.dump(), "bad.json"), "bad.json", ErrorCode::kInvalidData, "$.mesh.positions_bind is not a number");
+}
+
+// An empty file and one shorter than the binary magic were reported as "not valid JSON"; an empty
+// path as ": file not found" (no name at all).
+TEST(SphereSetHostile, EmptyAndTinyFilesAndAnEmptyPathAreNamedForWhatTheyAre) {
+  const auto dir = test::TempDir("sphere_set_tiny");
+  const auto empty = dir / "empty.ssb", tiny = dir / "tiny.ssb";
+  ASSERT_FALSE(WriteWholeFile(empty, ""));
+  ASSERT_FALSE(WriteWholeFile(tiny, std::string_view(reinterpret_cast<const char*>(kSphereSetBinaryMagic), 5)));
+  ExpectRefused(LoadSphereSet(empty), empty.string(), ErrorCode::kFormatRejected, "empty file");
+  ExpectRefused(LoadSphereSet(tiny), tiny.string(), ErrorCode::kFormatRejected, "too short to be a sphere set (5 bytes)");
+  const auto no_path = LoadSphereSet("");
+  ASSERT_FALSE(no_path.ok());
+  EXPECT_EQ(no_path.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_EQ(no_path.error().message.rfind("empty path", 0), 0u) << no_path.error().message;
+}
+
+// Opening a FIFO nobody reads for writing used to block forever (convert, fit -o, --dump...): it
+// is refused at once, naming the path; a FIFO with a reader is written through.
+TEST(SphereSetHostile, AFifoOutputWithoutAReaderIsRefusedNotWaitedOn) {
+  const auto dir = test::TempDir("sphere_set_fifo_out");
+  const auto fifo = dir / "out.json";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  auto saved = std::async(std::launch::async, [&] { return SaveSphereSet(TwoSpheres(), fifo); });
+  if (saved.wait_for(std::chrono::seconds(60)) != std::future_status::ready) {
+    ADD_FAILURE() << fifo << ": still opening after 60 s";
+    std::ifstream unblock(fifo);  // a reader lets a blocked open go on
+  }
+  const auto err = saved.get();
+  ASSERT_TRUE(err.has_value());
+  EXPECT_EQ(err->message, fifo.string() + ": is a FIFO (named pipe) nobody reads: cannot write to it");
+  // With a reader already there the write goes through, and the reader gets the whole set.
+  auto reader = std::async(std::launch::async, [&] {
+    std::ifstream in(fifo, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  });
+  std::optional<Error> written;
+  for (int attempt = 0; attempt < 6000; ++attempt) {  // until the reader has opened its end
+    written = SaveSphereSet(TwoSpheres(), fifo);
+    if (!written || written->message.find("nobody reads") == std::string::npos) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_FALSE(written.has_value()) << written->message;
+  EXPECT_EQ(reader.get(), WriteSphereSetJson(TwoSpheres()) + "\n");
+}
+
+// Names are data: a joint or part name may hold a newline or a NUL (JSON escapes them, and they
+// round-trip); where an error quoting one leaves the library (C API, tool) OneLine keeps it one line.
+TEST(SphereSetHostile, ControlCharactersInNamesNeverBreakAnErrorLine) {
+  SphereSet set = TwoSpheres();
+  set.joint_names[0] = std::string("ro\not\0x", 7);
+  auto back = ReadSphereSetJson(WriteSphereSetJson(set), "names.json");
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->joint_names[0], set.joint_names[0]);
+  const std::vector<std::string> engine = {"other"};
+  auto mapping = MapJoints(*back, engine);
+  ASSERT_FALSE(mapping.ok());
+  const std::string line = OneLine(mapping.error().message);
+  EXPECT_NE(line.find("ro\\not\\x00x"), std::string::npos) << line;
+  EXPECT_TRUE(std::none_of(line.begin(), line.end(), [](unsigned char c) { return c < 0x20 || c == 0x7f; })) << line;
+  EXPECT_EQ(OneLine("a\tb\rc\x7f"), "a\\tb\\rc\\x7f");
+  EXPECT_EQ(OneLine("plain: unchanged"), "plain: unchanged");
+}
+
+}  // namespace
+}  // namespace skinspheres::runtime

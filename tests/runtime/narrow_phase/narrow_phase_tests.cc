@@ -1,0 +1,788 @@
+// Narrow phase (narrow_phase.h) through the engine API:
+//  - the job's contacts equal the brute-force oracle (every triangle pair of every sphere pair the
+//    filter allows, the same rules) on random poses and clip frames of the built-in character and
+//    of every shared character, in exact and fast refit, with and without a margin;
+//  - fast mode with lazy skinning equals exact mode fed the fully skinned mesh, field by field;
+//  - identical output for 1, 2, 3 threads and TBB; no allocation after warm-up;
+//  - the exclusion rules (shared vertex by index and by rest position, rest-pose contacts) and
+//    version-1 sets refused;
+//  - the depth estimate on two closed sphere meshes overlapping by known depths.
+#include "skinspheres/runtime/narrow_phase/narrow_phase.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <optional>
+#include <random>
+
+#include "allocation_counter.h"
+#include "runtime/posed_characters.h"
+#include "skinspheres/lib/character/builtin_character.h"
+#include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/narrow_phase/triangle_contact.h"
+#include "skinspheres/skinning/skinning_job.h"
+#include "skinspheres/skinning/skinning_matrices_job.h"
+
+namespace skinspheres::runtime {
+namespace {
+
+using Eigen::Vector3f;
+
+// ------------------------------------------------------------------ comparing outputs
+
+bool SameFloats(const float* a, const float* b, int n) { return std::memcmp(a, b, sizeof(float) * n) == 0; }
+
+// Field by field, bit for bit; the first difference goes to *why.
+bool Same(const FrameContacts& a, const FrameContacts& b, std::string* why) {
+  if (a.parts.size() != b.parts.size()) return *why = "part pair counts differ", false;
+  if (a.sphere_pairs != b.sphere_pairs) return *why = "sphere pairs differ", false;
+  if (a.triangle_pairs.size() != b.triangle_pairs.size()) {
+    return *why = "triangle pair counts differ: " + std::to_string(a.triangle_pairs.size()) + " vs " +
+                  std::to_string(b.triangle_pairs.size()),
+           false;
+  }
+  for (size_t k = 0; k < a.triangle_pairs.size(); ++k) {
+    const auto &p = a.triangle_pairs[k], &q = b.triangle_pairs[k];
+    if (p.t != q.t || p.u != q.u || p.kind != q.kind || p.distance != q.distance || !SameFloats(p.point, q.point, 3) ||
+        !SameFloats(p.on_t, q.on_t, 3) || !SameFloats(p.on_u, q.on_u, 3)) {
+      return *why = "triangle pair " + std::to_string(k) + " differs: (" + std::to_string(p.t) + "," + std::to_string(p.u) +
+                    ") vs (" + std::to_string(q.t) + "," + std::to_string(q.u) + ")",
+             false;
+    }
+  }
+  for (size_t k = 0; k < a.parts.size(); ++k) {
+    const auto &p = a.parts[k], &q = b.parts[k];
+    if (p.part_a != q.part_a || p.part_b != q.part_b || p.first_sphere_pair != q.first_sphere_pair ||
+        p.sphere_pair_count != q.sphere_pair_count || p.first_triangle_pair != q.first_triangle_pair ||
+        p.triangle_pair_count != q.triangle_pair_count || p.intersecting_count != q.intersecting_count ||
+        p.depth != q.depth || p.min_distance != q.min_distance || !SameFloats(p.normal, q.normal, 3) ||
+        !SameFloats(p.center, q.center, 3)) {
+      return *why = "part pair " + std::to_string(k) + " differs (depth " + std::to_string(p.depth) + " vs " +
+                    std::to_string(q.depth) + ")",
+             false;
+    }
+  }
+  return true;
+}
+
+#define EXPECT_SAME_CONTACTS(a, b, label)                 \
+  do {                                                    \
+    std::string why_;                                     \
+    EXPECT_TRUE(Same((a), (b), &why_)) << label << ": " << why_; \
+  } while (0)
+
+// Every vertex skinned by SkinningJob (CSR, no subset): the mesh an engine would skin in full.
+std::vector<Vector3f> SkinAll(const SphereSet& set, std::span<const Mat4f> joint_world) {
+  std::vector<Mat4f> matrices(set.mesh.binds.size());
+  EXPECT_TRUE((skinning::SkinningMatricesJob{set.mesh.binds, joint_world, matrices}.Run()));
+  std::vector<Vector3f> out(set.mesh.vertex_count(), Vector3f::Zero());
+  skinning::SkinningJob job;
+  job.joint_matrices = matrices;
+  job.vertex_count = set.mesh.vertex_count();
+  job.in_positions = {reinterpret_cast<const float*>(set.mesh.positions_bind.data()), 3 * out.size()};
+  job.out_positions = {reinterpret_cast<float*>(out.data()), 3 * out.size()};
+  job.influence_offsets = set.mesh.influence_offsets;
+  job.influence_binds = set.mesh.influence_binds;
+  job.influence_weights = set.mesh.influence_weights;
+  EXPECT_TRUE(job.Run());
+  return out;
+}
+
+float BodyHeight(const lib::RawCharacter& c) {
+  float lo = INFINITY, hi = -INFINITY;
+  for (const auto& p : c.positions_rest) {
+    lo = std::min(lo, p.y());
+    hi = std::max(hi, p.y());
+  }
+  return hi - lo;
+}
+
+struct Totals {
+  size_t frames = 0, intersecting = 0, within = 0, part_pairs = 0, triangle_tests = 0;
+};
+
+// For each pose and refit mode: the instance's contacts equal the oracle's.
+void CheckAgainstOracle(const test::FittedCharacter& fc, const std::vector<test::Pose>& poses, float margin,
+                        Totals* totals) {
+  auto asset = CharacterAsset::Create(fc.set, NarrowPhaseSettings{margin});
+  ASSERT_TRUE(asset.ok()) << asset.error().message;
+  ASSERT_NE((*asset)->narrow_phase(), nullptr);
+  auto inst = CharacterInstance::Create(*asset);
+  ASSERT_TRUE(inst.ok());
+  FrameContacts oracle;
+  for (const test::Pose& pose : poses) {
+    ASSERT_TRUE(FindContactsBruteForce(fc.set, *(*asset)->narrow_phase(), (*asset)->filter(), pose.positions, &oracle));
+    for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
+      ASSERT_TRUE(inst->Update(mode, pose.world, pose.positions).ok());
+      const FrameStatus st = inst->FindContacts(pose.positions);
+      ASSERT_TRUE(st.ok()) << st.message;
+      EXPECT_SAME_CONTACTS(inst->frame_contacts(), oracle, pose.label << " " << ToString(mode));
+      totals->triangle_tests += inst->narrow_phase_stats().triangle_tests;
+    }
+    ++totals->frames;
+    totals->part_pairs += oracle.parts.size();
+    for (const auto& c : oracle.triangle_pairs) {
+      (c.kind == TriangleContactKind::kIntersecting ? totals->intersecting : totals->within) += 1;
+    }
+  }
+}
+
+std::vector<test::Pose> RandomPoses(const lib::RawCharacter& c, int count, float max_deg, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::vector<test::Pose> poses;
+  for (int k = 0; k < count; ++k) {
+    poses.push_back(test::MakePose(c, test::RandomLocal(c, rng, max_deg, 0.0f), "random " + std::to_string(k)));
+  }
+  return poses;
+}
+
+void PrintTotals(const std::string& name, float margin, const Totals& t) {
+  std::printf("[oracle] %s margin %.4f: %zu frames, %zu intersecting + %zu within-margin triangle pairs in %zu part-pair "
+              "groups, %.0f triangle tests per frame and mode\n",
+              name.c_str(), margin, t.frames, t.intersecting, t.within, t.part_pairs,
+              t.frames ? double(t.triangle_tests) / double(2 * t.frames) : 0.0);
+}
+
+TEST(NarrowPhaseOracle, BuiltinRandomPosesAndClips) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  std::vector<test::Pose> poses = RandomPoses(fc->character, 12, 60.0f, 1);
+  for (auto& p : test::ClipPoses(fc->character, 12)) poses.push_back(std::move(p));
+  Totals totals;
+  CheckAgainstOracle(*fc, poses, 0.0f, &totals);
+  PrintTotals("builtin", 0.0f, totals);
+  EXPECT_GT(totals.intersecting, 100u) << "the poses must produce contacts for the comparison to mean anything";
+  const float margin = 0.005f * BodyHeight(fc->character);
+  Totals with_margin;
+  CheckAgainstOracle(*fc, RandomPoses(fc->character, 6, 60.0f, 2), margin, &with_margin);
+  PrintTotals("builtin", margin, with_margin);
+  EXPECT_GT(with_margin.within, 10u);
+}
+
+class NarrowPhaseShared : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(NarrowPhaseShared, MatchesTheOracle) {
+  SKINSPHERES_REQUIRE_ASSET(path, GetParam());
+  auto fc = test::LoadFitted(GetParam());
+  ASSERT_TRUE(fc);
+  std::vector<test::Pose> poses = RandomPoses(fc->character, 3, 45.0f, 3);
+  for (auto& p : test::ClipPoses(fc->character, 2)) poses.push_back(std::move(p));
+  Totals totals;
+  CheckAgainstOracle(*fc, poses, 0.0f, &totals);
+  PrintTotals(GetParam(), 0.0f, totals);
+  EXPECT_GT(totals.intersecting, 0u);
+  Totals with_margin;
+  const float margin = 0.003f * BodyHeight(fc->character);
+  CheckAgainstOracle(*fc, RandomPoses(fc->character, 1, 45.0f, 4), margin, &with_margin);
+  PrintTotals(GetParam(), margin, with_margin);
+}
+
+INSTANTIATE_TEST_SUITE_P(SharedCharacters, NarrowPhaseShared, ::testing::ValuesIn(test::SharedCharacters()),
+                         [](const auto& param_info) { return param_info.param.substr(0, param_info.param.find('.')); });
+
+// ------------------------------------------------------------------ the built-in character
+
+// The largest weight of one of triangle t's vertices is on a joint whose name contains `name`.
+bool OnJoint(const lib::RawCharacter& c, uint32_t t, const std::string& name) {
+  for (int k = 0; k < 3; ++k) {
+    const int v = c.triangles[t][k];
+    float best = 0;
+    int32_t joint = -1;
+    for (uint32_t i = c.skin.influence_offsets[v]; i < c.skin.influence_offsets[v + 1]; ++i) {
+      if (c.skin.influence_weights[i] > best) best = c.skin.influence_weights[i], joint = c.skin.binds[c.skin.influence_binds[i]].joint;
+    }
+    if (c.skeleton.joint_names[joint].find(name) != std::string::npos) return true;
+  }
+  return false;
+}
+
+TEST(NarrowPhase, BuiltinWalkTouchesNothingAndTouchOnlyWithTheHands) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  auto asset = CharacterAsset::Create(fc->set);
+  ASSERT_TRUE(asset.ok());
+  auto inst = CharacterInstance::Create(*asset);
+  const auto& set = fc->set;
+  const lib::RawCharacter& c = fc->character;
+  for (const auto& clip : c.clips) {
+    int contact_frames = 0;
+    for (int f = 0; f <= int(clip.duration_s * 30.0f + 1e-3f); ++f) {
+      const float t = f / 30.0f;
+      const test::Pose pose = test::MakePose(c, test::SampleLocal(c, clip, t), clip.name);
+      for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
+        ASSERT_TRUE(inst->Update(mode, pose.world, pose.positions).ok());
+        ASSERT_TRUE(inst->FindContacts(mode == RefitMode::kExact ? std::span<const Vector3f>(pose.positions)
+                                                                 : std::span<const Vector3f>())
+                        .ok());
+        const FrameContacts& out = inst->frame_contacts();
+        if (clip.name == "walk") {
+          ASSERT_TRUE(out.empty()) << "walk t=" << t << ": " << set.parts[out.parts[0].part_a].name << " - "
+                                   << set.parts[out.parts[0].part_b].name;
+          continue;
+        }
+        for (const PartContact& p : out.parts) {
+          const std::string a = set.parts[p.part_a].name, b = set.parts[p.part_b].name;
+          ASSERT_TRUE((a == "torso" || a == "head") && b.rfind("arm_", 0) == 0) << "touch t=" << t << ": " << a << " - " << b;
+          EXPECT_GT(p.depth, 0.0f);
+          EXPECT_LT(p.depth, 0.06f) << "the hands sink at most a few cm";
+          for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
+            ASSERT_TRUE(OnJoint(c, out.triangle_pairs[k].u, "Hand")) << "touch t=" << t << ": arm triangle "
+                                                                     << out.triangle_pairs[k].u << " is not the hand's";
+          }
+        }
+        contact_frames += !out.empty() && mode == RefitMode::kExact;
+      }
+    }
+    if (clip.name == "touch") {
+      EXPECT_GE(contact_frames, 50) << "hands on the chest and on the head for 0.8 s each";
+    }
+  }
+}
+
+// ------------------------------------------------------------------ lazy skinning, threads
+
+// The built-in character, then each shared character present on this machine (the shared ones
+// absent here are reported by the parameterised NarrowPhaseShared tests, which skip them).
+std::vector<std::string> BuiltinAndPresentSharedCharacters() {
+  std::vector<std::string> names = {"builtin"};
+  for (const auto& n : test::SharedCharacters()) {
+    if (!test::Asset(n).empty()) names.push_back(n);
+  }
+  return names;
+}
+
+// Runs mode (b) on one frame's pairs with a fresh context and checks what it skinned: every vertex
+// of the spheres in pairs equals the whole-mesh skinning `all` to the bit, and the count skinned is
+// at least theirs (the depth estimate may add spheres) and at most the mesh.
+void ExpectLazyPositionsAreTheWholeMeshs(const SphereSet& set, const CharacterAsset& asset, std::span<const Vec4f> spheres,
+                                         std::span<const Contact> pairs, std::span<const Mat4f> world,
+                                         const std::vector<Vector3f>& all, const std::string& label) {
+  const NarrowPhaseData& data = *asset.narrow_phase();
+  NarrowPhaseContext ctx;
+  ctx.Resize(data, true);
+  FrameContacts out;
+  NarrowPhaseJob job{&set, &data, spheres, pairs, {}, world, &ctx, &out};
+  ASSERT_TRUE(job.Run()) << label;
+  std::vector<char> needed(set.source_vertex_count, 0);
+  for (const Contact& p : pairs) {
+    for (uint32_t s : {p.i, p.j}) {
+      for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
+        for (int c = 0; c < 3; ++c) needed[set.triangle_vertices[3 * size_t{set.triangles[k]} + c]] = 1;
+      }
+    }
+  }
+  const auto lazy = ctx.lazy_positions();
+  ASSERT_EQ(lazy.size(), all.size()) << label;
+  size_t count = 0, differ = 0;
+  for (size_t v = 0; v < needed.size(); ++v) {
+    if (!needed[v]) continue;
+    ++count;
+    differ += std::memcmp(lazy[v].data(), all[v].data(), sizeof(float) * 3) != 0;
+  }
+  EXPECT_EQ(differ, 0u) << label << ": of " << count << " vertices of the spheres in pairs";
+  EXPECT_GE(ctx.last_stats().skinned_vertices, count) << label;
+  EXPECT_LE(ctx.last_stats().skinned_vertices, set.source_vertex_count) << label;
+}
+
+TEST(NarrowPhase, FastModeWithLazySkinningEqualsExactModeOnTheFullySkinnedMesh) {
+  for (const std::string& name : BuiltinAndPresentSharedCharacters()) {
+    auto fc = test::LoadFitted(name);
+    ASSERT_TRUE(fc);
+    auto asset = CharacterAsset::Create(fc->set);
+    ASSERT_TRUE(asset.ok());
+    auto lazy = CharacterInstance::Create(*asset), full = CharacterInstance::Create(*asset);
+    size_t contacts = 0, frames = 0, clip_frames = 0, clip_skinned = 0;
+    // Random poses (contacts everywhere) and the character's own clips (ordinary frames).
+    std::vector<test::Pose> poses = RandomPoses(fc->character, name == "builtin" ? 10 : 3, 50.0f, 5);
+    const size_t random_count = poses.size();
+    for (auto& p : test::ClipPoses(fc->character, 6)) poses.push_back(std::move(p));
+    for (size_t k = 0; k < poses.size(); ++k) {
+      const test::Pose& pose = poses[k];
+      const std::vector<Vector3f> all = SkinAll(fc->set, pose.world);
+      ASSERT_TRUE(full->UpdateExact(all, pose.world).ok());
+      ASSERT_TRUE(full->FindContacts(all).ok());
+      ASSERT_TRUE(lazy->UpdateFast(pose.world).ok());
+      ASSERT_TRUE(lazy->FindContacts().ok()) << lazy->status().message;
+      EXPECT_SAME_CONTACTS(lazy->frame_contacts(), full->frame_contacts(), name << " " << pose.label);
+      // The same frame through the job itself: the vertices of every sphere in a pair are skinned
+      // bit for bit as the whole mesh (equal contacts alone would not show a run left unskinned).
+      ExpectLazyPositionsAreTheWholeMeshs(fc->set, **asset, lazy->spheres(), lazy->contacts(), pose.world, all,
+                                          name + " " + pose.label);
+      contacts += full->frame_contacts().triangle_pairs.size();
+      EXPECT_LE(lazy->narrow_phase_stats().skinned_vertices, fc->set.source_vertex_count);
+      if (k >= random_count) {
+        ++clip_frames;
+        clip_skinned += lazy->narrow_phase_stats().skinned_vertices;
+      }
+      ++frames;
+    }
+    const double skinned_share = double(clip_skinned) / double(clip_frames) / double(fc->set.source_vertex_count);
+    std::printf("[lazy] %s: %zu triangle pairs over %zu poses; on clip frames fast mode skinned %.0f%% of the %u "
+                "vertices\n",
+                name.c_str(), contacts, frames, 100.0 * skinned_share, fc->set.source_vertex_count);
+    EXPECT_LT(skinned_share, 1.0) << name << ": clip frames skinned the whole mesh";
+    EXPECT_GT(contacts, 0u) << name;
+  }
+}
+
+// Mode (b)'s layout: the runs tile the prepared slots, every sphere vertex has exactly one slot, and
+// a sphere's groups' runs, and its run bitset, hold exactly the vertices of its triangles (what the
+// job must skin for it).
+TEST(NarrowPhase, LazySkinningRunsHoldEachSpheresVerticesOnce) {
+  for (const std::string& name : BuiltinAndPresentSharedCharacters()) {
+    auto fc = test::LoadFitted(name);
+    ASSERT_TRUE(fc);
+    auto asset = CharacterAsset::Create(fc->set);
+    ASSERT_TRUE(asset.ok());
+    const NarrowPhaseData& d = *(*asset)->narrow_phase();
+    const auto& lazy = d.lazy_influences();
+    ASSERT_EQ(d.run_begin().front(), 0u);
+    ASSERT_EQ(d.run_begin().back(), lazy.size()) << name;
+    for (size_t r = 0; r < d.run_count(); ++r) EXPECT_LT(d.run_begin()[r], d.run_begin()[r + 1]) << name;
+    std::vector<uint32_t> slots_of(fc->set.source_vertex_count, 0);
+    for (uint32_t v : lazy.vertices()) ++slots_of[v];
+    std::vector<uint32_t> owner_of_run(d.run_count(), UINT32_MAX);
+    for (uint32_t g = 0; g < d.group_count(); ++g) {
+      uint32_t size = 0;
+      for (uint32_t k = d.group_run_offsets()[g]; k < d.group_run_offsets()[g + 1]; ++k) {
+        const uint32_t r = d.group_runs()[k];
+        EXPECT_EQ(owner_of_run[r], UINT32_MAX) << name << ": run " << r << " in two groups";
+        owner_of_run[r] = g;
+        size += d.run_begin()[r + 1] - d.run_begin()[r];
+      }
+      EXPECT_EQ(size, d.group_sizes()[g]) << name << ": group " << g;
+    }
+    for (uint32_t owner : owner_of_run) EXPECT_NE(owner, UINT32_MAX) << name << ": a run of no group";
+    for (uint32_t s = 0; s < d.sphere_count(); ++s) {
+      std::vector<uint32_t> skinned;
+      for (uint32_t k = d.sphere_group_offsets()[s]; k < d.sphere_group_offsets()[s + 1]; ++k) {
+        const uint32_t g = d.sphere_groups()[k];
+        for (uint32_t q = d.group_run_offsets()[g]; q < d.group_run_offsets()[g + 1]; ++q) {
+          const uint32_t r = d.group_runs()[q];
+          for (uint32_t slot = d.run_begin()[r]; slot < d.run_begin()[r + 1]; ++slot) skinned.push_back(lazy.vertices()[slot]);
+        }
+      }
+      std::sort(skinned.begin(), skinned.end());
+      // Oracle: the vertices of the triangles sphere s owns, straight from the set.
+      std::vector<uint32_t> needed;
+      for (uint32_t k = fc->set.triangle_offsets[s]; k < fc->set.triangle_offsets[s + 1]; ++k) {
+        for (int c = 0; c < 3; ++c) needed.push_back(fc->set.triangle_vertices[3 * size_t{fc->set.triangles[k]} + c]);
+      }
+      std::sort(needed.begin(), needed.end());
+      needed.erase(std::unique(needed.begin(), needed.end()), needed.end());
+      ASSERT_EQ(skinned, needed) << name << ": sphere " << s;
+      for (uint32_t v : needed) EXPECT_EQ(slots_of[v], 1u) << name << ": vertex " << v;
+      // The same runs as the bitset a frame ORs in: words ascending, no empty mask.
+      std::vector<uint32_t> from_bits;
+      for (uint32_t k = d.sphere_run_offsets()[s]; k < d.sphere_run_offsets()[s + 1]; ++k) {
+        const uint32_t word = d.sphere_run_words()[k];
+        if (k > d.sphere_run_offsets()[s]) {
+          EXPECT_LT(d.sphere_run_words()[k - 1], word) << name << ": sphere " << s;
+        }
+        EXPECT_NE(d.sphere_run_bits()[k], 0u) << name << ": sphere " << s;
+        for (int b = 0; b < 64; ++b) {
+          if (!(d.sphere_run_bits()[k] >> b & 1)) continue;
+          const size_t r = size_t{word} * 64 + size_t(b);
+          ASSERT_LT(r, d.run_count()) << name << ": sphere " << s;
+          for (uint32_t slot = d.run_begin()[r]; slot < d.run_begin()[r + 1]; ++slot) from_bits.push_back(lazy.vertices()[slot]);
+        }
+      }
+      std::sort(from_bits.begin(), from_bits.end());
+      EXPECT_EQ(from_bits, needed) << name << ": sphere " << s << "'s run bitset";
+    }
+  }
+}
+
+TEST(NarrowPhase, IdenticalForAnyThreadCount) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  auto asset = CharacterAsset::Create(fc->set);
+  ASSERT_TRUE(asset.ok());
+  auto inst = CharacterInstance::Create(*asset);
+  size_t total = 0;
+  for (const test::Pose& pose : RandomPoses(fc->character, 8, 60.0f, 6)) {
+    ASSERT_TRUE(inst->UpdateFast(pose.world).ok());
+    ASSERT_TRUE(inst->FindContacts({}, SerialFor()).ok());
+    const FrameContacts serial = inst->frame_contacts();
+    total += serial.triangle_pairs.size();
+    for (int threads : {1, 2, 3, 7}) {
+      ASSERT_TRUE(inst->FindContacts({}, test::EngineStyleFor(threads)).ok());
+      EXPECT_SAME_CONTACTS(inst->frame_contacts(), serial, threads << " threads");
+      ASSERT_TRUE(inst->FindContacts(pose.positions, test::EngineStyleFor(threads)).ok());
+    }
+    ASSERT_TRUE(inst->FindContacts({}, DefaultParallelFor()).ok());
+    EXPECT_SAME_CONTACTS(inst->frame_contacts(), serial, "TBB");
+  }
+  EXPECT_GT(total, 0u);
+}
+
+TEST(NarrowPhase, CrowdEqualsInstancesRunAlone) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  auto asset = CharacterAsset::Create(fc->set);
+  ASSERT_TRUE(asset.ok());
+  const std::vector<test::Pose> poses = RandomPoses(fc->character, 6, 60.0f, 7);
+  for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
+    std::vector<CharacterInstance> crowd, alone;
+    for (size_t k = 0; k < poses.size(); ++k) {
+      crowd.push_back(CharacterInstance::Create(*asset).value());
+      alone.push_back(CharacterInstance::Create(*asset).value());
+    }
+    std::vector<CharacterInstance*> pointers;
+    std::vector<CharacterFrameInput> inputs;
+    for (size_t k = 0; k < poses.size(); ++k) {
+      pointers.push_back(&crowd[k]);
+      inputs.push_back({poses[k].world, poses[k].positions});
+    }
+    for (int threads : {1, 2}) {
+      ASSERT_TRUE(UpdateAndFindContactsCrowd(pointers, inputs, mode, test::EngineStyleFor(threads)).ok());
+      for (size_t k = 0; k < poses.size(); ++k) {
+        ASSERT_TRUE(alone[k].Update(mode, poses[k].world, poses[k].positions).ok());
+        ASSERT_TRUE(alone[k].FindContacts(mode == RefitMode::kExact ? std::span<const Vector3f>(poses[k].positions)
+                                                                    : std::span<const Vector3f>())
+                        .ok());
+        EXPECT_SAME_CONTACTS(crowd[k].frame_contacts(), alone[k].frame_contacts(), "instance " << k);
+      }
+    }
+  }
+}
+
+TEST(NarrowPhase, NoAllocationAfterWarmUp) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  auto asset = CharacterAsset::Create(fc->set, NarrowPhaseSettings{0.005f});
+  ASSERT_TRUE(asset.ok());
+  auto inst = CharacterInstance::Create(*asset);
+  const std::vector<test::Pose> poses = RandomPoses(fc->character, 6, 60.0f, 8);
+  const ParallelFor threads = test::EngineStyleFor(1);  // a serial engine loop that allocates nothing
+  // Warm-up: every pose once in each mode (the outputs reach their largest size).
+  size_t contacts = 0;
+  std::optional<test::AllocationCounter> counter;
+  for (int round = 0; round < 2; ++round) {
+    if (round == 1) counter.emplace();
+    for (const test::Pose& pose : poses) {
+      ASSERT_TRUE(inst->UpdateFast(pose.world).ok());
+      ASSERT_TRUE(inst->FindContacts({}, threads).ok());
+      contacts += inst->frame_contacts().triangle_pairs.size();
+      ASSERT_TRUE(inst->UpdateExact(pose.positions, pose.world).ok());
+      ASSERT_TRUE(inst->FindContacts(pose.positions).ok());
+    }
+  }
+  EXPECT_EQ(counter->count(), 0) << "the narrow phase allocated after warm-up";
+  counter.reset();
+  EXPECT_GT(contacts, 0u) << "the frames must have contacts for the check to mean anything";
+}
+
+// ------------------------------------------------------------------ set-up and rules
+
+TEST(NarrowPhaseData, VersionOneSetsAreRefusedWithTheReason) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  SphereSet v1 = fc->set;
+  v1.source_file = "old.spheres.json";
+  v1.mesh = {};
+  v1.triangle_vertices.clear();
+  auto filter = PairFilter::FromSphereSet(v1);
+  ASSERT_TRUE(filter.ok());
+  auto data = NarrowPhaseData::Create(v1, *filter);
+  ASSERT_FALSE(data.ok());
+  EXPECT_EQ(data.error().code, ErrorCode::kVersionMismatch);
+  EXPECT_NE(data.error().message.find("old.spheres.json"), std::string::npos) << data.error().message;
+  EXPECT_NE(data.error().message.find("version 1"), std::string::npos) << data.error().message;
+  // The asset still works for the broad phase; FindContacts says why it cannot run.
+  auto asset = CharacterAsset::Create(v1);
+  ASSERT_TRUE(asset.ok());
+  EXPECT_EQ((*asset)->narrow_phase(), nullptr);
+  auto inst = CharacterInstance::Create(*asset);
+  const auto pose = test::ClipPoses(fc->character, 1).front();
+  ASSERT_TRUE(inst->UpdateFast(pose.world).ok());
+  const FrameStatus st = inst->FindContacts();
+  EXPECT_EQ(st.code, ErrorCode::kVersionMismatch);
+  EXPECT_TRUE(inst->frame_contacts().empty());
+  // A negative margin is refused.
+  EXPECT_FALSE(CharacterAsset::Create(fc->set, NarrowPhaseSettings{-1.0f}).ok());
+  EXPECT_FALSE(CharacterAsset::Create(fc->set, NarrowPhaseSettings{NAN}).ok());
+}
+
+// A margin beyond kMaxMarginShareOfSize of the character's rest size (the largest extent of its
+// mesh at rest, computed here independently) is refused naming that size; at the limit it is
+// accepted and finds within-margin pairs.
+TEST(NarrowPhaseData, MarginsBeyondAShareOfTheCharactersSizeAreRefused) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  Eigen::AlignedBox3f box;
+  for (const auto& p : fc->character.skin.positions_bind) box.extend(p);
+  const float size = box.sizes().maxCoeff();
+  ASSERT_GT(size, 1.0f);  // the built-in character is about 1.9 m tall
+  auto filter = PairFilter::FromSphereSet(fc->set);
+  ASSERT_TRUE(filter.ok());
+  for (const float margin : {1e30f, 2.0f * kMaxMarginShareOfSize * size, 1.01f * kMaxMarginShareOfSize * size}) {
+    auto data = NarrowPhaseData::Create(fc->set, *filter, NarrowPhaseSettings{margin});
+    ASSERT_FALSE(data.ok()) << margin;
+    EXPECT_EQ(data.error().code, ErrorCode::kInvalidArgument);
+    EXPECT_NE(data.error().message.find("is more than 0.05 of the character's rest size"), std::string::npos)
+        << data.error().message;
+  }
+  auto at_limit = CharacterAsset::Create(fc->set, NarrowPhaseSettings{0.99f * kMaxMarginShareOfSize * size});
+  ASSERT_TRUE(at_limit.ok()) << at_limit.error().message;
+  auto inst = CharacterInstance::Create(*at_limit);
+  ASSERT_TRUE(inst.ok());
+  size_t within = 0;
+  for (const auto& pose : test::ClipPoses(fc->character, 4)) {
+    ASSERT_TRUE(inst->UpdateFast(pose.world).ok());
+    ASSERT_TRUE(inst->FindContacts().ok());
+    for (const auto& t : inst->frame_contacts().triangle_pairs) within += t.kind == TriangleContactKind::kWithinMargin;
+  }
+  EXPECT_GT(within, 0u);
+}
+
+TEST(NarrowPhase, ModeBNeedsJointMatricesAndFiniteInput) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  auto asset = CharacterAsset::Create(fc->set);
+  ASSERT_TRUE(asset.ok());
+  auto inst = CharacterInstance::Create(*asset);
+  const auto pose = RandomPoses(fc->character, 1, 60.0f, 9).front();
+  ASSERT_TRUE(inst->UpdateExact(pose.positions, {}).ok());
+  EXPECT_EQ(inst->FindContacts().code, ErrorCode::kInvalidArgument) << "no joints, no positions";
+  EXPECT_TRUE(inst->FindContacts(pose.positions).ok());
+  const std::vector<Vector3f> short_buffer(10, Vector3f::Zero());
+  EXPECT_EQ(inst->FindContacts(short_buffer).code, ErrorCode::kInvalidArgument);
+  // NaN positions: the job refuses the frame instead of answering from garbage.
+  ASSERT_TRUE(inst->UpdateExact(pose.positions, pose.world).ok());
+  std::vector<Vector3f> bad = pose.positions;
+  for (auto& p : bad) p.x() = NAN;
+  EXPECT_FALSE(inst->FindContacts(bad).ok());
+  EXPECT_TRUE(inst->frame_contacts().empty());
+  // One non-finite coordinate, y or z, of one vertex of a sphere in a reported pair is enough.
+  ASSERT_FALSE(inst->contacts().empty());
+  const SphereSet& set = fc->set;
+  const uint32_t s = inst->contacts().front().i;
+  ASSERT_LT(set.triangle_offsets[s], set.triangle_offsets[s + 1]);
+  const uint32_t v = set.triangle_vertices[3 * size_t{set.triangles[set.triangle_offsets[s]]} + 1];
+  for (int axis : {1, 2}) {
+    for (float value : {INFINITY, -INFINITY, NAN}) {
+      std::vector<Vector3f> one = pose.positions;
+      one[v][axis] = value;
+      EXPECT_FALSE(inst->FindContacts(one).ok()) << "axis " << axis << ", " << value;
+      EXPECT_TRUE(inst->FindContacts(pose.positions).ok());
+    }
+  }
+}
+
+// A hand-made set: one root joint, part "a" and part "b", one sphere per closed mesh, no excluded
+// pairs; positions are given directly (mode a), so the rest pose and the tested pose can differ.
+struct TwoMeshes {
+  SphereSet set;
+  std::vector<Vector3f> rest;  // = positions_bind (identity skin)
+};
+
+// A UV sphere: `rings` latitude rings, `segments` per ring, poles on the axis `pole`.
+void AddUvSphere(const Vector3f& centre, float radius, const Vector3f& pole, int rings, int segments,
+                 std::vector<Vector3f>* positions, std::vector<uint32_t>* triangles) {
+  const Vector3f z = pole.normalized();
+  const Vector3f x = (std::abs(z.x()) < 0.9f ? Vector3f::UnitX() : Vector3f::UnitY()).cross(z).normalized();
+  const Vector3f y = z.cross(x);
+  const uint32_t base = uint32_t(positions->size());
+  positions->push_back(centre + radius * z);
+  for (int r = 1; r < rings; ++r) {
+    const float th = float(M_PI) * float(r) / float(rings);
+    for (int s = 0; s < segments; ++s) {
+      const float ph = 2.0f * float(M_PI) * float(s) / float(segments);
+      positions->push_back(centre + radius * (std::sin(th) * (std::cos(ph) * x + std::sin(ph) * y) + std::cos(th) * z));
+    }
+  }
+  positions->push_back(centre - radius * z);
+  const uint32_t south = uint32_t(positions->size()) - 1;
+  auto ring = [&](int r, int s) { return base + 1 + uint32_t((r - 1) * segments + (s % segments)); };
+  for (int s = 0; s < segments; ++s) triangles->insert(triangles->end(), {base, ring(1, s), ring(1, s + 1)});
+  for (int r = 1; r + 1 < rings; ++r) {
+    for (int s = 0; s < segments; ++s) {
+      triangles->insert(triangles->end(), {ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)});
+      triangles->insert(triangles->end(), {ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)});
+    }
+  }
+  for (int s = 0; s < segments; ++s) triangles->insert(triangles->end(), {south, ring(rings - 1, s + 1), ring(rings - 1, s)});
+}
+
+// Two sphere meshes at rest: A at the origin, B at distance `rest_gap` + ra + rb along X.
+TwoMeshes MakeTwoSphereMeshes(float ra, float rb, float rest_distance, const Vector3f& pole_a, const Vector3f& pole_b,
+                              int rings = 48, int segments = 96) {
+  TwoMeshes m;
+  std::vector<Vector3f> pos;
+  std::vector<uint32_t> tris;
+  AddUvSphere(Vector3f::Zero(), ra, pole_a, rings, segments, &pos, &tris);
+  const uint32_t split_v = uint32_t(pos.size()), split_t = uint32_t(tris.size() / 3);
+  AddUvSphere(Vector3f(rest_distance, 0, 0), rb, pole_b, rings, segments, &pos, &tris);
+  SphereSet& s = m.set;
+  s.source_file = "two_spheres";
+  s.source_vertex_count = uint32_t(pos.size());
+  s.source_triangle_count = uint32_t(tris.size() / 3);
+  s.joint_names = {"root"};
+  s.joint_parents = {-1};
+  s.joint_rest_world = {Mat4f::Identity()};
+  s.parts = {{"a", {0}}, {"b", {0}}};
+  s.centers_rest = {Vector3f::Zero(), Vector3f(rest_distance, 0, 0)};
+  s.radii_rest = {ra * 1.001f, rb * 1.001f};
+  s.radii_fast = s.radii_rest;
+  s.sphere_part = {0, 1};
+  s.sphere_joint = {0, 0};
+  s.sphere_level = {0, 0};
+  s.vertex_offsets = {0, split_v, uint32_t(pos.size())};
+  for (uint32_t v = 0; v < pos.size(); ++v) s.vertices.push_back(v);
+  s.triangle_offsets = {0, split_t, uint32_t(tris.size() / 3)};
+  for (uint32_t t = 0; t < tris.size() / 3; ++t) s.triangles.push_back(t);
+  s.influence_offsets = {0, 1, 2};
+  s.influence_joints = {0, 0};
+  s.influence_weights = {1.0f, 1.0f};
+  s.triangle_vertices = tris;
+  s.mesh.positions_bind = pos;
+  s.mesh.binds = {skinning::BindEntry{0, Mat4f::Identity()}};
+  for (uint32_t v = 0; v <= pos.size(); ++v) s.mesh.influence_offsets.push_back(v);
+  s.mesh.influence_binds.assign(pos.size(), 0);
+  s.mesh.influence_weights.assign(pos.size(), 1.0f);
+  m.rest = pos;
+  return m;
+}
+
+// Runs the job on positions with B moved by `shift`; spheres are the meshes' bounding spheres.
+FrameContacts RunShifted(const TwoMeshes& m, const NarrowPhaseData& data, const Vector3f& shift, float ra, float rb) {
+  std::vector<Vector3f> pos = m.rest;
+  for (uint32_t v = m.set.vertex_offsets[1]; v < m.set.vertex_offsets[2]; ++v) pos[v] += shift;
+  const Vector3f cb = m.set.centers_rest[1] + shift;
+  const std::vector<Vec4f> spheres = {Vec4f(0, 0, 0, ra * 1.001f), Vec4f(cb.x(), cb.y(), cb.z(), rb * 1.001f)};
+  const std::vector<Contact> pairs = {Contact{0, 1, 0.0f, 0, 1}};
+  NarrowPhaseContext ctx;
+  ctx.Resize(data, false);
+  FrameContacts out;
+  NarrowPhaseJob job{&m.set, &data, spheres, pairs, pos, {}, &ctx, &out};
+  EXPECT_TRUE(job.Run());
+  return out;
+}
+
+TEST(NarrowPhaseDepth, TwoSphereMeshesOverlappingByAKnownDepth) {
+  struct Case {
+    float ra, rb;
+    Vector3f pole_a, pole_b;
+    const char* label;
+  };
+  const Case cases[] = {
+      {1.0f, 1.0f, Vector3f::UnitX(), Vector3f::UnitX(), "equal radii, poles on the axis"},
+      {1.0f, 0.5f, Vector3f::UnitX(), Vector3f::UnitX(), "radii 1 and 0.5, poles on the axis"},
+      {0.8f, 1.2f, Vector3f(0.3f, 1, 0.2f), Vector3f(1, -0.4f, 0.7f), "radii 0.8 and 1.2, tilted tessellations"},
+  };
+  for (const Case& c : cases) {
+    const float rest_distance = c.ra + c.rb + 0.5f;  // apart at rest
+    const TwoMeshes m = MakeTwoSphereMeshes(c.ra, c.rb, rest_distance, c.pole_a, c.pole_b);
+    auto filter = PairFilter::FromSphereSet(m.set);
+    ASSERT_TRUE(filter.ok());
+    auto data = NarrowPhaseData::Create(m.set, *filter);
+    ASSERT_TRUE(data.ok()) << data.error().message;
+    EXPECT_TRUE(data->rest_excluded_pairs().empty()) << "apart at rest";
+    for (float fraction : {0.05f, 0.2f, 0.5f}) {
+      const float depth = fraction * std::min(c.ra, c.rb);
+      const float distance = c.ra + c.rb - depth;
+      const FrameContacts out = RunShifted(m, *data, Vector3f(distance - rest_distance, 0, 0), c.ra, c.rb);
+      ASSERT_EQ(out.parts.size(), 1u) << c.label;
+      const PartContact& pc = out.parts[0];
+      EXPECT_EQ(pc.part_a, 0);
+      EXPECT_EQ(pc.part_b, 1);
+      EXPECT_GT(pc.intersecting_count, 20u);
+      // Tessellation: a chord of a 96-segment ring sits r (1 - cos(pi/96)) = 0.05% of r inside the
+      // sphere; near the rim the polygonal contour is a little off the circle as well.
+      EXPECT_NEAR(pc.depth, depth, 0.02f * depth + 0.002f * std::max(c.ra, c.rb)) << c.label << " depth " << depth;
+      // The normal points from B (part b) to A (part a): -X.
+      EXPECT_NEAR(pc.normal[0], -1.0f, 1e-3f) << c.label;
+      // The contour plane: x = (d^2 + ra^2 - rb^2) / 2d.
+      const float plane = (distance * distance + c.ra * c.ra - c.rb * c.rb) / (2 * distance);
+      EXPECT_NEAR(pc.center[0], plane, 0.01f * depth + 0.002f) << c.label;
+      std::printf("[depth] %s: overlap %.4f, estimate %.4f (%zu triangle pairs)\n", c.label, depth, pc.depth,
+                  size_t(pc.triangle_pair_count));
+    }
+  }
+}
+
+TEST(NarrowPhaseRules, RestContactsAndSharedVerticesAreNeverReported) {
+  // Overlapping at rest by 0.3: every pair that intersects at rest is excluded; pushing B further
+  // in reports only pairs that did not intersect at rest.
+  const TwoMeshes m = MakeTwoSphereMeshes(1.0f, 1.0f, 1.7f, Vector3f::UnitY(), Vector3f::UnitY(), 24, 48);
+  auto filter = PairFilter::FromSphereSet(m.set);
+  ASSERT_TRUE(filter.ok());
+  auto data = NarrowPhaseData::Create(m.set, *filter);
+  ASSERT_TRUE(data.ok());
+  EXPECT_GT(data->rest_excluded_pairs().size(), 20u);
+  EXPECT_TRUE(RunShifted(m, *data, Vector3f::Zero(), 1.0f, 1.0f).empty()) << "the rest pose reports nothing";
+  const FrameContacts deeper = RunShifted(m, *data, Vector3f(-0.2f, 0, 0), 1.0f, 1.0f);
+  ASSERT_EQ(deeper.parts.size(), 1u);
+  for (const auto& c : deeper.triangle_pairs) {
+    EXPECT_FALSE(data->RestExcluded(c.t, c.u));
+    EXPECT_FALSE(TrianglesIntersect(m.rest[m.set.triangle_vertices[3 * c.t]], m.rest[m.set.triangle_vertices[3 * c.t + 1]],
+                                    m.rest[m.set.triangle_vertices[3 * c.t + 2]], m.rest[m.set.triangle_vertices[3 * c.u]],
+                                    m.rest[m.set.triangle_vertices[3 * c.u + 1]], m.rest[m.set.triangle_vertices[3 * c.u + 2]]));
+  }
+  // The oracle agrees.
+  FrameContacts oracle;
+  std::vector<Vector3f> pos = m.rest;
+  for (uint32_t v = m.set.vertex_offsets[1]; v < m.set.vertex_offsets[2]; ++v) pos[v].x() -= 0.2f;
+  ASSERT_TRUE(FindContactsBruteForce(m.set, *data, *filter, pos, &oracle));
+  EXPECT_SAME_CONTACTS(deeper, oracle, "deeper");
+}
+
+TEST(NarrowPhaseRules, VerticesWeldedByRestPosition) {
+  // Two triangles that share a corner by rest POSITION only (vertex 2 and vertex 3 coincide), in
+  // spheres 0 and 1 of different parts: crossing each other, they are still never reported; moved
+  // apart from the weld they are.
+  SphereSet s;
+  s.source_file = "weld";
+  s.source_vertex_count = 6;
+  s.source_triangle_count = 2;
+  s.joint_names = {"root"};
+  s.joint_parents = {-1};
+  s.joint_rest_world = {Mat4f::Identity()};
+  s.parts = {{"a", {0}}, {"b", {0}}};
+  s.centers_rest = {Vector3f(0.5f, 0.3f, 0), Vector3f(0.5f, 0.3f, 0)};
+  s.radii_rest = {2, 2};
+  s.radii_fast = {2, 2};
+  s.sphere_part = {0, 1};
+  s.sphere_joint = {0, 0};
+  s.sphere_level = {0, 0};
+  s.vertex_offsets = {0, 3, 6};
+  s.vertices = {0, 1, 2, 3, 4, 5};
+  s.triangle_offsets = {0, 1, 2};
+  s.triangles = {0, 1};
+  s.influence_offsets = {0, 1, 2};
+  s.influence_joints = {0, 0};
+  s.influence_weights = {1, 1};
+  s.triangle_vertices = {0, 1, 2, 3, 4, 5};
+  // Triangle 0 in z = 0; triangle 1 stands up through it and has its corner 3 at vertex 2's spot.
+  s.mesh.positions_bind = {Vector3f(0, 0, 0), Vector3f(1, 0, 0), Vector3f(0, 1, 0),
+                           Vector3f(0, 1, 0), Vector3f(0.3f, 0.2f, 1), Vector3f(0.3f, 0.2f, -1)};
+  s.mesh.binds = {skinning::BindEntry{0, Mat4f::Identity()}};
+  s.mesh.influence_offsets = {0, 1, 2, 3, 4, 5, 6};
+  s.mesh.influence_binds.assign(6, 0);
+  s.mesh.influence_weights.assign(6, 1.0f);
+  ASSERT_FALSE(s.Validate().has_value()) << s.Validate()->message;
+  auto filter = PairFilter::FromSphereSet(s);
+  ASSERT_TRUE(filter.ok());
+  auto data = NarrowPhaseData::Create(s, *filter);
+  ASSERT_TRUE(data.ok()) << data.error().message;
+  EXPECT_TRUE(data->ShareVertex(0, 1));
+  EXPECT_TRUE(data->rest_excluded_pairs().empty()) << "shared-vertex pairs need no rest rule";
+  std::vector<Vector3f> pos = s.mesh.positions_bind;
+  FrameContacts out;
+  ASSERT_TRUE(FindContactsBruteForce(s, *data, *filter, pos, &out));
+  EXPECT_TRUE(out.empty());
+  // The same two triangles when the second one's corner is a vertex of its own rest position.
+  SphereSet apart = s;
+  apart.mesh.positions_bind[3] = Vector3f(-0.5f, 1.5f, 0);
+  auto data2 = NarrowPhaseData::Create(apart, *filter);
+  ASSERT_TRUE(data2.ok());
+  EXPECT_FALSE(data2->ShareVertex(0, 1));
+  ASSERT_TRUE(FindContactsBruteForce(apart, *data2, *filter, apart.mesh.positions_bind, &out));
+  EXPECT_TRUE(out.empty()) << "they cross at rest: rule 3";
+  EXPECT_EQ(data2->rest_excluded_pairs().size(), 1u);
+}
+
+}  // namespace
+}  // namespace skinspheres::runtime

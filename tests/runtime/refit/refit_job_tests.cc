@@ -1,0 +1,798 @@
+// RefitJob: conservativeness on the built-in and shared characters (clip frames and random poses
+// with non-uniform scale, against a naive LBS of every vertex), exact radius = brute-force max
+// distance, fast >= exact, the fast bound with the influences' reach never above the bound without
+// it (and below it on a case built for it), analytic single-joint and two-joint cases, 1 vs 2
+// threads, Validate() refusals, NaN.
+#include <gtest/gtest.h>
+#include <tbb/task_arena.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <bit>
+#include <cfloat>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "runtime/posed_characters.h"
+#include "refit/refit_internal.h"  // runtime/src: pins the instruction set of the fast refit
+#include "runtime/sample_sphere_set.h"
+#include "skinspheres/runtime/refit/refit_job.h"
+
+namespace skinspheres::runtime {
+namespace {
+
+using test::FittedCharacter;
+using test::Pose;
+
+// The fast refit as the plain scalar formula of the header, one Eigen operation after the other
+// (the implementation before it was vectorised): the bit-equality reference of the SIMD path.
+// reach: W per influence entry (the rest data's when the caller passes rest.reach()); nullptr: the
+// bound without it, Kavan & Žára's r' = s_max · radius_fast + max_j |d_j| as written before reach
+// existed (no min), the oracle of "never above the old bound" and "a set without reach is the old
+// bound".
+std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, const RefitRestData& rest,
+                                                std::span<const skinspheres::Mat4f> world, const float* reach) {
+  const auto apply = [](const skinspheres::Mat4f& g, const Eigen::Vector3f& p) -> Eigen::Vector3f {
+    return g.topLeftCorner<3, 3>() * p + g.topRightCorner<3, 1>();
+  };
+  std::vector<skinspheres::Vec4f> out(set.size());
+  const auto q = rest.center_in_joint();
+  const auto w = rest.weights();
+  const auto rinv = rest.rest_linear_inverse();
+  for (size_t s = 0; s < set.size(); ++s) {
+    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
+    Eigen::Vector3f c = Eigen::Vector3f::Zero();
+    for (uint32_t k = k0; k < k1; ++k) c += w[k] * apply(world[set.influence_joints[k]], q[k]);
+    float spread2 = 0.0f, reached = 0.0f, s2 = 0.0f;
+    for (uint32_t k = k0; k < k1; ++k) {
+      const uint16_t j = set.influence_joints[k];
+      const float d2 = (apply(world[j], q[k]) - c).squaredNorm();
+      const Eigen::Matrix3f a = world[j].topLeftCorner<3, 3>() * rinv[j];
+      const Eigen::Matrix3f ata = a.transpose() * a;
+      spread2 = std::max(spread2, d2);
+      if (reach != nullptr) reached += reach[k] * std::sqrt(d2);
+      s2 = std::max(s2, ata.cwiseAbs().rowwise().sum().maxCoeff());
+    }
+    const float spread = reach != nullptr ? std::min(std::sqrt(spread2), reached) : std::sqrt(spread2);
+    const float r = std::sqrt(s2) * set.radii_fast[s] + spread;
+    const float radius = r + 16.0f * FLT_EPSILON * (c.cwiseAbs().maxCoeff() + r);
+    out[s] = skinspheres::Vec4f(c.x(), c.y(), c.z(), radius);
+  }
+  return out;
+}
+
+struct Refits {
+  std::vector<skinspheres::Vec4f> exact, exact_box, fast;
+};
+
+Refits RunAll(const SphereSet& set, const RefitRestData& rest, const Pose& pose) {
+  Refits r;
+  r.exact.assign(set.size(), skinspheres::Vec4f::Zero());
+  r.exact_box = r.fast = r.exact;
+  RefitJob job;
+  job.spheres = &set;
+  job.rest = &rest;
+  job.mode = RefitMode::kExact;
+  job.joint_world = pose.world;
+  job.positions = pose.positions;
+  job.out = r.exact;
+  EXPECT_TRUE(job.Run()) << pose.label;
+  job.joint_world = {};
+  job.out = r.exact_box;
+  EXPECT_TRUE(job.Run()) << pose.label;
+  job.mode = RefitMode::kFast;
+  job.joint_world = pose.world;
+  job.positions = {};
+  job.out = r.fast;
+  EXPECT_TRUE(job.Run()) << pose.label;
+  return r;
+}
+
+// Every vertex of every owned triangle inside (in double, 1e-5 relative tolerance); exact radius =
+// brute-force max distance over the source vertices; fast radius >= exact radius (same centre).
+// Returns the number of failures found (stops reporting after a few).
+double g_sum_exact = 0, g_sum_fast = 0, g_sum_old = 0;  // radius sums over the poses checked, for the printout
+size_t g_old_spheres = 0, g_tighter = 0;  // fast spheres compared with the bound without reach, and how many are smaller
+
+int CheckPose(const FittedCharacter& fc, const RefitRestData& rest, const Pose& pose) {
+  const SphereSet& set = fc.set;
+  const Refits r = RunAll(set, rest, pose);
+  // The same frame under the bound without reach (the formula as it was, in the scalar reference).
+  const std::vector<skinspheres::Vec4f> old = ScalarFastRefit(set, rest, pose.world, nullptr);
+  for (size_t s = 0; s < set.size(); ++s) {
+    g_sum_exact += r.exact[s].w();
+    g_sum_fast += r.fast[s].w();
+    g_sum_old += old[s].w();
+  }
+  int failures = 0;
+  auto fail = [&](const std::string& what) {
+    if (++failures <= 5) ADD_FAILURE() << fc.character.source_file << " " << pose.label << ": " << what;
+  };
+  auto inside = [&](const skinspheres::Vec4f& sph, const Eigen::Vector3f& p) {
+    const double d = (p.cast<double>() - sph.head<3>().cast<double>()).norm();
+    return d <= sph.w() * (1.0 + 1e-5);
+  };
+  // The fast bound carries its own rounding margin (refit_job.h): no tolerance on top of it.
+  auto inside_fast = [&](const skinspheres::Vec4f& sph, const Eigen::Vector3f& p) {
+    return (p.cast<double>() - sph.head<3>().cast<double>()).norm() <= double(sph.w());
+  };
+  for (size_t s = 0; s < set.size(); ++s) {
+    for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
+      const Eigen::Vector3i& tri = fc.character.triangles[set.triangles[k]];
+      for (int c = 0; c < 3; ++c) {
+        const Eigen::Vector3f& p = pose.positions[tri[c]];
+        if (!inside(r.exact[s], p)) fail("exact sphere " + std::to_string(s) + " misses a vertex");
+        if (!inside(r.exact_box[s], p)) fail("exact (box centre) sphere " + std::to_string(s) + " misses a vertex");
+        if (!inside_fast(r.fast[s], p)) fail("fast sphere " + std::to_string(s) + " misses a vertex");
+      }
+    }
+    // Oracle: the max distance from the exact centre to the source vertices.
+    double dmax = 0.0;
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+      dmax = std::max(dmax, (pose.positions[set.vertices[k]].cast<double>() - r.exact[s].head<3>().cast<double>()).norm());
+    }
+    const double coord = r.exact[s].head<3>().cwiseAbs().maxCoeff();
+    if (!(r.exact[s].w() >= dmax * (1 - 1e-6) && r.exact[s].w() <= dmax + 4e-6 * (coord + dmax) + 1e-30)) {
+      fail("exact radius " + std::to_string(r.exact[s].w()) + " != max distance " + std::to_string(dmax));
+    }
+    if (r.fast[s].head<3>() != r.exact[s].head<3>()) fail("fast and exact centres differ");
+    // Every source vertex (not only those of owned triangles) inside the fast sphere: what the
+    // bound's derivation covers, reach included.
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+      if (!inside_fast(r.fast[s], pose.positions[set.vertices[k]])) {
+        fail("fast sphere " + std::to_string(s) + " misses its source vertex " + std::to_string(set.vertices[k]));
+      }
+    }
+    // Never above the bound without reach (min(max, sum) <= max, and the margin grows with r).
+    if (old[s].head<3>() != r.fast[s].head<3>() || !(r.fast[s].w() <= old[s].w())) {
+      fail("fast sphere " + std::to_string(s) + " radius " + std::to_string(r.fast[s].w()) +
+           " above the bound without reach " + std::to_string(old[s].w()));
+    }
+    ++g_old_spheres;
+    g_tighter += r.fast[s].w() < old[s].w();
+    // fast >= exact up to the rounding margin (both add ~2e-6 of the coordinates, refit_job.h).
+    if (!(r.fast[s].w() >= r.exact[s].w() - 4e-6 * (coord + dmax))) {
+      fail("fast radius " + std::to_string(r.fast[s].w()) + " below exact radius " + std::to_string(r.exact[s].w()));
+    }
+  }
+  return failures;
+}
+
+void CheckCharacter(const std::string& name, int frames_per_clip, int random_poses) {
+  auto fc = test::LoadFitted(name);
+  ASSERT_TRUE(fc);
+  auto rest = RefitRestData::Create(fc->set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  int failures = 0, poses = 0;
+  g_sum_exact = g_sum_fast = g_sum_old = 0;
+  g_old_spheres = g_tighter = 0;
+  EXPECT_EQ(fc->set.influence_reach.size(), fc->set.influence_joints.size()) << "the fitter writes the reach";
+  for (const Pose& pose : test::ClipPoses(fc->character, frames_per_clip)) {
+    failures += CheckPose(*fc, *rest, pose);
+    ++poses;
+  }
+  std::mt19937 rng(12345);
+  for (int i = 0; i < random_poses; ++i) {
+    const float scale_probability = (i % 2) ? 0.3f : 0.0f;  // odd poses: non-uniform scales
+    failures += CheckPose(*fc, *rest,
+                          test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, scale_probability),
+                                         "random#" + std::to_string(i)));
+    ++poses;
+  }
+  EXPECT_EQ(failures, 0);
+  EXPECT_GT(poses, random_poses - 1);
+  const double posed_ratio = g_sum_fast / g_sum_exact, old_ratio = g_sum_old / g_sum_exact;
+  const double tighter_share = static_cast<double>(g_tighter) / static_cast<double>(g_old_spheres);
+  // Tightness figure, for the record: at the rest pose exact radii equal the fitted radii.
+  const Pose rest_pose = test::MakePose(fc->character, fc->character.skeleton.rest_local, "rest");
+  const Refits r = RunAll(fc->set, *rest, rest_pose);
+  double sum_exact = 0, sum_fast = 0, sum_fit = 0;
+  for (size_t s = 0; s < fc->set.size(); ++s) {
+    sum_exact += r.exact[s].w();
+    sum_fast += r.fast[s].w();
+    sum_fit += fc->set.radii_rest[s];
+    EXPECT_NEAR(r.exact[s].w(), fc->set.radii_rest[s], 1e-4 * (fc->set.radii_rest[s] + fc->set.centers_rest[s].norm()));
+  }
+  std::printf("%s: %zu spheres, %d poses; rest pose sum of radii exact/fit %.4f fast/fit %.4f; posed fast/exact %.3f "
+              "(without reach %.3f; %.0f%% of the fast spheres smaller with it)\n",
+              name.c_str(), fc->set.size(), poses, sum_exact / sum_fit, sum_fast / sum_fit, posed_ratio, old_ratio,
+              100.0 * tighter_share);
+}
+
+TEST(RefitJobTest, BuiltinCharacterIsCoveredInBothModes) { CheckCharacter("builtin", 1000, 100); }
+
+// Pins the fast refit's instruction set for a scope (internal::PinRefitSimd), unpinned after.
+class PinnedRefit {
+ public:
+  explicit PinnedRefit(internal::RefitSimd level) : ok_(internal::PinRefitSimd(level)) {}
+  ~PinnedRefit() { internal::PinRefitSimd(internal::RefitSimd::kAuto); }
+  PinnedRefit(const PinnedRefit&) = delete;
+  PinnedRefit& operator=(const PinnedRefit&) = delete;
+  bool ok() const { return ok_; }
+
+ private:
+  bool ok_;
+};
+
+// Runs check() with the fast refit at each instruction set the CPU has (SSE2 always; AVX2 when
+// present, said when not), and checks that each pin took.
+template <class Check>
+void AtEveryRefitLevel(const std::string& what, Check&& check) {
+  for (const internal::RefitSimd level : {internal::RefitSimd::kSse2, internal::RefitSimd::kAvx2}) {
+    const PinnedRefit pin(level);
+    if (!pin.ok()) {
+      ASSERT_NE(level, internal::RefitSimd::kSse2);
+      std::printf("%s: %s not checked, the CPU lacks it\n", what.c_str(), internal::ToString(level));
+      continue;
+    }
+    ASSERT_EQ(internal::RefitSimdInUse(), level);
+    internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
+    check();
+    if (::testing::Test::HasFatalFailure()) {
+      ADD_FAILURE() << "at " << internal::ToString(level);
+      return;
+    }
+    // The copy of that level ran (both give the same bits, so the results alone cannot say).
+    ASSERT_EQ(internal::LastRefitSimdRun(), level) << what;
+    std::printf("%s: checked at %s\n", what.c_str(), internal::ToString(level));
+  }
+}
+
+// count random poses of the character's joints (seeded); every second one with every linear
+// coefficient perturbed and far translations, so any affine map, not a skeleton's motion.
+std::vector<std::vector<skinspheres::Mat4f>> AnyAffinePoses(const FittedCharacter& fc, uint32_t seed, int count) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> noise(-0.05f, 0.05f), far(-300.0f, 300.0f);
+  std::vector<std::vector<skinspheres::Mat4f>> worlds;
+  for (int p = 0; p < count; ++p) {
+    Pose pose = test::MakePose(fc.character, test::RandomLocal(fc.character, rng, 90.0f, 0.3f), "random");
+    if (p % 2 == 1) {
+      for (auto& g : pose.world) {
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) g(i, j) += noise(rng);
+        for (int i = 0; i < 3; ++i) g(i, 3) += far(rng);
+      }
+    }
+    worlds.push_back(std::move(pose.world));
+  }
+  return worlds;
+}
+
+// The SIMD fast refit gives the scalar formula's bits: random poses with non-uniform scale, then
+// the same joint matrices with every coefficient perturbed and far translations (any affine map),
+// whole set and split ranges, at every instruction set.
+void CheckFastBitsAtOneLevel(const std::string& name, int poses);
+void CheckFastBits(const std::string& name, int poses) {
+  AtEveryRefitLevel(name, [&] { CheckFastBitsAtOneLevel(name, poses); });
+}
+
+void CheckFastBitsAtOneLevel(const std::string& name, int poses) {
+  auto fc = test::LoadFitted(name);
+  ASSERT_TRUE(fc);
+  auto rest = RefitRestData::Create(fc->set);
+  ASSERT_TRUE(rest.ok());
+  size_t compared = 0;
+  const std::vector<std::vector<skinspheres::Mat4f>> worlds = AnyAffinePoses(*fc, 11, poses);
+  for (int p = 0; p < poses; ++p) {
+    const std::vector<skinspheres::Mat4f>& world = worlds[p];
+    const auto want = ScalarFastRefit(fc->set, *rest, world, rest->reach().data());
+    std::vector<skinspheres::Vec4f> got(fc->set.size()), split(fc->set.size());
+    RefitJob job{RefitMode::kFast, &fc->set, &*rest, world, {}, got};
+    ASSERT_TRUE(job.Run());
+    job.out = split;
+    for (size_t b = 0; b < fc->set.size(); b += 5) ASSERT_TRUE(job.RunRange(b, std::min(b + 5, fc->set.size())));
+    for (size_t s = 0; s < fc->set.size(); ++s) {
+      for (int c = 0; c < 4; ++c) {
+        ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c]))
+            << name << " pose " << p << " sphere " << s << " coordinate " << c << ": " << got[s][c] << " vs " << want[s][c];
+        ASSERT_EQ(std::bit_cast<uint32_t>(split[s][c]), std::bit_cast<uint32_t>(want[s][c])) << name << " sphere " << s;
+      }
+      ++compared;
+    }
+  }
+  std::printf("%s: %zu fast spheres bit-identical to the scalar formula\n", name.c_str(), compared);
+}
+
+TEST(RefitJobTest, FastModeBitIdenticalToScalarFormulaBuiltin) { CheckFastBits("builtin", 200); }
+
+// A set of `joints` joints in a chain, sphere 0 on `influences` of them (every `stride`th, modulo the
+// chain), sphere 1 on the last; random affine rest matrices. RandomAffine(scale): identity plus scale x U(-1, 1) per
+// linear coefficient, translations U(-3, 3).
+struct ManyInfluences {
+  SphereSet set;
+  std::mt19937 rng{17};
+  skinspheres::Mat4f RandomAffine(float scale) {
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    skinspheres::Mat4f g = skinspheres::Mat4f::Identity();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) g(r, c) = (r == c ? 1.0f : 0.0f) + scale * u(rng);
+      g(r, 3) = 3.0f * u(rng);
+    }
+    return g;
+  }
+  explicit ManyInfluences(int joints, int influences = 20, int stride = 15) {
+    set = TwoSpheres();
+    set.joint_names.clear();
+    set.joint_parents.clear();
+    for (int j = 0; j < joints; ++j) {
+      std::string name = "j";  // (not "j" + to_string: GCC 12 warns falsely of overlapping memcpy)
+      name += std::to_string(j);
+      set.joint_names.push_back(name);
+      set.joint_parents.push_back(j - 1);
+    }
+    set.joint_rest_world.clear();
+    for (int j = 0; j < joints; ++j) set.joint_rest_world.push_back(RandomAffine(0.2f));
+    set.sphere_joint = {0, static_cast<uint16_t>(joints - 1)};
+    set.influence_joints.clear();
+    set.influence_weights.clear();
+    for (int k = 0; k < influences; ++k) {
+      set.influence_joints.push_back(static_cast<uint16_t>((k * stride) % (joints - 1)));
+      set.influence_weights.push_back(0.1f + 0.05f * static_cast<float>(k));
+    }
+    set.influence_joints.push_back(static_cast<uint16_t>(joints - 1));
+    set.influence_weights.push_back(1.0f);
+    set.influence_offsets = {0, static_cast<uint32_t>(influences), static_cast<uint32_t>(influences) + 1};
+    // Small reaches (summing to more than 1, as Validate asks), so that the bound's sum term
+    // Σ W_j |d_j|, which reads every recomputed point, is the smaller one on some poses.
+    const float base = influences >= 20 ? 0.06f : 0.3f;
+    for (int k = 0; k < influences; ++k) set.influence_reach.push_back(base + 0.01f * static_cast<float>(k % 3));
+    set.influence_reach.push_back(1.0f);
+  }
+};
+
+// The paths the characters do not take: a sphere of more influences than the loop keeps moved
+// points for (16), and more joints than a call keeps stretches for on the stack (256). 300 joints
+// in a chain, sphere 0 on 20 of them, sphere 1 on the last; random affine joint matrices.
+TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
+  constexpr int kJoints = 300;
+  ManyInfluences many(kJoints);
+  const SphereSet& set = many.set;
+  const auto random_affine = [&](float scale) { return many.RandomAffine(scale); };
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  int sum_term_smaller = 0;
+  AtEveryRefitLevel("20 influences, 300 joints", [&] {
+    for (int p = 0; p < 50; ++p) {
+      std::vector<skinspheres::Mat4f> world;
+      for (int j = 0; j < kJoints; ++j) world.push_back(random_affine(0.5f));
+      const auto want = ScalarFastRefit(set, *rest, world, rest->reach().data());
+      sum_term_smaller += want[0].w() < ScalarFastRefit(set, *rest, world, nullptr)[0].w() ? 1 : 0;
+      std::vector<skinspheres::Vec4f> got(2);
+      ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, got}.Run()));
+      for (size_t s = 0; s < 2; ++s) {
+        for (int c = 0; c < 4; ++c) {
+          ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c])) << "pose " << p << " sphere " << s;
+        }
+      }
+    }
+  });
+  EXPECT_GT(sum_term_smaller, 10) << "the sum term decided too few of the big sphere's radii";
+  std::printf("sum term smaller on %d of the poses checked\n", sum_term_smaller);
+}
+
+// The crowd's batch (internal::RefitFastBatch: 16 instances of one set at once, one per AVX-512
+// lane) against the scalar formula, lane by lane, bit for bit, in both of its outputs. worlds: one joint-matrix array per
+// lane (lanes may share one, and then their output); bad: lanes expected to fail (non-finite).
+void CheckBatchLanes(const SphereSet& set, const RefitRestData& rest,
+                     const std::vector<const std::vector<skinspheres::Mat4f>*>& worlds, uint32_t bad,
+                     const std::string& what) {
+  ASSERT_EQ(worlds.size(), internal::kRefitBatchLanes);
+  std::vector<std::vector<skinspheres::Vec4f>> outs(worlds.size(), std::vector<skinspheres::Vec4f>(set.size()));
+  const float* world[internal::kRefitBatchLanes];
+  float* out[internal::kRefitBatchLanes];
+  for (size_t b = 0; b < worlds.size(); ++b) {
+    world[b] = reinterpret_cast<const float*>(worlds[b]->data());
+    size_t first = b;  // lanes that share a world share the output of the first of them
+    while (first > 0 && worlds[first - 1] == worlds[b]) --first;
+    out[b] = reinterpret_cast<float*>(outs[first].data());
+  }
+  internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
+  std::vector<float> soa(64 * set.size(), -1.0f);  // the same spheres lanes side by side (crowd query)
+  const uint32_t finite = internal::RefitFastBatch(set, rest, world, out, soa.data());
+  ASSERT_EQ(internal::LastRefitSimdRun(), internal::RefitSimd::kAvx512) << what;
+  EXPECT_EQ(finite, 0xFFFFu & ~bad) << what;
+  for (size_t b = 0; b < worlds.size(); ++b) {
+    if ((bad >> b) & 1u) continue;
+    size_t first = b;
+    while (first > 0 && worlds[first - 1] == worlds[b]) --first;
+    const auto want = ScalarFastRefit(set, rest, *worlds[b], rest.reach().data());
+    for (size_t s = 0; s < set.size(); ++s) {
+      for (int c = 0; c < 4; ++c) {
+        ASSERT_EQ(std::bit_cast<uint32_t>(outs[first][s][c]), std::bit_cast<uint32_t>(want[s][c]))
+            << what << ": lane " << b << " sphere " << s << " coordinate " << c;
+        ASSERT_EQ(std::bit_cast<uint32_t>(soa[64 * s + 16 * c + b]), std::bit_cast<uint32_t>(want[s][c]))
+            << what << ": lanes side by side, lane " << b << " sphere " << s << " coordinate " << c;
+      }
+    }
+  }
+}
+
+// 16 poses of the built-in character per batch, random (half of them with every coefficient
+// perturbed and far translations, any affine map), then a batch with a NaN in lane 7 (it alone
+// fails) and one whose lanes 5..15 repeat lane 4 (a crowd's last, partial batch).
+TEST(RefitJobTest, CrowdBatchGivesEachInstanceTheScalarBits) {
+  const PinnedRefit pin(internal::RefitSimd::kAvx512);
+  if (!pin.ok()) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd refits one instance at a time";
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  auto rest = RefitRestData::Create(fc->set);
+  ASSERT_TRUE(rest.ok());
+  ASSERT_TRUE(internal::RefitBatchUsable());
+  const std::vector<std::vector<skinspheres::Mat4f>> poses = AnyAffinePoses(*fc, 23, 16 * 12);
+  for (size_t batch = 0; batch < poses.size() / 16; ++batch) {
+    std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
+    for (size_t b = 0; b < 16; ++b) lanes.push_back(&poses[16 * batch + b]);
+    CheckBatchLanes(fc->set, *rest, lanes, 0, "batch " + std::to_string(batch));
+  }
+  std::vector<skinspheres::Mat4f> nan_pose = poses[7];
+  nan_pose[fc->set.influence_joints[0]](1, 3) = std::numeric_limits<float>::quiet_NaN();
+  std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
+  for (size_t b = 0; b < 16; ++b) lanes.push_back(b == 7 ? &nan_pose : &poses[b]);
+  CheckBatchLanes(fc->set, *rest, lanes, 1u << 7, "NaN in lane 7");
+  for (size_t b = 5; b < 16; ++b) lanes[b] = lanes[4];
+  CheckBatchLanes(fc->set, *rest, lanes, 0, "lanes 5..15 repeat lane 4");
+}
+
+// The batch on a sphere of more influences than it keeps moved points for (20 > 8), and on one of 6
+// whose joints all share one slot of its stretch table (every 16th joint: each stretch evicts the
+// last, so the second pass computes them again), on a set of 300 joints.
+TEST(RefitJobTest, CrowdBatchManyInfluencesAndJoints) {
+  const PinnedRefit pin(internal::RefitSimd::kAvx512);
+  if (!pin.ok()) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd refits one instance at a time";
+  constexpr int kJoints = 300;
+  for (const auto& [influences, stride] : {std::pair{20, 15}, std::pair{6, 16}}) {
+    ManyInfluences many(kJoints, influences, stride);
+    ASSERT_FALSE(many.set.Validate().has_value()) << many.set.Validate()->message;
+    auto rest = RefitRestData::Create(many.set);
+    ASSERT_TRUE(rest.ok()) << rest.error().message;
+    ASSERT_TRUE(internal::RefitBatchUsable());
+    for (int batch = 0; batch < 8; ++batch) {
+      std::vector<std::vector<skinspheres::Mat4f>> worlds(16);
+      std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
+      for (auto& w : worlds) {
+        for (int j = 0; j < kJoints; ++j) w.push_back(many.RandomAffine(0.5f));
+        lanes.push_back(&w);
+      }
+      CheckBatchLanes(many.set, *rest, lanes, 0,
+                      std::to_string(influences) + " influences, 300 joints, batch " + std::to_string(batch));
+    }
+  }
+}
+
+class SharedCharacterRefit : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(SharedCharacterRefit, IsCoveredInBothModes) {
+  SKINSPHERES_REQUIRE_ASSET(path, GetParam());
+  (void)path;
+  CheckCharacter(GetParam(), 30, 40);
+}
+
+TEST_P(SharedCharacterRefit, FastModeBitIdenticalToScalarFormula) {
+  SKINSPHERES_REQUIRE_ASSET(path, GetParam());
+  (void)path;
+  CheckFastBits(GetParam(), 20);
+}
+
+INSTANTIATE_TEST_SUITE_P(Assets, SharedCharacterRefit, ::testing::ValuesIn(test::SharedCharacters()),
+                         [](const auto& param_info) {
+                           std::string n = param_info.param;
+                           return n.substr(0, n.find('.'));
+                         });
+
+// One joint, one sphere: analytic answers for rigid motion, uniform and non-uniform scale.
+SphereSet OneJointSet(const skinspheres::Mat4f& rest_world) {
+  SphereSet set = TwoSpheres();
+  set.joint_rest_world = {rest_world};
+  set.radii_fast = {1.5f, 1.0f};
+  set.source_vertex_count = 4;
+  return set;
+}
+
+TEST(RefitJobTest, FastModeSingleJointAnalytic) {
+  skinspheres::Mat4f rest_world = skinspheres::Mat4f::Identity();
+  rest_world.topRightCorner<3, 1>() = Eigen::Vector3f(0.5f, -1.0f, 2.0f);
+  const SphereSet set = OneJointSet(rest_world);
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::vector<skinspheres::Vec4f> out(2);
+  RefitJob job{RefitMode::kFast, &set, &*rest, {}, {}, out};
+
+  Eigen::Affine3f motion = Eigen::Translation3f(3, 4, 5) * Eigen::AngleAxisf(0.7f, Eigen::Vector3f(1, 2, 3).normalized());
+  auto expect = [&](const skinspheres::Mat4f& t, float s_max, const char* what) {
+    const skinspheres::Mat4f g = t * rest_world;  // G(t) = T · G(rest)
+    job.joint_world = std::span<const skinspheres::Mat4f>(&g, 1);
+    ASSERT_TRUE(job.Run()) << what;
+    for (int s = 0; s < 2; ++s) {
+      const Eigen::Vector3f c = (t * set.centers_rest[s].homogeneous()).head<3>();
+      EXPECT_LT((out[s].head<3>() - c).norm(), 1e-5f) << what;
+      EXPECT_NEAR(out[s].w(), s_max * set.radii_fast[s], 1e-4f) << what;
+    }
+  };
+  expect(motion.matrix(), 1.0f, "rigid");
+  expect((motion * Eigen::Scaling(2.0f)).matrix(), 2.0f, "uniform scale");
+  // Non-uniform diag(3, 1, 1), unrotated so the bound is exact: AᵀA = diag(9, 1, 1), largest row
+  // sum 9, s_max = 3.
+  expect(skinspheres::Mat4f(Eigen::Affine3f(Eigen::Translation3f(1, 0, 0) * Eigen::Scaling(Eigen::Vector3f(3, 1, 1))).matrix()),
+         3.0f, "non-uniform scale");
+}
+
+TEST(RefitJobTest, TwoJointSpreadTermIsAdded) {
+  // A sphere at the origin half on joint 0, half on joint 1; joint 1 moves by (2, 0, 0):
+  // c' = (1, 0, 0), spread = 1, radius = 1 · radius_fast + 1.
+  SphereSet set = TwoSpheres();
+  set.joint_names = {"a", "b"};
+  set.joint_parents = {-1, 0};
+  set.joint_rest_world = {skinspheres::Mat4f::Identity(), skinspheres::Mat4f::Identity()};
+  set.influence_offsets = {0, 2, 3};
+  set.influence_joints = {0, 1, 0};
+  set.influence_weights = {0.5f, 0.5f, 1.0f};
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::vector<skinspheres::Mat4f> world(2, skinspheres::Mat4f::Identity());
+  world[1](0, 3) = 2.0f;
+  std::vector<skinspheres::Vec4f> out(2);
+  RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
+  ASSERT_TRUE(job.Run());
+  EXPECT_NEAR(out[0].x(), 1.0f, 1e-6f);
+  EXPECT_NEAR(out[0].w(), set.radii_fast[0] + 1.0f, 1e-5f);
+}
+
+// The influences' reach, by hand (sample_sphere_set.h, TwoJointsWithMesh): the mesh gives it, the
+// rest data takes it from the mesh when the set stores none, and 1 without a mesh.
+TEST(RefitJobTest, InfluenceReachComesFromTheMeshWeights) {
+  SphereSet set = TwoJointsWithMesh();
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  auto reach = InfluenceReachFromMesh(set);
+  ASSERT_TRUE(reach.ok()) << reach.error().message;
+  EXPECT_EQ(*reach, (std::vector<float>{1.0f, 0.5f, 0.75f, 1.0f}));
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  EXPECT_TRUE(std::ranges::equal(rest->reach(), *reach));
+  set.influence_reach = {1.0f, 0.75f, 0.75f, 1.0f};  // stored (larger than the mesh's: allowed)
+  rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  EXPECT_TRUE(std::ranges::equal(rest->reach(), set.influence_reach));
+  SphereSet no_mesh = TwoSpheres();
+  rest = RefitRestData::Create(no_mesh);
+  ASSERT_TRUE(rest.ok());
+  EXPECT_TRUE(std::ranges::equal(rest->reach(), std::vector<float>(no_mesh.influence_joints.size(), 1.0f)));
+}
+
+// Joint b moves by t = (10, 0, 0). Sphere 0 (weights a 0.75, b 0.25): c' = c + 2.5 x, d_a = 2.5,
+// d_b = 7.5; without reach the spread term is 7.5, with reach (a 1, b 0.5) 1 · 2.5 + 0.5 · 7.5 =
+// 6.25. Sphere 1 (a 5/12, b 7/12): d_a = 70/12, d_b = 50/12; the weighted sum (0.75 · 70/12 +
+// 50/12 = 102.5/12) exceeds the max, which stays.
+TEST(RefitJobTest, FastModeReachAnalyticTwoJoints) {
+  const SphereSet set = TwoJointsWithMesh();
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::vector<skinspheres::Mat4f> world(2, skinspheres::Mat4f::Identity());
+  world[1](0, 3) = 10.0f;
+  std::vector<skinspheres::Vec4f> out(2);
+  RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
+  ASSERT_TRUE(job.Run());
+  EXPECT_NEAR(out[0].x(), 2.75f, 1e-5f);
+  EXPECT_NEAR(out[0].w(), 0.5f + 6.25f, 1e-4f);
+  EXPECT_NEAR(out[1].x(), 0.75f + 70.0f / 12.0f, 1e-5f);
+  EXPECT_NEAR(out[1].w(), 0.5f + 70.0f / 12.0f, 1e-4f);
+  const auto old = ScalarFastRefit(set, *rest, world, nullptr);
+  EXPECT_NEAR(old[0].w(), 0.5f + 7.5f, 1e-4f);
+  EXPECT_LT(out[0].w(), old[0].w()) << "strictly tighter where the reach is below 1";
+  EXPECT_EQ(out[1].w(), old[1].w()) << "the max where it is the smaller";
+}
+
+// Random poses of the two joints (rotations, translations, non-uniform scales), the four vertices
+// skinned by the linear blend skinning formula in double: every vertex inside its fast spheres, the
+// bound never above the one without reach, and below it on some poses.
+TEST(RefitJobTest, FastModeWithReachHoldsEveryVertexOnRandomPoses) {
+  const SphereSet set = TwoJointsWithMesh();
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::mt19937 rng(2026);
+  std::uniform_real_distribution<float> angle(-3.1f, 3.1f), move(-3.0f, 3.0f), scale(0.3f, 3.0f);
+  std::vector<skinspheres::Mat4f> world(2);
+  std::vector<skinspheres::Vec4f> out(2);
+  int tighter = 0;
+  for (int p = 0; p < 2000; ++p) {
+    for (auto& g : world) {
+      const Eigen::Vector3f axis = Eigen::Vector3f(move(rng), move(rng), move(rng)).normalized();
+      Eigen::Affine3f t = Eigen::Translation3f(move(rng), move(rng), move(rng)) * Eigen::AngleAxisf(angle(rng), axis);
+      if (p % 2) t = t * Eigen::Scaling(Eigen::Vector3f(scale(rng), scale(rng), scale(rng)));
+      g = t.matrix();
+    }
+    RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
+    ASSERT_TRUE(job.Run());
+    const auto old = ScalarFastRefit(set, *rest, world, nullptr);
+    for (size_t s = 0; s < 2; ++s) {
+      ASSERT_LE(out[s].w(), old[s].w()) << "pose " << p << " sphere " << s;
+      tighter += out[s].w() < old[s].w();
+      for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+        const uint32_t v = set.vertices[k];
+        Eigen::Vector3d skinned = Eigen::Vector3d::Zero();
+        for (uint32_t q = set.mesh.influence_offsets[v]; q < set.mesh.influence_offsets[v + 1]; ++q) {
+          const skinning::BindEntry& b = set.mesh.binds[set.mesh.influence_binds[q]];
+          const Eigen::Matrix4d m = world[static_cast<size_t>(b.joint)].cast<double>() * b.inverse_bind.cast<double>();
+          skinned += double{set.mesh.influence_weights[q]} * (m * set.mesh.positions_bind[v].cast<double>().homogeneous()).head<3>();
+        }
+        const double d = (skinned - out[s].head<3>().cast<double>()).norm();
+        ASSERT_LE(d, out[s].w()) << "pose " << p << " sphere " << s << " vertex " << v;
+      }
+    }
+  }
+  EXPECT_GT(tighter, 100);
+  std::printf("two joints: %d of 4000 fast spheres tighter with reach\n", tighter);
+}
+
+// A set with neither reach nor mesh (a version-1 file, or a fast-only one written before reach)
+// refits with the bound without reach bit for bit, and so does any set whose reach is all 1.
+TEST(RefitJobTest, WithoutReachOrMeshTheFastBoundIsTheOldOneBitForBit) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  SphereSet old_set = fc->set;
+  old_set.influence_reach.clear();
+  old_set.mesh = {};
+  old_set.triangle_vertices.clear();
+  ASSERT_FALSE(old_set.Validate().has_value()) << old_set.Validate()->message;
+  SphereSet ones = fc->set;
+  ones.influence_reach.assign(ones.influence_joints.size(), 1.0f);
+  std::mt19937 rng(5);
+  for (const SphereSet* set : {&old_set, &ones}) {
+    auto rest = RefitRestData::Create(*set);
+    ASSERT_TRUE(rest.ok()) << rest.error().message;
+    for (int p = 0; p < 40; ++p) {
+      const Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 90.0f, 0.3f), "random");
+      const auto want = ScalarFastRefit(*set, *rest, pose.world, nullptr);
+      std::vector<skinspheres::Vec4f> got(set->size());
+      ASSERT_TRUE((RefitJob{RefitMode::kFast, set, &*rest, pose.world, {}, got}.Run()));
+      for (size_t s = 0; s < set->size(); ++s) {
+        for (int c = 0; c < 4; ++c) {
+          ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c])) << "sphere " << s;
+        }
+      }
+    }
+  }
+}
+
+TEST(RefitJobTest, SameOutputForOneAndTwoThreads) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  auto rest = RefitRestData::Create(fc->set);
+  ASSERT_TRUE(rest.ok());
+  std::mt19937 rng(7);
+  const Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, 0.3f), "random");
+  for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
+    std::vector<skinspheres::Vec4f> serial(fc->set.size()), one(fc->set.size()), two(fc->set.size());
+    RefitJob job{mode, &fc->set, &*rest, pose.world, pose.positions, serial};
+    ASSERT_TRUE(job.Run());
+    job.out = one;
+    tbb::task_arena(1).execute([&] { EXPECT_TRUE(RefitParallel(job, 1)); });
+    job.out = two;
+    tbb::task_arena(2).execute([&] { EXPECT_TRUE(RefitParallel(job, 1)); });
+    // Split by hand too: any range split gives the same bits.
+    std::vector<skinspheres::Vec4f> split(fc->set.size());
+    job.out = split;
+    for (size_t b = 0; b < fc->set.size(); b += 7) EXPECT_TRUE(job.RunRange(b, std::min(b + 7, fc->set.size())));
+    for (size_t s = 0; s < fc->set.size(); ++s) {
+      EXPECT_EQ(serial[s], one[s]) << ToString(mode) << " sphere " << s;
+      EXPECT_EQ(serial[s], two[s]) << ToString(mode) << " sphere " << s;
+      EXPECT_EQ(serial[s], split[s]) << ToString(mode) << " sphere " << s;
+    }
+  }
+}
+
+TEST(RefitJobTest, ValidateRefusesBadJobs) {
+  EXPECT_FALSE(RefitJob{}.Validate());
+  EXPECT_FALSE(RefitJob{}.Run());
+  const SphereSet set = TwoSpheres();
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok());
+  std::vector<skinspheres::Mat4f> world(1, skinspheres::Mat4f::Identity());
+  std::vector<Eigen::Vector3f> pos(4, Eigen::Vector3f::Zero());
+  std::vector<skinspheres::Vec4f> out(2);
+  const RefitJob good_fast{RefitMode::kFast, &set, &*rest, world, {}, out};
+  const RefitJob good_exact{RefitMode::kExact, &set, &*rest, world, pos, out};
+  EXPECT_TRUE(good_fast.Validate());
+  EXPECT_TRUE(good_exact.Validate());
+  RefitJob j = good_exact;
+  j.rest = nullptr;
+  j.joint_world = {};
+  EXPECT_TRUE(j.Validate()) << "exact mode without joints needs no rest data";
+  j = good_exact;
+  j.rest = nullptr;
+  EXPECT_FALSE(j.Validate()) << "exact mode with joints needs rest data";
+  j = good_fast;
+  j.rest = nullptr;
+  EXPECT_FALSE(j.Validate());
+  j = good_fast;
+  j.joint_world = {};
+  EXPECT_FALSE(j.Validate()) << "fast mode needs joints";
+  j = good_fast;
+  j.out = std::span<skinspheres::Vec4f>(out).first(1);
+  EXPECT_FALSE(j.Validate()) << "short output";
+  j = good_exact;
+  j.positions = std::span<const Eigen::Vector3f>(pos).first(3);
+  EXPECT_FALSE(j.Validate()) << "short positions";
+  j = good_fast;
+  j.mode = static_cast<RefitMode>(7);
+  EXPECT_FALSE(j.Validate()) << "unknown mode";
+  // Rest data of another set.
+  SphereSet other = TwoSpheres();
+  other.centers_rest.push_back(Eigen::Vector3f::Zero());
+  other.radii_rest.push_back(1);
+  other.radii_fast.push_back(1);
+  other.sphere_part.push_back(0);
+  other.sphere_joint.push_back(0);
+  other.sphere_level.push_back(2);
+  other.vertex_offsets.push_back(6);
+  other.triangle_offsets.push_back(2);
+  other.influence_offsets = {0, 1, 2, 3};
+  other.influence_joints = {0, 0, 0};
+  other.influence_weights = {1, 1, 1};
+  ASSERT_FALSE(other.Validate().has_value()) << other.Validate()->message;
+  j = good_fast;
+  j.spheres = &other;
+  std::vector<skinspheres::Vec4f> out3(3);
+  j.out = out3;
+  EXPECT_FALSE(j.Validate()) << "rest data from another set";
+  // Ranges.
+  EXPECT_FALSE(good_fast.RunRange(1, 3));
+  EXPECT_FALSE(good_fast.RunRange(2, 1));
+  EXPECT_TRUE(good_fast.RunRange(1, 2));
+  // Bad sets are refused when the rest data is built, naming the file.
+  SphereSet bad = TwoSpheres();
+  bad.source_file = "broken.json";
+  bad.radii_fast.pop_back();
+  auto r = RefitRestData::Create(bad);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("broken.json"), std::string::npos) << r.error().message;
+  bad = TwoSpheres();
+  bad.source_file = "singular.json";
+  bad.joint_rest_world[0] = skinspheres::Mat4f::Zero();
+  bad.joint_rest_world[0](3, 3) = 1;
+  r = RefitRestData::Create(bad);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("not invertible"), std::string::npos) << r.error().message;
+}
+
+void NonFiniteInputFails();
+
+// Every refusal, at every instruction set of the fast refit (exact mode has one).
+TEST(RefitJobTest, NonFiniteInputFailsWithoutCrashing) {
+  AtEveryRefitLevel("non-finite input", [] { NonFiniteInputFails(); });
+}
+
+void NonFiniteInputFails() {
+  const SphereSet set = TwoSpheres();
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok());
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  std::vector<skinspheres::Vec4f> out(2);
+  for (float bad : {nan, inf}) {
+    std::vector<skinspheres::Mat4f> world(1, skinspheres::Mat4f::Identity());
+    std::vector<Eigen::Vector3f> pos(4, Eigen::Vector3f::Ones());
+    RefitJob fast{RefitMode::kFast, &set, &*rest, world, {}, out};
+    RefitJob exact{RefitMode::kExact, &set, &*rest, world, pos, out};
+    RefitJob box{RefitMode::kExact, &set, &*rest, {}, pos, out};
+    EXPECT_TRUE(fast.Run());
+    EXPECT_TRUE(exact.Run());
+    EXPECT_TRUE(box.Run());
+    world[0](1, 1) = bad;  // linear part only: centre may stay finite, the scale bound may not
+    EXPECT_FALSE(fast.Run());
+    EXPECT_FALSE(RefitParallel(fast, 1));
+    world[0] = skinspheres::Mat4f::Identity();
+    world[0](0, 3) = bad;
+    EXPECT_FALSE(fast.Run());
+    EXPECT_FALSE(exact.Run());
+    world[0] = skinspheres::Mat4f::Identity();
+    pos[3].y() = bad;  // a vertex of the second sphere only (vertex 3)
+    EXPECT_FALSE(exact.Run());
+    EXPECT_FALSE(box.Run());
+    EXPECT_TRUE(exact.RunRange(0, 1)) << "the first sphere does not read vertex 3";
+    EXPECT_TRUE(fast.Run()) << "fast mode reads no positions";
+  }
+}
+
+}  // namespace
+}  // namespace skinspheres::runtime
