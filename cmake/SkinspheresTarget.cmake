@@ -1,5 +1,3 @@
-# skinspheres_warnings(<target>): the project's warning flags (errors with SKINSPHERES_WERROR).
-#
 # skinspheres_library(<name> EXPORT <export set> [STAGE <subfolder>] [EXCLUDE_STAGES <subfolders...>]
 #                     [PUBLIC_DEPS <targets...>] [PRIVATE_DEPS <targets...>])
 # One library per top-level folder: sources are <folder>/src/**/*.cc (stage subfolders included),
@@ -10,15 +8,6 @@
 # A stage folder can be its own target (lib's io/, the only user of Assimp): STAGE io builds only
 # src/io/** and installs only include/skinspheres/<folder>/io/; the folder's own target names it in
 # EXCLUDE_STAGES.
-function(skinspheres_warnings target)
-  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow)
-  if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")  # clang (fuzz builds) has no such warning
-    target_compile_options(${target} PRIVATE -Wno-maybe-uninitialized)
-  endif()
-  if(SKINSPHERES_WERROR)
-    target_compile_options(${target} PRIVATE -Werror)
-  endif()
-endfunction()
 
 function(skinspheres_library name)
   cmake_parse_arguments(ARG "" "EXPORT;STAGE" "EXCLUDE_STAGES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})

@@ -1,13 +1,12 @@
 // The C API (skinspheres/skinspheres.h) over the C++ runtime: handles wrap CharacterAsset and
 // CharacterInstance; no exception crosses the boundary; set-up errors keep their message in a
 // thread-local string, per-frame errors point at the runtime's static messages (no allocation).
-#include "skinspheres/skinspheres.h"
-
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
 #include <cstring>
 #include <exception>
+#include <filesystem>
 #include <memory>
 #include <new>
 #include <span>
@@ -16,9 +15,10 @@
 #include <vector>
 
 #include "skinspheres/runtime/api/character.h"
-#include "skinspheres/runtime/format/file_io.h"
 #include "skinspheres/runtime/api/joint_mapping.h"
+#include "skinspheres/runtime/format/file_io.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
+#include "skinspheres/skinspheres.h"
 #include "skinspheres/version.h"
 
 using skinspheres::ErrorCode;
@@ -269,7 +269,9 @@ skinspheres_status skinspheres_asset_load_file_with(const char* path, const skin
   return Guard([&] {
     if (out_asset) *out_asset = nullptr;
     if (path == nullptr || out_asset == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null path or out_asset");
-    return MakeAsset(rt::LoadSphereSet(path), options, out_asset);
+    // UTF-8 on every platform (on Windows a char path would otherwise be read in the code page).
+    const std::u8string utf8(reinterpret_cast<const char8_t*>(path));
+    return MakeAsset(rt::LoadSphereSet(std::filesystem::path(utf8)), options, out_asset);
   });
 }
 

@@ -1,27 +1,18 @@
 
 #include "skinspheres/skinning/skinning_job.h"
 
-
 #include <Eigen/Core>
 #include <algorithm>
 #include <limits>
 
 #include "skinning_kernels.h"
+#include "skinspheres/skinning/platform.h"
 
 namespace skinspheres::skinning {
 namespace {
 
 static_assert(sizeof(Mat4f) == 64 && alignof(Mat4f) <= 16,
               "kernels read Matrix4f as 16 column-major floats; Eigen's ABI must match the users'");
-
-bool CpuHasAvx2Fma() {
-#if defined(SKINSPHERES_X86)
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-#else
-  return false;
-#endif
-}
 
 // Floats a buffer of vertex_count vertices with this byte stride must hold; SIZE_MAX on overflow.
 size_t RequiredFloats(size_t vertex_count, size_t stride_bytes) {
@@ -99,7 +90,7 @@ void RunUnchecked(const SkinningJob& job, size_t begin, size_t end) {
   const SimdLevel level = ResolveSimdLevel(job.simd);
   if (job.prepared != nullptr) {
     switch (level) {
-#if defined(SKINSPHERES_X86)
+#if defined(SKINSPHERES_X86_64)
       case SimdLevel::kAvx2: kernels::avx2::RunPrepared(b, *job.prepared, begin, end); return;
       case SimdLevel::kSse2: kernels::sse2::RunPrepared(b, *job.prepared, begin, end); return;
 #endif
@@ -112,7 +103,7 @@ void RunUnchecked(const SkinningJob& job, size_t begin, size_t end) {
   csr.weights = job.influence_weights.data();
   csr.subset = job.subset.empty() ? nullptr : job.subset.data();
   switch (level) {
-#if defined(SKINSPHERES_X86)
+#if defined(SKINSPHERES_X86_64)
     case SimdLevel::kAvx2: kernels::avx2::RunCsr(b, csr, begin, end); return;
     case SimdLevel::kSse2: kernels::sse2::RunCsr(b, csr, begin, end); return;
 #endif
@@ -126,9 +117,9 @@ bool SimdLevelSupported(SimdLevel level) {
   switch (level) {
     case SimdLevel::kAuto:
     case SimdLevel::kScalar: return true;
-#if defined(SKINSPHERES_X86)
+#if defined(SKINSPHERES_X86_64)
     case SimdLevel::kSse2: return true;
-    case SimdLevel::kAvx2: return CpuHasAvx2Fma();
+    case SimdLevel::kAvx2: return HostCpu().avx2;
 #endif
     default: return false;
   }
@@ -136,8 +127,8 @@ bool SimdLevelSupported(SimdLevel level) {
 
 SimdLevel ResolveSimdLevel(SimdLevel level) {
   if (level != SimdLevel::kAuto) return level;
-#if defined(SKINSPHERES_X86)
-  return CpuHasAvx2Fma() ? SimdLevel::kAvx2 : SimdLevel::kSse2;
+#if defined(SKINSPHERES_X86_64)
+  return HostCpu().avx2 ? SimdLevel::kAvx2 : SimdLevel::kSse2;
 #else
   return SimdLevel::kScalar;
 #endif
@@ -148,7 +139,7 @@ const char* SimdLevelName(SimdLevel level) {
     case SimdLevel::kAuto: return "auto";
     case SimdLevel::kScalar: return "scalar";
     case SimdLevel::kSse2: return "sse2";
-    case SimdLevel::kAvx2: return "avx2+fma";
+    case SimdLevel::kAvx2: return "avx2";
   }
   return "?";
 }

@@ -6,7 +6,7 @@
 
 #include "skinning_kernels.h"
 
-#if defined(__x86_64__) || defined(__i386__)
+#if defined(SKINSPHERES_X86_64)
 #include <immintrin.h>
 #define SKS_NS sse2
 #define SKS_LEVEL 1

@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "skinspheres/skinning/math_types.h"
+#include "skinspheres/skinning/platform.h"
 #include "skinspheres/skinning/prepared_influences.h"
 
 namespace skinspheres::skinning::kernels {
@@ -36,8 +37,7 @@ struct Csr {
                    size_t end);                                                           \
   }
 SKINSPHERES_DECLARE_KERNELS(scalar)
-#if defined(__x86_64__) || defined(__i386__)
-#define SKINSPHERES_X86 1
+#if defined(SKINSPHERES_X86_64)
 SKINSPHERES_DECLARE_KERNELS(sse2)
 SKINSPHERES_DECLARE_KERNELS(avx2)
 #endif

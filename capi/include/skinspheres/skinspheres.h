@@ -114,7 +114,8 @@ SKINSPHERES_C_API const char* skinspheres_last_error(void);
 
 /* ---- Assets ---- */
 
-/* Loads a sphere set, binary or JSON (told apart by content). Errors name the path. */
+/* Loads a sphere set, binary or JSON (told apart by content). path: UTF-8, on every platform
+   (Windows too). Errors name the path. */
 SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_file(const char* path, skinspheres_asset** out_asset);
 /* The same from memory (copied: the caller may free data on return); name is used in messages
    (NULL: "<memory>"). */

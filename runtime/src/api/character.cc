@@ -324,6 +324,10 @@ struct CrowdBatch {
   // for their own Query() to report.
   static uint32_t QueryBatch(const CharacterAsset& asset, const float* soa, uint32_t lanes,
                              CharacterInstance* const inst[kLanes]) {
+#if !defined(SKINSPHERES_X86_64)
+    (void)asset, (void)soa, (void)lanes, (void)inst;
+    return 0;  // never called: the batch runs only on AVX-512F (RefitBatchUsable)
+#else
     lanes &= internal::avx512::BatchValuesOk(soa, asset.size(), internal::kMaxMagnitude);
     if (lanes == 0) return 0;
     for (uint32_t m = lanes; m != 0; m &= m - 1) inst[std::countr_zero(m)]->contacts_.clear();
@@ -358,6 +362,7 @@ struct CrowdBatch {
     }
     ++batched_queries;
     return lanes;
+#endif
   }
 
   // Instances [begin, end) with their inputs; true when all succeeded. In fast mode, with AVX-512F,

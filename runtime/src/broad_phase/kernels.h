@@ -1,17 +1,21 @@
-// Private: the broad phase's inner loops, compiled once per instruction set (SSE2, the x86-64
-// baseline; AVX2; AVX-512) from one body, broad_phase/kernels.inc, and picked at run time
-// (broad_phase/self_collision_job.cc). Every level evaluates every test with the same float operations in the same
-// order, so all levels give bit-identical results.
+// Private: the broad phase's inner loops, compiled once per instruction set from one body,
+// broad_phase/kernels.inc, and picked at run time (broad_phase/self_collision_job.cc): portable
+// (plain C++ over arrays of 4 floats, every platform: what aarch64 runs), and on x86-64 SSE2 (the
+// baseline), AVX2 and AVX-512. Every level evaluates every test with the same float operations in
+// the same order, so all levels, on all platforms, give bit-identical results.
 //
-// The kernel files include nothing but this header, <cstddef>, <cstdint> and the intrinsics:
-// no inline function of a shared header may be compiled with a wider instruction set (the linker
-// could keep that copy for the whole program).
+// The kernel files include nothing but this header, simd/float4.h, <bit>, <cstddef>, <cstdint>
+// and the intrinsics, all before any target pragma: no inline function of a shared header may be
+// compiled with a wider instruction set (the linker could keep that copy for the whole program).
 #pragma once
 
+#include <bit>
 #include <cstddef>
 #include <cstdint>
 
+#include "simd/float4.h"
 #include "skinspheres/runtime/broad_phase/broad_phase.h"
+#include "skinspheres/skinning/platform.h"
 
 namespace skinspheres::runtime::kernels {
 
@@ -123,9 +127,9 @@ struct Kernels {
                             size_t end, const uint16_t* parts, ContactSink* sink);
 };
 
+const Kernels& PortableKernels();
+#if defined(SKINSPHERES_X86_64)
 const Kernels& Sse2Kernels();
-#if defined(__x86_64__) || defined(__i386__)
-#define SKINSPHERES_BROAD_PHASE_X86 1
 const Kernels& Avx2Kernels();
 const Kernels& Avx512Kernels();
 #endif

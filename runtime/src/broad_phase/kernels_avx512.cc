@@ -2,19 +2,21 @@
 // and picked at run time when the CPU has it. See broad_phase/kernels.h.
 #include "broad_phase/kernels.h"
 
-#if defined(SKINSPHERES_BROAD_PHASE_X86)
+#if defined(SKINSPHERES_X86_64)
 #include <immintrin.h>
 
-// GCC takes the target from the pragma; clang ignores it and needs the attribute on every function.
+// GCC takes the target from the pragma; clang ignores it and needs the attribute on every function;
+// MSVC emits any intrinsic anywhere and needs neither.
 #if defined(__clang__)
 #pragma clang attribute push(__attribute__((target("avx512f,avx2,bmi,popcnt"))), apply_to = function)
-#else
+#elif defined(__GNUC__)
 #pragma GCC push_options
 #pragma GCC target("avx512f,avx2,bmi,popcnt")
 #endif
 
 namespace skinspheres::runtime::kernels {
 namespace avx512 {
+namespace F = simd::sse;
 namespace {
 
 struct Simd {
@@ -62,7 +64,7 @@ const Kernels& Avx512Kernels() { return avx512::KernelTable(); }
 
 #if defined(__clang__)
 #pragma clang attribute pop
-#else
+#elif defined(__GNUC__)
 #pragma GCC pop_options
 #endif
-#endif  // SKINSPHERES_BROAD_PHASE_X86
+#endif  // SKINSPHERES_X86_64

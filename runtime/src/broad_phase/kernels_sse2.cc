@@ -1,10 +1,12 @@
 // Broad-phase kernels, SSE2 level (the x86-64 baseline): 4 lanes. See broad_phase/kernels.h.
-#include <emmintrin.h>
-
 #include "broad_phase/kernels.h"
+
+#if defined(SKINSPHERES_X86_64)
+#include <emmintrin.h>
 
 namespace skinspheres::runtime::kernels {
 namespace sse2 {
+namespace F = simd::sse;
 namespace {
 
 struct Simd {
@@ -42,3 +44,4 @@ struct Simd {
 const Kernels& Sse2Kernels() { return sse2::KernelTable(); }
 
 }  // namespace skinspheres::runtime::kernels
+#endif  // SKINSPHERES_X86_64

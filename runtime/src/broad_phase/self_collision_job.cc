@@ -26,11 +26,11 @@
 #include <limits>
 #include <span>
 
-#include <emmintrin.h>
-
-#include "broad_phase/sphere_test.h"
 #include "broad_phase/kernels.h"
+#include "broad_phase/sphere_test.h"
+#include "simd/float4.h"
 #include "skinspheres/runtime/broad_phase/broad_phase.h"
+#include "skinspheres/skinning/platform.h"
 
 namespace skinspheres::runtime {
 namespace {
@@ -71,38 +71,30 @@ constexpr int kStartByIndex = 7;
 constexpr int kSoaFields = 8;
 
 bool CpuHas(BroadPhaseSimd level) {
-#if defined(SKINSPHERES_BROAD_PHASE_X86)
-  static const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("bmi");
-  static const bool avx512 = avx2 && __builtin_cpu_supports("avx512f");
   switch (level) {
     case BroadPhaseSimd::kAuto:
+    case BroadPhaseSimd::kPortable: return true;
+#if defined(SKINSPHERES_X86_64)
     case BroadPhaseSimd::kSse2:
       return true;
-    case BroadPhaseSimd::kAvx2:
-      return avx2;
-    case BroadPhaseSimd::kAvx512:
-      return avx512;
-  }
-  return false;
-#else
-  return level == BroadPhaseSimd::kAuto || level == BroadPhaseSimd::kSse2;
+    case BroadPhaseSimd::kAvx2: return HostCpu().avx2 && HostCpu().bmi1 && HostCpu().popcnt;
+    case BroadPhaseSimd::kAvx512: return HostCpu().avx512f && HostCpu().bmi1 && HostCpu().popcnt;
 #endif
+    default: return false;
+  }
 }
 
 const kernels::Kernels& KernelsFor(BroadPhaseSimd level) {
-#if defined(SKINSPHERES_BROAD_PHASE_X86)
   switch (ResolveBroadPhaseSimd(level)) {
+#if defined(SKINSPHERES_X86_64)
     case BroadPhaseSimd::kAvx512:
       return kernels::Avx512Kernels();
     case BroadPhaseSimd::kAvx2:
       return kernels::Avx2Kernels();
-    default:
-      break;
-  }
-#else
-  (void)level;
+    case BroadPhaseSimd::kSse2: return kernels::Sse2Kernels();
 #endif
-  return kernels::Sse2Kernels();
+    default: return kernels::PortableKernels();
+  }
 }
 
 kernels::FilterView View(const PairFilter& f) {
@@ -140,7 +132,11 @@ BroadPhaseSimd ResolveBroadPhaseSimd(BroadPhaseSimd level) {
   if (level != BroadPhaseSimd::kAuto) return level;
   if (CpuHas(BroadPhaseSimd::kAvx512)) return BroadPhaseSimd::kAvx512;
   if (CpuHas(BroadPhaseSimd::kAvx2)) return BroadPhaseSimd::kAvx2;
+#if defined(SKINSPHERES_X86_64)
   return BroadPhaseSimd::kSse2;
+#else
+  return BroadPhaseSimd::kPortable;
+#endif
 }
 
 const char* ToString(BroadPhaseSimd level) {
@@ -153,6 +149,7 @@ const char* ToString(BroadPhaseSimd level) {
       return "avx2";
     case BroadPhaseSimd::kAvx512:
       return "avx512";
+    case BroadPhaseSimd::kPortable: return "portable";
   }
   return "unknown";
 }
@@ -370,21 +367,22 @@ struct BroadPhaseContext::Impl {
     const float* grown = Soa(kGrown);
     // Bounds and spread of the centres (relative to the first, so float sums stay accurate), the
     // largest and mean grown radius.
-    const __m128 c0 = _mm_loadu_ps(spheres);
-    __m128 lo = c0, hi = c0, sum = _mm_setzero_ps(), sum2 = _mm_setzero_ps();
+    namespace F = simd::native;
+    const F::Float4 c0 = F::Load4(spheres);
+    F::Float4 lo = c0, hi = c0, sum = F::Zero(), sum2 = F::Zero();
     for (size_t s = 0; s < n; ++s) {
-      const __m128 v = _mm_loadu_ps(spheres + 4 * s);
-      lo = _mm_min_ps(lo, v);
-      hi = _mm_max_ps(hi, v);
-      const __m128 d = _mm_sub_ps(v, c0);
-      sum = _mm_add_ps(sum, d);
-      sum2 = _mm_add_ps(sum2, _mm_mul_ps(d, d));
+      const F::Float4 v = F::Load4(spheres + 4 * s);
+      lo = F::Min(lo, v);
+      hi = F::Max(hi, v);
+      const F::Float4 d = F::Sub(v, c0);
+      sum = F::Add(sum, d);
+      sum2 = F::Add(sum2, F::Mul(d, d));
     }
     float lo_f[4], hi_f[4], sum_f[4], sum2_f[4];
-    _mm_storeu_ps(lo_f, lo);
-    _mm_storeu_ps(hi_f, hi);
-    _mm_storeu_ps(sum_f, sum);
-    _mm_storeu_ps(sum2_f, sum2);
+    F::Store4(lo_f, lo);
+    F::Store4(hi_f, hi);
+    F::Store4(sum_f, sum);
+    F::Store4(sum2_f, sum2);
     float max_r = 0.0f, sum_r = 0.0f;
     for (size_t s = 0; s < n; ++s) {
       max_r = std::max(max_r, grown[s]);
@@ -887,18 +885,19 @@ struct BroadPhaseContext::Impl {
 
   // A sphere's box, padded as the sweep pads its intervals (two spheres that the exact test finds
   // touching have overlapping padded boxes on every axis).
-  static void PaddedBox(const float* sphere, __m128* lo, __m128* hi) {
-    const __m128 v = _mm_loadu_ps(sphere);
-    const __m128 r = _mm_shuffle_ps(v, v, _MM_SHUFFLE(3, 3, 3, 3));
-    const __m128 abs = _mm_andnot_ps(_mm_set1_ps(-0.0f), v);
-    const __m128 pad = _mm_add_ps(_mm_mul_ps(_mm_add_ps(abs, r), _mm_set1_ps(kPadRelative)), _mm_set1_ps(kPadAbsolute));
-    *lo = _mm_sub_ps(_mm_sub_ps(v, r), pad);
-    *hi = _mm_add_ps(_mm_add_ps(v, r), pad);
+  static void PaddedBox(const float* sphere, simd::native::Float4* lo, simd::native::Float4* hi) {
+    namespace F = simd::native;
+    const F::Float4 v = F::Load4(sphere);
+    const F::Float4 r = F::Splat<3>(v);
+    const F::Float4 pad = F::Add(F::Mul(F::Add(F::Abs(v), r), F::Set1(kPadRelative)), F::Set1(kPadAbsolute));
+    *lo = F::Sub(F::Sub(v, r), pad);
+    *hi = F::Add(F::Add(v, r), pad);
   }
 
   static bool BoxesOverlap(const float* a, const float* b) {  // 8 floats each (low, high)
-    const int lo_ok = _mm_movemask_ps(_mm_cmple_ps(_mm_loadu_ps(a), _mm_loadu_ps(b + 4)));
-    const int hi_ok = _mm_movemask_ps(_mm_cmple_ps(_mm_loadu_ps(b), _mm_loadu_ps(a + 4)));
+    namespace F = simd::native;
+    const unsigned lo_ok = F::Bits(F::LessEqual(F::Load4(a), F::Load4(b + 4)));
+    const unsigned hi_ok = F::Bits(F::LessEqual(F::Load4(b), F::Load4(a + 4)));
     return (lo_ok & hi_ok & 7) == 7;
   }
 
@@ -908,17 +907,18 @@ struct BroadPhaseContext::Impl {
   size_t CrossGroups(bool to_out) {
     const size_t groups = filter.group_count();
     float* box = ctx.group_box_.data();
+    namespace F = simd::native;
     for (uint32_t g = 0; g < groups; ++g) {
-      __m128 lo = _mm_set1_ps(std::numeric_limits<float>::infinity());
-      __m128 hi = _mm_set1_ps(-std::numeric_limits<float>::infinity());
+      F::Float4 lo = F::Set1(std::numeric_limits<float>::infinity());
+      F::Float4 hi = F::Set1(-std::numeric_limits<float>::infinity());
       for (uint32_t s = filter.group_begin(g); s < filter.group_begin(g + 1); ++s) {
-        __m128 l, h;
+        F::Float4 l, h;
         PaddedBox(spheres + 4 * size_t{s}, &l, &h);
-        lo = _mm_min_ps(lo, l);
-        hi = _mm_max_ps(hi, h);
+        lo = F::Min(lo, l);
+        hi = F::Max(hi, h);
       }
-      _mm_storeu_ps(box + 8 * g, lo);
-      _mm_storeu_ps(box + 8 * g + 4, hi);
+      F::Store4(box + 8 * g, lo);
+      F::Store4(box + 8 * g + 4, hi);
     }
     // Characters by the low end of their boxes along the axis of largest spread of those ends:
     // an insertion sort from last frame's order (coherent motion), std::sort past 4G moves.
@@ -970,12 +970,12 @@ struct BroadPhaseContext::Impl {
     };
     const auto inside = [&](uint32_t g, const float* other, std::vector<uint32_t>* list) {
       list->clear();
-      alignas(16) float sphere_box[8];
+      float sphere_box[8];
       for (uint32_t s = filter.group_begin(g); s < filter.group_begin(g + 1); ++s) {
-        __m128 l, h;
+        F::Float4 l, h;
         PaddedBox(spheres + 4 * size_t{s}, &l, &h);
-        _mm_store_ps(sphere_box, l);
-        _mm_store_ps(sphere_box + 4, h);
+        F::Store4(sphere_box, l);
+        F::Store4(sphere_box + 4, h);
         if (BoxesOverlap(sphere_box, other)) list->push_back(s);
       }
     };

@@ -11,6 +11,8 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "skinspheres/skinning/platform.h"
+
 namespace skinspheres::runtime::internal {
 
 // Spheres of 16 lanes, structure of arrays: sphere s at soa + kBatchSphereFloats * s, as
@@ -35,6 +37,7 @@ bool CrowdQueryBatched();
 // How many batches the calling thread has queried at once (tests: that the batched query ran).
 uint64_t CrowdQueryBatches();
 
+#if defined(SKINSPHERES_X86_64)
 namespace avx512 {
 // The lanes whose spheres [0, n) all have |x|, |y|, |z|, r <= max_magnitude and r >= 0 (the
 // broad phase's value check; the refit already refused non-finite spheres).
@@ -45,5 +48,6 @@ uint32_t BatchValuesOk(const float* soa, size_t n, float max_magnitude);
 size_t BatchTestPairs(const float* soa, const uint32_t* pairs, size_t begin, size_t end, uint32_t lanes,
                       BatchHits* hits);
 }  // namespace avx512
+#endif
 
 }  // namespace skinspheres::runtime::internal

@@ -5,13 +5,14 @@
 // contacts are bit for bit those of each instance's own query. Stack: a few hundred bytes.
 #include "crowd/crowd_query.h"
 
-#if defined(__x86_64__) || defined(__i386__)
+#if defined(SKINSPHERES_X86_64)
 #include <immintrin.h>
 
-// GCC takes the target from the pragma; clang ignores it and needs the attribute on every function.
+// GCC takes the target from the pragma; clang ignores it and needs the attribute on every function;
+// MSVC emits any intrinsic anywhere and needs neither.
 #if defined(__clang__)
 #pragma clang attribute push(__attribute__((target("avx512f"))), apply_to = function)
-#else
+#elif defined(__GNUC__)
 #pragma GCC push_options
 #pragma GCC target("avx512f")
 #endif
@@ -75,7 +76,7 @@ size_t BatchTestPairs(const float* soa, const uint32_t* pairs, size_t begin, siz
 
 #if defined(__clang__)
 #pragma clang attribute pop
-#else
+#elif defined(__GNUC__)
 #pragma GCC pop_options
 #endif
 #endif  // x86

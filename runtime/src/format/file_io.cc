@@ -1,8 +1,22 @@
+// Whole-file reading and checked writing (file_io.h). The operating system's part sits in one
+// place per platform: POSIX (open, fstat, read; non-blocking opens so that a FIFO is refused, not
+// waited on) and Win32 (CreateFileW on the wide path, GetFileType to refuse pipes and devices,
+// ReadFile; writing through _wfopen in binary mode). Everything else is shared.
 #include "skinspheres/runtime/format/file_io.h"
 
+#if defined(_WIN32)
+#ifndef WIN32_LEAN_AND_MEAN
+#define WIN32_LEAN_AND_MEAN
+#endif
+#ifndef NOMINMAX
+#define NOMINMAX
+#endif
+#include <windows.h>
+#else
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#endif
 
 #include <algorithm>
 #include <cerrno>
@@ -13,18 +27,105 @@ namespace skinspheres::runtime {
 namespace {
 
 Error FileError(ErrorCode code, const std::filesystem::path& path, const std::string& problem) {
-  return MakeError(code, path.string() + ": " + problem);
+  return MakeError(code, PathText(path) + ": " + problem);
 }
 
 std::string Reason(int errno_value) { return std::strerror(errno_value); }
 
-// Closes the descriptor on every path out of ReadRegularFile.
-struct Fd {
-  int fd = -1;
-  ~Fd() {
-    if (fd >= 0) ::close(fd);
+#if defined(_WIN32)
+// ------------------------------------------------------------------------------------ Win32
+
+std::string WindowsReason(DWORD code) {
+  char text[256] = {};
+  const DWORD n = FormatMessageA(FORMAT_MESSAGE_FROM_SYSTEM | FORMAT_MESSAGE_IGNORE_INSERTS, nullptr, code,
+                                 MAKELANGID(LANG_ENGLISH, SUBLANG_DEFAULT), text, sizeof(text), nullptr);
+  std::string reason(text, n);
+  while (!reason.empty() && (reason.back() == '\n' || reason.back() == '\r' || reason.back() == '.')) reason.pop_back();
+  if (reason.empty()) reason = "Windows error " + std::to_string(code);
+  return reason;
+}
+
+// A file opened for reading; closed on every path out.
+class InputFile {
+ public:
+  InputFile() = default;
+  InputFile(const InputFile&) = delete;
+  InputFile& operator=(const InputFile&) = delete;
+  ~InputFile() {
+    if (handle_ != INVALID_HANDLE_VALUE) CloseHandle(handle_);
   }
+
+  // Opens `path` when it is a regular file (not a directory, a pipe or a device such as NUL or
+  // CON); `size` gets its size.
+  std::optional<Error> Open(const std::filesystem::path& path, uint64_t* size) {
+    if (path.empty()) return MakeError(ErrorCode::kInvalidArgument, "empty path: no file named");
+    const DWORD attributes = GetFileAttributesW(path.c_str());
+    if (attributes != INVALID_FILE_ATTRIBUTES && (attributes & FILE_ATTRIBUTE_DIRECTORY) != 0) {
+      return FileError(ErrorCode::kFileUnreadable, path, "is a directory, not a file");
+    }
+    handle_ = CreateFileW(path.c_str(), GENERIC_READ, FILE_SHARE_READ | FILE_SHARE_WRITE, nullptr, OPEN_EXISTING,
+                          FILE_ATTRIBUTE_NORMAL, nullptr);
+    if (handle_ == INVALID_HANDLE_VALUE) {
+      const DWORD e = GetLastError();
+      if (e == ERROR_FILE_NOT_FOUND || e == ERROR_PATH_NOT_FOUND || e == ERROR_INVALID_NAME) {
+        return FileError(ErrorCode::kFileNotFound, path, "file not found");
+      }
+      if (e == ERROR_ACCESS_DENIED)
+        return FileError(ErrorCode::kFileUnreadable, path, "cannot be read (permission denied)");
+      if (e == ERROR_PIPE_BUSY) return FileError(ErrorCode::kFileUnreadable, path, "is a pipe, not a regular file");
+      return FileError(ErrorCode::kFileUnreadable, path, "cannot be opened for reading (" + WindowsReason(e) + ")");
+    }
+    switch (GetFileType(handle_)) {
+      case FILE_TYPE_DISK: break;
+      case FILE_TYPE_PIPE: return FileError(ErrorCode::kFileUnreadable, path, "is a pipe, not a regular file");
+      case FILE_TYPE_CHAR: return FileError(ErrorCode::kFileUnreadable, path, "is a device, not a regular file");
+      default: return FileError(ErrorCode::kFileUnreadable, path, "is not a regular file");
+    }
+    LARGE_INTEGER bytes{};
+    if (!GetFileSizeEx(handle_, &bytes)) {
+      return FileError(ErrorCode::kFileUnreadable, path, "cannot be read (" + WindowsReason(GetLastError()) + ")");
+    }
+    *size = static_cast<uint64_t>(std::max<LONGLONG>(bytes.QuadPart, 0));
+    return std::nullopt;
+  }
+
+  // Reads until `out` is full or the file ends: the number of bytes read, or -1 (reason() says why).
+  int64_t ReadUpTo(char* out, size_t n) {
+    size_t have = 0;
+    while (have < n) {
+      const DWORD want = static_cast<DWORD>(std::min<size_t>(n - have, DWORD{1} << 30));
+      DWORD got = 0;
+      if (!ReadFile(handle_, out + have, want, &got, nullptr)) {
+        error_ = GetLastError();
+        return -1;
+      }
+      if (got == 0) break;
+      have += got;
+    }
+    return static_cast<int64_t>(have);
+  }
+  std::string reason() const { return WindowsReason(error_); }
+
+ private:
+  HANDLE handle_ = INVALID_HANDLE_VALUE;
+  DWORD error_ = 0;
 };
+
+// The output stream of CheckedFileWriter: binary mode, the wide path.
+std::FILE* OpenForWriting(const std::filesystem::path& path, std::optional<Error>* error) {
+  const DWORD attributes = GetFileAttributesW(path.c_str());
+  if (attributes != INVALID_FILE_ATTRIBUTES && (attributes & FILE_ATTRIBUTE_DIRECTORY) != 0) {
+    *error = FileError(ErrorCode::kFileUnreadable, path, "is a directory: cannot write to it");
+    return nullptr;
+  }
+  std::FILE* file = _wfopen(path.c_str(), L"wb");
+  if (file == nullptr)
+    *error = FileError(ErrorCode::kFileUnreadable, path, "cannot open for writing (" + Reason(errno) + ")");
+  return file;
+}
+
+#else
+// ------------------------------------------------------------------------------------ POSIX
 
 const char* NotRegular(mode_t mode) {
   if (S_ISDIR(mode)) return "is a directory, not a file";
@@ -34,50 +135,97 @@ const char* NotRegular(mode_t mode) {
   return "is not a regular file";
 }
 
-// Opens `path` for reading when it is a regular file (non-blocking open, so a FIFO is refused
-// at once); `size` gets its size.
-std::optional<Error> OpenRegular(const std::filesystem::path& path, Fd* f, uint64_t* size) {
-  if (path.empty()) return MakeError(ErrorCode::kInvalidArgument, "empty path: no file named");
-  do {
-    f->fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
-  } while (f->fd < 0 && errno == EINTR);
-  if (f->fd < 0) {
-    const int e = errno;
-    if (e == ENOENT || e == ENOTDIR) return FileError(ErrorCode::kFileNotFound, path, "file not found");
-    if (e == EACCES || e == EPERM) return FileError(ErrorCode::kFileUnreadable, path, "cannot be read (permission denied)");
-    return FileError(ErrorCode::kFileUnreadable, path, "cannot be opened for reading (" + Reason(e) + ")");
+// A file opened for reading; closed on every path out.
+class InputFile {
+ public:
+  InputFile() = default;
+  InputFile(const InputFile&) = delete;
+  InputFile& operator=(const InputFile&) = delete;
+  ~InputFile() {
+    if (fd_ >= 0) ::close(fd_);
   }
-  struct stat st {};
-  if (::fstat(f->fd, &st) != 0) return FileError(ErrorCode::kFileUnreadable, path, "cannot be read (" + Reason(errno) + ")");
-  if (!S_ISREG(st.st_mode)) return FileError(ErrorCode::kFileUnreadable, path, NotRegular(st.st_mode));
-  *size = static_cast<uint64_t>(std::max<off_t>(st.st_size, 0));
-  // A regular file never blocks; back to blocking reads so a slow disk is waited on, not an error.
-  const int flags = ::fcntl(f->fd, F_GETFL);
-  if (flags >= 0) ::fcntl(f->fd, F_SETFL, flags & ~O_NONBLOCK);
-  return std::nullopt;
-}
 
-// read() until `out` is full or the file ends; the number of bytes read, or -1 (errno set).
-int64_t ReadUpTo(int fd, char* out, size_t n) {
-  size_t have = 0;
-  while (have < n) {
-    const ssize_t got = ::read(fd, out + have, n - have);
-    if (got < 0) {
-      if (errno == EINTR) continue;
-      return -1;
+  // Opens `path` for reading when it is a regular file (non-blocking open, so a FIFO is refused
+  // at once); `size` gets its size.
+  std::optional<Error> Open(const std::filesystem::path& path, uint64_t* size) {
+    if (path.empty()) return MakeError(ErrorCode::kInvalidArgument, "empty path: no file named");
+    do {
+      fd_ = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+    } while (fd_ < 0 && errno == EINTR);
+    if (fd_ < 0) {
+      const int e = errno;
+      if (e == ENOENT || e == ENOTDIR) return FileError(ErrorCode::kFileNotFound, path, "file not found");
+      if (e == EACCES || e == EPERM)
+        return FileError(ErrorCode::kFileUnreadable, path, "cannot be read (permission denied)");
+      return FileError(ErrorCode::kFileUnreadable, path, "cannot be opened for reading (" + Reason(e) + ")");
     }
-    if (got == 0) break;
-    have += static_cast<size_t>(got);
+    struct stat st {};
+    if (::fstat(fd_, &st) != 0)
+      return FileError(ErrorCode::kFileUnreadable, path, "cannot be read (" + Reason(errno) + ")");
+    if (!S_ISREG(st.st_mode)) return FileError(ErrorCode::kFileUnreadable, path, NotRegular(st.st_mode));
+    *size = static_cast<uint64_t>(std::max<off_t>(st.st_size, 0));
+    // A regular file never blocks; back to blocking reads so a slow disk is waited on, not an error.
+    const int flags = ::fcntl(fd_, F_GETFL);
+    if (flags >= 0) ::fcntl(fd_, F_SETFL, flags & ~O_NONBLOCK);
+    return std::nullopt;
   }
-  return static_cast<int64_t>(have);
+
+  // read() until `out` is full or the file ends: the number of bytes read, or -1 (reason() says why).
+  int64_t ReadUpTo(char* out, size_t n) {
+    size_t have = 0;
+    while (have < n) {
+      const ssize_t got = ::read(fd_, out + have, n - have);
+      if (got < 0) {
+        if (errno == EINTR) continue;
+        error_ = errno;
+        return -1;
+      }
+      if (got == 0) break;
+      have += static_cast<size_t>(got);
+    }
+    return static_cast<int64_t>(have);
+  }
+  std::string reason() const { return Reason(error_); }
+
+ private:
+  int fd_ = -1;
+  int error_ = 0;
+};
+
+// The output stream of CheckedFileWriter. Non-blocking open: a FIFO nobody reads fails at once
+// (ENXIO) instead of waiting for a reader forever. Once open, writes block as usual (a pipe with a
+// reader, a slow disk).
+std::FILE* OpenForWriting(const std::filesystem::path& path, std::optional<Error>* error) {
+  int fd = -1;
+  do {
+    fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NONBLOCK | O_CLOEXEC | O_NOCTTY, 0666);
+  } while (fd < 0 && errno == EINTR);
+  if (fd < 0) {
+    const int e = errno;
+    struct stat st {};
+    const bool fifo = e == ENXIO && ::stat(path.c_str(), &st) == 0 && S_ISFIFO(st.st_mode);
+    *error = FileError(ErrorCode::kFileUnreadable, path,
+                       fifo ? "is a FIFO (named pipe) nobody reads: cannot write to it"
+                            : "cannot open for writing (" + Reason(e) + ")");
+    return nullptr;
+  }
+  const int flags = ::fcntl(fd, F_GETFL);
+  if (flags >= 0) ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
+  std::FILE* file = ::fdopen(fd, "wb");
+  if (file == nullptr) {
+    *error = FileError(ErrorCode::kFileUnreadable, path, "cannot open for writing (" + Reason(errno) + ")");
+    ::close(fd);
+  }
+  return file;
 }
+#endif
 
 // ReadRegularFile into any contiguous byte container with resize() (std::string, a byte vector).
 template <typename Bytes>
 Result<Bytes> ReadRegular(const std::filesystem::path& path, uint64_t max_bytes, std::string_view what) {
-  Fd f;
+  InputFile f;
   uint64_t size = 0;
-  if (auto err = OpenRegular(path, &f, &size)) return *err;
+  if (auto err = f.Open(path, &size)) return *err;
   auto too_large = [&](uint64_t n, bool at_least) {
     return FileError(ErrorCode::kFormatRejected, path,
                      "is " + std::string(at_least ? "more than " : "") + std::to_string(n) + " bytes; a " +
@@ -91,8 +239,8 @@ Result<Bytes> ReadRegular(const std::filesystem::path& path, uint64_t max_bytes,
   bytes.resize(static_cast<size_t>(size) + 1);
   size_t have = 0;
   for (;;) {
-    const int64_t got = ReadUpTo(f.fd, reinterpret_cast<char*>(bytes.data()) + have, bytes.size() - have);
-    if (got < 0) return FileError(ErrorCode::kFileUnreadable, path, "read error (" + Reason(errno) + ")");
+    const int64_t got = f.ReadUpTo(reinterpret_cast<char*>(bytes.data()) + have, bytes.size() - have);
+    if (got < 0) return FileError(ErrorCode::kFileUnreadable, path, "read error (" + f.reason() + ")");
     have += static_cast<size_t>(got);
     if (have < bytes.size()) break;  // the end of the file
     if (have > max_bytes) return too_large(max_bytes, true);
@@ -104,6 +252,11 @@ Result<Bytes> ReadRegular(const std::filesystem::path& path, uint64_t max_bytes,
 
 }  // namespace
 
+std::string PathText(const std::filesystem::path& path) {
+  const std::u8string text = path.u8string();
+  return std::string(reinterpret_cast<const char*>(text.data()), text.size());
+}
+
 Result<std::string> ReadRegularFile(const std::filesystem::path& path, uint64_t max_bytes, std::string_view what) {
   return ReadRegular<std::string>(path, max_bytes, what);
 }
@@ -114,16 +267,16 @@ Result<std::vector<std::byte>> ReadRegularFileBytes(const std::filesystem::path&
 }
 
 Result<std::vector<uint8_t>> ReadRegularFilePrefix(const std::filesystem::path& path, uint64_t length) {
-  Fd f;
+  InputFile f;
   uint64_t size = 0;
-  if (auto err = OpenRegular(path, &f, &size)) return *err;
+  if (auto err = f.Open(path, &size)) return *err;
   const auto shorter = [&] {
     return FileError(ErrorCode::kFormatRejected, path, "is shorter than the " + std::to_string(length) + " bytes expected");
   };
   if (size < length) return shorter();  // refused before allocating
   std::vector<uint8_t> bytes(static_cast<size_t>(length));
-  const int64_t got = ReadUpTo(f.fd, reinterpret_cast<char*>(bytes.data()), bytes.size());
-  if (got < 0) return FileError(ErrorCode::kFileUnreadable, path, "read error (" + Reason(errno) + ")");
+  const int64_t got = f.ReadUpTo(reinterpret_cast<char*>(bytes.data()), bytes.size());
+  if (got < 0) return FileError(ErrorCode::kFileUnreadable, path, "read error (" + f.reason() + ")");
   if (static_cast<uint64_t>(got) < length) return shorter();
   return bytes;
 }
@@ -134,30 +287,8 @@ std::optional<Error> WriteWholeFile(const std::filesystem::path& path, std::stri
   return out.Close();
 }
 
-CheckedFileWriter::CheckedFileWriter(const std::filesystem::path& path) : path_(path) {
-  // Non-blocking open: a FIFO nobody reads fails at once (ENXIO) instead of waiting for a reader
-  // forever. Once open, writes block as usual (a pipe with a reader, a slow disk).
-  int fd = -1;
-  do {
-    fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NONBLOCK | O_CLOEXEC | O_NOCTTY, 0666);
-  } while (fd < 0 && errno == EINTR);
-  if (fd < 0) {
-    const int e = errno;
-    struct stat st {};
-    const bool fifo = e == ENXIO && ::stat(path.c_str(), &st) == 0 && S_ISFIFO(st.st_mode);
-    error_ = FileError(ErrorCode::kFileUnreadable, path_,
-                       fifo ? "is a FIFO (named pipe) nobody reads: cannot write to it"
-                            : "cannot open for writing (" + Reason(e) + ")");
-    return;
-  }
-  const int flags = ::fcntl(fd, F_GETFL);
-  if (flags >= 0) ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
-  file_ = ::fdopen(fd, "wb");
-  if (file_ == nullptr) {
-    error_ = FileError(ErrorCode::kFileUnreadable, path_, "cannot open for writing (" + Reason(errno) + ")");
-    ::close(fd);
-  }
-}
+CheckedFileWriter::CheckedFileWriter(const std::filesystem::path& path)
+    : path_(path), file_(OpenForWriting(path, &error_)) {}
 
 CheckedFileWriter::~CheckedFileWriter() {
   if (file_ != nullptr) std::fclose(file_);

@@ -615,7 +615,7 @@ std::optional<Error> SaveSphereSetBinary(const SphereSet& set, const std::filesy
 Result<SphereSet> LoadSphereSetBinary(const std::filesystem::path& path) {
   auto bytes = ReadSphereSetFile(path);
   if (!bytes.ok()) return bytes.error();
-  return ReadSphereSetBinary(*bytes, path.string());
+  return ReadSphereSetBinary(*bytes, PathText(path));
 }
 
 }  // namespace skinspheres::runtime

@@ -406,7 +406,7 @@ std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::
   if (format == SphereSetFileFormat::kBinary) return SaveSphereSetBinary(set, path);
   if (format == SphereSetFileFormat::kBinaryFastOnly) return SaveSphereSetBinary(set, path, SphereSetBinaryContent::kFastOnly);
   if (set.fast_only) {
-    return MakeError(ErrorCode::kInvalidArgument, path.string() + ": a fast-only sphere set (" +
+    return MakeError(ErrorCode::kInvalidArgument, PathText(path) + ": a fast-only sphere set (" +
                                                       (set.loaded_from.empty() ? "no vertex lists" : set.loaded_from) +
                                                       ") cannot be written as JSON, which holds the whole set");
   }
@@ -436,7 +436,7 @@ Result<SphereSet> LoadSphereSet(const std::filesystem::path& path) {
   // A regular file only, at most kMaxSphereSetBytes, refused from its size (file_io.h).
   auto bytes = ReadSphereSetFile(path);
   if (!bytes.ok()) return bytes.error();
-  return ReadSphereSet(*bytes, path.string());
+  return ReadSphereSet(*bytes, PathText(path));
 }
 
 }  // namespace skinspheres::runtime

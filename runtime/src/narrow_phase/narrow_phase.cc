@@ -5,28 +5,22 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <cstdio>
 #include <array>
 #include <atomic>
 #include <bit>
-#include <optional>
-#include <cmath>
 #include <cfloat>
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <map>
+#include <optional>
 #include <string>
 #include <unordered_map>
 
+#include "simd/float4.h"
 #include "skinspheres/runtime/narrow_phase/triangle_contact.h"
 #include "skinspheres/skinning/skinning_job.h"
 #include "skinspheres/skinning/skinning_matrices_job.h"
-
-#if defined(__SSE2__) || defined(_M_X64)
-#define SKINSPHERES_NARROW_SSE2 1
-#include <emmintrin.h>
-#else
-#define SKINSPHERES_NARROW_SSE2 0
-#endif
 
 namespace skinspheres::runtime {
 
@@ -156,37 +150,23 @@ struct NarrowPhaseAccess {
   static bool PositionBox(const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t c, Box* box) {
     const uint32_t* vertex = d.cluster_vertices_.data() + d.cluster_vertex_offsets_[c];
     const uint32_t* const end = d.cluster_vertices_.data() + d.cluster_vertex_offsets_[c + 1];
-#if SKINSPHERES_NARROW_SSE2
-    // One vertex per register (x, y, z, 0), loaded without reading past it (_mm_loadl_epi64 reads
-    // through an unaligned, may-alias type); p - p is 0 exactly when p is finite, so a sum of them
-    // stays 0 only if every vertex was. min / max return the second operand on ties, so a bound may
-    // be -0 where a scalar min gave +0: equal in every comparison.
-    __m128 lo = _mm_set1_ps(INFINITY), hi = _mm_set1_ps(-INFINITY), zero = _mm_setzero_ps();
+    // One vertex per Float4 (x, y, z, 0; simd/float4.h: SSE on x86-64, portable elsewhere, the same
+    // bits); p - p is 0 exactly when p is finite, so a sum of them stays 0 only if every vertex was.
+    // Min / Max return the second operand on ties, so a bound may be -0 where std::min gave +0:
+    // equal in every comparison.
+    namespace F = simd::native;
+    F::Float4 lo = F::Set1(INFINITY), hi = F::Set1(-INFINITY), zero = F::Zero();
     for (; vertex != end; ++vertex) {
-      const float* q = pos[*vertex].data();
-      const __m128 xy = _mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(q)));
-      const __m128 p = _mm_movelh_ps(xy, _mm_load_ss(q + 2));
-      zero = _mm_add_ps(zero, _mm_sub_ps(p, p));
-      lo = _mm_min_ps(lo, p);
-      hi = _mm_max_ps(hi, p);
+      const F::Float4 p = F::Load3(pos[*vertex].data());
+      zero = F::Add(zero, F::Sub(p, p));
+      lo = F::Min(lo, p);
+      hi = F::Max(hi, p);
     }
-    alignas(16) float l[4], h[4], z[4];
-    _mm_store_ps(l, lo);
-    _mm_store_ps(h, hi);
-    _mm_store_ps(z, zero);
+    float l[4], h[4], z[4];
+    F::Store4(l, lo);
+    F::Store4(h, hi);
+    F::Store4(z, zero);
     const bool finite = z[0] == 0.0f && z[1] == 0.0f && z[2] == 0.0f;
-#else
-    Eigen::Vector3f lo_v = Eigen::Vector3f::Constant(INFINITY), hi_v = Eigen::Vector3f::Constant(-INFINITY);
-    bool finite = true;
-    for (; vertex != end; ++vertex) {
-      const Eigen::Vector3f& p = pos[*vertex];
-      finite &= p.allFinite();
-      lo_v = lo_v.cwiseMin(p);
-      hi_v = hi_v.cwiseMax(p);
-    }
-    const float* l = lo_v.data();
-    const float* h = hi_v.data();
-#endif
     for (int k = 0; k < 3; ++k) {
       box->lo[k] = l[k];
       box->hi[k] = h[k];

@@ -14,17 +14,18 @@
 #include "crowd/crowd_query.h"
 #include "refit/refit_internal.h"
 
-#if defined(__x86_64__) || defined(__i386__)
+#if defined(SKINSPHERES_X86_64)
 #include <cfloat>
 #include <cstdint>
 #include <limits>
 
 #include <immintrin.h>
 
-// GCC takes the target from the pragma; clang ignores it and needs the attribute on every function.
+// GCC takes the target from the pragma; clang ignores it and needs the attribute on every function;
+// MSVC emits any intrinsic anywhere and needs neither.
 #if defined(__clang__)
 #pragma clang attribute push(__attribute__((target("avx512f"))), apply_to = function)
-#else
+#elif defined(__GNUC__)
 #pragma GCC push_options
 #pragma GCC target("avx512f")
 #endif
@@ -205,7 +206,7 @@ uint32_t RefitFastBatch16(const FastRefitArrays& a, size_t sphere_count, const f
 
 #if defined(__clang__)
 #pragma clang attribute pop
-#else
+#elif defined(__GNUC__)
 #pragma GCC pop_options
 #endif
 #endif  // x86

@@ -3,7 +3,7 @@
 // so the same bits; the VEX encoding (three operands, no register copies) makes it faster.
 #include "refit/refit_internal.h"
 
-#if defined(__x86_64__) || defined(__i386__)
+#if defined(SKINSPHERES_X86_64)
 // Every header refit_fast.inc needs, before the target pragma (standard templates stay baseline).
 #include <algorithm>
 #include <cfloat>
@@ -11,24 +11,26 @@
 #include <limits>
 #include <type_traits>
 
-#include <immintrin.h>
+#include "simd/float4.h"
 
-// GCC takes the target from the pragma; clang ignores it and needs the attribute on every function.
+// GCC takes the target from the pragma; clang ignores it and needs the attribute on every function;
+// MSVC emits any intrinsic anywhere and needs neither.
 #if defined(__clang__)
 #pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
-#else
+#elif defined(__GNUC__)
 #pragma GCC push_options
 #pragma GCC target("avx2")
 #endif
 
 namespace skinspheres::runtime::internal::avx2 {
 constexpr RefitSimd kThisLevel = RefitSimd::kAvx2;
+namespace F = simd::sse;
 #include "refit/refit_fast.inc"
 }  // namespace skinspheres::runtime::internal::avx2
 
 #if defined(__clang__)
 #pragma clang attribute pop
-#else
+#elif defined(__GNUC__)
 #pragma GCC pop_options
 #endif
 #endif  // x86

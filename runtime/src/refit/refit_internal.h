@@ -1,6 +1,7 @@
-// The fast refit's vector code (refit_fast.inc), compiled once for SSE2 (every x86-64) and once for
-// AVX2 (refit_fast_avx2.cc), and the choice between them at run time; and the crowd calls' refit of
-// 16 instances at once in AVX-512 lanes (refit_batch_avx512.cc), used when the CPU has AVX-512F.
+// The fast refit's vector code (refit_fast.inc), compiled once in portable C++ (every platform:
+// refit_fast_portable.cc) and, on x86-64, once for SSE2 (refit_fast_sse2.cc) and once for AVX2
+// (refit_fast_avx2.cc), and the choice between them at run time; and the crowd calls' refit of 16
+// instances at once in AVX-512 lanes (refit_batch_avx512.cc), used when the CPU has AVX-512F.
 // All of them evaluate the header's formula with the same float operations in the same order, so
 // they give the same bits (tests/runtime/refit_job_tests.cc compares each with the scalar formula);
 // the choice is a matter of speed only, and RefitJob has no field for it. Tests and benchmarks pin a level here.
@@ -10,6 +11,8 @@
 
 #include <cstddef>
 #include <cstdint>
+
+#include "skinspheres/skinning/platform.h"
 
 namespace skinspheres::runtime {
 class RefitRestData;
@@ -36,10 +39,11 @@ struct FastRefitArrays {
 
 // kAvx512: the crowd calls refit 16 instances of one set at once (RefitFastBatch16), one instance
 // alone at AVX2; not a level of RefitJob.
-enum class RefitSimd : uint8_t { kAuto, kSse2, kAvx2, kAvx512 };
+// kPortable: the portable copy (what every platform but x86-64 runs; on x86-64 for tests).
+enum class RefitSimd : uint8_t { kAuto, kSse2, kAvx2, kAvx512, kPortable };
 
 // The level the fast refit runs at: the one pinned by PinRefitSimd, else AVX-512 when the CPU has it
-// (so the crowd batches), else AVX2, else SSE2.
+// (so the crowd batches), else AVX2, else SSE2; off x86-64, kPortable.
 RefitSimd RefitSimdInUse();
 bool RefitSimdSupported(RefitSimd level);
 // Pins the level for the whole process (kAuto: unpin); false, and nothing changes, when the CPU
@@ -51,12 +55,17 @@ const char* ToString(RefitSimd level);
 RefitSimd LastRefitSimdRun();
 void NoteRefitSimdRun(RefitSimd level);
 
-namespace sse2 {
+namespace portable {  // refit_fast_portable.cc
 bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
 }
-namespace avx2 {  // refit_fast_avx2.cc (x86 only, like the whole fast refit)
+#if defined(SKINSPHERES_X86_64)
+namespace sse2 {  // refit_fast_sse2.cc
 bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
 }
+namespace avx2 {  // refit_fast_avx2.cc
+bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
+}
+#endif
 
 // The fast refit of kRefitBatchLanes instances of one set at once (refit_batch_avx512.cc): lane b
 // reads world[b] (a's world is not read) and writes out[b], with the same bits as
@@ -73,9 +82,11 @@ constexpr size_t kRefitBatchLanes = 16;
 bool RefitBatchUsable();
 uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
                         float* const out[kRefitBatchLanes], float* soa = nullptr);
+#if defined(SKINSPHERES_X86_64)
 namespace avx512 {
 uint32_t RefitFastBatch16(const FastRefitArrays& a, size_t sphere_count, const float* const world[kRefitBatchLanes],
                           float* const out[kRefitBatchLanes], float* soa);
 }
+#endif
 
 }  // namespace skinspheres::runtime::internal

@@ -3,7 +3,6 @@
 // max_j |T_j c - c'|, its second term capped by Σ_j W_j |T_j c - c'| (derivation in the header).
 #include "skinspheres/runtime/refit/refit_job.h"
 
-
 #include <Eigen/LU>
 #include <algorithm>
 #include <atomic>
@@ -13,9 +12,8 @@
 #include <string>
 #include <type_traits>
 
-#include <emmintrin.h>
-
 #include "refit/refit_internal.h"
+#include "skinspheres/skinning/platform.h"
 
 namespace skinspheres::runtime {
 
@@ -130,25 +128,21 @@ bool RefitJob::Validate() const {
 }
 
 namespace internal {
-namespace sse2 {
-constexpr RefitSimd kThisLevel = RefitSimd::kSse2;
-#include "refit/refit_fast.inc"
-}  // namespace sse2
 
 namespace {
 std::atomic<RefitSimd> g_pinned{RefitSimd::kAuto};
 }  // namespace
 
 bool RefitSimdSupported(RefitSimd level) {
-  static const bool avx2 = __builtin_cpu_supports("avx2");  // (this file is x86-only: <emmintrin.h>)
-  static const bool avx512 = avx2 && __builtin_cpu_supports("avx512f");
   switch (level) {
-    case RefitSimd::kAvx2:
-      return avx2;
-    case RefitSimd::kAvx512:
-      return avx512;
-    default:
-      return true;
+    case RefitSimd::kAuto:
+    case RefitSimd::kPortable: return true;
+#if defined(SKINSPHERES_X86_64)
+    case RefitSimd::kSse2: return true;
+    case RefitSimd::kAvx2: return HostCpu().avx2;
+    case RefitSimd::kAvx512: return HostCpu().avx512f;
+#endif
+    default: return false;
   }
 }
 
@@ -164,7 +158,8 @@ RefitSimd RefitSimdInUse() {
   if (pinned != RefitSimd::kAuto) return pinned;
   static const RefitSimd best = RefitSimdSupported(RefitSimd::kAvx512) ? RefitSimd::kAvx512
                                 : RefitSimdSupported(RefitSimd::kAvx2) ? RefitSimd::kAvx2
-                                                                       : RefitSimd::kSse2;
+                                : RefitSimdSupported(RefitSimd::kSse2) ? RefitSimd::kSse2
+                                                                       : RefitSimd::kPortable;
   return best;
 }
 
@@ -184,6 +179,7 @@ const char* ToString(RefitSimd level) {
       return "avx2";
     case RefitSimd::kAvx512:
       return "avx512 (crowd batches; avx2 alone)";
+    case RefitSimd::kPortable: return "portable";
   }
   return "unknown";
 }
@@ -192,25 +188,55 @@ const char* ToString(RefitSimd level) {
 
 namespace {
 
+// Exact mode's arithmetic in plain floats, in a fixed order (Eigen's own order on x86-64, where it
+// was written with Eigen): Eigen picks its evaluation per target (NEON has 2-float packets that SSE
+// lacks, so a Vector3f norm would sum in another order on aarch64), and the refit must give the
+// same bits on every platform (skinspheres/skinning/platform.h).
+
 // 16 ulps of the coordinates: covers float rounding of c', the distances and the caller's skinning.
-inline float Margin(const Eigen::Vector3f& c, float r) {
-  return 16.0f * FLT_EPSILON * (c.cwiseAbs().maxCoeff() + r);
+inline float Margin(const float c[3], float r) {
+  return 16.0f * FLT_EPSILON * (std::max(std::fabs(c[0]), std::max(std::fabs(c[1]), std::fabs(c[2]))) + r);
 }
 
-inline Eigen::Vector3f Apply(const Mat4f& g, const Eigen::Vector3f& p) {
-  return g.topLeftCorner<3, 3>() * p + g.topRightCorner<3, 1>();
+// out += w · (G · (p, 1)), each row (g0 p0 + (g1 p1 + g2 p2)) + g3.
+inline void AddApplied(const Mat4f& g, const Eigen::Vector3f& p, float w, float out[3]) {
+  const float* m = g.data();  // column-major
+  for (int r = 0; r < 3; ++r) {
+    const float row = (m[r] * p.x() + (m[4 + r] * p.y() + m[8 + r] * p.z())) + m[12 + r];
+    out[r] = out[r] + w * row;
+  }
 }
 
-// c' = Σ_k w_k G_j(k)(t) · (G_j(k)(rest)^-1 c); also returns k0, k1.
-inline Eigen::Vector3f BlendedCentre(const RefitJob& job, size_t s) {
+// |p - c|^2 as d0^2 + (d1^2 + d2^2).
+inline float SquaredDistance(const Eigen::Vector3f& p, const float c[3]) {
+  const float d0 = p.x() - c[0], d1 = p.y() - c[1], d2 = p.z() - c[2];
+  return d0 * d0 + (d1 * d1 + d2 * d2);
+}
+
+// c' = Σ_k w_k G_j(k)(t) · (G_j(k)(rest)^-1 c).
+inline void BlendedCentre(const RefitJob& job, size_t s, float c[3]) {
   const auto& set = *job.spheres;
   const auto q = job.rest->center_in_joint();
   const auto w = job.rest->weights();
-  Eigen::Vector3f c = Eigen::Vector3f::Zero();
+  c[0] = c[1] = c[2] = 0.0f;
   for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
-    c += w[k] * Apply(job.joint_world[set.influence_joints[k]], q[k]);
+    AddApplied(job.joint_world[set.influence_joints[k]], q[k], w[k], c);
   }
-  return c;
+}
+
+// The centre of the box of the sphere's vertices [v0, v1) (v0 < v1).
+inline void BoxCentre(const RefitJob& job, uint32_t v0, uint32_t v1, float c[3]) {
+  const auto& set = *job.spheres;
+  float lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = job.positions[set.vertices[v0]][a];
+  for (uint32_t k = v0 + 1; k < v1; ++k) {
+    const Eigen::Vector3f& p = job.positions[set.vertices[k]];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+  }
+  for (int a = 0; a < 3; ++a) c[a] = 0.5f * (lo[a] + hi[a]);
 }
 
 bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
@@ -219,30 +245,24 @@ bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
   bool ok = true;
   for (size_t s = begin; s < end; ++s) {
     const uint32_t v0 = set.vertex_offsets[s], v1 = set.vertex_offsets[s + 1];
-    Eigen::Vector3f c;
+    float c[3];
     if (joints) {
-      c = BlendedCentre(job, s);
+      BlendedCentre(job, s, c);
     } else if (v0 == v1) {
-      c = set.centers_rest[s];
+      for (int a = 0; a < 3; ++a) c[a] = set.centers_rest[s][a];
     } else {
-      Eigen::Vector3f lo = job.positions[set.vertices[v0]], hi = lo;
-      for (uint32_t k = v0 + 1; k < v1; ++k) {
-        const Eigen::Vector3f& p = job.positions[set.vertices[k]];
-        lo = lo.cwiseMin(p);
-        hi = hi.cwiseMax(p);
-      }
-      c = 0.5f * (lo + hi);
+      BoxCentre(job, v0, v1, c);
     }
     float d2max = 0.0f;
-    bool finite = c.allFinite();
+    bool finite = std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2]);
     for (uint32_t k = v0; k < v1; ++k) {
-      const float d2 = (job.positions[set.vertices[k]] - c).squaredNorm();
+      const float d2 = SquaredDistance(job.positions[set.vertices[k]], c);
       finite &= d2 <= FLT_MAX;  // false for NaN and Inf (std::max would drop a NaN)
       d2max = std::max(d2max, d2);
     }
     const float r = std::sqrt(d2max);
     const float radius = r + Margin(c, r);
-    job.out[s] = Vec4f(c.x(), c.y(), c.z(), radius);
+    job.out[s] = Vec4f(c[0], c[1], c[2], radius);
     ok &= finite && std::isfinite(radius);
   }
   return ok;
@@ -269,8 +289,14 @@ bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
   internal::FastRefitArrays a = SharedArrays(*job.spheres, *job.rest);
   a.world = reinterpret_cast<const float*>(job.joint_world.data());
   a.out = reinterpret_cast<float*>(job.out.data());
-  if (internal::RefitSimdInUse() != internal::RefitSimd::kSse2) return internal::avx2::RefitFastRange(a, begin, end);
-  return internal::sse2::RefitFastRange(a, begin, end);
+  switch (internal::RefitSimdInUse()) {
+#if defined(SKINSPHERES_X86_64)
+    case internal::RefitSimd::kAvx512:  // one instance alone: the AVX2 copy (the crowd batches)
+    case internal::RefitSimd::kAvx2: return internal::avx2::RefitFastRange(a, begin, end);
+    case internal::RefitSimd::kSse2: return internal::sse2::RefitFastRange(a, begin, end);
+#endif
+    default: return internal::portable::RefitFastRange(a, begin, end);
+  }
 }
 
 }  // namespace
@@ -301,7 +327,12 @@ bool RefitBatchUsable() { return RefitSimdInUse() == RefitSimd::kAvx512; }
 
 uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
                         float* const out[kRefitBatchLanes], float* soa) {
+#if defined(SKINSPHERES_X86_64)
   return avx512::RefitFastBatch16(SharedArrays(set, rest), set.size(), world, out, soa);
+#else
+  (void)set, (void)rest, (void)world, (void)out, (void)soa;
+  return 0;  // never called: RefitBatchUsable() is false off x86-64
+#endif
 }
 
 }  // namespace internal

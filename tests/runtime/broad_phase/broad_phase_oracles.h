@@ -56,10 +56,11 @@ inline std::vector<runtime::Contact> GridOracle(const std::vector<Vec4f>& s, con
   return out;
 }
 
-// The instruction sets of the broad phase this CPU has (SSE2 at least).
+// The instruction sets of the broad phase this build and CPU have (portable always; SSE2 on x86-64).
 inline std::vector<runtime::BroadPhaseSimd> SupportedLevels() {
   std::vector<runtime::BroadPhaseSimd> levels;
-  for (auto l : {runtime::BroadPhaseSimd::kSse2, runtime::BroadPhaseSimd::kAvx2, runtime::BroadPhaseSimd::kAvx512}) {
+  for (auto l : {runtime::BroadPhaseSimd::kPortable, runtime::BroadPhaseSimd::kSse2, runtime::BroadPhaseSimd::kAvx2,
+                 runtime::BroadPhaseSimd::kAvx512}) {
     if (runtime::BroadPhaseSimdSupported(l)) levels.push_back(l);
   }
   return levels;

@@ -838,7 +838,8 @@ TEST(BroadPhaseTest, ValidateRefusals) {
   EXPECT_FALSE((SelfCollisionJob{s, &f9, &ctx, &out}.Validate()));    // size mismatch
   EXPECT_FALSE((SelfCollisionJob{s, &f, &small, &out}.Validate()));   // context too small
   EXPECT_FALSE((SelfCollisionJob{s, &f, &small, &out}.Run()));
-  for (auto level : {BroadPhaseSimd::kAuto, BroadPhaseSimd::kSse2, BroadPhaseSimd::kAvx2, BroadPhaseSimd::kAvx512}) {
+  for (auto level : {BroadPhaseSimd::kAuto, BroadPhaseSimd::kSse2, BroadPhaseSimd::kAvx2, BroadPhaseSimd::kAvx512,
+                     BroadPhaseSimd::kPortable}) {
     SelfCollisionJob job{s, &f, &ctx, &out};
     job.simd = level;
     EXPECT_EQ(job.Validate(), BroadPhaseSimdSupported(level)) << ToString(level);

@@ -215,14 +215,15 @@ class PinnedRefit {
   bool ok_;
 };
 
-// Runs check() with the fast refit at each instruction set the CPU has (SSE2 always; AVX2 when
-// present, said when not), and checks that each pin took.
+// Runs check() with the fast refit at each level the build and CPU have (portable always; SSE2 on
+// every x86-64; AVX2 when present; what is missing is said), and checks that each pin took.
 template <class Check>
 void AtEveryRefitLevel(const std::string& what, Check&& check) {
-  for (const internal::RefitSimd level : {internal::RefitSimd::kSse2, internal::RefitSimd::kAvx2}) {
+  for (const internal::RefitSimd level :
+       {internal::RefitSimd::kPortable, internal::RefitSimd::kSse2, internal::RefitSimd::kAvx2}) {
     const PinnedRefit pin(level);
     if (!pin.ok()) {
-      ASSERT_NE(level, internal::RefitSimd::kSse2);
+      ASSERT_NE(level, internal::RefitSimd::kPortable);
       std::printf("%s: %s not checked, the CPU lacks it\n", what.c_str(), internal::ToString(level));
       continue;
     }

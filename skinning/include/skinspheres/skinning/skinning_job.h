@@ -25,9 +25,10 @@
 // strides, bind or subset indices out of range, decreasing CSR offsets, ...). It is O(1) for a
 // prepared job and O(influences) for a CSR job. A default job is invalid. Run()/RunRange()/
 // RunRanges() validate (RunRange(s) only what their ranges read), never allocate, never throw.
-// SIMD: SSE2 on every x86-64; AVX2+FMA chosen at run time when the CPU has it (or always, when
-// built with SKINSPHERES_AVX2). `simd` can force a level (tests, benchmarks); levels differ in
-// rounding (FMA), never in bounds.
+// SIMD: SSE2 on every x86-64; AVX2 chosen at run time when the CPU has it (or always, when built
+// with SKINSPHERES_AVX2); the scalar level elsewhere (aarch64, ...). `simd` can force a level
+// (tests, benchmarks). Every level, on every platform, gives the same bits: the same float
+// operations in the same order, no fused multiply-add (platform.h).
 #pragma once
 
 #include <Eigen/Core>

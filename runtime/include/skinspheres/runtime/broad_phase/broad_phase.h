@@ -83,9 +83,10 @@ struct Contact {
   friend bool operator==(const Contact&, const Contact&) = default;
 };
 
-// Instruction set of the broad-phase kernels. kAuto: the widest the CPU has (AVX-512, AVX2,
-// SSE2). Every level gives the same contacts.
-enum class BroadPhaseSimd : uint8_t { kAuto, kSse2, kAvx2, kAvx512 };
+// Instruction set of the broad-phase kernels. kAuto: the widest the CPU has (x86-64: AVX-512, AVX2,
+// SSE2; elsewhere kPortable). kPortable: plain C++ over arrays of 4 floats, on every platform.
+// Every level, on every platform, gives the same contacts, bit for bit.
+enum class BroadPhaseSimd : uint8_t { kAuto, kSse2, kAvx2, kAvx512, kPortable };
 bool BroadPhaseSimdSupported(BroadPhaseSimd level);
 BroadPhaseSimd ResolveBroadPhaseSimd(BroadPhaseSimd level);  // kAuto -> the level it runs
 const char* ToString(BroadPhaseSimd level);

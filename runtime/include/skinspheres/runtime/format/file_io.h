@@ -1,9 +1,11 @@
 // Whole-file reading and checked writing for paths a user hands in (untrusted), and the JSON
-// nesting check every JSON reader runs before parsing.
+// nesting check every JSON reader runs before parsing. POSIX and Windows (wide paths, binary mode)
+// alike.
 //
 // Reading refuses, before it reads a byte, anything that is not a regular file: a directory, a
-// FIFO (it would block until a writer came), a device (/dev/zero never ends) or a socket. The
-// file is opened non-blocking, so a FIFO is refused at once rather than waited on. A file larger
+// FIFO or pipe (it would block until a writer came), a device (/dev/zero never ends; NUL, CON on
+// Windows) or a socket. On POSIX the file is opened non-blocking, so a FIFO is refused at once
+// rather than waited on; on Windows GetFileType tells a pipe or a device from a file. A file larger
 // than the caller's limit is refused from its size, before anything is allocated, and again if it
 // grows past the limit while being read (/proc files report size 0).
 //
@@ -25,6 +27,10 @@
 #include "skinspheres/runtime/error.h"
 
 namespace skinspheres::runtime {
+
+// A path as UTF-8 text, for messages, on every platform (Windows paths are wide; their string()
+// would throw on a name outside the code page).
+std::string PathText(const std::filesystem::path& path);
 
 // The whole of the regular file at `path`, at most `max_bytes` long. `what` names the kind of
 // file in the size message ("a sphere set may be at most ... bytes"). Errors are one line
@@ -67,8 +73,8 @@ class CheckedFileWriter {
  private:
   void FailWith(const char* step, int errno_value);
   std::filesystem::path path_;
+  std::optional<Error> error_;  // before file_: the open sets it
   std::FILE* file_ = nullptr;
-  std::optional<Error> error_;
 };
 
 // `message` as one line: control characters (a newline or NUL in a quoted joint, part or file
