@@ -20,6 +20,7 @@
 #include "refit/refit_internal.h"  // runtime/src: pins the crowd's refit (batched or one at a time)
 #include "runtime/posed_characters.h"
 #include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/crowd/crowd.h"
 
 namespace skinspheres::runtime {
 namespace {

@@ -18,6 +18,7 @@
 #include "allocation_counter.h"
 #include "runtime/posed_characters.h"
 #include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/crowd/crowd.h"
 #include "skinspheres/runtime/narrow_phase/narrow_phase.h"
 #include "skinspheres/runtime/narrow_phase/triangle_contact.h"
 #include "skinspheres/skinning/skinning_job.h"
