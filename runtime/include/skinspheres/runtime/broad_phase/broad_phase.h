@@ -64,14 +64,19 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
+#include "skinspheres/runtime/broad_phase/pair_filter.h"
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/parallel_for.h"
-#include "skinspheres/runtime/broad_phase/pair_filter.h"
 
 namespace skinspheres::runtime {
+
+namespace broad_phase {
+class Frame;  // runtime/src/broad_phase/frame.h
+}  // namespace broad_phase
 
 struct Contact {
   uint32_t i = 0;          // sphere index, i < j
@@ -117,14 +122,19 @@ class BroadPhaseContext {
   // Sets of up to this many spheres build their cache by all pairs, larger ones by the sweep.
   static constexpr size_t kAllPairsMax = 512;
 
-  BroadPhaseContext() = default;
-  explicit BroadPhaseContext(size_t max_spheres, size_t max_candidates = 0) { Resize(max_spheres, max_candidates); }
+  BroadPhaseContext();  // empty: max_spheres() 0
+  explicit BroadPhaseContext(size_t max_spheres, size_t max_candidates = 0);
+  ~BroadPhaseContext();
+  BroadPhaseContext(const BroadPhaseContext& other);  // a copy of its state, cache included
+  BroadPhaseContext& operator=(const BroadPhaseContext& other);
+  BroadPhaseContext(BroadPhaseContext&&) noexcept;
+  BroadPhaseContext& operator=(BroadPhaseContext&&) noexcept;
 
   // Set-up only (allocates). Forgets the previous frame. max_candidates: room of the candidate
   // cache; 0 picks min(n(n-1)/2, 16n + 256) for n = max_spheres.
   void Resize(size_t max_spheres, size_t max_candidates = 0);
-  size_t max_spheres() const { return max_spheres_; }
-  size_t max_candidates() const { return max_candidates_; }
+  size_t max_spheres() const;
+  size_t max_candidates() const;
 
   // Forget the cache, the sweep order and axis (after a teleport or a switch of character). Not
   // needed for correctness: a job checks the cache itself, and forgets it when the filter or the
@@ -132,89 +142,25 @@ class BroadPhaseContext {
   void Invalidate();
 
   // Diagnostics of the last Run().
-  BroadPhaseMethod last_method() const { return method_; }
+  BroadPhaseMethod last_method() const;
   // Candidate pairs that got the exact sphere test (after a build: the new cache's).
-  size_t last_candidate_count() const { return last_candidates_; }
+  size_t last_candidate_count() const;
   // Pairs the build tested with the grown spheres (0 when the cache held).
-  size_t last_build_tests() const { return last_build_tests_; }
+  size_t last_build_tests() const;
   // Sweep axis (0 x, 1 y, 2 z) of the latest sweep build; -1 before any.
-  int sweep_axis() const { return axis_; }
+  int sweep_axis() const;
   // Whether the latest sweep build sorted from scratch (no usable previous order).
-  bool last_full_sort() const { return last_full_sort_; }
+  bool last_full_sort() const;
   // Builds since Resize (a frame that rebuilds counts once, even when it retries without skins).
-  uint64_t build_count() const { return build_count_; }
+  uint64_t build_count() const;
   // Lookahead of the latest build: each sphere's skin is this many frames of its recent motion.
-  float last_lookahead() const { return last_lookahead_; }
+  float last_lookahead() const;
 
  private:
   friend struct SelfCollisionJob;
-  struct Impl;
-
-  struct SortItem {
-    uint64_t key;      // column << 32 | interval start (order-preserving bits)
-    uint32_t sphere;   // index into the job's spheres
-    uint32_t from;     // while sorting: the column at the previous build
-  };
-  struct ColumnRun {
-    uint32_t column, begin, end;
-  };
-
-  size_t max_spheres_ = 0;
-  size_t max_candidates_ = 0;
-
-  // The candidate cache.
-  bool cache_valid_ = false;
-  size_t cache_count_ = 0;           // sphere count it was built for
-  uint64_t cache_filter_ = 0;        // PairFilter::id() it was built with
-  uint32_t age_ = 0;                 // frames since the build
-  float ref_sum_[3] = {0, 0, 0};     // sum of the centres at the build
-  int rung_ = 2;                     // lookahead: skin = lookahead x speed (broad_phase/self_collision_job.cc)
-  double rung_cost_[8] = {};         // per rung, the recent work per frame of its caches
-  double build_cost_ = 0.0;          // work of the cache's build (counted)
-  size_t candidate_count_ = 0;
-  std::vector<uint32_t> ci_, cj_;    // max_candidates + pad: candidate pairs, sorted by (i, j)
-  std::vector<float> ref_;           // 4 x (max_spheres + pad): x, y, z, r at the build
-  std::vector<float> allow_;         // max_spheres + pad: skin (1 - 2^-16)
-  std::vector<float> motion_;        // max_spheres + pad: motion since the build
-  std::vector<float> speed_;         // max_spheres: motion per frame, as used by the last build
-
-  // Build scratch.
-  std::vector<float> soa_;           // 8 x (max_spheres + pad), see broad_phase/self_collision_job.cc
-  std::vector<uint32_t> sphere_;     // max_spheres + pad: sphere at each sweep position
-  std::vector<SortItem> order_;      // max_spheres: sweep order (kept between builds)
-  std::vector<SortItem> order_by_strip_;  // max_spheres: counting sort scratch
-  std::vector<ColumnRun> runs_;            // max_spheres: columns in sweep order
-  std::vector<uint32_t> pi_, pj_;    // max_candidates + pad (above kAllPairsMax): unsorted pairs
-  std::vector<uint32_t> row_;        // max_spheres + 1: counting sort
-  std::vector<uint64_t> near_;       // listed pairs as bits: the sweep's, or the all-pairs rows (broad_phase/self_collision_job.cc)
-  std::vector<uint8_t> far_;         // max_spheres (above kAllPairsMax): has listed partners past the bits
-  uint64_t near_filter_ = 0;         // PairFilter::id() the bits in near_ (and far_) were made from
-  size_t near_count_ = 0;            // and its size (0: not made)
-  std::vector<Contact> stage_;       // kStage + pad: contacts before they go to the output
-  size_t order_count_ = 0;           // sphere count the order is for (0: none)
-  bool order_columns_ = false;       // whether the order has grid columns
-  int axis_ = -1;
-  double cell_ = 0.0;                // grid column size of the last sweep build
-
-  // Diagnostics.
-  BroadPhaseMethod method_ = BroadPhaseMethod::kNone;
-  size_t last_candidates_ = 0;
-  size_t last_build_tests_ = 0;
-  bool last_full_sort_ = false;
-  uint64_t build_count_ = 0;
-  float last_lookahead_ = 0.0f;
-
-  // A space of several characters (a filter from PairFilter::Combine, more than kAllPairsMax
-  // spheres): one context and one filter per character, made on the first frame with that filter.
-  std::vector<BroadPhaseContext> group_contexts_;
-  std::vector<PairFilter> group_filters_;
-  uint64_t groups_filter_ = 0;                // PairFilter::id() they were made from (0: none)
-  uint32_t groups_pause_ = 0;                 // frames left to run the space as one set
-  std::vector<Contact> group_out_;            // one character's contacts (room: its cache's)
-  std::vector<Contact> cross_;                // room for n: contacts between characters, sorted by (i, j)
-  std::vector<float> group_box_;              // 8 per character: low x, y, z, -, high x, y, z, -
-  std::vector<uint32_t> group_order_;         // characters by low x (kept between frames)
-  std::vector<uint32_t> cross_a_, cross_b_;   // spheres of g (of h) inside the other's box
+  friend class broad_phase::Frame;
+  struct State;  // broad_phase/context_state.h (runtime/src)
+  std::unique_ptr<State> state_;
 };
 
 struct SelfCollisionJob {
