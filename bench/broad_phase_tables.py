@@ -29,8 +29,9 @@ def load(path):
         if b.get("aggregate_name", STATISTIC) != STATISTIC or b.get("error_occurred"):
             continue
         name = b.get("run_name", b["name"])
-        if name.endswith("/real_time"):
-            name = name[: -len("/real_time")]
+        for suffix in ("/real_time", "/manual_time"):
+            if name.endswith(suffix):
+                name = name[: -len(suffix)]
         rows[name] = b
     return data.get("context", {}), rows
 
@@ -250,10 +251,15 @@ def main():
     context, rows = load(args[0])
     groups = group(rows)
     print(f"<!-- {context.get('date', '')}, load average {context.get('load_avg', '')} -->\n")
-    print(table_one_space(groups, "a_cloud/", "(a) coherent cloud, no exclusions", extra_levels=True))
-    print(table_clips(groups))
-    print(table_scale(groups))
-    print(table_crowds(groups))
+    present = {s.partition("/")[0] for s in groups}
+    if "a_cloud" in present:
+        print(table_one_space(groups, "a_cloud/", "(a) coherent cloud, no exclusions", extra_levels=True))
+    if "b_clip" in present:
+        print(table_clips(groups))
+    if "c_scale" in present:
+        print(table_scale(groups))
+    if "d_crowd" in present:
+        print(table_crowds(groups))
 
 
 if __name__ == "__main__":

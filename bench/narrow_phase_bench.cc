@@ -240,6 +240,7 @@ Character* Get(benchmark::State& state, int index, int work) {
   state.SetLabel(std::string(kNames[index]) + (work ? " random" : " clips") +
                  (c->work[work].held_pose ? " (held pose)" : ""));
   state.counters["held_pose"] = c->work[work].held_pose ? 1.0 : 0.0;
+  state.counters["frames"] = double(c->work[work].frames.size());
   return c;
 }
 
