@@ -1,7 +1,8 @@
 // Broad phase: skinspheres' SelfCollisionJob against Bullet's btDbvtBroadphase, FCL's dynamic AABB
 // tree (peer_broad_phases.h: configured as their documentation recommends, float sphere test,
 // same exclusions) and the all-pairs loop, on four workloads. One process times every method;
-// docs/PERFORMANCE.md has the tables (bench/broad_phase_tables.py makes them from --benchmark_out).
+// bench/broad_phase_tables.py makes tables from --benchmark_out (bench/results/ holds the dated
+// runs, docs/PERFORMANCE.md quotes them).
 //
 // Workloads (each iteration is the next frame; frames play forward then backward, so a loop never
 // teleports):
@@ -12,7 +13,10 @@
 //             No exclusions. 128 frames.
 //   b_clip    the shared characters' own clips (../shared/assets), fitted with the default
 //             settings, exact refit, at 30 and 60 fps, with the fitted exclusions and without any,
-//             standing or walking forward at 1.5 body heights per second (the whole clip).
+//             standing or walking forward at 1.5 body heights per second (the whole clip). A
+//             clip whose frames all hold one pose (Xbot's: a T-pose of 0.067 s) is labelled
+//             "held pose" (counter held_pose = 1): it moves nothing but the walk, so its rows are
+//             reported apart and left out of the clips' ranges.
 //   c_scale   the cloud's generator at the density of its N = 300 box, scaled to N = 100 ... 50,000
 //             spheres: a slab (x, y grow, z stays 0.3: a crowd's floor) and a cube (all three
 //             grow). A = 0.02. 128 frames (32 above 5,000 spheres).
@@ -27,6 +31,15 @@
 //   allpairs                           SelfCollisionAllPairs, the plain O(n^2) loop (up to 5,000 spheres)
 //   bullet_count, bullet_sorted        btDbvtBroadphase: contact count only / sorted contact list
 //   fcl_count, fcl_sorted              FCL dynamic AABB tree in float: the same two variants
+//   <method>_cold                      (b_clip: skinspheres, bullet_count, fcl_count) the first pass:
+//                                      every iteration batch builds the method afresh (untimed: the
+//                                      context or the peer's tree over frame 0) and times one pass
+//                                      over the clip's frames in order; the Time column is the
+//                                      timing thread's CPU time per frame (manual time), so it reads
+//                                      beside the warm rows' CPU time
+//
+// Warm rows (every name without _cold) first play the whole loop once untimed (the check below),
+// then time frames from the loop's start; every frame of the loop counts, as a row runs many passes.
 //
 // Every method is checked before timing, on every frame of the loop, against a reference: the
 // all-pairs oracle up to 5,000 spheres, Bullet's sorted list above (checked in turn against FCL
@@ -95,6 +108,7 @@ struct Scenario {
   std::vector<std::vector<rt::Contact>> reference;  // per frame
   // Crowd: the characters alone (spheres of character k at frame f: frames[(f + 7k) % frames]).
   size_t characters = 0;             // 0: not a crowd
+  bool held_pose = false;            // every frame holds frame 0's pose (before any walk)
 };
 
 // Workload (a)'s generator, box sx x sy x sz (workload (a)'s box is 1.8 x 1.8 x 0.3).
@@ -173,7 +187,7 @@ const FittedCharacter& Fitted(const std::string& file) {
 
 // The exact spheres of every frame of `clip` at `fps` (the whole clip), walking or not.
 std::string ClipFrames(const FittedCharacter& c, const std::string& clip_name, double fps, bool walk,
-                       std::vector<Spheres>* frames) {
+                       std::vector<Spheres>* frames, bool* held_pose = nullptr) {
   const sk::AnimationClip* clip = nullptr;
   for (const auto& k : c.ch.clips) {
     if (k.name == clip_name || (clip_name == "0" && &k == &c.ch.clips[0])) clip = &k;
@@ -197,6 +211,7 @@ std::string ClipFrames(const FittedCharacter& c, const std::string& clip_name, d
   if (!instance.ok()) return instance.error().message;
   const size_t count = size_t(std::floor(double(clip->duration_s) * fps + 1e-3)) + 1;
   frames->assign(count, {});
+  float moved = 0.0f;  // the largest distance of a sphere centre from frame 0's, before the walk
   for (size_t f = 0; f < count; ++f) {
     const float t = float(double(f) / fps);
     sk::SamplingJob sampling{clip, &c.ch.skeleton, sk::LoopTime(t, clip->duration_s), locals};
@@ -215,11 +230,13 @@ std::string ClipFrames(const FittedCharacter& c, const std::string& clip_name, d
     if (!instance->UpdateExact(skinned, world).ok()) return instance->status().message;
     Spheres& out = (*frames)[f];
     out.assign(instance->spheres().begin(), instance->spheres().end());
+    for (size_t s = 0; s < out.size(); ++s) moved = std::max(moved, (out[s] - (*frames)[0][s]).head<3>().norm());
     if (walk) {
       const Eigen::Vector3f step = c.forward * (1.5f * c.height * t);
       for (Vec4f& s : out) s.head<3>() += step;
     }
   }
+  if (held_pose != nullptr) *held_pose = moved <= 1e-4f * c.height;
   return "";
 }
 
@@ -378,6 +395,8 @@ void RunRow(benchmark::State& state, const Scenario& sc, const std::string& meth
   const size_t last = PingPong(k - 1, sc.frames.size());
   if (m->MakesList() ? out != sc.reference[last] : false) Abort(row + ": last timed frame differs from the reference");
   const double frames = double(std::max<size_t>(k, 1));
+  if (sc.held_pose) state.SetLabel("held pose");
+  state.counters["held_pose"] = sc.held_pose ? 1.0 : 0.0;
   state.counters["spheres"] = double(SphereCount(sc));
   state.counters["contacts"] = double(contacts) / frames;
   state.counters["candidates"] = (m->Candidates() - candidates0) / frames;
@@ -386,6 +405,42 @@ void RunRow(benchmark::State& state, const Scenario& sc, const std::string& meth
     state.counters["tests_per_build"] = (m->BuildTests() - build_tests0) / (m->Builds() - builds0);
     state.counters["lookahead"] = (m->Lookahead() - lookahead0) / (m->Builds() - builds0);
   }
+}
+
+// The body of every _cold row: each batch of iterations is one pass over the frames in order
+// (0, 1, ..., F - 1) by a method made afresh outside the timed part, timed on the thread's CPU
+// clock, so the figure is the mean per frame of a clip's first pass.
+void RunColdRow(benchmark::State& state, const Scenario& sc, const std::string& method) {
+  if (!sc.error.empty()) return state.SkipWithError(sc.error.c_str());
+  const std::unique_ptr<Method> probe = MakeMethod(method, sc);
+  if (!probe) return state.SkipWithError(("method " + method + " not built").c_str());
+  const size_t frames = sc.frames.size();
+  std::vector<rt::Contact> out;
+  out.reserve(2 * sc.reference[0].size() + 64);
+  size_t contacts = 0, passes = 0;
+  double builds = 0.0, candidates = 0.0;
+  while (state.KeepRunningBatch(benchmark::IterationCount(frames))) {
+    std::unique_ptr<Method> m = MakeMethod(method, sc);
+    const double t0 = skinspheres::bench::ThreadCpuSeconds();
+    for (size_t f = 0; f < frames; ++f) {
+      contacts += m->Frame(sc.frames[f], &out);
+      benchmark::DoNotOptimize(out.data());
+    }
+    state.SetIterationTime(skinspheres::bench::ThreadCpuSeconds() - t0);
+    builds += m->Builds();
+    candidates += m->Candidates();
+    ++passes;
+  }
+  if (probe->MakesList() && passes > 0 && out != sc.reference[frames - 1]) {
+    Abort(method + "_cold: the last frame of the pass differs from the reference");
+  }
+  if (sc.held_pose) state.SetLabel("held pose");
+  state.counters["held_pose"] = sc.held_pose ? 1.0 : 0.0;
+  state.counters["spheres"] = double(SphereCount(sc));
+  state.counters["contacts"] = double(contacts) / double(std::max<size_t>(passes * frames, 1));
+  state.counters["passes"] = double(passes);
+  state.counters["builds"] = builds / double(std::max<size_t>(passes * frames, 1));
+  state.counters["candidates"] = candidates / double(std::max<size_t>(passes * frames, 1));
 }
 
 // --------------------------------------------------------------------------------- registration
@@ -449,7 +504,7 @@ void RegisterClips() {
             return GetScenario(k, [&](Scenario* sc) {
               const FittedCharacter& c = Fitted(spec.file);
               if (!c.error.empty()) return void(sc->error = c.error);
-              const std::string err = ClipFrames(c, spec.clip, fps, walk, &sc->frames);
+              const std::string err = ClipFrames(c, spec.clip, fps, walk, &sc->frames, &sc->held_pose);
               if (!err.empty()) return void(sc->error = std::string(spec.file) + ": " + err);
               const rt::PairFilter& fitted = c.asset->filter();
               sc->filter = exclusions ? fitted : rt::PairFilter::Create(fitted.size(), fitted.parts(), {}).value();
@@ -458,6 +513,12 @@ void RegisterClips() {
           std::vector<std::string> methods = {"skinspheres", "skinspheres_sse2", "allpairs"};
           methods.insert(methods.end(), kPeers.begin(), kPeers.end());
           for (const auto& m : methods) Register(k + "/" + m, scenario, m);
+          for (const std::string m : {"skinspheres", "bullet_count", "fcl_count"}) {
+            benchmark::RegisterBenchmark((k + "/" + m + "_cold").c_str(),
+                                         [=](benchmark::State& state) { RunColdRow(state, scenario(), m); })
+                ->Unit(benchmark::kMicrosecond)
+                ->UseManualTime();
+          }
         }
       }
     }

@@ -1,18 +1,23 @@
 #!/usr/bin/env python3
-"""Markdown tables for docs/PERFORMANCE.md from broad_phase_bench's JSON output.
+"""Markdown tables from broad_phase_bench's JSON output (the dated runs in bench/results/).
 
     build/bench/broad_phase_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \\
         --benchmark_out=bp.json --benchmark_out_format=json
     bench/broad_phase_tables.py bp.json
 
-Medians of the repetitions. Single-threaded rows are compared on CPU time (the work the thread
-did; a preempted thread's wall time is longer), crowd rows on wall time with each thread's CPU
-time beside it. "vs peer" is the better peer's time over ours, each peer in its cheaper variant
-(count only) unless the row says otherwise; "vs all-pairs" the all-pairs loop's time over ours.
+Means of the repetitions (--statistic median for medians). Single-threaded rows are compared on
+CPU time (the work the thread did; a preempted thread's wall time is longer), crowd rows on wall
+time with each thread's CPU time beside it. "vs peer" is the better peer's time over ours, each
+peer in its cheaper variant (count only) unless the row says otherwise; "vs all-pairs" the
+all-pairs loop's time over ours. The clips' table gives the first pass (the _cold rows: the
+thread's CPU time per frame of one pass by a method made afresh) beside the warm figures, and
+leaves rows labelled "held pose" out of its ranges, listing them apart.
 """
 import json
 import math
 import sys
+
+STATISTIC = "mean"
 from collections import defaultdict
 
 
@@ -21,11 +26,12 @@ def load(path):
         data = json.load(f)
     rows = {}
     for b in data["benchmarks"]:
-        if b.get("aggregate_name", "median") != "median" or b.get("error_occurred"):
+        if b.get("aggregate_name", STATISTIC) != STATISTIC or b.get("error_occurred"):
             continue
         name = b.get("run_name", b["name"])
-        if name.endswith("/real_time"):
-            name = name[: -len("/real_time")]
+        for suffix in ("/real_time", "/manual_time"):
+            if name.endswith(suffix):
+                name = name[: -len(suffix)]
         rows[name] = b
     return data.get("context", {}), rows
 
@@ -182,14 +188,78 @@ def table_crowds(groups):
     return "\n".join(lines) + "\n"
 
 
+def geomean(values):
+    return math.exp(sum(math.log(v) for v in values) / len(values)) if values else None
+
+
+def table_clips(groups):
+    """(b): warm and first-pass (cold) figures, ratios against the better peer, held poses apart."""
+    prefix = "b_clip/"
+    lines = ["#### (b) the shared characters' clips", ""]
+    head = ["scenario", "spheres", "contacts", "skinspheres warm", "cold", "cold / warm", "Bullet count warm", "cold",
+            "FCL count warm", "cold", "vs better peer, warm", "vs better peer, cold", "vs all-pairs"]
+    lines.append("| " + " | ".join(head) + " |")
+    lines.append("|" + "---|" * len(head))
+    ranges = defaultdict(list)  # (excl, temperature) -> ratios, held poses left out
+    held = []
+    for scenario in sorted(groups, key=sort_key):
+        if not scenario.startswith(prefix):
+            continue
+        g = groups[scenario]
+        ours, ours_cold = cpu(g, "skinspheres"), real(g, "skinspheres_cold")
+        if ours is None:
+            continue
+        b = g["skinspheres"]
+        warm_peer = min([p for p in (cpu(g, "bullet_count"), cpu(g, "fcl_count")) if p is not None], default=None)
+        cold_peer = min([p for p in (real(g, "bullet_count_cold"), real(g, "fcl_count_cold")) if p is not None],
+                        default=None)
+        is_held = b.get("held_pose", 0) >= 0.5
+        name = scenario[len(prefix):] + (" (held pose)" if is_held else "")
+        lines.append("| " + " | ".join([
+            name, f"{b.get('spheres', 0):.0f}", f"{b.get('contacts', 0):.0f}", fmt(ours), fmt(ours_cold),
+            f"{ours_cold / ours:.2f}" if ours_cold else "-", fmt(cpu(g, "bullet_count")),
+            fmt(real(g, "bullet_count_cold")), fmt(cpu(g, "fcl_count")), fmt(real(g, "fcl_count_cold")),
+            ratio(warm_peer, ours), ratio(cold_peer, ours_cold), ratio(cpu(g, "allpairs"), ours)]) + " |")
+        excl = "excl:1" in scenario
+        for temp, peer, mine in (("warm", warm_peer, ours), ("cold", cold_peer, ours_cold)):
+            if peer and mine and not is_held:
+                ranges[(excl, temp)].append(peer / mine)
+        if is_held and warm_peer:
+            held.append(f"{scenario[len(prefix):]} {warm_peer / ours:.1f}×")
+    lines.append("")
+    for excl in (True, False):
+        for temp in ("warm", "cold"):
+            r = ranges[(excl, temp)]
+            if r:
+                lines.append(f"- {'with' if excl else 'without'} exclusions, {temp}: {min(r):.1f}× to {max(r):.1f}× "
+                             f"the better peer, geometric mean {geomean(r):.1f}× over {len(r)} rows")
+    if held:
+        lines.append("- held pose, left out of the ranges above (warm): " + "; ".join(held))
+    return "\n".join(lines) + "\n"
+
+
+def real(g, method):
+    b = g.get(method)
+    return us(b, "real_time") if b else None
+
+
 def main():
-    context, rows = load(sys.argv[1])
+    global STATISTIC
+    args = sys.argv[1:]
+    if len(args) >= 2 and args[0] == "--statistic":
+        STATISTIC, args = args[1], args[2:]
+    context, rows = load(args[0])
     groups = group(rows)
     print(f"<!-- {context.get('date', '')}, load average {context.get('load_avg', '')} -->\n")
-    print(table_one_space(groups, "a_cloud/", "(a) coherent cloud, no exclusions", extra_levels=True))
-    print(table_one_space(groups, "b_clip/", "(b) the shared characters' clips"))
-    print(table_scale(groups))
-    print(table_crowds(groups))
+    present = {s.partition("/")[0] for s in groups}
+    if "a_cloud" in present:
+        print(table_one_space(groups, "a_cloud/", "(a) coherent cloud, no exclusions", extra_levels=True))
+    if "b_clip" in present:
+        print(table_clips(groups))
+    if "c_scale" in present:
+        print(table_scale(groups))
+    if "d_crowd" in present:
+        print(table_crowds(groups))
 
 
 if __name__ == "__main__":

@@ -9,7 +9,13 @@
 // Per frame, precomputed at set-up (untimed): G_j(t), the whole mesh skinned (SkinningJob, CSR),
 // the exact and the fast spheres and their broad-phase pairs.
 //
-// Rows (one thread unless said; each iteration is the next frame):
+// A workload whose frames all hold one pose (Xbot's only clip: a T-pose of 0.067 s, 3 frames) is
+// labelled "held pose" (counter held_pose = 1) and belongs in no range over the clips.
+//
+// Rows (one thread unless said; each iteration is the next frame). BM_Narrow, BM_Stage,
+// BM_OursExact and BM_Fcl run whole passes over the workload's frames (KeepRunningBatch): every
+// repetition times every frame the same number of times, however slow a frame is (FCL takes up to
+// a few hundred ms a frame, so a row of it may be one pass), and a row's time is the mean per frame.
 //   BM_Narrow/char/work/mode   the narrow phase alone on the broad phase's pairs:
 //     mode 0  exact: mode (a), the frame's skinned positions, exact spheres' pairs;
 //     mode 1  fast + lazy: mode (b), fast spheres' pairs, skinning only what it tests (included);
@@ -98,6 +104,7 @@ struct Workload {
   double contacts = 0.0;  // triangle pairs per frame (exact mode)
   double fcl_same = 0, fcl_only = 0, ours_only = 0;
   bool checked_fcl = false;
+  bool held_pose = false;  // every frame's skinned mesh is frame 0's
 };
 
 struct Character {
@@ -202,7 +209,16 @@ void Load(Character* c, int index) {
     if (!MakeFrame(*c, RandomLocals(c->ch, rng), *inst, &c->work[1].frames.back())) return void(c->error = "posing failed");
   }
   for (Workload& w : c->work) {
-    if (w.frames.empty()) w.error = "no frames";
+    if (w.frames.empty()) {
+      w.error = "no frames";
+      continue;
+    }
+    w.held_pose = std::all_of(w.frames.begin(), w.frames.end(), [&](const Frame& f) {
+      for (size_t v = 0; v < f.positions.size(); ++v) {
+        if ((f.positions[v] - w.frames[0].positions[v]).norm() > 1e-6f) return false;
+      }
+      return true;
+    });
   }
 }
 
@@ -221,7 +237,10 @@ Character* Get(benchmark::State& state, int index, int work) {
     state.SkipWithError(c->work[work].error.c_str());
     return nullptr;
   }
-  state.SetLabel(std::string(kNames[index]) + (work ? " random" : " clips"));
+  state.SetLabel(std::string(kNames[index]) + (work ? " random" : " clips") +
+                 (c->work[work].held_pose ? " (held pose)" : ""));
+  state.counters["held_pose"] = c->work[work].held_pose ? 1.0 : 0.0;
+  state.counters["frames"] = double(c->work[work].frames.size());
   return c;
 }
 
@@ -318,13 +337,14 @@ void BM_Narrow(benchmark::State& state) {
   }
   size_t frame = 0, pairs = 0, contacts = 0;
   rt::NarrowPhaseContext::Stats stats;
-  for (auto _ : state) {
-    const Frame& f = w.frames[frame % w.frames.size()];
-    if (!runner.Run(f, &out)) return state.SkipWithError("narrow phase refused a frame");
-    pairs += mode == 0 ? f.pairs_exact.size() : f.pairs_fast.size();
-    contacts += out.triangle_pairs.size();
-    AddStats(&stats, runner.ctx.last_stats());
-    ++frame;
+  while (state.KeepRunningBatch(benchmark::IterationCount(w.frames.size()))) {
+    for (const Frame& f : w.frames) {
+      if (!runner.Run(f, &out)) return state.SkipWithError("narrow phase refused a frame");
+      pairs += mode == 0 ? f.pairs_exact.size() : f.pairs_fast.size();
+      contacts += out.triangle_pairs.size();
+      AddStats(&stats, runner.ctx.last_stats());
+      ++frame;
+    }
   }
   Counters(state, *c, frame, pairs, stats, contacts);
 }
@@ -407,21 +427,25 @@ void BM_Stage(benchmark::State& state) {
   rt::BroadPhaseContext ctx(c->set.size());
   std::vector<rt::Contact> out;
   out.reserve(8192);
-  size_t frame = 0;
-  for (auto _ : state) {
-    const Frame& f = w.frames[frame % w.frames.size()];
-    switch (stage) {
-      case 0: benchmark::DoNotOptimize(whole.Skin(f)); break;
-      case 1: benchmark::DoNotOptimize(inst->UpdateExact(f.positions, f.joint_world).ok()); break;
-      case 2: benchmark::DoNotOptimize(rt::SelfCollisionJob{f.spheres_exact, &c->asset->filter(), &ctx, &out}.Run()); break;
-      case 3: benchmark::DoNotOptimize(inst->UpdateFast(f.joint_world).ok()); break;
-      default: benchmark::DoNotOptimize(rt::SelfCollisionJob{f.spheres_fast, &c->asset->filter(), &ctx, &out}.Run()); break;
+  while (state.KeepRunningBatch(benchmark::IterationCount(w.frames.size()))) {
+    for (const Frame& f : w.frames) {
+      switch (stage) {
+        case 0: benchmark::DoNotOptimize(whole.Skin(f)); break;
+        case 1: benchmark::DoNotOptimize(inst->UpdateExact(f.positions, f.joint_world).ok()); break;
+        case 2:
+          benchmark::DoNotOptimize(rt::SelfCollisionJob{f.spheres_exact, &c->asset->filter(), &ctx, &out}.Run());
+          break;
+        case 3: benchmark::DoNotOptimize(inst->UpdateFast(f.joint_world).ok()); break;
+        default:
+          benchmark::DoNotOptimize(rt::SelfCollisionJob{f.spheres_fast, &c->asset->filter(), &ctx, &out}.Run());
+          break;
+      }
+      benchmark::ClobberMemory();
     }
-    benchmark::ClobberMemory();
-    ++frame;
   }
   static const char* const kStages[] = {"skin whole mesh", "refit exact", "query exact", "refit fast", "query fast"};
-  state.SetLabel(std::string(kNames[state.range(0)]) + (work ? " random: " : " clips: ") + kStages[stage]);
+  state.SetLabel(std::string(kNames[state.range(0)]) + (work ? " random: " : " clips: ") + kStages[stage] +
+                 (w.held_pose ? " (held pose)" : ""));
 }
 BENCHMARK(BM_Stage)
     ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}, {0, 1, 2, 3, 4}})
@@ -437,13 +461,14 @@ void BM_OursExact(benchmark::State& state) {
   auto inst = rt::CharacterInstance::Create(c->asset);
   inst->ReserveContacts(8192);
   size_t frame = 0, contacts = 0;
-  for (auto _ : state) {
-    const Frame& f = w.frames[frame % w.frames.size()];
-    if (!inst->UpdateExact(f.positions, f.joint_world).ok() || !inst->FindContacts(f.positions).ok()) {
-      return state.SkipWithError("frame failed");
+  while (state.KeepRunningBatch(benchmark::IterationCount(w.frames.size()))) {
+    for (const Frame& f : w.frames) {
+      if (!inst->UpdateExact(f.positions, f.joint_world).ok() || !inst->FindContacts(f.positions).ok()) {
+        return state.SkipWithError("frame failed");
+      }
+      contacts += inst->frame_contacts().triangle_pairs.size();
+      ++frame;
     }
-    contacts += inst->frame_contacts().triangle_pairs.size();
-    ++frame;
   }
   state.counters["contacts"] = frame ? double(contacts) / double(frame) : 0.0;
 }
@@ -714,11 +739,14 @@ void BM_Fcl(benchmark::State& state) {
   world.request.enable_contact = variant == 0;
   world.collide = variant != 2;
   static const char* const kVariants[] = {": contact points", ": pairs only", ": refit only"};
-  state.SetLabel(std::string(kNames[state.range(0)]) + (work ? " random" : " clips") + kVariants[variant]);
+  state.SetLabel(std::string(kNames[state.range(0)]) + (work ? " random" : " clips") + kVariants[variant] +
+                 (w.held_pose ? " (held pose)" : ""));
   size_t frame = 0, contacts = 0;
-  for (auto _ : state) {
-    world.Frame(w.frames[frame % w.frames.size()].positions, [&](uint32_t, uint32_t) { ++contacts; });
-    ++frame;
+  while (state.KeepRunningBatch(benchmark::IterationCount(w.frames.size()))) {
+    for (const Frame& f : w.frames) {
+      world.Frame(f.positions, [&](uint32_t, uint32_t) { ++contacts; });
+      ++frame;
+    }
   }
   const double frames = double(w.frames.size());
   state.counters["contacts_raw"] = frame ? double(contacts) / double(frame) : 0.0;

@@ -34,12 +34,12 @@
    instances. An instance is used by one thread at a time; distinct instances may be updated and
    queried concurrently (skinspheres_crowd_update_and_query does it for you).
 
-   Allocation: loading and creating allocate (the calling thread). Updates and queries do not,
-   except that the contact buffers grow the first time a frame has more contacts than any before
-   (skinspheres_instance_reserve_contacts pins them; skinspheres_instance_reserve_sphere_contacts
-   pins only the sphere contacts' buffer), and that an instance's first
-   skinspheres_instance_find_contacts sizes its narrow-phase scratch unless
-   skinspheres_instance_reserve_contacts did (and, without positions, its skinned-position buffer).
+   Allocation, in full in docs/EMBEDDING.md: loading and creating allocate; per frame, a contact
+   buffer grows the first time a frame needs more room than any before
+   (skinspheres_instance_reserve_contacts pins them at set-up), the first
+   skinspheres_instance_find_contacts sizes the narrow phase's scratch unless
+   skinspheres_instance_reserve_contacts did, and the first one without positions its
+   skinned-position buffer; nothing else.
 
    Queries follow one pattern: a call computes and gives the count (skinspheres_instance_query for
    the overlapping spheres, skinspheres_instance_find_contacts for the triangles behind them); a
@@ -273,10 +273,7 @@ SKINSPHERES_C_API int skinspheres_asset_has_triangle_contacts(const skinspheres_
    (3 floats per vertex, vertex_count >= skinspheres_asset_vertex_count), or NULL with vertex_count 0:
    the instance then skins only the vertices it tests, from the last update's joint matrices (the
    usual choice after update_fast). *out_part_pairs and *out_triangle_pairs (either may be NULL) get
-   the counts. Allocates nothing per frame once the buffers have held the largest frame
-   (skinspheres_instance_reserve_contacts sizes them and the narrow phase's scratch; else the first
-   call sizes that scratch), except that the first call without positions allocates its
-   skinned-position buffer (12 bytes per vertex). */
+   the counts. Allocation: as the header's note says. */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_find_contacts(skinspheres_instance* instance,
                                                                        const float* positions, size_t vertex_count,
                                                                        size_t* out_part_pairs,

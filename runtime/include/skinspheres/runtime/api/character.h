@@ -18,15 +18,12 @@
 // it through a shared_ptr.
 //
 // CharacterInstance: refitted spheres (refit_job.h) + the self-collision broad phase
-// (broad_phase.h) + the narrow phase (narrow_phase.h). Its buffers are sized at Create, apart from
-// the narrow phase's: ReserveContacts (at set-up) or else the first FindContacts sizes them (a few
-// hundred KB for a mesh of tens of thousands of vertices, so an instance that only runs the broad
-// phase never holds them), and the first FindContacts in mode (b) after mode (a) sizes them again
-// with its skinned-position buffer (12 bytes per mesh vertex). Per frame after that nothing is
-// allocated, except that the output lists grow (geometrically) the first time a frame has more
-// contacts than any before: ReserveContacts pins them; ReserveSphereContacts only Query's, without
-// the narrow phase's scratch (for an instance that only runs the broad phase). Per-frame calls
-// never throw; they return a FrameStatus whose message is a static string (no allocation). A failed
+// (broad_phase.h) + the narrow phase (narrow_phase.h). Allocation, in full in docs/EMBEDDING.md:
+// Create allocates; per frame, a list grows the first time a frame needs more room than any before
+// (ReserveContacts pins them at set-up), the first FindContacts sizes the narrow phase's scratch
+// unless ReserveContacts did, and the first FindContacts without positions its skinned-position
+// buffer; nothing else. Per-frame calls never throw; they return a FrameStatus whose message is a
+// static string (no allocation). A failed
 // update (non-finite input, short spans) marks the instance's spheres invalid, so Query() then
 // returns no contacts and status() says why; other instances are untouched. Not thread-safe per
 // instance; distinct instances may run concurrently.
