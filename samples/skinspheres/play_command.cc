@@ -21,7 +21,7 @@ namespace {
 
 struct PlayArgs {
   std::string input, spheres, clip = "0", mode = "exact", report, dump, export_glb, html;
-  std::vector<std::string> clip_files;
+  ClipFileOptions clip_files;
   float fps = 30.0f;
   float margin = 0.0f;
   int frames = 0;
@@ -67,7 +67,7 @@ int RunPlay(PlayArgs& a) {
   auto loaded = LoadCharacter(a.input, a.fit.parts_file);
   if (!loaded.ok()) return Fail(loaded.error().message);
   std::vector<std::string> notes;
-  if (auto why = AddClipFiles(*loaded, a.clip_files, &notes)) return Fail(*why);
+  if (auto why = AddClipFiles(*loaded, a.clip_files, a.fps, &notes)) return Fail(*why);
   for (const auto& note : notes) std::printf("%s\n", note.c_str());
   std::vector<size_t> clips;
   if (a.clip == "all") {
@@ -240,10 +240,7 @@ void AddPlayCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--dump", a->dump, "write one JSON line per frame: spheres, sphere pairs, contacts");
   cmd->add_option("--export-glb", a->export_glb, "write the animated character with its spheres (in the clip's animation) as GLB");
   cmd->add_option("--html", a->html, "write the viewer page: one self-contained HTML file (with --clip all, every clip)");
-  cmd->add_option("--clips", a->clip_files,
-                  "add the clips of an animation file (glTF, GLB, FBX, ...; joints matched by name); repeatable")
-      ->take_all()
-      ->allow_extra_args(false);
+  a->clip_files.AddTo(*cmd);
   cmd->add_flag("--verify", a->verify,
                 "skin every vertex: check every triangle is owned and inside its sphere, and the narrow phase "
                 "against the brute-force oracle");
