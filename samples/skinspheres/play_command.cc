@@ -79,7 +79,7 @@ int RunPlay(PlayArgs& a) {
   if (a.mode != "exact" && a.mode != "fast") return Fail("--mode must be exact or fast (got " + a.mode + ")");
   if (!(a.fps > 0.0f) || a.fps > 10000.0f) return Fail("--fps must be in (0, 10000]");
   if (!(a.margin >= 0.0f) || !std::isfinite(a.margin)) return Fail("--margin must be a finite distance >= 0");
-  if (!(a.touch_tolerance >= 0.0f) || !(a.touch_tolerance < 1.0f)) return Fail("--touch-tolerance must be in [0, 1)");
+  if (auto why = CheckTouchTolerance(a.touch_tolerance)) return Fail(*why);
   if (auto why = a.fit.Resolve()) return Fail(*why);
   auto loaded = LoadCharacter(a.input, a.fit.parts_file);
   if (!loaded.ok()) return Fail(loaded.error().message);
@@ -269,10 +269,7 @@ void AddPlayCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--margin", a->margin,
                   "also report triangle pairs nearer than this distance (model units; pairs this near at rest excluded)")
       ->capture_default_str();
-  cmd->add_option("--touch-tolerance", a->touch_tolerance,
-                  "a part pair whose triangles intersect by at most this share of the body height is touching, deeper "
-                  "penetrating")
-      ->capture_default_str();
+  AddTouchToleranceOption(*cmd, &a->touch_tolerance);
   cmd->add_flag("--sphere-pairs", a->sphere_pairs, "also list the broad phase's sphere pairs by body-part pair");
   cmd->add_option("--report", a->report, "write a JSON report");
   cmd->add_option("--dump", a->dump, "write one JSON line per frame: spheres, sphere pairs, contacts");

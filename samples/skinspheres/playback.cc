@@ -153,6 +153,18 @@ float PlaybackTime(float time_s, float duration_s) {
   return skinning::LoopTime(time_s, duration_s);
 }
 
+void AddTouchToleranceOption(CLI::App& app, float* share) {
+  app.add_option("--touch-tolerance", *share,
+                 "a part pair whose triangles intersect by at most this share of the body height is touching, deeper "
+                 "penetrating")
+      ->capture_default_str();
+}
+
+std::optional<std::string> CheckTouchTolerance(float share) {
+  if (share >= 0.0f && share < 1.0f) return std::nullopt;
+  return "--touch-tolerance must be a share of the body height in [0, 1)";
+}
+
 bool Penetrating(const runtime::PartContact& contact, float tolerance) {
   return contact.intersecting_count > 0 && contact.depth > tolerance;
 }

@@ -67,6 +67,10 @@ struct FrameView {
   float touch_tolerance = 0.0f;                     // model units: deeper intersections penetrate
 };
 
+// --touch-tolerance (play, check): the option, and its check (a message when refused).
+void AddTouchToleranceOption(CLI::App& app, float* share);
+std::optional<std::string> CheckTouchTolerance(float share);
+
 // A part pair's contact on one frame is penetrating (an intersection deeper than the tolerance).
 bool Penetrating(const runtime::PartContact& contact, float tolerance);
 using FrameSink = std::function<void(const FrameView&)>;
