@@ -1,6 +1,6 @@
 // skinspheres check CHARACTER [--clips FILE...] [--clip NAME|all] [--max-depth D] [--touch-tolerance T]
 //   [--report R.json] [--csv R.csv] [--html DIR] [--spheres S] [--fps F] [--mode exact|fast] [--jobs N]
-//   [--joint-map M] [--source-rest R] [--retarget auto|copy|world] [fit options]
+//   [--joint-map M] [--source-rest R] [--retarget auto|copy|world] [--compare-source] [fit options]
 //
 // A whole animation library against one character, like a linter: every clip of every file
 // (retargeted onto the character), or the character's own clips without --clips, played in
@@ -39,14 +39,16 @@ struct CheckArgs {
   float max_depth = kDefaultMaxDepth;
   float touch_tolerance = kDefaultTouchTolerance;
   int jobs = 0;
+  bool compare_source = false;
   FitOptions fit;
 };
 
-// One clip to check: its index in the character's clips and the file it came from ("" = the
-// character's own).
+// One clip to check: its index in the character's clips, the file it came from ("" = the
+// character's own) and its name in that file.
 struct Entry {
   size_t clip = 0;
   std::string file;
+  std::string original;
 };
 
 enum class Verdict { kClean, kPenetratingWithinLimit, kOverLimit };
@@ -69,6 +71,10 @@ struct Checked {
   int worst_frame = -1;
   const PartPairSummary* worst_pair = nullptr;
   Verdict verdict = Verdict::kClean;
+  // --compare-source: the part pairs that penetrate when the file's own character plays the clip,
+  // and those that penetrate here but not there (introduced by retargeting).
+  std::optional<std::vector<std::string>> source_penetrating;
+  std::vector<std::string> introduced;
 };
 
 std::string PartName(const runtime::SphereSet& set, uint16_t p) {
@@ -118,7 +124,8 @@ std::string ClipLine(const Checked& c, const LoadedCharacter& loaded, const runt
     for (size_t k = 0; k < penetrating.size(); ++k) {
       const PartPairSummary& e = *penetrating[k];
       line += (k ? ", " : " ") + PairName(set, e) + " " + Percent(e.max_depth / height) + " at frame " +
-              std::to_string(e.worst_frame) + " (" + std::to_string(e.penetrating.frames()) + " frames)";
+              std::to_string(e.worst_frame) + " (" + std::to_string(e.penetrating.frames()) +
+              (e.penetrating.frames() == 1 ? " frame)" : " frames)");
     }
   }
   if (!touching.empty()) {
@@ -202,6 +209,9 @@ nlohmann::json ReportJson(const std::vector<Checked>& checked,
                            ? nlohmann::json{PartName(set, c.worst_pair->part_a), PartName(set, c.worst_pair->part_b)}
                            : nlohmann::json(nullptr);
     j["part_pairs"] = std::move(pairs);
+    if (c.source_penetrating) {
+      j["compare_source"] = {{"source_penetrating", *c.source_penetrating}, {"introduced", c.introduced}};
+    }
     clips.push_back(std::move(j));
   }
   nlohmann::json errors = nlohmann::json::array();
@@ -270,7 +280,8 @@ std::vector<Entry> CollectClips(LoadedCharacter& loaded, const CheckArgs& a, con
   };
   if (a.clip_files.files.empty()) {
     for (size_t k = 0; k < loaded.character.clips.size(); ++k) {
-      if (wanted(loaded.character.clips[k].name, loaded.character.clips[k].name)) entries.push_back({k, ""});
+      const std::string& name = loaded.character.clips[k].name;
+      if (wanted(name, name)) entries.push_back({k, "", name});
     }
     return entries;
   }
@@ -288,7 +299,7 @@ std::vector<Entry> CollectClips(LoadedCharacter& loaded, const CheckArgs& a, con
     const std::vector<std::string> names = AppendClips(loaded, file, std::move(*clips));
     for (const std::string& note : DescribeRetarget(report, loaded, file, names)) std::printf("%s\n", note.c_str());
     for (size_t k = 0; k < names.size(); ++k) {
-      if (wanted(originals[k], names[k])) entries.push_back({first + k, file});
+      if (wanted(originals[k], names[k])) entries.push_back({first + k, file, originals[k]});
     }
   }
   return entries;
@@ -321,6 +332,81 @@ std::optional<std::string> WritePages(const std::vector<Checked>& checked, const
     std::printf("wrote %s\n", path.c_str());
   }
   return std::nullopt;
+}
+
+// The penetrating part pairs of a played clip, by name.
+std::vector<std::string> PenetratingPairs(const PlayResult& r, const runtime::SphereSet& set) {
+  std::vector<std::string> names;
+  for (const PartPairSummary& e : r.contacts) {
+    if (e.penetrating.frames()) names.push_back(PairName(set, e));
+  }
+  return names;
+}
+
+// --compare-source: each file that holds a skinned character of its own is fitted and plays its
+// own clips; a clip's part pairs that penetrate on the target but not there were introduced by
+// retargeting. Prints what it finds; a file without a character (or one that fails to fit) is
+// said so in a line, and is no error of the run.
+void CompareWithSources(std::vector<Checked>& checked, const runtime::SphereSet& set, const CheckArgs& a,
+                        const PlayOptions& options, int jobs) {
+  std::vector<std::string> files;
+  for (const Checked& c : checked) {
+    if (!c.entry.file.empty() && c.played && std::find(files.begin(), files.end(), c.entry.file) == files.end())
+      files.push_back(c.entry.file);
+  }
+  if (files.empty()) return;
+  std::printf("compared with the characters the clips' files hold (--compare-source):\n");
+  for (const std::string& file : files) {
+    auto source = LoadCharacter(file, "");
+    if (!source.ok()) {
+      std::printf("  %s: nothing to compare with (%s)\n", file.c_str(),
+                  runtime::OneLine(source.error().message).c_str());
+      continue;
+    }
+    auto fit = lib::FitSpheres(source->character, source->parts, a.fit.settings);
+    auto playback = fit.ok() ? Playback::Create(*source, fit->spheres, options.margin)
+                             : Result<std::shared_ptr<const Playback>>(fit.error());
+    if (!playback.ok()) {
+      std::printf("  %s: nothing to compare with (%s)\n", file.c_str(),
+                  runtime::OneLine(playback.error().message).c_str());
+      continue;
+    }
+    std::vector<Checked> own;
+    std::vector<Checked*> targets;
+    for (Checked& c : checked) {
+      if (c.entry.file != file || !c.played) continue;
+      for (size_t k = 0; k < source->character.clips.size(); ++k) {
+        if (source->character.clips[k].name != c.entry.original) continue;
+        own.push_back({});
+        own.back().entry = {k, file, c.entry.original};
+        targets.push_back(&c);
+        break;
+      }
+    }
+    PlayAll(*playback, options, false, std::max(1, std::min<int>(jobs, static_cast<int>(own.size()))), &own,
+            [](size_t) {});
+    for (size_t k = 0; k < own.size(); ++k) {
+      Checked& c = *targets[k];
+      if (!own[k].played) {
+        std::printf("  %s [%s]: its own character cannot play it (%s)\n", c.entry.original.c_str(), file.c_str(),
+                    own[k].error.c_str());
+        continue;
+      }
+      c.source_penetrating = PenetratingPairs(*own[k].played, fit->spheres);
+      std::string line;
+      for (const std::string& pair : PenetratingPairs(*c.played, set)) {
+        if (std::find(c.source_penetrating->begin(), c.source_penetrating->end(), pair) != c.source_penetrating->end())
+          continue;
+        c.introduced.push_back(pair);
+        line += (line.empty() ? "" : ", ") + pair;
+      }
+      std::string there;
+      for (const std::string& pair : *c.source_penetrating) there += (there.empty() ? "" : ", ") + pair;
+      std::printf("  %s [%s]: %s; penetrating on its own character: %s\n", c.entry.original.c_str(), file.c_str(),
+                  line.empty() ? "nothing introduced by retargeting" : ("introduced by retargeting: " + line).c_str(),
+                  there.empty() ? "none" : there.c_str());
+    }
+  }
 }
 
 std::optional<std::string> Validate(const CheckArgs& a) {
@@ -395,6 +481,7 @@ int RunCheck(CheckArgs& a) {
       if (n == checked.size()) std::fprintf(stderr, "\r\033[K");
     }
   });
+  if (a.compare_source) CompareWithSources(checked, *set, a, options, jobs);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const nlohmann::json report = ReportJson(checked, bad, *loaded, *set, a, seconds, height);
   const auto& sum = report["summary"];
@@ -404,7 +491,11 @@ int RunCheck(CheckArgs& a) {
       checked.size(), seconds, sum["over_limit"].get<size_t>(), Percent(a.max_depth).c_str(),
       sum["penetrating_within_limit"].get<size_t>(), sum["clean"].get<size_t>(),
       sum["failed"].get<size_t>() ? ("; " + std::to_string(sum["failed"].get<size_t>()) + " failed").c_str() : "",
-      bad.empty() ? "" : ("; " + std::to_string(bad.size()) + " files could not be read").c_str());
+      bad.empty()
+          ? ""
+          : ("; " + std::to_string(bad.size()) +
+             (bad.size() == 1 ? " file could not be read or retargeted" : " files could not be read or retargeted"))
+                .c_str());
   const std::string json_text = report.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
   for (const auto& [path, text] : {std::pair{a.report, json_text}, std::pair{a.csv, ReportCsv(report)}}) {
     if (path.empty()) continue;
@@ -441,6 +532,9 @@ void AddCheckCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--fps", a->fps, "frames per second (the last frame, at t = duration, samples the clip's end pose)")
       ->capture_default_str();
   cmd->add_option("--mode", a->mode, "refit mode: exact or fast")->capture_default_str();
+  cmd->add_flag("--compare-source", a->compare_source,
+                "fit the character each clip's file holds (when it has one), play the clip on it too, and list the "
+                "part pairs that penetrate here but not there (introduced by retargeting)");
   cmd->add_option("--jobs", a->jobs, "clips played at once (0: one per core)")->capture_default_str();
   a->fit.AddTo(*cmd);
   cmd->callback([a, exit_code] { *exit_code = RunCheck(*a); });

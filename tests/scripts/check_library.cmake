@@ -33,7 +33,7 @@ string(REGEX MATCHALL "\n" newlines "${err}")
 list(LENGTH newlines lines)
 if(NOT rc EQUAL 2 OR NOT lines EQUAL 2 OR NOT err MATCHES "^skinspheres: [^\n]*broken.fbx: [^\n]*\nskinspheres: [^\n]*empty.glb: [^\n]*\n$"
    OR NOT out MATCHES "rotated/touch \\[[^\n]*rotated.glb\\]: 121 frames, PENETRATES"
-   OR NOT out MATCHES "checked 6 clips [^\n]*: 3 penetrate deeper[^\n]*; 2 files could not be read")
+   OR NOT out MATCHES "checked 6 clips [^\n]*: 3 penetrate deeper[^\n]*; 2 files could not be read or retargeted")
   message(SEND_ERROR "check with bad files: exit ${rc}, ${lines} lines on stderr:\n${err}\n${out}")
 endif()
 file(READ ${DIR}/lib.json report)
@@ -95,6 +95,20 @@ foreach(at 1 3 5)  # the touch clips of anim.glb, rotated.glb and longer.glb in 
   endforeach()
   message(STATUS "${other_name}: the same ${other_pairs} part pairs, frames and depths as the character's own touch")
 endforeach()
+
+# --compare-source: rotated.glb holds the character itself (other rest frames, the same shape), so
+# its clips penetrate there as here: nothing introduced by retargeting; anim.glb holds no character.
+expect_exit(1 "compared with the characters[^\n]*\n  walk [^\n]*rotated.glb\\]: nothing introduced by retargeting; penetrating on its own character: none\n  touch [^\n]*rotated.glb\\]: nothing introduced by retargeting; penetrating on its own character: torso - arm_l, torso - arm_r"
+            check ${DIR}/builtin.glb --clips ${DIR}/lib/rotated.glb ${DIR}/lib/anim.glb --compare-source --report ${DIR}/compare.json)
+if(NOT out MATCHES "anim.glb: nothing to compare with \\([^\n]*no skinned mesh")
+  message(SEND_ERROR "--compare-source on an animation-only file:\n${out}")
+endif()
+file(READ ${DIR}/compare.json compare)
+string(JSON introduced LENGTH "${compare}" clips 1 compare_source introduced)
+string(JSON there LENGTH "${compare}" clips 1 compare_source source_penetrating)
+if(NOT introduced EQUAL 0 OR there LESS 2)
+  message(SEND_ERROR "compare.json: touch introduces ${introduced} pairs, ${there} penetrate on the source")
+endif()
 
 # One worker and two: the same report (less the time taken).
 run_tool(check ${DIR}/builtin.glb --clips ${DIR}/lib/anim.glb ${DIR}/lib/rotated.glb --report ${DIR}/one.json --jobs 1)
