@@ -305,26 +305,31 @@ std::vector<Entry> CollectClips(LoadedCharacter& loaded, const CheckArgs& a, con
   return entries;
 }
 
+// One page per file, named for its stem ("_2", "_3", ... where stems repeat), holding the
+// character with that file's clips only.
 std::optional<std::string> WritePages(const std::vector<Checked>& checked, const LoadedCharacter& loaded,
                                       const runtime::SphereSet& set, const CheckArgs& a, double fit_seconds) {
   std::error_code ec;
   std::filesystem::create_directories(a.html, ec);
   if (ec) return a.html + ": cannot create the folder (" + ec.message() + ")";
-  std::vector<std::string> files;
+  std::vector<std::string> files, stems;
   for (const Checked& c : checked) {
     if (std::find(files.begin(), files.end(), c.entry.file) == files.end()) files.push_back(c.entry.file);
   }
   for (const std::string& file : files) {
-    const std::string stem =
-        std::filesystem::path(
-            file.empty() ? (loaded.character.source_file.empty() ? "builtin" : loaded.character.source_file) : file)
-            .stem()
-            .string();
-    ViewerPageInput page{&loaded, &set, fit_seconds, {}, {"clips checked by skinspheres check"}};
+    const std::string own = loaded.character.source_file.empty() ? "builtin" : loaded.character.source_file;
+    std::string stem = std::filesystem::path(file.empty() ? own : file).stem().string();
+    for (int k = 2; std::find(stems.begin(), stems.end(), stem) != stems.end(); ++k) {
+      stem = std::filesystem::path(file.empty() ? own : file).stem().string() + "_" + std::to_string(k);
+    }
+    stems.push_back(stem);
+    LoadedCharacter page_character = loaded;
+    page_character.character.clips.clear();
+    ViewerPageInput page{&page_character, &set, fit_seconds, {}, {"clips checked by skinspheres check"}};
     for (const Checked& c : checked) {
-      if (c.entry.file == file && c.played) {
-        page.clips.push_back(ViewClip{&*c.played, &c.frames, c.entry.clip, a.fps, a.mode == "fast"});
-      }
+      if (c.entry.file != file || !c.played) continue;
+      page.clips.push_back(ViewClip{&*c.played, &c.frames, page_character.character.clips.size(), a.fps, a.mode == "fast"});
+      page_character.character.clips.push_back(loaded.character.clips[c.entry.clip]);
     }
     if (page.clips.empty()) continue;
     const std::string path = (std::filesystem::path(a.html) / (stem + ".html")).string();

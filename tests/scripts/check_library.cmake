@@ -110,6 +110,17 @@ if(NOT introduced EQUAL 0 OR there LESS 2)
   message(SEND_ERROR "compare.json: touch introduces ${introduced} pairs, ${there} penetrate on the source")
 endif()
 
+# --html: one page per file, holding that file's clips.
+expect_exit(1 "wrote [^\n]*pages/rotated.html\nwrote [^\n]*pages/anim.html"
+            check ${DIR}/builtin.glb --clips ${DIR}/lib/rotated.glb ${DIR}/lib/anim.glb --html ${DIR}/pages)
+file(READ ${DIR}/pages/rotated.html page)
+string(REGEX MATCH "<script id=\"ss-data\" type=\"application/json\">([^<]*)</script>" unused "${page}")
+string(JSON page_clips LENGTH "${CMAKE_MATCH_1}" character clips)
+string(JSON page_clip GET "${CMAKE_MATCH_1}" clips 1 name)
+if(NOT page_clips EQUAL 2 OR NOT page_clip STREQUAL "rotated/touch")
+  message(SEND_ERROR "pages/rotated.html: ${page_clips} clips, the second ${page_clip}")
+endif()
+
 # One worker and two: the same report (less the time taken).
 run_tool(check ${DIR}/builtin.glb --clips ${DIR}/lib/anim.glb ${DIR}/lib/rotated.glb --report ${DIR}/one.json --jobs 1)
 run_tool(check ${DIR}/builtin.glb --clips ${DIR}/lib/anim.glb ${DIR}/lib/rotated.glb --report ${DIR}/two.json --jobs 2)
