@@ -44,9 +44,9 @@ std::string FindCycle(const JointMap& map) {
       bool in_cycle = false;
       for (const std::string& name : path) {
         in_cycle = in_cycle || name == at;
-        if (in_cycle) text += "\"" + name + "\" -> ";
+        if (in_cycle) text.append("\"").append(name).append("\" -> ");
       }
-      return text + "\"" + at + "\"";
+      return text.append("\"").append(at).append("\"");
     }
     done.insert(path.begin(), path.end());
   }

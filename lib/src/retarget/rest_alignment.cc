@@ -26,7 +26,7 @@ Eigen::Quaterniond Kabsch(const std::vector<Vec3>& s, const std::vector<Vec3>& t
   Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
   for (size_t i = 0; i < s.size(); ++i) h += (s[i] - cs) * (t[i] - ct).transpose();
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Vec3 sv = svd.singularValues();
+  const Vec3& sv = svd.singularValues();
   if (!(sv[1] > 1e-9 * sv[0])) return Eigen::Quaterniond::Identity();
   Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
   d(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0 ? -1.0 : 1.0;

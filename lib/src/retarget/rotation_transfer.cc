@@ -4,6 +4,7 @@
 // the root-motion joint placed at p_target_rest + k · A · (p_source(t) − p_source_rest).
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "retarget_stages.h"
 #include "skinspheres/skinning/sampling_job.h"
@@ -119,7 +120,7 @@ Result<skinning::AnimationClip> TransferClip(const SourceRig& source, size_t cli
     MakeContinuous(&track.rotation.values);
     if (j == root_joint && root_node >= 0) {
       track.translation.times_s = times;
-      track.translation.values = std::move(root_translations);
+      track.translation.values = std::exchange(root_translations, {});
     }
     out.tracks.push_back(std::move(track));
   }
