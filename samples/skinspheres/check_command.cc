@@ -328,7 +328,8 @@ std::optional<std::string> WritePages(const std::vector<Checked>& checked, const
     ViewerPageInput page{&page_character, &set, fit_seconds, {}, {"clips checked by skinspheres check"}};
     for (const Checked& c : checked) {
       if (c.entry.file != file || !c.played) continue;
-      page.clips.push_back(ViewClip{&*c.played, &c.frames, page_character.character.clips.size(), a.fps, a.mode == "fast"});
+      page.clips.push_back(
+          ViewClip{&*c.played, &c.frames, page_character.character.clips.size(), a.fps, a.mode == "fast"});
       page_character.character.clips.push_back(loaded.character.clips[c.entry.clip]);
     }
     if (page.clips.empty()) continue;

@@ -60,6 +60,7 @@ std::vector<std::string> DescribeRetarget(const lib::RetargetReport& r, const Lo
   if (!r.root_joint.empty()) how += "; root motion on " + r.root_joint + ", scaled " + scale + " (hip heights)";
   if (r.alignment_degrees > 0.05f) how += "; rest poses turned " + Degrees(r.alignment_degrees) + " apart";
   how += "; rest poses differ by up to " + Degrees(r.largest_rest_difference.degrees);
+  if (r.rest_directions_matched) how += " (bones laid along the clip's rest directions: --rest-directions match)";
   if (!r.largest_rest_difference.joint.empty()) how += " (" + r.largest_rest_difference.joint + ")";
   if (!r.rest_differences.empty()) {
     how += ", by limb:";
@@ -94,6 +95,10 @@ void ClipFileOptions::AddTo(CLI::App& app) {
                  "auto (copy local rotations when the rigs are the same, else transfer in world space), copy, or "
                  "world")
       ->capture_default_str();
+  app.add_option("--rest-directions", rest_directions,
+                 "where the rigs' rest poses differ (A-pose against T-pose): keep the character's rest bone "
+                 "directions (and the difference), or match the clip's")
+      ->capture_default_str();
 }
 
 Result<ClipFileContext> ResolveClipFileOptions(const ClipFileOptions& o, float fps) {
@@ -107,6 +112,11 @@ Result<ClipFileContext> ResolveClipFileOptions(const ClipFileOptions& o, float f
   } else {
     return MakeError(ErrorCode::kInvalidArgument, "--retarget must be auto, copy or world (got " + o.retarget + ")");
   }
+  if (o.rest_directions != "keep" && o.rest_directions != "match") {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "--rest-directions must be keep or match (got " + o.rest_directions + ")");
+  }
+  context.match_rest_directions = o.rest_directions == "match";
   if (!o.joint_map.empty()) {
     auto map = lib::LoadJointMap(o.joint_map);
     if (!map.ok()) return map.error();
@@ -142,6 +152,7 @@ Result<std::vector<skinning::AnimationClip>> ReadClipFile(const LoadedCharacter&
   options.joint_map = context.joint_map ? &*context.joint_map : nullptr;
   options.target_parts = &loaded.parts;
   options.source_rest = context.rest;
+  options.match_rest_directions = context.match_rest_directions;
   std::optional<lib::RawCharacter> own;
   if (options.source_rest.kind == lib::SourceRest::Kind::kNone) {
     auto rig = lib::ReadFileRestRig(*read);

@@ -19,6 +19,7 @@ struct ClipFileOptions {
   std::string joint_map;
   std::string source_rest;  // RIG (a file), FRAME (a number), "nodes" or "identity"
   std::string retarget = "auto";
+  std::string rest_directions = "keep";
   void AddTo(CLI::App& app);
 };
 
@@ -28,6 +29,7 @@ struct ClipFileContext {
   std::shared_ptr<const lib::RawCharacter> rest_rig;  // --source-rest RIG
   lib::SourceRest rest;                               // from --source-rest (kNone: the file's own, if any)
   lib::RetargetMode mode = lib::RetargetMode::kAuto;
+  bool match_rest_directions = false;
 };
 // An error message (one line, naming the file or the option) when an option is refused.
 Result<ClipFileContext> ResolveClipFileOptions(const ClipFileOptions& options, float fps);

@@ -1,5 +1,5 @@
 // An independent check of retargeting: node tests/scripts/bone_directions.mjs SOURCE.glb
-// TARGET.glb DUMP.jsonl CLIP [--max-median DEG] [--max-p95 DEG]
+// TARGET.glb DUMP.jsonl CLIP [--max-median DEG] [--max-p95 DEG] [--map MAP.json] [--align bind|nodes]
 //
 // DUMP.jsonl is `skinspheres play TARGET --clips SOURCE --clip CLIP --dump DUMP.jsonl`: per frame
 // the clip time sampled and the world positions of TARGET's skin joints ("joints", names in the
@@ -8,7 +8,9 @@
 // compares every bone's world direction (a skin joint and its nearest skin ancestor in TARGET,
 // both matched by name to SOURCE's skin joints: the nodes that move its mesh; other nodes may
 // carry keys no one sees) with the source's, after one rotation that aligns the two rest poses
-// (least squares over the matched joints' bind positions, IBM⁻¹ of each file).
+// (least squares over the matched joints' bind positions, IBM⁻¹ of each file; with --align nodes,
+// their node-tree rest positions, for files whose skins are bound in another space). --map: the
+// --joint-map the dump was made with ({"source joint": "target joint"}), before names.
 // Prints the median, 95th percentile and largest angle, and the bones with the largest median;
 // exits 1 when a bound given is exceeded, 2 on bad input.
 import { readFileSync } from 'node:fs';
@@ -222,6 +224,7 @@ const args = process.argv.slice(2);
 if (args.length < 4) fail('usage: bone_directions.mjs SOURCE.glb TARGET.glb DUMP.jsonl CLIP [--max-median DEG] [--max-p95 DEG]');
 const [sourcePath, targetPath, dumpPath, clip] = args;
 const bound = (flag) => { const i = args.indexOf(flag); return i >= 0 ? Number(args[i + 1]) : Infinity; };
+const option = (flag) => { const i = args.indexOf(flag); return i >= 0 ? args[i + 1] : null; };
 const source = readGlb(sourcePath), target = readGlb(targetPath);
 const ss = scene(source), ts = scene(target);
 const lines = readFileSync(dumpPath, 'utf8').split('\n').filter((l) => l.trim());
@@ -235,7 +238,20 @@ if (targetNode.some((n) => n < 0)) fail(`${dumpPath}: a joint name is not a node
 const dumpIndexOfNode = new Map(targetNode.map((n, i) => [n, i]));
 const sourceNodeOfKey = new Map();
 ss.nodes.forEach((n, i) => { if (!sourceNodeOfKey.has(key(n.name))) sourceNodeOfKey.set(key(n.name), i); });
-const sourceBind = bindPositions(source), targetBind = bindPositions(target);
+if (option('--map')) {  // mapped target names take their source node, before any name match
+  const map = JSON.parse(readFileSync(option('--map'), 'utf8'));
+  for (const [from, to] of Object.entries(map)) {
+    const node = ss.nodes.findIndex((n) => n.name === from);
+    if (to !== null && node >= 0) sourceNodeOfKey.set(key(to), node);
+  }
+}
+const restPositions = (glb, sc) => {
+  if (option('--align') !== 'nodes') return bindPositions(glb);
+  const w = worlds(sc, sc.local), out = bindPositions(glb);
+  for (const node of out.keys()) out.set(node, w[node].slice(12, 15));
+  return out;
+};
+const sourceBind = restPositions(source, ss), targetBind = restPositions(target, ts);
 const bones = [];
 targetNode.forEach((node, i) => {
   let a = ts.parent[node];

@@ -33,15 +33,6 @@ Eigen::Quaterniond Kabsch(const std::vector<Vec3>& s, const std::vector<Vec3>& t
   return Eigen::Quaterniond(svd.matrixV() * d * svd.matrixU().transpose()).normalized();
 }
 
-bool InBody(const BodyParts* parts, size_t j) {
-  if (parts == nullptr || !parts->humanoid || j >= parts->joint_part.size()) return true;
-  const int32_t p = parts->joint_part[j];
-  if (p < 0) return false;
-  const PartKind kind = parts->parts[static_cast<size_t>(p)].kind;
-  return kind == PartKind::kTorso || kind == PartKind::kHead || kind == PartKind::kLegLeft ||
-         kind == PartKind::kLegRight;
-}
-
 Vec3 D(const Eigen::Vector3f& v) { return v.cast<double>(); }
 
 // Height of `root` above the lowest of `points` along `up`, or 0.
@@ -92,18 +83,71 @@ void RestDifferences(const WorldPose& source_rest, const WorldPose& target_rest,
                    [](const RestDifference& x, const RestDifference& y) { return x.degrees > y.degrees; });
 }
 
+// Per target joint, the smallest rotation that lays its rest bone (towards its mapped child with
+// the most mapped joints below it) along A times the source's rest bone; the identity for a joint
+// without a mapped child or with a bone too short to have a direction.
+std::vector<Quatf> RestSwings(const WorldPose& source_rest, const WorldPose& target_rest, const Correspondence& c,
+                              const skinning::Skeleton& t, const Eigen::Quaterniond& a, double size) {
+  std::vector<int32_t> mapped_below(t.size(), 0);
+  for (size_t j = t.size(); j-- > 0;) {
+    if (t.parents[j] >= 0) {
+      mapped_below[static_cast<size_t>(t.parents[j])] += mapped_below[j] + (c.node_of[j] >= 0 ? 1 : 0);
+    }
+  }
+  std::vector<int32_t> child(t.size(), -1);
+  for (size_t j = 0; j < t.size(); ++j) {
+    const int32_t p = t.parents[j];
+    if (p < 0 || c.node_of[j] < 0) continue;
+    const int32_t& best = child[static_cast<size_t>(p)];
+    if (best < 0 || mapped_below[j] > mapped_below[static_cast<size_t>(best)])
+      child[static_cast<size_t>(p)] = static_cast<int32_t>(j);
+  }
+  std::vector<Quatf> swing(t.size(), Quatf::Identity());
+  for (size_t j = 0; j < t.size(); ++j) {
+    const int32_t k = child[j];
+    if (c.node_of[j] < 0 || k < 0) continue;
+    const Vec3 dt = D(target_rest.position[static_cast<size_t>(k)]) - D(target_rest.position[j]);
+    const Vec3 ds = a * (D(source_rest.position[static_cast<size_t>(c.node_of[static_cast<size_t>(k)])]) -
+                         D(source_rest.position[static_cast<size_t>(c.node_of[j])]));
+    if (!(dt.norm() > 1e-4 * size) || !(ds.norm() > 1e-4 * size)) continue;
+    swing[j] = Quatf(Eigen::Quaterniond::FromTwoVectors(dt, ds).normalized().cast<float>());
+  }
+  return swing;
+}
+
 }  // namespace
 
+std::vector<char> AligningJoints(const RawCharacter& target, const BodyParts* parts, const CoreJoints& core) {
+  const skinning::Skeleton& t = target.skeleton;
+  std::vector<char> aligning(t.size(), 1);
+  if (parts != nullptr && parts->humanoid && parts->joint_part.size() == t.size()) {
+    for (size_t j = 0; j < t.size(); ++j) {
+      const int32_t p = parts->joint_part[j];
+      const PartKind kind = p >= 0 ? parts->parts[static_cast<size_t>(p)].kind : PartKind::kChain;
+      aligning[j] = kind == PartKind::kTorso || kind == PartKind::kHead || kind == PartKind::kLegLeft ||
+                    kind == PartKind::kLegRight;
+    }
+    return aligning;
+  }
+  for (size_t j = 0; j < t.size(); ++j) {
+    for (int32_t a = static_cast<int32_t>(j); a >= 0; a = t.parents[static_cast<size_t>(a)]) {
+      if (a == core.joint[2] || a == core.joint[3]) aligning[j] = 0;
+    }
+  }
+  return aligning;
+}
+
 Alignment AlignRestPoses(const WorldPose& source_rest, const WorldPose& target_rest, const Correspondence& c,
-                         const RawCharacter& target, const BodyParts* parts, int32_t root_joint,
-                         RetargetReport* report) {
+                         const RawCharacter& target, const AlignmentSettings& settings, RetargetReport* report) {
+  const BodyParts* parts = settings.parts;
+  const int32_t root_joint = settings.root_joint;
   std::vector<Vec3> body_s, body_t, all_s, all_t;
   for (size_t j = 0; j < c.node_of.size(); ++j) {
     const int32_t n = c.node_of[j];
     if (n < 0) continue;
     all_s.push_back(D(source_rest.position[static_cast<size_t>(n)]));
     all_t.push_back(D(target_rest.position[j]));
-    if (InBody(parts, j)) {
+    if (j < settings.aligning.size() && settings.aligning[j]) {
       body_s.push_back(all_s.back());
       body_t.push_back(all_t.back());
     }
@@ -129,6 +173,8 @@ Alignment AlignRestPoses(const WorldPose& source_rest, const WorldPose& target_r
   out.hip_scale = static_cast<float>(k);
   report->hip_scale = out.hip_scale;
   RestDifferences(source_rest, target_rest, c, target, parts, a, spread_t, report);
+  out.swing = settings.match_directions ? RestSwings(source_rest, target_rest, c, target.skeleton, a, spread_t)
+                                        : std::vector<Quatf>(target.skeleton.size(), Quatf::Identity());
   return out;
 }
 

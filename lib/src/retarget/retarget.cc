@@ -92,15 +92,21 @@ Result<std::vector<skinning::AnimationClip>> RetargetClips(const SourceRig& sour
     return NoRestPose(source, target, differs >= 0 ? rep.offsets_differ_at : std::string("no joint"));
   }
   rep.transferred = true;
+  rep.rest_directions_matched = options.match_rest_directions;
   rep.rest_from = options.source_rest.label;
   rep.root_joint = root >= 0 ? target.skeleton.joint_names[static_cast<size_t>(root)] : "";
   const retarget::WorldPose target_rest = retarget::TargetReference(target);
+  retarget::AlignmentSettings settings;
+  settings.parts = options.target_parts;
+  settings.aligning = retarget::AligningJoints(target, options.target_parts, core);
+  settings.root_joint = root;
+  settings.match_directions = options.match_rest_directions;
   std::vector<skinning::AnimationClip> clips;
   for (size_t k = 0; k < source.clips.size(); ++k) {
     auto source_rest = retarget::SourceReference(source, options.source_rest, *c, k);
     if (!source_rest.ok()) return source_rest.error();
     const retarget::Alignment alignment =
-        retarget::AlignRestPoses(*source_rest, target_rest, *c, target, options.target_parts, root, &rep);
+        retarget::AlignRestPoses(*source_rest, target_rest, *c, target, settings, &rep);
     auto clip = retarget::TransferClip(source, k, target, *c, *source_rest, target_rest, alignment, root);
     if (!clip.ok()) return clip.error();
     clips.push_back(std::move(*clip));

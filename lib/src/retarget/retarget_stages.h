@@ -89,13 +89,24 @@ Result<WorldPose> SourceReference(const SourceRig& source, const SourceRest& res
                                   size_t clip);
 
 // The rotation A, the hip-height ratio k and the rest-pose differences (retarget.h, step 5-6).
+// With match_directions, per target joint the swing S_j that lays its rest bone along the
+// source's (retarget.h, step 5); else every S_j is the identity.
 struct Alignment {
   Quatf rotation = Quatf::Identity();  // A: source world -> target world
   float hip_scale = 1.0f;              // k
+  std::vector<Quatf> swing;            // S_j, per target joint
 };
+struct AlignmentSettings {
+  const BodyParts* parts = nullptr;  // limbs in the report, the up direction (humanoids)
+  std::vector<char> aligning;        // per target joint: its rest position takes part in finding A
+  int32_t root_joint = -1;           // RootMotionJoint
+  bool match_directions = false;
+};
+// The joints whose rest directions A-pose and T-pose rigs share, which A is fitted to: the torso,
+// head and legs of a humanoid split, else every joint outside the core upper arms' subtrees.
+std::vector<char> AligningJoints(const RawCharacter& target, const BodyParts* parts, const CoreJoints& core);
 Alignment AlignRestPoses(const WorldPose& source_rest, const WorldPose& target_rest, const Correspondence& c,
-                         const RawCharacter& target, const BodyParts* parts, int32_t root_joint,
-                         RetargetReport* report);
+                         const RawCharacter& target, const AlignmentSettings& settings, RetargetReport* report);
 
 // One clip transferred: a rotation track per mapped joint and a translation track on
 // `root_joint`, LINEAR keys at the bake times (retarget.h). Errors (kInvalidData) name the file.

@@ -62,7 +62,7 @@ Result<skinning::AnimationClip> TransferClip(const SourceRig& source, size_t cli
   }
   const skinning::Skeleton& t = target.skeleton;
   const std::vector<float> times = BakeTimes(in);
-  // Per mapped joint: A⁻¹ · Q_target_rest and Q_source_rest⁻¹, the constant factors of its rotation.
+  // Per mapped joint: A⁻¹ · S_j · Q_target_rest and Q_source_rest⁻¹, the constant factors of its rotation.
   const Quatf a = alignment.rotation;
   std::vector<Quatf> after(t.size()), before(t.size());
   std::vector<int32_t> mapped;
@@ -70,7 +70,7 @@ Result<skinning::AnimationClip> TransferClip(const SourceRig& source, size_t cli
     const int32_t n = c.node_of[j];
     if (n < 0) continue;
     mapped.push_back(static_cast<int32_t>(j));
-    after[j] = (a.inverse() * target_rest.rotation[j]).normalized();
+    after[j] = (a.inverse() * alignment.swing[j] * target_rest.rotation[j]).normalized();
     before[j] = source_rest.rotation[static_cast<size_t>(n)].inverse();
   }
   const int32_t root_node = root_joint >= 0 ? c.node_of[static_cast<size_t>(root_joint)] : -1;

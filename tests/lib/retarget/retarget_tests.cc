@@ -212,6 +212,47 @@ TEST(Retarget, ANoRestPoseFileNamesTheOptionAndEachSourceRestWorks) {
     EXPECT_LT(JointDistance(own_touch, ClipNamed(*via_frame, "touch"), t), 2e-4f) << "t=" << t;
 }
 
+// An A-pose rig: the same skeleton and keys, but the upper arms' rest rotations lowered 45° (an
+// animation-only file whose nodes stand in that rest pose). The report measures 45° on both
+// arms; with the character's rest directions kept the arms stay 45° off, while laying the bones
+// along the clip's rest directions gives the character's own joint positions again.
+TEST(Retarget, AnAPoseRigIsMeasuredAndItsRestDirectionsCanBeMatched) {
+  RawCharacter a_pose = WithoutMesh(MakeBuiltinCharacter());
+  for (const char* arm : {"LeftArm", "RightArm"}) {
+    const int32_t j = a_pose.skeleton.Find(arm);
+    ASSERT_GE(j, 0);
+    const float down = (std::string(arm) == "LeftArm" ? -1.0f : 1.0f) * static_cast<float>(M_PI / 4);
+    auto& rest = a_pose.skeleton.rest_local[static_cast<size_t>(j)].rotation;
+    rest = Quatf(rest * Eigen::AngleAxisf(down, Eigen::Vector3f::UnitZ()));
+  }
+  const auto path = test::TempDir("retarget_a_pose") / "a_pose.glb";
+  ASSERT_TRUE(ExportGlb(a_pose, path).ok());
+  const auto file = ReadAnimationFile(path);
+  ASSERT_TRUE(file.ok()) << file.error().message;
+  RetargetOptions keep;
+  keep.mode = RetargetMode::kWorld;  // the offsets agree: the same rig by its offsets, so ask for the transfer
+  keep.source_rest = {SourceRest::Kind::kNodes, nullptr, 0.0f, "nodes"};
+  RetargetReport kept_report;
+  const auto kept = RetargetClips(*file, test::BuiltinCharacter(), keep, &kept_report);
+  ASSERT_TRUE(kept.ok()) << kept.error().message;
+  ASSERT_FALSE(kept_report.rest_differences.empty());
+  EXPECT_NEAR(kept_report.largest_rest_difference.degrees, 45.0f, 0.1f);
+  for (const RestDifference& d : kept_report.rest_differences) {  // the arms' bones only
+    if (d.degrees > 0.1f) {
+      EXPECT_NE(d.joint.find("Arm"), std::string::npos) << d.joint << " " << d.degrees;
+    }
+  }
+  EXPECT_GT(WorstOverClips(*kept), 0.1f) << "the arms keep the 45° difference";
+
+  RetargetOptions match = keep;
+  match.match_rest_directions = true;
+  RetargetReport matched_report;
+  const auto matched = RetargetClips(*file, test::BuiltinCharacter(), match, &matched_report);
+  ASSERT_TRUE(matched.ok()) << matched.error().message;
+  EXPECT_TRUE(matched_report.rest_directions_matched);
+  EXPECT_LT(WorstOverClips(*matched), 2e-4f);
+}
+
 // A skin bound in another space than the world (all IBMs after a Z-up turn C, the bind positions
 // before it): the bind pose in world space is still the rest pose.
 TEST(Retarget, BindPoseWorldUndoesTheSkinsOwnSpace) {

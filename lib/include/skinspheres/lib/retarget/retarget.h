@@ -18,13 +18,20 @@
 //  5. Other rig (or kWorld): the rest-relative transfer in world space. With Q world rotations,
 //       Q_target(t) = A · Q_source(t) · Q_source_rest⁻¹ · A⁻¹ · Q_target_rest
 //     for every mapped joint, where A is the one rotation that aligns the source's rest pose with
-//     the target's (least squares over the matched joints of the torso, head and legs) and the
+//     the target's (least squares over the matched joints of the torso, head and legs, or without
+//     a body-part split every joint outside the upper arms) and the
 //     rest poses are the reference poses below. Unmapped joints keep their rest local transform;
 //     bone lengths stay the target's; the hips' world position follows the source's hips,
 //       p_target(t) = p_target_rest + k · A · (p_source(t) − p_source_rest),
 //     k the ratio of the hip heights (target / source) above the lowest matched joint. The
 //     result is baked as LINEAR keys at every key time of the source (STEP changes kept sharp by
 //     a key kStepBakeEpsilon_s before them, CUBICSPLINE intervals subdivided).
+//     A bone whose rest direction differs between the rigs (an A-pose arm on a T-pose character, a
+//     thumb) keeps that difference throughout. With match_rest_directions, Q_target_rest is first
+//     turned by the smallest rotation S_j that lays the joint's bone (towards its mapped child
+//     with the most mapped joints below it) along A times the source's rest bone, so bone
+//     directions follow the source's: Q_target(t) = A · Q_source(t) · Q_source_rest⁻¹ · A⁻¹ · S_j ·
+//     Q_target_rest (S_j is the identity where the rest directions agree).
 //     Reference poses: the target's is its bind pose (each bound joint at IBM⁻¹, the others at
 //     their rest local transform under their parent). The source's comes from SourceRest: a
 //     skinned character of the source's rig (the clip's file itself when it has a skin, or a
@@ -111,6 +118,7 @@ struct RetargetOptions {
   RetargetMode mode = RetargetMode::kAuto;
   const JointMap* joint_map = nullptr;      // optional
   SourceRest source_rest;                   // used when the rigs differ
+  bool match_rest_directions = false;       // transfer: bones follow the source's rest directions
   const BodyParts* target_parts = nullptr;  // optional: humanoid roles by structure, limbs in the report
 };
 
@@ -122,6 +130,7 @@ struct RestDifference {
 
 struct RetargetReport {
   bool transferred = false;                         // false: tracks copied (same rig or kCopy)
+  bool rest_directions_matched = false;             // transfer with match_rest_directions
   std::string rest_from;                            // the source rest pose used ("" when copied)
   std::vector<std::pair<int32_t, int32_t>> mapped;  // (target joint, source node), by target joint
   std::vector<std::string> unmapped_deforming;      // target joints that move vertices, without counterpart
