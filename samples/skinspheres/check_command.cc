@@ -475,6 +475,7 @@ int RunCheck(CheckArgs& a) {
       entries.size(), (*playback)->file().c_str(), jobs, Percent(a.max_depth).c_str(), a.max_depth * height,
       Percent(a.touch_tolerance).c_str());
   std::fflush(stdout);
+  if (bar) std::fprintf(stderr, "[%s] 0/%zu clips", std::string(30, '.').c_str(), checked.size());
   PlayAll(*playback, options, !a.html.empty(), jobs, &checked, [&](size_t k) {
     Judge(checked[k], a.max_depth);
     if (bar) std::fprintf(stderr, "\r\033[K");

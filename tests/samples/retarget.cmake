@@ -8,6 +8,12 @@ add_test(NAME tool.check_library
           -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/check_library.cmake)
 set_tests_properties(tool.check_library PROPERTIES TIMEOUT 600)
 
+# Three workers over one Playback (also run under ThreadSanitizer by .ci/run).
+add_test(NAME tool.check_parallel
+  COMMAND ${CMAKE_COMMAND} -DTOOL=${tool} -DDIR=${PROJECT_BINARY_DIR}/test_tmp/check_parallel
+          -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/check_parallel.cmake)
+set_tests_properties(tool.check_parallel PROPERTIES TIMEOUT 600)
+
 # Bone directions of clips played across the shared characters, against an independent sampler
 # (tests/scripts/bone_directions.mjs, Node, no packages): within bounds for the transfer; the
 # copy of local rotations must fail them (the check can fail).
