@@ -74,6 +74,12 @@ Result<skinning::AnimationClip> TransferClip(const SourceRig& source, size_t cli
     before[j] = source_rest.rotation[static_cast<size_t>(n)].inverse();
   }
   const int32_t root_node = root_joint >= 0 ? c.node_of[static_cast<size_t>(root_joint)] : -1;
+  if (uint64_t{times.size()} * (mapped.size() + 1) > kMaxRetargetKeys) {
+    return MakeError(ErrorCode::kInvalidData, source.source_file + ": clip \"" + in.name + "\" would be baked at " +
+                                                  std::to_string(times.size()) + " times for " +
+                                                  std::to_string(mapped.size()) + " joints, more than " +
+                                                  std::to_string(kMaxRetargetKeys) + " keys");
+  }
 
   skinning::AnimationClip out;
   out.name = in.name;

@@ -253,6 +253,34 @@ TEST(Retarget, AnAPoseRigIsMeasuredAndItsRestDirectionsCanBeMatched) {
   EXPECT_LT(WorstOverClips(*matched), 2e-4f);
 }
 
+// A clip that would bake into more keys than a file may hold is refused in one line, before the
+// bake allocates them (700,000 key times x 26 joints).
+TEST(Retarget, AClipTooLongToBakeIsRefused) {
+  RawCharacter rig = WithoutMesh(MakeBuiltinCharacter());
+  ASSERT_FALSE(RotateJointFrames(rig, 13).has_value());
+  SourceRig source;
+  source.source_file = "long.glb";
+  source.nodes = rig.skeleton;
+  skinning::AnimationClip clip;
+  clip.name = "long";
+  clip.duration_s = 7000.0f;
+  skinning::JointTrack track;
+  track.joint = rig.skeleton.Find("Hips");
+  for (int k = 0; k < 700000; ++k) {
+    track.rotation.times_s.push_back(0.01f * static_cast<float>(k));
+    track.rotation.values.push_back(Quatf::Identity());
+  }
+  clip.tracks.push_back(std::move(track));
+  source.clips.push_back(std::move(clip));
+  RetargetOptions options;
+  options.source_rest = {SourceRest::Kind::kNodes, nullptr, 0.0f, "nodes"};
+  const auto refused = RetargetClips(source, test::BuiltinCharacter(), options);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kInvalidData);
+  EXPECT_EQ(refused.error().message.rfind("long.glb: clip \"long\" would be baked at ", 0), 0u)
+      << refused.error().message;
+}
+
 // A skin bound in another space than the world (all IBMs after a Z-up turn C, the bind positions
 // before it): the bind pose in world space is still the rest pose.
 TEST(Retarget, BindPoseWorldUndoesTheSkinsOwnSpace) {

@@ -19,25 +19,25 @@
 //       Q_target(t) = A · Q_source(t) · Q_source_rest⁻¹ · A⁻¹ · Q_target_rest
 //     for every mapped joint, where A is the one rotation that aligns the source's rest pose with
 //     the target's (least squares over the matched joints of the torso, head and legs, or without
-//     a body-part split every joint outside the upper arms) and the
-//     rest poses are the reference poses below. Unmapped joints keep their rest local transform;
+//     a body-part split every joint outside the upper arms) and the rest poses are the reference
+//     poses below. Unmapped joints keep their rest local transform;
 //     bone lengths stay the target's; the hips' world position follows the source's hips,
 //       p_target(t) = p_target_rest + k · A · (p_source(t) − p_source_rest),
 //     k the ratio of the hip heights (target / source) above the lowest matched joint. The
 //     result is baked as LINEAR keys at every key time of the source (STEP changes kept sharp by
-//     a key kStepBakeEpsilon_s before them, CUBICSPLINE intervals subdivided).
+//     a key kRetargetStepEpsilon_s before them, CUBICSPLINE intervals subdivided).
 //     A bone whose rest direction differs between the rigs (an A-pose arm on a T-pose character, a
 //     thumb) keeps that difference throughout. With match_rest_directions, Q_target_rest is first
 //     turned by the smallest rotation S_j that lays the joint's bone (towards its mapped child
 //     with the most mapped joints below it) along A times the source's rest bone, so bone
 //     directions follow the source's: Q_target(t) = A · Q_source(t) · Q_source_rest⁻¹ · A⁻¹ · S_j ·
 //     Q_target_rest (S_j is the identity where the rest directions agree).
-//     Reference poses: the target's is its bind pose (each bound joint at IBM⁻¹, the others at
-//     their rest local transform under their parent). The source's comes from SourceRest: a
-//     skinned character of the source's rig (the clip's file itself when it has a skin, or a
-//     file of the rig), joints matched to the file's nodes by name; a time of the clip; the
-//     file's node transforms; or the identity rotations at the file's offsets. Without one the
-//     error (kInvalidArgument) says that the rigs differ and that the file has no rest pose.
+//     Reference poses: the target's is its bind pose (BindPoseWorld). The source's comes from
+//     SourceRest: a skinned character of the source's rig (the clip's file itself when it has a
+//     skin, or a file of the rig), joints matched to the file's nodes by name; a time of the clip;
+//     the file's node transforms; or identity rotations of the matched joints at the file's
+//     offsets. Without one the error (kInvalidArgument) says that the rigs differ, that the file
+//     has no rest pose, and names the options.
 //  6. Report: what was mapped, what was not, the rest-pose difference per limb (the angle between
 //     each matched bone's rest direction in the two rigs after A) and the largest one.
 //
@@ -47,6 +47,7 @@
 // entry that names an unknown joint, a cycle, a joint twice or reverses the hierarchy).
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -63,6 +64,9 @@ namespace skinspheres::lib {
 
 inline constexpr float kRetargetStepEpsilon_s = 1e-4f;  // a baked STEP change: a key this much before it
 inline constexpr int kRetargetCubicSubdivisions = 4;    // baked CUBICSPLINE: samples per key interval
+// A transferred clip holds at most this many keys (bake times x mapped joints, the readers' own
+// limit on a file's keys): more is refused (kInvalidData) before anything is allocated.
+inline constexpr uint64_t kMaxRetargetKeys = uint64_t{1} << 24;
 
 // Clips as a file holds them: its node tree and animations.
 struct SourceRig {
