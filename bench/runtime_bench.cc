@@ -66,20 +66,20 @@
 #include <string>
 #include <vector>
 
+#include "crowd/crowd_query.h"  // runtime/src: the crowd's query batched or one by one
+#include "peer_broad_phases.h"
+#include "refit/refit_internal.h"  // runtime/src: pins the fast refit's instruction set for a row
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/io/importer.h"
-#include "skinspheres/runtime/broad_phase/broad_phase.h"
 #include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/broad_phase/broad_phase.h"
+#include "skinspheres/runtime/crowd/crowd.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 #include "skinspheres/skinning/prepared_influences.h"
 #include "skinspheres/skinning/sampling_job.h"
 #include "skinspheres/skinning/skinning_job.h"
 #include "skinspheres/skinning/skinning_matrices_job.h"
-
-#include "peer_broad_phases.h"
-#include "crowd/crowd_query.h"  // runtime/src: the crowd's query batched or one by one
-#include "refit/refit_internal.h"        // runtime/src: pins the fast refit's instruction set for a row
 #include "thread_cpu.h"
 
 namespace {

@@ -2,12 +2,25 @@
 
 #include <gtest/gtest.h>
 
+#if defined(_WIN32)
+#ifndef WIN32_LEAN_AND_MEAN
+#define WIN32_LEAN_AND_MEAN
+#endif
+#include <windows.h>
+#else
+#include <sys/stat.h>
+#include <unistd.h>
+#endif
+
 #include <algorithm>
 #include <atomic>
+#include <fstream>
 #include <system_error>
 #include <thread>
 
-#include "skinspheres/lib/character/builtin_character.h"
+#if SKINSPHERES_TEST_EXPECT_TBB
+#include <tbb/task_arena.h>
+#endif
 
 namespace skinspheres::test {
 
@@ -29,11 +42,6 @@ const std::vector<std::string>& SharedCharacters() {
   static const std::vector<std::string> names = {"CesiumMan.glb", "RobotExpressive.glb",
                                                  "Soldier.glb", "Xbot.glb"};
   return names;
-}
-
-const lib::RawCharacter& BuiltinCharacter() {
-  static const lib::RawCharacter c = lib::MakeBuiltinCharacter();
-  return c;
 }
 
 std::filesystem::path TempDir(const std::string& name) {
@@ -69,6 +77,49 @@ ParallelFor EngineStyleFor(int threads) {
     worker();
     for (auto& t : pool) t.join();
   };
+}
+
+void WithDefaultThreads(int threads, const std::function<void()>& body) {
+#if SKINSPHERES_TEST_EXPECT_TBB
+  tbb::task_arena(threads).execute(body);
+#else
+  (void)threads;
+  body();
+#endif
+}
+
+bool DefaultIsTbb() { return SKINSPHERES_TEST_EXPECT_TBB != 0; }
+
+#if defined(_WIN32)
+TestPipe::TestPipe(const std::filesystem::path&, const std::string& name) {
+  path_ = L"\\\\.\\pipe\\skinspheres_test_" + std::to_wstring(GetCurrentProcessId()) + L"_" +
+          std::filesystem::path(name).wstring();
+  HANDLE h =
+      CreateNamedPipeW(path_.c_str(), PIPE_ACCESS_OUTBOUND, PIPE_TYPE_BYTE | PIPE_NOWAIT, 1, 4096, 4096, 0, nullptr);
+  ok_ = h != INVALID_HANDLE_VALUE;
+  handle_ = ok_ ? h : nullptr;
+}
+TestPipe::~TestPipe() {
+  if (handle_ != nullptr) CloseHandle(static_cast<HANDLE>(handle_));
+}
+std::filesystem::path DeviceNotAFile() { return "NUL"; }
+#else
+TestPipe::TestPipe(const std::filesystem::path& dir, const std::string& name) : path_(dir / name) {
+  ok_ = ::mkfifo(path_.c_str(), 0600) == 0;
+}
+TestPipe::~TestPipe() = default;
+std::filesystem::path DeviceNotAFile() { return "/dev/zero"; }
+#endif
+
+bool MakeLongFile(const std::filesystem::path& path, uint64_t bytes, const std::string& head) {
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << head;
+    if (!out) return false;
+  }
+  std::error_code ec;
+  std::filesystem::resize_file(path, bytes, ec);
+  return !ec;
 }
 
 }  // namespace skinspheres::test

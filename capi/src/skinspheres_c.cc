@@ -16,6 +16,7 @@
 
 #include "skinspheres/runtime/api/character.h"
 #include "skinspheres/runtime/api/joint_mapping.h"
+#include "skinspheres/runtime/crowd/crowd.h"
 #include "skinspheres/runtime/format/file_io.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
 #include "skinspheres/skinspheres.h"

@@ -276,7 +276,10 @@ int main(int argc, char** argv) {
   check(strstr(skinspheres_last_error(), "set.ssb") != NULL, "mismatch names the set file", 0);
   check(skinspheres_asset_check(binary, names + 1, joint_count - 1, vertex_count) == SKINSPHERES_MISMATCHED_ASSET,
         "asset_check missing joint", 0);
-  check(strstr(skinspheres_last_error(), names[0]) != NULL, "missing joint named", 0);
+  /* The missing joint is named; a skeleton whose names repeat (RobotExpressive) is refused for that,
+     naming the repeated joints, as soon as the list is not the set's own. */
+  check(strstr(skinspheres_last_error(), names[0]) != NULL || strstr(skinspheres_last_error(), "more than once") != NULL,
+        "missing joint named", 0);
 
   /* Instances in the engine's joint order. The assets are released at once: instances keep them. */
   check(skinspheres_instance_create(binary, names, joint_count, &a) == SKINSPHERES_OK, "instance a", 0);

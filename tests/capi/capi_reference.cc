@@ -1,9 +1,13 @@
-// The C++ side of the C API test: fits the built-in character, writes its sphere set (binary,
-// JSON, fast-only binary) and, for every frame of its "touch" clip, what an engine would hand the C
-// API (joint world matrices in the engine's own joint order, skinned positions) together with the
-// contacts the C++ API (CharacterInstance, set joint order) finds in fast and exact mode.
-//   capi_reference OUT_DIR [MARGIN]   MARGIN: the narrow phase's margin (NarrowPhaseSettings),
-//                                     default 0; with MARGIN > 0 the clip must hold within-margin pairs.
+// The C++ side of the C API test: fits the built-in character (or a character file), writes its
+// sphere set (binary, JSON, fast-only binary) and, for every frame of its "touch" clip (a file's:
+// every clip), what an engine would hand the C API (joint world matrices in the engine's own joint
+// order, skinned positions) together with the contacts the C++ API (CharacterInstance, set joint
+// order) finds in fast and exact mode. A cross build's capi_contacts replays these files on its own
+// platform (tests/CMakeLists.txt): the same contacts, byte for byte, on every platform.
+//   capi_reference OUT_DIR [MARGIN] [--character FILE]
+//     MARGIN: the narrow phase's margin (NarrowPhaseSettings), default 0; with MARGIN > 0 the clip
+//     must hold within-margin pairs. FILE: a skinned character (glTF, FBX, ...) instead of the
+//     built-in one.
 //
 // frames.bin (little-endian): u32 joint_count, u32 vertex_count, u32 frame_count; joint_count names
 // (u32 length + bytes + padding); then per frame: 16 * joint_count floats, 3 * vertex_count floats, and for
@@ -16,6 +20,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <random>
 #include <set>
 #include <string>
 #include <vector>
@@ -23,6 +28,7 @@
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/api/character.h"
 #include "skinspheres/runtime/format/sphere_set_binary.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
@@ -46,12 +52,25 @@ void Put32(FILE* f, uint32_t v) { Put(f, &v, 4); }
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 2 && argc != 3) return Fail("usage: capi_reference OUT_DIR [MARGIN]");
-  const std::filesystem::path dir = argv[1];
+  std::vector<std::string> args(argv + 1, argv + argc);
+  std::string character_file;
+  if (args.size() >= 2 && args[args.size() - 2] == "--character") {
+    character_file = args.back();
+    args.resize(args.size() - 2);
+  }
+  if (args.empty() || args.size() > 2) return Fail("usage: capi_reference OUT_DIR [MARGIN] [--character FILE]");
+  const std::filesystem::path dir = args[0];
   runtime::NarrowPhaseSettings narrow;
-  if (argc == 3) narrow.margin = std::strtof(argv[2], nullptr);
+  if (args.size() == 2) narrow.margin = std::strtof(args[1].c_str(), nullptr);
   std::filesystem::create_directories(dir);
-  const lib::RawCharacter ch = lib::MakeBuiltinCharacter();
+  lib::RawCharacter ch;
+  if (character_file.empty()) {
+    ch = lib::MakeBuiltinCharacter();
+  } else {
+    auto imported = lib::ImportCharacter(character_file);
+    if (!imported.ok()) return Fail(imported.error().message);
+    ch = std::move(imported).value();
+  }
   auto parts = lib::SplitBodyParts(ch);
   if (!parts.ok()) return Fail(parts.error().message);
   auto fit = lib::FitSpheres(ch, *parts, lib::FitSettings{});
@@ -63,11 +82,19 @@ int main(int argc, char** argv) {
     return Fail(err->message);
   }
 
-  // The engine's joints: the skin's, in reverse order, plus one the set does not know.
+  // The engine's joints: the skin's, in reverse order, plus one the set does not know. A skeleton
+  // whose names repeat (RobotExpressive) cannot be mapped by name: its engine passes the set's own
+  // list, in order.
   std::set<int32_t> skin;
   for (const skinning::BindEntry& b : ch.skin.binds) skin.insert(b.joint);
   std::vector<int32_t> engine_joint(skin.rbegin(), skin.rend());
   engine_joint.push_back(-1);
+  const std::set<std::string> distinct(ch.skeleton.joint_names.begin(), ch.skeleton.joint_names.end());
+  if (distinct.size() != ch.skeleton.joint_names.size() || set.joint_names != ch.skeleton.joint_names) {
+    if (set.joint_names != ch.skeleton.joint_names) return Fail("the set's joints are not the skeleton's");
+    engine_joint.clear();
+    for (size_t j = 0; j < ch.skeleton.size(); ++j) engine_joint.push_back(static_cast<int32_t>(j));
+  }
   std::vector<std::string> names;
   for (int32_t j : engine_joint) names.push_back(j < 0 ? "IK_target" : ch.skeleton.joint_names[static_cast<size_t>(j)]);
 
@@ -76,9 +103,41 @@ int main(int argc, char** argv) {
   auto instance = runtime::CharacterInstance::Create(*asset);
   if (!instance.ok()) return Fail(instance.error().message);
 
-  const skinning::AnimationClip& clip = ch.clips.back();  // "touch": hands on the chest, then the head
+  // The built-in character's "touch" (hands on the chest, then the head), or every clip of a file.
+  std::vector<const skinning::AnimationClip*> clips;
+  if (character_file.empty()) {
+    clips.push_back(&ch.clips.back());
+  } else {
+    for (const skinning::AnimationClip& c : ch.clips) clips.push_back(&c);
+  }
+  if (clips.empty()) return Fail(character_file + ": no clip");
   const float fps = 15.0f;
-  const uint32_t frames = static_cast<uint32_t>(clip.duration_s * fps) + 1;
+  uint32_t frames = 0;
+  std::vector<std::pair<const skinning::AnimationClip*, float>> times;  // each frame's clip and time
+  for (const skinning::AnimationClip* c : clips) {
+    const uint32_t n = static_cast<uint32_t>(c->duration_s * fps) + 1;
+    for (uint32_t k = 0; k < n; ++k) times.emplace_back(c, std::min(c->duration_s, static_cast<float>(k) / fps));
+    frames += n;
+  }
+  // A file's character also gets random poses (every joint turned up to 50 degrees, seeded): a
+  // character whose clips hold no contact (Xbot's is a held T-pose) still gives the replay
+  // something to compare. Frames with a null clip.
+  const uint32_t random_poses = character_file.empty() ? 0 : 24;
+  std::mt19937 rng(20261204);
+  std::vector<std::vector<skinning::Transform>> random_locals;
+  for (uint32_t k = 0; k < random_poses; ++k) {
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f), unit(0.0f, 1.0f);
+    std::vector<skinning::Transform> local = ch.skeleton.rest_local;
+    for (skinning::Transform& tr : local) {
+      Eigen::Vector3f axis(u(rng), u(rng), u(rng));
+      if (axis.norm() < 1e-3f) axis = Eigen::Vector3f::UnitX();
+      const float angle = unit(rng) * 50.0f * 3.14159265f / 180.0f;
+      tr.rotation = (tr.rotation * Quatf(Eigen::AngleAxisf(angle, axis.normalized()))).normalized();
+    }
+    random_locals.push_back(std::move(local));
+    times.emplace_back(nullptr, 0.0f);
+  }
+  frames += random_poses;
   const size_t joints = ch.skeleton.size(), vertices = ch.vertex_count();
   FILE* f = std::fopen((dir / "frames.bin").c_str(), "wb");
   if (!f) return Fail("cannot write frames.bin");
@@ -97,7 +156,9 @@ int main(int argc, char** argv) {
   std::vector<float> positions(3 * vertices);
   size_t total = 0, triangle_total = 0, within_margin = 0;
   for (uint32_t k = 0; k < frames; ++k) {
-    skinning::SamplingJob sampling{&clip, &ch.skeleton, k / fps, locals};
+    const bool random = times[k].first == nullptr;
+    if (random) locals = random_locals[k - (frames - random_poses)];
+    skinning::SamplingJob sampling{times[k].first, &ch.skeleton, times[k].second, locals};
     skinning::LocalToModelJob l2m;
     l2m.skeleton = &ch.skeleton;
     l2m.input = locals;
@@ -111,7 +172,9 @@ int main(int argc, char** argv) {
     skinning.influence_offsets = ch.skin.influence_offsets;
     skinning.influence_binds = ch.skin.influence_binds;
     skinning.influence_weights = ch.skin.influence_weights;
-    if (!sampling.Run() || !l2m.Run() || !matrices.Run() || !skinning.Run()) return Fail("posing the character failed");
+    if ((!random && !sampling.Run()) || !l2m.Run() || !matrices.Run() || !skinning.Run()) {
+      return Fail("posing the character failed");
+    }
     for (size_t e = 0; e < engine_joint.size(); ++e) {
       if (engine_joint[e] >= 0) engine_world[e] = world[static_cast<size_t>(engine_joint[e])];
     }
@@ -159,9 +222,12 @@ int main(int argc, char** argv) {
     }
   }
   std::fclose(f);
-  std::printf("wrote %u frames of \"%s\", %zu sphere contacts and %zu triangle contacts in all (%zu within the margin %g), "
-              "%zu engine joints\n",
-              frames, clip.name.c_str(), total, triangle_total, within_margin, narrow.margin, names.size());
+  std::printf(
+      "wrote %u frames of %zu clip(s) (first: \"%s\") and %u random poses, %zu sphere contacts and %zu triangle "
+      "contacts in all (%zu "
+      "within the margin %g), %zu engine joints\n",
+      frames, clips.size(), clips.front()->name.c_str(), random_poses, total, triangle_total, within_margin,
+      narrow.margin, names.size());
   if (total == 0 || triangle_total == 0) return Fail("no sphere or no triangle contacts: the test would prove nothing");
   if (narrow.margin > 0 && within_margin == 0) return Fail("no within-margin triangle pairs: the margin is not tested");
   return 0;

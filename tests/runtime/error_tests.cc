@@ -1,11 +1,12 @@
 // Result / ErrorCode (error.h): value() on an error is a contract violation that stops the program
 // with the error's message (never a std::bad_variant_access), and every code has a name.
-#include "skinspheres/runtime/error.h"
-
 #include <gtest/gtest.h>
 
 #include <set>
 #include <string>
+
+#include "skinspheres/runtime/error.h"
+#include "test_support.h"
 
 namespace skinspheres {
 namespace {
@@ -30,7 +31,9 @@ TEST(ResultTest, ValueAndErrorWhenTheyAreThere) {
 using ResultDeathTest = ::testing::Test;
 
 TEST_F(ResultDeathTest, ValueOfAnErrorStopsWithItsMessage) {
-  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  // threadsafe re-executes the test program: right beside TBB's threads, impossible under
+  // qemu-user (no binfmt: the child cannot exec an aarch64 program), where no TBB runs either.
+  GTEST_FLAG_SET(death_test_style, test::DefaultIsTbb() ? "threadsafe" : "fast");
   EXPECT_DEATH(
       {
         Result<int> bad = Parse(false);

@@ -1,6 +1,8 @@
-// Test helpers for the refit and character tests: fit a character with default settings (cached
-// per process), pose it (clip frames, random poses with optional non-uniform scale) with the
-// independent test oracle of tests/lib/clip_eval_for_tests.h (naive sampler, FK, LBS).
+// Test helpers for the runtime tests: a fitted character from the test fixtures
+// (support/character_fixture.h: the set fitted with default settings and the character, made once
+// per build by make_fixtures, cached per process), posed (clip frames, random poses with optional
+// non-uniform scale) with the independent test oracle of support/clip_eval_for_tests.h (naive
+// sampler, FK, LBS). No offline fitter: these tests build in the runtime-only tree too.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -12,56 +14,54 @@
 #include <string>
 #include <vector>
 
-#include "lib/clip_eval_for_tests.h"
-#include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/character/builtin_character.h"
-#include "skinspheres/lib/fit/sphere_fitter.h"
-#include "skinspheres/lib/io/importer.h"
-#include "test_support.h"
-
+#include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 #include "skinspheres/skinning/math_types.h"
+#include "support/character_fixture.h"
+#include "support/clip_eval_for_tests.h"
+#include "test_support.h"
 
 namespace skinspheres::test {
 
 struct FittedCharacter {
-  lib::RawCharacter character;
+  Character character;
   runtime::SphereSet set;
 };
 
-// nullptr (with a gtest failure) when import or fit fails. "builtin" = MakeBuiltinCharacter().
+// nullptr (with a gtest failure) when the fixture is missing or unreadable. name: "builtin", or a
+// shared character's file name ("Xbot.glb"; call SKINSPHERES_REQUIRE_ASSET first, so that a test
+// skips where the shared characters are absent).
 inline std::shared_ptr<const FittedCharacter> LoadFitted(const std::string& name) {
   static std::map<std::string, std::shared_ptr<const FittedCharacter>> cache;
   auto it = cache.find(name);
   if (it != cache.end()) return it->second;
+  const std::filesystem::path base = FixtureDir() / name;
+  auto set = runtime::LoadSphereSet(base.string() + ".ssb");
+  if (!set.ok()) {
+    ADD_FAILURE() << "fixture " << name << ": " << set.error().message << " (make_fixtures writes it)";
+    return nullptr;
+  }
+  auto bytes = runtime::ReadRegularFile(base.string() + ".character", uint64_t{1} << 31, "character fixture");
+  if (!bytes.ok()) {
+    ADD_FAILURE() << "fixture " << name << ": " << bytes.error().message;
+    return nullptr;
+  }
+  std::string error;
+  auto character = ReadCharacter(*bytes, &error);
+  if (!character) {
+    ADD_FAILURE() << "fixture " << name << ".character: " << error;
+    return nullptr;
+  }
   auto fitted = std::make_shared<FittedCharacter>();
-  if (name == "builtin") {
-    fitted->character = lib::MakeBuiltinCharacter();
-  } else {
-    auto raw = lib::ImportCharacter(Asset(name));
-    if (!raw.ok()) {
-      ADD_FAILURE() << raw.error().message;
-      return nullptr;
-    }
-    fitted->character = std::move(raw).value();
-  }
-  auto parts = lib::SplitBodyParts(fitted->character);
-  if (!parts.ok()) {
-    ADD_FAILURE() << name << ": " << parts.error().message;
-    return nullptr;
-  }
-  auto fit = lib::FitSpheres(fitted->character, *parts, lib::FitSettings{});
-  if (!fit.ok()) {
-    ADD_FAILURE() << name << ": " << fit.error().message;
-    return nullptr;
-  }
-  fitted->set = std::move(fit->spheres);
+  fitted->character = std::move(*character);
+  fitted->set = std::move(set).value();
   cache[name] = fitted;
   return fitted;
 }
 
 // Rest locals with every joint rotated by a random angle in [0, max_deg] about a random axis and,
 // when scale_probability > 0, that fraction of joints scaled non-uniformly by factors in [0.6, 1.5].
-inline std::vector<skinning::Transform> RandomLocal(const lib::RawCharacter& c, std::mt19937& rng, float max_deg,
+inline std::vector<skinning::Transform> RandomLocal(const Character& c, std::mt19937& rng, float max_deg,
                                                     float scale_probability) {
   std::uniform_real_distribution<float> u(-1.0f, 1.0f), unit(0.0f, 1.0f), sc(0.6f, 1.5f);
   std::vector<skinning::Transform> local = c.skeleton.rest_local;
@@ -82,7 +82,7 @@ struct Pose {
   std::vector<Eigen::Vector3f> positions;
 };
 
-inline Pose MakePose(const lib::RawCharacter& c, const std::vector<skinning::Transform>& local, std::string label) {
+inline Pose MakePose(const Character& c, const std::vector<skinning::Transform>& local, std::string label) {
   Pose p;
   p.label = std::move(label);
   p.world = WorldOf(c, local);
@@ -91,7 +91,7 @@ inline Pose MakePose(const lib::RawCharacter& c, const std::vector<skinning::Tra
 }
 
 // Every clip at 30 fps, keeping at most max_frames_per_clip evenly spaced frames.
-inline std::vector<Pose> ClipPoses(const lib::RawCharacter& c, int max_frames_per_clip) {
+inline std::vector<Pose> ClipPoses(const Character& c, int max_frames_per_clip) {
   std::vector<Pose> poses;
   for (const auto& clip : c.clips) {
     const int frames = std::max(1, static_cast<int>(clip.duration_s * 30.0f) + 1);

@@ -2,8 +2,6 @@
 // level, CSR and prepared influences, 0..8 influences, strided buffers, subsets, 1 vs N threads,
 // and every refusal of Validate().
 #include <gtest/gtest.h>
-#include <tbb/global_control.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -14,6 +12,7 @@
 #include "skinning/synthetic_mesh.h"
 #include "skinspheres/skinning/prepared_influences.h"
 #include "skinspheres/skinning/skinning_job.h"
+#include "test_support.h"
 
 namespace skinspheres::skinning {
 namespace {
@@ -271,9 +270,8 @@ TEST(SkinningJob, OneAndManyThreadsAreBitIdentical) {
         std::vector<float> parallel(m.positions.size(), kSentinel);
         SkinningJob pj = job;
         pj.out_positions = parallel;
-        tbb::task_arena arena(threads);
         bool ok = false;
-        arena.execute([&] { ok = SkinParallel(pj, grain); });
+        test::WithDefaultThreads(threads, [&] { ok = SkinParallel(pj, grain); });
         ASSERT_TRUE(ok);
         ASSERT_EQ(0, std::memcmp(serial.data(), parallel.data(), serial.size() * sizeof(float)))
             << "variant " << variant << " threads " << threads << " grain " << grain;

@@ -22,19 +22,21 @@
 // TSan's shadow memory grow the RSS while the program allocates nothing, so the RSS columns are
 // printed but not judged, and the output says so; the plain build (scripts/test) judges them.
 // Exit 0 and "soak: ok" when everything held, else 1 and what failed.
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <new>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/crowd/crowd.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 #include "skinspheres/skinning/sampling_job.h"
 #include "skinspheres/skinning/skinning_job.h"

@@ -1,8 +1,6 @@
-// CharacterAsset / CharacterInstance / UpdateAndQueryCrowd (character.h): set-up allocates and
-// reports Errors; per frame only jobs run (RefitJob, SelfCollisionJob, NarrowPhaseJob) and
-// FrameStatus comes back.
+// CharacterAsset / CharacterInstance (api/character.h): set-up allocates and reports Errors; per
+// frame only jobs run (RefitJob, SelfCollisionJob, NarrowPhaseJob) and FrameStatus comes back.
 #include "skinspheres/runtime/api/character.h"
-
 
 #include <algorithm>
 #include <atomic>
@@ -12,40 +10,9 @@
 #include <utility>
 #include <vector>
 
-#include "broad_phase/sphere_test.h"
-#include "crowd/crowd_query.h"
-#include "refit/refit_internal.h"
+#include "crowd/crowd_batch.h"
 
 namespace skinspheres::runtime {
-namespace {
-
-// Sets of up to this many spheres are queried 16 instances at a time in the crowd calls (all the
-// allowed pairs of 16 instances in one vector test each); larger sets query one by one, where the
-// candidate cache tests far fewer pairs than all of them.
-constexpr size_t kCrowdQueryMaxSpheres = 256;
-
-std::atomic<bool> crowd_query_batched{true};
-thread_local uint64_t batched_queries = 0;  // batches queried at once on this thread (tests)
-
-std::vector<uint32_t> CrowdPairs(const PairFilter& filter) {
-  std::vector<uint32_t> pairs;
-  const size_t n = filter.size();
-  if (n < 2 || n > kCrowdQueryMaxSpheres) return pairs;
-  for (uint32_t i = 0; i < n; ++i) {
-    for (uint32_t j = i + 1; j < n; ++j) {
-      if (!filter.excluded(i, j)) pairs.push_back(i << 16 | j);
-    }
-  }
-  return pairs;
-}
-
-}  // namespace
-
-namespace internal {
-void SetCrowdQueryBatched(bool batched) { crowd_query_batched.store(batched, std::memory_order_relaxed); }
-bool CrowdQueryBatched() { return crowd_query_batched.load(std::memory_order_relaxed); }
-uint64_t CrowdQueryBatches() { return batched_queries; }
-}  // namespace internal
 
 Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet set, const NarrowPhaseSettings& narrow) {
   auto rest = RefitRestData::Create(set);
@@ -63,7 +30,7 @@ Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet s
   asset->set_ = std::move(set);
   asset->rest_ = std::move(rest).value();
   asset->filter_ = std::move(filter).value();
-  asset->crowd_pairs_ = CrowdPairs(asset->filter_);
+  asset->crowd_pairs_ = internal::CrowdPairs(asset->filter_);
   return std::shared_ptr<const CharacterAsset>(std::move(asset));
 }
 
@@ -287,219 +254,5 @@ void CharacterInstance::ReserveContacts(size_t count) {
 }
 
 void CharacterInstance::ReserveSphereContacts(size_t count) { contacts_.reserve(count); }
-
-// The crowd calls' fast refit of up to kRefitBatchLanes instances of one asset at once (one per
-// AVX-512 lane, the same bits as each alone: refit_internal.h), then their broad phase at once too
-// when the asset is small enough (crowd/crowd_query.h: the same contacts as each alone), else each
-// instance's query; then each one's narrow phase if asked.
-struct CrowdBatch {
-  static constexpr size_t kLanes = internal::kRefitBatchLanes;
-
-  static FrameStatus AfterUpdate(CharacterInstance& inst, RefitMode mode, const CharacterFrameInput& input,
-                                 bool find_contacts) {
-    inst.Query();
-    return AfterQuery(inst, mode, input, find_contacts);
-  }
-
-  static FrameStatus AfterQuery(CharacterInstance& inst, RefitMode mode, const CharacterFrameInput& input,
-                                bool find_contacts) {
-    if (inst.status().ok() && find_contacts) {
-      inst.FindContacts(mode == RefitMode::kExact ? input.skinned_positions : std::span<const Eigen::Vector3f>());
-    }
-    return inst.status();
-  }
-
-  // The batch's spheres lanes side by side (RefitFastBatch's soa), per thread: room for the largest
-  // set batched, 64-byte aligned (each lane vector one cache line), made by the thread's first batch
-  // and kept for its life (not on the stack: engines run jobs on small stacks).
-  static float* SoaScratch() {
-    constexpr size_t kAlign = 64 / sizeof(float);
-    thread_local std::vector<float> soa(kCrowdQueryMaxSpheres * internal::kBatchSphereFloats + kAlign);
-    const uintptr_t address = reinterpret_cast<uintptr_t>(soa.data());
-    return soa.data() + ((64 - address % 64) % 64) / sizeof(float);
-  }
-
-  // Query of the instances in `lanes` at once: what Query() gives each, from soa. Lanes whose
-  // spheres the broad phase would refuse (beyond kMaxMagnitude) are left out of the returned mask,
-  // for their own Query() to report.
-  static uint32_t QueryBatch(const CharacterAsset& asset, const float* soa, uint32_t lanes,
-                             CharacterInstance* const inst[kLanes]) {
-#if !defined(SKINSPHERES_X86_64)
-    (void)asset, (void)soa, (void)lanes, (void)inst;
-    return 0;  // never called: the batch runs only on AVX-512F (RefitBatchUsable)
-#else
-    lanes &= internal::avx512::BatchValuesOk(soa, asset.size(), internal::kMaxMagnitude);
-    if (lanes == 0) return 0;
-    for (uint32_t m = lanes; m != 0; m &= m - 1) inst[std::countr_zero(m)]->contacts_.clear();
-    constexpr size_t kHits = 16;
-    alignas(64) float depth[kLanes * kHits];
-    uint32_t pair[kHits];
-    uint16_t mask[kHits];
-    internal::BatchHits hits{pair, mask, depth, kHits, 0};
-    const uint32_t* pairs = asset.crowd_pairs_.data();
-    const size_t count = asset.crowd_pairs_.size();
-    const PairFilter& filter = asset.filter();
-    for (size_t pos = 0; pos < count;) {
-      hits.count = 0;
-      pos = internal::avx512::BatchTestPairs(soa, pairs, pos, count, lanes, &hits);
-      for (size_t h = 0; h < hits.count; ++h) {
-        const uint32_t i = pair[h] >> 16, j = pair[h] & 0xFFFFu;
-        const uint16_t part_i = filter.part(i), part_j = filter.part(j);
-        for (uint32_t m = mask[h]; m != 0; m &= m - 1) {
-          const int b = std::countr_zero(m);
-          inst[b]->contacts_.push_back(Contact{i, j, depth[kLanes * h + b], part_i, part_j});
-        }
-      }
-    }
-    for (uint32_t m = lanes; m != 0; m &= m - 1) {
-      CharacterInstance& one = *inst[std::countr_zero(m)];
-      one.queried_ = true;
-      one.query_ok_ = true;
-      one.status_ = {};
-      // The cache stays exact without this (its check is against its own build), but its motion
-      // statistics (frames since the build) would be wrong: a query alone then starts afresh.
-      one.context_.Invalidate();
-    }
-    ++batched_queries;
-    return lanes;
-#endif
-  }
-
-  // Instances [begin, end) with their inputs; true when all succeeded. In fast mode, with AVX-512F,
-  // consecutive instances of one asset are refitted together; the others one by one (CrowdStep).
-  static bool Run(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
-                  RefitMode mode, bool find_contacts, size_t begin, size_t end) {
-    bool all_ok = true;
-    for (size_t i = begin; i < end;) {
-      const CharacterAsset* asset = instances[i]->asset_.get();
-      size_t last = i + 1;  // the run of instances of this asset, at most kLanes, none listed twice
-      while (last < end && last - i < kLanes && instances[last]->asset_.get() == asset &&
-             std::find(instances.begin() + i, instances.begin() + last, instances[last]) == instances.begin() + last) {
-        ++last;
-      }
-      if (mode != RefitMode::kFast || last - i < 2 || !internal::RefitBatchUsable()) {
-        for (; i < last; ++i) all_ok &= CrowdStep(*instances[i], mode, inputs[i], find_contacts).ok();
-        continue;
-      }
-      // Check each instance's inputs as Update does; the ones refused drop out of the batch.
-      RefitJob jobs[kLanes];
-      bool prepared[kLanes] = {};
-      size_t lane_of[kLanes];
-      const float* world[kLanes];
-      float* out[kLanes];
-      CharacterInstance* lane_inst[kLanes];
-      size_t lanes = 0;
-      for (size_t k = i; k < last; ++k) {
-        CharacterInstance& inst = *instances[k];
-        RefitJob& job = jobs[k - i];
-        if (!inst.PrepareUpdate(mode, inputs[k].joint_world, inputs[k].skinned_positions, &job)) {
-          all_ok = false;
-          continue;
-        }
-        prepared[k - i] = true;
-        lane_of[k - i] = lanes;
-        world[lanes] = reinterpret_cast<const float*>(job.joint_world.data());
-        out[lanes] = reinterpret_cast<float*>(job.out.data());
-        lane_inst[lanes] = &inst;
-        ++lanes;
-      }
-      uint32_t finite = 0;
-      float* soa = nullptr;
-      if (lanes > 0) {
-        for (size_t b = lanes; b < kLanes; ++b) {  // idle lanes repeat the first (same bits, written twice)
-          world[b] = world[0];
-          out[b] = out[0];
-        }
-        if (!asset->crowd_pairs_.empty() && internal::CrowdQueryBatched()) soa = SoaScratch();
-        finite = internal::RefitFastBatch(asset->sphere_set(), asset->rest(), world, out, soa);
-      }
-      uint32_t updated = 0;  // lanes refitted and recorded
-      for (size_t k = i; k < last; ++k) {
-        if (!prepared[k - i]) continue;  // refused: status_ says why
-        const bool ok = (finite >> lane_of[k - i]) & 1u;
-        if (!instances[k]->FinishUpdate(ok, jobs[k - i].joint_world, /*keep_joints=*/find_contacts).ok()) {
-          all_ok = false;
-          continue;
-        }
-        updated |= 1u << lane_of[k - i];
-      }
-      const uint32_t queried = soa != nullptr && updated != 0 ? QueryBatch(*asset, soa, updated, lane_inst) : 0;
-      for (size_t k = i; k < last; ++k) {
-        if (!prepared[k - i] || !((updated >> lane_of[k - i]) & 1u)) continue;
-        CharacterInstance& inst = *instances[k];
-        const bool done = (queried >> lane_of[k - i]) & 1u;
-        all_ok &= (done ? AfterQuery(inst, mode, inputs[k], find_contacts)
-                        : AfterUpdate(inst, mode, inputs[k], find_contacts))
-                      .ok();
-      }
-      i = last;
-    }
-    return all_ok;
-  }
-};
-
-FrameStatus CrowdStep(CharacterInstance& inst, RefitMode mode, const CharacterFrameInput& input, bool find_contacts) {
-  const FrameStatus st = inst.Update(mode, input.joint_world, input.skinned_positions, /*keep_joints=*/find_contacts);
-  if (!st.ok()) return st;
-  return CrowdBatch::AfterUpdate(inst, mode, input, find_contacts);
-}
-
-namespace {
-
-// The caller errors of the crowd calls: spans of different sizes, a null instance.
-FrameStatus CheckCrowd(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs) {
-  if (instances.size() != inputs.size()) {
-    return {ErrorCode::kInvalidArgument, "instances and inputs differ in count"};
-  }
-  for (CharacterInstance* inst : instances) {
-    if (inst == nullptr) return {ErrorCode::kInvalidArgument, "null instance"};
-  }
-  return {};
-}
-
-constexpr FrameStatus kSomeFailed{ErrorCode::kInvalidData, "at least one instance failed; see its status()"};
-
-// Update + Query (+ FindContacts) of every instance through parallel_for, each range as CrowdRange.
-FrameStatus RunCrowd(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
-                     RefitMode mode, bool find_contacts, const ParallelFor& parallel_for) {
-  if (const FrameStatus st = CheckCrowd(instances, inputs); !st.ok()) return st;
-  std::atomic<bool> all_ok{true};
-  // Blocks of CrowdBlock instances: no range the loop hands out cuts a batch short (a range of 8
-  // instances would fill half the lanes).
-  const size_t block = CrowdBlock(mode, find_contacts);
-  const size_t count = instances.size();
-  parallel_for((count + block - 1) / block, 1, [&](size_t begin, size_t end) {
-    if (!CrowdBatch::Run(instances, inputs, mode, find_contacts, begin * block, std::min(end * block, count))) {
-      all_ok.store(false, std::memory_order_relaxed);
-    }
-  });
-  if (!all_ok.load()) return kSomeFailed;
-  return {};
-}
-
-}  // namespace
-
-size_t CrowdBlock(RefitMode mode, bool find_contacts) {
-  return mode == RefitMode::kFast && !find_contacts && internal::RefitBatchUsable() ? CrowdBatch::kLanes : 1;
-}
-
-FrameStatus CrowdRange(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
-                       RefitMode mode, bool find_contacts) {
-  if (const FrameStatus st = CheckCrowd(instances, inputs); !st.ok()) return st;
-  if (!CrowdBatch::Run(instances, inputs, mode, find_contacts, 0, instances.size())) return kSomeFailed;
-  return {};
-}
-
-FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
-                                std::span<const CharacterFrameInput> inputs, RefitMode mode,
-                                const ParallelFor& parallel_for) {
-  return RunCrowd(instances, inputs, mode, /*find_contacts=*/false, parallel_for);
-}
-
-FrameStatus UpdateAndFindContactsCrowd(std::span<CharacterInstance* const> instances,
-                                       std::span<const CharacterFrameInput> inputs, RefitMode mode,
-                                       const ParallelFor& parallel_for) {
-  return RunCrowd(instances, inputs, mode, /*find_contacts=*/true, parallel_for);
-}
 
 }  // namespace skinspheres::runtime

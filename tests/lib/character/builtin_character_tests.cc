@@ -6,9 +6,9 @@
 #include <map>
 #include <set>
 
-#include "lib/clip_eval_for_tests.h"
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/runtime/narrow_phase/triangle_contact.h"
+#include "support/clip_eval_for_tests.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

@@ -28,12 +28,12 @@
 #include <map>
 #include <string>
 
-#include "lib/clip_eval_for_tests.h"
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/io/glb_exporter.h"
 #include "skinspheres/lib/io/importer.h"
+#include "support/clip_eval_for_tests.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

@@ -12,11 +12,11 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "lib/clip_eval_for_tests.h"
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/io/clip_import.h"
 #include "skinspheres/lib/io/glb_exporter.h"
 #include "skinspheres/lib/io/importer.h"
+#include "support/clip_eval_for_tests.h"
 #include "test_support.h"
 
 namespace skinspheres::lib {

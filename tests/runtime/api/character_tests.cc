@@ -4,7 +4,6 @@
 // per frame after the first.
 
 #include <gtest/gtest.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
@@ -17,10 +16,11 @@
 #include <set>
 
 #include "allocation_counter.h"
+#include "crowd/crowd_query.h"     // runtime/src: counts the crowd's batched queries
+#include "refit/refit_internal.h"  // runtime/src: pins the crowd's refit (batched or one at a time)
 #include "runtime/posed_characters.h"
-#include "crowd/crowd_query.h"  // runtime/src: counts the crowd's batched queries
-#include "refit/refit_internal.h"        // runtime/src: pins the crowd's refit (batched or one at a time)
 #include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/crowd/crowd.h"
 
 namespace skinspheres::runtime {
 namespace {
@@ -243,7 +243,7 @@ TEST(CharacterCrowdTest, CrowdEqualsSerialAndNaNFailsOnlyItsInstance) {
         if (threads == 3) {
           st = UpdateAndQueryCrowd(ptrs, inputs, mode, engine);
         } else {
-          tbb::task_arena(threads).execute([&] { st = UpdateAndQueryCrowd(ptrs, inputs, mode); });
+          test::WithDefaultThreads(threads, [&] { st = UpdateAndQueryCrowd(ptrs, inputs, mode); });
         }
       }
       EXPECT_EQ(st.code, ErrorCode::kInvalidData);

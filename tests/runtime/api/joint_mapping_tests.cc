@@ -27,7 +27,7 @@ struct EngineRig {
   std::vector<int32_t> skeleton_joint;  // per engine joint: the character's skeleton joint, or -1
 };
 
-EngineRig EngineRigOf(const lib::RawCharacter& c, bool with_extras) {
+EngineRig EngineRigOf(const test::Character& c, bool with_extras) {
   std::set<int32_t> skin;
   for (const skinning::BindEntry& b : c.skin.binds) skin.insert(b.joint);
   EngineRig rig;
@@ -69,7 +69,7 @@ TEST(JointMappingTest, SetOrderIsTheIdentity) {
 TEST(JointMappingTest, TheSetListsTheSkinJointsAndTheirAncestorsAndReadsOnlySkinJoints) {
   auto fc = test::LoadFitted("builtin");
   ASSERT_TRUE(fc);
-  const lib::RawCharacter& c = fc->character;
+  const test::Character& c = fc->character;
   EXPECT_EQ(fc->set.joint_names, c.skeleton.joint_names);
   std::set<int32_t> skin;
   for (const skinning::BindEntry& b : c.skin.binds) skin.insert(b.joint);

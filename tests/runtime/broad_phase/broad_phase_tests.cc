@@ -5,10 +5,7 @@
 // characters in one space (PairFilter::Combine), 50,000 spheres with exclusions against an
 // independent grid oracle, the shared characters' own clips, crowds at 1 and 2 threads and on an
 // engine-style loop, refusals, and no allocation per frame.
-#include "skinspheres/runtime/broad_phase/broad_phase.h"
-
 #include <gtest/gtest.h>
-#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <array>
@@ -24,18 +21,16 @@
 #include <span>
 #include <vector>
 
-#include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/io/importer.h"
-#include "skinspheres/lib/fit/sphere_fitter.h"
-#include "skinspheres/runtime/api/character.h"
-#include "skinspheres/runtime/broad_phase/pair_filter.h"
-#include "skinspheres/skinning/local_to_model_job.h"
-#include "skinspheres/skinning/sampling_job.h"
 #include "allocation_counter.h"
 #include "runtime/broad_phase/broad_phase_oracles.h"
 #include "runtime/broad_phase/random_sphere_sets.h"
+#include "runtime/posed_characters.h"
+#include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/broad_phase/broad_phase.h"
+#include "skinspheres/runtime/broad_phase/pair_filter.h"
+#include "skinspheres/skinning/local_to_model_job.h"
+#include "skinspheres/skinning/sampling_job.h"
 #include "test_support.h"
-
 
 namespace skinspheres::runtime {
 namespace {
@@ -680,13 +675,10 @@ TEST(BroadPhaseTest, SharedCharactersClipsMatchAllPairsWithAndWithoutExclusions)
   for (const std::string& name : test::SharedCharacters()) {
     const std::filesystem::path path = test::Asset(name);
     if (path.empty()) continue;
-    auto ch = lib::ImportCharacter(path);
-    ASSERT_TRUE(ch.ok()) << ch.error().message;
-    auto parts = lib::SplitBodyParts(*ch);
-    ASSERT_TRUE(parts.ok());
-    auto fit = lib::FitSpheres(*ch, *parts, lib::FitSettings{});
-    ASSERT_TRUE(fit.ok()) << fit.error().message;
-    auto asset = CharacterAsset::Create(fit->spheres);
+    const auto fc = test::LoadFitted(name);
+    ASSERT_TRUE(fc);
+    const test::Character* ch = &fc->character;
+    auto asset = CharacterAsset::Create(fc->set);
     ASSERT_TRUE(asset.ok());
     auto instance = CharacterInstance::Create(*asset);
     ASSERT_TRUE(instance.ok());
@@ -773,14 +765,8 @@ TEST(BroadPhaseTest, CrowdIsIdenticalForAnyThreadsAndEqualsPerCharacterRuns) {
     return outs;
   };
   std::vector<std::vector<Contact>> one, two;
-  {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
-    one = run(DefaultParallelFor(), 3);
-  }
-  {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
-    two = run(DefaultParallelFor(), 3);
-  }
+  test::WithDefaultThreads(1, [&] { one = run(DefaultParallelFor(), 3); });
+  test::WithDefaultThreads(2, [&] { two = run(DefaultParallelFor(), 3); });
   ASSERT_EQ(one, two);
   EXPECT_EQ(run(SerialFor(), 2), one);
   EXPECT_EQ(run(test::EngineStyleFor(3), 2), one);

@@ -8,9 +8,16 @@
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#if defined(_WIN32)
+#ifndef WIN32_LEAN_AND_MEAN
+#define WIN32_LEAN_AND_MEAN
+#endif
+#include <windows.h>
+#else
+#include <fcntl.h>
 #include <sys/mman.h>
-#include <sys/stat.h>
 #include <unistd.h>
+#endif
 
 #include <algorithm>
 #include <cstring>
@@ -193,24 +200,25 @@ TEST(SphereSetBinaryTest, FilesAreReadByContentWhateverTheirName) {
 }
 
 // The binary reader opens files as the JSON one does (file_io.h): only a regular file, never a
-// FIFO (which would block), a device (/dev/zero never ends) or a directory; a file over
-// kMaxSphereSetBytes is refused from its size, before anything is allocated; writes are checked
-// through the close (/dev/full fails at the flush).
+// FIFO or pipe (which would block), a device (/dev/zero never ends; NUL) or a directory; a file
+// over kMaxSphereSetBytes is refused from its size, before anything is allocated; writes are
+// checked through the close (/dev/full fails at the flush).
 TEST(SphereSetBinaryTest, OnlyRegularFilesWithinTheSizeLimitAreReadAndEveryWriteIsChecked) {
   const auto dir = test::TempDir("sphere_set_binary_hostile");
-  const auto fifo = dir / "fifo.ssb";
-  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const test::TestPipe pipe(dir, "fifo.ssb");
+  ASSERT_TRUE(pipe.ok());
+  const auto fifo = pipe.path();
   const auto huge = dir / "huge.ssb";  // the magic, then a sparse file one byte over the limit
-  ASSERT_FALSE(WriteWholeFile(huge, std::string_view(reinterpret_cast<const char*>(kSphereSetBinaryMagic), 8)));
-  ASSERT_EQ(::truncate(huge.c_str(), static_cast<off_t>(kMaxSphereSetBytes + 1)), 0);
+  ASSERT_TRUE(test::MakeLongFile(huge, kMaxSphereSetBytes + 1,
+                                 std::string(reinterpret_cast<const char*>(kSphereSetBinaryMagic), 8)));
   struct Case {
     std::filesystem::path path;
     ErrorCode code;
     std::string needle;
   };
   const Case cases[] = {
-      {fifo, ErrorCode::kFileUnreadable, "is a FIFO"},
-      {"/dev/zero", ErrorCode::kFileUnreadable, "is a device"},
+      {fifo, ErrorCode::kFileUnreadable, "pipe"},
+      {test::DeviceNotAFile(), ErrorCode::kFileUnreadable, "is a device"},
       {dir, ErrorCode::kFileUnreadable, "is a directory"},
       {huge, ErrorCode::kFormatRejected, "a sphere set may be at most 536870912 bytes"},
   };
@@ -225,16 +233,21 @@ TEST(SphereSetBinaryTest, OnlyRegularFilesWithinTheSizeLimitAreReadAndEveryWrite
       EXPECT_LT(counter.largest(), size_t{1} << 20) << c.path;  // nothing near the file's size
       ASSERT_FALSE(read.ok()) << c.path;
       EXPECT_EQ(read.error().code, c.code) << read.error().message;
-      EXPECT_EQ(read.error().message.rfind(c.path.string() + ": ", 0), 0u) << read.error().message;
+      EXPECT_EQ(read.error().message.rfind(PathText(c.path) + ": ", 0), 0u) << read.error().message;
       EXPECT_NE(read.error().message.find(c.needle), std::string::npos) << read.error().message;
       EXPECT_EQ(read.error().message.find('\n'), std::string::npos) << read.error().message;
     }
   }
+#if !defined(_WIN32)
   for (const SphereSetFileFormat format : {SphereSetFileFormat::kBinary, SphereSetFileFormat::kBinaryFastOnly}) {
     const auto err = SaveSphereSet(Small(), "/dev/full", format);
     ASSERT_TRUE(err.has_value());
     EXPECT_EQ(err->message.rfind("/dev/full: write failed (", 0), 0u) << err->message;
   }
+#endif
+  const auto onto_dir = SaveSphereSetBinary(Small(), dir);
+  ASSERT_TRUE(onto_dir.has_value());
+  EXPECT_EQ(onto_dir->message.rfind(PathText(dir) + ": ", 0), 0u) << onto_dir->message;
   const auto err = SaveSphereSetBinary(Small(), dir / "no_such_dir" / "x.ssb");
   ASSERT_TRUE(err.has_value());
   EXPECT_NE(err->message.find("cannot open for writing"), std::string::npos) << err->message;
@@ -298,12 +311,27 @@ TEST(SphereSetBinaryTest, AMemoryMappedFileIsReadInPlace) {
   const auto dir = test::TempDir("sphere_set_binary_mmap");
   const SphereSet& set = Builtin();
   ASSERT_FALSE(SaveSphereSetBinary(set, dir / "m.ssb").has_value());
+#if defined(_WIN32)
+  const HANDLE file = CreateFileW((dir / "m.ssb").c_str(), GENERIC_READ, FILE_SHARE_READ, nullptr, OPEN_EXISTING,
+                                  FILE_ATTRIBUTE_NORMAL, nullptr);
+  ASSERT_NE(file, INVALID_HANDLE_VALUE);
+  LARGE_INTEGER file_size{};
+  ASSERT_TRUE(GetFileSizeEx(file, &file_size));
+  const size_t size = static_cast<size_t>(file_size.QuadPart);
+  const HANDLE mapping = CreateFileMappingW(file, nullptr, PAGE_READONLY, 0, 0, nullptr);
+  CloseHandle(file);
+  ASSERT_NE(mapping, nullptr);
+  void* map = MapViewOfFile(mapping, FILE_MAP_READ, 0, 0, 0);
+  CloseHandle(mapping);
+  ASSERT_NE(map, nullptr);
+#else
   const int fd = ::open((dir / "m.ssb").c_str(), O_RDONLY);
   ASSERT_GE(fd, 0);
   const size_t size = static_cast<size_t>(::lseek(fd, 0, SEEK_END));
   void* map = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
   ::close(fd);
   ASSERT_NE(map, MAP_FAILED);
+#endif
   const std::span<const std::byte> bytes(static_cast<const std::byte*>(map), size);
   auto view = SphereSetBinaryView::Open(bytes, "m.ssb");
   ASSERT_TRUE(view.ok()) << view.error().message;
@@ -330,7 +358,11 @@ TEST(SphereSetBinaryTest, AMemoryMappedFileIsReadInPlace) {
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().code, ErrorCode::kInvalidArgument);
   EXPECT_TRUE(ReadSphereSetBinary(odd, "odd").ok());
+#if defined(_WIN32)
+  UnmapViewOfFile(map);
+#else
   ::munmap(map, size);
+#endif
 }
 
 TEST(SphereSetBinaryTest, EveryPrefixIsRefused) {

@@ -7,19 +7,19 @@
 //  - the exclusion rules (shared vertex by index and by rest position, rest-pose contacts) and
 //    version-1 sets refused;
 //  - the depth estimate on two closed sphere meshes overlapping by known depths.
-#include "skinspheres/runtime/narrow_phase/narrow_phase.h"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstring>
+#include <numbers>
 #include <optional>
 #include <random>
 
 #include "allocation_counter.h"
 #include "runtime/posed_characters.h"
-#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/crowd/crowd.h"
+#include "skinspheres/runtime/narrow_phase/narrow_phase.h"
 #include "skinspheres/runtime/narrow_phase/triangle_contact.h"
 #include "skinspheres/skinning/skinning_job.h"
 #include "skinspheres/skinning/skinning_matrices_job.h"
@@ -89,7 +89,7 @@ std::vector<Vector3f> SkinAll(const SphereSet& set, std::span<const Mat4f> joint
   return out;
 }
 
-float BodyHeight(const lib::RawCharacter& c) {
+float BodyHeight(const test::Character& c) {
   float lo = INFINITY, hi = -INFINITY;
   for (const auto& p : c.positions_rest) {
     lo = std::min(lo, p.y());
@@ -128,7 +128,7 @@ void CheckAgainstOracle(const test::FittedCharacter& fc, const std::vector<test:
   }
 }
 
-std::vector<test::Pose> RandomPoses(const lib::RawCharacter& c, int count, float max_deg, uint32_t seed) {
+std::vector<test::Pose> RandomPoses(const test::Character& c, int count, float max_deg, uint32_t seed) {
   std::mt19937 rng(seed);
   std::vector<test::Pose> poses;
   for (int k = 0; k < count; ++k) {
@@ -184,7 +184,7 @@ INSTANTIATE_TEST_SUITE_P(SharedCharacters, NarrowPhaseShared, ::testing::ValuesI
 // ------------------------------------------------------------------ the built-in character
 
 // The largest weight of one of triangle t's vertices is on a joint whose name contains `name`.
-bool OnJoint(const lib::RawCharacter& c, uint32_t t, const std::string& name) {
+bool OnJoint(const test::Character& c, uint32_t t, const std::string& name) {
   for (int k = 0; k < 3; ++k) {
     const int v = c.triangles[t][k];
     float best = 0;
@@ -204,7 +204,7 @@ TEST(NarrowPhase, BuiltinWalkTouchesNothingAndTouchOnlyWithTheHands) {
   ASSERT_TRUE(asset.ok());
   auto inst = CharacterInstance::Create(*asset);
   const auto& set = fc->set;
-  const lib::RawCharacter& c = fc->character;
+  const test::Character& c = fc->character;
   for (const auto& clip : c.clips) {
     int contact_frames = 0;
     for (int f = 0; f <= int(clip.duration_s * 30.0f + 1e-3f); ++f) {
@@ -587,9 +587,9 @@ void AddUvSphere(const Vector3f& centre, float radius, const Vector3f& pole, int
   const uint32_t base = uint32_t(positions->size());
   positions->push_back(centre + radius * z);
   for (int r = 1; r < rings; ++r) {
-    const float th = float(M_PI) * float(r) / float(rings);
+    const float th = std::numbers::pi_v<float> * float(r) / float(rings);
     for (int s = 0; s < segments; ++s) {
-      const float ph = 2.0f * float(M_PI) * float(s) / float(segments);
+      const float ph = 2.0f * std::numbers::pi_v<float> * float(s) / float(segments);
       positions->push_back(centre + radius * (std::sin(th) * (std::cos(ph) * x + std::sin(ph) * y) + std::cos(th) * z));
     }
   }

@@ -4,7 +4,6 @@
 // it (and below it on a case built for it), analytic single-joint and two-joint cases, 1 vs 2
 // threads, Validate() refusals, NaN.
 #include <gtest/gtest.h>
-#include <tbb/task_arena.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -14,8 +13,8 @@
 #include <limits>
 #include <random>
 
-#include "runtime/posed_characters.h"
 #include "refit/refit_internal.h"  // runtime/src: pins the instruction set of the fast refit
+#include "runtime/posed_characters.h"
 #include "runtime/sample_sphere_set.h"
 #include "skinspheres/runtime/refit/refit_job.h"
 
@@ -25,17 +24,23 @@ namespace {
 using test::FittedCharacter;
 using test::Pose;
 
-// The fast refit as the plain scalar formula of the header, one Eigen operation after the other
-// (the implementation before it was vectorised): the bit-equality reference of the SIMD path.
+// The fast refit as the plain scalar formula of the header, one float operation after the other:
+// the bit-equality reference of every SIMD and portable copy, on every platform.
 // reach: W per influence entry (the rest data's when the caller passes rest.reach()); nullptr: the
 // bound without it, Kavan & Žára's r' = s_max · radius_fast + max_j |d_j| as written before reach
 // existed (no min), the oracle of "never above the old bound" and "a set without reach is the old
 // bound".
 std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, const RefitRestData& rest,
                                                 std::span<const skinspheres::Mat4f> world, const float* reach) {
-  const auto apply = [](const skinspheres::Mat4f& g, const Eigen::Vector3f& p) -> Eigen::Vector3f {
-    return g.topLeftCorner<3, 3>() * p + g.topRightCorner<3, 1>();
+  // Written out in plain floats in the order refit_job.h documents (every 3-term sum as
+  // a0 + (a1 + a2)): Eigen's own evaluation order differs between targets (NEON has 2-float
+  // packets), and the runtime must give these bits on every platform.
+  const auto apply = [](const skinspheres::Mat4f& g, const Eigen::Vector3f& p) {
+    Eigen::Vector3f r;
+    for (int m = 0; m < 3; ++m) r[m] = (g(m, 0) * p.x() + (g(m, 1) * p.y() + g(m, 2) * p.z())) + g(m, 3);
+    return r;
   };
+  const auto norm2 = [](const Eigen::Vector3f& d) { return d.x() * d.x() + (d.y() * d.y() + d.z() * d.z()); };
   std::vector<skinspheres::Vec4f> out(set.size());
   const auto q = rest.center_in_joint();
   const auto w = rest.weights();
@@ -43,20 +48,37 @@ std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, const Refi
   for (size_t s = 0; s < set.size(); ++s) {
     const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
     Eigen::Vector3f c = Eigen::Vector3f::Zero();
-    for (uint32_t k = k0; k < k1; ++k) c += w[k] * apply(world[set.influence_joints[k]], q[k]);
+    for (uint32_t k = k0; k < k1; ++k) {
+      const Eigen::Vector3f p = apply(world[set.influence_joints[k]], q[k]);
+      for (int m = 0; m < 3; ++m) c[m] = c[m] + w[k] * p[m];
+    }
     float spread2 = 0.0f, reached = 0.0f, s2 = 0.0f;
     for (uint32_t k = k0; k < k1; ++k) {
       const uint16_t j = set.influence_joints[k];
-      const float d2 = (apply(world[j], q[k]) - c).squaredNorm();
-      const Eigen::Matrix3f a = world[j].topLeftCorner<3, 3>() * rinv[j];
-      const Eigen::Matrix3f ata = a.transpose() * a;
+      const Eigen::Vector3f d = apply(world[j], q[k]) - c;
+      const float d2 = norm2(d);
+      float a[3][3], ata[3][3];  // A = linear(G_j(t)) · R_j, then AᵀA
+      for (int m = 0; m < 3; ++m) {
+        for (int k2 = 0; k2 < 3; ++k2) {
+          a[m][k2] =
+              world[j](m, 0) * rinv[j](0, k2) + (world[j](m, 1) * rinv[j](1, k2) + world[j](m, 2) * rinv[j](2, k2));
+        }
+      }
+      for (int i = 0; i < 3; ++i) {
+        for (int k2 = 0; k2 < 3; ++k2) ata[i][k2] = a[0][i] * a[0][k2] + (a[1][i] * a[1][k2] + a[2][i] * a[2][k2]);
+      }
+      float row_max = 0.0f;
+      for (int i = 0; i < 3; ++i) {
+        row_max = std::max(row_max, std::fabs(ata[i][0]) + (std::fabs(ata[i][1]) + std::fabs(ata[i][2])));
+      }
       spread2 = std::max(spread2, d2);
       if (reach != nullptr) reached += reach[k] * std::sqrt(d2);
-      s2 = std::max(s2, ata.cwiseAbs().rowwise().sum().maxCoeff());
+      s2 = std::max(s2, row_max);
     }
     const float spread = reach != nullptr ? std::min(std::sqrt(spread2), reached) : std::sqrt(spread2);
     const float r = std::sqrt(s2) * set.radii_fast[s] + spread;
-    const float radius = r + 16.0f * FLT_EPSILON * (c.cwiseAbs().maxCoeff() + r);
+    const float largest = std::max(std::fabs(c.x()), std::max(std::fabs(c.y()), std::fabs(c.z())));
+    const float radius = r + 16.0f * FLT_EPSILON * (largest + r);
     out[s] = skinspheres::Vec4f(c.x(), c.y(), c.z(), radius);
   }
   return out;
@@ -668,9 +690,9 @@ TEST(RefitJobTest, SameOutputForOneAndTwoThreads) {
     RefitJob job{mode, &fc->set, &*rest, pose.world, pose.positions, serial};
     ASSERT_TRUE(job.Run());
     job.out = one;
-    tbb::task_arena(1).execute([&] { EXPECT_TRUE(RefitParallel(job, 1)); });
+    test::WithDefaultThreads(1, [&] { EXPECT_TRUE(RefitParallel(job, 1)); });
     job.out = two;
-    tbb::task_arena(2).execute([&] { EXPECT_TRUE(RefitParallel(job, 1)); });
+    test::WithDefaultThreads(2, [&] { EXPECT_TRUE(RefitParallel(job, 1)); });
     // Split by hand too: any range split gives the same bits.
     std::vector<skinspheres::Vec4f> split(fc->set.size());
     job.out = split;

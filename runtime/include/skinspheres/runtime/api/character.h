@@ -31,9 +31,7 @@
 // returns no contacts and status() says why; other instances are untouched. Not thread-safe per
 // instance; distinct instances may run concurrently.
 //
-// UpdateAndQueryCrowd runs Update + Query (UpdateAndFindContactsCrowd: + FindContacts) for many
-// instances through a ParallelFor (parallel_for.h: TBB by default, or the engine's job system);
-// every instance's spheres and contacts are identical to running it alone, serially.
+// Many instances at once (a crowd): crowd/crowd.h.
 #pragma once
 
 #include <Eigen/Core>
@@ -91,7 +89,7 @@ class CharacterAsset {
   size_t source_vertex_count() const { return set_.source_vertex_count; }
 
  private:
-  friend struct CrowdBatch;  // character.cc: the crowd calls' query of several instances at once
+  friend struct CrowdBatch;  // crowd/crowd_batch.cc: the crowd calls' query of several instances at once
   CharacterAsset() = default;
   SphereSet set_;
   RefitRestData rest_;
@@ -102,7 +100,7 @@ class CharacterAsset {
   std::vector<uint32_t> crowd_pairs_;
 };
 
-struct CharacterFrameInput;
+struct CharacterFrameInput;  // crowd/crowd.h
 
 class CharacterInstance {
  public:
@@ -171,7 +169,7 @@ class CharacterInstance {
 
  private:
   friend FrameStatus CrowdStep(CharacterInstance&, RefitMode, const CharacterFrameInput&, bool);
-  friend struct CrowdBatch;  // character.cc: the crowd calls' refit and query of several instances at once
+  friend struct CrowdBatch;  // crowd/crowd_batch.cc: the crowd calls' refit and query of several instances at once
   CharacterInstance() = default;
   // Update; keep_joints: also keep the joint matrices for FindContacts mode (b) (a copy of one
   // matrix per set joint; the broad-phase-only crowd call skips it).
@@ -201,62 +199,5 @@ class CharacterInstance {
   bool valid_ = false;
   FrameStatus status_{ErrorCode::kInvalidArgument, "no update has run yet"};
 };
-
-// One frame's input for one instance (see CharacterInstance::Update).
-struct CharacterFrameInput {
-  std::span<const Mat4f> joint_world;
-  std::span<const Eigen::Vector3f> skinned_positions;  // exact mode only
-};
-
-// One instance's step of the crowd calls below, for an engine that writes its own crowd loop:
-// Update(mode, input), then Query(), then, when find_contacts, FindContacts (mode (a) with the
-// input's positions in exact mode, mode (b) in fast mode). Without find_contacts the joint
-// matrices are not kept for a later FindContacts without positions (see below). The instance's
-// status() after the step, kOk or why it failed.
-FrameStatus CrowdStep(CharacterInstance& instance, RefitMode mode, const CharacterFrameInput& input,
-                      bool find_contacts);
-
-// CrowdStep for instances[i] with inputs[i], one after the other on the calling thread, except
-// that consecutive instances of one asset are refitted, and (an asset of up to 256 spheres) queried,
-// together in fast mode: 16 at a time, one per AVX-512 lane, when the CPU has AVX-512F (each gets
-// the spheres and contacts it gets alone, bit for bit; several times faster per instance than one at
-// a time). The batched query tests all the asset's allowed pairs; it resets each instance's
-// candidate cache (BroadPhaseContext::Invalidate), whose motion statistics it does not keep, so a
-// later query alone rebuilds it (and gives exact contacts either way). The batch's spheres go to a
-// per-thread buffer (64-byte aligned, room for 256 spheres: 64 KB), allocated by the thread's first
-// batch and kept for its life. What the crowd calls below run on each range their parallel_for
-// hands out; for an engine that runs its own loop, give it ranges of instances ordered by asset, in
-// multiples of 16. An instance listed twice in one range is updated twice, in order, as CrowdStep
-// would. Returns kInvalidArgument (and runs nothing) when the spans differ in size or a pointer is
-// null; kInvalidData when at least one instance failed (its status() says why); kOk.
-FrameStatus CrowdRange(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
-                       RefitMode mode, bool find_contacts);
-
-// How many consecutive instances the crowd calls below give each index of their parallel_for: 16 for
-// a broad-phase-only crowd in fast mode on a CPU that batches (AVX-512F), so that no range cuts a
-// batch short; 1 otherwise (the narrow phase's work per instance outweighs the batch's gain).
-size_t CrowdBlock(RefitMode mode, bool find_contacts);
-
-// Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (parallel_for over
-// blocks of CrowdBlock instances; each range it hands out runs as CrowdRange, so instances ordered
-// by asset batch). It
-// does not keep the joint matrices for FindContacts mode (b) (a copy of every joint's matrix per
-// instance and frame, a tenth of a 10,000-character crowd's frame): a FindContacts without
-// positions after it is refused until the next Update, UpdateFast or UpdateAndFindContactsCrowd.
-// Returns kInvalidArgument (and runs nothing) when the spans differ in size or an instance pointer
-// is null (listing the same instance twice is a data race the caller
-// must avoid); kInvalidData when at least one instance failed (each instance's
-// status() says why; the others are fully updated); kOk otherwise.
-FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
-                                std::span<const CharacterFrameInput> inputs, RefitMode mode,
-                                const ParallelFor& parallel_for = DefaultParallelFor());
-
-// The same, then FindContacts for every instance: mode (a) with the input's skinned positions in
-// exact mode, mode (b) (lazy skinning from the joint matrices) in fast mode. Each instance's
-// narrow phase runs on the thread that updates it. kInvalidData also when an instance's asset has
-// no mesh (its status() says so).
-FrameStatus UpdateAndFindContactsCrowd(std::span<CharacterInstance* const> instances,
-                                       std::span<const CharacterFrameInput> inputs, RefitMode mode,
-                                       const ParallelFor& parallel_for = DefaultParallelFor());
 
 }  // namespace skinspheres::runtime

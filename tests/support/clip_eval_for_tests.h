@@ -1,13 +1,17 @@
 // Test-only oracle: a slow, obvious clip sampler + forward kinematics + linear blend skinning,
-// written independently of skinning/ so tests can check clips and skinned shapes against it.
+// written independently of skinning/ so tests can check clips and skinned shapes against it. It
+// takes any character type with a skinning::Skeleton `skeleton` and a skinning::SkinnedMesh `skin`
+// (lib::RawCharacter in the offline tests, test::Character from the fixtures elsewhere).
 #pragma once
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <vector>
 
-#include "skinspheres/lib/character/raw_character.h"
+#include "skinspheres/skinning/animation_clip.h"
 #include "skinspheres/skinning/math_types.h"
+#include "skinspheres/skinning/skeleton.h"
+#include "skinspheres/skinning/skinned_mesh.h"
 
 namespace skinspheres::test {
 
@@ -71,8 +75,8 @@ inline skinspheres::Quatf SampleQuat(const skinning::Track<skinspheres::Quatf>& 
 }
 
 // Local transforms of every joint at time t (rest where a channel has no track).
-inline std::vector<skinning::Transform> SampleLocal(const lib::RawCharacter& c, const skinning::AnimationClip& clip,
-                                                    float t) {
+template <class Character>
+std::vector<skinning::Transform> SampleLocal(const Character& c, const skinning::AnimationClip& clip, float t) {
   std::vector<skinning::Transform> local = c.skeleton.rest_local;
   for (const auto& tr : clip.tracks) {
     if (!tr.translation.empty()) local[tr.joint].translation = SampleVec(tr.translation, t);
@@ -82,8 +86,8 @@ inline std::vector<skinning::Transform> SampleLocal(const lib::RawCharacter& c, 
   return local;
 }
 
-inline std::vector<skinspheres::Mat4f> WorldOf(const lib::RawCharacter& c,
-                                               const std::vector<skinning::Transform>& local) {
+template <class Character>
+std::vector<skinspheres::Mat4f> WorldOf(const Character& c, const std::vector<skinning::Transform>& local) {
   std::vector<skinspheres::Mat4f> w(local.size());
   for (size_t j = 0; j < local.size(); ++j) {
     const skinspheres::Mat4f m = local[j].ToMatrix();
@@ -93,7 +97,8 @@ inline std::vector<skinspheres::Mat4f> WorldOf(const lib::RawCharacter& c,
 }
 
 // p' = Σ w_k · G_joint(b_k) · IBM_k · p_bind for every vertex.
-inline std::vector<Eigen::Vector3f> Skin(const lib::RawCharacter& c, const std::vector<skinspheres::Mat4f>& world) {
+template <class Character>
+std::vector<Eigen::Vector3f> Skin(const Character& c, const std::vector<skinspheres::Mat4f>& world) {
   const auto& s = c.skin;
   std::vector<Eigen::Vector3f> out(s.vertex_count());
   for (size_t v = 0; v < s.vertex_count(); ++v) {
@@ -107,7 +112,8 @@ inline std::vector<Eigen::Vector3f> Skin(const lib::RawCharacter& c, const std::
   return out;
 }
 
-inline std::vector<Eigen::Vector3f> PoseAt(const lib::RawCharacter& c, const skinning::AnimationClip& clip, float t) {
+template <class Character>
+std::vector<Eigen::Vector3f> PoseAt(const Character& c, const skinning::AnimationClip& clip, float t) {
   return Skin(c, WorldOf(c, SampleLocal(c, clip, t)));
 }
 
