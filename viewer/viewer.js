@@ -16,6 +16,9 @@
   var TRIANGLE_COLOR = 0xff00ff;  // intersecting triangles (exactly this colour)
   var OWNED_COLOR = 0x00d8ff;     // the selected sphere's triangles
   var LOOSE_COLOR = 0xff9f1c;
+  // Timeline marks: triangle contacts, penetrating (deeper than the run's touch tolerance) and
+  // touching; sphere-only overlaps (broad-phase candidates, mostly no contact) when asked for.
+  var PENETRATING_CSS = '#ff3b30', TOUCHING_CSS = '#ffb020';
   var PART_COLORS = { torso: 0x4e79a7, head: 0xedc948, arm_l: 0x59a14f, arm_r: 0x76b7b2, leg_l: 0xb07aa1, leg_r: 0x9c755f };
   var OTHER_COLORS = [0xbab0ac, 0xf28e2b, 0x86bcb6, 0xd4a6c8, 0x8cd17d, 0xa0cbe8, 0xfabfd2, 0xb6992d];
 
@@ -227,6 +230,7 @@
     contacts: true,
     loosest: data.kind === 'fit',  // marked by default on the fit page; a toggle on playback
     excluded: false,
+    overlaps: false,  // sphere-only overlaps on the timeline
     selected: -1,
     view: 'front'
   };
@@ -247,6 +251,13 @@
     return c.xyzr.subarray(4 * S * ui.frame, 4 * S * (ui.frame + 1));
   }
   function currentPairs() { return ui.clip < 0 ? [] : clips[ui.clip].info.pairs[ui.frame]; }
+  // The current frame's part pairs with triangle contacts: flat [part_a, part_b, kind, depth, ...],
+  // kind 1 penetrating, 0 touching (null in pages from before the classification).
+  function currentPartContacts() {
+    if (ui.clip < 0) return null;
+    var p = clips[ui.clip].info.part_contacts;
+    return p ? p[ui.frame] : null;
+  }
   function currentTrianglePairs() {
     if (ui.clip < 0) return null;
     var t = clips[ui.clip].info.triangle_pairs;
@@ -481,11 +492,30 @@
     }
     var keys = Object.keys(groups);
     var tri = currentTrianglePairs();
-    var html = keys.length ? '<table>' + keys.map(function (key) {
-      var g2 = groups[key];
-      return '<tr><td>' + esc(partPairName(g2.a, g2.b)) + '</td><td class="num">' + g2.n + ' sphere pair' + (g2.n > 1 ? 's' : '') +
-        ', overlap up to ' + fmt(g2.depth, 4) + '</td></tr>';
-    }).join('') + '</table>' : '<span class="muted">none</span>';
+    var parts = currentPartContacts();
+    var height = data.metrics && data.metrics.body_height > 0 ? data.metrics.body_height : 0;
+    var html = '';
+    if (parts && parts.length) {
+      html += '<table>';
+      for (var k2 = 0; k2 + 3 < parts.length; k2 += 4) {
+        var pen = parts[k2 + 2] === 1, depth = parts[k2 + 3];
+        html += '<tr><td>' + esc(partPairName(parts[k2], parts[k2 + 1])) + '</td><td class="num ' + (pen ? 'pen' : 'touch') + '">' +
+          (pen ? 'penetrating' : 'touching') + (depth > 0 ? ', ' + (height ? fmt(100 * depth / height, 2) + '% of height' : fmt(depth, 4)) : '') +
+          '</td></tr>';
+      }
+      html += '</table>';
+    } else if (parts) {
+      html += '<span class="muted">no triangle contact</span>';
+    }
+    if (keys.length) {
+      html += '<div class="muted">sphere overlaps (candidates):</div><table>' + keys.map(function (key) {
+        var g2 = groups[key];
+        return '<tr><td>' + esc(partPairName(g2.a, g2.b)) + '</td><td class="num">' + g2.n + ' sphere pair' + (g2.n > 1 ? 's' : '') +
+          ', overlap up to ' + fmt(g2.depth, 4) + '</td></tr>';
+      }).join('') + '</table>';
+    } else if (!parts) {
+      html += '<span class="muted">none</span>';
+    }
     if (tri) html += '<div class="num">' + (tri.length / 2) + ' intersecting triangle pairs</div>';
     $('ss-now-body').innerHTML = html;
     updateTimelineHead();
@@ -550,6 +580,10 @@
     if (clips.some(function (c) { return c.info.triangle_pairs; })) {
       legend.push('<span><span class="swatch" style="background:#ff00ff"></span>intersecting triangles</span>');
     }
+    if (clips.some(function (c) { return c.info.part_contacts; })) {
+      legend.push('<span><span class="swatch" style="background:' + PENETRATING_CSS + '"></span>penetrating</span>');
+      legend.push('<span><span class="swatch" style="background:' + TOUCHING_CSS + '"></span>touching (timeline)</span>');
+    }
     if (loosest.length) legend.push('<span><span class="swatch" style="background:#ff9f1c"></span>loosest</span>');
     $('ss-legend').innerHTML = legend.join('');
 
@@ -562,7 +596,7 @@
     if (metrics) rows.push('<tr><td>metrics</td><td class="num">' + fmt(t.metrics_ms, 1) + ' ms</td></tr>');
     clips.forEach(function (c) {
       var info = c.info;
-      rows.push('<tr><td>' + esc(info.name) + '</td><td class="num">' + info.frames + ' frames at ' + fmt(info.fps, 0) + ' fps, ' + info.mode + ' refit</td></tr>');
+      rows.push('<tr><td class="name" title="' + esc(info.name) + '">' + esc(info.name) + '</td><td class="num">' + info.frames + ' frames at ' + fmt(info.fps, 0) + ' fps, ' + info.mode + ' refit</td></tr>');
       ['sample', 'skin', 'refit', 'query', 'narrow'].forEach(function (stage) {
         var st = info.stages_us[stage];
         if (st) rows.push('<tr><td>&nbsp;&nbsp;' + stage + '</td><td class="num">median ' + fmt(st.median_us, 1) + ' &micro;s, p95 ' + fmt(st.p95_us, 1) + ' &micro;s</td></tr>');
@@ -578,8 +612,10 @@
   }
 
   // ---------------------------------------------------------------------------------------------
-  // Timeline: one row per part pair that touches in the clip; marks on its frames: sphere pairs
-  // (red bars) and intersecting triangles (magenta, on the row of the parts owning the triangles).
+  // Timeline: one row per part pair with triangle contacts in the clip; marks on its frames:
+  // penetrating and touching (two colours, from part_contacts), intersecting triangles of pages
+  // without that classification (magenta), and, when asked for, sphere-only overlaps (grey:
+  // broad-phase candidates, which mostly are no contact).
 
   function buildTimeline() {
     var el = $('ss-timeline');
@@ -591,31 +627,35 @@
     var info = c.info;
     var F = info.frames;
     var rows = {};
-    function mark(key, a, b, f, kind) {
-      var row = rows[key] = rows[key] || { a: a, b: b, sphere: new Uint8Array(F), tri: new Uint8Array(F) };
+    function mark(a, b, f, kind) {
+      var lo = Math.min(a, b), hi = Math.max(a, b), key = lo + ',' + hi;
+      var row = rows[key] = rows[key] || { a: lo, b: hi, sphere: new Uint8Array(F), pen: new Uint8Array(F), touch: new Uint8Array(F), tri: new Uint8Array(F) };
       row[kind][f] = 1;
     }
     for (var f = 0; f < F; ++f) {
       var pairs = info.pairs[f];
-      for (var i = 0; i + 1 < pairs.length; i += 2) {
-        var a = sph.part[pairs[i]], b = sph.part[pairs[i + 1]];
-        mark(Math.min(a, b) + ',' + Math.max(a, b), Math.min(a, b), Math.max(a, b), f, 'sphere');
-      }
+      for (var i = 0; i + 1 < pairs.length; i += 2) mark(sph.part[pairs[i]], sph.part[pairs[i + 1]], f, 'sphere');
+      var pc = info.part_contacts ? info.part_contacts[f] : [];
+      for (i = 0; i + 3 < pc.length; i += 4) mark(pc[i], pc[i + 1], f, pc[i + 2] === 1 ? 'pen' : 'touch');
     }
     var tri = info.triangle_pairs;
     if (tri) {
-      // Triangle pairs land on the row of their owners' parts.
+      // Intersecting triangle pairs on frames the classification does not cover (older pages, or
+      // pairs added to the data) land on the row of their owners' parts.
       for (f = 0; f < F; ++f) {
         var tp = tri[f];
         for (i = 0; i + 1 < tp.length; i += 2) {
           var sa = ownerOf[tp[i]], sb = ownerOf[tp[i + 1]];
           if (sa < 0 || sb < 0) continue;
-          a = sph.part[sa]; b = sph.part[sb];
-          mark(Math.min(a, b) + ',' + Math.max(a, b), Math.min(a, b), Math.max(a, b), f, 'tri');
+          var a = sph.part[sa], b = sph.part[sb], row = rows[Math.min(a, b) + ',' + Math.max(a, b)];
+          if (!row || (!row.pen[f] && !row.touch[f])) mark(a, b, f, 'tri');
         }
       }
     }
-    var keys = Object.keys(rows).sort(function (x, y) {
+    var keys = Object.keys(rows).filter(function (key) {
+      var r = rows[key];
+      return ui.overlaps || r.pen.some(Boolean) || r.touch.some(Boolean) || r.tri.some(Boolean);
+    }).sort(function (x, y) {
       var p = x.split(',').map(Number), q = y.split(',').map(Number);
       return p[0] - q[0] || p[1] - q[1];
     });
@@ -623,9 +663,14 @@
     keys.forEach(function (key) {
       var row = rows[key];
       html += '<div class="row" data-parts="' + esc(sph.parts[row.a] + ',' + sph.parts[row.b]) + '"><div class="label">' +
-        esc(partPairName(row.a, row.b)) + '</div><div class="track">' + runs(row.sphere, F, '') + runs(row.tri, F, ' tri') + '</div></div>';
+        esc(partPairName(row.a, row.b)) + '</div><div class="track">' + (ui.overlaps ? runs(row.sphere, F, ' sph') : '') +
+        runs(row.touch, F, ' touch') + runs(row.pen, F, ' pen') + runs(row.tri, F, ' tri') + '</div></div>';
     });
-    el.innerHTML = (html || '<div class="empty">no contact in this clip</div>') + '<div class="head"></div>';
+    var hidden = Object.keys(rows).length - keys.length;
+    el.innerHTML = (html || '<div class="empty">no triangle contact in this clip' +
+      (hidden ? ' (' + hidden + ' part pairs with sphere overlaps only: "sphere overlaps" shows them)' : '') + '</div>') +
+      '<div class="head"></div>';
+    setState('timeline-rows', keys.length);
     updateTimelineHead();
   }
 
@@ -722,6 +767,7 @@
   $('ss-contacts').addEventListener('change', function () { ui.contacts = this.checked; applyVisibility(); saveHash(); });
   $('ss-loosest').addEventListener('change', function () { ui.loosest = this.checked; applyVisibility(); saveHash(); });
   $('ss-excluded').addEventListener('change', function () { ui.excluded = this.checked; applyVisibility(); saveHash(); });
+  $('ss-overlaps').addEventListener('change', function () { ui.overlaps = this.checked; buildTimeline(); saveHash(); });
   $('ss-viewdir').addEventListener('change', function () { ui.view = this.value; setView(ui.view); });
   document.addEventListener('click', function (ev) {
     var link = ev.target.closest && ev.target.closest('[data-sphere]');
@@ -774,6 +820,7 @@
     if (p.contacts !== undefined) ui.contacts = p.contacts !== '0';
     if (p.loosest !== undefined) ui.loosest = p.loosest !== '0';
     if (p.excluded !== undefined) ui.excluded = p.excluded !== '0';
+    if (p.overlaps !== undefined) ui.overlaps = p.overlaps !== '0';
     if (p.color !== undefined) ui.color = p.color === 'loose' ? 'loose' : 'part';
     if (p.sphere !== undefined) ui.selected = Number(p.sphere);
     if (p.speed !== undefined) ui.speed = Number(p.speed) || 1;
@@ -783,6 +830,7 @@
     $('ss-contacts').checked = ui.contacts;
     $('ss-loosest').checked = ui.loosest;
     $('ss-excluded').checked = ui.excluded;
+    $('ss-overlaps').checked = ui.overlaps;
     $('ss-color').value = ui.color;
     $('ss-viewdir').value = ui.view;
     if (!(ui.selected >= 0 && ui.selected < S)) ui.selected = -1;
@@ -803,6 +851,7 @@
     if (!ui.contacts) parts.push('contacts=0');
     if (!ui.loosest) parts.push('loosest=0');
     if (ui.excluded) parts.push('excluded=1');
+    if (ui.overlaps) parts.push('overlaps=1');
     if (ui.color !== 'part') parts.push('color=' + ui.color);
     if (ui.selected >= 0) parts.push('sphere=' + ui.selected);
     if (ui.view !== 'front') parts.push('view=' + ui.view);

@@ -1,4 +1,5 @@
 // skinspheres demo / skinspheres export-builtin OUT.glb|OUT.fbx [--no-mesh] [--no-clips] [--joint-prefix P]
+//   [--armature-scale S] [--rotate-frames SEED] [--bone-scale S]
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -10,6 +11,7 @@
 #include "html_page.h"
 #include "playback.h"
 #include "skinspheres/lib/character/builtin_character.h"
+#include "skinspheres/lib/character/rig_variants.h"
 #include "skinspheres/lib/io/clip_import.h"
 #include "skinspheres/lib/io/glb_exporter.h"
 
@@ -20,6 +22,8 @@ struct ExportBuiltinArgs {
   std::string output, joint_prefix;
   bool no_mesh = false, no_clips = false;
   float armature_scale = 1.0f;
+  float bone_scale = 1.0f;
+  int64_t rotate_frames = -1;  // a seed; < 0: the frames as they are
 };
 
 // The same character as a rig in other units: the root joint scaled by s, every other joint's
@@ -59,7 +63,16 @@ int RunExportBuiltin(const ExportBuiltinArgs& a) {
   if (!(a.armature_scale > 0.0f) || !std::isfinite(a.armature_scale)) {
     return Fail("--armature-scale must be a positive number (got " + std::to_string(a.armature_scale) + ")");
   }
+  if (!(a.bone_scale > 0.0f) || !std::isfinite(a.bone_scale)) {
+    return Fail("--bone-scale must be a positive number (got " + std::to_string(a.bone_scale) + ")");
+  }
+  if (a.rotate_frames > int64_t{UINT32_MAX}) return Fail("--rotate-frames takes a seed from 0 to 4294967295");
   lib::RawCharacter ch = lib::MakeBuiltinCharacter();
+  // Other rigs of the same character (lib/character/rig_variants.h): the tests' oracle for retargeting.
+  if (a.bone_scale != 1.0f) lib::ScaleBones(ch, a.bone_scale);
+  if (a.rotate_frames >= 0) {
+    if (auto err = lib::RotateJointFrames(ch, static_cast<uint32_t>(a.rotate_frames))) return Fail(err->message);
+  }
   if (a.armature_scale != 1.0f) ScaleArmature(ch, a.armature_scale);
   if (a.no_mesh) ch = lib::WithoutMesh(std::move(ch));  // an animation-only file, as Mixamo's "without skin"
   if (a.no_clips) ch.clips.clear();
@@ -92,6 +105,11 @@ void AddExportBuiltinCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--armature-scale", args->armature_scale,
                   "scale the root joint by this and divide bone translations by it: the same shape as a rig in "
                   "other units (0.01: centimetres under a metre armature)");
+  cmd->add_option("--rotate-frames", args->rotate_frames,
+                  "turn every joint's local frame by a rotation drawn from this seed, keeping the world rest pose "
+                  "and motion: the same character as a rig with other rest frames");
+  cmd->add_option("--bone-scale", args->bone_scale,
+                  "scale the whole rig and mesh by this (bones this many times as long, the same rotations)");
   cmd->callback([args, exit_code] { *exit_code = RunExportBuiltin(*args); });
 }
 

@@ -1,20 +1,57 @@
-// `play --clips FILE` (repeatable): clips from animation files (glTF, GLB or any format Assimp
-// reads), matched to the character's joints by name (lib/clip_import.h), appended to its clips.
+// Clips from other files (`play --clips FILE...`, `check --clips FILE...`): animation files (glTF,
+// GLB or any format Assimp reads) retargeted onto the character (lib/retarget/retarget.h) and
+// appended to its clips, with the options that steer the retarget.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "commands.h"
+#include "skinspheres/lib/retarget/retarget.h"
 
 namespace skinspheres::tool {
 
-// Appends every clip of every file to loaded->character.clips, in order. A clip whose name is
-// already taken is renamed "<file stem>/<name>" (then "<file stem>/<name>#2", ...). One line per
-// file goes to `notes` (what was added, joints matched, animated nodes dropped, tracks rescaled).
-// Returns the first error as one line naming the file and the problem.
-std::optional<std::string> AddClipFiles(LoadedCharacter& loaded, const std::vector<std::string>& files,
+// --clips, --joint-map, --source-rest, --retarget.
+struct ClipFileOptions {
+  std::vector<std::string> files;
+  std::string joint_map;
+  std::string source_rest;  // RIG (a file), FRAME (a number), "nodes" or "identity"
+  std::string retarget = "auto";
+  std::string rest_directions = "keep";
+  void AddTo(CLI::App& app);
+};
+
+// The options resolved once for a run: the map read, the rest rig imported, the mode parsed.
+struct ClipFileContext {
+  std::optional<lib::JointMap> joint_map;
+  std::shared_ptr<const lib::RawCharacter> rest_rig;  // --source-rest RIG
+  lib::SourceRest rest;                               // from --source-rest (kNone: the file's own, if any)
+  lib::RetargetMode mode = lib::RetargetMode::kAuto;
+  bool match_rest_directions = false;
+};
+// An error message (one line, naming the file or the option) when an option is refused.
+Result<ClipFileContext> ResolveClipFileOptions(const ClipFileOptions& options, float fps);
+
+// One file's clips on loaded.character (names as in the file, each checked with ValidateClip),
+// and what was done to them.
+Result<std::vector<skinning::AnimationClip>> ReadClipFile(const LoadedCharacter& loaded, const std::string& file,
+                                                          const ClipFileContext& context, lib::RetargetReport* report);
+
+// What was done to one file's clips (`names` as added), in one or two lines: joints mapped and
+// unmapped, copied or retargeted, the rest pose used, the rest-pose differences by limb.
+std::vector<std::string> DescribeRetarget(const lib::RetargetReport& report, const LoadedCharacter& loaded,
+                                          const std::string& file, const std::vector<std::string>& names);
+
+// Appends the clips of `clips` to loaded->character.clips. A clip whose name is already taken is
+// renamed "<file stem>/<name>" (then "<file stem>/<name>#2", ...). Returns the names given.
+std::vector<std::string> AppendClips(LoadedCharacter& loaded, const std::string& file,
+                                     std::vector<skinning::AnimationClip> clips);
+
+// Every file's clips, in order (ReadClipFile, then AppendClips); the first error as one line
+// naming the file and the problem.
+std::optional<std::string> AddClipFiles(LoadedCharacter& loaded, const ClipFileOptions& options, float fps,
                                         std::vector<std::string>* notes);
 
 }  // namespace skinspheres::tool

@@ -178,7 +178,7 @@ Result<json> ClipJson(const ViewClip& vc, const lib::RawCharacter& ch, size_t sp
   std::vector<float> xyzr;
   xyzr.reserve(frames.size() * spheres * 4);
   json time = json::array(), clip_time = json::array(), pairs = json::array(), depths = json::array();
-  json triangles = json::array();
+  json triangles = json::array(), part_contacts = json::array();
   for (const FrameRecord& f : frames) {
     if (f.spheres.size() != spheres) {
       return MakeError(ErrorCode::kInvalidArgument, "viewer page: clip \"" + clip.name + "\" has frames of another sphere set");
@@ -204,6 +204,10 @@ Result<json> ClipJson(const ViewClip& vc, const lib::RawCharacter& ch, size_t sp
       flat.push_back(tp[1]);
     }
     triangles.push_back(std::move(flat));
+    json parts = json::array();  // part_a, part_b, kind (1 penetrating, 0 touching), depth
+    for (const FrameRecord::Part& c : f.parts)
+      parts.insert(parts.end(), {c.part_a, c.part_b, c.penetrating ? 1 : 0, c.depth});
+    part_contacts.push_back(std::move(parts));
   }
   return json{{"name", clip.name},
               {"animation", clip.name},
@@ -217,11 +221,14 @@ Result<json> ClipJson(const ViewClip& vc, const lib::RawCharacter& ch, size_t sp
               {"pairs", std::move(pairs)},
               {"depths", std::move(depths)},
               {"triangle_pairs", std::move(triangles)},
-              {"stages_us", {{"sample", StageMicroseconds(r.times.sample)},
-                             {"skin", StageMicroseconds(r.times.skin)},
-                             {"refit", StageMicroseconds(r.times.refit)},
-                             {"query", StageMicroseconds(r.times.query)},
-                             {"narrow", StageMicroseconds(r.times.narrow)}}}};
+              {"part_contacts", std::move(part_contacts)},
+              {"touch_tolerance", r.touch_tolerance},
+              {"stages_us",
+               {{"sample", StageMicroseconds(r.times.sample)},
+                {"skin", StageMicroseconds(r.times.skin)},
+                {"refit", StageMicroseconds(r.times.refit)},
+                {"query", StageMicroseconds(r.times.query)},
+                {"narrow", StageMicroseconds(r.times.narrow)}}}};
 }
 
 // Fills the template: every "{{NAME}}" is replaced once, in one pass (inserted text is never rescanned).

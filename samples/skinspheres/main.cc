@@ -2,6 +2,7 @@
 //   skinspheres fit INPUT -o OUT.json [...]      fit a sphere set (see fit_command.cc); .ssb: binary
 //   skinspheres convert IN OUT [--fast-only]     sphere set JSON <-> binary (convert_command.cc)
 //   skinspheres play INPUT [...]                 play a clip: sample, skin, refit, query (play_command.cc)
+//   skinspheres check INPUT --clips FILE... [...] check an animation library for penetration (check_command.cc)
 //   skinspheres demo                             fit and play the built-in character
 //   skinspheres export-builtin OUT.glb           write the built-in character as glTF
 #include <CLI/CLI.hpp>
@@ -17,6 +18,7 @@ int main(int argc, char** argv) {
   int exit_code = 0;
   skinspheres::tool::AddFitCommand(app, &exit_code);
   skinspheres::tool::AddPlayCommand(app, &exit_code);
+  skinspheres::tool::AddCheckCommand(app, &exit_code);
   skinspheres::tool::AddDemoCommand(app, &exit_code);
   skinspheres::tool::AddExportBuiltinCommand(app, &exit_code);
   skinspheres::tool::AddConvertCommand(app, &exit_code);

@@ -21,9 +21,10 @@ namespace {
 
 struct PlayArgs {
   std::string input, spheres, clip = "0", mode = "exact", report, dump, export_glb, html;
-  std::vector<std::string> clip_files;
+  ClipFileOptions clip_files;
   float fps = 30.0f;
   float margin = 0.0f;
+  float touch_tolerance = kDefaultTouchTolerance;
   int frames = 0;
   bool verify = false;
   bool sphere_pairs = false;
@@ -31,9 +32,17 @@ struct PlayArgs {
 };
 
 // One --dump line: the frame, its times, the spheres, the sphere pairs, the contacts by part pair
-// (intersecting triangle pairs [t, u], t in the first part; with a margin, "near" [t, u, distance]).
-nlohmann::json DumpLine(const FrameView& fr, const runtime::SphereSet& set, bool margin) {
+// (intersecting triangle pairs [t, u], t in the first part; with a margin, "near" [t, u, distance];
+// "kind" touching or penetrating), and the world positions of the skin's joints (`skin_joints`,
+// skin order), whose names the first line carries.
+nlohmann::json DumpLine(const FrameView& fr, const runtime::SphereSet& set, bool margin,
+                        const lib::RawCharacter& character, std::span<const int32_t> skin_joints) {
   nlohmann::json line = {{"frame", fr.index}, {"time", fr.time_s}, {"clip_time", fr.clip_time_s}};
+  if (fr.index == 0) {
+    nlohmann::json names = nlohmann::json::array();
+    for (int32_t j : skin_joints) names.push_back(character.skeleton.joint_names[static_cast<size_t>(j)]);
+    line["joint_names"] = std::move(names);
+  }
   nlohmann::json spheres = nlohmann::json::array(), pairs = nlohmann::json::array(), contacts = nlohmann::json::array();
   for (const auto& s : fr.spheres) spheres.push_back({s.x(), s.y(), s.z(), s.w()});
   for (const auto& c : fr.sphere_pairs) pairs.push_back({c.i, c.j});
@@ -49,13 +58,20 @@ nlohmann::json DumpLine(const FrameView& fr, const runtime::SphereSet& set, bool
     }
     nlohmann::json entry = {{"parts", {set.parts[p.part_a].name, set.parts[p.part_b].name}},
                             {"triangles", std::move(triangles)},
-                            {"depth", p.depth}};
+                            {"depth", p.depth},
+                            {"kind", Penetrating(p, fr.touch_tolerance) ? "penetrating" : "touching"}};
     if (margin) entry["near"] = std::move(near);
     contacts.push_back(std::move(entry));
   }
   line["spheres"] = std::move(spheres);
   line["pairs"] = std::move(pairs);
   line["contacts"] = std::move(contacts);
+  nlohmann::json joints = nlohmann::json::array();
+  for (int32_t j : skin_joints) {
+    const auto p = fr.joint_world[static_cast<size_t>(j)].topRightCorner<3, 1>();
+    joints.push_back({p.x(), p.y(), p.z()});
+  }
+  line["joints"] = std::move(joints);
   return line;
 }
 
@@ -63,11 +79,12 @@ int RunPlay(PlayArgs& a) {
   if (a.mode != "exact" && a.mode != "fast") return Fail("--mode must be exact or fast (got " + a.mode + ")");
   if (!(a.fps > 0.0f) || a.fps > 10000.0f) return Fail("--fps must be in (0, 10000]");
   if (!(a.margin >= 0.0f) || !std::isfinite(a.margin)) return Fail("--margin must be a finite distance >= 0");
+  if (auto why = CheckTouchTolerance(a.touch_tolerance)) return Fail(*why);
   if (auto why = a.fit.Resolve()) return Fail(*why);
   auto loaded = LoadCharacter(a.input, a.fit.parts_file);
   if (!loaded.ok()) return Fail(loaded.error().message);
   std::vector<std::string> notes;
-  if (auto why = AddClipFiles(*loaded, a.clip_files, &notes)) return Fail(*why);
+  if (auto why = AddClipFiles(*loaded, a.clip_files, a.fps, &notes)) return Fail(*why);
   for (const auto& note : notes) std::printf("%s\n", note.c_str());
   std::vector<size_t> clips;
   if (a.clip == "all") {
@@ -103,7 +120,14 @@ int RunPlay(PlayArgs& a) {
   opts.fast = a.mode == "fast";
   opts.verify = a.verify;
   opts.margin = a.margin;
+  opts.touch_tolerance = a.touch_tolerance;
   opts.progress = isatty(STDERR_FILENO);
+  // Set up once (the set checked against the mesh, the runtime asset), then every clip played by
+  // one player.
+  auto playback = Playback::Create(*loaded, set, opts.margin);
+  if (!playback.ok()) return Fail(playback.error().message);
+  auto player = ClipPlayer::Create(*playback, opts);
+  if (!player.ok()) return Fail(player.error().message);
   // --html: one page with every clip played; its per-frame data is kept for it (RecordFrames).
   std::vector<PlayResult> kept;
   std::vector<std::vector<FrameRecord>> recorded;
@@ -125,7 +149,7 @@ int RunPlay(PlayArgs& a) {
         recorded.emplace_back();
         record = RecordFrames(&recorded.back());
       }
-      auto played = PlayClip(*loaded, set, k, opts, record);
+      auto played = player->Play(k, record);
       if (!played.ok()) return Fail(played.error().message);
       PrintPlaySummary(*played, set, a.fps, a.sphere_pairs, a.verify);
       all_verified &= played->verified();
@@ -147,6 +171,7 @@ int RunPlay(PlayArgs& a) {
   // except what --export-glb and --html have to write at the end). Every write is checked through
   // the close (runtime/file_io.h): a failed one is one line, exit 2, and no "wrote".
   std::optional<runtime::CheckedFileWriter> dump, report;
+  const std::vector<int32_t> skin_joints = SkinJoints(loaded->character);
   if (!a.dump.empty()) dump.emplace(a.dump);
   if (!a.report.empty()) {
     report.emplace(a.report);
@@ -165,7 +190,9 @@ int RunPlay(PlayArgs& a) {
   FrameSink sink = [&](const FrameView& fr) {
     if (record) record(fr);
     if (dump && dump->ok()) {
-      dump->Write(DumpLine(fr, set, a.margin > 0.0f).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + '\n');
+      dump->Write(DumpLine(fr, set, a.margin > 0.0f, loaded->character, skin_joints)
+                      .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) +
+                  '\n');
     }
     if (report) report->Write((fr.index ? "," : "") + std::to_string(fr.sphere_pairs.size()));
     if (!a.export_glb.empty() && !extras_looped) {
@@ -177,7 +204,7 @@ int RunPlay(PlayArgs& a) {
       for (size_t s = 0; s < set.size(); ++s) extras.spheres[s].per_frame_xyzr.push_back(fr.spheres[s]);
     }
   };
-  auto played = PlayClip(*loaded, set, clips[0], opts, sink);
+  auto played = player->Play(clips[0], sink);
   if (!played.ok()) return Fail(played.error().message);
   PrintPlaySummary(*played, set, a.fps, a.sphere_pairs, a.verify);
 
@@ -195,17 +222,22 @@ int RunPlay(PlayArgs& a) {
     nlohmann::json contacts = nlohmann::json::array();
     for (const PartPairSummary& e : played->contacts) {
       contacts.push_back({{"parts", {set.parts[e.part_a].name, set.parts[e.part_b].name}},
-                          {"kind", e.intersecting ? "intersecting" : "within_margin"},
+                          {"kind", e.penetrating.frames() > 0 ? "penetrating" : "touching"},
+                          {"intersecting", e.intersecting},
                           {"frames", e.frames.frames()},
                           {"first_frame", e.frames.first()},
                           {"last_frame", e.frames.last()},
+                          {"penetrating_frames", e.penetrating.frames()},
                           {"most_triangle_pairs", e.most_triangle_pairs},
-                          {"max_depth", e.max_depth}});
+                          {"max_depth", e.max_depth},
+                          {"worst_frame", e.worst_frame}});
     }
     const nlohmann::json rest = {{"clip", played->clip},
                                  {"frames", played->frames},
                                  {"mode", a.mode},
                                  {"margin", a.margin},
+                                 {"touch_tolerance", played->touch_tolerance},
+                                 {"body_height", played->body_height},
                                  {"spheres", set.size()},
                                  {"triangles_outside", played->triangles_outside},
                                  {"contacts", std::move(contacts)}};
@@ -230,20 +262,20 @@ void AddPlayCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--spheres", a->spheres, "sphere set to use (default: fit on the fly)");
   cmd->add_option("--clip", a->clip, "clip name or index, or all")->capture_default_str();
   cmd->add_option("--fps", a->fps, "frames per second")->capture_default_str();
-  cmd->add_option("--frames", a->frames, "number of frames (default: the whole clip)");
+  cmd->add_option("--frames", a->frames,
+                  "number of frames (default: the whole clip, its last frame at t = duration sampling the clip's end "
+                  "pose; frames past the end loop)");
   cmd->add_option("--mode", a->mode, "refit mode: exact (skinned source vertices) or fast (joint transforms)")->capture_default_str();
   cmd->add_option("--margin", a->margin,
                   "also report triangle pairs nearer than this distance (model units; pairs this near at rest excluded)")
       ->capture_default_str();
+  AddTouchToleranceOption(*cmd, &a->touch_tolerance);
   cmd->add_flag("--sphere-pairs", a->sphere_pairs, "also list the broad phase's sphere pairs by body-part pair");
   cmd->add_option("--report", a->report, "write a JSON report");
   cmd->add_option("--dump", a->dump, "write one JSON line per frame: spheres, sphere pairs, contacts");
   cmd->add_option("--export-glb", a->export_glb, "write the animated character with its spheres (in the clip's animation) as GLB");
   cmd->add_option("--html", a->html, "write the viewer page: one self-contained HTML file (with --clip all, every clip)");
-  cmd->add_option("--clips", a->clip_files,
-                  "add the clips of an animation file (glTF, GLB, FBX, ...; joints matched by name); repeatable")
-      ->take_all()
-      ->allow_extra_args(false);
+  a->clip_files.AddTo(*cmd);
   cmd->add_flag("--verify", a->verify,
                 "skin every vertex: check every triangle is owned and inside its sphere, and the narrow phase "
                 "against the brute-force oracle");

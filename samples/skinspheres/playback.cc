@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <map>
 
+#include "skinspheres/lib/geometry/mesh_helpers.h"
 #include "skinspheres/runtime/api/character.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 #include "skinspheres/skinning/prepared_influences.h"
@@ -97,6 +98,9 @@ FrameSink RecordFrames(std::vector<FrameRecord>* out, FrameSink next) {
     for (const runtime::TrianglePairContact& c : fr.contacts->triangle_pairs) {
       if (c.kind == runtime::TriangleContactKind::kIntersecting) r.triangle_pairs.push_back({c.t, c.u});
     }
+    for (const runtime::PartContact& p : fr.contacts->parts) {
+      r.parts.push_back({p.part_a, p.part_b, Penetrating(p, fr.touch_tolerance), p.depth});
+    }
     out->push_back(std::move(r));
     if (next) next(fr);
   };
@@ -143,31 +147,39 @@ bool AttachMesh(const lib::RawCharacter& ch, runtime::SphereSet* set) {
   return true;
 }
 
-Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::SphereSet& set, size_t clip_index,
-                            const PlayOptions& options, const FrameSink& sink) {
-  const lib::RawCharacter& ch = loaded.character;
-  const std::string file = ch.source_file.empty() ? "built-in character" : ch.source_file;
-  if (set.fast_only) {  // no triangle lists: nothing for the narrow phase (or --verify) to test
-    return MakeError(ErrorCode::kInvalidArgument, set.loaded_from + ": a fast-only sphere set has no triangles, and play "
-                                                                    "reports triangle contacts (play the full set)");
-  }
-  if (!set.has_mesh()) {
-    return MakeError(ErrorCode::kVersionMismatch, file + ": the sphere set has no mesh (format version 1): fit it again");
-  }
-  auto asset = runtime::CharacterAsset::Create(set, runtime::NarrowPhaseSettings{options.margin});
-  if (!asset.ok()) return asset.error();
-  if (auto err = (*asset)->Matches(ch.skeleton.joint_names, ch.vertex_count())) {
-    return MakeError(err->code, file + ": " + err->message);
-  }
-  // The character's joints by name: a set fitted on the same joints in another order still plays.
-  auto mapping = runtime::MapJoints(set, ch.skeleton.joint_names);
-  if (!mapping.ok()) return MakeError(mapping.error().code, file + ": " + mapping.error().message);
-  // A set read from a file is checked once against this mesh: same triangles (the mesh it carries
-  // is the one tested), and every vertex of every owned triangle among its sphere's source
-  // vertices (what exact refit reads).
+float PlaybackTime(float time_s, float duration_s) {
+  if (!(duration_s > 0.0f) || !std::isfinite(time_s)) return 0.0f;
+  if (time_s >= 0.0f && time_s <= duration_s) return time_s;
+  return skinning::LoopTime(time_s, duration_s);
+}
+
+void AddTouchToleranceOption(CLI::App& app, float* share) {
+  app.add_option("--touch-tolerance", *share,
+                 "a part pair whose triangles intersect by at most this share of the body height is touching, deeper "
+                 "penetrating")
+      ->capture_default_str();
+}
+
+std::optional<std::string> CheckTouchTolerance(float share) {
+  if (share >= 0.0f && share < 1.0f) return std::nullopt;
+  return "--touch-tolerance must be a share of the body height in [0, 1)";
+}
+
+bool Penetrating(const runtime::PartContact& contact, float tolerance) {
+  return contact.intersecting_count > 0 && contact.depth > tolerance;
+}
+
+namespace {
+
+// Playback, step 1: the set belongs to this character: same joints (by name), same triangles
+// (the mesh it carries is the one tested), and every vertex of every owned triangle among its
+// sphere's source vertices (what the exact refit reads).
+std::optional<Error> CheckSetMatchesCharacter(const lib::RawCharacter& ch, const runtime::SphereSet& set,
+                                              const std::string& file) {
   if (set.source_triangle_count != ch.triangle_count()) {
-    return MakeError(ErrorCode::kMismatchedAsset, file + ": the sphere set was fitted on " + std::to_string(set.source_triangle_count) +
-                                                      " triangles, this character has " + std::to_string(ch.triangle_count()));
+    return MakeError(ErrorCode::kMismatchedAsset,
+                     file + ": the sphere set was fitted on " + std::to_string(set.source_triangle_count) +
+                         " triangles, this character has " + std::to_string(ch.triangle_count()));
   }
   for (size_t t = 0; t < ch.triangle_count(); ++t) {
     for (int c = 0; c < 3; ++c) {
@@ -191,175 +203,261 @@ Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::Sphere
       }
     }
   }
-  auto created = runtime::CharacterInstance::Create(*asset, *mapping);
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::vector<int32_t> SkinJoints(const lib::RawCharacter& ch) {
+  std::vector<int32_t> joints;
+  std::vector<char> seen(ch.skeleton.size(), 0);
+  for (const skinning::BindEntry& b : ch.skin.binds) {
+    if (b.joint < 0 || static_cast<size_t>(b.joint) >= seen.size() || seen[static_cast<size_t>(b.joint)]) continue;
+    seen[static_cast<size_t>(b.joint)] = 1;
+    joints.push_back(b.joint);
+  }
+  return joints;
+}
+
+std::string Playback::file() const {
+  return loaded_.character.source_file.empty() ? "built-in character" : loaded_.character.source_file;
+}
+
+Result<std::shared_ptr<const Playback>> Playback::Create(const LoadedCharacter& loaded, const runtime::SphereSet& set,
+                                                         float margin) {
+  const lib::RawCharacter& ch = loaded.character;
+  std::shared_ptr<Playback> p(new Playback(loaded, set));
+  const std::string file = p->file();
+  if (set.fast_only) {  // no triangle lists: nothing for the narrow phase (or --verify) to test
+    return MakeError(ErrorCode::kInvalidArgument, set.loaded_from +
+                                                      ": a fast-only sphere set has no triangles, and play "
+                                                      "reports triangle contacts (play the full set)");
+  }
+  if (!set.has_mesh()) {
+    return MakeError(ErrorCode::kVersionMismatch,
+                     file + ": the sphere set has no mesh (format version 1): fit it again");
+  }
+  auto asset = runtime::CharacterAsset::Create(set, runtime::NarrowPhaseSettings{margin});
+  if (!asset.ok()) return asset.error();
+  if (auto err = (*asset)->Matches(ch.skeleton.joint_names, ch.vertex_count())) {
+    return MakeError(err->code, file + ": " + err->message);
+  }
+  // The character's joints by name: a set fitted on the same joints in another order still plays.
+  auto mapping = runtime::MapJoints(set, ch.skeleton.joint_names);
+  if (!mapping.ok()) return MakeError(mapping.error().code, file + ": " + mapping.error().message);
+  if (auto err = CheckSetMatchesCharacter(ch, set, file)) return *err;
+  p->asset_ = std::move(*asset);
+  p->mapping_ = std::move(*mapping);
+  // The vertices the exact refit reads: every sphere's source vertices, skinned through the
+  // prepared (SIMD) layout built once.
+  p->sources_.assign(set.vertices.begin(), set.vertices.end());
+  std::sort(p->sources_.begin(), p->sources_.end());
+  p->sources_.erase(std::unique(p->sources_.begin(), p->sources_.end()), p->sources_.end());
+  std::string why;
+  if (!p->prepared_.Build(ch.vertex_count(), ch.skin.influence_offsets, ch.skin.influence_binds,
+                          ch.skin.influence_weights, p->sources_, &why)) {
+    return MakeError(ErrorCode::kInvalidData, file + ": " + why);
+  }
+  p->body_height_ = lib::BodyHeight(ch.positions_rest);
+  return std::shared_ptr<const Playback>(std::move(p));
+}
+
+Result<ClipPlayer> ClipPlayer::Create(std::shared_ptr<const Playback> playback, const PlayOptions& options) {
+  auto created = runtime::CharacterInstance::Create(playback->asset(), playback->mapping());
   if (!created.ok()) return created.error();
-  runtime::CharacterInstance& instance = *created;
-  const skinning::AnimationClip& clip = ch.clips.at(clip_index);
-  const size_t joints = ch.skeleton.size();
-  std::vector<skinning::Transform> locals(joints);
-  std::vector<skinspheres::Mat4f> joint_world(joints), bind_matrices(ch.skin.binds.size());
-  std::vector<Eigen::Vector3f> skinned(ch.vertex_count(), Eigen::Vector3f::Zero());
+  const lib::RawCharacter& ch = playback->loaded().character;
+  ClipPlayer player;
+  player.playback_ = std::move(playback);
+  player.options_ = options;
+  player.instance_.emplace(std::move(*created));
+  player.locals_.resize(ch.skeleton.size());
+  player.joint_world_.resize(ch.skeleton.size());
+  player.bind_matrices_.resize(ch.skin.binds.size());
+  player.skinned_.assign(ch.vertex_count(), Eigen::Vector3f::Zero());
+  return player;
+}
 
-  // The vertices the exact refit reads: every sphere's source vertices.
-  std::vector<uint32_t> sources(set.vertices.begin(), set.vertices.end());
-  std::sort(sources.begin(), sources.end());
-  sources.erase(std::unique(sources.begin(), sources.end()), sources.end());
+// Frame count in double, capped: a clip of a million seconds must not overflow or exhaust memory.
+Result<size_t> ClipPlayer::FrameCount(const skinning::AnimationClip& clip) const {
+  constexpr double kMaxFrames = 1e6;
+  const double wanted =
+      options_.frames > 0 ? options_.frames : std::floor(double(clip.duration_s) * options_.fps + 1e-3) + 1.0;
+  if (!(wanted <= kMaxFrames)) {
+    return MakeError(ErrorCode::kInvalidArgument, playback_->file() + ": clip \"" + clip.name + "\" would play " +
+                                                      std::to_string(wanted) + " frames (at most 1000000)");
+  }
+  return static_cast<size_t>(std::max(1.0, wanted));
+}
 
-  // Exact mode skins only the source vertices, through the prepared (SIMD) layout built once; fast
-  // mode skins nothing here (the narrow phase skins what it tests); --verify skins every vertex
-  // from the plain influence lists.
+// One frame: sample, local to model, skinning matrices; skin the source vertices (exact mode);
+// refit; query the sphere pairs; the narrow phase. Each stage timed into `times`.
+std::optional<Error> ClipPlayer::Step(const skinning::AnimationClip& clip, int f, float clip_time, StageTimes* times) {
+  const lib::RawCharacter& ch = playback_->loaded().character;
+  const std::string file = playback_->file();
+  runtime::CharacterInstance& instance = *instance_;
+  const auto t0 = Clock::now();
+  skinning::SamplingJob sampling{&clip, &ch.skeleton, clip_time, locals_};
+  skinning::LocalToModelJob l2m;
+  l2m.skeleton = &ch.skeleton;
+  l2m.input = locals_;
+  l2m.output = joint_world_;
+  skinning::SkinningMatricesJob mats{ch.skin.binds, joint_world_, bind_matrices_};
+  if (!sampling.Run() || !l2m.Run() || !mats.Run()) {
+    return MakeError(ErrorCode::kInvalidData,
+                     file + ": clip \"" + clip.name + "\" cannot be sampled at t=" + std::to_string(clip_time));
+  }
+  const auto t1 = Clock::now();
+  if (!options_.fast) {
+    skinning::SkinningJob skin;
+    skin.joint_matrices = bind_matrices_;
+    skin.vertex_count = ch.vertex_count();
+    skin.in_positions = Floats(ch.skin.positions_bind);
+    skin.out_positions = Floats(skinned_);
+    skin.prepared = &playback_->prepared();
+    if (!skinning::SkinParallel(skin)) {
+      return MakeError(ErrorCode::kInvalidData, file + ": skinning failed (influences do not fit the skeleton)");
+    }
+  }
+  const auto t2 = Clock::now();
+  auto status = options_.fast ? instance.UpdateFast(joint_world_) : instance.UpdateExact(skinned_, joint_world_);
+  if (status.code != ErrorCode::kOk)
+    return MakeError(status.code, file + ": frame " + std::to_string(f) + ": " + status.message);
+  const auto t3 = Clock::now();
+  pairs_ = instance.Query();
+  const auto t4 = Clock::now();
+  status = instance.FindContacts(options_.fast ? std::span<const Eigen::Vector3f>()
+                                               : std::span<const Eigen::Vector3f>(skinned_));
+  if (status.code != ErrorCode::kOk)
+    return MakeError(status.code, file + ": frame " + std::to_string(f) + ": " + status.message);
+  const auto t5 = Clock::now();
+  times->sample.Add(Seconds(t0, t1));
+  times->skin.Add(Seconds(t1, t2));
+  times->refit.Add(Seconds(t2, t3));
+  times->query.Add(Seconds(t3, t4));
+  times->narrow.Add(Seconds(t4, t5));
+  return std::nullopt;
+}
+
+// The frame's sphere pairs and contacts into the clip's bounded summaries.
+void ClipPlayer::Summarise(int f, PlayResult* result) const {
+  const runtime::FrameContacts& contacts = instance_->frame_contacts();
+  result->sphere_pairs_total += pairs_.size();
+  result->sphere_pairs_most = std::max(result->sphere_pairs_most, pairs_.size());
+  result->triangle_pairs_total += contacts.triangle_pairs.size();
+  result->triangle_pairs_most = std::max(result->triangle_pairs_most, contacts.triangle_pairs.size());
+  for (const runtime::PartContact& p : contacts.parts) {
+    PartPairSummary& e = Entry(result->contacts, p.part_a, p.part_b);
+    const bool first_touch = e.frames.frames() == 0;
+    e.frames.Add(f);
+    if (Penetrating(p, result->touch_tolerance)) e.penetrating.Add(f);
+    e.most_triangle_pairs = std::max(e.most_triangle_pairs, p.triangle_pair_count);
+    if (e.worst_frame < 0 || p.depth > e.max_depth) {
+      e.worst_frame = f;
+      e.max_depth = p.depth;
+    }
+    if (p.intersecting_count > 0) e.intersecting = true;
+    if (p.intersecting_count == 0 && (first_touch || p.min_distance < e.min_distance)) e.min_distance = p.min_distance;
+  }
+  for (size_t k = 0; k < pairs_.size(); ++k) {
+    const auto key = std::minmax(pairs_[k].part_i, pairs_[k].part_j);
+    if (k > 0 && std::minmax(pairs_[k - 1].part_i, pairs_[k - 1].part_j) == key) continue;  // cheap repeat skip
+    PartPairSummary& e = Entry(result->sphere_pairs, key.first, key.second);
+    if (e.frames.last() != f) e.frames.Add(f);
+  }
+}
+
+// --verify: every vertex skinned from the plain influence lists; every owned triangle inside its
+// sphere; the narrow phase equal to the brute-force oracle on the whole skinned mesh (the
+// positions the narrow phase read are bit-identical to these).
+void ClipPlayer::Verify(int f, PlayResult* result) {
+  const lib::RawCharacter& ch = playback_->loaded().character;
+  const runtime::SphereSet& set = playback_->set();
+  const auto v0 = Clock::now();
   skinning::SkinningJob skin_all;
-  skin_all.joint_matrices = bind_matrices;
+  skin_all.joint_matrices = bind_matrices_;
   skin_all.vertex_count = ch.vertex_count();
   skin_all.in_positions = Floats(ch.skin.positions_bind);
-  skin_all.out_positions = Floats(skinned);
+  skin_all.out_positions = Floats(skinned_);
   skin_all.influence_offsets = ch.skin.influence_offsets;
   skin_all.influence_binds = ch.skin.influence_binds;
   skin_all.influence_weights = ch.skin.influence_weights;
-  skinning::PreparedInfluences prepared;
-  std::string why;
-  if (!prepared.Build(ch.vertex_count(), ch.skin.influence_offsets, ch.skin.influence_binds, ch.skin.influence_weights,
-                      sources, &why)) {
-    return MakeError(ErrorCode::kInvalidData, file + ": " + why);
-  }
-  skinning::SkinningJob skin;
-  skin.joint_matrices = bind_matrices;
-  skin.vertex_count = ch.vertex_count();
-  skin.in_positions = skin_all.in_positions;
-  skin.out_positions = skin_all.out_positions;
-  skin.prepared = &prepared;
-
-  PlayResult result;
-  result.clip = clip.name;
-  {
-    float lo = INFINITY, hi = -INFINITY;
-    for (const auto& p : ch.positions_rest) {
-      lo = std::min(lo, p.y());
-      hi = std::max(hi, p.y());
-    }
-    result.body_height = hi > lo ? hi - lo : 0.0f;
-  }
-  // --verify: every triangle of the mesh must be owned by a sphere (checked once), and lie in it
-  // (every frame).
-  if (options.verify) {
-    std::vector<bool> owned(ch.triangle_count(), false);
-    for (uint32_t t : set.triangles) owned[t] = true;
-    result.triangles_unowned = static_cast<size_t>(std::count(owned.begin(), owned.end(), false));
-  }
-  runtime::FrameContacts oracle;
-  // Frame count in double, capped: a clip of a million seconds must not overflow or exhaust memory.
-  constexpr double kMaxFrames = 1e6;
-  const double wanted = options.frames > 0 ? options.frames : std::floor(double(clip.duration_s) * options.fps + 1e-3) + 1.0;
-  if (!(wanted <= kMaxFrames)) {
-    return MakeError(ErrorCode::kInvalidArgument, file + ": clip \"" + clip.name + "\" would play " + std::to_string(wanted) +
-                                                      " frames (at most 1000000)");
-  }
-  const int frames = std::max(1, static_cast<int>(wanted));
-  result.frames = frames;
-  for (int f = 0; f < frames; ++f) {
-    const float t = f / options.fps;
-    const float clip_time = skinning::LoopTime(t, clip.duration_s);
-    auto t0 = Clock::now();
-    skinning::SamplingJob sampling{&clip, &ch.skeleton, clip_time, locals};
-    skinning::LocalToModelJob l2m;
-    l2m.skeleton = &ch.skeleton;
-    l2m.input = locals;
-    l2m.output = joint_world;
-    skinning::SkinningMatricesJob mats{ch.skin.binds, joint_world, bind_matrices};
-    if (!sampling.Run() || !l2m.Run() || !mats.Run()) {
-      return MakeError(ErrorCode::kInvalidData, file + ": clip \"" + clip.name + "\" cannot be sampled at t=" + std::to_string(t));
-    }
-    auto t1 = Clock::now();
-    if (!options.fast && !skinning::SkinParallel(skin)) {
-      return MakeError(ErrorCode::kInvalidData, file + ": skinning failed (influences do not fit the skeleton)");
-    }
-    auto t2 = Clock::now();
-    auto status = options.fast ? instance.UpdateFast(joint_world) : instance.UpdateExact(skinned, joint_world);
-    if (status.code != ErrorCode::kOk) {
-      return MakeError(status.code, file + ": frame " + std::to_string(f) + ": " + status.message);
-    }
-    auto t3 = Clock::now();
-    const auto pairs = instance.Query();
-    auto t4 = Clock::now();
-    status = instance.FindContacts(options.fast ? std::span<const Eigen::Vector3f>() : std::span<const Eigen::Vector3f>(skinned));
-    if (status.code != ErrorCode::kOk) {
-      return MakeError(status.code, file + ": frame " + std::to_string(f) + ": " + status.message);
-    }
-    auto t5 = Clock::now();
-    result.times.sample.Add(Seconds(t0, t1));
-    result.times.skin.Add(Seconds(t1, t2));
-    result.times.refit.Add(Seconds(t2, t3));
-    result.times.query.Add(Seconds(t3, t4));
-    result.times.narrow.Add(Seconds(t4, t5));
-    const runtime::FrameContacts& contacts = instance.frame_contacts();
-
-    // Summaries.
-    result.sphere_pairs_total += pairs.size();
-    result.sphere_pairs_most = std::max(result.sphere_pairs_most, pairs.size());
-    result.triangle_pairs_total += contacts.triangle_pairs.size();
-    result.triangle_pairs_most = std::max(result.triangle_pairs_most, contacts.triangle_pairs.size());
-    for (const runtime::PartContact& p : contacts.parts) {
-      PartPairSummary& e = Entry(result.contacts, p.part_a, p.part_b);
-      const bool first_touch = e.frames.frames() == 0;
-      e.frames.Add(f);
-      e.most_triangle_pairs = std::max(e.most_triangle_pairs, p.triangle_pair_count);
-      e.max_depth = std::max(e.max_depth, p.depth);
-      if (p.intersecting_count > 0) e.intersecting = true;
-      if (p.intersecting_count == 0 && (first_touch || p.min_distance < e.min_distance)) e.min_distance = p.min_distance;
-    }
-    for (size_t k = 0; k < pairs.size(); ++k) {
-      const auto key = std::minmax(pairs[k].part_i, pairs[k].part_j);
-      if (k > 0 && std::minmax(pairs[k - 1].part_i, pairs[k - 1].part_j) == key) continue;  // cheap repeat skip
-      PartPairSummary& e = Entry(result.sphere_pairs, key.first, key.second);
-      if (e.frames.last() != f) e.frames.Add(f);
-    }
-
-    const auto spheres = instance.spheres();
-    if (options.verify) {
-      auto v0 = Clock::now();
-      skinning::SkinParallel(skin_all);
-      size_t outside = 0;
-      for (size_t s = 0; s < set.size(); ++s) {
-        const Eigen::Vector3d c = spheres[s].head<3>().cast<double>();
-        const double r = spheres[s].w() * (1.0 + 1e-5);
-        for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
-          const auto& tri = ch.triangles[set.triangles[k]];
-          for (int v = 0; v < 3; ++v) {
-            if ((skinned[tri[v]].cast<double>() - c).norm() > r) {
-              ++outside;
-              break;
-            }
-          }
+  skinning::SkinParallel(skin_all);
+  const auto spheres = instance_->spheres();
+  size_t outside = 0;
+  for (size_t s = 0; s < set.size(); ++s) {
+    const Eigen::Vector3d c = spheres[s].head<3>().cast<double>();
+    const double r = spheres[s].w() * (1.0 + 1e-5);
+    for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
+      const auto& tri = ch.triangles[set.triangles[k]];
+      for (int v = 0; v < 3; ++v) {
+        if ((skinned_[tri[v]].cast<double>() - c).norm() > r) {
+          ++outside;
+          break;
         }
       }
-      if (outside && result.first_bad_frame < 0) result.first_bad_frame = f;
-      result.triangles_outside += outside;
-      // The narrow phase against the brute-force oracle on the whole skinned mesh (the positions the
-      // narrow phase read are bit-identical to these).
-      if (!runtime::FindContactsBruteForce(set, *(*asset)->narrow_phase(), (*asset)->filter(), skinned, &oracle) ||
-          !(oracle == contacts)) {
-        if (result.first_mismatch_frame < 0) result.first_mismatch_frame = f;
-        ++result.narrow_mismatches;
-      }
-      result.times.verify.Add(Seconds(v0, Clock::now()));
     }
+  }
+  if (outside && result->first_bad_frame < 0) result->first_bad_frame = f;
+  result->triangles_outside += outside;
+  const runtime::CharacterAsset& asset = *playback_->asset();
+  if (!runtime::FindContactsBruteForce(set, *asset.narrow_phase(), asset.filter(), skinned_, &oracle_) ||
+      !(oracle_ == instance_->frame_contacts())) {
+    if (result->first_mismatch_frame < 0) result->first_mismatch_frame = f;
+    ++result->narrow_mismatches;
+  }
+  result->times.verify.Add(Seconds(v0, Clock::now()));
+}
+
+Result<PlayResult> ClipPlayer::Play(size_t clip_index, const FrameSink& sink) {
+  const lib::RawCharacter& ch = playback_->loaded().character;
+  const skinning::AnimationClip& clip = ch.clips.at(clip_index);
+  PlayResult result;
+  result.clip = clip.name;
+  result.body_height = playback_->body_height();
+  result.touch_tolerance = options_.touch_tolerance * result.body_height;
+  if (options_.verify) {  // every triangle of the mesh owned by a sphere (checked once)
+    std::vector<bool> owned(ch.triangle_count(), false);
+    for (uint32_t t : playback_->set().triangles) owned[t] = true;
+    result.triangles_unowned = static_cast<size_t>(std::count(owned.begin(), owned.end(), false));
+  }
+  auto frames = FrameCount(clip);
+  if (!frames.ok()) return frames.error();
+  result.frames = static_cast<int>(*frames);
+  for (int f = 0; f < result.frames; ++f) {
+    const float t = f / options_.fps;
+    const float clip_time = PlaybackTime(t, clip.duration_s);
+    if (auto err = Step(clip, f, clip_time, &result.times)) return *err;
+    Summarise(f, &result);
+    if (options_.verify) Verify(f, &result);
     if (sink) {
       FrameView view;
       view.index = f;
       view.time_s = t;
       view.clip_time_s = clip_time;
-      view.sphere_pairs = pairs;
-      view.contacts = &contacts;
-      view.spheres = spheres;
+      view.sphere_pairs = pairs_;
+      view.contacts = &instance_->frame_contacts();
+      view.spheres = instance_->spheres();
+      view.joint_world = joint_world_;
+      view.body_height = result.body_height;
+      view.touch_tolerance = result.touch_tolerance;
       sink(view);
     }
-    if (options.progress) {
-      std::fprintf(stderr, "\r%s: frame %d/%d, %zu sphere pairs, %zu triangle pairs   ", clip.name.c_str(), f + 1, frames,
-                   pairs.size(), contacts.triangle_pairs.size());
+    if (options_.progress) {
+      std::fprintf(stderr, "\r%s: frame %d/%d, %zu sphere pairs, %zu triangle pairs   ", clip.name.c_str(), f + 1,
+                   result.frames, pairs_.size(), instance_->frame_contacts().triangle_pairs.size());
     }
   }
-  if (options.progress) std::fprintf(stderr, "\n");
+  if (options_.progress) std::fprintf(stderr, "\n");
   return result;
+}
+
+Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::SphereSet& set, size_t clip,
+                            const PlayOptions& options, const FrameSink& sink) {
+  auto playback = Playback::Create(loaded, set, options.margin);
+  if (!playback.ok()) return playback.error();
+  auto player = ClipPlayer::Create(std::move(*playback), options);
+  if (!player.ok()) return player.error();
+  return player->Play(clip, sink);
 }
 
 void PrintPlaySummary(const PlayResult& r, const runtime::SphereSet& set, float fps, bool sphere_pairs, bool verify) {
@@ -373,12 +471,23 @@ void PrintPlaySummary(const PlayResult& r, const runtime::SphereSet& set, float 
   auto share = [&](float d) { return r.body_height > 0.0f ? 100.0 * d / r.body_height : 0.0; };
   for (const PartPairSummary& e : r.contacts) {
     std::printf("  %s - %s: ", PartName(set, e.part_a).c_str(), PartName(set, e.part_b).c_str());
-    if (e.intersecting) {
-      std::printf("intersecting, frames %s (%zu frames), up to %u triangle pairs, depth up to %.4g (%.2f%% of height)\n",
-                  e.frames.ToString().c_str(), e.frames.frames(), e.most_triangle_pairs, e.max_depth, share(e.max_depth));
+    if (e.penetrating.frames() > 0) {
+      std::printf("penetrating, frames %s (%zu frames", e.penetrating.ToString().c_str(), e.penetrating.frames());
+      if (e.frames.frames() > e.penetrating.frames())
+        std::printf("; touching on %zu more", e.frames.frames() - e.penetrating.frames());
+      std::printf("), up to %u triangle pairs, depth up to %.4g (%.2f%% of height) at frame %d\n",
+                  e.most_triangle_pairs, e.max_depth, share(e.max_depth), e.worst_frame);
+    } else if (e.intersecting) {
+      std::printf(
+          "touching, frames %s (%zu frames), up to %u triangle pairs, intersecting by at most %.4g (%.2f%% of "
+          "height, within the %.2f%% tolerance)\n",
+          e.frames.ToString().c_str(), e.frames.frames(), e.most_triangle_pairs, e.max_depth, share(e.max_depth),
+          share(r.touch_tolerance));
     } else {
-      std::printf("within margin, frames %s (%zu frames), up to %u triangle pairs, closest %.4g (%.2f%% of height)\n",
-                  e.frames.ToString().c_str(), e.frames.frames(), e.most_triangle_pairs, e.min_distance, share(e.min_distance));
+      std::printf(
+          "touching (within margin), frames %s (%zu frames), up to %u triangle pairs, closest %.4g (%.2f%% of "
+          "height)\n",
+          e.frames.ToString().c_str(), e.frames.frames(), e.most_triangle_pairs, e.min_distance, share(e.min_distance));
     }
   }
   if (sphere_pairs) {

@@ -1,5 +1,16 @@
 // Playback: for each frame of a clip, sample, skin, refit, query the sphere pairs, find the
-// triangle contacts (what `play` and `demo` run).
+// triangle contacts (what `play`, `check` and `demo` run).
+//
+// Set-up is split from playing: a Playback (once per character and sphere set: the set checked
+// against the mesh, the runtime asset, the joint mapping) is shared, read-only, by any number of
+// ClipPlayers (one per thread: an instance and the skinning buffers), each playing clips one after
+// another. PlayClip does both for one clip.
+//
+// The frame at t = duration samples the clip's end pose; frames past it loop (PlaybackTime).
+//
+// Touching and penetrating: a part pair's contact on a frame is *penetrating* when its triangles
+// intersect deeper than the touch tolerance (a share of the body height, PlayOptions), else
+// *touching* (surfaces within the margin, or intersecting by less than the tolerance).
 //
 // Memory stays flat whatever the clip length: each frame is handed to an optional FrameSink as it
 // is played and then forgotten; the result keeps only bounded summaries (per part pair: frame
@@ -9,16 +20,29 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "commands.h"
+#include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/api/joint_mapping.h"
 #include "skinspheres/runtime/broad_phase/broad_phase.h"
-#include "skinspheres/runtime/narrow_phase/narrow_phase.h"
 #include "skinspheres/runtime/format/sphere_set.h"
+#include "skinspheres/runtime/narrow_phase/narrow_phase.h"
+#include "skinspheres/skinning/prepared_influences.h"
+#include "skinspheres/skinning/skeleton.h"
 
 namespace skinspheres::tool {
+
+// Intersections up to this share of the body height are touching, deeper ones penetrating.
+inline constexpr float kDefaultTouchTolerance = 0.005f;
+
+// The clip time a playback time samples: t itself up to the clip's end (the frame at t = duration
+// samples the end pose), then looping (t - k * duration); 0 for a clip without duration.
+float PlaybackTime(float time_s, float duration_s);
 
 struct PlayOptions {
   float fps = 30.0f;
@@ -27,6 +51,7 @@ struct PlayOptions {
   bool verify = false;         // skin every vertex: every triangle inside its sphere, narrow phase == oracle
   bool progress = false;       // a progress line on the terminal
   float margin = 0.0f;         // narrow phase: also report triangle pairs nearer than this (model units)
+  float touch_tolerance = kDefaultTouchTolerance;  // share of body height: deeper intersections penetrate
 };
 
 // One played frame, valid during the FrameSink call only.
@@ -37,7 +62,17 @@ struct FrameView {
   std::span<const runtime::Contact> sphere_pairs;  // broad phase
   const runtime::FrameContacts* contacts = nullptr;  // narrow phase
   std::span<const skinspheres::Vec4f> spheres;      // refitted: xyz centre, w radius
+  std::span<const skinspheres::Mat4f> joint_world;  // the character's joints, world space
+  float body_height = 0.0f;                         // of the rest pose (for the touch tolerance)
+  float touch_tolerance = 0.0f;                     // model units: deeper intersections penetrate
 };
+
+// --touch-tolerance (play, check): the option, and its check (a message when refused).
+void AddTouchToleranceOption(CLI::App& app, float* share);
+std::optional<std::string> CheckTouchTolerance(float share);
+
+// A part pair's contact on one frame is penetrating (an intersection deeper than the tolerance).
+bool Penetrating(const runtime::PartContact& contact, float tolerance);
 using FrameSink = std::function<void(const FrameView&)>;
 
 // One played frame kept for what needs every frame at the end (the viewer page, a GLB export):
@@ -49,6 +84,12 @@ struct FrameRecord {
   std::vector<skinspheres::Vec4f> spheres;
   std::vector<runtime::Contact> sphere_pairs;
   std::vector<std::array<uint32_t, 2>> triangle_pairs;
+  struct Part {
+    uint16_t part_a = 0, part_b = 0;
+    bool penetrating = false;
+    float depth = 0.0f;
+  };
+  std::vector<Part> parts;  // part pairs with triangle contacts, touching or penetrating
 };
 // A sink that appends every frame to *out (memory grows with the clip: only for such outputs),
 // then hands it to `next` when given.
@@ -74,7 +115,9 @@ class FrameRanges {
 
 struct PartPairSummary {
   uint16_t part_a = 0, part_b = 0;
-  FrameRanges frames;              // frames where the pair touched
+  FrameRanges frames;              // frames where the pair touched or penetrated
+  FrameRanges penetrating;         // frames where it penetrated (deeper than the touch tolerance)
+  int worst_frame = -1;            // the frame of max_depth
   bool intersecting = false;       // at least one intersecting triangle pair (else only within margin)
   uint32_t most_triangle_pairs = 0;  // largest number of triangle pairs in one frame
   float max_depth = 0.0f;          // largest penetration depth estimate
@@ -102,6 +145,7 @@ struct StageTimes {
 struct PlayResult {
   std::string clip;
   int frames = 0;
+  float touch_tolerance = 0.0f;  // model units
   size_t sphere_pairs_total = 0, sphere_pairs_most = 0;
   size_t triangle_pairs_total = 0, triangle_pairs_most = 0;
   std::vector<PartPairSummary> contacts;        // narrow phase, by part pair (sorted)
@@ -117,6 +161,61 @@ struct PlayResult {
   bool verified() const { return triangles_outside == 0 && triangles_unowned == 0 && narrow_mismatches == 0; }
 };
 
+// The skin's joints, each once, in the order of its bind entries (what --dump lists).
+std::vector<int32_t> SkinJoints(const lib::RawCharacter& character);
+
+// Once per character and sphere set, shared read-only by ClipPlayers on any thread. Refused (one
+// line naming the file): a fast-only set, a set without mesh, a set fitted on other joints or
+// another mesh, a sphere that owns a triangle without its vertices.
+class Playback {
+ public:
+  static Result<std::shared_ptr<const Playback>> Create(const LoadedCharacter& loaded, const runtime::SphereSet& set,
+                                                        float margin);
+  const LoadedCharacter& loaded() const { return loaded_; }
+  const runtime::SphereSet& set() const { return set_; }
+  const std::shared_ptr<const runtime::CharacterAsset>& asset() const { return asset_; }
+  const runtime::JointMapping& mapping() const { return mapping_; }
+  std::span<const uint32_t> source_vertices() const { return sources_; }  // sorted: what the exact refit reads
+  float body_height() const { return body_height_; }
+  std::string file() const;  // the character's name in messages
+  // The source vertices' influences laid out for the exact refit's skinning (immutable).
+  const skinning::PreparedInfluences& prepared() const { return prepared_; }
+
+ private:
+  Playback(const LoadedCharacter& loaded, const runtime::SphereSet& set) : loaded_(loaded), set_(set) {}
+  const LoadedCharacter& loaded_;
+  const runtime::SphereSet& set_;
+  std::shared_ptr<const runtime::CharacterAsset> asset_;
+  runtime::JointMapping mapping_;
+  std::vector<uint32_t> sources_;
+  skinning::PreparedInfluences prepared_;
+  float body_height_ = 0.0f;
+};
+
+// Plays clips of the Playback's character one after another (one per thread).
+class ClipPlayer {
+ public:
+  static Result<ClipPlayer> Create(std::shared_ptr<const Playback> playback, const PlayOptions& options);
+  Result<PlayResult> Play(size_t clip, const FrameSink& sink = {});
+
+ private:
+  ClipPlayer() = default;
+  Result<size_t> FrameCount(const skinning::AnimationClip& clip) const;
+  std::optional<Error> Step(const skinning::AnimationClip& clip, int frame, float clip_time, StageTimes* times);
+  void Summarise(int frame, PlayResult* result) const;
+  void Verify(int frame, PlayResult* result);
+
+  std::shared_ptr<const Playback> playback_;
+  PlayOptions options_;
+  std::optional<runtime::CharacterInstance> instance_;
+  std::vector<skinning::Transform> locals_;
+  std::vector<skinspheres::Mat4f> joint_world_, bind_matrices_;
+  std::vector<Eigen::Vector3f> skinned_;
+  std::span<const runtime::Contact> pairs_;
+  runtime::FrameContacts oracle_;
+};
+
+// One clip: Playback::Create, ClipPlayer::Create and Play.
 Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::SphereSet& set, size_t clip,
                             const PlayOptions& options, const FrameSink& sink = {});
 

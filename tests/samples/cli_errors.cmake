@@ -47,6 +47,15 @@ set(cli_cases
   "fast_only_json|convert|@SET@|@DIR@/fast.json|--fast-only|--fast-only needs a binary (.ssb) output"
   "fit_fast_only_no_output|fit|@GLB@|--fast-only|--fast-only needs a binary output (-o OUT.ssb)"
   "spheres_truncated_binary|play|@GLB@|--spheres|@SHORT_SSB@|short.ssb: "
+  # Clip files, joint maps and rest rigs that are not regular files; check's outputs.
+  "clips_fifo|play|@GLB@|--clips|@FIFO@|FIFO"
+  "joint_map_fifo|play|@GLB@|--clips|@GLB@|--joint-map|@FIFO@|FIFO"
+  "joint_map_dev_zero|check|@GLB@|--clips|@GLB@|--joint-map|/dev/zero|device"
+  "source_rest_fifo|play|@GLB@|--clips|@GLB@|--source-rest|@FIFO@|FIFO"
+  "check_clips_fifo|check|@GLB@|--clips|@FIFO@|FIFO"
+  "check_report_full|check|@GLB@|--clip|walk|--report|/dev/full|/dev/full: write failed"
+  "check_csv_fifo|check|@GLB@|--clip|walk|--csv|@FIFO@|fifo: is a FIFO"
+  "check_jobs|check|@GLB@|--jobs|-3|--jobs must be"
   # A sphere set nested 100,000 deep (it crashed play with SIGSEGV).
   "spheres_deep|play|@GLB@|--spheres|@DEEP@|nests 100002 deep"
 )

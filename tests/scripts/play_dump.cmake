@@ -1,7 +1,9 @@
 # play --dump on the built-in character (exported as GLB): one JSON line per frame with frame,
-# time, clip_time, spheres [[x,y,z,r],...], sphere pairs, and contacts by part pair; --report a
+# time, clip_time, spheres [[x,y,z,r],...], sphere pairs, contacts by part pair (touching or
+# penetrating) and the skin joints' world positions (their names on the first line); --report a
 # JSON summary. The touch clip puts the hands on the chest at frame 30; the walk (1 s) loops, so
-# frame 35 samples the clip at 5/30 s while "time" says 35/30 s.
+# frame 35 samples the clip at 5/30 s while "time" says 35/30 s, and frame 30 (t = 1 s, the
+# clip's duration) samples its end pose, t = 1 s, not t = 0.
 include(${CMAKE_CURRENT_LIST_DIR}/builtin_glb.cmake)
 run_tool("play" play ${DIR}/builtin.glb --clip touch --frames 40 --dump ${DIR}/touch.jsonl --report ${DIR}/report.json)
 file(STRINGS ${DIR}/touch.jsonl lines LENGTH_MAXIMUM 100000000)
@@ -28,10 +30,21 @@ foreach(g 0 1)
   string(JSON tri_count LENGTH "${line}" contacts ${g} triangles)
   string(JSON pair_len LENGTH "${line}" contacts ${g} triangles 0)
   string(JSON depth GET "${line}" contacts ${g} depth)
-  if(NOT a STREQUAL "torso" OR NOT b MATCHES "^arm_[lr]$" OR tri_count LESS 10 OR NOT pair_len EQUAL 2 OR NOT depth GREATER 0)
-    message(FATAL_ERROR "frame 30 contact ${g}: ${a} - ${b}, ${tri_count} triangle pairs of ${pair_len}, depth ${depth}")
+  string(JSON kind GET "${line}" contacts ${g} kind)
+  if(NOT a STREQUAL "torso" OR NOT b MATCHES "^arm_[lr]$" OR tri_count LESS 10 OR NOT pair_len EQUAL 2 OR NOT depth GREATER 0
+     OR NOT kind STREQUAL "penetrating")
+    message(FATAL_ERROR "frame 30 contact ${g}: ${a} - ${b} ${kind}, ${tri_count} triangle pairs of ${pair_len}, depth ${depth}")
   endif()
 endforeach()
+# The skeleton: every line carries the skin joints' positions, the first line their names.
+list(GET lines 0 first)
+string(JSON name_count LENGTH "${first}" joint_names)
+string(JSON joint_count LENGTH "${line}" joints)
+string(JSON xyz_len LENGTH "${line}" joints 0)
+string(JSON hips ERROR_VARIABLE no_name GET "${line}" joint_names)
+if(name_count LESS 20 OR NOT joint_count EQUAL name_count OR NOT xyz_len EQUAL 3 OR NOT no_name)
+  message(FATAL_ERROR "joints: ${name_count} names on line 0, ${joint_count} positions of ${xyz_len} on line 30 (names repeated: ${hips})")
+endif()
 list(GET lines 5 early)
 string(JSON groups LENGTH "${early}" contacts)
 if(NOT groups EQUAL 0)
@@ -56,5 +69,10 @@ string(JSON time GET "${line}" time)
 string(JSON clip_time GET "${line}" clip_time)
 if(NOT time GREATER 1.16 OR NOT time LESS 1.17 OR NOT clip_time GREATER 0.16 OR NOT clip_time LESS 0.17)
   message(FATAL_ERROR "frame 35 of a 1 s loop at 30 fps: time ${time} (expected 1.1667), clip_time ${clip_time} (0.1667)")
+endif()
+list(GET lines 30 end)
+string(JSON clip_time GET "${end}" clip_time)
+if(NOT clip_time EQUAL 1)
+  message(FATAL_ERROR "frame 30 of a 1 s clip at 30 fps samples its end, t = 1, not ${clip_time}")
 endif()
 message(STATUS "dump ok: ${sphere_count} spheres per line, 2 hand contacts at frame 30, clip_time ${clip_time}")

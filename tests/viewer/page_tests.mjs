@@ -206,6 +206,57 @@ async function triangleContacts(browser, data, touch) {
   check(inChest >= 0.9 * all, `frame ${f}: the triangle colour is near the chest only (${inChest} of ${all})`);
 }
 
+// The timeline shows triangle contacts, penetrating and touching in two colours (the kinds the
+// data gives: deeper than the run's touch tolerance penetrates); sphere-only overlaps only when
+// asked for: the walk, which touches nothing, has no row by default.
+async function timelineKinds(browser, data) {
+  for (const clip of data.clips) {
+    let consistent = Array.isArray(clip.part_contacts) && clip.part_contacts.length === clip.frames;
+    (clip.part_contacts || []).forEach((pc) => {
+      for (let i = 0; i + 3 < pc.length; i += 4) consistent &&= pc[i + 2] === (pc[i + 3] > clip.touch_tolerance ? 1 : 0);
+    });
+    check(consistent, `${clip.name}: part_contacts for every frame, penetrating exactly when deeper than ${clip.touch_tolerance}`);
+  }
+  const walk = data.clips.find((c) => c.name === 'walk');
+  await setHash(browser, '#clip=walk&frame=0&overlaps=0');
+  let st = await state(browser);
+  check(st.timelineRows === '0', `the walk touches nothing: no timeline row (${st.timelineRows})`);
+  await setHash(browser, '#clip=walk&frame=1&overlaps=1');
+  st = await state(browser);
+  const overlapping = walk.pairs.some((p) => p.length > 0);
+  check(!overlapping || Number(st.timelineRows) > 0, `sphere overlaps shown: the walk's rows appear (${st.timelineRows})`);
+  await setHash(browser, '#clip=touch&frame=0&overlaps=0');
+  const marks = await browser.evaluate(`(() => ({
+    pen: document.querySelectorAll('#ss-timeline .row[data-parts="torso,arm_l"] .mark.pen').length,
+    touch: document.querySelectorAll('#ss-timeline .mark.touch').length,
+    sph: document.querySelectorAll('#ss-timeline .mark.sph').length,
+    colours: [...new Set([...document.querySelectorAll('#ss-timeline .mark')].map((m) => getComputedStyle(m).backgroundColor))]
+  }))()`);
+  check(marks.pen > 0 && marks.touch > 0 && marks.sph === 0,
+    `touch: penetrating marks on torso - arm_l (${marks.pen}), touching marks (${marks.touch}), no sphere-overlap mark (${marks.sph})`);
+  check(marks.colours.length === 2, `two mark colours: ${marks.colours.join(', ')}`);
+}
+
+// Side-panel labels break between words only: no label takes more lines than it has words, even a
+// clip name too long for its column (shown whole in its title, cut with an ellipsis).
+async function labelsKeepWords(browser) {
+  const broken = await browser.evaluate(`(() => {
+    const name = document.querySelector('#ss-times td.name');
+    if (name) name.textContent = 'Armature|mixamo.com|Layer0/RightHandThumb4_retargeted';
+    const bad = [];
+    document.querySelectorAll('#ss-side td:first-child').forEach((td) => {
+      const text = td.textContent.trim();
+      if (!text) return;
+      const range = document.createRange();
+      range.selectNodeContents(td);
+      const lines = new Set([...range.getClientRects()].map((r) => Math.round(r.top))).size;
+      if (lines > text.split(/\\s+/).length) bad.push(text);
+    });
+    return { bad, named: !!name };
+  })()`);
+  check(broken.named && broken.bad.length === 0, `side-panel labels break between words only (${broken.bad.join(' | ')})`);
+}
+
 async function casePlay(browser) {
   const file = join(dir, 'play.html');
   const { data, touch, chestFrame: f } = await restAndChest(browser, file);
@@ -226,6 +277,9 @@ async function casePlay(browser) {
     check(+st.frame >= mark.first && +st.frame <= mark.last && +st.frame > 0,
       `clicking the mark [${mark.first}, ${mark.last}] jumps to frame ${st.frame}`);
   }
+
+  await timelineKinds(browser, data);
+  await labelsKeepWords(browser);
 
   // Picking: at rest, a click on the highest head sphere's centre selects a head sphere.
   await goTo(browser, 'touch', 0);

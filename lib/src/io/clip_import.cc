@@ -1,6 +1,5 @@
 // Clips from animation files (clip_import.h): the glTF reader's node tree and clips
-// (importer_gltf.cc), or Assimp's scene with FBX pivots folded; then name matching onto a
-// character's skeleton.
+// (importer_gltf.cc), or Assimp's scene with FBX pivots folded; the file's own rest pose.
 #include "skinspheres/lib/io/clip_import.h"
 
 #include <assimp/config.h>
@@ -94,22 +93,6 @@ Result<AnimationFile> ReadAssimpAnimations(const std::filesystem::path& file) {
   return out;
 }
 
-// The character joints that move vertices: bind entries with a weight, rigid meshes' joints.
-std::vector<char> DeformingJoints(const RawCharacter& c) {
-  std::vector<char> deforming(c.skeleton.size(), 0);
-  for (size_t k = 0; k < c.skin.influence_binds.size(); ++k) {
-    if (c.skin.influence_weights[k] <= 0.0f || c.skin.influence_binds[k] >= c.skin.binds.size()) continue;
-    const int32_t j = c.skin.binds[c.skin.influence_binds[k]].joint;
-    if (j >= 0 && static_cast<size_t>(j) < deforming.size()) deforming[static_cast<size_t>(j)] = 1;
-  }
-  for (const auto& m : c.meshes) {
-    if (!m.skinned && m.rigid_joint >= 0 && static_cast<size_t>(m.rigid_joint) < deforming.size()) {
-      deforming[static_cast<size_t>(m.rigid_joint)] = 1;
-    }
-  }
-  return deforming;
-}
-
 }  // namespace
 
 Result<AnimationFile> ReadAnimationFile(const std::filesystem::path& file) {
@@ -132,114 +115,11 @@ Result<AnimationFile> ReadAnimationFile(const std::filesystem::path& file) {
   }
 }
 
-std::string MatchKey(std::string_view name) {
-  const size_t cut = name.find_last_of(":|");
-  if (cut != std::string_view::npos) name.remove_prefix(cut + 1);
-  std::string key(name);
-  std::transform(key.begin(), key.end(), key.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  constexpr std::string_view kMixamo = "mixamorig";
-  if (key.size() > kMixamo.size() && key.compare(0, kMixamo.size(), kMixamo) == 0) {
-    size_t k = kMixamo.size();
-    while (k < key.size() && std::isdigit(static_cast<unsigned char>(key[k]))) ++k;
-    if (k < key.size() && key[k] == '_') ++k;
-    if (k < key.size()) key.erase(0, k);
-  }
-  return key;
-}
-
-Result<std::vector<skinning::AnimationClip>> MatchClips(const AnimationFile& file, const RawCharacter& character,
-                                                        ClipMatchReport* report) {
-  const skinning::Skeleton& target = character.skeleton;
-  const skinning::Skeleton& source = file.nodes;
-  const std::string who = character.source_file.empty() ? "the built-in character" : character.source_file;
-  if (file.clips.empty()) return MakeError(ErrorCode::kNotFound, file.source_file + ": has no animations");
-
-  // File node -> character joint: equal names first, then equal keys where one file node and
-  // one character joint share the key.
-  std::vector<int32_t> joint_of(source.size(), -1);
-  std::vector<int32_t> node_of(target.size(), -1);
-  for (size_t n = 0; n < source.size(); ++n) {
-    const int32_t j = target.Find(source.joint_names[n]);
-    if (j >= 0 && node_of[static_cast<size_t>(j)] < 0) {
-      joint_of[n] = j;
-      node_of[static_cast<size_t>(j)] = static_cast<int32_t>(n);
-    }
-  }
-  std::map<std::string, std::vector<int32_t>> joints_by_key, nodes_by_key;
-  for (size_t j = 0; j < target.size(); ++j)
-    joints_by_key[MatchKey(target.joint_names[j])].push_back(static_cast<int32_t>(j));
-  for (size_t n = 0; n < source.size(); ++n) {
-    if (joint_of[n] < 0) nodes_by_key[MatchKey(source.joint_names[n])].push_back(static_cast<int32_t>(n));
-  }
-  for (const auto& [key, nodes] : nodes_by_key) {
-    const auto it = joints_by_key.find(key);
-    if (key.empty() || nodes.size() != 1 || it == joints_by_key.end() || it->second.size() != 1) continue;
-    const int32_t j = it->second.front();
-    if (node_of[static_cast<size_t>(j)] >= 0) continue;
-    joint_of[static_cast<size_t>(nodes.front())] = j;
-    node_of[static_cast<size_t>(j)] = nodes.front();
-  }
-
-  const std::vector<char> deforming = DeformingJoints(character);
-  std::string missing;
-  size_t missing_count = 0, deforming_count = 0;
-  for (size_t j = 0; j < target.size(); ++j) {
-    if (!deforming[j]) continue;
-    ++deforming_count;
-    if (node_of[j] >= 0) continue;
-    missing += (missing_count++ ? ", " : "") + target.joint_names[j];
-  }
-  if (missing_count) {
-    return MakeError(ErrorCode::kNotFound, file.source_file + ": " + std::to_string(missing_count) + " of the " +
-                                               std::to_string(deforming_count) + " joints that move " + who +
-                                               " have no counterpart in this file (names compared without " +
-                                               "prefixes such as \"mixamorig:\" and without case): " + missing);
-  }
-
-  ClipMatchReport local;
-  ClipMatchReport& rep = report ? *report : local;
-  rep = ClipMatchReport{};
-  for (size_t j = 0; j < target.size(); ++j) rep.matched_joints += node_of[j] >= 0 ? 1 : 0;
-  // Per matched joint, the factor its translation tracks are scaled by (units of the two files).
-  std::vector<float> translation_scale(target.size(), 1.0f);
-  for (size_t j = 0; j < target.size(); ++j) {
-    if (node_of[j] < 0) continue;
-    const float from = source.rest_local[static_cast<size_t>(node_of[j])].translation.norm();
-    const float to = target.rest_local[j].translation.norm();
-    if (from > 0.0f && to > 0.0f && std::isfinite(to / from) && std::abs(to / from - 1.0f) > 1e-3f)
-      translation_scale[j] = to / from;
-  }
-  std::set<std::string> dropped, rescaled;
-  std::vector<skinning::AnimationClip> clips;
-  for (const auto& in : file.clips) {
-    skinning::AnimationClip clip;
-    clip.name = in.name;
-    clip.duration_s = in.duration_s;
-    for (const auto& tr : in.tracks) {
-      const size_t node = static_cast<size_t>(tr.joint);
-      if (tr.joint < 0 || node >= source.size()) continue;
-      const int32_t j = joint_of[node];
-      if (j < 0) {
-        if (!tr.translation.empty() || !tr.rotation.empty() || !tr.scale.empty())
-          dropped.insert(source.joint_names[node]);
-        continue;
-      }
-      skinning::JointTrack out = tr;
-      out.joint = j;
-      if (translation_scale[static_cast<size_t>(j)] != 1.0f && !out.translation.empty()) {
-        for (auto& v : out.translation.values) v *= translation_scale[static_cast<size_t>(j)];
-        rescaled.insert(target.joint_names[static_cast<size_t>(j)]);
-      }
-      clip.tracks.push_back(std::move(out));
-    }
-    std::sort(clip.tracks.begin(), clip.tracks.end(),
-              [](const skinning::JointTrack& x, const skinning::JointTrack& y) { return x.joint < y.joint; });
-    clips.push_back(std::move(clip));
-  }
-  rep.dropped_nodes.assign(dropped.begin(), dropped.end());
-  rep.rescaled_joints.assign(rescaled.begin(), rescaled.end());
-  return clips;
+Result<std::optional<RawCharacter>> ReadFileRestRig(const AnimationFile& file) {
+  if (file.skinned_mesh_count == 0) return std::optional<RawCharacter>();
+  auto rig = ImportCharacter(file.source_file);
+  if (!rig.ok()) return rig.error();
+  return std::optional<RawCharacter>(std::move(*rig));
 }
 
 RawCharacter WithoutMesh(RawCharacter c) {

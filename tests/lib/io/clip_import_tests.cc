@@ -11,6 +11,7 @@
 #include "skinspheres/lib/io/clip_import.h"
 #include "skinspheres/lib/io/glb_exporter.h"
 #include "skinspheres/lib/io/importer.h"
+#include "skinspheres/lib/retarget/retarget.h"
 #include "support/clip_eval_for_tests.h"
 #include "test_support.h"
 
@@ -58,7 +59,7 @@ TEST(ClipImport, MatchKeyDropsRigPrefixesAndCase) {
   EXPECT_EQ(MatchKey("LeftHand"), "lefthand");
   EXPECT_EQ(MatchKey("Hips"), "hips");
   EXPECT_EQ(MatchKey("mixamorig"), "mixamorig");  // nothing after the prefix: kept
-  EXPECT_EQ(MatchKey("Bip01 L Hand"), "bip01 l hand");
+  EXPECT_EQ(MatchKey("Bip01 L Hand"), "l hand");
 }
 
 // GLB without a mesh, joints "mixamorig:<name>": every clip comes back on the built-in's joints
@@ -71,10 +72,11 @@ TEST(ClipImport, GlbAnimationFileDrivesTheCharacterAsItsOwnClips) {
   EXPECT_EQ(file->mesh_count, 0u);
   EXPECT_EQ(file->nodes.size(), test::BuiltinCharacter().skeleton.size());
   ASSERT_EQ(file->clips.size(), test::BuiltinCharacter().clips.size());
-  ClipMatchReport report;
-  const auto clips = MatchClips(*file, test::BuiltinCharacter(), &report);
+  RetargetReport report;
+  const auto clips = RetargetClips(*file, test::BuiltinCharacter(), {}, &report);
   ASSERT_TRUE(clips.ok()) << clips.error().message;
-  EXPECT_EQ(report.matched_joints, test::BuiltinCharacter().skeleton.size());
+  EXPECT_EQ(report.mapped.size(), test::BuiltinCharacter().skeleton.size());
+  EXPECT_FALSE(report.transferred);
   EXPECT_TRUE(report.dropped_nodes.empty());
   EXPECT_TRUE(report.rescaled_joints.empty());
   for (const auto& own : test::BuiltinCharacter().clips) {
@@ -95,7 +97,7 @@ TEST(ClipImport, FbxAnimationFileMatchesAtTheKeys) {
   ASSERT_TRUE(file.ok()) << file.error().message;
   EXPECT_EQ(file->mesh_count, 0u);
   EXPECT_GE(file->nodes.size(), test::BuiltinCharacter().skeleton.size());
-  const auto clips = MatchClips(*file, test::BuiltinCharacter());
+  const auto clips = RetargetClips(*file, test::BuiltinCharacter(), {});
   ASSERT_TRUE(clips.ok()) << clips.error().message;
   const auto& own = ClipNamed(test::BuiltinCharacter().clips, "touch");
   const auto& read = ClipNamed(*clips, "touch");
@@ -125,8 +127,8 @@ TEST(ClipImport, OtherUnitsAreRescaled) {
   const auto path = Write(cm, "clip_import_units", "anim_cm.glb");
   const auto file = ReadAnimationFile(path);
   ASSERT_TRUE(file.ok()) << file.error().message;
-  ClipMatchReport report;
-  const auto clips = MatchClips(*file, test::BuiltinCharacter(), &report);
+  RetargetReport report;
+  const auto clips = RetargetClips(*file, test::BuiltinCharacter(), {}, &report);
   ASSERT_TRUE(clips.ok()) << clips.error().message;
   EXPECT_FALSE(report.rescaled_joints.empty());
   const auto& own = ClipNamed(test::BuiltinCharacter().clips, "walk");
@@ -136,33 +138,38 @@ TEST(ClipImport, OtherUnitsAreRescaled) {
   }
 }
 
-// Joints that move the mesh must all be found: the error is one line naming the file and every
-// missing joint; file nodes the character lacks are only reported.
+// A file whose joints match none of the core humanoid joints is refused in one line naming the
+// file and each of them; a deforming joint the file lacks is kept at rest and reported.
 TEST(ClipImport, UnmatchedJointsAreListed) {
   const auto path = Write(AnimationOnly("Rig_"), "clip_import_unmatched", "other_rig.glb");
   const auto file = ReadAnimationFile(path);
   ASSERT_TRUE(file.ok()) << file.error().message;
-  const auto clips = MatchClips(*file, test::BuiltinCharacter());
+  const auto clips = RetargetClips(*file, test::BuiltinCharacter(), {});
   ASSERT_FALSE(clips.ok());
   const std::string& m = clips.error().message;
   EXPECT_EQ(clips.error().code, ErrorCode::kNotFound);
   EXPECT_NE(m.find("other_rig.glb: "), std::string::npos) << m;
   EXPECT_EQ(m.find('\n'), std::string::npos) << m;
-  for (const char* joint : {"Hips", "Spine1", "LeftHand", "RightFoot", "Head"}) {
+  for (const char* joint : {"hips (Hips)", "spine (Spine)", "left upper arm (LeftArm)", "right upper arm (RightArm)",
+                            "left thigh (LeftUpLeg)", "right thigh (RightUpLeg)"}) {
     EXPECT_NE(m.find(joint), std::string::npos) << joint << " not listed: " << m;
   }
 
-  // One deforming joint missing from the file (renamed there): listed alone.
+  // One deforming joint missing from the file (renamed there): kept at rest, reported.
   RawCharacter one = AnimationOnly("mixamorig:");
   one.skeleton.joint_names[static_cast<size_t>(one.skeleton.Find("mixamorig:LeftHand"))] = "mixamorig:LeftPaw";
   const auto path1 = Write(one, "clip_import_one_missing", "paw.glb");
   const auto file1 = ReadAnimationFile(path1);
   ASSERT_TRUE(file1.ok()) << file1.error().message;
-  ClipMatchReport report;
-  const auto clips1 = MatchClips(*file1, test::BuiltinCharacter(), &report);
-  ASSERT_FALSE(clips1.ok());
-  EXPECT_NE(clips1.error().message.find("1 of the"), std::string::npos) << clips1.error().message;
-  EXPECT_NE(clips1.error().message.find(": LeftHand"), std::string::npos) << clips1.error().message;
+  RetargetReport report;
+  const auto clips1 = RetargetClips(*file1, test::BuiltinCharacter(), {}, &report);
+  ASSERT_TRUE(clips1.ok()) << clips1.error().message;
+  EXPECT_EQ(report.unmapped_deforming, std::vector<std::string>{"LeftHand"});
+  EXPECT_EQ(report.unmapped_joints, 1u);
+  const int32_t hand = test::BuiltinCharacter().skeleton.Find("LeftHand");
+  for (const auto& clip : *clips1) {
+    for (const auto& tr : clip.tracks) EXPECT_NE(tr.joint, hand) << clip.name;
+  }
 }
 
 TEST(ClipImport, AnimatedNodesTheCharacterLacksAreDroppedAndReported) {
@@ -178,8 +185,8 @@ TEST(ClipImport, AnimatedNodesTheCharacterLacksAreDroppedAndReported) {
   const auto path = Write(c, "clip_import_prop", "prop.glb");
   const auto file = ReadAnimationFile(path);
   ASSERT_TRUE(file.ok()) << file.error().message;
-  ClipMatchReport report;
-  const auto clips = MatchClips(*file, test::BuiltinCharacter(), &report);
+  RetargetReport report;
+  const auto clips = RetargetClips(*file, test::BuiltinCharacter(), {}, &report);
   ASSERT_TRUE(clips.ok()) << clips.error().message;
   EXPECT_EQ(report.dropped_nodes, std::vector<std::string>{"Prop"});
   for (const auto& clip : *clips) {
@@ -223,7 +230,7 @@ TEST(ClipImport, BadFilesAreOneLineErrors) {
   const auto path = Write(still, "clip_import_still", "still.glb");
   const auto file = ReadAnimationFile(path);
   ASSERT_TRUE(file.ok()) << file.error().message;
-  const auto clips = MatchClips(*file, test::BuiltinCharacter());
+  const auto clips = RetargetClips(*file, test::BuiltinCharacter(), {});
   ASSERT_FALSE(clips.ok());
   EXPECT_NE(clips.error().message.find("still.glb: has no animations"), std::string::npos);
 }
