@@ -22,7 +22,7 @@
 //             grow). A = 0.02. 128 frames (32 above 5,000 spheres).
 //   d_crowd   1 to 1000 CesiumMan walking in place (clip at 30 fps, exact spheres), character k
 //             playing 7k frames ahead, on a square grid 0.8 body heights apart: each alone (one job
-//             per character; RunSelfCollisionJobs on 1 and 2 threads with per-thread CPU time) and
+//             per character; RunParallel on 1 and 2 threads with per-thread CPU time) and
 //             all in one space (one job over every sphere, pairs between characters included).
 //             16 frames.
 //
@@ -61,18 +61,17 @@
 #include <string>
 #include <vector>
 
+#include "peer_broad_phases.h"
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
-#include "skinspheres/runtime/broad_phase/broad_phase.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/broad_phase/broad_phase.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 #include "skinspheres/skinning/prepared_influences.h"
 #include "skinspheres/skinning/sampling_job.h"
 #include "skinspheres/skinning/skinning_job.h"
 #include "skinspheres/skinning/skinning_matrices_job.h"
-
-#include "peer_broad_phases.h"
 #include "thread_cpu.h"
 
 namespace {
@@ -102,13 +101,13 @@ size_t PingPong(size_t k, size_t f) {
 // ------------------------------------------------------------------------------------ scenarios
 
 struct Scenario {
-  std::string error;                 // non-empty: every row of it is skipped with this message
-  std::vector<Spheres> frames;       // the loop
+  std::string error;            // non-empty: every row of it is skipped with this message
+  std::vector<Spheres> frames;  // the loop
   rt::PairFilter filter;
-  std::vector<std::vector<rt::Contact>> reference;  // per frame
+  std::vector<std::vector<rt::SpherePair>> reference;  // per frame
   // Crowd: the characters alone (spheres of character k at frame f: frames[(f + 7k) % frames]).
-  size_t characters = 0;             // 0: not a crowd
-  bool held_pose = false;            // every frame holds frame 0's pose (before any walk)
+  size_t characters = 0;   // 0: not a crowd
+  bool held_pose = false;  // every frame holds frame 0's pose (before any walk)
 };
 
 // Workload (a)'s generator, box sx x sy x sz (workload (a)'s box is 1.8 x 1.8 x 0.3).
@@ -200,8 +199,8 @@ std::string ClipFrames(const FittedCharacter& c, const std::string& clip_name, d
   const sk::SkinnedMesh& skin = c.ch.skin;
   sk::PreparedInfluences prepared;
   std::string why;
-  if (!prepared.Build(skin.vertex_count(), skin.influence_offsets, skin.influence_binds, skin.influence_weights, sources,
-                      &why)) {
+  if (!prepared.Build(skin.vertex_count(), skin.influence_offsets, skin.influence_binds, skin.influence_weights,
+                      sources, &why)) {
     return why;
   }
   std::vector<sk::Transform> locals(c.ch.skeleton.size());
@@ -261,7 +260,7 @@ class Method {
  public:
   virtual ~Method() = default;
   // Runs the frame; returns the contact count (list filled when the method makes one).
-  virtual size_t Frame(const Spheres& s, std::vector<rt::Contact>* list) = 0;
+  virtual size_t Frame(const Spheres& s, std::vector<rt::SpherePair>* list) = 0;
   virtual bool MakesList() const { return true; }
   virtual double Candidates() const { return 0.0; }
   virtual double Builds() const { return 0.0; }
@@ -275,7 +274,7 @@ class Ours : public Method {
       : filter_(&sc.filter), simd_(simd), no_cache_(no_cache) {
     context_.Resize(SphereCount(sc));
   }
-  size_t Frame(const Spheres& s, std::vector<rt::Contact>* list) override {
+  size_t Frame(const Spheres& s, std::vector<rt::SpherePair>* list) override {
     if (no_cache_) context_.Invalidate();
     rt::SelfCollisionJob job{s, filter_, &context_, list};
     job.simd = simd_;
@@ -301,7 +300,7 @@ class Ours : public Method {
 class AllPairs : public Method {
  public:
   explicit AllPairs(const Scenario& sc) : filter_(&sc.filter) {}
-  size_t Frame(const Spheres& s, std::vector<rt::Contact>* list) override {
+  size_t Frame(const Spheres& s, std::vector<rt::SpherePair>* list) override {
     if (!rt::SelfCollisionAllPairs(s, *filter_, list)) Abort("all-pairs refused a frame");
     return list->size();
   }
@@ -315,7 +314,7 @@ template <class World>
 class Peer : public Method {
  public:
   Peer(const Scenario& sc, bool sorted) : world_(sc.frames[0], sc.filter), sorted_(sorted) {}
-  size_t Frame(const Spheres& s, std::vector<rt::Contact>* list) override {
+  size_t Frame(const Spheres& s, std::vector<rt::SpherePair>* list) override {
     const size_t count = world_.Frame(s, sorted_ ? list : nullptr);
     candidates_ += double(world_.last_candidates());
     return count;
@@ -363,7 +362,7 @@ void ComputeReference(Scenario* sc) {
 
 // Runs every frame of the loop once and aborts unless the method matches the reference.
 void CheckAgainstReference(const Scenario& sc, Method& m, const std::string& row) {
-  std::vector<rt::Contact> out;
+  std::vector<rt::SpherePair> out;
   const size_t period = sc.frames.size() <= 1 ? 1 : 2 * (sc.frames.size() - 1);
   for (size_t k = 0; k < period; ++k) {
     const size_t f = PingPong(k, sc.frames.size());
@@ -384,7 +383,7 @@ void RunRow(benchmark::State& state, const Scenario& sc, const std::string& meth
   CheckAgainstReference(sc, *m, row);
   const double candidates0 = m->Candidates(), builds0 = m->Builds(), build_tests0 = m->BuildTests(),
                lookahead0 = m->Lookahead();
-  std::vector<rt::Contact> out;
+  std::vector<rt::SpherePair> out;
   out.reserve(2 * sc.reference[0].size() + 64);
   size_t k = 0, contacts = 0;
   for (auto _ : state) {
@@ -415,7 +414,7 @@ void RunColdRow(benchmark::State& state, const Scenario& sc, const std::string& 
   const std::unique_ptr<Method> probe = MakeMethod(method, sc);
   if (!probe) return state.SkipWithError(("method " + method + " not built").c_str());
   const size_t frames = sc.frames.size();
-  std::vector<rt::Contact> out;
+  std::vector<rt::SpherePair> out;
   out.reserve(2 * sc.reference[0].size() + 64);
   size_t contacts = 0, passes = 0;
   double builds = 0.0, candidates = 0.0;
@@ -459,8 +458,9 @@ const std::vector<std::string> kPeers = {"bullet_count", "bullet_sorted", "fcl_c
 
 void Register(const std::string& row, std::function<const Scenario&()> scenario, const std::string& method,
               benchmark::TimeUnit unit = benchmark::kMicrosecond) {
-  benchmark::RegisterBenchmark(row.c_str(), [=](benchmark::State& state) { RunRow(state, scenario(), method, row); })
-      ->Unit(unit);
+  benchmark::RegisterBenchmark(row.c_str(), [=](benchmark::State& state) {
+    RunRow(state, scenario(), method, row);
+  })->Unit(unit);
 }
 
 void RegisterCloud() {
@@ -473,7 +473,8 @@ void RegisterCloud() {
         return GetScenario(k, [&](Scenario* sc) { CloudFrames(sc, CloudBase(n, 1.8, 1.8, 0.3), amplitude, 128); });
       };
       std::vector<std::string> methods = OurMethods(true);
-      for (const char* m : {"skinspheres_nocache", "skinspheres_nocache_avx2", "skinspheres_nocache_sse2"}) methods.push_back(m);
+      for (const char* m : {"skinspheres_nocache", "skinspheres_nocache_avx2", "skinspheres_nocache_sse2"})
+        methods.push_back(m);
       methods.push_back("allpairs");
       methods.insert(methods.end(), kPeers.begin(), kPeers.end());
       for (const auto& m : methods) Register(k + "/" + m, scenario, m);
@@ -534,13 +535,15 @@ void RegisterScale() {
         return GetScenario(k, [&](Scenario* sc) {
           const double grow = double(n) / 300.0;
           const double s2 = std::sqrt(grow), s3 = std::cbrt(grow);
-          const Spheres base = slab ? CloudBase(n, 1.8 * s2, 1.8 * s2, 0.3) : CloudBase(n, 1.8 * s3, 1.8 * s3, 0.3 * s3);
+          const Spheres base =
+              slab ? CloudBase(n, 1.8 * s2, 1.8 * s2, 0.3) : CloudBase(n, 1.8 * s3, 1.8 * s3, 0.3 * s3);
           CloudFrames(sc, base, 0.02, n > 5000 ? 32 : 128);
         });
       };
       std::vector<std::string> methods = {"skinspheres", "bullet_count", "fcl_count"};
       if (n <= 3000) methods.push_back("allpairs");
-      for (const auto& m : methods) Register(k + "/" + m, scenario, m, n >= 10000 ? benchmark::kMillisecond : benchmark::kMicrosecond);
+      for (const auto& m : methods)
+        Register(k + "/" + m, scenario, m, n >= 10000 ? benchmark::kMillisecond : benchmark::kMicrosecond);
     }
   }
 }
@@ -604,16 +607,16 @@ void CrowdSpace(Scenario* sc, size_t characters) {
   sc->characters = characters;
 }
 
-// Each alone: one job per character, RunSelfCollisionJobs on `threads` threads (per-thread CPU
+// Each alone: one job per character, RunParallel on `threads` threads (per-thread CPU
 // counters), checked against the per-character oracle first.
 void CrowdAloneOurs(benchmark::State& state, size_t characters, int threads) {
   const CrowdCharacter& cc = GetCrowdCharacter();
   if (!cc.error.empty()) return state.SkipWithError(cc.error.c_str());
   const size_t per = cc.frames[0].size(), f_count = cc.frames.size();
-  std::vector<std::vector<rt::Contact>> reference(f_count);
+  std::vector<std::vector<rt::SpherePair>> reference(f_count);
   for (size_t f = 0; f < f_count; ++f) rt::SelfCollisionAllPairs(cc.frames[f], *cc.filter, &reference[f]);
   std::vector<rt::BroadPhaseContext> contexts(characters);
-  std::vector<std::vector<rt::Contact>> outs(characters);
+  std::vector<std::vector<rt::SpherePair>> outs(characters);
   std::vector<rt::SelfCollisionJob> jobs(characters);
   for (size_t k = 0; k < characters; ++k) {
     contexts[k].Resize(per);
@@ -623,12 +626,13 @@ void CrowdAloneOurs(benchmark::State& state, size_t characters, int threads) {
   skinspheres::bench::TimedParallelFor pf(threads);
   const auto frame = [&](size_t f) {
     for (size_t k = 0; k < characters; ++k) jobs[k].spheres = cc.frames[(f + kPhase * k) % f_count];
-    if (!rt::RunSelfCollisionJobs(jobs, pf.get())) Abort("crowd job failed");
+    if (!rt::RunParallel(jobs, pf.get())) Abort("crowd job failed");
   };
   for (size_t f = 0; f < 2 * f_count; ++f) {
     frame(f);
     for (size_t k = 0; k < characters; ++k) {
-      if (outs[k] != reference[(f + kPhase * k) % f_count]) Abort("d_crowd alone: character " + std::to_string(k) + " differs");
+      if (outs[k] != reference[(f + kPhase * k) % f_count])
+        Abort("d_crowd alone: character " + std::to_string(k) + " differs");
     }
   }
   pf.Reset();
@@ -648,7 +652,7 @@ void CrowdAlonePeer(benchmark::State& state, size_t characters) {
   const size_t f_count = cc.frames.size();
   std::vector<std::unique_ptr<World>> worlds;
   for (size_t k = 0; k < characters; ++k) worlds.push_back(std::make_unique<World>(cc.frames[0], *cc.filter));
-  std::vector<rt::Contact> reference;
+  std::vector<rt::SpherePair> reference;
   size_t f = 0;
   const auto frame = [&](bool check) {
     size_t total = 0;

@@ -55,8 +55,8 @@
 
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/character/builtin_character.h"
-#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/api/character.h"
 #include "skinspheres/runtime/narrow_phase/narrow_phase.h"
 #include "skinspheres/runtime/narrow_phase/triangle_contact.h"
@@ -95,7 +95,7 @@ struct Frame {
   std::vector<Mat4f> joint_world;
   std::vector<Eigen::Vector3f> positions;  // whole mesh, SkinningJob CSR
   std::vector<Vec4f> spheres_exact, spheres_fast;
-  std::vector<rt::Contact> pairs_exact, pairs_fast;
+  std::vector<rt::SpherePair> pairs_exact, pairs_fast;
 };
 
 struct Workload {
@@ -149,11 +149,11 @@ bool MakeFrame(const Character& c, const std::vector<sk::Transform>& locals, rt:
   if (!l2m.Run() || !sk::SkinningMatricesJob{skin.binds, f->joint_world, mats}.Run() || !job.Run()) return false;
   if (!inst.UpdateExact(f->positions, f->joint_world).ok()) return false;
   f->spheres_exact.assign(inst.spheres().begin(), inst.spheres().end());
-  const auto pe = inst.Query();
+  const auto pe = inst.FindSpherePairs();
   f->pairs_exact.assign(pe.begin(), pe.end());
   if (!inst.UpdateFast(f->joint_world).ok()) return false;
   f->spheres_fast.assign(inst.spheres().begin(), inst.spheres().end());
-  const auto pf = inst.Query();
+  const auto pf = inst.FindSpherePairs();
   f->pairs_fast.assign(pf.begin(), pf.end());
   return true;
 }
@@ -182,8 +182,8 @@ void Load(Character* c, int index) {
   c->asset = *asset;
   std::string why;
   const auto& skin = c->ch.skin;
-  if (!c->prepared_all.Build(skin.vertex_count(), skin.influence_offsets, skin.influence_binds, skin.influence_weights, {},
-                             &why)) {
+  if (!c->prepared_all.Build(skin.vertex_count(), skin.influence_offsets, skin.influence_binds, skin.influence_weights,
+                             {}, &why)) {
     return void(c->error = why);
   }
   auto inst = rt::CharacterInstance::Create(c->asset);
@@ -206,7 +206,8 @@ void Load(Character* c, int index) {
   std::mt19937 rng(7);
   for (int k = 0; k < kRandomFrames; ++k) {
     c->work[1].frames.emplace_back();
-    if (!MakeFrame(*c, RandomLocals(c->ch, rng), *inst, &c->work[1].frames.back())) return void(c->error = "posing failed");
+    if (!MakeFrame(*c, RandomLocals(c->ch, rng), *inst, &c->work[1].frames.back()))
+      return void(c->error = "posing failed");
   }
   for (Workload& w : c->work) {
     if (w.frames.empty()) {
@@ -244,8 +245,8 @@ Character* Get(benchmark::State& state, int index, int work) {
   return c;
 }
 
-void Counters(benchmark::State& state, const Character& c, size_t frames, size_t pairs, const rt::NarrowPhaseContext::Stats& s,
-              size_t contacts) {
+void Counters(benchmark::State& state, const Character& c, size_t frames, size_t pairs,
+              const rt::NarrowPhaseContext::Stats& s, size_t contacts) {
   const double n = frames ? double(frames) : 1.0;
   state.counters["sphere_pairs"] = double(pairs) / n;
   state.counters["triangle_tests"] = double(s.triangle_tests) / n;
@@ -269,7 +270,9 @@ struct WholeMeshSkinner {
   std::vector<Mat4f> mats;
   sk::SkinningJob job;
   explicit WholeMeshSkinner(const Character& character)
-      : c(character), skinned(character.ch.vertex_count(), Eigen::Vector3f::Zero()), mats(character.ch.skin.binds.size()) {
+      : c(character),
+        skinned(character.ch.vertex_count(), Eigen::Vector3f::Zero()),
+        mats(character.ch.skin.binds.size()) {
     job.joint_matrices = mats;
     job.vertex_count = c.ch.vertex_count();
     job.in_positions = Floats(c.ch.skin.positions_bind);
@@ -287,7 +290,8 @@ struct NarrowRunner {
   const rt::NarrowPhaseData& data;
   rt::NarrowPhaseContext ctx;
   WholeMeshSkinner whole;
-  NarrowRunner(const Character& character, int m) : c(character), mode(m), data(*character.asset->narrow_phase()), whole(character) {
+  NarrowRunner(const Character& character, int m)
+      : c(character), mode(m), data(*character.asset->narrow_phase()), whole(character) {
     ctx.Resize(data, mode == 1);
   }
   bool Run(const Frame& f, rt::FrameContacts* result) {
@@ -375,7 +379,8 @@ void BM_LazyVsWhole(benchmark::State& state) {
   rt::FrameContacts out_lazy, out_whole;
   out_lazy.Reserve(4096);
   out_whole.Reserve(4096);
-  if (!lazy.FastModeMatchesFullSkin(w, &out_lazy, &out_whole) || !whole.FastModeMatchesFullSkin(w, &out_whole, &out_lazy)) {
+  if (!lazy.FastModeMatchesFullSkin(w, &out_lazy, &out_whole) ||
+      !whole.FastModeMatchesFullSkin(w, &out_whole, &out_lazy)) {
     return state.SkipWithError("fast-mode contacts differ between lazy and full skinning");
   }
   using Clock = std::chrono::steady_clock;
@@ -414,7 +419,10 @@ void BM_LazyVsWhole(benchmark::State& state) {
   state.counters["skinned"] = double(stats.skinned_vertices) / n;
   state.counters["vertices"] = double(c->ch.vertex_count());
 }
-BENCHMARK(BM_LazyVsWhole)->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}})->ArgNames({"char", "work"})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_LazyVsWhole)
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}})
+    ->ArgNames({"char", "work"})
+    ->Unit(benchmark::kMicrosecond);
 
 void BM_Stage(benchmark::State& state) {
   const int work = int(state.range(1)), stage = int(state.range(2));
@@ -425,7 +433,7 @@ void BM_Stage(benchmark::State& state) {
   inst->ReserveContacts(8192);
   WholeMeshSkinner whole(*c);
   rt::BroadPhaseContext ctx(c->set.size());
-  std::vector<rt::Contact> out;
+  std::vector<rt::SpherePair> out;
   out.reserve(8192);
   while (state.KeepRunningBatch(benchmark::IterationCount(w.frames.size()))) {
     for (const Frame& f : w.frames) {
@@ -466,13 +474,16 @@ void BM_OursExact(benchmark::State& state) {
       if (!inst->UpdateExact(f.positions, f.joint_world).ok() || !inst->FindContacts(f.positions).ok()) {
         return state.SkipWithError("frame failed");
       }
-      contacts += inst->frame_contacts().triangle_pairs.size();
+      contacts += inst->contacts().triangle_pairs.size();
       ++frame;
     }
   }
   state.counters["contacts"] = frame ? double(contacts) / double(frame) : 0.0;
 }
-BENCHMARK(BM_OursExact)->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}})->ArgNames({"char", "work"})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_OursExact)
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}})
+    ->ArgNames({"char", "work"})
+    ->Unit(benchmark::kMicrosecond);
 
 void BM_ClusterSize(benchmark::State& state) {
   const int work = int(state.range(1));
@@ -527,25 +538,29 @@ void BM_LazySkin(benchmark::State& state) {
       std::vector<uint32_t> members;
       for (uint32_t r = data.group_run_offsets()[g]; r < data.group_run_offsets()[g + 1]; ++r) {
         const uint32_t run = data.group_runs()[r];
-        for (uint32_t slot = data.run_begin()[run]; slot < data.run_begin()[run + 1]; ++slot) members.push_back(lazy.vertices()[slot]);
+        for (uint32_t slot = data.run_begin()[run]; slot < data.run_begin()[run + 1]; ++slot)
+          members.push_back(lazy.vertices()[slot]);
       }
       std::sort(members.begin(), members.end());
-      per_group[g].Build(skin.vertex_count(), skin.influence_offsets, skin.influence_binds, skin.influence_weights, members);
+      per_group[g].Build(skin.vertex_count(), skin.influence_offsets, skin.influence_binds, skin.influence_weights,
+                         members);
     }
   }
   size_t marked_vertices = 0;
   for (size_t k = 0; k < w.frames.size(); ++k) {
     std::vector<char> group_on(data.group_count(), 0), run_on(data.run_count(), 0);
-    for (const rt::Contact& p : w.frames[k].pairs_fast) {
+    for (const rt::SpherePair& p : w.frames[k].pairs_fast) {
       for (uint32_t s : {p.i, p.j}) {
-        for (uint32_t q = data.sphere_group_offsets()[s]; q < data.sphere_group_offsets()[s + 1]; ++q) group_on[data.sphere_groups()[q]] = 1;
+        for (uint32_t q = data.sphere_group_offsets()[s]; q < data.sphere_group_offsets()[s + 1]; ++q)
+          group_on[data.sphere_groups()[q]] = 1;
       }
     }
     for (uint32_t g = 0; g < data.group_count(); ++g) {
       if (!group_on[g]) continue;
       groups[k].push_back(g);
       marked_vertices += data.group_sizes()[g];
-      for (uint32_t r = data.group_run_offsets()[g]; r < data.group_run_offsets()[g + 1]; ++r) run_on[data.group_runs()[r]] = 1;
+      for (uint32_t r = data.group_run_offsets()[g]; r < data.group_run_offsets()[g + 1]; ++r)
+        run_on[data.group_runs()[r]] = 1;
     }
     for (uint32_t r = 0; r < data.run_count(); ++r) {
       if (!run_on[r]) continue;
@@ -559,7 +574,8 @@ void BM_LazySkin(benchmark::State& state) {
   std::vector<Eigen::Vector3f> out(skin.vertex_count(), Eigen::Vector3f::Zero());
   std::vector<std::vector<Mat4f>> mats(w.frames.size(), std::vector<Mat4f>(skin.binds.size()));
   for (size_t k = 0; k < w.frames.size(); ++k) {
-    if (!sk::SkinningMatricesJob{skin.binds, w.frames[k].joint_world, mats[k]}.Run()) return state.SkipWithError("matrices");
+    if (!sk::SkinningMatricesJob{skin.binds, w.frames[k].joint_world, mats[k]}.Run())
+      return state.SkipWithError("matrices");
   }
   sk::SkinningJob job;
   job.vertex_count = skin.vertex_count();
@@ -586,7 +602,8 @@ void BM_LazySkin(benchmark::State& state) {
     benchmark::ClobberMemory();
     ++frame;
   }
-  state.counters["skinned"] = way == 2 ? double(skin.vertex_count()) : double(marked_vertices) / double(w.frames.size());
+  state.counters["skinned"] =
+      way == 2 ? double(skin.vertex_count()) : double(marked_vertices) / double(w.frames.size());
   state.counters["vertices"] = double(skin.vertex_count());
   size_t span_count = 0;
   for (const auto& s : spans) span_count += s.size();
@@ -658,7 +675,8 @@ struct FclWorld {
             allowed = set.sphere_part[i] == p && set.sphere_part[j] == q && !filter.excluded(i, j);
           }
         }
-        if (allowed && !parts[p].triangles.empty() && !parts[q].triangles.empty()) part_pairs.push_back({int(p), int(q)});
+        if (allowed && !parts[p].triangles.empty() && !parts[q].triangles.empty())
+          part_pairs.push_back({int(p), int(q)});
       }
     }
   }
@@ -696,7 +714,8 @@ void CheckFcl(Character* c, Workload* w, FclWorld* world) {
   const rt::PairFilter& filter = c->asset->filter();
   std::vector<uint32_t> owner(c->set.source_triangle_count, UINT32_MAX);
   for (uint32_t s = 0; s < c->set.size(); ++s) {
-    for (uint32_t k = c->set.triangle_offsets[s]; k < c->set.triangle_offsets[s + 1]; ++k) owner[c->set.triangles[k]] = s;
+    for (uint32_t k = c->set.triangle_offsets[s]; k < c->set.triangle_offsets[s + 1]; ++k)
+      owner[c->set.triangles[k]] = s;
   }
   auto degenerate = [&](const std::vector<Eigen::Vector3f>& pos, uint32_t t) {
     const uint32_t* v = &c->set.triangle_vertices[3 * size_t{t}];
@@ -714,7 +733,7 @@ void CheckFcl(Character* c, Workload* w, FclWorld* world) {
     });
     inst->UpdateExact(f.positions, f.joint_world);
     inst->FindContacts(f.positions);
-    const rt::FrameContacts& fc = inst->frame_contacts();
+    const rt::FrameContacts& fc = inst->contacts();
     for (const rt::PartContact& p : fc.parts) {
       if (p.part_a == p.part_b) continue;
       for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {

@@ -21,13 +21,13 @@
 
 #if SKINSPHERES_HAVE_PEERS
 #include <btBulletCollisionCommon.h>
+#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
+#include <fcl/geometry/shape/sphere.h>
+#include <fcl/narrowphase/collision_object.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
-#include <fcl/geometry/shape/sphere.h>
-#include <fcl/narrowphase/collision_object.h>
 #include <memory>
 #include <span>
 #include <vector>
@@ -41,7 +41,7 @@ namespace rt = skinspheres::runtime;
 
 // The sphere test of broad_phase.h, same float operations. Adds a contact (Sorted) or counts it.
 struct PeerOutput {
-  std::vector<rt::Contact>* list = nullptr;  // null: count only
+  std::vector<rt::SpherePair>* list = nullptr;  // null: count only
   size_t count = 0;
 
   void Test(const skinspheres::Vec4f& a, const skinspheres::Vec4f& b, uint32_t i, uint32_t j, const rt::PairFilter& f) {
@@ -51,12 +51,12 @@ struct PeerOutput {
     const float rsum = a.w() + b.w();
     if (!(d2 <= rsum * rsum)) return;
     ++count;
-    if (list != nullptr) list->push_back(rt::Contact{i, j, rsum - std::sqrt(d2), f.part(i), f.part(j)});
+    if (list != nullptr) list->push_back(rt::SpherePair{i, j, rsum - std::sqrt(d2), f.part(i), f.part(j)});
   }
   void Finish() {
     if (list != nullptr) {
       std::sort(list->begin(), list->end(),
-                [](const rt::Contact& p, const rt::Contact& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; });
+                [](const rt::SpherePair& p, const rt::SpherePair& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; });
     }
   }
 };
@@ -95,7 +95,7 @@ class BulletWorld {
   BulletWorld& operator=(const BulletWorld&) = delete;
 
   // list == nullptr: count only. Returns the contact count.
-  size_t Frame(std::span<const skinspheres::Vec4f> s, std::vector<rt::Contact>* list) {
+  size_t Frame(std::span<const skinspheres::Vec4f> s, std::vector<rt::SpherePair>* list) {
     for (size_t i = 0; i < s.size(); ++i) {
       const btVector3 c(s[i].x(), s[i].y(), s[i].z()), r(s[i].w(), s[i].w(), s[i].w());
       broadphase_.setAabb(proxies_[i], c - r, c + r, &dispatcher_);
@@ -141,7 +141,7 @@ class FclWorld {
     moved_.reserve(s.size());
   }
 
-  size_t Frame(std::span<const skinspheres::Vec4f> s, std::vector<rt::Contact>* list) {
+  size_t Frame(std::span<const skinspheres::Vec4f> s, std::vector<rt::SpherePair>* list) {
     moved_.clear();
     for (size_t i = 0; i < s.size(); ++i) {
       const bool radius_changed = s[i].w() != current_[i].w();

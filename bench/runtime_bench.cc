@@ -30,14 +30,14 @@
 //                            -DSKINSPHERES_AVX2=ON build both copies are VEX code)
 //   BM_XbotQuery/fast:0|1    SelfCollisionJob (sort and sweep) on the exact- or fast-refitted spheres
 //   BM_XbotAllPairs/fast:0|1 SelfCollisionAllPairs on the same spheres (the naive reference)
-//   BM_XbotFrameExact        pose + skin sources (prepared) + UpdateExact + Query
-//   BM_XbotFrameFast         pose + UpdateFast + Query
+//   BM_XbotFrameExact        pose + skin sources (prepared) + UpdateExact + FindSpherePairs
+//   BM_XbotFrameFast         pose + UpdateFast + FindSpherePairs
 //   BM_XbotSetup             no timing: fit time, sphere / vertex counts, mean contacts per frame
 // The query rows check, before timing, that sort-and-sweep equals all-pairs on every frame.
 //
 // Crowd (shared CharacterAsset, one CharacterInstance each, instance k plays the loop 7k frames
 // ahead), at 1 and 2 threads:
-//   BM_CrowdFast             UpdateAndQueryCrowd(kFast): fast refit + query, 1 to 10,000
+//   BM_CrowdFast             CrowdUpdateAndFindSpherePairs(kFast): fast refit + query, 1 to 10,000
 //                            instances, on a TBB arena of exactly 1 or 2 threads (thread_cpu.h),
 //                            with each thread's CPU time in the work next to the wall time. G_j(t)
 //                            per instance is precomputed per frame OUTSIDE the timed region.
@@ -169,8 +169,7 @@ void MakeLocals(const Xbot& x, const std::vector<skinspheres::Mat4f>& rest_world
       case lib::PartKind::kHead:
         if (!c.empty()) world[c[0]] = aa(0.15f * std::sin(2.0f * phi), left);
         break;
-      default:
-        break;
+      default: break;
     }
   }
   // A world rotation about the joint's own origin becomes a local one by conjugating with the
@@ -242,7 +241,7 @@ void Load(Xbot* x, int variant) {
   x->skinned.assign(kFrames, std::vector<Eigen::Vector3f>(skin.vertex_count(), Eigen::Vector3f::Zero()));
   x->spheres_exact.resize(kFrames);
   x->spheres_fast.resize(kFrames);
-  std::vector<rt::Contact> contacts;
+  std::vector<rt::SpherePair> contacts;
   size_t total_exact = 0, total_fast = 0;
   for (int f = 0; f < kFrames; ++f) {
     MakeLocals(*x, rest_world, f, &x->locals[f]);
@@ -260,11 +259,13 @@ void Load(Xbot* x, int variant) {
     if (!l2m.Run() || !mats.Run() || !job.Run()) return Fail(x, "posing or skinning frame failed");
     if (!instance->UpdateExact(x->skinned[f], x->joint_world[f]).ok()) return Fail(x, instance->status().message);
     x->spheres_exact[f].assign(instance->spheres().begin(), instance->spheres().end());
-    if (!rt::SelfCollisionAllPairs(x->spheres_exact[f], x->asset->filter(), &contacts)) return Fail(x, "all-pairs failed");
+    if (!rt::SelfCollisionAllPairs(x->spheres_exact[f], x->asset->filter(), &contacts))
+      return Fail(x, "all-pairs failed");
     total_exact += contacts.size();
     if (!instance->UpdateFast(x->joint_world[f]).ok()) return Fail(x, instance->status().message);
     x->spheres_fast[f].assign(instance->spheres().begin(), instance->spheres().end());
-    if (!rt::SelfCollisionAllPairs(x->spheres_fast[f], x->asset->filter(), &contacts)) return Fail(x, "all-pairs failed");
+    if (!rt::SelfCollisionAllPairs(x->spheres_fast[f], x->asset->filter(), &contacts))
+      return Fail(x, "all-pairs failed");
     total_fast += contacts.size();
   }
   x->contacts_exact = double(total_exact) / kFrames;
@@ -400,9 +401,11 @@ class PinnedRefit {
                                                    rt::internal::RefitSimd::kAvx512};
     ok_ = rt::internal::PinRefitSimd(kLevels[level]);
     rt::internal::SetCrowdQueryBatched(level != 3);
-    if (!ok_) state.SkipWithError("the CPU lacks this instruction set");
-    else state.SetLabel(std::string(rt::internal::ToString(rt::internal::RefitSimdInUse())) +
-                        (level == 3 ? ", query one by one" : ""));
+    if (!ok_)
+      state.SkipWithError("the CPU lacks this instruction set");
+    else
+      state.SetLabel(std::string(rt::internal::ToString(rt::internal::RefitSimdInUse())) +
+                     (level == 3 ? ", query one by one" : ""));
   }
   ~PinnedRefit() {
     rt::internal::PinRefitSimd(rt::internal::RefitSimd::kAuto);
@@ -441,7 +444,7 @@ void BM_XbotQuery(benchmark::State& state) {
   const auto& frames = state.range(1) ? x->spheres_fast : x->spheres_exact;
   const rt::PairFilter& filter = x->asset->filter();
   rt::BroadPhaseContext ctx(x->set.size());
-  std::vector<rt::Contact> out, oracle;
+  std::vector<rt::SpherePair> out, oracle;
   out.reserve(8 * x->set.size());
   for (int f = 0; f < kFrames; ++f) {
     rt::SelfCollisionAllPairs(frames[f], filter, &oracle);
@@ -471,7 +474,7 @@ void BM_XbotAllPairs(benchmark::State& state) {
   const Xbot* x = GetXbot(state, int(state.range(0)));
   if (!x) return;
   const auto& frames = state.range(1) ? x->spheres_fast : x->spheres_exact;
-  std::vector<rt::Contact> out;
+  std::vector<rt::SpherePair> out;
   out.reserve(8 * x->set.size());
   size_t frame = 0, contacts = 0;
   for (auto _ : state) {
@@ -510,7 +513,7 @@ void BM_XbotFrameExact(benchmark::State& state) {
     const bool ok = l2m.Run() && sk::SkinningMatricesJob{skin.binds, world, mats}.Run() && job.Run() &&
                     instance->UpdateExact(skinned, world).ok();
     if (!ok) return state.SkipWithError("frame failed");
-    contacts += instance->Query().size();
+    contacts += instance->FindSpherePairs().size();
     ++frame;
   }
   SphereCounters(state, *x);
@@ -532,7 +535,7 @@ void BM_XbotFrameFast(benchmark::State& state) {
     l2m.input = x->locals[frame % kFrames];
     l2m.output = world;
     if (!l2m.Run() || !instance->UpdateFast(world).ok()) return state.SkipWithError("frame failed");
-    contacts += instance->Query().size();
+    contacts += instance->FindSpherePairs().size();
     ++frame;
   }
   SphereCounters(state, *x);
@@ -559,7 +562,7 @@ void BM_CrowdFast(benchmark::State& state) {
   for (size_t k = 0; k < count; ++k) {
     // No ReserveContacts: it also sizes the narrow phase's scratch (about 570 KB for Xbot), which a
     // broad-phase-only crowd never uses (10,000 instances: 5.3 GB of RSS with it, 0.47 GB without;
-    // ReserveSphereContacts is the call for such a crowd). Create's room (4 contacts per sphere)
+    // ReserveSpherePairs is the call for such a crowd). Create's room (4 contacts per sphere)
     // holds the ~22 contacts of a frame.
     instances.push_back(rt::CharacterInstance::Create(x->asset).value());
   }
@@ -569,19 +572,19 @@ void BM_CrowdFast(benchmark::State& state) {
   for (int f = 0; f < kFrames; ++f)
     for (size_t k = 0; k < count; ++k) inputs[f][k].joint_world = x->joint_world[(f + kPhaseShift * k) % kFrames];
   // One warm-up frame (caches, contact lists), then per-thread CPU time of the timed frames only.
-  if (!rt::UpdateAndQueryCrowd(pointers, inputs[0], rt::RefitMode::kFast, pf.get()).ok()) {
+  if (!rt::CrowdUpdateAndFindSpherePairs(pointers, inputs[0], rt::RefitMode::kFast, pf.get()).ok()) {
     return state.SkipWithError("crowd update failed");
   }
   pf.Reset();
   size_t frame = 1;
   for (auto _ : state) {
-    if (!rt::UpdateAndQueryCrowd(pointers, inputs[frame % kFrames], rt::RefitMode::kFast, pf.get()).ok()) {
+    if (!rt::CrowdUpdateAndFindSpherePairs(pointers, inputs[frame % kFrames], rt::RefitMode::kFast, pf.get()).ok()) {
       return state.SkipWithError("crowd update failed");
     }
     ++frame;
   }
   size_t contacts = 0;
-  for (const auto& i : instances) contacts += i.contacts().size();
+  for (const auto& i : instances) contacts += i.sphere_pairs().size();
   state.counters["contacts_last_frame"] = double(contacts);
   state.counters["spheres_total"] = double(count * x->set.size());
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(count));  // characters per second
@@ -590,7 +593,7 @@ void BM_CrowdFast(benchmark::State& state) {
 BENCHMARK(BM_CrowdFast)
     ->ArgsProduct({{0, 1}, {1, 10, 100, 1000, 10000}, {1, 2}, {0}})
     ->ArgsProduct({{0}, {1000, 10000}, {1, 2}, {1, 2, 3, 4}})  // SSE2, AVX2 and the AVX-512 batch side by side
-    ->ArgsProduct({{2, 3}, {1000}, {1}, {2, 3, 4}})  // denser sets: where the batch's query stops paying
+    ->ArgsProduct({{2, 3}, {1000}, {1}, {2, 3, 4}})            // denser sets: where the batch's query stops paying
     ->ArgNames({"fit", "instances", "threads", "simd"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
@@ -655,7 +658,7 @@ void PeerBenchmark(benchmark::State& state, const char* name) {
   const auto& frames = state.range(1) ? x->spheres_fast : x->spheres_exact;
   const rt::PairFilter& filter = x->asset->filter();
   World world(frames[0], filter);
-  std::vector<rt::Contact> out, oracle;
+  std::vector<rt::SpherePair> out, oracle;
   out.reserve(8 * x->set.size());
   for (int f = 0; f < kFrames; ++f) {
     world.Frame(frames[f], &out);
@@ -674,8 +677,14 @@ void PeerBenchmark(benchmark::State& state, const char* name) {
 }
 void BM_XbotPeerBulletDbvt(benchmark::State& state) { PeerBenchmark<BulletWorld>(state, "Bullet"); }
 void BM_XbotPeerFclDynamicTree(benchmark::State& state) { PeerBenchmark<FclWorld>(state, "FCL"); }
-BENCHMARK(BM_XbotPeerBulletDbvt)->ArgsProduct({{0, 1}, {0, 1}})->ArgNames({"fit", "fast"})->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_XbotPeerFclDynamicTree)->ArgsProduct({{0, 1}, {0, 1}})->ArgNames({"fit", "fast"})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_XbotPeerBulletDbvt)
+    ->ArgsProduct({{0, 1}, {0, 1}})
+    ->ArgNames({"fit", "fast"})
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_XbotPeerFclDynamicTree)
+    ->ArgsProduct({{0, 1}, {0, 1}})
+    ->ArgNames({"fit", "fast"})
+    ->Unit(benchmark::kMicrosecond);
 #endif  // SKINSPHERES_HAVE_PEERS
 
 }  // namespace

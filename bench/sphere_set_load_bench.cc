@@ -14,8 +14,8 @@
 #include <string>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/format/sphere_set_binary.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
 
@@ -104,7 +104,8 @@ void BM_ReadFastOnly(benchmark::State& state) {
       [](const Files& f) { return runtime::ReadSphereSetBinary(f.fast_only_bytes, "xbot_fast.ssb"); });
 }
 void BM_OpenBinaryView(benchmark::State& state) {
-  Run(state, BinaryBytes(), [](const Files& f) { return runtime::SphereSetBinaryView::Open(f.binary_bytes, "xbot.ssb"); });
+  Run(state, BinaryBytes(),
+      [](const Files& f) { return runtime::SphereSetBinaryView::Open(f.binary_bytes, "xbot.ssb"); });
 }
 
 BENCHMARK(BM_LoadJsonFile)->Unit(benchmark::kMicrosecond);

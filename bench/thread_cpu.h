@@ -5,7 +5,7 @@
 // near zero means the first did it all (and the wall time shows it).
 //
 //   TimedParallelFor pf(2);
-//   for (auto _ : state) RunSelfCollisionJobs(jobs, pf.get());
+//   for (auto _ : state) RunParallel(jobs, pf.get());
 //   pf.Report(state);   // counters cpu_t0_ms, cpu_t1_ms (per iteration, heaviest thread first), cpu_sum_ms
 #pragma once
 

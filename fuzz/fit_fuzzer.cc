@@ -52,8 +52,10 @@ lib::RawCharacter Decode(Bytes& in, lib::FitSettings* settings) {
   for (int j = 0; j < joints; ++j) {
     const uint8_t kind = in.Next() % 8;
     Mat4f ibm = Mat4f::Identity();
-    if (kind == 0) ibm = Mat4f::Zero();
-    else if (kind >= 2 && std::abs(world[j].topLeftCorner<3, 3>().determinant()) > 1e-6f) ibm = world[j].inverse();
+    if (kind == 0)
+      ibm = Mat4f::Zero();
+    else if (kind >= 2 && std::abs(world[j].topLeftCorner<3, 3>().determinant()) > 1e-6f)
+      ibm = world[j].inverse();
     c.skin.binds.push_back({j, ibm});
   }
   const int vertices = 3 + in.Next() % 46;
@@ -76,12 +78,14 @@ lib::RawCharacter Decode(Bytes& in, lib::FitSettings* settings) {
     Vec4f p = Vec4f::Zero();
     for (uint32_t k = c.skin.influence_offsets[v]; k < c.skin.influence_offsets[v + 1]; ++k) {
       const auto& bind = c.skin.binds[c.skin.influence_binds[k]];
-      p += c.skin.influence_weights[k] * (world[bind.joint] * bind.inverse_bind * c.skin.positions_bind[v].homogeneous());
+      p += c.skin.influence_weights[k] *
+           (world[bind.joint] * bind.inverse_bind * c.skin.positions_bind[v].homogeneous());
     }
     c.positions_rest.push_back(p.head<3>());
   }
   const int triangles = 1 + in.Next() % 64;
-  for (int t = 0; t < triangles; ++t) c.triangles.emplace_back(in.Next() % vertices, in.Next() % vertices, in.Next() % vertices);
+  for (int t = 0; t < triangles; ++t)
+    c.triangles.emplace_back(in.Next() % vertices, in.Next() % vertices, in.Next() % vertices);
   c.meshes.push_back({"mesh", 0, static_cast<uint32_t>(vertices), 0, static_cast<uint32_t>(triangles), true, -1});
 
   settings->rays = 3 + in.Next() % 14;
@@ -138,10 +142,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       for (int v = 0; v < 3; ++v) {
         const Eigen::Vector3d p = c.positions_rest[c.triangles[set.triangles[k]][v]].cast<double>();
         const double d = (p - spheres[s].head<3>().cast<double>()).norm();
-        SKINSPHERES_FUZZ_CHECK(d <= spheres[s].w() * (1.0 + 1e-5) + 1e-30, "exact refit at rest leaves a vertex outside");
+        SKINSPHERES_FUZZ_CHECK(d <= spheres[s].w() * (1.0 + 1e-5) + 1e-30,
+                               "exact refit at rest leaves a vertex outside");
       }
     }
   }
-  instance->Query();
+  instance->FindSpherePairs();
   return 0;
 }

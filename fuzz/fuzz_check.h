@@ -15,8 +15,8 @@ namespace skinspheres::fuzz {
   std::abort();
 }
 
-#define SKINSPHERES_FUZZ_CHECK(cond, detail) \
-  do {                                       \
+#define SKINSPHERES_FUZZ_CHECK(cond, detail)                     \
+  do {                                                           \
     if (!(cond)) ::skinspheres::fuzz::Violated(#cond, (detail)); \
   } while (0)
 

@@ -24,19 +24,19 @@ inline void DriveEngine(runtime::SphereSet set) {
   auto instance = runtime::CharacterInstance::Create(*asset);
   SKINSPHERES_FUZZ_CHECK(instance.ok(), instance.ok() ? "" : instance.error().message);
   instance->UpdateFast(rest);
-  instance->Query();
+  instance->FindSpherePairs();
   // The narrow phase (sets with a mesh): mode (b) skins what the pairs need from the joints.
   const runtime::NarrowPhaseData* narrow = (*asset)->narrow_phase();
   if (narrow != nullptr) instance->FindContacts();
   if (exact && vertices <= (1u << 16)) {
     const std::vector<Eigen::Vector3f> positions(vertices, Eigen::Vector3f::Zero());
     instance->UpdateExact(positions, rest);
-    instance->Query();
+    instance->FindSpherePairs();
     // Mode (a) on the rest pose's own positions: the exact refit's input and the narrow phase's.
     if (narrow != nullptr && narrow->rest_positions().size() == vertices) {
       const std::span<const Eigen::Vector3f> at_rest = narrow->rest_positions();
       instance->UpdateExact(at_rest, rest);
-      instance->Query();
+      instance->FindSpherePairs();
       instance->FindContacts(at_rest);
     }
   }

@@ -10,8 +10,8 @@
 #include <span>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/format/sphere_set_binary.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
 #include "tiny_gltf.h"
@@ -28,7 +28,8 @@ void Save(const std::filesystem::path& file, const std::string& bytes) {
 }
 
 std::optional<runtime::SphereSet> FitSet(const std::string& gltf, bool tighten) {
-  const auto c = lib::ImportGltfBytes(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(gltf.data()), gltf.size()), "seed.gltf");
+  const auto c = lib::ImportGltfBytes(
+      std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(gltf.data()), gltf.size()), "seed.gltf");
   if (!c.ok()) return std::nullopt;
   const auto parts = lib::SplitBodyParts(*c);
   if (!parts.ok()) return std::nullopt;
@@ -40,7 +41,9 @@ std::optional<runtime::SphereSet> FitSet(const std::string& gltf, bool tighten) 
   return fit->spheres;
 }
 
-std::string Bytes(const std::vector<std::byte>& b) { return std::string(reinterpret_cast<const char*>(b.data()), b.size()); }
+std::string Bytes(const std::vector<std::byte>& b) {
+  return std::string(reinterpret_cast<const char*>(b.data()), b.size());
+}
 
 }  // namespace
 
@@ -60,7 +63,8 @@ int main(int argc, char** argv) {
     const float moved[3] = {2, 0.5f, 0};
     t.MakeSparse(0, {1}, 5121, moved, sizeof moved);
   };
-  const std::pair<const char*, lib::TinyOptions> cases[] = {{"tiny", {}}, {"anim", anim}, {"strip", strip}, {"sparse", sparse}};
+  const std::pair<const char*, lib::TinyOptions> cases[] = {
+      {"tiny", {}}, {"anim", anim}, {"strip", strip}, {"sparse", sparse}};
   for (const auto& [name, options] : cases) {
     const json j = lib::MakeTiny(options);
     Save(out / "gltf" / (std::string(name) + ".gltf"), j.dump());
@@ -77,7 +81,8 @@ int main(int argc, char** argv) {
   // The binary asset: whole (mesh included) and fast-only.
   using runtime::SphereSetBinaryContent;
   Save(out / "sphere_set_binary" / "tiny.ssb", Bytes(runtime::WriteSphereSetBinary(*tight)));
-  Save(out / "sphere_set_binary" / "tiny_fast_only.ssb", Bytes(runtime::WriteSphereSetBinary(*tight, SphereSetBinaryContent::kFastOnly)));
+  Save(out / "sphere_set_binary" / "tiny_fast_only.ssb",
+       Bytes(runtime::WriteSphereSetBinary(*tight, SphereSetBinaryContent::kFastOnly)));
   Save(out / "sphere_set_binary" / "tiny_untightened.ssb", Bytes(runtime::WriteSphereSetBinary(*loose)));
   // The fit target decodes any bytes into a character: seeds of a few sizes, from a fixed seed.
   std::mt19937 rng(20240601);

@@ -73,11 +73,12 @@ Result<runtime::SphereSet> ReadEveryWay(std::span<const std::byte> bytes) {
                            read.error().message + " / at an odd address: " + Message(read_odd));
     SKINSPHERES_FUZZ_CHECK(!loaded.ok(), read.error().message + " / from the file: accepted");
     fuzz::CheckError(loaded.error(), scratch.path.string());
-    SKINSPHERES_FUZZ_CHECK(loaded.error().code == read.error().code, read.error().message + " / " + loaded.error().message);
+    SKINSPHERES_FUZZ_CHECK(loaded.error().code == read.error().code,
+                           read.error().message + " / " + loaded.error().message);
     return read;
   }
-  SKINSPHERES_FUZZ_CHECK(read_odd.ok() && loaded.ok(), "accepted in memory; odd address: " + Message(read_odd) +
-                                                           "; file: " + Message(loaded));
+  SKINSPHERES_FUZZ_CHECK(read_odd.ok() && loaded.ok(),
+                         "accepted in memory; odd address: " + Message(read_odd) + "; file: " + Message(loaded));
   const std::vector<std::byte> encoded = runtime::WriteSphereSetBinary(*read);
   SKINSPHERES_FUZZ_CHECK(runtime::WriteSphereSetBinary(*read_odd) == encoded, "odd address read another set");
   SKINSPHERES_FUZZ_CHECK(runtime::WriteSphereSetBinary(*loaded) == encoded, "the file route read another set");
@@ -99,7 +100,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 
   runtime::SphereSet& set = *read;
   SKINSPHERES_FUZZ_CHECK(!set.Validate().has_value(), set.Validate()->message);
-  const auto content = set.fast_only ? runtime::SphereSetBinaryContent::kFastOnly : runtime::SphereSetBinaryContent::kFull;
+  const auto content =
+      set.fast_only ? runtime::SphereSetBinaryContent::kFastOnly : runtime::SphereSetBinaryContent::kFull;
   const std::vector<std::byte> encoded = runtime::WriteSphereSetBinary(set, content);
   auto again = runtime::ReadSphereSetBinary(encoded, kName);
   SKINSPHERES_FUZZ_CHECK(again.ok(), Message(again));

@@ -39,8 +39,7 @@ std::filesystem::path Asset(const std::string& file_name) {
 }
 
 const std::vector<std::string>& SharedCharacters() {
-  static const std::vector<std::string> names = {"CesiumMan.glb", "RobotExpressive.glb",
-                                                 "Soldier.glb", "Xbot.glb"};
+  static const std::vector<std::string> names = {"CesiumMan.glb", "RobotExpressive.glb", "Soldier.glb", "Xbot.glb"};
   return names;
 }
 

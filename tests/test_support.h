@@ -62,7 +62,6 @@ bool MakeLongFile(const std::filesystem::path& path, uint64_t bytes, const std::
 }  // namespace skinspheres::test
 
 // Skips the current test with a message when a shared character is missing.
-#define SKINSPHERES_REQUIRE_ASSET(path_var, file_name)                                   \
-  const std::filesystem::path path_var = ::skinspheres::test::Asset(file_name);          \
-  if (path_var.empty()) GTEST_SKIP() << "shared asset " << (file_name)                   \
-                                     << " not found under " SKINSPHERES_ASSET_DIR
+#define SKINSPHERES_REQUIRE_ASSET(path_var, file_name)                          \
+  const std::filesystem::path path_var = ::skinspheres::test::Asset(file_name); \
+  if (path_var.empty()) GTEST_SKIP() << "shared asset " << (file_name) << " not found under " SKINSPHERES_ASSET_DIR

@@ -576,7 +576,7 @@
     var legend = sph.parts.map(function (name, p) {
       return '<span><span class="swatch" style="background:#' + new THREE.Color(partColor(p)).getHexString() + '"></span>' + esc(name) + '</span>';
     });
-    legend.push('<span><span class="swatch" style="background:#ff0000"></span>sphere contact</span>');
+    legend.push('<span><span class="swatch" style="background:#ff0000"></span>sphere pair</span>');
     if (clips.some(function (c) { return c.info.triangle_pairs; })) {
       legend.push('<span><span class="swatch" style="background:#ff00ff"></span>intersecting triangles</span>');
     }

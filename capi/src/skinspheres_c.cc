@@ -36,12 +36,12 @@ struct skinspheres_instance {
 };
 
 // The C structs are the C++ ones, byte for byte: contacts are handed out in place.
-static_assert(sizeof(skinspheres_contact) == sizeof(rt::Contact));
-static_assert(offsetof(skinspheres_contact, sphere_i) == offsetof(rt::Contact, i));
-static_assert(offsetof(skinspheres_contact, sphere_j) == offsetof(rt::Contact, j));
-static_assert(offsetof(skinspheres_contact, depth) == offsetof(rt::Contact, depth));
-static_assert(offsetof(skinspheres_contact, part_i) == offsetof(rt::Contact, part_i));
-static_assert(offsetof(skinspheres_contact, part_j) == offsetof(rt::Contact, part_j));
+static_assert(sizeof(skinspheres_sphere_pair) == sizeof(rt::SpherePair));
+static_assert(offsetof(skinspheres_sphere_pair, sphere_i) == offsetof(rt::SpherePair, i));
+static_assert(offsetof(skinspheres_sphere_pair, sphere_j) == offsetof(rt::SpherePair, j));
+static_assert(offsetof(skinspheres_sphere_pair, depth) == offsetof(rt::SpherePair, depth));
+static_assert(offsetof(skinspheres_sphere_pair, part_i) == offsetof(rt::SpherePair, part_i));
+static_assert(offsetof(skinspheres_sphere_pair, part_j) == offsetof(rt::SpherePair, part_j));
 // No padding in the narrow phase's C structs (their documented sizes): bindings declare them field
 // by field, and a caller may compare them bytewise.
 static_assert(sizeof(skinspheres_part_contact) == 52 && sizeof(skinspheres_triangle_contact) == 52);
@@ -61,8 +61,8 @@ static_assert(SKINSPHERES_OK == static_cast<int>(ErrorCode::kOk) &&
 
 namespace {
 
-thread_local std::string t_message;           // set-up errors (allocated)
-thread_local const char* t_last_error = "";   // what skinspheres_last_error returns
+thread_local std::string t_message;          // set-up errors (allocated)
+thread_local const char* t_last_error = "";  // what skinspheres_last_error returns
 
 skinspheres_status Fail(skinspheres_status status, std::string message) {
   t_message = rt::OneLine(std::move(message));  // a quoted joint name may hold a newline
@@ -110,7 +110,8 @@ std::vector<std::string> Names(const char* const* names, size_t count) {
 }
 
 // The options as the runtime's settings; false (and the failure recorded) when they are refused.
-bool NarrowSettings(const skinspheres_asset_options* options, rt::NarrowPhaseSettings& narrow, skinspheres_status& status) {
+bool NarrowSettings(const skinspheres_asset_options* options, rt::NarrowPhaseSettings& narrow,
+                    skinspheres_status& status) {
   if (options == nullptr) return true;
   const size_t first = offsetof(skinspheres_asset_options, narrow_margin) + sizeof(float);
   if (options->struct_size < first || options->struct_size > sizeof(skinspheres_asset_options)) {
@@ -151,8 +152,8 @@ skinspheres_part_contact ToC(const rt::PartContact& p) {
   skinspheres_part_contact c;
   c.part_a = p.part_a;
   c.part_b = p.part_b;
-  c.first_triangle_contact = p.first_triangle_pair;
-  c.triangle_contact_count = p.triangle_pair_count;
+  c.first_triangle_pair = p.first_triangle_pair;
+  c.triangle_pair_count = p.triangle_pair_count;
   c.intersecting_count = p.intersecting_count;
   c.sphere_pair_count = p.sphere_pair_count;
   c.depth = p.depth;
@@ -162,12 +163,12 @@ skinspheres_part_contact ToC(const rt::PartContact& p) {
   return c;
 }
 
-skinspheres_triangle_contact ToC(const rt::TrianglePairContact& t) {
+skinspheres_triangle_contact ToC(const rt::TriangleContact& t) {
   skinspheres_triangle_contact c;
   c.triangle_a = t.t;
   c.triangle_b = t.u;
   c.kind = t.kind == rt::TriangleContactKind::kIntersecting ? SKINSPHERES_TRIANGLES_INTERSECTING
-                                                              : SKINSPHERES_TRIANGLES_WITHIN_MARGIN;
+                                                            : SKINSPHERES_TRIANGLES_WITHIN_MARGIN;
   c.distance = t.distance;
   std::copy_n(t.point, 3, c.point);
   std::copy_n(t.on_t, 3, c.on_a);
@@ -211,7 +212,7 @@ void RunCrowdBlocks(void* context, size_t begin, size_t end) {
   RunCrowdRange(work, begin * work->block, std::min(end * work->block, work->count));
 }
 
-// Update + Query (+ FindContacts) of every instance through the engine's loop or the default one.
+// Update + FindSpherePairs (+ FindContacts) of every instance through the engine's loop or the default one.
 skinspheres_status RunCrowd(skinspheres_instance* const* instances, const skinspheres_frame_input* inputs, size_t count,
                             skinspheres_refit_mode mode, bool find_contacts, skinspheres_parallel_for_fn parallel_for,
                             void* user) {
@@ -226,7 +227,7 @@ skinspheres_status RunCrowd(skinspheres_instance* const* instances, const skinsp
       if (instances[i] == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
     }
     const rt::RefitMode rt_mode = mode == SKINSPHERES_MODE_FAST ? rt::RefitMode::kFast : rt::RefitMode::kExact;
-    // The loop's indices are blocks of instances, as rt::UpdateAndQueryCrowd's (CrowdBlock): no range
+    // The loop's indices are blocks of instances, as rt::CrowdUpdateAndFindSpherePairs's (CrowdBlock): no range
     // it hands out cuts a batch of 16 short.
     const size_t block = rt::CrowdBlock(rt_mode, find_contacts);
     CrowdWork work{instances, inputs, rt_mode, find_contacts, count, block};
@@ -234,7 +235,8 @@ skinspheres_status RunCrowd(skinspheres_instance* const* instances, const skinsp
     if (parallel_for != nullptr) {
       if (count) parallel_for(user, blocks, 1, &RunCrowdBlocks, &work);
     } else {
-      skinspheres::DefaultParallelFor()(blocks, 1, [&work](size_t begin, size_t end) { RunCrowdBlocks(&work, begin, end); });
+      skinspheres::DefaultParallelFor()(blocks, 1,
+                                        [&work](size_t begin, size_t end) { RunCrowdBlocks(&work, begin, end); });
     }
     if (!work.all_ok.load()) {
       return FailStatic(SKINSPHERES_INVALID_DATA, "at least one instance failed; see skinspheres_instance_status");
@@ -269,7 +271,8 @@ skinspheres_status skinspheres_asset_load_file_with(const char* path, const skin
                                                     skinspheres_asset** out_asset) {
   return Guard([&] {
     if (out_asset) *out_asset = nullptr;
-    if (path == nullptr || out_asset == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null path or out_asset");
+    if (path == nullptr || out_asset == nullptr)
+      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null path or out_asset");
     // UTF-8 on every platform (on Windows a char path would otherwise be read in the code page).
     const std::u8string utf8(reinterpret_cast<const char8_t*>(path));
     return MakeAsset(rt::LoadSphereSet(std::filesystem::path(utf8)), options, out_asset);
@@ -373,42 +376,47 @@ skinspheres_status skinspheres_instance_update_fast(skinspheres_instance* instan
 }
 
 skinspheres_status skinspheres_instance_update_exact(skinspheres_instance* instance, const float* positions,
-                                                     size_t vertex_count, const float* joint_world, size_t joint_count) {
+                                                     size_t vertex_count, const float* joint_world,
+                                                     size_t joint_count) {
   if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
   if (positions == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "exact mode needs vertex positions");
-  return FromFrame(instance->instance.UpdateExact(Positions(positions, vertex_count), Joints(joint_world, joint_count)));
+  return FromFrame(
+      instance->instance.UpdateExact(Positions(positions, vertex_count), Joints(joint_world, joint_count)));
 }
 
-skinspheres_status skinspheres_instance_query(skinspheres_instance* instance, size_t* out_count) {
+skinspheres_status skinspheres_instance_find_sphere_pairs(skinspheres_instance* instance, size_t* out_count) {
   return Guard([&] {
     if (out_count) *out_count = 0;
     if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
-    const size_t n = instance->instance.Query().size();
+    const size_t n = instance->instance.FindSpherePairs().size();
     if (out_count) *out_count = n;
     return FromFrame(instance->instance.status());
   });
 }
 
-skinspheres_status skinspheres_instance_get_contacts(const skinspheres_instance* instance, skinspheres_contact* out,
-                                                     size_t capacity, size_t* out_written) {
+skinspheres_status skinspheres_instance_get_sphere_pairs(const skinspheres_instance* instance,
+                                                         skinspheres_sphere_pair* out, size_t capacity,
+                                                         size_t* out_written) {
   if (out_written) *out_written = 0;
   if (instance == nullptr || (out == nullptr && capacity != 0)) {
     return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance or buffer");
   }
-  const auto contacts = instance->instance.contacts();
+  const auto contacts = instance->instance.sphere_pairs();
   const size_t n = contacts.size() < capacity ? contacts.size() : capacity;
-  if (n) std::memcpy(out, contacts.data(), n * sizeof(skinspheres_contact));
+  if (n) std::memcpy(out, contacts.data(), n * sizeof(skinspheres_sphere_pair));
   if (out_written) *out_written = n;
-  if (n < contacts.size()) return FailStatic(SKINSPHERES_BUFFER_TOO_SMALL, "the contact buffer holds fewer entries than the count");
+  if (n < contacts.size())
+    return FailStatic(SKINSPHERES_BUFFER_TOO_SMALL, "the contact buffer holds fewer entries than the count");
   return SKINSPHERES_OK;
 }
 
-const skinspheres_contact* skinspheres_instance_contacts(const skinspheres_instance* instance, size_t* out_count) {
+const skinspheres_sphere_pair* skinspheres_instance_sphere_pairs(const skinspheres_instance* instance,
+                                                                 size_t* out_count) {
   if (out_count) *out_count = 0;
   if (instance == nullptr) return nullptr;
-  const auto contacts = instance->instance.contacts();
+  const auto contacts = instance->instance.sphere_pairs();
   if (out_count) *out_count = contacts.size();
-  return reinterpret_cast<const skinspheres_contact*>(contacts.data());
+  return reinterpret_cast<const skinspheres_sphere_pair*>(contacts.data());
 }
 
 const float* skinspheres_instance_spheres(const skinspheres_instance* instance, size_t* out_count) {
@@ -437,10 +445,10 @@ skinspheres_status skinspheres_instance_reserve_contacts(skinspheres_instance* i
   });
 }
 
-skinspheres_status skinspheres_instance_reserve_sphere_contacts(skinspheres_instance* instance, size_t count) {
+skinspheres_status skinspheres_instance_reserve_sphere_pairs(skinspheres_instance* instance, size_t count) {
   return Guard([&] {
     if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
-    instance->instance.ReserveSphereContacts(count);
+    instance->instance.ReserveSpherePairs(count);
     return SKINSPHERES_OK;
   });
 }
@@ -460,7 +468,7 @@ skinspheres_status skinspheres_instance_find_contacts(skinspheres_instance* inst
       return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null positions with a vertex count");
     }
     const rt::FrameStatus st = instance->instance.FindContacts(Positions(positions, vertex_count));
-    const rt::FrameContacts& found = instance->instance.frame_contacts();
+    const rt::FrameContacts& found = instance->instance.contacts();
     if (out_part_pairs) *out_part_pairs = found.parts.size();
     if (out_triangle_pairs) *out_triangle_pairs = found.triangle_pairs.size();
     return FromFrame(st);
@@ -474,11 +482,12 @@ skinspheres_status skinspheres_instance_get_part_contacts(const skinspheres_inst
   if (instance == nullptr || (out == nullptr && capacity != 0)) {
     return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance or buffer");
   }
-  const std::vector<rt::PartContact>& parts = instance->instance.frame_contacts().parts;
+  const std::vector<rt::PartContact>& parts = instance->instance.contacts().parts;
   const size_t n = std::min(parts.size(), capacity);
   for (size_t k = 0; k < n; ++k) out[k] = ToC(parts[k]);
   if (out_written) *out_written = n;
-  if (n < parts.size()) return FailStatic(SKINSPHERES_BUFFER_TOO_SMALL, "the part-contact buffer holds fewer entries than the count");
+  if (n < parts.size())
+    return FailStatic(SKINSPHERES_BUFFER_TOO_SMALL, "the part-contact buffer holds fewer entries than the count");
   return SKINSPHERES_OK;
 }
 
@@ -489,8 +498,8 @@ skinspheres_status skinspheres_instance_get_triangle_contacts(const skinspheres_
   if (instance == nullptr || (out == nullptr && capacity != 0)) {
     return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance or buffer");
   }
-  const rt::FrameContacts& found = instance->instance.frame_contacts();
-  std::span<const rt::TrianglePairContact> pairs = found.triangle_pairs;
+  const rt::FrameContacts& found = instance->instance.contacts();
+  std::span<const rt::TriangleContact> pairs = found.triangle_pairs;
   if (part_contact != SKINSPHERES_ALL_PART_PAIRS) {
     if (part_contact >= found.parts.size()) {
       return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "part_contact is not below the part-pair count");
@@ -507,10 +516,11 @@ skinspheres_status skinspheres_instance_get_triangle_contacts(const skinspheres_
   return SKINSPHERES_OK;
 }
 
-skinspheres_status skinspheres_crowd_update_and_query(skinspheres_instance* const* instances,
-                                                      const skinspheres_frame_input* inputs, size_t count,
-                                                      skinspheres_refit_mode mode,
-                                                      skinspheres_parallel_for_fn parallel_for, void* user) {
+skinspheres_status skinspheres_crowd_update_and_find_sphere_pairs(skinspheres_instance* const* instances,
+                                                                  const skinspheres_frame_input* inputs, size_t count,
+                                                                  skinspheres_refit_mode mode,
+                                                                  skinspheres_parallel_for_fn parallel_for,
+                                                                  void* user) {
   return RunCrowd(instances, inputs, count, mode, /*find_contacts=*/false, parallel_for, user);
 }
 

@@ -145,7 +145,8 @@ Covering Patches(const RawCharacter& ch, int k_patches) {
   std::vector<float> area(n);
   for (size_t t = 0; t < n; ++t) {
     const auto& tri = ch.triangles[t];
-    const Eigen::Vector3f &a = ch.positions_rest[tri[0]], &b = ch.positions_rest[tri[1]], &c = ch.positions_rest[tri[2]];
+    const Eigen::Vector3f &a = ch.positions_rest[tri[0]], &b = ch.positions_rest[tri[1]],
+                          &c = ch.positions_rest[tri[2]];
     centroid[t] = (a + b + c) / 3.0f;
     area[t] = 0.5f * (b - a).cross(c - a).norm() + 1e-12f;
   }
@@ -206,7 +207,8 @@ int Study(const std::string& file) {
   if (!parts.ok()) return std::fprintf(stderr, "fit_study: %s\n", parts.error().message.c_str()), 2;
   std::printf("\n%s: %zu triangles, body height %.4g\n\n", file.empty() ? "built-in character" : file.c_str(),
               ch.triangle_count(), skinspheres::lib::BodyHeight(ch.positions_rest));
-  std::printf("| covering                     | spheres | union/body | boundary mean | boundary max | not in one sphere |\n");
+  std::printf(
+      "| covering                     | spheres | union/body | boundary mean | boundary max | not in one sphere |\n");
   std::printf("|---|---|---|---|---|---|\n");
   skinspheres::lib::FitSettings settings;
   settings.tighten = false;

@@ -26,7 +26,8 @@ int main() {
   auto fit = lib::FitSpheres(character, *parts, lib::FitSettings{});
   if (!fit.ok()) return std::fprintf(stderr, "%s\n", fit.error().message.c_str()), 2;
   const auto path = std::filesystem::temp_directory_path() / "hello_world.spheres.json";
-  if (auto err = runtime::SaveSphereSet(fit->spheres, path)) return std::fprintf(stderr, "%s\n", err->message.c_str()), 2;
+  if (auto err = runtime::SaveSphereSet(fit->spheres, path))
+    return std::fprintf(stderr, "%s\n", err->message.c_str()), 2;
 
   // --- Run time: load once, share the asset between instances.
   auto set = runtime::LoadSphereSet(path);
@@ -54,7 +55,7 @@ int main() {
       std::fprintf(stderr, "frame %d: %s\n", frame, status.message);
       continue;
     }
-    const auto sphere_pairs = instance->Query();
+    const auto sphere_pairs = instance->FindSpherePairs();
     // The triangles behind those pairs: fast mode skins only the vertices it tests, from the same
     // joint matrices (pass your skinned buffer instead when you skin on the CPU).
     if (auto status = instance->FindContacts(); !status.ok()) {
@@ -62,11 +63,11 @@ int main() {
       continue;
     }
     const auto& s = (*asset)->sphere_set();
-    const runtime::FrameContacts& contacts = instance->frame_contacts();
+    const runtime::FrameContacts& contacts = instance->contacts();
     std::printf("t=%.1f s: %zu sphere pairs, %zu touching part pairs", t, sphere_pairs.size(), contacts.parts.size());
     for (const runtime::PartContact& p : contacts.parts) {
-      std::printf("  [%s - %s: %u triangle pairs, depth %.3f]", s.parts[p.part_a].name.c_str(), s.parts[p.part_b].name.c_str(),
-                  p.triangle_pair_count, p.depth);
+      std::printf("  [%s - %s: %u triangle pairs, depth %.3f]", s.parts[p.part_a].name.c_str(),
+                  s.parts[p.part_b].name.c_str(), p.triangle_pair_count, p.depth);
     }
     std::printf("\n");
   }

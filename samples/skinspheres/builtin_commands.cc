@@ -78,7 +78,8 @@ int RunExportBuiltin(const ExportBuiltinArgs& a) {
   if (a.no_clips) ch.clips.clear();
   for (auto& name : ch.skeleton.joint_names) name = a.joint_prefix + name;
   std::string ext = std::filesystem::path(a.output).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   Result<lib::GlbExportSummary> written = MakeError(ErrorCode::kInvalidArgument, "");
   if (ext == ".glb") {
     written = lib::ExportGlb(ch, a.output);
@@ -97,9 +98,11 @@ int RunExportBuiltin(const ExportBuiltinArgs& a) {
 
 void AddExportBuiltinCommand(CLI::App& app, int* exit_code) {
   auto args = std::make_shared<ExportBuiltinArgs>();
-  CLI::App* cmd = app.add_subcommand("export-builtin", "write the built-in character (mesh, skin, clips) as GLB or FBX");
+  CLI::App* cmd =
+      app.add_subcommand("export-builtin", "write the built-in character (mesh, skin, clips) as GLB or FBX");
   cmd->add_option("output", args->output, "file to write: .glb, or .fbx (ASCII FBX 7.4)")->required();
-  cmd->add_flag("--no-mesh", args->no_mesh, "write the skeleton and clips only (an animation-only file, for play --clips)");
+  cmd->add_flag("--no-mesh", args->no_mesh,
+                "write the skeleton and clips only (an animation-only file, for play --clips)");
   cmd->add_flag("--no-clips", args->no_clips, "write no animations (a character without clips)");
   cmd->add_option("--joint-prefix", args->joint_prefix, "put this before every joint name (e.g. mixamorig:)");
   cmd->add_option("--armature-scale", args->armature_scale,
@@ -115,7 +118,8 @@ void AddExportBuiltinCommand(CLI::App& app, int* exit_code) {
 
 void AddDemoCommand(CLI::App& app, int* exit_code) {
   auto opts = std::make_shared<FitOptions>();
-  auto html = std::make_shared<std::string>((std::filesystem::temp_directory_path() / "skinspheres-demo.html").string());
+  auto html =
+      std::make_shared<std::string>((std::filesystem::temp_directory_path() / "skinspheres-demo.html").string());
   CLI::App* cmd = app.add_subcommand("demo", "fit the built-in character and play its clips");
   opts->AddTo(*cmd);
   cmd->add_option("--html", *html, "where to write the viewer page")->capture_default_str();
@@ -179,7 +183,7 @@ void AddDemoCommand(CLI::App& app, int* exit_code) {
           for (const runtime::PartContact& p : fr.contacts->parts) {
             if (p.part_a != part && p.part_b != part) continue;
             for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
-              const runtime::TrianglePairContact& tp = fr.contacts->triangle_pairs[k];
+              const runtime::TriangleContact& tp = fr.contacts->triangle_pairs[k];
               const uint32_t other = p.part_a == part ? tp.u : tp.t;
               if (tp.kind == runtime::TriangleContactKind::kIntersecting && is_hand(other)) {
                 touching = true;
@@ -209,15 +213,16 @@ void AddDemoCommand(CLI::App& app, int* exit_code) {
         if (t.frames == 0) {
           std::printf("  hands on the %s: never\n", label);
         } else {
-          std::printf("  hands on the %s: %zu frames, first %d (t=%.2f s), last %d (t=%.2f s), up to %.3g deep\n", label,
-                      t.frames, t.first, t.first_t, t.last, t.last_t, t.depth);
+          std::printf("  hands on the %s: %zu frames, first %d (t=%.2f s), last %d (t=%.2f s), up to %.3g deep\n",
+                      label, t.frames, t.first, t.first_t, t.last, t.last_t, t.depth);
         }
       }
       all_verified &= played->verified();
       kept.push_back(std::move(*played));
     }
     ViewerPageInput page{&*loaded, &set, fit->report.seconds, {}, {}};
-    for (size_t c = 0; c < kept.size(); ++c) page.clips.push_back(ViewClip{&kept[c], &frames[c], c, PlayOptions{}.fps, false});
+    for (size_t c = 0; c < kept.size(); ++c)
+      page.clips.push_back(ViewClip{&kept[c], &frames[c], c, PlayOptions{}.fps, false});
     if (auto err = WriteViewerPage(page, *html)) {
       *exit_code = Fail(err->message);
       return;

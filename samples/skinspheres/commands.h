@@ -8,8 +8,8 @@
 #include <string>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
-#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/character/raw_character.h"
+#include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/format/sphere_set.h"
 
 namespace skinspheres::tool {

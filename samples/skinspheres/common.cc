@@ -41,20 +41,25 @@ Result<LoadedCharacter> LoadCharacter(const std::string& input, const std::strin
 
 void FitOptions::AddTo(CLI::App& app) {
   app.add_option("--rays", settings.rays, "rays per disk, Nr (alpha = 360/Nr)")->capture_default_str();
-  app.add_option("--per-level", settings.per_level, "spheres per disk level for the torso: 1, 2 or 4")->capture_default_str();
+  app.add_option("--per-level", settings.per_level, "spheres per disk level for the torso: 1, 2 or 4")
+      ->capture_default_str();
   app.add_option("--method", method, "sphere per group: m1 (centroid), m2 (Welzl minimum ball), m1a (M1 adjusted)")
       ->capture_default_str();
-  app.add_option("--overlap", settings.overlap, "penetration depth PD between levels, in [0, 1)")->capture_default_str();
-  app.add_option("--step", settings.step, "disk step delta, as a fraction of each part's length")->capture_default_str();
+  app.add_option("--overlap", settings.overlap, "penetration depth PD between levels, in [0, 1)")
+      ->capture_default_str();
+  app.add_option("--step", settings.step, "disk step delta, as a fraction of each part's length")
+      ->capture_default_str();
   app.add_option("--parts", parts_file, "JSON file mapping joint names to part names (overrides)");
-  app.add_option("--hops", hops, "exclude pairs whose joints are at most this many bones apart: 0, 1, 2")->capture_default_str();
+  app.add_option("--hops", hops, "exclude pairs whose joints are at most this many bones apart: 0, 1, 2")
+      ->capture_default_str();
   app.add_option("--refine", settings.refine_iterations,
                  "minimum-ball rounds after ownership (0: keep the paper's centres)")
       ->capture_default_str();
   app.add_flag("--no-tighten", no_tighten,
                "skip the tightening pass (centre search, hand-over, splitting): the paper's spheres after ownership");
-  app.add_option("--split-gain", settings.split_gain,
-                 "tightening: split a sphere when its halves expose at most this fraction of what it exposes (0: never)")
+  app.add_option(
+         "--split-gain", settings.split_gain,
+         "tightening: split a sphere when its halves expose at most this fraction of what it exposes (0: never)")
       ->capture_default_str();
   app.add_option("--target-standoff", settings.target_standoff,
                  "tightening: stop splitting once the union stands off the body by this fraction of its height on "
@@ -89,20 +94,24 @@ void PrintFitSummary(const lib::FitResult& fit, double import_seconds) {
   std::printf("parts:\n");
   std::printf("  %-10s %8s %8s %7s %9s %9s\n", "part", "triangles", "spheres", "levels", "F mean", "F max");
   for (const auto& p : r.parts) {
-    std::printf("  %-10s %8d %8d %7d %9.5f %9.5f\n", p.name.c_str(), p.triangles, p.spheres, p.levels_kept, p.f_mean, p.f_max);
+    std::printf("  %-10s %8d %8d %7d %9.5f %9.5f\n", p.name.c_str(), p.triangles, p.spheres, p.levels_kept, p.f_mean,
+                p.f_max);
   }
   size_t excluded[3] = {0, 0, 0};
   for (const auto& p : set.excluded_pairs) ++excluded[static_cast<int>(p.reason)];
   std::printf("spheres: %zu   excluded pairs: %zu (same joint %zu, adjacent joints %zu, rest overlap %zu)\n",
               set.size(), set.excluded_pairs.size(), excluded[0], excluded[1], excluded[2]);
   std::printf("triangles covered: %d of %u (bind-pose check)\n", r.triangles_covered, set.source_triangle_count);
-  std::printf("growth: %d spheres grew to hold their triangles, by %.4f of body height on average, %.4f at most; %d shrank; %d dropped\n",
-              r.spheres_grown, r.growth_mean, r.growth_max, r.spheres_shrunk, r.spheres_dropped);
+  std::printf(
+      "growth: %d spheres grew to hold their triangles, by %.4f of body height on average, %.4f at most; %d shrank; %d "
+      "dropped\n",
+      r.spheres_grown, r.growth_mean, r.growth_max, r.spheres_shrunk, r.spheres_dropped);
   if (r.standoff_before > 0.0f) {
-    std::printf("tightening: mean standoff %.2f%% -> %.2f%% of body height (estimated); %d spheres added by splits, "
-                "%d merged, %d triangles handed over to a sphere that already held them\n",
-                100.0 * r.standoff_before, 100.0 * r.standoff_after, r.spheres_split, r.spheres_merged,
-                r.triangles_handed_over);
+    std::printf(
+        "tightening: mean standoff %.2f%% -> %.2f%% of body height (estimated); %d spheres added by splits, "
+        "%d merged, %d triangles handed over to a sphere that already held them\n",
+        100.0 * r.standoff_before, 100.0 * r.standoff_after, r.spheres_split, r.spheres_merged,
+        r.triangles_handed_over);
   }
   std::printf("F (paper): mean %.6f, max %.6f (body height %.4f)\n", r.f_mean, r.f_max, r.body_height);
   std::printf("time: import %.1f ms, fit %.1f ms\n", import_seconds * 1e3, r.seconds * 1e3);

@@ -45,7 +45,8 @@ int RunConvert(const ConvertArgs& a) {
 
 void AddConvertCommand(CLI::App& app, int* exit_code) {
   auto a = std::make_shared<ConvertArgs>();
-  CLI::App* cmd = app.add_subcommand("convert", "convert a sphere set between JSON (.json) and binary (.ssb), losslessly");
+  CLI::App* cmd =
+      app.add_subcommand("convert", "convert a sphere set between JSON (.json) and binary (.ssb), losslessly");
   cmd->add_option("input", a->input, "sphere set to read (JSON or binary, told apart by content)")->required();
   cmd->add_option("output", a->output, "sphere set to write: .json or .ssb")->required();
   cmd->add_flag("--fast-only", a->fast_only,

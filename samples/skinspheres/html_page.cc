@@ -10,8 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <string_view>
 
-#include "skinspheres/lib/metrics/fit_metrics.h"
 #include "skinspheres/lib/io/glb_exporter.h"
+#include "skinspheres/lib/metrics/fit_metrics.h"
 #include "skinspheres/runtime/format/file_io.h"
 #include "skinspheres/skinning/sampling_job.h"
 #include "viewer_assets.h"
@@ -79,7 +79,8 @@ std::string ScriptSafeJson(const json& j) {
 bool HoldsScriptEnd(std::string_view script) {
   for (size_t k = script.find("</"); k != std::string_view::npos; k = script.find("</", k + 2)) {
     std::string tag(script.substr(k + 2, 6));
-    std::transform(tag.begin(), tag.end(), tag.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    std::transform(tag.begin(), tag.end(), tag.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     if (tag == "script") return true;
   }
   return false;
@@ -109,9 +110,11 @@ json CharacterJson(const lib::RawCharacter& ch, const lib::GlbExportSummary& glb
 
 json SpheresJson(const runtime::SphereSet& set) {
   std::vector<float> rest;
-  json part = json::array(), joint = json::array(), triangles = json::array(), vertices = json::array(), level = json::array();
+  json part = json::array(), joint = json::array(), triangles = json::array(), vertices = json::array(),
+       level = json::array();
   for (size_t s = 0; s < set.size(); ++s) {
-    rest.insert(rest.end(), {set.centers_rest[s].x(), set.centers_rest[s].y(), set.centers_rest[s].z(), set.radii_rest[s]});
+    rest.insert(rest.end(),
+                {set.centers_rest[s].x(), set.centers_rest[s].y(), set.centers_rest[s].z(), set.radii_rest[s]});
     part.push_back(set.sphere_part[s]);
     joint.push_back(set.sphere_joint[s]);
     triangles.push_back(set.triangle_offsets[s + 1] - set.triangle_offsets[s]);
@@ -138,11 +141,13 @@ json SpheresJson(const runtime::SphereSet& set) {
           // Owned triangles (source order), CSR: sphere s owns owned_triangles[offsets[s] .. offsets[s+1]).
           {"owned_offsets", Base64(set.triangle_offsets.data(), set.triangle_offsets.size() * sizeof(uint32_t))},
           {"owned_triangles", Base64(set.triangles.data(), set.triangles.size() * sizeof(uint32_t))},
-          {"excluded", {{"pairs", std::move(excluded)},
-                        {"reason", std::move(reasons)},
-                        {"reasons", {runtime::ToString(runtime::ExclusionReason::kSameJoint),
-                                     runtime::ToString(runtime::ExclusionReason::kAdjacentJoints),
-                                     runtime::ToString(runtime::ExclusionReason::kBindOverlap)}}}}};
+          {"excluded",
+           {{"pairs", std::move(excluded)},
+            {"reason", std::move(reasons)},
+            {"reasons",
+             {runtime::ToString(runtime::ExclusionReason::kSameJoint),
+              runtime::ToString(runtime::ExclusionReason::kAdjacentJoints),
+              runtime::ToString(runtime::ExclusionReason::kBindOverlap)}}}}};
 }
 
 json MetricsJson(const lib::FitMetrics& m, size_t spheres, double seconds) {
@@ -155,7 +160,8 @@ json MetricsJson(const lib::FitMetrics& m, size_t spheres, double seconds) {
   for (size_t k = 0; k < std::min<size_t>(5, order.size()); ++k) loosest.push_back(order[k]);
   std::vector<float> share(spheres, 0.0f);
   if (m.sphere_boundary_distance.size() == spheres && m.boundary_distance_mean > 0.0) {
-    for (size_t s = 0; s < spheres; ++s) share[s] = static_cast<float>(m.sphere_boundary_distance[s] / m.boundary_distance_mean);
+    for (size_t s = 0; s < spheres; ++s)
+      share[s] = static_cast<float>(m.sphere_boundary_distance[s] / m.boundary_distance_mean);
   }
   return {{"volume_ratio", m.volume_ratio},
           {"boundary_mean_rel", m.boundary_distance_mean_rel},
@@ -169,10 +175,12 @@ json MetricsJson(const lib::FitMetrics& m, size_t spheres, double seconds) {
 
 Result<json> ClipJson(const ViewClip& vc, const lib::RawCharacter& ch, size_t spheres) {
   const PlayResult& r = *vc.played;
-  if (vc.clip_index >= ch.clips.size()) return MakeError(ErrorCode::kInvalidArgument, "viewer page: clip index out of range");
+  if (vc.clip_index >= ch.clips.size())
+    return MakeError(ErrorCode::kInvalidArgument, "viewer page: clip index out of range");
   const auto& clip = ch.clips[vc.clip_index];
   if (vc.frames == nullptr || vc.frames->size() != static_cast<size_t>(r.frames)) {
-    return MakeError(ErrorCode::kInvalidArgument, "viewer page: clip \"" + clip.name + "\" was played without keeping its frames");
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "viewer page: clip \"" + clip.name + "\" was played without keeping its frames");
   }
   const std::vector<FrameRecord>& frames = *vc.frames;
   std::vector<float> xyzr;
@@ -181,7 +189,8 @@ Result<json> ClipJson(const ViewClip& vc, const lib::RawCharacter& ch, size_t sp
   json triangles = json::array(), part_contacts = json::array();
   for (const FrameRecord& f : frames) {
     if (f.spheres.size() != spheres) {
-      return MakeError(ErrorCode::kInvalidArgument, "viewer page: clip \"" + clip.name + "\" has frames of another sphere set");
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "viewer page: clip \"" + clip.name + "\" has frames of another sphere set");
     }
     for (const auto& s : f.spheres) xyzr.insert(xyzr.end(), {s.x(), s.y(), s.z(), s.w()});
     time.push_back(f.time_s);
@@ -232,7 +241,8 @@ Result<json> ClipJson(const ViewClip& vc, const lib::RawCharacter& ch, size_t sp
 }
 
 // Fills the template: every "{{NAME}}" is replaced once, in one pass (inserted text is never rescanned).
-Result<std::string> FillTemplate(std::string_view tpl, const std::vector<std::pair<std::string_view, std::string_view>>& values) {
+Result<std::string> FillTemplate(std::string_view tpl,
+                                 const std::vector<std::pair<std::string_view, std::string_view>>& values) {
   std::string out;
   size_t at = 0;
   std::vector<int> used(values.size(), 0);
@@ -241,7 +251,8 @@ Result<std::string> FillTemplate(std::string_view tpl, const std::vector<std::pa
     if (close == std::string_view::npos) break;
     const std::string_view name = tpl.substr(open + 2, close - open - 2);
     const auto it = std::find_if(values.begin(), values.end(), [&](const auto& v) { return v.first == name; });
-    if (it == values.end()) return MakeError(ErrorCode::kInvalidArgument, "viewer page template: unknown {{" + std::string(name) + "}}");
+    if (it == values.end())
+      return MakeError(ErrorCode::kInvalidArgument, "viewer page template: unknown {{" + std::string(name) + "}}");
     out.append(tpl.substr(at, open - at));
     out.append(it->second);
     ++used[static_cast<size_t>(it - values.begin())];
@@ -249,7 +260,9 @@ Result<std::string> FillTemplate(std::string_view tpl, const std::vector<std::pa
   }
   out.append(tpl.substr(at));
   for (size_t k = 0; k < values.size(); ++k) {
-    if (used[k] != 1) return MakeError(ErrorCode::kInvalidArgument, "viewer page template: {{" + std::string(values[k].first) + "}} not used once");
+    if (used[k] != 1)
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "viewer page template: {{" + std::string(values[k].first) + "}} not used once");
   }
   return out;
 }
@@ -259,7 +272,8 @@ Result<std::string> FillTemplate(std::string_view tpl, const std::vector<std::pa
 std::optional<Error> WriteViewerPage(const ViewerPageInput& in, const std::string& path) {
   const lib::RawCharacter& ch = in.loaded->character;
   const runtime::SphereSet& set = *in.set;
-  const std::string label = ch.source_file.empty() || ch.source_file == "<builtin>" ? "built-in character" : ch.source_file;
+  const std::string label =
+      ch.source_file.empty() || ch.source_file == "<builtin>" ? "built-in character" : ch.source_file;
 
   auto glb = lib::ExportGlbToMemory(ch, label);
   if (!glb.ok()) return glb.error();
@@ -275,9 +289,10 @@ std::optional<Error> WriteViewerPage(const ViewerPageInput& in, const std::strin
                {"character", CharacterJson(ch, glb->summary)},
                {"spheres", SpheresJson(set)},
                {"metrics", MetricsJson(*metrics, set.size(), metrics_seconds)},
-               {"timings", {{"import_ms", in.loaded->import_seconds * 1e3},
-                            {"fit_ms", in.fit_seconds >= 0.0 ? json(in.fit_seconds * 1e3) : json(nullptr)},
-                            {"metrics_ms", metrics_seconds * 1e3}}},
+               {"timings",
+                {{"import_ms", in.loaded->import_seconds * 1e3},
+                 {"fit_ms", in.fit_seconds >= 0.0 ? json(in.fit_seconds * 1e3) : json(nullptr)},
+                 {"metrics_ms", metrics_seconds * 1e3}}},
                {"notes", in.notes}};
   json clips = json::array();
   for (const ViewClip& vc : in.clips) {
@@ -289,7 +304,8 @@ std::optional<Error> WriteViewerPage(const ViewerPageInput& in, const std::strin
 
   namespace va = viewer_assets;
   for (std::string_view script : {va::kThreeJs, va::kGltfLoaderJs, va::kOrbitControlsJs, va::kViewerJs}) {
-    if (HoldsScriptEnd(script)) return MakeError(ErrorCode::kInvalidArgument, path + ": an inlined script holds \"</script\"");
+    if (HoldsScriptEnd(script))
+      return MakeError(ErrorCode::kInvalidArgument, path + ": an inlined script holds \"</script\"");
   }
   const std::string title = EscapeHtml(label);
   const std::string data_text = ScriptSafeJson(data);

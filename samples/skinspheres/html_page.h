@@ -21,20 +21,20 @@
 namespace skinspheres::tool {
 
 struct ViewClip {
-  const PlayResult* played = nullptr;               // the run's summary (stage times)
+  const PlayResult* played = nullptr;                // the run's summary (stage times)
   const std::vector<FrameRecord>* frames = nullptr;  // every frame (RecordFrames): spheres, sphere pairs,
                                                      // intersecting triangle pairs (shown in the contact colour)
-  size_t clip_index = 0;                            // into the character's clips
+  size_t clip_index = 0;                             // into the character's clips
   float fps = 30.0f;
-  bool fast = false;                                // refit mode of the run
+  bool fast = false;  // refit mode of the run
 };
 
 struct ViewerPageInput {
   const LoadedCharacter* loaded = nullptr;
   const runtime::SphereSet* set = nullptr;
-  double fit_seconds = -1.0;        // < 0: the set was read from a file, not fitted in this run
-  std::vector<ViewClip> clips;      // empty: the fit page (bind pose)
-  std::vector<std::string> notes;   // extra header lines (e.g. where clips came from)
+  double fit_seconds = -1.0;       // < 0: the set was read from a file, not fitted in this run
+  std::vector<ViewClip> clips;     // empty: the fit page (bind pose)
+  std::vector<std::string> notes;  // extra header lines (e.g. where clips came from)
 };
 
 // Measures the fit (lib::MeasureFit: union/body volume, boundary distance, each sphere's share of

@@ -5,9 +5,9 @@
 
 #include <cstdio>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
-#include <nlohmann/json.hpp>
 
 #include "clip_files.h"
 #include "html_page.h"
@@ -49,7 +49,7 @@ nlohmann::json DumpLine(const FrameView& fr, const runtime::SphereSet& set, bool
   for (const runtime::PartContact& p : fr.contacts->parts) {
     nlohmann::json triangles = nlohmann::json::array(), near = nlohmann::json::array();
     for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
-      const runtime::TrianglePairContact& c = fr.contacts->triangle_pairs[k];
+      const runtime::TriangleContact& c = fr.contacts->triangle_pairs[k];
       if (c.kind == runtime::TriangleContactKind::kIntersecting) {
         triangles.push_back({c.t, c.u});
       } else {
@@ -135,7 +135,8 @@ int RunPlay(PlayArgs& a) {
   auto write_page = [&]() -> int {
     if (a.html.empty()) return 0;
     ViewerPageInput page{&*loaded, &set, fit_seconds, {}, notes};
-    for (size_t k = 0; k < kept.size(); ++k) page.clips.push_back(ViewClip{&kept[k], &recorded[k], clips[k], a.fps, opts.fast});
+    for (size_t k = 0; k < kept.size(); ++k)
+      page.clips.push_back(ViewClip{&kept[k], &recorded[k], clips[k], a.fps, opts.fast});
     if (auto err = WriteViewerPage(page, a.html)) return Fail(err->message);
     std::printf("wrote %s\n", a.html.c_str());
     return 0;
@@ -158,9 +159,10 @@ int RunPlay(PlayArgs& a) {
       if (!a.html.empty()) kept.push_back(std::move(*played));
     }
     if (a.verify) {
-      std::printf("verify: %zu triangle-frames outside their sphere over %zu clips; narrow phase differs from the oracle in "
-                  "%zu frames\n",
-                  outside, clips.size(), mismatches);
+      std::printf(
+          "verify: %zu triangle-frames outside their sphere over %zu clips; narrow phase differs from the oracle in "
+          "%zu frames\n",
+          outside, clips.size(), mismatches);
     }
     if (const int code = write_page()) return code;
     std::printf("memory: peak %ld KiB\n", PeakRssKiB());
@@ -257,7 +259,8 @@ int RunPlay(PlayArgs& a) {
 
 void AddPlayCommand(CLI::App& app, int* exit_code) {
   auto a = std::make_shared<PlayArgs>();
-  CLI::App* cmd = app.add_subcommand("play", "play a clip: sample, skin, refit, find sphere pairs and triangle contacts");
+  CLI::App* cmd =
+      app.add_subcommand("play", "play a clip: sample, skin, refit, find sphere pairs and triangle contacts");
   cmd->add_option("input", a->input, "character file")->required();
   cmd->add_option("--spheres", a->spheres, "sphere set to use (default: fit on the fly)");
   cmd->add_option("--clip", a->clip, "clip name or index, or all")->capture_default_str();
@@ -265,16 +268,20 @@ void AddPlayCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--frames", a->frames,
                   "number of frames (default: the whole clip, its last frame at t = duration sampling the clip's end "
                   "pose; frames past the end loop)");
-  cmd->add_option("--mode", a->mode, "refit mode: exact (skinned source vertices) or fast (joint transforms)")->capture_default_str();
-  cmd->add_option("--margin", a->margin,
-                  "also report triangle pairs nearer than this distance (model units; pairs this near at rest excluded)")
+  cmd->add_option("--mode", a->mode, "refit mode: exact (skinned source vertices) or fast (joint transforms)")
+      ->capture_default_str();
+  cmd->add_option(
+         "--margin", a->margin,
+         "also report triangle pairs nearer than this distance (model units; pairs this near at rest excluded)")
       ->capture_default_str();
   AddTouchToleranceOption(*cmd, &a->touch_tolerance);
   cmd->add_flag("--sphere-pairs", a->sphere_pairs, "also list the broad phase's sphere pairs by body-part pair");
   cmd->add_option("--report", a->report, "write a JSON report");
   cmd->add_option("--dump", a->dump, "write one JSON line per frame: spheres, sphere pairs, contacts");
-  cmd->add_option("--export-glb", a->export_glb, "write the animated character with its spheres (in the clip's animation) as GLB");
-  cmd->add_option("--html", a->html, "write the viewer page: one self-contained HTML file (with --clip all, every clip)");
+  cmd->add_option("--export-glb", a->export_glb,
+                  "write the animated character with its spheres (in the clip's animation) as GLB");
+  cmd->add_option("--html", a->html,
+                  "write the viewer page: one self-contained HTML file (with --clip all, every clip)");
   a->clip_files.AddTo(*cmd);
   cmd->add_flag("--verify", a->verify,
                 "skin every vertex: check every triangle is owned and inside its sphere, and the narrow phase "

@@ -95,7 +95,7 @@ FrameSink RecordFrames(std::vector<FrameRecord>* out, FrameSink next) {
     r.clip_time_s = fr.clip_time_s;
     r.spheres.assign(fr.spheres.begin(), fr.spheres.end());
     r.sphere_pairs.assign(fr.sphere_pairs.begin(), fr.sphere_pairs.end());
-    for (const runtime::TrianglePairContact& c : fr.contacts->triangle_pairs) {
+    for (const runtime::TriangleContact& c : fr.contacts->triangle_pairs) {
       if (c.kind == runtime::TriangleContactKind::kIntersecting) r.triangle_pairs.push_back({c.t, c.u});
     }
     for (const runtime::PartContact& p : fr.contacts->parts) {
@@ -126,7 +126,8 @@ Result<size_t> FindClip(const lib::RawCharacter& ch, const std::string& key) {
 }
 
 bool AttachMesh(const lib::RawCharacter& ch, runtime::SphereSet* set) {
-  if (set->has_mesh() || set->fast_only || set->source_vertex_count != ch.vertex_count() || set->source_triangle_count != ch.triangle_count()) {
+  if (set->has_mesh() || set->fast_only || set->source_vertex_count != ch.vertex_count() ||
+      set->source_triangle_count != ch.triangle_count()) {
     return false;
   }
   // The skin's bind entries name the character's joints; the set's mesh names the set's (the same
@@ -190,7 +191,8 @@ std::optional<Error> CheckSetMatchesCharacter(const lib::RawCharacter& ch, const
     }
   }
   for (size_t s = 0; s < set.size(); ++s) {
-    const auto first = set.vertices.begin() + set.vertex_offsets[s], last = set.vertices.begin() + set.vertex_offsets[s + 1];
+    const auto first = set.vertices.begin() + set.vertex_offsets[s],
+               last = set.vertices.begin() + set.vertex_offsets[s + 1];
     const bool sorted = std::is_sorted(first, last);
     for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
       for (int v = 0; v < 3; ++v) {
@@ -198,7 +200,8 @@ std::optional<Error> CheckSetMatchesCharacter(const lib::RawCharacter& ch, const
         const bool listed = sorted ? std::binary_search(first, last, vi) : std::find(first, last, vi) != last;
         if (!listed) {
           return MakeError(ErrorCode::kInvalidData, file + ": sphere " + std::to_string(s) + " owns triangle " +
-                                                        std::to_string(set.triangles[k]) + " but not its vertex " + std::to_string(vi));
+                                                        std::to_string(set.triangles[k]) + " but not its vertex " +
+                                                        std::to_string(vi));
         }
       }
     }
@@ -314,7 +317,7 @@ std::optional<Error> ClipPlayer::Step(const skinning::AnimationClip& clip, int f
     skin.in_positions = Floats(ch.skin.positions_bind);
     skin.out_positions = Floats(skinned_);
     skin.prepared = &playback_->prepared();
-    if (!skinning::SkinParallel(skin)) {
+    if (!skin.RunParallel()) {
       return MakeError(ErrorCode::kInvalidData, file + ": skinning failed (influences do not fit the skeleton)");
     }
   }
@@ -323,7 +326,7 @@ std::optional<Error> ClipPlayer::Step(const skinning::AnimationClip& clip, int f
   if (status.code != ErrorCode::kOk)
     return MakeError(status.code, file + ": frame " + std::to_string(f) + ": " + status.message);
   const auto t3 = Clock::now();
-  pairs_ = instance.Query();
+  pairs_ = instance.FindSpherePairs();
   const auto t4 = Clock::now();
   status = instance.FindContacts(options_.fast ? std::span<const Eigen::Vector3f>()
                                                : std::span<const Eigen::Vector3f>(skinned_));
@@ -340,7 +343,7 @@ std::optional<Error> ClipPlayer::Step(const skinning::AnimationClip& clip, int f
 
 // The frame's sphere pairs and contacts into the clip's bounded summaries.
 void ClipPlayer::Summarise(int f, PlayResult* result) const {
-  const runtime::FrameContacts& contacts = instance_->frame_contacts();
+  const runtime::FrameContacts& contacts = instance_->contacts();
   result->sphere_pairs_total += pairs_.size();
   result->sphere_pairs_most = std::max(result->sphere_pairs_most, pairs_.size());
   result->triangle_pairs_total += contacts.triangle_pairs.size();
@@ -381,7 +384,7 @@ void ClipPlayer::Verify(int f, PlayResult* result) {
   skin_all.influence_offsets = ch.skin.influence_offsets;
   skin_all.influence_binds = ch.skin.influence_binds;
   skin_all.influence_weights = ch.skin.influence_weights;
-  skinning::SkinParallel(skin_all);
+  skin_all.RunParallel();
   const auto spheres = instance_->spheres();
   size_t outside = 0;
   for (size_t s = 0; s < set.size(); ++s) {
@@ -401,7 +404,7 @@ void ClipPlayer::Verify(int f, PlayResult* result) {
   result->triangles_outside += outside;
   const runtime::CharacterAsset& asset = *playback_->asset();
   if (!runtime::FindContactsBruteForce(set, *asset.narrow_phase(), asset.filter(), skinned_, &oracle_) ||
-      !(oracle_ == instance_->frame_contacts())) {
+      !(oracle_ == instance_->contacts())) {
     if (result->first_mismatch_frame < 0) result->first_mismatch_frame = f;
     ++result->narrow_mismatches;
   }
@@ -435,7 +438,7 @@ Result<PlayResult> ClipPlayer::Play(size_t clip_index, const FrameSink& sink) {
       view.time_s = t;
       view.clip_time_s = clip_time;
       view.sphere_pairs = pairs_;
-      view.contacts = &instance_->frame_contacts();
+      view.contacts = &instance_->contacts();
       view.spheres = instance_->spheres();
       view.joint_world = joint_world_;
       view.body_height = result.body_height;
@@ -444,7 +447,7 @@ Result<PlayResult> ClipPlayer::Play(size_t clip_index, const FrameSink& sink) {
     }
     if (options_.progress) {
       std::fprintf(stderr, "\r%s: frame %d/%d, %zu sphere pairs, %zu triangle pairs   ", clip.name.c_str(), f + 1,
-                   result.frames, pairs_.size(), instance_->frame_contacts().triangle_pairs.size());
+                   result.frames, pairs_.size(), instance_->contacts().triangle_pairs.size());
     }
   }
   if (options_.progress) std::fprintf(stderr, "\n");
@@ -462,10 +465,11 @@ Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::Sphere
 
 void PrintPlaySummary(const PlayResult& r, const runtime::SphereSet& set, float fps, bool sphere_pairs, bool verify) {
   const double n = r.frames > 0 ? double(r.frames) : 1.0;
-  std::printf("clip \"%s\": %d frames at %.0f fps; sphere pairs per frame: mean %.2f, max %zu; triangle pairs per frame: "
-              "mean %.2f, max %zu\n",
-              r.clip.c_str(), r.frames, fps, double(r.sphere_pairs_total) / n, r.sphere_pairs_most,
-              double(r.triangle_pairs_total) / n, r.triangle_pairs_most);
+  std::printf(
+      "clip \"%s\": %d frames at %.0f fps; sphere pairs per frame: mean %.2f, max %zu; triangle pairs per frame: "
+      "mean %.2f, max %zu\n",
+      r.clip.c_str(), r.frames, fps, double(r.sphere_pairs_total) / n, r.sphere_pairs_most,
+      double(r.triangle_pairs_total) / n, r.triangle_pairs_most);
   // Real contacts, by part pair.
   if (r.contacts.empty()) std::printf("  no contacts\n");
   auto share = [&](float d) { return r.body_height > 0.0f ? 100.0 * d / r.body_height : 0.0; };
@@ -494,8 +498,8 @@ void PrintPlaySummary(const PlayResult& r, const runtime::SphereSet& set, float 
     std::printf("sphere pairs (broad phase) by part pair:\n");
     if (r.sphere_pairs.empty()) std::printf("  none\n");
     for (const PartPairSummary& e : r.sphere_pairs) {
-      std::printf("  %s - %s: frames %s (%zu frames)\n", PartName(set, e.part_a).c_str(), PartName(set, e.part_b).c_str(),
-                  e.frames.ToString().c_str(), e.frames.frames());
+      std::printf("  %s - %s: frames %s (%zu frames)\n", PartName(set, e.part_a).c_str(),
+                  PartName(set, e.part_b).c_str(), e.frames.ToString().c_str(), e.frames.frames());
     }
   }
   auto stage = [](const char* name, const StageTime& v) {
@@ -511,15 +515,16 @@ void PrintPlaySummary(const PlayResult& r, const runtime::SphereSet& set, float 
   stage("narrow", r.times.narrow);
   stage("verify", r.times.verify);
   if (verify) {
-    std::printf("verify: %zu triangle-frames outside their sphere%s, %zu triangles owned by no sphere; narrow phase %s\n",
-                r.triangles_outside,
-                r.triangles_outside ? (" (first at frame " + std::to_string(r.first_bad_frame) + ")").c_str() : "",
-                r.triangles_unowned,
-                r.narrow_mismatches == 0
-                    ? ("equal to the brute-force oracle in all " + std::to_string(r.frames) + " frames").c_str()
-                    : ("differs from the brute-force oracle in " + std::to_string(r.narrow_mismatches) + " frames (first " +
-                       std::to_string(r.first_mismatch_frame) + ")")
-                          .c_str());
+    std::printf(
+        "verify: %zu triangle-frames outside their sphere%s, %zu triangles owned by no sphere; narrow phase %s\n",
+        r.triangles_outside,
+        r.triangles_outside ? (" (first at frame " + std::to_string(r.first_bad_frame) + ")").c_str() : "",
+        r.triangles_unowned,
+        r.narrow_mismatches == 0
+            ? ("equal to the brute-force oracle in all " + std::to_string(r.frames) + " frames").c_str()
+            : ("differs from the brute-force oracle in " + std::to_string(r.narrow_mismatches) + " frames (first " +
+               std::to_string(r.first_mismatch_frame) + ")")
+                  .c_str());
   }
 }
 

@@ -46,25 +46,25 @@ float PlaybackTime(float time_s, float duration_s);
 
 struct PlayOptions {
   float fps = 30.0f;
-  int frames = 0;              // 0: the whole clip
-  bool fast = false;           // refit mode: fast (joint transforms only) or exact (skinned vertices)
-  bool verify = false;         // skin every vertex: every triangle inside its sphere, narrow phase == oracle
-  bool progress = false;       // a progress line on the terminal
-  float margin = 0.0f;         // narrow phase: also report triangle pairs nearer than this (model units)
+  int frames = 0;         // 0: the whole clip
+  bool fast = false;      // refit mode: fast (joint transforms only) or exact (skinned vertices)
+  bool verify = false;    // skin every vertex: every triangle inside its sphere, narrow phase == oracle
+  bool progress = false;  // a progress line on the terminal
+  float margin = 0.0f;    // narrow phase: also report triangle pairs nearer than this (model units)
   float touch_tolerance = kDefaultTouchTolerance;  // share of body height: deeper intersections penetrate
 };
 
 // One played frame, valid during the FrameSink call only.
 struct FrameView {
   int index = 0;
-  float time_s = 0.0f;       // frame / fps: keeps counting past the clip's end
-  float clip_time_s = 0.0f;  // the time sampled in the clip (the pose loops)
-  std::span<const runtime::Contact> sphere_pairs;  // broad phase
-  const runtime::FrameContacts* contacts = nullptr;  // narrow phase
-  std::span<const skinspheres::Vec4f> spheres;      // refitted: xyz centre, w radius
-  std::span<const skinspheres::Mat4f> joint_world;  // the character's joints, world space
-  float body_height = 0.0f;                         // of the rest pose (for the touch tolerance)
-  float touch_tolerance = 0.0f;                     // model units: deeper intersections penetrate
+  float time_s = 0.0f;                                // frame / fps: keeps counting past the clip's end
+  float clip_time_s = 0.0f;                           // the time sampled in the clip (the pose loops)
+  std::span<const runtime::SpherePair> sphere_pairs;  // broad phase
+  const runtime::FrameContacts* contacts = nullptr;   // narrow phase
+  std::span<const skinspheres::Vec4f> spheres;        // refitted: xyz centre, w radius
+  std::span<const skinspheres::Mat4f> joint_world;    // the character's joints, world space
+  float body_height = 0.0f;                           // of the rest pose (for the touch tolerance)
+  float touch_tolerance = 0.0f;                       // model units: deeper intersections penetrate
 };
 
 // --touch-tolerance (play, check): the option, and its check (a message when refused).
@@ -82,7 +82,7 @@ struct FrameRecord {
   float time_s = 0.0f;
   float clip_time_s = 0.0f;
   std::vector<skinspheres::Vec4f> spheres;
-  std::vector<runtime::Contact> sphere_pairs;
+  std::vector<runtime::SpherePair> sphere_pairs;
   std::vector<std::array<uint32_t, 2>> triangle_pairs;
   struct Part {
     uint16_t part_a = 0, part_b = 0;
@@ -108,20 +108,20 @@ class FrameRanges {
 
  private:
   std::vector<std::pair<int, int>> ranges_;
-  size_t more_ = 0;      // ranges started after the kept ones
+  size_t more_ = 0;  // ranges started after the kept ones
   size_t frames_ = 0;
   int first_ = -1, last_ = -1;
 };
 
 struct PartPairSummary {
   uint16_t part_a = 0, part_b = 0;
-  FrameRanges frames;              // frames where the pair touched or penetrated
-  FrameRanges penetrating;         // frames where it penetrated (deeper than the touch tolerance)
-  int worst_frame = -1;            // the frame of max_depth
-  bool intersecting = false;       // at least one intersecting triangle pair (else only within margin)
+  FrameRanges frames;                // frames where the pair touched or penetrated
+  FrameRanges penetrating;           // frames where it penetrated (deeper than the touch tolerance)
+  int worst_frame = -1;              // the frame of max_depth
+  bool intersecting = false;         // at least one intersecting triangle pair (else only within margin)
   uint32_t most_triangle_pairs = 0;  // largest number of triangle pairs in one frame
-  float max_depth = 0.0f;          // largest penetration depth estimate
-  float min_distance = 0.0f;       // closest within-margin distance (when never intersecting)
+  float max_depth = 0.0f;            // largest penetration depth estimate
+  float min_distance = 0.0f;         // closest within-margin distance (when never intersecting)
 };
 
 // Per-frame times as a fixed log-scale histogram (1% bins from 10 ns to 100 s): percentiles within 1%.
@@ -148,15 +148,15 @@ struct PlayResult {
   float touch_tolerance = 0.0f;  // model units
   size_t sphere_pairs_total = 0, sphere_pairs_most = 0;
   size_t triangle_pairs_total = 0, triangle_pairs_most = 0;
-  std::vector<PartPairSummary> contacts;        // narrow phase, by part pair (sorted)
-  std::vector<PartPairSummary> sphere_pairs;    // broad phase, by part pair (sorted)
+  std::vector<PartPairSummary> contacts;      // narrow phase, by part pair (sorted)
+  std::vector<PartPairSummary> sphere_pairs;  // broad phase, by part pair (sorted)
   StageTimes times;
   float body_height = 0.0f;
   // --verify
-  size_t triangles_outside = 0;   // triangle-frames outside their sphere (must be 0)
-  size_t triangles_unowned = 0;   // triangles of the mesh that no sphere owns (must be 0)
+  size_t triangles_outside = 0;  // triangle-frames outside their sphere (must be 0)
+  size_t triangles_unowned = 0;  // triangles of the mesh that no sphere owns (must be 0)
   int first_bad_frame = -1;
-  size_t narrow_mismatches = 0;   // frames where the narrow phase differs from the brute-force oracle
+  size_t narrow_mismatches = 0;  // frames where the narrow phase differs from the brute-force oracle
   int first_mismatch_frame = -1;
   bool verified() const { return triangles_outside == 0 && triangles_unowned == 0 && narrow_mismatches == 0; }
 };
@@ -211,7 +211,7 @@ class ClipPlayer {
   std::vector<skinning::Transform> locals_;
   std::vector<skinspheres::Mat4f> joint_world_, bind_matrices_;
   std::vector<Eigen::Vector3f> skinned_;
-  std::span<const runtime::Contact> pairs_;
+  std::span<const runtime::SpherePair> pairs_;
   runtime::FrameContacts oracle_;
 };
 

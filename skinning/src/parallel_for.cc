@@ -82,7 +82,8 @@ class CheckedPool {
   };
 
   void Ranges(const Job& job) {
-    for (size_t c = next_++; c < job.chunks; c = next_++) job.body(c * job.grain, std::min(job.count, (c + 1) * job.grain));
+    for (size_t c = next_++; c < job.chunks; c = next_++)
+      job.body(c * job.grain, std::min(job.count, (c + 1) * job.grain));
   }
 
   void Serve() {
@@ -117,7 +118,9 @@ class CheckedPool {
 
 const ParallelFor& DefaultParallelFor() {
   static CheckedPool pool;  // destroyed after thread_for (constructed before it)
-  static const ParallelFor thread_for = [](size_t count, size_t grain, RangeBody body) { pool.Run(count, grain, body); };
+  static const ParallelFor thread_for = [](size_t count, size_t grain, RangeBody body) {
+    pool.Run(count, grain, body);
+  };
   return thread_for;
 }
 bool DefaultParallelForUsesTbb() { return false; }

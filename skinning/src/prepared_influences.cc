@@ -7,9 +7,8 @@
 
 namespace skinspheres::skinning {
 
-bool PreparedInfluences::Build(size_t vertex_count, std::span<const uint32_t> offsets,
-                               std::span<const uint16_t> binds, std::span<const float> weights,
-                               std::span<const uint32_t> subset, std::string* error) {
+bool PreparedInfluences::Build(size_t vertex_count, std::span<const uint32_t> offsets, std::span<const uint16_t> binds,
+                               std::span<const float> weights, std::span<const uint32_t> subset, std::string* error) {
   *this = PreparedInfluences();
   auto fail = [&](const std::string& what) {
     if (error) *error = "PreparedInfluences: " + what;

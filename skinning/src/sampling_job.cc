@@ -24,9 +24,7 @@ const V& KeyValue(const Track<V>& track, size_t k) {
   return track.values[k * ValuesPerKey(track) + (ValuesPerKey(track) == 3 ? 1 : 0)];
 }
 
-inline Eigen::Vector3f Lerp(const Eigen::Vector3f& a, const Eigen::Vector3f& b, float s) {
-  return a + (b - a) * s;
-}
+inline Eigen::Vector3f Lerp(const Eigen::Vector3f& a, const Eigen::Vector3f& b, float s) { return a + (b - a) * s; }
 inline Quatf Lerp(const Quatf& a, const Quatf& b, float s) {
   return a.slerp(s, b).normalized();  // Eigen's slerp takes the shortest arc
 }
@@ -49,14 +47,13 @@ V Sample(const Track<V>& track, float t) {
   if (t >= times.back()) return KeyValue(track, n - 1);
   // k: last key with times[k] <= t; t < times[k + 1].
   // min: a NaN last key (a clip that skipped ValidateClip) must not index past the end.
-  const size_t k = std::min(static_cast<size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1, n - 2);
+  const size_t k =
+      std::min(static_cast<size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1, n - 2);
   const float dt = times[k + 1] - times[k];
   const float s = dt > 0.0f ? std::clamp((t - times[k]) / dt, 0.0f, 1.0f) : 0.0f;
   switch (track.interpolation) {
-    case Interpolation::kStep:
-      return KeyValue(track, k);
-    case Interpolation::kLinear:
-      return Lerp(track.values[k], track.values[k + 1], s);
+    case Interpolation::kStep: return KeyValue(track, k);
+    case Interpolation::kLinear: return Lerp(track.values[k], track.values[k + 1], s);
     case Interpolation::kCubicSpline: {
       // values: [a_k, v_k, b_k] per key (in-tangent, value, out-tangent).
       const Vec4f v0 = Coeffs(track.values[3 * k + 1]);
@@ -64,8 +61,8 @@ V Sample(const Track<V>& track, float t) {
       const Vec4f a1 = Coeffs(track.values[3 * (k + 1)]);
       const Vec4f v1 = Coeffs(track.values[3 * (k + 1) + 1]);
       const float s2 = s * s, s3 = s2 * s;
-      const Vec4f p = (2 * s3 - 3 * s2 + 1) * v0 + (s3 - 2 * s2 + s) * dt * b0 +
-                                (-2 * s3 + 3 * s2) * v1 + (s3 - s2) * dt * a1;
+      const Vec4f p =
+          (2 * s3 - 3 * s2 + 1) * v0 + (s3 - 2 * s2 + s) * dt * b0 + (-2 * s3 + 3 * s2) * v1 + (s3 - s2) * dt * a1;
       V out;
       FromCoeffs(p, &out);
       return out;
@@ -115,8 +112,7 @@ bool SamplingJob::Validate() const {
   const int32_t joints = static_cast<int32_t>(skeleton->size());
   for (const JointTrack& track : clip->tracks) {
     if (track.joint < 0 || track.joint >= joints) return false;
-    if (!TrackSizesOk(track.translation) || !TrackSizesOk(track.rotation) || !TrackSizesOk(track.scale))
-      return false;
+    if (!TrackSizesOk(track.translation) || !TrackSizesOk(track.rotation) || !TrackSizesOk(track.scale)) return false;
   }
   return true;
 }

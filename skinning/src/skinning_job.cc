@@ -174,10 +174,10 @@ bool SkinningJob::RunRanges(std::span<const std::pair<uint32_t, uint32_t>> range
   return true;
 }
 
-bool SkinParallel(const SkinningJob& job, size_t grain, const ParallelFor& parallel_for) {
-  if (!job.Validate()) return false;
-  parallel_for(job.WorkSize(), std::max<size_t>(grain, 1),
-               [&job](size_t begin, size_t end) { RunUnchecked(job, begin, end); });
+bool SkinningJob::RunParallel(const ParallelFor& parallel_for, size_t grain) const {
+  if (!Validate()) return false;
+  parallel_for(WorkSize(), std::max<size_t>(grain, 1),
+               [this](size_t begin, size_t end) { RunUnchecked(*this, begin, end); });
   return true;
 }
 

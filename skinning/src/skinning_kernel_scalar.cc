@@ -6,10 +6,7 @@
 
 #include "skinning_kernels.h"
 
-
-
 #define SKS_NS scalar
 #define SKS_LEVEL 0
-#define SKS_TARGET 
+#define SKS_TARGET
 #include "skinning_kernel_body.inc"
-

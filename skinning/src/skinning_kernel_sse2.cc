@@ -10,6 +10,6 @@
 #include <immintrin.h>
 #define SKS_NS sse2
 #define SKS_LEVEL 1
-#define SKS_TARGET 
+#define SKS_TARGET
 #include "skinning_kernel_body.inc"
 #endif

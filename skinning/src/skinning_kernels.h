@@ -30,11 +30,10 @@ struct Csr {
   const uint32_t* subset = nullptr;  // null: items are vertices
 };
 
-#define SKINSPHERES_DECLARE_KERNELS(ns)                                                   \
-  namespace ns {                                                                          \
-  void RunCsr(const Buffers& buffers, const Csr& csr, size_t begin, size_t end);          \
-  void RunPrepared(const Buffers& buffers, const PreparedInfluences& prepared, size_t begin, \
-                   size_t end);                                                           \
+#define SKINSPHERES_DECLARE_KERNELS(ns)                                                                   \
+  namespace ns {                                                                                          \
+  void RunCsr(const Buffers& buffers, const Csr& csr, size_t begin, size_t end);                          \
+  void RunPrepared(const Buffers& buffers, const PreparedInfluences& prepared, size_t begin, size_t end); \
   }
 SKINSPHERES_DECLARE_KERNELS(scalar)
 #if defined(SKINSPHERES_X86_64)

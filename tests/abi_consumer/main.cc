@@ -1,7 +1,7 @@
-// Runs one frame of every public job (the narrow phase too, and the binary asset, the joint mapping and the C API) through
-// the installed package and prints what the library computed, plus the size of every public struct as this program sees it. Built once with the
-// library's own flags and again with wider ones (-mavx2 -mfma, -march=native): the outputs must be
-// identical, and nothing may crash. Before the public math types were made layout-stable
+// Runs one frame of every public job (the narrow phase too, and the binary asset, the joint mapping and the C API)
+// through the installed package and prints what the library computed, plus the size of every public struct as this
+// program sees it. Built once with the library's own flags and again with wider ones (-mavx2 -mfma, -march=native): the
+// outputs must be identical, and nothing may crash. Before the public math types were made layout-stable
 // (skinning/math_types.h) the -mavx2 build crashed in LocalToModelJob::Run.
 #include <algorithm>
 #include <cmath>
@@ -43,9 +43,9 @@ void Check(bool ok, const char* what) {
 std::span<const float> Floats(const std::vector<Eigen::Vector3f>& v) { return {v.data()->data(), 3 * v.size()}; }
 std::span<float> Floats(std::vector<Eigen::Vector3f>& v) { return {v.data()->data(), 3 * v.size()}; }
 
-void PrintContacts(const char* what, std::span<const runtime::Contact> contacts) {
+void PrintContacts(const char* what, std::span<const runtime::SpherePair> contacts) {
   std::printf("%s: %zu contacts", what, contacts.size());
-  for (const runtime::Contact& c : contacts) std::printf(" %u-%u:%.5f", c.i, c.j, c.depth);
+  for (const runtime::SpherePair& c : contacts) std::printf(" %u-%u:%.5f", c.i, c.j, c.depth);
   std::printf("\n");
 }
 
@@ -61,19 +61,20 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "consumer instruction set: baseline\n");
 #endif
   // Layouts as this program sees them (compared across builds by the test script).
-  std::printf("sizeof Transform %zu BindEntry %zu LocalToModelJob %zu SkinningMatricesJob %zu SamplingJob %zu "
-              "SkinningJob %zu RefitJob %zu SelfCollisionJob %zu Contact %zu SphereSet %zu CharacterFrameInput %zu "
-              "FrameStatus %zu JointTrack %zu JointMapping %zu SphereSetBinaryView %zu skinspheres_contact %zu "
-              "skinspheres_frame_input %zu NarrowPhaseJob %zu NarrowPhaseSettings %zu PartContact %zu "
-              "TrianglePairContact %zu skinspheres_part_contact %zu skinspheres_triangle_contact %zu\n",
-              sizeof(skinning::Transform), sizeof(skinning::BindEntry), sizeof(skinning::LocalToModelJob),
-              sizeof(skinning::SkinningMatricesJob), sizeof(skinning::SamplingJob), sizeof(skinning::SkinningJob),
-              sizeof(runtime::RefitJob), sizeof(runtime::SelfCollisionJob), sizeof(runtime::Contact),
-              sizeof(runtime::SphereSet), sizeof(runtime::CharacterFrameInput), sizeof(runtime::FrameStatus),
-              sizeof(skinning::JointTrack), sizeof(runtime::JointMapping), sizeof(runtime::SphereSetBinaryView),
-              sizeof(skinspheres_contact), sizeof(skinspheres_frame_input), sizeof(runtime::NarrowPhaseJob),
-              sizeof(runtime::NarrowPhaseSettings), sizeof(runtime::PartContact), sizeof(runtime::TrianglePairContact),
-              sizeof(skinspheres_part_contact), sizeof(skinspheres_triangle_contact));
+  std::printf(
+      "sizeof Transform %zu BindEntry %zu LocalToModelJob %zu SkinningMatricesJob %zu SamplingJob %zu "
+      "SkinningJob %zu RefitJob %zu SelfCollisionJob %zu SpherePair %zu SphereSet %zu CharacterFrameInput %zu "
+      "FrameStatus %zu JointTrack %zu JointMapping %zu SphereSetBinaryView %zu skinspheres_sphere_pair %zu "
+      "skinspheres_frame_input %zu NarrowPhaseJob %zu NarrowPhaseSettings %zu PartContact %zu "
+      "TriangleContact %zu skinspheres_part_contact %zu skinspheres_triangle_contact %zu\n",
+      sizeof(skinning::Transform), sizeof(skinning::BindEntry), sizeof(skinning::LocalToModelJob),
+      sizeof(skinning::SkinningMatricesJob), sizeof(skinning::SamplingJob), sizeof(skinning::SkinningJob),
+      sizeof(runtime::RefitJob), sizeof(runtime::SelfCollisionJob), sizeof(runtime::SpherePair),
+      sizeof(runtime::SphereSet), sizeof(runtime::CharacterFrameInput), sizeof(runtime::FrameStatus),
+      sizeof(skinning::JointTrack), sizeof(runtime::JointMapping), sizeof(runtime::SphereSetBinaryView),
+      sizeof(skinspheres_sphere_pair), sizeof(skinspheres_frame_input), sizeof(runtime::NarrowPhaseJob),
+      sizeof(runtime::NarrowPhaseSettings), sizeof(runtime::PartContact), sizeof(runtime::TriangleContact),
+      sizeof(skinspheres_part_contact), sizeof(skinspheres_triangle_contact));
 
   // Offline API: the built-in character, its parts and its fit, saved and loaded back.
   const lib::RawCharacter ch = lib::MakeBuiltinCharacter();
@@ -114,14 +115,15 @@ int main(int argc, char** argv) {
   const size_t n = ch.vertex_count();
   std::vector<Eigen::Vector3f> fast(n), csr(n), reference(n);
   skinning::PreparedInfluences prepared;
-  Check(prepared.Build(n, ch.skin.influence_offsets, ch.skin.influence_binds, ch.skin.influence_weights), "PreparedInfluences");
+  Check(prepared.Build(n, ch.skin.influence_offsets, ch.skin.influence_binds, ch.skin.influence_weights),
+        "PreparedInfluences");
   skinning::SkinningJob skin;
   skin.joint_matrices = skin_matrices;
   skin.vertex_count = n;
   skin.in_positions = Floats(ch.skin.positions_bind);
   skin.out_positions = Floats(fast);
   skin.prepared = &prepared;
-  Check(skinning::SkinParallel(skin), "SkinningJob prepared, SkinParallel");
+  Check(skin.RunParallel(), "SkinningJob prepared, RunParallel");
   skinning::SkinningJob skin_csr = skin;
   skin_csr.prepared = nullptr;
   skin_csr.influence_offsets = ch.skin.influence_offsets;
@@ -132,22 +134,23 @@ int main(int argc, char** argv) {
   skin_csr.out_positions = Floats(reference);
   Check(skinning::SkinReference(skin_csr), "SkinReference");
   float worst = 0.0f;
-  for (size_t v = 0; v < n; ++v) worst = std::max({worst, (fast[v] - reference[v]).norm(), (csr[v] - reference[v]).norm()});
+  for (size_t v = 0; v < n; ++v)
+    worst = std::max({worst, (fast[v] - reference[v]).norm(), (csr[v] - reference[v]).norm()});
   Check(worst < 1e-4f, "skinning paths agree with the reference");
 
   // Refit, both modes, serial and parallel.
   std::vector<Vec4f> exact(set.size()), exact_parallel(set.size()), fast_spheres(set.size());
   runtime::RefitJob refit;
   refit.mode = runtime::RefitMode::kExact;
-  refit.spheres = &set;
+  refit.set = &set;
   refit.rest = &(*asset)->rest();
   refit.joint_world = world;
   refit.positions = reference;
   refit.out = exact;
   Check(refit.Run(), "RefitJob exact");
   refit.out = exact_parallel;
-  Check(runtime::RefitParallel(refit), "RefitParallel exact");
-  Check(std::equal(exact.begin(), exact.end(), exact_parallel.begin()), "RefitParallel is bit-identical");
+  Check(refit.RunParallel(), "RefitJob::RunParallel exact");
+  Check(std::equal(exact.begin(), exact.end(), exact_parallel.begin()), "RefitJob::RunParallel is bit-identical");
   refit.mode = runtime::RefitMode::kFast;
   refit.positions = {};
   refit.out = fast_spheres;
@@ -155,13 +158,13 @@ int main(int argc, char** argv) {
 
   // Broad phase: the job, the crowd runners and the oracle.
   runtime::BroadPhaseContext context_a(set.size()), context_b(set.size());
-  std::vector<runtime::Contact> out_a, out_b, oracle;
+  std::vector<runtime::SpherePair> out_a, out_b, oracle;
   runtime::SelfCollisionJob jobs[2];
   jobs[0] = {exact, &(*asset)->filter(), &context_a, &out_a};
   jobs[1] = {fast_spheres, &(*asset)->filter(), &context_b, &out_b};
   Check(jobs[0].Run(), "SelfCollisionJob");
-  Check(runtime::RunSelfCollisionJobs(jobs), "RunSelfCollisionJobs");
-  Check(runtime::RunSelfCollisionJobRange(jobs, 0, 2), "RunSelfCollisionJobRange");
+  Check(runtime::RunParallel(jobs), "RunParallel");
+  Check(runtime::RunRange(jobs, 0, 2), "RunRange");
   Check(runtime::SelfCollisionAllPairs(exact, (*asset)->filter(), &oracle), "SelfCollisionAllPairs");
   Check(oracle == out_a, "sweep == all pairs");
   PrintContacts("exact spheres", out_a);
@@ -172,15 +175,18 @@ int main(int argc, char** argv) {
   auto two = runtime::CharacterInstance::Create(*asset);
   if (!one.ok() || !two.ok()) return std::printf("instance: failed\n"), 1;
   Check(one->UpdateExact(reference, world).ok(), "CharacterInstance::UpdateExact");
-  Check(std::vector<runtime::Contact>(one->Query().begin(), one->Query().end()) == out_a, "Query == SelfCollisionJob (exact)");
+  Check(std::vector<runtime::SpherePair>(one->FindSpherePairs().begin(), one->FindSpherePairs().end()) == out_a,
+        "FindSpherePairs == SelfCollisionJob (exact)");
   Check(one->UpdateFast(world).ok(), "CharacterInstance::UpdateFast");
-  const auto queried = one->Query();
-  Check(std::vector<runtime::Contact>(queried.begin(), queried.end()) == out_b, "Query == SelfCollisionJob (fast)");
+  const auto queried = one->FindSpherePairs();
+  Check(std::vector<runtime::SpherePair>(queried.begin(), queried.end()) == out_b,
+        "FindSpherePairs == SelfCollisionJob (fast)");
   runtime::CharacterInstance* crowd[2] = {&*one, &*two};
   const runtime::CharacterFrameInput inputs[2] = {{world, {}}, {world, {}}};
-  Check(runtime::UpdateAndQueryCrowd(crowd, inputs, runtime::RefitMode::kFast).ok(), "UpdateAndQueryCrowd");
-  Check(std::equal(one->contacts().begin(), one->contacts().end(), out_b.begin(), out_b.end()) &&
-            std::equal(two->contacts().begin(), two->contacts().end(), out_b.begin(), out_b.end()),
+  Check(runtime::CrowdUpdateAndFindSpherePairs(crowd, inputs, runtime::RefitMode::kFast).ok(),
+        "CrowdUpdateAndFindSpherePairs");
+  Check(std::equal(one->sphere_pairs().begin(), one->sphere_pairs().end(), out_b.begin(), out_b.end()) &&
+            std::equal(two->sphere_pairs().begin(), two->sphere_pairs().end(), out_b.begin(), out_b.end()),
         "crowd == single instance");
 
   // The binary asset: the same set as the JSON, through a file and through a checked view.
@@ -188,7 +194,8 @@ int main(int argc, char** argv) {
   binary_path.replace_extension(".ssb");
   if (auto err = runtime::SaveSphereSet(set, binary_path)) return std::printf("%s\n", err->message.c_str()), 1;
   auto binary = runtime::LoadSphereSet(binary_path);
-  Check(binary.ok() && runtime::WriteSphereSetJson(*binary) == runtime::WriteSphereSetJson(set), "binary set == JSON set");
+  Check(binary.ok() && runtime::WriteSphereSetJson(*binary) == runtime::WriteSphereSetJson(set),
+        "binary set == JSON set");
   auto bytes = runtime::ReadSphereSetFile(binary_path);
   Check(bytes.ok() && runtime::SphereSetBinaryView::Open(*bytes, "abi.ssb").ok(), "SphereSetBinaryView::Open");
 
@@ -199,7 +206,8 @@ int main(int argc, char** argv) {
   Check(mapping.ok(), "MapJoints");
   auto mapped = runtime::CharacterInstance::Create(*asset, *mapping);
   Check(mapped.ok() && mapped->UpdateFast(engine_world).ok(), "CharacterInstance with a JointMapping");
-  Check(mapped.ok() && std::equal(mapped->Query().begin(), mapped->Query().end(), out_b.begin(), out_b.end()),
+  Check(mapped.ok() &&
+            std::equal(mapped->FindSpherePairs().begin(), mapped->FindSpherePairs().end(), out_b.begin(), out_b.end()),
         "engine joint order == set joint order");
 
   // The C API on the same file and the same engine order.
@@ -210,13 +218,16 @@ int main(int argc, char** argv) {
   size_t c_count = 0;
   Check(skinspheres_asset_load_file(binary_path.c_str(), &c_asset) == SKINSPHERES_OK &&
             skinspheres_instance_create(c_asset, c_names.data(), c_names.size(), &c_instance) == SKINSPHERES_OK &&
-            skinspheres_instance_update_fast(c_instance, engine_world.data()->data(), engine_world.size()) == SKINSPHERES_OK &&
-            skinspheres_instance_query(c_instance, &c_count) == SKINSPHERES_OK,
+            skinspheres_instance_update_fast(c_instance, engine_world.data()->data(), engine_world.size()) ==
+                SKINSPHERES_OK &&
+            skinspheres_instance_find_sphere_pairs(c_instance, &c_count) == SKINSPHERES_OK,
         "C API: load, instance, update, query");
-  std::vector<skinspheres_contact> c_contacts(c_count);
+  std::vector<skinspheres_sphere_pair> c_contacts(c_count);
   size_t written = 0;
-  Check(skinspheres_instance_get_contacts(c_instance, c_contacts.data(), c_contacts.size(), &written) == SKINSPHERES_OK &&
-            written == out_b.size() && std::memcmp(c_contacts.data(), out_b.data(), written * sizeof(skinspheres_contact)) == 0,
+  Check(skinspheres_instance_get_sphere_pairs(c_instance, c_contacts.data(), c_contacts.size(), &written) ==
+                SKINSPHERES_OK &&
+            written == out_b.size() &&
+            std::memcmp(c_contacts.data(), out_b.data(), written * sizeof(skinspheres_sphere_pair)) == 0,
         "C API contacts == C++ contacts");
 
   // The narrow phase: the job on the prepared skinning's positions, the brute-force oracle, the
@@ -246,7 +257,7 @@ int main(int argc, char** argv) {
       std::printf(" %u-%u:%u:%.5f", pc.part_a, pc.part_b, pc.triangle_pair_count, pc.depth);
     }
     std::printf("\n");
-    Check(mapped.ok() && mapped->FindContacts().ok() && mapped->frame_contacts() == narrow_out,
+    Check(mapped.ok() && mapped->FindContacts().ok() && mapped->contacts() == narrow_out,
           "FindContacts (engine joint order, skinning what it tests) == NarrowPhaseJob");
     size_t c_parts = 0, c_triangles = 0;
     Check(skinspheres_instance_find_contacts(c_instance, nullptr, 0, &c_parts, &c_triangles) == SKINSPHERES_OK &&
@@ -257,9 +268,10 @@ int main(int argc, char** argv) {
                                                            c_pairs.size(), &written) == SKINSPHERES_OK &&
                 written == narrow_out.triangle_pairs.size();
     for (size_t k = 0; same && k < written; ++k) {
-      const runtime::TrianglePairContact& t = narrow_out.triangle_pairs[k];
+      const runtime::TriangleContact& t = narrow_out.triangle_pairs[k];
       same = c_pairs[k].triangle_a == t.t && c_pairs[k].triangle_b == t.u && c_pairs[k].distance == t.distance &&
-             std::memcmp(c_pairs[k].on_a, t.on_t, sizeof t.on_t) == 0 && std::memcmp(c_pairs[k].on_b, t.on_u, sizeof t.on_u) == 0;
+             std::memcmp(c_pairs[k].on_a, t.on_t, sizeof t.on_t) == 0 &&
+             std::memcmp(c_pairs[k].on_b, t.on_u, sizeof t.on_u) == 0;
     }
     Check(same, "C API triangle contacts == C++ triangle contacts");
   }

@@ -33,7 +33,7 @@ int main(int argc, char** argv) {
     rest[16 * j + 14] *= 0.5f;
   }
   if (skinspheres_instance_update_fast(instance, rest, joints) != SKINSPHERES_OK ||
-      skinspheres_instance_query(instance, &contacts) != SKINSPHERES_OK) {
+      skinspheres_instance_find_sphere_pairs(instance, &contacts) != SKINSPHERES_OK) {
     printf("%s\n", skinspheres_last_error());
     return 1;
   }

@@ -63,15 +63,15 @@ typedef struct frame {
   const float* joint_world;
   const float* positions;
   uint32_t contact_count[2]; /* fast, exact */
-  const skinspheres_contact* contacts[2];
+  const skinspheres_sphere_pair* contacts[2];
   uint32_t part_count[2];    /* the narrow phase: part pairs and triangle pairs, fast and exact */
   const skinspheres_part_contact* parts[2];
   uint32_t triangle_count[2];
   const skinspheres_triangle_contact* triangles[2];
 } frame;
 
-static int same_contacts(const skinspheres_contact* a, size_t na, const skinspheres_contact* b, size_t nb) {
-  return na == nb && (na == 0 || memcmp(a, b, na * sizeof(skinspheres_contact)) == 0);
+static int same_contacts(const skinspheres_sphere_pair* a, size_t na, const skinspheres_sphere_pair* b, size_t nb) {
+  return na == nb && (na == 0 || memcmp(a, b, na * sizeof(skinspheres_sphere_pair)) == 0);
 }
 static int same_triangles(const skinspheres_triangle_contact* a, size_t na, const skinspheres_triangle_contact* b,
                           size_t nb) {
@@ -105,8 +105,8 @@ static size_t check_triangle_contacts(skinspheres_instance* inst, const frame* f
     const skinspheres_part_contact* pc = &fr->parts[m][k];
     check(skinspheres_instance_get_triangle_contacts(inst, k, triangles, triangle_capacity, &written) == SKINSPHERES_OK,
           "get_triangle_contacts of a part pair", f);
-    check(pc->first_triangle_contact + pc->triangle_contact_count <= fr->triangle_count[m] &&
-              same_triangles(triangles, written, fr->triangles[m] + pc->first_triangle_contact, pc->triangle_contact_count),
+    check(pc->first_triangle_pair + pc->triangle_pair_count <= fr->triangle_count[m] &&
+              same_triangles(triangles, written, fr->triangles[m] + pc->first_triangle_pair, pc->triangle_pair_count),
           "a part pair's triangle contacts equal the C++ API's", f);
   }
   check(skinspheres_instance_get_triangle_contacts(inst, part_count, triangles, triangle_capacity, &written) ==
@@ -146,8 +146,8 @@ int main(int argc, char** argv) {
   frame* frames;
   skinspheres_asset *binary = NULL, *json = NULL, *fast_only = NULL, *missing = NULL;
   skinspheres_instance *a = NULL, *b = NULL, *c = NULL, *in_set_order = NULL;
-  skinspheres_contact small[1];
-  skinspheres_contact* buffer;
+  skinspheres_sphere_pair small[1];
+  skinspheres_sphere_pair* buffer;
   size_t capacity = 4096, part_capacity = 256, triangle_capacity = 65536;
   skinspheres_part_contact* part_buffer;
   skinspheres_triangle_contact* triangle_buffer;
@@ -209,8 +209,8 @@ int main(int argc, char** argv) {
     p += 3 * sizeof(float) * vertex_count;
     for (m = 0; m < 2; ++m) {
       frames[f].contact_count[m] = read_u32(&p);
-      frames[f].contacts[m] = (const skinspheres_contact*)p;
-      p += sizeof(skinspheres_contact) * frames[f].contact_count[m];
+      frames[f].contacts[m] = (const skinspheres_sphere_pair*)p;
+      p += sizeof(skinspheres_sphere_pair) * frames[f].contact_count[m];
       frames[f].part_count[m] = read_u32(&p);
       frames[f].parts[m] = (const skinspheres_part_contact*)p;
       p += sizeof(skinspheres_part_contact) * frames[f].part_count[m];
@@ -295,18 +295,18 @@ int main(int argc, char** argv) {
     check(strstr(skinspheres_last_error(), "too large") != NULL, "the refusal says too large", 0);
     check(skinspheres_instance_reserve_contacts(a, SIZE_MAX) == SKINSPHERES_OUT_OF_MEMORY, "SIZE_MAX contacts refused", 0);
     check(strstr(skinspheres_last_error(), "too large") != NULL, "the refusal says too large", 0);
-    check(skinspheres_instance_reserve_sphere_contacts(NULL, 8) == SKINSPHERES_INVALID_ARGUMENT,
+    check(skinspheres_instance_reserve_sphere_pairs(NULL, 8) == SKINSPHERES_INVALID_ARGUMENT,
           "null instance refused", 0);
     check(strstr(skinspheres_last_error(), "null instance") != NULL, "the null refusal says why", 0);
-    check(skinspheres_instance_reserve_sphere_contacts(a, SIZE_MAX) == SKINSPHERES_OUT_OF_MEMORY,
-          "SIZE_MAX sphere contacts refused", 0);
+    check(skinspheres_instance_reserve_sphere_pairs(a, SIZE_MAX) == SKINSPHERES_OUT_OF_MEMORY,
+          "SIZE_MAX sphere pairs refused", 0);
     check(strstr(skinspheres_last_error(), "too large") != NULL, "the sphere refusal says too large", 0);
-    check(skinspheres_instance_reserve_sphere_contacts(c, 256) == SKINSPHERES_OK, "sphere contacts reserved", 0);
+    check(skinspheres_instance_reserve_sphere_pairs(c, 256) == SKINSPHERES_OK, "sphere pairs reserved", 0);
   }
   skinspheres_asset_release(json);
   skinspheres_asset_release(fast_only);
   if (failures) return 1;
-  buffer = (skinspheres_contact*)malloc(capacity * sizeof(skinspheres_contact));
+  buffer = (skinspheres_sphere_pair*)malloc(capacity * sizeof(skinspheres_sphere_pair));
   part_buffer = (skinspheres_part_contact*)malloc(part_capacity * sizeof(skinspheres_part_contact));
   triangle_buffer = (skinspheres_triangle_contact*)malloc(triangle_capacity * sizeof(skinspheres_triangle_contact));
   check(skinspheres_instance_reserve_contacts(a, capacity) == SKINSPHERES_OK, "reserve", 0);
@@ -314,7 +314,7 @@ int main(int argc, char** argv) {
   for (f = 0; f < frame_count; ++f) {
     const frame* fr = &frames[f];
     size_t count = 0, written = 0, in_place = 0;
-    const skinspheres_contact* direct;
+    const skinspheres_sphere_pair* direct;
     int m;
     for (m = 0; m < 2; ++m) {
       skinspheres_instance* inst = m == 0 ? a : b;
@@ -322,18 +322,18 @@ int main(int argc, char** argv) {
                                      : skinspheres_instance_update_exact(inst, fr->positions, vertex_count,
                                                                          fr->joint_world, joint_count);
       check(st == SKINSPHERES_OK, m == 0 ? "update_fast" : "update_exact", f);
-      check(skinspheres_instance_query(inst, &count) == SKINSPHERES_OK, "query", f);
+      check(skinspheres_instance_find_sphere_pairs(inst, &count) == SKINSPHERES_OK, "query", f);
       check(count == fr->contact_count[m], "contact count equals the C++ API's", f);
       /* Count first, then fill: a one-entry buffer is too small when there are more. */
       if (count > 1) {
-        check(skinspheres_instance_get_contacts(inst, small, 1, &written) == SKINSPHERES_BUFFER_TOO_SMALL && written == 1,
+        check(skinspheres_instance_get_sphere_pairs(inst, small, 1, &written) == SKINSPHERES_BUFFER_TOO_SMALL && written == 1,
               "a small buffer is refused", f);
         check(memcmp(&small[0], &fr->contacts[m][0], sizeof small[0]) == 0, "the first contact still copied", f);
       }
-      check(skinspheres_instance_get_contacts(inst, buffer, capacity, &written) == SKINSPHERES_OK, "get_contacts", f);
+      check(skinspheres_instance_get_sphere_pairs(inst, buffer, capacity, &written) == SKINSPHERES_OK, "get_contacts", f);
       check(same_contacts(buffer, written, fr->contacts[m], fr->contact_count[m]),
             m == 0 ? "fast contacts equal the C++ API's" : "exact contacts equal the C++ API's", f);
-      direct = skinspheres_instance_contacts(inst, &in_place);
+      direct = skinspheres_instance_sphere_pairs(inst, &in_place);
       check(same_contacts(direct, in_place, buffer, written), "contacts in place", f);
       total[m] += count;
       triangle_total[m] += check_triangle_contacts(inst, fr, m, f, vertex_count, part_buffer, part_capacity,
@@ -342,8 +342,8 @@ int main(int argc, char** argv) {
     }
     /* The fast-only set: the same fast contacts; exact mode refused with a clear message. */
     check(skinspheres_instance_update_fast(c, fr->joint_world, joint_count) == SKINSPHERES_OK, "fast-only update", f);
-    check(skinspheres_instance_query(c, &count) == SKINSPHERES_OK, "fast-only query", f);
-    direct = skinspheres_instance_contacts(c, &in_place);
+    check(skinspheres_instance_find_sphere_pairs(c, &count) == SKINSPHERES_OK, "fast-only query", f);
+    direct = skinspheres_instance_sphere_pairs(c, &in_place);
     check(same_contacts(direct, in_place, fr->contacts[0], fr->contact_count[0]), "fast-only contacts", f);
     check(skinspheres_instance_find_contacts(c, NULL, 0, &count, NULL) == SKINSPHERES_VERSION_MISMATCH && count == 0,
           "triangle contacts from a fast-only set are refused", f);
@@ -352,7 +352,7 @@ int main(int argc, char** argv) {
               SKINSPHERES_INVALID_ARGUMENT,
           "exact mode on a fast-only set is refused", f);
     check(strstr(skinspheres_last_error(), "fast-only") != NULL, "the refusal says fast-only", f);
-    check(skinspheres_instance_query(c, &count) != SKINSPHERES_OK && count == 0, "no contacts after a refused update", f);
+    check(skinspheres_instance_find_sphere_pairs(c, &count) != SKINSPHERES_OK && count == 0, "no contacts after a refused update", f);
   }
 
   /* A crowd on the engine's own loop, fast then exact: each instance as if alone. */
@@ -375,8 +375,8 @@ int main(int argc, char** argv) {
     inputs[2].joint_count = 3;
     for (m = 0; m < 2; ++m) {
       size_t n0, n1;
-      const skinspheres_contact* c0;
-      const skinspheres_contact* c1;
+      const skinspheres_sphere_pair* c0;
+      const skinspheres_sphere_pair* c1;
       const char* why = NULL;
       size_t written = 0;
       skinspheres_status st = skinspheres_crowd_update_and_find_contacts(
@@ -385,8 +385,8 @@ int main(int argc, char** argv) {
       check(st == SKINSPHERES_INVALID_DATA, "the crowd reports the failed instance", frame_count / 2);
       check(skinspheres_instance_status(in_set_order, &why) == SKINSPHERES_INVALID_ARGUMENT && why && why[0],
             "its own status says why", frame_count / 2);
-      c0 = skinspheres_instance_contacts(a, &n0);
-      c1 = skinspheres_instance_contacts(b, &n1);
+      c0 = skinspheres_instance_sphere_pairs(a, &n0);
+      c1 = skinspheres_instance_sphere_pairs(b, &n1);
       check(same_contacts(c0, n0, fr->contacts[m], fr->contact_count[m]) &&
                 same_contacts(c1, n1, fr->contacts[m], fr->contact_count[m]),
             "crowd contacts equal the C++ API's", frame_count / 2);
@@ -403,14 +403,14 @@ int main(int argc, char** argv) {
          instances (16 on an AVX-512 CPU, else 1), every instance run once, the same contacts. */
       int query_calls = 0;
       size_t n0, n1;
-      const skinspheres_contact* c0;
-      const skinspheres_contact* c1;
-      check(skinspheres_crowd_update_and_query(crowd, inputs, 3, SKINSPHERES_MODE_FAST, reversed_parallel_for,
+      const skinspheres_sphere_pair* c0;
+      const skinspheres_sphere_pair* c1;
+      check(skinspheres_crowd_update_and_find_sphere_pairs(crowd, inputs, 3, SKINSPHERES_MODE_FAST, reversed_parallel_for,
                                                &query_calls) == SKINSPHERES_INVALID_DATA,
             "the query-only crowd reports the failed instance", 0);
       check(query_calls == 1 || query_calls == 3, "one block of 16, or one call per instance", 0);
-      c0 = skinspheres_instance_contacts(a, &n0);
-      c1 = skinspheres_instance_contacts(b, &n1);
+      c0 = skinspheres_instance_sphere_pairs(a, &n0);
+      c1 = skinspheres_instance_sphere_pairs(b, &n1);
       check(same_contacts(c0, n0, fr->contacts[0], fr->contact_count[0]) &&
                 same_contacts(c1, n1, fr->contacts[0], fr->contact_count[0]),
             "query-only crowd contacts equal the C++ API's", 0);
@@ -419,17 +419,17 @@ int main(int argc, char** argv) {
        until an update that keeps them; the contacts are those of the crowd call with contacts. */
     {
       size_t n0 = 0;
-      const skinspheres_contact* c0;
+      const skinspheres_sphere_pair* c0;
       const char* why = NULL;
-      check(skinspheres_crowd_update_and_query(crowd, inputs, 2, SKINSPHERES_MODE_FAST, NULL, NULL) == SKINSPHERES_OK,
+      check(skinspheres_crowd_update_and_find_sphere_pairs(crowd, inputs, 2, SKINSPHERES_MODE_FAST, NULL, NULL) == SKINSPHERES_OK,
             "crowd query", frame_count / 2);
-      c0 = skinspheres_instance_contacts(a, &n0);
+      c0 = skinspheres_instance_sphere_pairs(a, &n0);
       check(same_contacts(c0, n0, fr->contacts[0], fr->contact_count[0]), "crowd query contacts equal the C++ API's",
             frame_count / 2);
       check(skinspheres_instance_find_contacts(a, NULL, 0, NULL, NULL) == SKINSPHERES_INVALID_ARGUMENT,
             "no find without positions after the crowd query", frame_count / 2);
       check(skinspheres_instance_status(a, &why) == SKINSPHERES_INVALID_ARGUMENT && why &&
-                strstr(why, "UpdateAndQueryCrowd") != NULL,
+                strstr(why, "CrowdUpdateAndFindSpherePairs") != NULL,
             "and its status says why", frame_count / 2);
       check(skinspheres_instance_update_fast(a, fr->joint_world, joint_count) == SKINSPHERES_OK &&
                 skinspheres_instance_find_contacts(a, NULL, 0, NULL, NULL) == SKINSPHERES_OK,
@@ -459,7 +459,7 @@ int main(int argc, char** argv) {
     fprintf(stderr, "FAILED: a margin but no within-margin triangle pairs, the margin is not tested\n");
     ++failures;
   }
-  printf("C API (%s): %u frames, %lu fast and %lu exact sphere contacts, %lu fast and %lu exact triangle contacts "
+  printf("C API (%s): %u frames, %lu fast and %lu exact sphere pairs, %lu fast and %lu exact triangle contacts "
          "(%lu within the margin %g), %s\n",
          skinspheres_version_string(), frame_count, (unsigned long)total[0], (unsigned long)total[1],
          (unsigned long)triangle_total[0], (unsigned long)triangle_total[1], (unsigned long)within_margin,

@@ -22,6 +22,7 @@
 #include <filesystem>
 #include <random>
 #include <set>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,110 @@ int Fail(const std::string& what) {
 
 void Put(FILE* f, const void* data, size_t bytes) { std::fwrite(data, 1, bytes, f); }
 void Put32(FILE* f, uint32_t v) { Put(f, &v, 4); }
+
+// The engine's joints: the skin's, in reverse order, plus one the set does not know (-1). A skeleton
+// whose names repeat (RobotExpressive) cannot be mapped by name: its engine passes the set's own
+// list, in order.
+std::vector<int32_t> EngineJoints(const lib::RawCharacter& ch, const runtime::SphereSet& set, std::string* error) {
+  std::set<int32_t> skin;
+  for (const skinning::BindEntry& b : ch.skin.binds) skin.insert(b.joint);
+  std::vector<int32_t> engine_joint(skin.rbegin(), skin.rend());
+  engine_joint.push_back(-1);
+  const std::set<std::string> distinct(ch.skeleton.joint_names.begin(), ch.skeleton.joint_names.end());
+  if (distinct.size() != ch.skeleton.joint_names.size() || set.joint_names != ch.skeleton.joint_names) {
+    if (set.joint_names != ch.skeleton.joint_names) *error = "the set's joints are not the skeleton's";
+    engine_joint.clear();
+    for (size_t j = 0; j < ch.skeleton.size(); ++j) engine_joint.push_back(static_cast<int32_t>(j));
+  }
+  return engine_joint;
+}
+
+// The frames to write: each a clip and its time, or (clip null) a random pose. The built-in
+// character's "touch" (hands on the chest, then the head), or every clip of a file at 15 fps; a
+// file's character also gets random poses (every joint turned up to 50 degrees, seeded), so that a
+// character whose clips hold no contact (Xbot's is a held T-pose) still gives the replay something
+// to compare.
+struct FramePlan {
+  std::vector<std::pair<const skinning::AnimationClip*, float>> times;
+  std::vector<std::vector<skinning::Transform>> random_locals;  // the last random_locals.size() frames
+  size_t clips = 0;
+  std::string first_clip;
+};
+
+FramePlan PlanFrames(const lib::RawCharacter& ch, bool from_file) {
+  FramePlan plan;
+  std::vector<const skinning::AnimationClip*> clips;
+  if (!from_file) {
+    clips.push_back(&ch.clips.back());
+  } else {
+    for (const skinning::AnimationClip& c : ch.clips) clips.push_back(&c);
+  }
+  const float fps = 15.0f;
+  for (const skinning::AnimationClip* c : clips) {
+    const uint32_t n = static_cast<uint32_t>(c->duration_s * fps) + 1;
+    for (uint32_t k = 0; k < n; ++k) plan.times.emplace_back(c, std::min(c->duration_s, static_cast<float>(k) / fps));
+  }
+  plan.clips = clips.size();
+  plan.first_clip = clips.empty() ? "" : clips.front()->name;
+  std::mt19937 rng(20261204);
+  for (uint32_t k = 0; from_file && k < 24; ++k) {
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f), unit(0.0f, 1.0f);
+    std::vector<skinning::Transform> local = ch.skeleton.rest_local;
+    for (skinning::Transform& tr : local) {
+      Eigen::Vector3f axis(u(rng), u(rng), u(rng));
+      if (axis.norm() < 1e-3f) axis = Eigen::Vector3f::UnitX();
+      const float angle = unit(rng) * 50.0f * 3.14159265f / 180.0f;
+      tr.rotation = (tr.rotation * Quatf(Eigen::AngleAxisf(angle, axis.normalized()))).normalized();
+    }
+    plan.random_locals.push_back(std::move(local));
+    plan.times.emplace_back(nullptr, 0.0f);
+  }
+  return plan;
+}
+
+// One mode of one frame: the sphere pairs, then the narrow phase behind them (fast mode skins
+// what it tests from the joint matrices, exact mode takes the skinned positions), written as the
+// header says. Empty, or what failed.
+std::string WriteMode(FILE* f, runtime::CharacterInstance& instance, runtime::RefitMode mode,
+                      std::span<const Mat4f> world, std::span<const Eigen::Vector3f> skinned, size_t* pairs_total,
+                      size_t* triangle_total, size_t* within_margin) {
+  const runtime::FrameStatus st = instance.Update(mode, world, skinned);
+  if (!st.ok()) return std::string("update: ") + st.message;
+  const auto pairs = instance.FindSpherePairs();
+  Put32(f, static_cast<uint32_t>(pairs.size()));
+  Put(f, pairs.data(), pairs.size() * sizeof(runtime::SpherePair));
+  *pairs_total += pairs.size();
+  const runtime::FrameStatus nst =
+      mode == runtime::RefitMode::kFast ? instance.FindContacts() : instance.FindContacts(skinned);
+  if (!nst.ok()) return std::string("find contacts: ") + nst.message;
+  const runtime::FrameContacts& found = instance.contacts();
+  Put32(f, static_cast<uint32_t>(found.parts.size()));
+  for (const runtime::PartContact& p : found.parts) {
+    Put(f, &p.part_a, 2);
+    Put(f, &p.part_b, 2);
+    Put32(f, p.first_triangle_pair);
+    Put32(f, p.triangle_pair_count);
+    Put32(f, p.intersecting_count);
+    Put32(f, p.sphere_pair_count);
+    Put(f, &p.depth, 4);
+    Put(f, &p.min_distance, 4);
+    Put(f, p.normal, 12);
+    Put(f, p.center, 12);
+  }
+  Put32(f, static_cast<uint32_t>(found.triangle_pairs.size()));
+  for (const runtime::TriangleContact& t : found.triangle_pairs) {
+    Put32(f, t.t);
+    Put32(f, t.u);
+    Put32(f, static_cast<uint32_t>(t.kind));
+    Put(f, &t.distance, 4);
+    Put(f, t.point, 12);
+    Put(f, t.on_t, 12);
+    Put(f, t.on_u, 12);
+    *within_margin += t.kind == runtime::TriangleContactKind::kWithinMargin;
+  }
+  *triangle_total += found.triangle_pairs.size();
+  return {};
+}
 
 }  // namespace
 
@@ -82,19 +187,9 @@ int main(int argc, char** argv) {
     return Fail(err->message);
   }
 
-  // The engine's joints: the skin's, in reverse order, plus one the set does not know. A skeleton
-  // whose names repeat (RobotExpressive) cannot be mapped by name: its engine passes the set's own
-  // list, in order.
-  std::set<int32_t> skin;
-  for (const skinning::BindEntry& b : ch.skin.binds) skin.insert(b.joint);
-  std::vector<int32_t> engine_joint(skin.rbegin(), skin.rend());
-  engine_joint.push_back(-1);
-  const std::set<std::string> distinct(ch.skeleton.joint_names.begin(), ch.skeleton.joint_names.end());
-  if (distinct.size() != ch.skeleton.joint_names.size() || set.joint_names != ch.skeleton.joint_names) {
-    if (set.joint_names != ch.skeleton.joint_names) return Fail("the set's joints are not the skeleton's");
-    engine_joint.clear();
-    for (size_t j = 0; j < ch.skeleton.size(); ++j) engine_joint.push_back(static_cast<int32_t>(j));
-  }
+  std::string joints_error;
+  const std::vector<int32_t> engine_joint = EngineJoints(ch, set, &joints_error);
+  if (!joints_error.empty()) return Fail(joints_error);
   std::vector<std::string> names;
   for (int32_t j : engine_joint) names.push_back(j < 0 ? "IK_target" : ch.skeleton.joint_names[static_cast<size_t>(j)]);
 
@@ -103,41 +198,10 @@ int main(int argc, char** argv) {
   auto instance = runtime::CharacterInstance::Create(*asset);
   if (!instance.ok()) return Fail(instance.error().message);
 
-  // The built-in character's "touch" (hands on the chest, then the head), or every clip of a file.
-  std::vector<const skinning::AnimationClip*> clips;
-  if (character_file.empty()) {
-    clips.push_back(&ch.clips.back());
-  } else {
-    for (const skinning::AnimationClip& c : ch.clips) clips.push_back(&c);
-  }
-  if (clips.empty()) return Fail(character_file + ": no clip");
-  const float fps = 15.0f;
-  uint32_t frames = 0;
-  std::vector<std::pair<const skinning::AnimationClip*, float>> times;  // each frame's clip and time
-  for (const skinning::AnimationClip* c : clips) {
-    const uint32_t n = static_cast<uint32_t>(c->duration_s * fps) + 1;
-    for (uint32_t k = 0; k < n; ++k) times.emplace_back(c, std::min(c->duration_s, static_cast<float>(k) / fps));
-    frames += n;
-  }
-  // A file's character also gets random poses (every joint turned up to 50 degrees, seeded): a
-  // character whose clips hold no contact (Xbot's is a held T-pose) still gives the replay
-  // something to compare. Frames with a null clip.
-  const uint32_t random_poses = character_file.empty() ? 0 : 24;
-  std::mt19937 rng(20261204);
-  std::vector<std::vector<skinning::Transform>> random_locals;
-  for (uint32_t k = 0; k < random_poses; ++k) {
-    std::uniform_real_distribution<float> u(-1.0f, 1.0f), unit(0.0f, 1.0f);
-    std::vector<skinning::Transform> local = ch.skeleton.rest_local;
-    for (skinning::Transform& tr : local) {
-      Eigen::Vector3f axis(u(rng), u(rng), u(rng));
-      if (axis.norm() < 1e-3f) axis = Eigen::Vector3f::UnitX();
-      const float angle = unit(rng) * 50.0f * 3.14159265f / 180.0f;
-      tr.rotation = (tr.rotation * Quatf(Eigen::AngleAxisf(angle, axis.normalized()))).normalized();
-    }
-    random_locals.push_back(std::move(local));
-    times.emplace_back(nullptr, 0.0f);
-  }
-  frames += random_poses;
+  const FramePlan plan = PlanFrames(ch, !character_file.empty());
+  if (plan.times.empty()) return Fail(character_file + ": no clip");
+  const uint32_t frames = static_cast<uint32_t>(plan.times.size());
+  const uint32_t random_poses = static_cast<uint32_t>(plan.random_locals.size());
   const size_t joints = ch.skeleton.size(), vertices = ch.vertex_count();
   FILE* f = std::fopen((dir / "frames.bin").c_str(), "wb");
   if (!f) return Fail("cannot write frames.bin");
@@ -156,9 +220,9 @@ int main(int argc, char** argv) {
   std::vector<float> positions(3 * vertices);
   size_t total = 0, triangle_total = 0, within_margin = 0;
   for (uint32_t k = 0; k < frames; ++k) {
-    const bool random = times[k].first == nullptr;
-    if (random) locals = random_locals[k - (frames - random_poses)];
-    skinning::SamplingJob sampling{times[k].first, &ch.skeleton, times[k].second, locals};
+    const bool random = plan.times[k].first == nullptr;
+    if (random) locals = plan.random_locals[k - (frames - random_poses)];
+    skinning::SamplingJob sampling{plan.times[k].first, &ch.skeleton, plan.times[k].second, locals};
     skinning::LocalToModelJob l2m;
     l2m.skeleton = &ch.skeleton;
     l2m.input = locals;
@@ -180,54 +244,20 @@ int main(int argc, char** argv) {
     }
     Put(f, engine_world.data()->data(), engine_world.size() * sizeof(Mat4f));
     Put(f, positions.data(), positions.size() * sizeof(float));
-    const std::span<const Eigen::Vector3f> skinned(reinterpret_cast<const Eigen::Vector3f*>(positions.data()), vertices);
+    const std::span<const Eigen::Vector3f> skinned(reinterpret_cast<const Eigen::Vector3f*>(positions.data()),
+                                                   vertices);
     for (runtime::RefitMode mode : {runtime::RefitMode::kFast, runtime::RefitMode::kExact}) {
-      const runtime::FrameStatus st = instance->Update(mode, world, skinned);
-      if (!st.ok()) return Fail(std::string("update: ") + st.message);
-      const auto contacts = instance->Query();
-      Put32(f, static_cast<uint32_t>(contacts.size()));
-      Put(f, contacts.data(), contacts.size() * sizeof(runtime::Contact));
-      total += contacts.size();
-      // The narrow phase behind those pairs: fast mode skins what it tests from the joint matrices,
-      // exact mode takes the skinned positions.
-      const runtime::FrameStatus nst =
-          mode == runtime::RefitMode::kFast ? instance->FindContacts() : instance->FindContacts(skinned);
-      if (!nst.ok()) return Fail(std::string("find contacts: ") + nst.message);
-      const runtime::FrameContacts& found = instance->frame_contacts();
-      Put32(f, static_cast<uint32_t>(found.parts.size()));
-      for (const runtime::PartContact& p : found.parts) {
-        Put(f, &p.part_a, 2);
-        Put(f, &p.part_b, 2);
-        Put32(f, p.first_triangle_pair);
-        Put32(f, p.triangle_pair_count);
-        Put32(f, p.intersecting_count);
-        Put32(f, p.sphere_pair_count);
-        Put(f, &p.depth, 4);
-        Put(f, &p.min_distance, 4);
-        Put(f, p.normal, 12);
-        Put(f, p.center, 12);
-      }
-      Put32(f, static_cast<uint32_t>(found.triangle_pairs.size()));
-      for (const runtime::TrianglePairContact& t : found.triangle_pairs) {
-        Put32(f, t.t);
-        Put32(f, t.u);
-        Put32(f, static_cast<uint32_t>(t.kind));
-        Put(f, &t.distance, 4);
-        Put(f, t.point, 12);
-        Put(f, t.on_t, 12);
-        Put(f, t.on_u, 12);
-        within_margin += t.kind == runtime::TriangleContactKind::kWithinMargin;
-      }
-      triangle_total += found.triangle_pairs.size();
+      const std::string err = WriteMode(f, *instance, mode, world, skinned, &total, &triangle_total, &within_margin);
+      if (!err.empty()) return Fail(err);
     }
   }
   std::fclose(f);
   std::printf(
-      "wrote %u frames of %zu clip(s) (first: \"%s\") and %u random poses, %zu sphere contacts and %zu triangle "
+      "wrote %u frames of %zu clip(s) (first: \"%s\") and %u random poses, %zu sphere pairs and %zu triangle "
       "contacts in all (%zu "
       "within the margin %g), %zu engine joints\n",
-      frames, clips.size(), clips.front()->name.c_str(), random_poses, total, triangle_total, within_margin,
-      narrow.margin, names.size());
+      frames, plan.clips, plan.first_clip.c_str(), random_poses, total, triangle_total, within_margin, narrow.margin,
+      names.size());
   if (total == 0 || triangle_total == 0) return Fail("no sphere or no triangle contacts: the test would prove nothing");
   if (narrow.margin > 0 && within_margin == 0) return Fail("no within-margin triangle pairs: the margin is not tested");
   return 0;

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -202,6 +203,25 @@ inline void ExpectError(const std::filesystem::path& path, ErrorCode code, const
   EXPECT_EQ(r.error().message.find('\n'), std::string::npos) << r.error().message;
   if (!needle.empty()) {
     EXPECT_NE(r.error().message.find(needle), std::string::npos) << r.error().message;
+  }
+}
+
+// Every prefix of `glb` is refused naming the file; 300 random 4-byte flips (seeded) never crash,
+// and any refusal names the file.
+inline void ExpectFuzzRefusedWithoutCrashing(const std::filesystem::path& dir, const std::string& glb, unsigned seed) {
+  for (size_t n = 1; n < glb.size(); n += 3) {
+    const auto r = ImportCharacter(Write(dir, "prefix.glb", glb.substr(0, n)));
+    ASSERT_FALSE(r.ok()) << "prefix of " << n << " bytes imported";
+    ASSERT_NE(r.error().message.find("prefix.glb"), std::string::npos);
+  }
+  std::mt19937 rng(seed);
+  for (int trial = 0; trial < 300; ++trial) {
+    std::string bytes = glb;
+    for (int k = 0; k < 4; ++k) bytes[rng() % bytes.size()] = static_cast<char>(rng());
+    const auto r = ImportCharacter(Write(dir, "flipped.glb", bytes));
+    if (!r.ok()) {
+      ASSERT_NE(r.error().message.find("flipped.glb"), std::string::npos) << r.error().message;
+    }
   }
 }
 

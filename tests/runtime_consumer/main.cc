@@ -28,6 +28,6 @@ int main(int argc, char** argv) {
   for (Mat4f& m : squashed) m.topRightCorner<3, 1>() *= 0.5f;
   const runtime::FrameStatus st = instance->UpdateFast(squashed);
   if (!st.ok()) return std::printf("update: %s\n", st.message), 1;
-  std::printf("spheres: %zu, squashed-pose contacts: %zu\n", (*asset)->size(), instance->Query().size());
+  std::printf("spheres: %zu, squashed-pose contacts: %zu\n", (*asset)->size(), instance->FindSpherePairs().size());
   return 0;
 }

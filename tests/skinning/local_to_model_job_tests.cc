@@ -1,11 +1,11 @@
 // LocalToModelJob against a naive recursive product G_i = G_parent(i) · L_i on random skeletons,
 // the rest pose against Skeleton::RestWorld, a root transform, and refusals.
-#include "skinspheres/skinning/local_to_model_job.h"
-
 #include <gtest/gtest.h>
 
 #include <random>
 #include <vector>
+
+#include "skinspheres/skinning/local_to_model_job.h"
 
 namespace skinspheres::skinning {
 namespace {
@@ -28,9 +28,11 @@ Skeleton RandomSkeleton(size_t n, uint32_t seed) {
   return s;
 }
 
-skinspheres::Mat4f NaiveWorld(const Skeleton& s, std::span<const Transform> locals, const skinspheres::Mat4f& root, int i) {
+skinspheres::Mat4f NaiveWorld(const Skeleton& s, std::span<const Transform> locals, const skinspheres::Mat4f& root,
+                              int i) {
   const skinspheres::Mat4f l = locals[i].ToMatrix();
-  return s.parents[i] < 0 ? skinspheres::Mat4f(root * l) : skinspheres::Mat4f(NaiveWorld(s, locals, root, s.parents[i]) * l);
+  return s.parents[i] < 0 ? skinspheres::Mat4f(root * l)
+                          : skinspheres::Mat4f(NaiveWorld(s, locals, root, s.parents[i]) * l);
 }
 
 TEST(LocalToModelJob, MatchesNaiveRecursiveProduct) {
@@ -38,7 +40,8 @@ TEST(LocalToModelJob, MatchesNaiveRecursiveProduct) {
   std::mt19937 rng(8);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   std::vector<Transform> pose = s.rest_local;
-  for (Transform& t : pose) t.rotation = skinspheres::Quatf(Eigen::AngleAxisf(u(rng), Eigen::Vector3f::UnitY())) * t.rotation;
+  for (Transform& t : pose)
+    t.rotation = skinspheres::Quatf(Eigen::AngleAxisf(u(rng), Eigen::Vector3f::UnitY())) * t.rotation;
   skinspheres::Mat4f root = skinspheres::Mat4f::Identity();
   root.topRightCorner<3, 1>() = Eigen::Vector3f(10, 0, -5);
   std::vector<skinspheres::Mat4f> out(s.size());

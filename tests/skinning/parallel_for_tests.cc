@@ -1,12 +1,11 @@
 // ParallelFor (parallel_for.h): the default (TBB) and serial loops cover [0, count) exactly once
 // for any count and grain; RangeBody calls the callable it refers to.
-#include "skinspheres/skinning/parallel_for.h"
-
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <vector>
 
+#include "skinspheres/skinning/parallel_for.h"
 #include "test_support.h"
 
 namespace skinspheres {

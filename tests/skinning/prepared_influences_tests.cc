@@ -1,10 +1,9 @@
 // PreparedInfluences::Build: grouping by influence count, slot order, required sizes, and the
 // refusals (with messages) of inconsistent CSR input.
-#include "skinspheres/skinning/prepared_influences.h"
-
 #include <gtest/gtest.h>
 
 #include "skinning/synthetic_mesh.h"
+#include "skinspheres/skinning/prepared_influences.h"
 
 namespace skinspheres::skinning {
 namespace {

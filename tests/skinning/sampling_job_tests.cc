@@ -1,12 +1,12 @@
 // SamplingJob against analytic values: STEP, LINEAR (lerp, slerp), glTF CUBICSPLINE Hermite
 // (reproduces a cubic exactly from its values and derivatives), before the first and after the
 // last key, a single key, rest values for untouched joints/channels, clamping, looping, refusals.
-#include "skinspheres/skinning/sampling_job.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
+
+#include "skinspheres/skinning/sampling_job.h"
 
 namespace skinspheres::skinning {
 namespace {
@@ -51,7 +51,7 @@ TEST(SamplingJob, StepHoldsKeys) {
   EXPECT_EQ(s.At(1.0f).translation.x(), 2.0f);
   EXPECT_EQ(s.At(1.5f).translation.x(), 2.0f);
   EXPECT_EQ(s.At(2.0f).translation.x(), 3.0f);
-  EXPECT_EQ(s.At(7.0f).translation.x(), 3.0f);   // clamped to the clip
+  EXPECT_EQ(s.At(7.0f).translation.x(), 3.0f);  // clamped to the clip
   EXPECT_EQ(s.At(-1.0f).translation.x(), 1.0f);
 }
 
@@ -68,8 +68,8 @@ TEST(SamplingJob, LinearLerpsAndHoldsOutsideKeys) {
   const Transform& a = s.At(1.5f, 2);
   EXPECT_TRUE(a.translation.isApprox(Eigen::Vector3f(1, -0.5f, 2), 1e-6f));
   EXPECT_NEAR(a.scale.x(), 1.5f, 1e-6f);
-  EXPECT_TRUE(s.At(0.5f, 2).translation.isApprox(Eigen::Vector3f(0, 0, 0)));     // before the first key
-  EXPECT_TRUE(s.At(3.5f, 2).translation.isApprox(Eigen::Vector3f(4, -2, 8)));    // after the last key
+  EXPECT_TRUE(s.At(0.5f, 2).translation.isApprox(Eigen::Vector3f(0, 0, 0)));        // before the first key
+  EXPECT_TRUE(s.At(3.5f, 2).translation.isApprox(Eigen::Vector3f(4, -2, 8)));       // after the last key
   EXPECT_TRUE(s.At(3.5f, 2).rotation.isApprox(s.skeleton.rest_local[2].rotation));  // no rotation track
 }
 

@@ -51,7 +51,8 @@ SkinningJob CsrJob(const SyntheticMesh& m, std::span<const float> in, std::span<
 }
 
 // Largest |a - b| over the xyz of the given vertices.
-float MaxDiff(const std::vector<float>& a, const std::vector<float>& b, size_t stride, const std::vector<uint32_t>& verts) {
+float MaxDiff(const std::vector<float>& a, const std::vector<float>& b, size_t stride,
+              const std::vector<uint32_t>& verts) {
   float d = 0.0f;
   for (uint32_t v : verts)
     for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(a[v * stride + c] - b[v * stride + c]));
@@ -68,7 +69,7 @@ TEST(SkinningJob, DefaultJobIsInvalid) {
   SkinningJob job;
   EXPECT_FALSE(job.Validate());
   EXPECT_FALSE(job.Run());
-  EXPECT_FALSE(SkinParallel(job));
+  EXPECT_FALSE(job.RunParallel());
   EXPECT_FALSE(SkinReference(job));
 }
 
@@ -84,7 +85,8 @@ TEST(SkinningJob, RigidTransformIsExactForAnyWeights) {
     job.simd = level;
     ASSERT_TRUE(job.Run()) << SimdLevelName(level);
     for (size_t v = 0; v < m.vertex_count; ++v) {
-      const skinspheres::Vec4f p = t * skinspheres::Vec4f(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2], 1);
+      const skinspheres::Vec4f p =
+          t * skinspheres::Vec4f(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2], 1);
       for (int c = 0; c < 3; ++c) ASSERT_NEAR(out[3 * v + c], p[c], 1e-5f) << SimdLevelName(level) << " vertex " << v;
     }
   }
@@ -271,7 +273,7 @@ TEST(SkinningJob, OneAndManyThreadsAreBitIdentical) {
         SkinningJob pj = job;
         pj.out_positions = parallel;
         bool ok = false;
-        test::WithDefaultThreads(threads, [&] { ok = SkinParallel(pj, grain); });
+        test::WithDefaultThreads(threads, [&] { ok = pj.RunParallel(DefaultParallelFor(), grain); });
         ASSERT_TRUE(ok);
         ASSERT_EQ(0, std::memcmp(serial.data(), parallel.data(), serial.size() * sizeof(float)))
             << "variant " << variant << " threads " << threads << " grain " << grain;
@@ -302,7 +304,8 @@ TEST(SkinningJob, OneAndManyThreadsAreBitIdentical) {
     sj.out_positions = by_range;
     for (const auto& [b, e] : some) ASSERT_TRUE(sj.RunRange(b, e));
     EXPECT_EQ(0, std::memcmp(by_range.data(), part.data(), part.size() * sizeof(float))) << "variant " << variant;
-    EXPECT_NE(0, std::memcmp(serial.data(), part.data(), part.size() * sizeof(float))) << "more than the ranges written";
+    EXPECT_NE(0, std::memcmp(serial.data(), part.data(), part.size() * sizeof(float)))
+        << "more than the ranges written";
   }
 }
 
@@ -314,7 +317,7 @@ class SkinningJobValidate : public ::testing::Test {
   void ExpectRefused(const SkinningJob& job, const char* why) {
     EXPECT_FALSE(job.Validate()) << why;
     EXPECT_FALSE(job.Run()) << why;
-    EXPECT_FALSE(SkinParallel(job)) << why;
+    EXPECT_FALSE(job.RunParallel()) << why;
     for (float f : out) ASSERT_EQ(f, kSentinel) << why << ": output written by a refused job";
   }
 };

@@ -1,13 +1,12 @@
 // SkinningMatricesJob: M_b = G_joint(b) · IBM_b per bind entry, the bind pose giving identity
 // skinning matrices, and refusals.
-#include "skinspheres/skinning/skinning_matrices_job.h"
-
 #include <gtest/gtest.h>
 
 #include <random>
 #include <vector>
 
 #include "skinning/synthetic_mesh.h"
+#include "skinspheres/skinning/skinning_matrices_job.h"
 
 namespace skinspheres::skinning {
 namespace {
@@ -30,7 +29,8 @@ TEST(SkinningMatricesJob, ProductPerBindAndIdentityInBindPose) {
 
 TEST(SkinningMatricesJob, RefusesBadJobs) {
   std::vector<skinspheres::Mat4f> model(3, skinspheres::Mat4f::Identity()), out(2);
-  std::vector<BindEntry> binds = {BindEntry{0, skinspheres::Mat4f::Identity()}, BindEntry{2, skinspheres::Mat4f::Identity()}};
+  std::vector<BindEntry> binds = {BindEntry{0, skinspheres::Mat4f::Identity()},
+                                  BindEntry{2, skinspheres::Mat4f::Identity()}};
   EXPECT_TRUE((SkinningMatricesJob{binds, model, out}.Validate()));
   EXPECT_FALSE((SkinningMatricesJob{binds, model, std::span<skinspheres::Mat4f>(out).first(1)}.Run()));
   EXPECT_FALSE((SkinningMatricesJob{binds, std::span<const skinspheres::Mat4f>(model).first(2), out}.Run()));

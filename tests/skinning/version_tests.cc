@@ -1,12 +1,11 @@
 // skinspheres/version.h: the macros come from the project's VERSION, and the library reports the
 // version it was built as.
-#include "skinspheres/version.h"
-
 #include <gtest/gtest.h>
 
 #include <string>
 
 #include "skinspheres/skinning/parallel_for.h"
+#include "skinspheres/version.h"
 
 namespace skinspheres {
 namespace {

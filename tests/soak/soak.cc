@@ -6,12 +6,12 @@
 //    a fresh instance given the same pose (frame-to-frame state such as the broad phase's sort
 //    order and sweep axis never changes a result);
 //  - every update succeeds.
-// Scenarios: each refit mode in kModes, for one character and for a crowd (UpdateAndQueryCrowd,
+// Scenarios: each refit mode in kModes, for one character and for a crowd (CrowdUpdateAndFindSpherePairs,
 // parallel). Poses: the built-in character's clips, sampled at 30 fps into a ring of poses once
 // (the soak measures the engine, not the sampling); crowd member k runs `k * 37` poses ahead.
 //
 // Modes: the broad phase alone (fast, exact), and the narrow phase behind it (FindContacts; for the
-// crowd UpdateAndFindContactsCrowd): "narrow-a" refits exactly and passes the skinned positions
+// crowd CrowdUpdateAndFindContacts): "narrow-a" refits exactly and passes the skinned positions
 // (mode a), "narrow-b" refits fast and skins lazily from the joint matrices (mode b). For the
 // narrow modes the fresh-instance check also compares the triangle contacts (FrameContacts ==).
 //
@@ -72,7 +72,7 @@ using namespace skinspheres;
 struct Mode {
   const char* name;
   runtime::RefitMode refit;
-  bool narrow;  // FindContacts after Query (mode a in exact refits, mode b in fast ones)
+  bool narrow;  // FindContacts after FindSpherePairs (mode a in exact refits, mode b in fast ones)
 };
 constexpr Mode kModes[] = {{"fast", runtime::RefitMode::kFast, false},
                            {"exact", runtime::RefitMode::kExact, false},
@@ -126,23 +126,24 @@ std::vector<Pose> MakePoses(const lib::RawCharacter& ch, size_t per_clip) {
 
 // The narrow phase for one instance as the crowd runs it: mode (a) with the positions in exact
 // refits, mode (b) in fast ones.
-bool FindContacts(runtime::CharacterInstance& instance, const runtime::CharacterFrameInput& in, runtime::RefitMode mode) {
-  return instance.FindContacts(mode == runtime::RefitMode::kExact ? in.skinned_positions
-                                                                   : std::span<const Eigen::Vector3f>{})
+bool FindContacts(runtime::CharacterInstance& instance, const runtime::CharacterFrameInput& in,
+                  runtime::RefitMode mode) {
+  return instance
+      .FindContacts(mode == runtime::RefitMode::kExact ? in.skinned_positions : std::span<const Eigen::Vector3f>{})
       .ok();
 }
 
-// The same pose through a fresh instance: spheres bit for bit, sphere contacts equal and, in the
+// The same pose through a fresh instance: spheres bit for bit, sphere pairs equal and, in the
 // narrow modes, the triangle contacts equal.
 bool SameAsFresh(runtime::CharacterInstance& instance, const runtime::CharacterFrameInput& in, const Mode& mode) {
   auto fresh = runtime::CharacterInstance::Create(instance.shared_asset());
   if (!fresh.ok() || !fresh->Update(mode.refit, in.joint_world, in.skinned_positions).ok()) return false;
-  const auto contacts = fresh->Query();
+  const auto contacts = fresh->FindSpherePairs();
   if (mode.narrow && !FindContacts(*fresh, in, mode.refit)) return false;
   const auto a = instance.spheres(), b = fresh->spheres();
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size_bytes()) == 0 &&
-         std::equal(contacts.begin(), contacts.end(), instance.contacts().begin(), instance.contacts().end()) &&
-         (!mode.narrow || fresh->frame_contacts() == instance.frame_contacts());
+         std::equal(contacts.begin(), contacts.end(), instance.sphere_pairs().begin(), instance.sphere_pairs().end()) &&
+         (!mode.narrow || fresh->contacts() == instance.contacts());
 }
 
 struct Outcome {
@@ -151,8 +152,8 @@ struct Outcome {
   size_t checks = 0, mismatches = 0, failed_updates = 0, contacts = 0, triangle_contacts = 0;
 };
 
-Outcome Run(const std::shared_ptr<const runtime::CharacterAsset>& asset, const std::vector<Pose>& poses, const Mode& mode,
-            size_t crowd, size_t frames, size_t check_every) {
+Outcome Run(const std::shared_ptr<const runtime::CharacterAsset>& asset, const std::vector<Pose>& poses,
+            const Mode& mode, size_t crowd, size_t frames, size_t check_every) {
   Outcome out;
   std::vector<runtime::CharacterInstance> instances;
   for (size_t k = 0; k < crowd; ++k) {
@@ -172,17 +173,18 @@ Outcome Run(const std::shared_ptr<const runtime::CharacterAsset>& asset, const s
     }
     g_counting = f >= warmup;
     if (crowd == 1) {
-      if (!instances[0].Update(mode.refit, inputs[0].joint_world, inputs[0].skinned_positions).ok()) ++out.failed_updates;
-      out.contacts += instances[0].Query().size();
+      if (!instances[0].Update(mode.refit, inputs[0].joint_world, inputs[0].skinned_positions).ok())
+        ++out.failed_updates;
+      out.contacts += instances[0].FindSpherePairs().size();
       if (mode.narrow && !FindContacts(instances[0], inputs[0], mode.refit)) ++out.failed_updates;
     } else {
-      const auto status = mode.narrow ? runtime::UpdateAndFindContactsCrowd(pointers, inputs, mode.refit)
-                                      : runtime::UpdateAndQueryCrowd(pointers, inputs, mode.refit);
+      const auto status = mode.narrow ? runtime::CrowdUpdateAndFindContacts(pointers, inputs, mode.refit)
+                                      : runtime::CrowdUpdateAndFindSpherePairs(pointers, inputs, mode.refit);
       if (!status.ok()) ++out.failed_updates;
-      for (const auto& i : instances) out.contacts += i.contacts().size();
+      for (const auto& i : instances) out.contacts += i.sphere_pairs().size();
     }
     if (mode.narrow)
-      for (const auto& i : instances) out.triangle_contacts += i.frame_contacts().triangle_pairs.size();
+      for (const auto& i : instances) out.triangle_contacts += i.contacts().triangle_pairs.size();
     g_counting = false;
     if (f + 1 == warmup) {
       g_allocations = 0;
@@ -205,7 +207,8 @@ Outcome Run(const std::shared_ptr<const runtime::CharacterAsset>& asset, const s
 int main(int argc, char** argv) {
   size_t frames = 100000, crowd = 8, check_every = 997;
   bool check_rss = true;
-  const char* usage = "soak: usage: soak [--frames N>=1] [--crowd K>=2] [--check-every M>=1] [--rss checked|unchecked]\n";
+  const char* usage =
+      "soak: usage: soak [--frames N>=1] [--crowd K>=2] [--check-every M>=1] [--rss checked|unchecked]\n";
   if (argc % 2 == 0) {
     std::fprintf(stderr, "%s", usage);
     return 2;
@@ -215,10 +218,14 @@ int main(int argc, char** argv) {
     char* end = nullptr;
     const size_t value = std::strtoull(text.c_str(), &end, 10);
     const bool number = !text.empty() && *end == '\0';
-    if (flag == "--rss" && (text == "checked" || text == "unchecked")) check_rss = text == "checked";
-    else if (flag == "--frames" && number) frames = value;
-    else if (flag == "--crowd" && number) crowd = value;
-    else if (flag == "--check-every" && number) check_every = value;
+    if (flag == "--rss" && (text == "checked" || text == "unchecked"))
+      check_rss = text == "checked";
+    else if (flag == "--frames" && number)
+      frames = value;
+    else if (flag == "--crowd" && number)
+      crowd = value;
+    else if (flag == "--check-every" && number)
+      check_every = value;
     else {
       std::fprintf(stderr, "%s", usage);
       return 2;
@@ -256,9 +263,9 @@ int main(int argc, char** argv) {
       const bool exercised = !mode.narrow || o.triangle_contacts > 0;
       const bool good = o.allocations_after_warmup == 0 && flat && o.mismatches == 0 && o.failed_updates == 0 &&
                         o.checks > 0 && exercised;
-      std::printf("%-8s %-6s %12zu %9.1fM %9.1fM %9zu %8zu %10zu %12zu %12zu %s\n", mode.name, who == 1 ? "one" : "crowd",
-                  o.allocations_after_warmup, o.rss_warm / 1048576.0, o.rss_end / 1048576.0, o.checks, o.mismatches,
-                  o.failed_updates, o.contacts, o.triangle_contacts, good ? "" : "FAILED");
+      std::printf("%-8s %-6s %12zu %9.1fM %9.1fM %9zu %8zu %10zu %12zu %12zu %s\n", mode.name,
+                  who == 1 ? "one" : "crowd", o.allocations_after_warmup, o.rss_warm / 1048576.0, o.rss_end / 1048576.0,
+                  o.checks, o.mismatches, o.failed_updates, o.contacts, o.triangle_contacts, good ? "" : "FAILED");
       ok = ok && good;
     }
   }

@@ -1,5 +1,5 @@
 # Writes the viewer pages the browser tests open (cmake -DTOOL=... -DDIR=... -P make_pages.cmake):
-#   play.html     `play builtin.glb --clip all --html`: walk and touch, sphere contacts
+#   play.html     `play builtin.glb --clip all --html`: walk and touch, sphere pairs
 #   fit.html      `fit "cm rig <!-- <script><b>&'x'.glb" --html`: a character with no clip, the bind
 #                 pose, its bones in centimetres under a 0.01-scaled armature (as Mixamo rigs)
 #   clips.html    `play builtin_noclips.glb --clips anim.fbx --clip all --html`: clips from an

@@ -144,7 +144,7 @@ async function restAndChest(browser, file) {
   let st = await state(browser);
   check(st.errors === '0' && !st.error, `page reports no error (errors=${st.errors}${st.error ? ', ' + st.error : ''})`);
   check(st.clip === touch.name && st.frame === '0', `hash picks clip ${touch.name} frame 0 (got ${st.clip} ${st.frame})`);
-  check(st.pairs === '0', `touch frame 0 (T-pose) has no sphere contact (${st.pairs})`);
+  check(st.pairs === '0', `touch frame 0 (T-pose) has no sphere pair (${st.pairs})`);
   let { image } = await browser.screenshot();
   const redAtRest = await countOnView(browser, image, RED);
   check(redAtRest === 0, `at rest no pixel has the contact colour (${redAtRest})`);

@@ -12,8 +12,8 @@
      each frame:
        skinspheres_instance_update_fast(inst, joint_world, my_joint_count);   16 floats per joint
        size_t n;
-       skinspheres_instance_query(inst, &n);                                  count first,
-       skinspheres_instance_get_contacts(inst, buffer, capacity, &n);         then fill
+       skinspheres_instance_find_sphere_pairs(inst, &n);                                  count first,
+       skinspheres_instance_get_sphere_pairs(inst, buffer, capacity, &n);         then fill
        size_t parts, triangles;                                               the triangles behind them:
        skinspheres_instance_find_contacts(inst, NULL, 0, &parts, &triangles); count first,
        skinspheres_instance_get_part_contacts(inst, part_buf, part_cap, &parts);      then fill
@@ -32,7 +32,7 @@
 
    Threads: an asset is immutable once loaded and may be used by any number of threads and
    instances. An instance is used by one thread at a time; distinct instances may be updated and
-   queried concurrently (skinspheres_crowd_update_and_query does it for you).
+   queried concurrently (skinspheres_crowd_update_and_find_sphere_pairs does it for you).
 
    Allocation, in full in docs/EMBEDDING.md: loading and creating allocate; per frame, a contact
    buffer grows the first time a frame needs more room than any before
@@ -41,10 +41,10 @@
    skinspheres_instance_reserve_contacts did, and the first one without positions its
    skinned-position buffer; nothing else.
 
-   Queries follow one pattern: a call computes and gives the count (skinspheres_instance_query for
+   Queries follow one pattern: a call computes and gives the count (skinspheres_instance_find_sphere_pairs for
    the overlapping spheres, skinspheres_instance_find_contacts for the triangles behind them); a
    skinspheres_instance_get_* call copies into the caller's buffer (or a pointer call reads the
-   sphere contacts in place). */
+   sphere pairs in place). */
 #ifndef SKINSPHERES_SKINSPHERES_H_
 #define SKINSPHERES_SKINSPHERES_H_
 
@@ -72,8 +72,8 @@ typedef enum skinspheres_status {
   SKINSPHERES_OK = 0,
   SKINSPHERES_FILE_NOT_FOUND = 1,
   SKINSPHERES_FILE_UNREADABLE = 2,
-  SKINSPHERES_FORMAT_REJECTED = 3,  /* not a sphere set (neither binary nor JSON) */
-  SKINSPHERES_INVALID_DATA = 4,     /* read, but corrupt or inconsistent; or non-finite frame input */
+  SKINSPHERES_FORMAT_REJECTED = 3, /* not a sphere set (neither binary nor JSON) */
+  SKINSPHERES_INVALID_DATA = 4,    /* read, but corrupt or inconsistent; or non-finite frame input */
   SKINSPHERES_VERSION_MISMATCH = 5,
   SKINSPHERES_MISMATCHED_ASSET = 6, /* the set was fitted on another character (joints, vertices) */
   SKINSPHERES_INVALID_ARGUMENT = 7, /* null handle, short array, exact mode on a fast-only set, ... */
@@ -89,15 +89,16 @@ typedef enum skinspheres_refit_mode {
   SKINSPHERES_MODE_FAST = 1   /* from joint matrices alone: no skinning, looser spheres */
 } skinspheres_refit_mode;
 
-/* One self-collision contact: spheres sphere_i < sphere_j overlap by depth (>= 0, the set's
-   units); part_i, part_j are their body parts (skinspheres_asset_part_name). 16 bytes. */
-typedef struct skinspheres_contact {
+/* One sphere pair of the broad phase: spheres sphere_i < sphere_j overlap by depth (>= 0, the
+   set's units); part_i, part_j are their body parts (skinspheres_asset_part_name). 16 bytes. The
+   triangles behind them that really touch are the contacts (skinspheres_instance_find_contacts). */
+typedef struct skinspheres_sphere_pair {
   uint32_t sphere_i;
   uint32_t sphere_j;
   float depth;
   uint16_t part_i;
   uint16_t part_j;
-} skinspheres_contact;
+} skinspheres_sphere_pair;
 
 typedef struct skinspheres_asset skinspheres_asset;       /* a loaded sphere set, shared */
 typedef struct skinspheres_instance skinspheres_instance; /* one character's per-frame state */
@@ -120,7 +121,7 @@ SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_file(const char* pat
 /* The same from memory (copied: the caller may free data on return); name is used in messages
    (NULL: "<memory>"). */
 SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_memory(const void* data, size_t size, const char* name,
-                                                                    skinspheres_asset** out_asset);
+                                                                   skinspheres_asset** out_asset);
 /* How an asset is set up at load (the *_with loaders). Zero it, set struct_size =
    sizeof(skinspheres_asset_options), then the fields you need; the plain loaders use the defaults
    (all zero). struct_size lets later versions add fields: a size smaller than this version's first
@@ -138,8 +139,7 @@ typedef struct skinspheres_asset_options {
 SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_file_with(const char* path,
                                                                       const skinspheres_asset_options* options,
                                                                       skinspheres_asset** out_asset);
-SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_memory_with(const void* data, size_t size,
-                                                                        const char* name,
+SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_memory_with(const void* data, size_t size, const char* name,
                                                                         const skinspheres_asset_options* options,
                                                                         skinspheres_asset** out_asset);
 /* The narrow-phase margin the asset was loaded with (0 for NULL and for a set without its mesh). */
@@ -167,8 +167,9 @@ SKINSPHERES_C_API int skinspheres_asset_is_fast_only(const skinspheres_asset* as
 /* Whether the set was fitted on this character: vertex_count equal and every joint the spheres
    move with named in joint_names (any order; extra joints allowed). SKINSPHERES_MISMATCHED_ASSET
    otherwise, skinspheres_last_error() naming the set's file and the missing joints. */
-SKINSPHERES_C_API skinspheres_status skinspheres_asset_check(const skinspheres_asset* asset, const char* const* joint_names,
-                                                             size_t joint_count, size_t vertex_count);
+SKINSPHERES_C_API skinspheres_status skinspheres_asset_check(const skinspheres_asset* asset,
+                                                             const char* const* joint_names, size_t joint_count,
+                                                             size_t vertex_count);
 
 /* ---- Instances ---- */
 
@@ -184,39 +185,42 @@ SKINSPHERES_C_API size_t skinspheres_instance_joint_count(const skinspheres_inst
 
 /* Fast refit: joint_world holds 16 floats per joint, joint_count >= skinspheres_instance_joint_count. */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_update_fast(skinspheres_instance* instance,
-                                                                     const float* joint_world, size_t joint_count);
+                                                                      const float* joint_world, size_t joint_count);
 /* Exact refit: positions holds 3 floats per vertex, vertex_count >= skinspheres_asset_vertex_count;
    joint_world as above, or NULL with joint_count 0 (sphere centres then from the vertices alone). */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_update_exact(skinspheres_instance* instance,
-                                                                      const float* positions, size_t vertex_count,
-                                                                      const float* joint_world, size_t joint_count);
+                                                                       const float* positions, size_t vertex_count,
+                                                                       const float* joint_world, size_t joint_count);
 
-/* Runs the self-collision query on the current spheres; *out_count = the number of contacts (0
+/* The broad phase on the current spheres; *out_count = the number of sphere pairs that overlap (0
    and an error when the last update failed). */
-SKINSPHERES_C_API skinspheres_status skinspheres_instance_query(skinspheres_instance* instance, size_t* out_count);
-/* Copies the last query's contacts (sorted by sphere_i, sphere_j) into out[0, capacity);
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_find_sphere_pairs(skinspheres_instance* instance,
+                                                                            size_t* out_count);
+/* Copies the last sphere pairs found (sorted by sphere_i, sphere_j) into out[0, capacity);
    *out_written = how many. SKINSPHERES_BUFFER_TOO_SMALL when capacity < the count (the first
-   capacity are copied; call again with a larger buffer, no need to query again). */
-SKINSPHERES_C_API skinspheres_status skinspheres_instance_get_contacts(const skinspheres_instance* instance,
-                                                                      skinspheres_contact* out, size_t capacity,
-                                                                      size_t* out_written);
-/* The last query's contacts in place (valid until the next query or update); *out_count set. */
-SKINSPHERES_C_API const skinspheres_contact* skinspheres_instance_contacts(const skinspheres_instance* instance,
-                                                                          size_t* out_count);
+   capacity are copied; call again with a larger buffer, no need to find them again). */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_get_sphere_pairs(const skinspheres_instance* instance,
+                                                                           skinspheres_sphere_pair* out,
+                                                                           size_t capacity, size_t* out_written);
+/* The last sphere pairs found, in place (valid until they are found again or the next update);
+ *out_count set. */
+SKINSPHERES_C_API const skinspheres_sphere_pair* skinspheres_instance_sphere_pairs(const skinspheres_instance* instance,
+                                                                                   size_t* out_count);
 /* The current spheres, 4 floats each (x, y, z, radius), NULL when the last update failed. */
 SKINSPHERES_C_API const float* skinspheres_instance_spheres(const skinspheres_instance* instance, size_t* out_count);
-/* The outcome of the instance's last update or query; *message (when not NULL) gets a static
+/* The outcome of the instance's last update or search; *message (when not NULL) gets a static
    string saying why. */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_status(const skinspheres_instance* instance,
-                                                                const char** message);
-/* Sizes the contact buffers so that frames with up to `count` sphere contacts, and as many part and
+                                                                 const char** message);
+/* Sizes the buffers so that frames with up to `count` sphere pairs, and as many part and
    triangle pairs, never allocate; for an asset with a mesh, also the narrow phase's scratch (else
    sized by the first skinspheres_instance_find_contacts). */
-SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_contacts(skinspheres_instance* instance, size_t count);
-/* Sizes only the sphere-contact buffer (skinspheres_instance_query's) for up to `count` contacts: for
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_contacts(skinspheres_instance* instance,
+                                                                           size_t count);
+/* Sizes only the sphere-pair buffer (skinspheres_instance_find_sphere_pairs's) for up to `count` pairs: for
    an instance that runs only the broad phase (a crowd), which then holds no triangle-pair room and no
    narrow-phase scratch (a later skinspheres_instance_find_contacts sizes those itself). */
-SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_sphere_contacts(skinspheres_instance* instance,
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_sphere_pairs(skinspheres_instance* instance,
                                                                                size_t count);
 
 /* ---- Triangle contacts (the narrow phase) ----
@@ -224,7 +228,7 @@ SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_sphere_contact
    triangle numbering, the source file's order) that intersect, or lie within the asset's margin,
    grouped by body-part pair. Needs a set with its mesh (a set fitted by this version, as JSON or a
    full binary file); a fast-only binary set or an older set without a mesh is refused
-   (SKINSPHERES_VERSION_MISMATCH). Same pattern as the sphere contacts: find gives the counts, the
+   (SKINSPHERES_VERSION_MISMATCH). Same pattern as the sphere pairs: find gives the counts, the
    get calls copy into the caller's buffers. What is reported and what never is (triangles sharing a
    vertex, pairs already touching at rest, ...): runtime/include/skinspheres/runtime/narrow_phase/narrow_phase.h. */
 
@@ -234,14 +238,14 @@ typedef enum skinspheres_triangle_contact_kind {
 } skinspheres_triangle_contact_kind;
 
 /* One body-part pair in contact this frame (part_a <= part_b; skinspheres_asset_part_name).
-   Its triangle pairs are entries [first_triangle_contact, first_triangle_contact +
-   triangle_contact_count) of the frame's triangle contacts (skinspheres_instance_get_triangle_contacts
+   Its triangle pairs are entries [first_triangle_pair, first_triangle_pair +
+   triangle_pair_count) of the frame's triangle contacts (skinspheres_instance_get_triangle_contacts
    with SKINSPHERES_ALL_PART_PAIRS), or all of them with its own index. 52 bytes. */
 typedef struct skinspheres_part_contact {
   uint16_t part_a;
   uint16_t part_b;
-  uint32_t first_triangle_contact;
-  uint32_t triangle_contact_count;
+  uint32_t first_triangle_pair;
+  uint32_t triangle_pair_count;
   uint32_t intersecting_count; /* how many of those are SKINSPHERES_TRIANGLES_INTERSECTING */
   uint32_t sphere_pair_count;  /* sphere pairs (broad phase) that hold those triangle pairs */
   float depth;                 /* penetration depth estimate (set units); 0 without intersections */
@@ -268,29 +272,29 @@ typedef struct skinspheres_triangle_contact {
 /* 1 when the asset can give triangle contacts (it holds its mesh). */
 SKINSPHERES_C_API int skinspheres_asset_has_triangle_contacts(const skinspheres_asset* asset);
 
-/* Runs the narrow phase behind the last update's sphere contacts (the sphere query runs first if it
+/* Runs the narrow phase behind the last update's sphere pairs (skinspheres_instance_find_sphere_pairs runs first if it
    has not since that update). positions: the skinned positions the spheres were refitted from
    (3 floats per vertex, vertex_count >= skinspheres_asset_vertex_count), or NULL with vertex_count 0:
    the instance then skins only the vertices it tests, from the last update's joint matrices (the
    usual choice after update_fast). *out_part_pairs and *out_triangle_pairs (either may be NULL) get
    the counts. Allocation: as the header's note says. */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_find_contacts(skinspheres_instance* instance,
-                                                                       const float* positions, size_t vertex_count,
-                                                                       size_t* out_part_pairs,
-                                                                       size_t* out_triangle_pairs);
+                                                                        const float* positions, size_t vertex_count,
+                                                                        size_t* out_part_pairs,
+                                                                        size_t* out_triangle_pairs);
 /* Copies the last find's part pairs (sorted by part_a, part_b) into out[0, capacity); *out_written =
    how many. SKINSPHERES_BUFFER_TOO_SMALL when capacity < the count (the first capacity are copied). */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_get_part_contacts(const skinspheres_instance* instance,
-                                                                           skinspheres_part_contact* out,
-                                                                           size_t capacity, size_t* out_written);
+                                                                            skinspheres_part_contact* out,
+                                                                            size_t capacity, size_t* out_written);
 /* Copies the triangle pairs of part pair `part_contact` (an index below the part-pair count), or of
    every part pair (SKINSPHERES_ALL_PART_PAIRS: grouped by part pair in the part pairs' order, each
    group sorted by triangle_a, triangle_b), into out[0, capacity); *out_written = how many.
    SKINSPHERES_BUFFER_TOO_SMALL as above; SKINSPHERES_INVALID_ARGUMENT for an index out of range. */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_get_triangle_contacts(const skinspheres_instance* instance,
-                                                                               size_t part_contact,
-                                                                               skinspheres_triangle_contact* out,
-                                                                               size_t capacity, size_t* out_written);
+                                                                                size_t part_contact,
+                                                                                skinspheres_triangle_contact* out,
+                                                                                size_t capacity, size_t* out_written);
 
 /* ---- Crowds, on the engine's job system ---- */
 
@@ -304,11 +308,11 @@ typedef void (*skinspheres_parallel_for_fn)(void* user, size_t count, size_t gra
 typedef struct skinspheres_frame_input {
   const float* joint_world; /* 16 floats per joint */
   size_t joint_count;
-  const float* positions;   /* exact mode: 3 floats per vertex; fast mode: ignored */
+  const float* positions; /* exact mode: 3 floats per vertex; fast mode: ignored */
   size_t vertex_count;
 } skinspheres_frame_input;
 
-/* Update then query instances[i] with inputs[i], for i < count, through parallel_for (NULL: the
+/* Update, then find the sphere pairs of, instances[i] with inputs[i], for i < count, through parallel_for (NULL: the
    library's default: TBB, or serial in a build without TBB). Results are identical to calling each
    instance alone. Each index of the loop is a block of 16 consecutive instances when the CPU has
    AVX-512F and the mode is fast (they are refitted and queried together; the last block may be
@@ -316,13 +320,11 @@ typedef struct skinspheres_frame_input {
    joint matrices for a later skinspheres_instance_find_contacts without positions (refused until
    the instance's next update that keeps them: the single-instance updates and
    skinspheres_crowd_update_and_find_contacts). SKINSPHERES_INVALID_DATA when at least one
-   instance failed (query it for its own status); SKINSPHERES_INVALID_ARGUMENT (nothing runs) for a
+   instance failed (ask it for its own status); SKINSPHERES_INVALID_ARGUMENT (nothing runs) for a
    null array or instance. */
-SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_query(skinspheres_instance* const* instances,
-                                                                       const skinspheres_frame_input* inputs,
-                                                                       size_t count, skinspheres_refit_mode mode,
-                                                                       skinspheres_parallel_for_fn parallel_for,
-                                                                       void* user);
+SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_find_sphere_pairs(
+    skinspheres_instance* const* instances, const skinspheres_frame_input* inputs, size_t count,
+    skinspheres_refit_mode mode, skinspheres_parallel_for_fn parallel_for, void* user);
 /* The same, then skinspheres_instance_find_contacts for every instance, on the thread that updated
    it: from the input's positions in exact mode, skinning only what it tests from the joint matrices
    in fast mode; each index of parallel_for is one instance. SKINSPHERES_INVALID_DATA also when an
@@ -332,7 +334,7 @@ SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_find_contacts(
     skinspheres_refit_mode mode, skinspheres_parallel_for_fn parallel_for, void* user);
 
 #ifdef __cplusplus
-}  /* extern "C" */
+} /* extern "C" */
 #endif
 
 #endif /* SKINSPHERES_SKINSPHERES_H_ */

@@ -25,7 +25,8 @@ Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet s
     if (!data.ok()) return data.error();
     asset->narrow_ = std::move(data).value();
   } else if (!(narrow.margin >= 0.0f) || !std::isfinite(narrow.margin)) {
-    return MakeError(ErrorCode::kInvalidArgument, "sphere set '" + set.source_file + "': the narrow-phase margin must be finite and >= 0");
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "sphere set '" + set.source_file + "': the narrow-phase margin must be finite and >= 0");
   }
   asset->set_ = std::move(set);
   asset->rest_ = std::move(rest).value();
@@ -37,8 +38,8 @@ Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet s
 std::optional<Error> CharacterAsset::Matches(std::span<const std::string> joint_names, size_t vertex_count) const {
   if (vertex_count != set_.source_vertex_count) {
     return MakeError(ErrorCode::kMismatchedAsset, DescribeSphereSet(set_) + " was fitted on " +
-                                                      std::to_string(set_.source_vertex_count) + " vertices, the character has " +
-                                                      std::to_string(vertex_count));
+                                                      std::to_string(set_.source_vertex_count) +
+                                                      " vertices, the character has " + std::to_string(vertex_count));
   }
   auto mapping = MapJoints(set_, joint_names);
   if (!mapping.ok()) return mapping.error();
@@ -51,7 +52,7 @@ Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const Charac
   const size_t n = asset->size();
   inst.spheres_.assign(n, Vec4f::Zero());
   inst.context_.Resize(n);
-  inst.contacts_.reserve(std::max<size_t>(64, 4 * n));
+  inst.sphere_pairs_.reserve(std::max<size_t>(64, 4 * n));
   inst.joint_world_.assign(asset->joint_count(), Mat4f::Identity());
   inst.joint_input_count_ = asset->joint_count();
   // The narrow phase's buffers (a few hundred KB for a large mesh) are sized by the first
@@ -69,7 +70,8 @@ Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const Charac
   const SphereSet& set = inst.asset_->sphere_set();
   const std::vector<bool> read = JointsReadPerFrame(set);
   if (mapping.engine_index.size() != set.joint_count()) {
-    return MakeError(ErrorCode::kInvalidArgument, DescribeSphereSet(set) + ": the joint mapping was made for a set of " +
+    return MakeError(ErrorCode::kInvalidArgument, DescribeSphereSet(set) +
+                                                      ": the joint mapping was made for a set of " +
                                                       std::to_string(mapping.engine_index.size()) + " joints, not " +
                                                       std::to_string(set.joint_count()));
   }
@@ -82,7 +84,8 @@ Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const Charac
     if (!read[j]) continue;
     if (e == JointMapping::kUnmapped) {
       return MakeError(ErrorCode::kInvalidArgument, DescribeSphereSet(set) + ": the joint mapping leaves joint '" +
-                                                        set.joint_names[j] + "' unmapped, and the spheres move with it");
+                                                        set.joint_names[j] +
+                                                        "' unmapped, and the spheres move with it");
     }
     inst.gather_.emplace_back(static_cast<uint32_t>(j), static_cast<uint32_t>(e));
   }
@@ -109,7 +112,7 @@ bool CharacterInstance::PrepareUpdate(RefitMode mode, std::span<const Mat4f> joi
   valid_ = false;
   queried_ = false;
   has_joints_ = false;
-  frame_contacts_.clear();
+  contacts_.clear();
   const SphereSet& set = asset_->sphere_set();
   if (mode != RefitMode::kExact && mode != RefitMode::kFast) {
     status_ = {ErrorCode::kInvalidArgument, "unknown refit mode"};
@@ -138,7 +141,7 @@ bool CharacterInstance::PrepareUpdate(RefitMode mode, std::span<const Mat4f> joi
     return false;
   }
   job->mode = mode;
-  job->spheres = &set;
+  job->set = &set;
   job->rest = &asset_->rest();
   job->joint_world = joint_world;
   job->positions = mode == RefitMode::kExact ? skinned_positions : std::span<const Eigen::Vector3f>();
@@ -157,7 +160,8 @@ FrameStatus CharacterInstance::FinishUpdate(bool refit_ok, std::span<const Mat4f
   }
   valid_ = true;
   if (keep_joints && !joint_world.empty()) {  // kept (set order) for FindContacts mode (b); already there when gathered
-    if (joint_world.data() != joint_world_.data()) std::copy_n(joint_world.begin(), joint_world_.size(), joint_world_.begin());
+    if (joint_world.data() != joint_world_.data())
+      std::copy_n(joint_world.begin(), joint_world_.size(), joint_world_.begin());
     has_joints_ = true;
   }
   status_ = {};
@@ -173,8 +177,8 @@ FrameStatus CharacterInstance::UpdateExact(std::span<const Eigen::Vector3f> skin
   return Update(RefitMode::kExact, joint_world, skinned_positions);
 }
 
-std::span<const Contact> CharacterInstance::Query() {
-  contacts_.clear();
+std::span<const SpherePair> CharacterInstance::FindSpherePairs() {
+  sphere_pairs_.clear();
   queried_ = true;
   query_ok_ = false;
   if (!valid_) {
@@ -185,26 +189,27 @@ std::span<const Contact> CharacterInstance::Query() {
   job.spheres = spheres_;
   job.filter = &asset_->filter();
   job.context = &context_;
-  job.out = &contacts_;
+  job.out = &sphere_pairs_;
   if (!job.Run()) {
-    contacts_.clear();
+    sphere_pairs_.clear();
     status_ = {ErrorCode::kInvalidData, "broad phase refused the spheres"};
     return {};
   }
   query_ok_ = true;
   status_ = {};
-  return contacts_;
+  return sphere_pairs_;
 }
 
 FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> skinned_positions,
                                             const ParallelFor& parallel_for) {
-  frame_contacts_.clear();
+  contacts_.clear();
   const NarrowPhaseData* data = asset_->narrow_phase();
   if (data == nullptr) {
-    status_ = {ErrorCode::kVersionMismatch, "the sphere set has no mesh (format version 1, or a fast-only file): no narrow phase"};
+    status_ = {ErrorCode::kVersionMismatch,
+               "the sphere set has no mesh (format version 1, or a fast-only file): no narrow phase"};
     return status_;
   }
-  if (!queried_) Query();
+  if (!queried_) FindSpherePairs();
   if (!valid_) {
     status_ = {ErrorCode::kInvalidArgument, "no valid spheres to find contacts for"};
     return status_;
@@ -216,7 +221,7 @@ FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> ski
   if (skinned_positions.empty() && !has_joints_) {
     status_ = {ErrorCode::kInvalidArgument,
                "no skinned positions, and the last update kept no joint matrices (it had none, or was an "
-               "UpdateAndQueryCrowd)"};
+               "CrowdUpdateAndFindSpherePairs)"};
     return status_;
   }
   if (!skinned_positions.empty() && skinned_positions.size() < asset_->source_vertex_count()) {
@@ -225,19 +230,19 @@ FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> ski
   }
   if (!narrow_context_.sized_for(*data)) {  // first call: warm-up allocation (Create says why)
     narrow_context_.Resize(*data, /*lazy_skinning=*/skinned_positions.empty());
-    frame_contacts_.Reserve(std::max<size_t>(64, 4 * asset_->size()));
+    contacts_.Reserve(std::max<size_t>(64, 4 * asset_->size()));
   }
   NarrowPhaseJob job;
   job.set = &asset_->sphere_set();
   job.data = data;
   job.spheres = spheres_;
-  job.pairs = contacts_;
+  job.pairs = sphere_pairs_;
   job.positions = skinned_positions;
   job.joint_world = skinned_positions.empty() ? std::span<const Mat4f>(joint_world_) : std::span<const Mat4f>();
   job.context = &narrow_context_;
-  job.out = &frame_contacts_;
+  job.out = &contacts_;
   if (!job.RunParallel(parallel_for)) {
-    frame_contacts_.clear();
+    contacts_.clear();
     status_ = {ErrorCode::kInvalidData, "narrow phase refused the frame (non-finite positions or joint matrices)"};
     return status_;
   }
@@ -246,13 +251,13 @@ FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> ski
 }
 
 void CharacterInstance::ReserveContacts(size_t count) {
-  contacts_.reserve(count);
-  frame_contacts_.Reserve(count);
+  sphere_pairs_.reserve(count);
+  contacts_.Reserve(count);
   if (const NarrowPhaseData* data = asset_->narrow_phase(); data != nullptr && !narrow_context_.sized_for(*data)) {
     narrow_context_.Resize(*data, /*lazy_skinning=*/false);
   }
 }
 
-void CharacterInstance::ReserveSphereContacts(size_t count) { contacts_.reserve(count); }
+void CharacterInstance::ReserveSpherePairs(size_t count) { sphere_pairs_.reserve(count); }
 
 }  // namespace skinspheres::runtime

@@ -47,7 +47,8 @@ Result<JointMapping> MapJoints(const SphereSet& set, std::span<const std::string
   m.engine_joint_count = engine_joint_names.size();
   // The set's own list in its own order: the identity, even where names repeat (some files name a
   // mesh node like a joint; position tells them apart).
-  if (std::equal(engine_joint_names.begin(), engine_joint_names.end(), set.joint_names.begin(), set.joint_names.end())) {
+  if (std::equal(engine_joint_names.begin(), engine_joint_names.end(), set.joint_names.begin(),
+                 set.joint_names.end())) {
     m.engine_index.resize(set.joint_count());
     for (size_t j = 0; j < set.joint_count(); ++j) m.engine_index[j] = static_cast<int32_t>(j);
     return m;
@@ -82,9 +83,10 @@ Result<JointMapping> MapJoints(const SphereSet& set, std::span<const std::string
     if (!used[k]) m.extra_engine_joints.push_back(engine_joint_names[k]);
   }
   if (!ambiguous.empty()) {
-    return MakeError(ErrorCode::kMismatchedAsset, DescribeSphereSet(set) + ": joint " + NameList(ambiguous) +
-                                                      " appears more than once in the set or in the character's list, so "
-                                                      "it cannot be matched by name (pass the set's own joint list)");
+    return MakeError(ErrorCode::kMismatchedAsset,
+                     DescribeSphereSet(set) + ": joint " + NameList(ambiguous) +
+                         " appears more than once in the set or in the character's list, so "
+                         "it cannot be matched by name (pass the set's own joint list)");
   }
   if (!missing.empty()) {
     std::string message = DescribeSphereSet(set) + ": the character has no joint " + NameList(missing) + " (" +

@@ -7,7 +7,7 @@
 // error is at most ~8u relative to the moved distance plus 2u |shift| (each subtraction is exactly
 // rounded relative to its result), covered by allowing only skin (1 - 2^-16) - 2^-20 |shift|. A
 // pair the exact float test accepts is within (r_i + r_j)(1 + 4u) in reals, also covered. So a
-// frame's contacts are exactly the oracle's whatever the cache's history.
+// frame's sphere pairs are exactly the oracle's whatever the cache's history.
 #include <algorithm>
 #include <cmath>
 #include <limits>

@@ -59,7 +59,7 @@ bool Frame::SetUpGroups() {
   st.groups.cross.clear();
   st.groups.cross.shrink_to_fit();
   st.groups.cross.reserve(n);
-  // A character's contacts: at most its cache's room while it has a cache (more only on the
+  // A character's sphere pairs: at most its cache's room while it has a cache (more only on the
   // frames it is answered without one, see Direct).
   size_t most = 0;
   for (const BroadPhaseContext& c : st.groups.contexts) most = std::max(most, c.max_candidates());
@@ -155,7 +155,7 @@ size_t Frame::CrossGroups(bool to_out) {
     kernels::ContactSink sink{st.stage.data(), kStage, 0};
     for (size_t pos = 0; pos < count;) {
       pos = k.test_candidates(spheres, pi, pj, pos, count, parts, &sink);
-      std::vector<Contact>& into = to_out ? *job.out : st.groups.cross;
+      std::vector<SpherePair>& into = to_out ? *job.out : st.groups.cross;
       if (!to_out && st.groups.cross.size() + sink.count > st.groups.cross.capacity()) room = false;
       if (room) into.insert(into.end(), st.stage.data(), st.stage.data() + sink.count);
       sink.count = 0;
@@ -209,9 +209,9 @@ void Frame::RunGroups() {
   if (!between || !merged) st.groups.cross.clear();
   size_t candidates = 0, tests = 0, builds = 0;
   double lookahead = 0.0;
-  const std::vector<Contact>& cross = st.groups.cross;
+  const std::vector<SpherePair>& cross = st.groups.cross;
   size_t c = 0;
-  std::vector<Contact>& out = *job.out;
+  std::vector<SpherePair>& out = *job.out;
   if (filter.pairs_within_groups()) {
     for (uint32_t g = 0; g < groups; ++g) {
       const uint32_t b = filter.group_begin(g), e = filter.group_begin(g + 1);
@@ -224,7 +224,7 @@ void Frame::RunGroups() {
       tests += gc.last_build_tests();
       builds += gc.build_count() - builds_before;
       lookahead += gc.last_lookahead();
-      for (Contact w : st.groups.out) {
+      for (SpherePair w : st.groups.out) {
         w.i += b;
         w.j += b;
         while (c < cross.size() && ByPair(cross[c], w)) out.push_back(cross[c++]);
@@ -234,7 +234,7 @@ void Frame::RunGroups() {
   }
   out.insert(out.end(), cross.begin() + static_cast<ptrdiff_t>(c), cross.end());
   if (!merged) {
-    // More contacts between characters than the context holds: appended, then all sorted.
+    // More sphere pairs between characters than the context holds: appended, then all sorted.
     cross_candidates = CrossGroups(true);
     std::sort(out.begin(), out.end(), ByPair);
   }

@@ -78,8 +78,8 @@ struct CharacterGroups {
   std::vector<PairFilter> filters;
   uint64_t filter = 0;                       // PairFilter::id() they were made from (0: none)
   uint32_t pause = 0;                        // frames left to run the space as one set
-  std::vector<Contact> out;                  // one character's contacts (room: its cache's)
-  std::vector<Contact> cross;                // room for n: contacts between characters, sorted by (i, j)
+  std::vector<SpherePair> out;               // one character's sphere pairs (room: its cache's)
+  std::vector<SpherePair> cross;             // room for n: sphere pairs between characters, sorted by (i, j)
   std::vector<float> box;                    // 8 per character: low x, y, z, -, high x, y, z, -
   std::vector<uint32_t> order;               // characters by low x (kept between frames)
   std::vector<uint32_t> inside_a, inside_b;  // spheres of g (of h) inside the other's box
@@ -107,7 +107,7 @@ struct BroadPhaseContext::State {
   broad_phase::ListedPairBits listed;
   broad_phase::CharacterGroups groups;
   broad_phase::LastRun last;
-  std::vector<Contact> stage;  // kStage + pad: contacts before they go to the output
+  std::vector<SpherePair> stage;  // kStage + pad: sphere pairs before they go to the output
 };
 
 }  // namespace skinspheres::runtime

@@ -1,4 +1,4 @@
-// No cache fits (or none pays): the frame's contacts straight into the output, by all pairs or by
+// No cache fits (or none pays): the frame's sphere pairs straight into the output, by all pairs or by
 // the sweep (then sorted).
 #include <algorithm>
 
@@ -14,7 +14,8 @@ void Frame::FlushDirect(size_t m) {
   for (size_t p = 0; p < m; ++p) {
     const uint32_t i = pi[p], j = pj[p];
     if (listed && filter.excluded(i, j)) continue;
-    job.out->push_back(Contact{i, j, internal::PenetrationDepth(Sphere(i), Sphere(j)), filter.part(i), filter.part(j)});
+    job.out->push_back(
+        SpherePair{i, j, internal::PenetrationDepth(Sphere(i), Sphere(j)), filter.part(i), filter.part(j)});
   }
 }
 

@@ -6,8 +6,8 @@
 //   3. the candidate cache's check (candidate_cache.cc: CacheHolds);
 //   4. otherwise a build (candidate_cache.cc: Build; sweep.cc above kAllPairsMax spheres), with the
 //      lookahead adapted to the counted work (lookahead.cc), or, when no cache fits or pays, all
-//      contacts straight into the output (direct.cc);
-//   5. the exact sphere test on the candidates (TestCache): the contacts come out sorted.
+//      sphere pairs straight into the output (direct.cc);
+//   5. the exact sphere test on the candidates (TestCache): the sphere pairs come out sorted.
 #pragma once
 
 #include <cmath>
@@ -23,7 +23,7 @@ namespace skinspheres::runtime::broad_phase {
 
 inline constexpr size_t kAllPairsMax = BroadPhaseContext::kAllPairsMax;
 inline constexpr size_t kPad = kernels::kMaxWidth;
-inline constexpr size_t kStage = 512;                          // contacts staged before the output
+inline constexpr size_t kStage = 512;                          // sphere pairs staged before the output
 inline constexpr float kGrow = 1.0f + 1.0f / 65536.0f;         // grown radius factor of a build
 inline constexpr float kAllowFactor = 1.0f - 1.0f / 65536.0f;  // of the skin, for the cache check
 inline constexpr float kSlackRelative = 1.0f / 1048576.0f;     // 2^-20 of |shift|_inf
@@ -82,7 +82,7 @@ inline uint32_t OrderBits(float f) {
   return (u & 0x80000000u) != 0 ? ~u : (u | 0x80000000u);
 }
 
-inline bool ByPair(const Contact& p, const Contact& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; }
+inline bool ByPair(const SpherePair& p, const SpherePair& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; }
 
 // A sphere's interval on the sweep axis is padded by this (relative and absolute), so that two
 // spheres the exact test finds touching have overlapping intervals.
@@ -189,16 +189,16 @@ class Frame {
 
   // The direct path's sweep (one axis, no columns: a fallback for sets too dense for any cache):
   // every touching pair the filter allows into the output, unsorted (FlushDirect leaves out the
-  // listed exclusions, so the output never holds more than the frame's contacts).
+  // listed exclusions, so the output never holds more than the frame's sphere pairs).
   void SweepDirect();
 
-  // ---- no cache fits: contacts straight into the output (direct.cc)
+  // ---- no cache fits: sphere pairs straight into the output (direct.cc)
 
-  // Streams the unsorted pairs (pi_, pj_)[0, m) as contacts into the output (direct sweep), less
+  // Streams the unsorted pairs (pi_, pj_)[0, m) as sphere pairs into the output (direct sweep), less
   // the listed exclusions (the sweep's view has no bits for them).
   void FlushDirect(size_t m);
 
-  // No cache fits: contacts straight into the output.
+  // No cache fits: sphere pairs straight into the output.
   void Direct();
 
   // ---- the lookahead (lookahead.cc)
@@ -232,9 +232,9 @@ class Frame {
 
   static bool BoxesOverlap(const float* a, const float* b);  // 8 floats each (low, high)
 
-  // The contacts between characters into st.groups.cross (sorted by (i, j)), or, with `to_out`, appended
+  // The sphere pairs between characters into st.groups.cross (sorted by (i, j)), or, with `to_out`, appended
   // to the output unsorted. Returns the candidates tested, or SIZE_MAX when st.groups.cross (room for n
-  // contacts, never grown) cannot hold them.
+  // sphere pairs, never grown) cannot hold them.
   size_t CrossGroups(bool to_out);
   // Its first steps: each character's padded box (st.groups.box), then the characters by the low
   // end of their boxes along the axis of largest spread of those ends (an insertion sort from last
@@ -242,8 +242,8 @@ class Frame {
   void GroupBoxes();
   int SortGroupsByLow();
 
-  // The whole space by groups (UseGroups, SetUpGroups done): each character's own contacts, the
-  // contacts between characters merged in by (i, j).
+  // The whole space by groups (UseGroups, SetUpGroups done): each character's own sphere pairs, the
+  // sphere pairs between characters merged in by (i, j).
   void RunGroups();
 };
 

@@ -57,9 +57,9 @@ struct SoaSpheres {
   const float* y = nullptr;
   const float* z = nullptr;
   const float* r = nullptr;
-  const float* start = nullptr;     // sweep only: interval start on the sweep axis, ascending per run
-  const float* end = nullptr;       // sweep only: interval end
-  const uint32_t* sphere = nullptr; // sweep only: index of the sphere at this position
+  const float* start = nullptr;      // sweep only: interval start on the sweep axis, ascending per run
+  const float* end = nullptr;        // sweep only: interval end
+  const uint32_t* sphere = nullptr;  // sweep only: index of the sphere at this position
 };
 
 // Pair output: i[k] < j[k]; room for `capacity` pairs. A kernel that runs out of room sets full
@@ -72,9 +72,9 @@ struct PairSink {
   bool full = false;
 };
 
-// Contact output: room for `capacity` + kMaxWidth contacts (kernels write whole vectors).
+// SpherePair output: room for `capacity` + kMaxWidth sphere pairs (kernels write whole vectors).
 struct ContactSink {
-  Contact* data = nullptr;
+  SpherePair* data = nullptr;
   size_t capacity = 0;
   size_t count = 0;
 };
@@ -90,8 +90,8 @@ struct Kernels {
   // times (1 - 2^-16); slack: 2^-20 |shift|_inf. Writes motion[k] = |c - c_ref - shift| +
   // max(0, r - r_ref) (approximately: for the next skins), and returns false when any sphere
   // moved or grew past its allowance. Every array is padded by kMaxWidth entries.
-  bool (*check_motion)(const float* spheres, const float* ref, const float* allow, size_t n,
-                       const float shift[3], float slack, size_t stride, float* motion);
+  bool (*check_motion)(const float* spheres, const float* ref, const float* allow, size_t n, const float shift[3],
+                       float slack, size_t stride, float* motion);
 
   // All pairs (a, b), a < b, rows [row_begin, row_end), of the index-ordered spheres whose balls
   // touch, that the filter allows, in (a, b) order. Returns row_end when done; a smaller row when
@@ -99,8 +99,8 @@ struct Kernels {
   uint32_t (*all_pairs_build)(const SoaSpheres& s, uint32_t n, uint32_t row_begin, uint32_t row_end,
                               const FilterView& f, PairSink* sink, size_t* tests);
 
-  // The same with the exact sphere test on the caller's spheres, writing contacts (depth, parts):
-  // only whole rows, stopping before a row when the sink has no room for n more contacts; returns
+  // The same with the exact sphere test on the caller's spheres, writing sphere pairs (depth, parts):
+  // only whole rows, stopping before a row when the sink has no room for n more sphere pairs; returns
   // the row to resume from after emptying the sink.
   uint32_t (*all_pairs_contacts)(const SoaSpheres& s, uint32_t n, uint32_t row_begin, uint32_t row_end,
                                  const FilterView& f, ContactSink* sink, size_t* tests);
@@ -121,10 +121,10 @@ struct Kernels {
                          float b_len, const FilterView& f, PairSink* sink);
 
   // The exact sphere test on candidate pairs [begin, end) of (ci, cj) (padded by kMaxWidth valid
-  // indices), spheres as n entries of 4 floats. Writes the contacts in candidate order; stops
+  // indices), spheres as n entries of 4 floats. Writes the sphere pairs in candidate order; stops
   // when the sink is full and returns where to resume (end when done).
-  size_t (*test_candidates)(const float* spheres, const uint32_t* ci, const uint32_t* cj, size_t begin,
-                            size_t end, const uint16_t* parts, ContactSink* sink);
+  size_t (*test_candidates)(const float* spheres, const uint32_t* ci, const uint32_t* cj, size_t begin, size_t end,
+                            const uint16_t* parts, ContactSink* sink);
 };
 
 const Kernels& PortableKernels();

@@ -1,6 +1,6 @@
 // Broad-phase kernels, portable level: 4 lanes as plain arrays of floats, on every platform (the
 // only level off x86-64: aarch64, 32-bit x86, ...). Each lane computes exactly what the SIMD
-// levels compute, so the contacts are the same bits. See broad_phase/kernels.h.
+// levels compute, so the sphere pairs are the same bits. See broad_phase/kernels.h.
 #include "broad_phase/kernels.h"
 
 namespace skinspheres::runtime::kernels {

@@ -1,11 +1,11 @@
 // PairFilter construction (set-up time: allocates, reports bad indices as Error).
+#include "skinspheres/runtime/broad_phase/pair_filter.h"
+
 #include <algorithm>
 #include <atomic>
 #include <limits>
 #include <string>
 #include <utility>
-
-#include "skinspheres/runtime/broad_phase/pair_filter.h"
 
 namespace skinspheres::runtime {
 namespace {
@@ -41,14 +41,13 @@ PairFilter& PairFilter::operator=(PairFilter&& other) noexcept {
 Result<PairFilter> PairFilter::Create(size_t sphere_count, std::span<const uint16_t> sphere_part,
                                       std::span<const ExcludedPair> excluded) {
   if (sphere_count > kMaxSpheres) {
-    return MakeError(ErrorCode::kInvalidArgument,
-                     "PairFilter: " + std::to_string(sphere_count) + " spheres, more than the " +
-                         std::to_string(kMaxSpheres) + " supported");
+    return MakeError(ErrorCode::kInvalidArgument, "PairFilter: " + std::to_string(sphere_count) +
+                                                      " spheres, more than the " + std::to_string(kMaxSpheres) +
+                                                      " supported");
   }
   if (!sphere_part.empty() && sphere_part.size() != sphere_count) {
-    return MakeError(ErrorCode::kInvalidArgument,
-                     "PairFilter: " + std::to_string(sphere_part.size()) + " part indices for " +
-                         std::to_string(sphere_count) + " spheres");
+    return MakeError(ErrorCode::kInvalidArgument, "PairFilter: " + std::to_string(sphere_part.size()) +
+                                                      " part indices for " + std::to_string(sphere_count) + " spheres");
   }
   // Both directions of every pair: at most 2^32 - 1 entries in all (offsets are uint32_t).
   if (excluded.size() > (std::numeric_limits<uint32_t>::max() - 1) / 2) {
@@ -59,9 +58,8 @@ Result<PairFilter> PairFilter::Create(size_t sphere_count, std::span<const uint1
     const ExcludedPair& p = excluded[k];
     if (p.i >= sphere_count || p.j >= sphere_count || p.i == p.j) {
       return MakeError(ErrorCode::kInvalidArgument,
-                       "PairFilter: excluded pair #" + std::to_string(k) + " (" + std::to_string(p.i) +
-                           ", " + std::to_string(p.j) + ") is invalid for " +
-                           std::to_string(sphere_count) + " spheres");
+                       "PairFilter: excluded pair #" + std::to_string(k) + " (" + std::to_string(p.i) + ", " +
+                           std::to_string(p.j) + ") is invalid for " + std::to_string(sphere_count) + " spheres");
     }
   }
   PairFilter filter;
@@ -104,15 +102,13 @@ Result<PairFilter> PairFilter::Create(size_t sphere_count, std::span<const uint1
 
 Result<PairFilter> PairFilter::FromSphereSet(const SphereSet& set) {
   if (set.sphere_part.size() != set.size()) {
-    return MakeError(ErrorCode::kInvalidData,
-                     "PairFilter: sphere set '" + set.source_file + "' has " +
-                         std::to_string(set.sphere_part.size()) + " part indices for " +
-                         std::to_string(set.size()) + " spheres");
+    return MakeError(ErrorCode::kInvalidData, "PairFilter: sphere set '" + set.source_file + "' has " +
+                                                  std::to_string(set.sphere_part.size()) + " part indices for " +
+                                                  std::to_string(set.size()) + " spheres");
   }
   auto filter = Create(set.size(), set.sphere_part, set.excluded_pairs);
   if (!filter.ok()) {
-    return MakeError(filter.error().code,
-                     filter.error().message + " (sphere set '" + set.source_file + "')");
+    return MakeError(filter.error().code, filter.error().message + " (sphere set '" + set.source_file + "')");
   }
   return filter;
 }
@@ -131,8 +127,8 @@ Result<PairFilter> PairFilter::Combine(std::span<const PairFilter* const> member
     total += m->size();
     entries += m->partners_.size();
     if (total > kMaxSpheres) {
-      return MakeError(ErrorCode::kInvalidArgument, "PairFilter::Combine: more than " +
-                                                        std::to_string(kMaxSpheres) + " spheres in all");
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "PairFilter::Combine: more than " + std::to_string(kMaxSpheres) + " spheres in all");
     }
     if (entries > std::numeric_limits<uint32_t>::max() - 1) {
       return MakeError(ErrorCode::kInvalidArgument, "PairFilter::Combine: too many excluded pairs in all");

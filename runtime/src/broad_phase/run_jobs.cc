@@ -7,17 +7,17 @@
 
 namespace skinspheres::runtime {
 
-bool RunSelfCollisionJobRange(std::span<const SelfCollisionJob> jobs, size_t begin, size_t end) {
+bool RunRange(std::span<const SelfCollisionJob> jobs, size_t begin, size_t end) {
   bool ok = begin <= end && end <= jobs.size();
   if (!ok) return false;
   for (size_t k = begin; k < end; ++k) ok &= jobs[k].Run();
   return ok;
 }
 
-bool RunSelfCollisionJobs(std::span<const SelfCollisionJob> jobs, const ParallelFor& parallel_for) {
+bool RunParallel(std::span<const SelfCollisionJob> jobs, const ParallelFor& parallel_for) {
   std::atomic<bool> ok{true};
   parallel_for(jobs.size(), 1, [&](size_t begin, size_t end) {
-    if (!RunSelfCollisionJobRange(jobs, begin, end)) ok.store(false, std::memory_order_relaxed);
+    if (!RunRange(jobs, begin, end)) ok.store(false, std::memory_order_relaxed);
   });
   return ok.load();
 }

@@ -12,14 +12,14 @@
 //      lookahead (a number of frames the controller adapts), radii grown to (r + skin)(1 + 2^-16),
 //      and every allowed pair whose grown spheres touch (all pairs, or the column sweep), sorted by
 //      (i, j);
-//   4. the exact sphere test on the candidates, in order: the contacts come out sorted.
+//   4. the exact sphere test on the candidates, in order: the sphere pairs come out sorted.
 //
 // Rounding. The build accepts every pair whose grown spheres truly touch: its float test errs by a
 // few units of 2^-24 relative to the distances, far below the 2^-16 growth. The check's float
 // error is at most ~8u relative to the moved distance plus 2u |shift| (each subtraction is exactly
 // rounded relative to its result), covered by allowing only skin (1 - 2^-16) - 2^-20 |shift|. A
 // pair the exact float test accepts is within (r_i + r_j)(1 + 4u) in reals, also covered. So a
-// frame's contacts are exactly the oracle's whatever the cache's history.
+// frame's sphere pairs are exactly the oracle's whatever the cache's history.
 #include <algorithm>
 #include <memory>
 #include <utility>
@@ -41,8 +41,7 @@ bool CpuHas(BroadPhaseSimd level) {
     case BroadPhaseSimd::kAuto:
     case BroadPhaseSimd::kPortable: return true;
 #if defined(SKINSPHERES_X86_64)
-    case BroadPhaseSimd::kSse2:
-      return true;
+    case BroadPhaseSimd::kSse2: return true;
     case BroadPhaseSimd::kAvx2: return HostCpu().avx2 && HostCpu().bmi1 && HostCpu().popcnt;
     case BroadPhaseSimd::kAvx512: return HostCpu().avx512f && HostCpu().bmi1 && HostCpu().popcnt;
 #endif
@@ -53,10 +52,8 @@ bool CpuHas(BroadPhaseSimd level) {
 const kernels::Kernels& KernelsFor(BroadPhaseSimd level) {
   switch (ResolveBroadPhaseSimd(level)) {
 #if defined(SKINSPHERES_X86_64)
-    case BroadPhaseSimd::kAvx512:
-      return kernels::Avx512Kernels();
-    case BroadPhaseSimd::kAvx2:
-      return kernels::Avx2Kernels();
+    case BroadPhaseSimd::kAvx512: return kernels::Avx512Kernels();
+    case BroadPhaseSimd::kAvx2: return kernels::Avx2Kernels();
     case BroadPhaseSimd::kSse2: return kernels::Sse2Kernels();
 #endif
     default: return kernels::PortableKernels();
@@ -80,14 +77,10 @@ BroadPhaseSimd ResolveBroadPhaseSimd(BroadPhaseSimd level) {
 
 const char* ToString(BroadPhaseSimd level) {
   switch (level) {
-    case BroadPhaseSimd::kAuto:
-      return "auto";
-    case BroadPhaseSimd::kSse2:
-      return "sse2";
-    case BroadPhaseSimd::kAvx2:
-      return "avx2";
-    case BroadPhaseSimd::kAvx512:
-      return "avx512";
+    case BroadPhaseSimd::kAuto: return "auto";
+    case BroadPhaseSimd::kSse2: return "sse2";
+    case BroadPhaseSimd::kAvx2: return "avx2";
+    case BroadPhaseSimd::kAvx512: return "avx512";
     case BroadPhaseSimd::kPortable: return "portable";
   }
   return "unknown";
@@ -95,20 +88,13 @@ const char* ToString(BroadPhaseSimd level) {
 
 const char* ToString(BroadPhaseMethod method) {
   switch (method) {
-    case BroadPhaseMethod::kNone:
-      return "none";
-    case BroadPhaseMethod::kCached:
-      return "cached";
-    case BroadPhaseMethod::kAllPairsBuild:
-      return "all-pairs build";
-    case BroadPhaseMethod::kSweepBuild:
-      return "sweep build";
-    case BroadPhaseMethod::kAllPairsDirect:
-      return "all-pairs direct";
-    case BroadPhaseMethod::kSweepDirect:
-      return "sweep direct";
-    case BroadPhaseMethod::kGroups:
-      return "groups";
+    case BroadPhaseMethod::kNone: return "none";
+    case BroadPhaseMethod::kCached: return "cached";
+    case BroadPhaseMethod::kAllPairsBuild: return "all-pairs build";
+    case BroadPhaseMethod::kSweepBuild: return "sweep build";
+    case BroadPhaseMethod::kAllPairsDirect: return "all-pairs direct";
+    case BroadPhaseMethod::kSweepDirect: return "sweep direct";
+    case BroadPhaseMethod::kGroups: return "groups";
   }
   return "unknown";
 }
@@ -179,7 +165,7 @@ void BroadPhaseContext::Resize(size_t max_spheres, size_t max_candidates) {
     st.listed.far.clear();
   }
   st.listed.sphere_count = 0;
-  st.stage.assign(kStage + kPad, Contact{});
+  st.stage.assign(kStage + kPad, SpherePair{});
   st.groups.contexts.clear();
   st.groups.filters.clear();
   st.groups.filter = 0;

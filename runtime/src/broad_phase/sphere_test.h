@@ -16,8 +16,8 @@ inline constexpr float kMaxMagnitude = 1e18f;
 // True when the centre and radius are finite, within ±kMaxMagnitude, and the radius >= 0
 // (x - x == 0 fails for inf and NaN).
 inline bool SphereValuesOk(const Vec4f& s) {
-  return (s.x() - s.x() == 0.0f) & (s.y() - s.y() == 0.0f) & (s.z() - s.z() == 0.0f) &
-         (s.w() - s.w() == 0.0f) & (s.w() >= 0.0f) & (s.cwiseAbs().maxCoeff() <= kMaxMagnitude);
+  return (s.x() - s.x() == 0.0f) & (s.y() - s.y() == 0.0f) & (s.z() - s.z() == 0.0f) & (s.w() - s.w() == 0.0f) &
+         (s.w() >= 0.0f) & (s.cwiseAbs().maxCoeff() <= kMaxMagnitude);
 }
 
 // |c_i - c_j|^2 as ((dx*dx + dy*dy) + dz*dz). The sign of d does not matter (negation is exact).

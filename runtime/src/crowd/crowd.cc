@@ -31,7 +31,7 @@ FrameStatus CheckCrowd(std::span<CharacterInstance* const> instances, std::span<
 
 constexpr FrameStatus kSomeFailed{ErrorCode::kInvalidData, "at least one instance failed; see its status()"};
 
-// Update + Query (+ FindContacts) of every instance through parallel_for, each range as CrowdRange.
+// Update + FindSpherePairs (+ FindContacts) of every instance through parallel_for, each range as CrowdRange.
 FrameStatus RunCrowd(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
                      RefitMode mode, bool find_contacts, const ParallelFor& parallel_for) {
   if (const FrameStatus st = CheckCrowd(instances, inputs); !st.ok()) return st;
@@ -62,13 +62,13 @@ FrameStatus CrowdRange(std::span<CharacterInstance* const> instances, std::span<
   return {};
 }
 
-FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
-                                std::span<const CharacterFrameInput> inputs, RefitMode mode,
-                                const ParallelFor& parallel_for) {
+FrameStatus CrowdUpdateAndFindSpherePairs(std::span<CharacterInstance* const> instances,
+                                          std::span<const CharacterFrameInput> inputs, RefitMode mode,
+                                          const ParallelFor& parallel_for) {
   return RunCrowd(instances, inputs, mode, /*find_contacts=*/false, parallel_for);
 }
 
-FrameStatus UpdateAndFindContactsCrowd(std::span<CharacterInstance* const> instances,
+FrameStatus CrowdUpdateAndFindContacts(std::span<CharacterInstance* const> instances,
                                        std::span<const CharacterFrameInput> inputs, RefitMode mode,
                                        const ParallelFor& parallel_for) {
   return RunCrowd(instances, inputs, mode, /*find_contacts=*/true, parallel_for);

@@ -46,7 +46,7 @@ uint64_t CrowdQueryBatches() { return batched_queries; }
 
 FrameStatus CrowdBatch::AfterUpdate(CharacterInstance& inst, RefitMode mode, const CharacterFrameInput& input,
                                     bool find_contacts) {
-  inst.Query();
+  inst.FindSpherePairs();
   return AfterQuery(inst, mode, input, find_contacts);
 }
 
@@ -68,9 +68,9 @@ float* CrowdBatch::SoaScratch() {
   return soa.data() + ((64 - address % 64) % 64) / sizeof(float);
 }
 
-// Query of the instances in `lanes` at once: what Query() gives each, from soa. Lanes whose
+// FindSpherePairs of the instances in `lanes` at once: what FindSpherePairs() gives each, from soa. Lanes whose
 // spheres the broad phase would refuse (beyond kMaxMagnitude) are left out of the returned mask,
-// for their own Query() to report.
+// for their own FindSpherePairs() to report.
 uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, const float* soa, uint32_t lanes,
                                 CharacterInstance* const inst[kLanes]) {
 #if !defined(SKINSPHERES_X86_64)
@@ -79,7 +79,7 @@ uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, const float* soa, u
 #else
   lanes &= internal::avx512::BatchValuesOk(soa, asset.size(), internal::kMaxMagnitude);
   if (lanes == 0) return 0;
-  for (uint32_t m = lanes; m != 0; m &= m - 1) inst[std::countr_zero(m)]->contacts_.clear();
+  for (uint32_t m = lanes; m != 0; m &= m - 1) inst[std::countr_zero(m)]->sphere_pairs_.clear();
   constexpr size_t kHits = 16;
   alignas(64) float depth[kLanes * kHits];
   uint32_t pair[kHits];
@@ -96,7 +96,7 @@ uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, const float* soa, u
       const uint16_t part_i = filter.part(i), part_j = filter.part(j);
       for (uint32_t m = mask[h]; m != 0; m &= m - 1) {
         const int b = std::countr_zero(m);
-        inst[b]->contacts_.push_back(Contact{i, j, depth[kLanes * h + b], part_i, part_j});
+        inst[b]->sphere_pairs_.push_back(SpherePair{i, j, depth[kLanes * h + b], part_i, part_j});
       }
     }
   }

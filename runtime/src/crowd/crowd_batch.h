@@ -1,6 +1,6 @@
 // The crowd calls' batch: consecutive instances of one asset in fast mode, refitted 16 at a time in
 // AVX-512 lanes (refit/refit_internal.h: the same bits as each alone) and, for an asset of up to 256
-// spheres, queried at once too (crowd/crowd_query.h: the same contacts as each alone); then each
+// spheres, queried at once too (crowd/crowd_query.h: the same sphere pairs as each alone); then each
 // one's narrow phase if asked. A friend of CharacterAsset and CharacterInstance (api/character.h).
 #pragma once
 
@@ -24,7 +24,7 @@ std::vector<uint32_t> CrowdPairs(const PairFilter& filter);
 
 struct CrowdBatch {
   static constexpr size_t kLanes = internal::kRefitBatchLanes;
-  // Query (AfterUpdate), then FindContacts when asked: mode (a) with the input's positions in exact
+  // FindSpherePairs (AfterUpdate), then FindContacts when asked: mode (a) with the input's positions in exact
   // mode, mode (b) in fast mode. The instance's status() after it.
   static FrameStatus AfterUpdate(CharacterInstance& inst, RefitMode mode, const CharacterFrameInput& input,
                                  bool find_contacts);
@@ -34,9 +34,9 @@ struct CrowdBatch {
   // set batched, 64-byte aligned (each lane vector one cache line), made by the thread's first batch
   // and kept for its life (not on the stack: engines run jobs on small stacks).
   static float* SoaScratch();
-  // Query of the instances in `lanes` at once: what Query() gives each, from soa. Lanes whose
+  // FindSpherePairs of the instances in `lanes` at once: what FindSpherePairs() gives each, from soa. Lanes whose
   // spheres the broad phase would refuse (beyond kMaxMagnitude) are left out of the returned mask,
-  // for their own Query() to report.
+  // for their own FindSpherePairs() to report.
   static uint32_t QueryBatch(const CharacterAsset& asset, const float* soa, uint32_t lanes,
                              CharacterInstance* const inst[kLanes]);
   // Instances [begin, end) with their inputs; true when all succeeded. In fast mode, with AVX-512F,

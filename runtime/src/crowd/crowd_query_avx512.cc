@@ -2,7 +2,7 @@
 // whatever the build's flags; called only when the CPU has it (the batched refit decides). Every
 // test is the oracle's ((dx*dx + dy*dy) + dz*dz) <= (r_i + r_j)^2 with dx = x_j - x_i, and every
 // depth (r_i + r_j) - sqrt(d^2), lane by lane (-ffp-contract=off: no fused multiply-add), so the
-// contacts are bit for bit those of each instance's own query. Stack: a few hundred bytes.
+// sphere pairs are bit for bit those of each instance's own query. Stack: a few hundred bytes.
 #include "crowd/crowd_query.h"
 
 #if defined(SKINSPHERES_X86_64)
@@ -57,8 +57,7 @@ size_t BatchTestPairs(const float* soa, const uint32_t* pairs, size_t begin, siz
     const __m512 dx = _mm512_sub_ps(_mm512_loadu_ps(b), ax);
     const __m512 dy = _mm512_sub_ps(_mm512_loadu_ps(b + 16), ay);
     const __m512 dz = _mm512_sub_ps(_mm512_loadu_ps(b + 32), az);
-    const __m512 d2 =
-        _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
+    const __m512 d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
     const __m512 rs = _mm512_add_ps(ar, _mm512_loadu_ps(b + 48));
     const __mmask16 hit = _mm512_mask_cmp_ps_mask(active, d2, _mm512_mul_ps(rs, rs), _CMP_LE_OQ);
     if (hit == 0) continue;

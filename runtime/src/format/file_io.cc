@@ -271,7 +271,8 @@ Result<std::vector<uint8_t>> ReadRegularFilePrefix(const std::filesystem::path& 
   uint64_t size = 0;
   if (auto err = f.Open(path, &size)) return *err;
   const auto shorter = [&] {
-    return FileError(ErrorCode::kFormatRejected, path, "is shorter than the " + std::to_string(length) + " bytes expected");
+    return FileError(ErrorCode::kFormatRejected, path,
+                     "is shorter than the " + std::to_string(length) + " bytes expected");
   };
   if (size < length) return shorter();  // refused before allocating
   std::vector<uint8_t> bytes(static_cast<size_t>(length));
@@ -323,10 +324,14 @@ std::string OneLine(std::string message) {
   if (std::none_of(message.begin(), message.end(), control)) return message;
   std::string line;
   for (const unsigned char c : message) {
-    if (!control(c)) line += static_cast<char>(c);
-    else if (c == '\n') line += "\\n";
-    else if (c == '\r') line += "\\r";
-    else if (c == '\t') line += "\\t";
+    if (!control(c))
+      line += static_cast<char>(c);
+    else if (c == '\n')
+      line += "\\n";
+    else if (c == '\r')
+      line += "\\r";
+    else if (c == '\t')
+      line += "\\t";
     else {
       static constexpr char kHex[] = "0123456789abcdef";
       line += {'\\', 'x', kHex[c >> 4], kHex[c & 15]};
@@ -342,8 +347,10 @@ JsonShape ScanJson(std::string_view text) {
   for (size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
     if (in_string) {
-      if (c == '\\') ++i;  // the escaped character cannot end the string
-      else if (c == '"') in_string = false;
+      if (c == '\\')
+        ++i;  // the escaped character cannot end the string
+      else if (c == '"')
+        in_string = false;
     } else if (c == '"') {
       in_string = true;
     } else if (c == '[' || c == '{') {

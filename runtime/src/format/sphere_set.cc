@@ -91,7 +91,8 @@ std::optional<Error> ValidateMesh(const SphereSet& set) {
     return Invalid("mesh influence lists are malformed");
   }
   for (size_t k = 0; k < mesh.influence_binds.size(); ++k) {
-    if (mesh.influence_binds[k] >= mesh.binds.size()) return Invalid("a mesh influence names a bind entry out of range");
+    if (mesh.influence_binds[k] >= mesh.binds.size())
+      return Invalid("a mesh influence names a bind entry out of range");
     if (!(mesh.influence_weights[k] >= 0.0f) || !std::isfinite(mesh.influence_weights[k])) {
       return Invalid("a mesh influence weight is negative or not finite");
     }
@@ -101,11 +102,13 @@ std::optional<Error> ValidateMesh(const SphereSet& set) {
   double sum = 0.0;
   if (const size_t v = skinning::FirstVertexNotSummingToOne(mesh.influence_offsets, mesh.influence_weights, &sum);
       v != std::numeric_limits<size_t>::max()) {
-    return Invalid("mesh vertex " + std::to_string(v) + " has skin weights summing to " + Digits(float(sum)) + ", not 1");
+    return Invalid("mesh vertex " + std::to_string(v) + " has skin weights summing to " + Digits(float(sum)) +
+                   ", not 1");
   }
   std::vector<uint32_t> marked(vertices, UINT32_MAX);  // marked[v] == s: v is a source vertex of sphere s
   for (size_t s = 0; s < set.size(); ++s) {
-    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) marked[set.vertices[k]] = static_cast<uint32_t>(s);
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k)
+      marked[set.vertices[k]] = static_cast<uint32_t>(s);
     for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
       const uint32_t t = set.triangles[k];
       for (int c = 0; c < 3; ++c) {
@@ -121,64 +124,103 @@ std::optional<Error> ValidateMesh(const SphereSet& set) {
 
 }  // namespace
 
-std::optional<Error> SphereSet::Validate() const {
-  const size_t n = size();
-  const size_t joints = joint_count();
-  if (joint_parents.size() != joints || joint_rest_world.size() != joints) {
+namespace {
+
+// The skeleton: arrays that agree, parents first, finite rest transforms.
+std::optional<Error> CheckSkeleton(const SphereSet& set) {
+  [[maybe_unused]] const size_t n = set.size();
+  [[maybe_unused]] const size_t joints = set.joint_count();
+  if (set.joint_parents.size() != joints || set.joint_rest_world.size() != joints) {
     return Invalid("skeleton arrays disagree in size");
   }
   for (size_t j = 0; j < joints; ++j) {
-    if (joint_parents[j] < -1 || joint_parents[j] >= static_cast<int32_t>(j)) {
-      return Invalid("joint " + std::to_string(j) + " has parent " + std::to_string(joint_parents[j]) +
+    if (set.joint_parents[j] < -1 || set.joint_parents[j] >= static_cast<int32_t>(j)) {
+      return Invalid("joint " + std::to_string(j) + " has parent " + std::to_string(set.joint_parents[j]) +
                      " (parents must come first)");
     }
-    if (!joint_rest_world[j].allFinite()) return Invalid("joint " + std::to_string(j) + " rest transform is not finite");
+    if (!set.joint_rest_world[j].allFinite())
+      return Invalid("joint " + std::to_string(j) + " rest transform is not finite");
   }
+  return std::nullopt;
+}
+
+// The parts: named, once each, naming joints in range.
+std::optional<Error> CheckParts(const SphereSet& set) {
+  [[maybe_unused]] const size_t n = set.size();
+  [[maybe_unused]] const size_t joints = set.joint_count();
   // Part names are what a report says ("torso - arm_l") and what an engine looks a part up by:
   // each is non-empty and names one part.
-  for (size_t p = 0; p < parts.size(); ++p) {
-    if (parts[p].name.empty()) return Invalid("part " + std::to_string(p) + " has an empty name");
+  for (size_t p = 0; p < set.parts.size(); ++p) {
+    if (set.parts[p].name.empty()) return Invalid("part " + std::to_string(p) + " has an empty name");
     for (size_t q = 0; q < p; ++q) {
-      if (parts[q].name == parts[p].name) {
-        return Invalid("parts " + std::to_string(q) + " and " + std::to_string(p) + " are both named '" + parts[p].name + "'");
+      if (set.parts[q].name == set.parts[p].name) {
+        return Invalid("parts " + std::to_string(q) + " and " + std::to_string(p) + " are both named '" +
+                       set.parts[p].name + "'");
       }
     }
   }
-  for (const auto& part : parts) {
+  for (const auto& part : set.parts) {
     for (uint32_t j : part.joints) {
       if (j >= joints) return Invalid("part " + part.name + " names joint " + std::to_string(j) + " out of range");
     }
   }
-  if (radii_rest.size() != n || radii_fast.size() != n || sphere_part.size() != n ||
-      sphere_joint.size() != n || sphere_level.size() != n) {
+  return std::nullopt;
+}
+
+// The per-sphere arrays and the CSR lists agree in size.
+std::optional<Error> CheckSphereArrays(const SphereSet& set) {
+  [[maybe_unused]] const size_t n = set.size();
+  [[maybe_unused]] const size_t joints = set.joint_count();
+  if (set.radii_rest.size() != n || set.radii_fast.size() != n || set.sphere_part.size() != n ||
+      set.sphere_joint.size() != n || set.sphere_level.size() != n) {
     return Invalid("per-sphere arrays disagree in size");
   }
-  if (!CsrOk(vertex_offsets, n, vertices.size())) return Invalid("sphere vertex lists are malformed");
-  if (!CsrOk(triangle_offsets, n, triangles.size())) return Invalid("sphere triangle lists are malformed");
-  if (!CsrOk(influence_offsets, n, influence_joints.size()) || influence_weights.size() != influence_joints.size()) {
+  if (!CsrOk(set.vertex_offsets, n, set.vertices.size())) return Invalid("sphere vertex lists are malformed");
+  if (!CsrOk(set.triangle_offsets, n, set.triangles.size())) return Invalid("sphere triangle lists are malformed");
+  if (!CsrOk(set.influence_offsets, n, set.influence_joints.size()) ||
+      set.influence_weights.size() != set.influence_joints.size()) {
     return Invalid("sphere influence lists are malformed");
   }
+  return std::nullopt;
+}
+
+// Each sphere: finite, positive, within reach of the broad phase, its part and joint in range.
+std::optional<Error> CheckSpheres(const SphereSet& set) {
+  [[maybe_unused]] const size_t n = set.size();
+  [[maybe_unused]] const size_t joints = set.joint_count();
   for (size_t s = 0; s < n; ++s) {
     const std::string id = "sphere " + std::to_string(s);
-    if (!centers_rest[s].allFinite() || !std::isfinite(radii_rest[s])) return Invalid(id + " has a non-finite centre or radius");
+    if (!set.centers_rest[s].allFinite() || !std::isfinite(set.radii_rest[s]))
+      return Invalid(id + " has a non-finite centre or radius");
     // A sphere owns at least one triangle and holds it: a radius of zero or less holds nothing
     // (a set of zero radii came from zero inverse bind matrices and failed every frame).
-    if (!(radii_rest[s] > 0.0f)) return Invalid(id + " has radius " + std::to_string(radii_rest[s]) + " (must be > 0)");
+    if (!(set.radii_rest[s] > 0.0f))
+      return Invalid(id + " has radius " + std::to_string(set.radii_rest[s]) + " (must be > 0)");
     // The broad phase refuses magnitudes beyond 1e18 (its sums must stay finite): say so here.
-    if (centers_rest[s].cwiseAbs().maxCoeff() > 1e18f || radii_fast[s] > 1e18f) {
+    if (set.centers_rest[s].cwiseAbs().maxCoeff() > 1e18f || set.radii_fast[s] > 1e18f) {
       return Invalid(id + " lies beyond 1e18 units from the origin or is larger than that");
     }
-    if (!std::isfinite(radii_fast[s]) || radii_fast[s] < radii_rest[s]) {
+    if (!std::isfinite(set.radii_fast[s]) || set.radii_fast[s] < set.radii_rest[s]) {
       return Invalid(id + " has a fast radius below its radius");
     }
-    if (sphere_part[s] >= parts.size()) return Invalid(id + " names part " + std::to_string(sphere_part[s]) + " out of range");
-    if (sphere_joint[s] >= joints) return Invalid(id + " names joint " + std::to_string(sphere_joint[s]) + " out of range");
+    if (set.sphere_part[s] >= set.parts.size())
+      return Invalid(id + " names part " + std::to_string(set.sphere_part[s]) + " out of range");
+    if (set.sphere_joint[s] >= joints)
+      return Invalid(id + " names joint " + std::to_string(set.sphere_joint[s]) + " out of range");
   }
-  for (uint32_t v : vertices) {
-    if (v >= source_vertex_count) return Invalid("a sphere names vertex " + std::to_string(v) + " out of range");
+  return std::nullopt;
+}
+
+// The vertices and triangles the spheres name, and each triangle owned once.
+std::optional<Error> CheckOwnership(const SphereSet& set) {
+  [[maybe_unused]] const size_t n = set.size();
+  [[maybe_unused]] const size_t joints = set.joint_count();
+  for (uint32_t v : set.vertices) {
+    if (v >= set.source_vertex_count) return Invalid("a sphere names vertex " + std::to_string(v) + " out of range");
   }
-  for (uint32_t t : triangles) {
-    if (t >= source_triangle_count) return Invalid("a sphere names triangle " + std::to_string(t) + " out of range");
+  for (uint32_t t : set.triangles) {
+    if (t >= set.source_triangle_count)
+      return Invalid("a sphere names triangle " + std::to_string(t) + " out of range");
   }
   // Every source triangle is owned by exactly one sphere: what makes a contact anywhere on the
   // mesh visible to the broad phase (and what --verify checks). The lists then hold exactly
@@ -186,75 +228,108 @@ std::optional<Error> SphereSet::Validate() const {
   // comes from the file). A fast-only set (sphere_set_binary.h) has no lists to check: they were
   // checked when the whole set was written, and nothing that reads triangles accepts it.
   if (n == 0) return Invalid("the set has no spheres");
-  if (!fast_only && triangles.size() != source_triangle_count) {
-    return Invalid("the spheres own " + std::to_string(triangles.size()) + " triangle entries for " +
-                   std::to_string(source_triangle_count) + " triangles (each must be owned by exactly one sphere)");
+  if (!set.fast_only && set.triangles.size() != set.source_triangle_count) {
+    return Invalid("the spheres own " + std::to_string(set.triangles.size()) + " triangle entries for " +
+                   std::to_string(set.source_triangle_count) + " triangles (each must be owned by exactly one sphere)");
   }
-  std::vector<uint32_t> owner(fast_only ? 0 : source_triangle_count, UINT32_MAX);
+  std::vector<uint32_t> owner(set.fast_only ? 0 : set.source_triangle_count, UINT32_MAX);
   for (size_t s = 0; s < n; ++s) {
-    for (uint32_t k = triangle_offsets[s]; k < triangle_offsets[s + 1]; ++k) {
-      uint32_t& o = owner[triangles[k]];
+    for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
+      uint32_t& o = owner[set.triangles[k]];
       if (o != UINT32_MAX) {
-        return Invalid("triangle " + std::to_string(triangles[k]) + " is owned by spheres " + std::to_string(o) + " and " +
-                       std::to_string(s) + " (each must be owned by exactly one)");
+        return Invalid("triangle " + std::to_string(set.triangles[k]) + " is owned by spheres " + std::to_string(o) +
+                       " and " + std::to_string(s) + " (each must be owned by exactly one)");
       }
       o = static_cast<uint32_t>(s);
     }
   }
-  for (size_t k = 0; k < influence_joints.size(); ++k) {
-    if (influence_joints[k] >= joints) return Invalid("a sphere influence names joint out of range");
-    if (!(influence_weights[k] >= 0.0f) || !std::isfinite(influence_weights[k])) return Invalid("a sphere influence weight is negative or not finite");
+  return std::nullopt;
+}
+
+// The influences: joints in range, weights >= 0, and the reach (when stored) in [0, 1] summing to >= 1 per sphere.
+std::optional<Error> CheckInfluences(const SphereSet& set) {
+  [[maybe_unused]] const size_t n = set.size();
+  [[maybe_unused]] const size_t joints = set.joint_count();
+  for (size_t k = 0; k < set.influence_joints.size(); ++k) {
+    if (set.influence_joints[k] >= joints) return Invalid("a sphere influence names joint out of range");
+    if (!(set.influence_weights[k] >= 0.0f) || !std::isfinite(set.influence_weights[k]))
+      return Invalid("a sphere influence weight is negative or not finite");
   }
-  if (!influence_reach.empty()) {
-    if (influence_reach.size() != influence_joints.size()) {
-      return Invalid("the spheres have " + std::to_string(influence_reach.size()) + " influence reach entries for " +
-                     std::to_string(influence_joints.size()) + " influences (one each, or none)");
+  if (!set.influence_reach.empty()) {
+    if (set.influence_reach.size() != set.influence_joints.size()) {
+      return Invalid("the spheres have " + std::to_string(set.influence_reach.size()) +
+                     " influence reach entries for " + std::to_string(set.influence_joints.size()) +
+                     " influences (one each, or none)");
     }
     for (size_t s = 0; s < n; ++s) {
-      for (uint32_t k = influence_offsets[s]; k < influence_offsets[s + 1]; ++k) {
-        if (!(influence_reach[k] >= 0.0f && influence_reach[k] <= 1.0f)) {
-          return Invalid("sphere " + std::to_string(s) + " has influence reach " + Digits(influence_reach[k]) +
-                         " on joint " + std::to_string(influence_joints[k]) + " (must be within [0, 1])");
+      for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
+        if (!(set.influence_reach[k] >= 0.0f && set.influence_reach[k] <= 1.0f)) {
+          return Invalid("sphere " + std::to_string(s) + " has influence reach " + Digits(set.influence_reach[k]) +
+                         " on joint " + std::to_string(set.influence_joints[k]) + " (must be within [0, 1])");
         }
       }
       // Any one source vertex's weights sum to 1 over joints among the sphere's influences, each at
       // most its reach: the reaches sum to at least 1. Checked for sets with no mesh too (fast-only
       // and version-1 files), where nothing else can check the reach.
       double sum = 0.0;
-      for (uint32_t k = influence_offsets[s]; k < influence_offsets[s + 1]; ++k) sum += influence_reach[k];
+      for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) sum += set.influence_reach[k];
       if (!(sum >= 1.0 - kWeightSumTolerance)) {
         return Invalid("sphere " + std::to_string(s) + " has influence reaches summing to " + Digits(float(sum)) +
                        ", below 1 (one source vertex's weights alone sum to 1)");
       }
     }
   }
-  for (size_t k = 0; k < excluded_pairs.size(); ++k) {
-    const auto& p = excluded_pairs[k];
+  return std::nullopt;
+}
+
+// The excluded pairs: i < j < n, sorted, unique.
+std::optional<Error> CheckExclusions(const SphereSet& set) {
+  [[maybe_unused]] const size_t n = set.size();
+  [[maybe_unused]] const size_t joints = set.joint_count();
+  for (size_t k = 0; k < set.excluded_pairs.size(); ++k) {
+    const auto& p = set.excluded_pairs[k];
     if (p.i >= p.j || p.j >= n) return Invalid("excluded pair " + std::to_string(k) + " is not i < j < sphere count");
     if (k > 0) {
-      const auto& q = excluded_pairs[k - 1];
+      const auto& q = set.excluded_pairs[k - 1];
       if (q.i > p.i || (q.i == p.i && q.j >= p.j)) return Invalid("excluded pairs are not sorted and unique");
     }
   }
-  if (fast_only && (!vertices.empty() || !triangles.empty() || has_mesh())) {
+  return std::nullopt;
+}
+
+// The mesh (version 2), and the stored reach against the weights it gives.
+std::optional<Error> CheckMesh(const SphereSet& set) {
+  [[maybe_unused]] const size_t n = set.size();
+  [[maybe_unused]] const size_t joints = set.joint_count();
+  if (set.fast_only && (!set.vertices.empty() || !set.triangles.empty() || set.has_mesh())) {
     return Invalid("a fast-only set has vertex or triangle lists or a mesh");
   }
-  if (auto err = ValidateMesh(*this)) return err;
-  if (!has_mesh()) return std::nullopt;
+  if (auto err = ValidateMesh(set)) return err;
+  if (!set.has_mesh()) return std::nullopt;
   // The fast bound's premises the mesh can check: every weighted joint of a source vertex is among
   // its sphere's influences, and a stored reach is no smaller than the weights (a smaller one from a
   // hostile file would give spheres that miss vertices).
-  auto from_mesh = InfluenceReachFromMesh(*this);
+  auto from_mesh = InfluenceReachFromMesh(set);
   if (!from_mesh.ok()) return from_mesh.error();
-  if (influence_reach.empty()) return std::nullopt;
+  if (set.influence_reach.empty()) return std::nullopt;
   for (size_t s = 0; s < n; ++s) {
-    for (uint32_t k = influence_offsets[s]; k < influence_offsets[s + 1]; ++k) {
-      if (influence_reach[k] < (*from_mesh)[k]) {
-        return Invalid("sphere " + std::to_string(s) + " has influence reach " + Digits(influence_reach[k]) +
-                       " on joint " + std::to_string(influence_joints[k]) + ", below the weight " +
+    for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
+      if (set.influence_reach[k] < (*from_mesh)[k]) {
+        return Invalid("sphere " + std::to_string(s) + " has influence reach " + Digits(set.influence_reach[k]) +
+                       " on joint " + std::to_string(set.influence_joints[k]) + ", below the weight " +
                        Digits((*from_mesh)[k]) + " one of its source vertices gives that joint");
       }
     }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<Error> SphereSet::Validate() const {
+  for (const auto check : {CheckSkeleton, CheckParts, CheckSphereArrays, CheckSpheres, CheckOwnership, CheckInfluences,
+                           CheckExclusions, CheckMesh}) {
+    if (auto err = check(*this)) return err;
   }
   return std::nullopt;
 }
@@ -284,7 +359,7 @@ Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set) {
       }
       for (uint32_t q = q0; q < q1; ++q) {  // each joint's total, once (a second entry finds 0)
         const uint32_t k = entry_of[mesh.binds[mesh.influence_binds[q]].joint];
-        if (k == UINT32_MAX) continue;  // weight 0
+        if (k == UINT32_MAX) continue;                                 // weight 0
         reach[k] = std::max(reach[k], std::min(total[k - k0], 1.0f));  // a float sum may pass 1 by an ulp
         total[k - k0] = 0.0f;
       }

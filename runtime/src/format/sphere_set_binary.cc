@@ -17,8 +17,9 @@
 
 namespace skinspheres::runtime {
 
-static_assert(std::endian::native == std::endian::little,
-              "the binary sphere-set layout is little-endian and read in place: big-endian hosts need a byte-swapping reader");
+static_assert(
+    std::endian::native == std::endian::little,
+    "the binary sphere-set layout is little-endian and read in place: big-endian hosts need a byte-swapping reader");
 static_assert(sizeof(Mat4f) == 16 * sizeof(float) && sizeof(Eigen::Vector3f) == 3 * sizeof(float));
 
 namespace {
@@ -45,25 +46,46 @@ inline uint64_t Merge(uint64_t acc, uint64_t v) { return (acc ^ Round(0, v)) * k
 
 // Header field offsets (sphere_set_binary.h).
 constexpr size_t kChecksumAt = 8, kVersionAt = 16, kFlagsAt = 20, kFileSizeAt = 24, kSectionCountAt = 32,
-                 kSphereCountAt = 36, kJointCountAt = 40, kPartCountAt = 44, kVertexCountAt = 48,
-                 kTriangleCountAt = 52, kBindCountAt = 56;
+                 kSphereCountAt = 36, kJointCountAt = 40, kPartCountAt = 44, kVertexCountAt = 48, kTriangleCountAt = 52,
+                 kBindCountAt = 56;
 constexpr size_t kChecksummedFrom = 16;
 
-constexpr size_t kFirstFastOnlyOmitted = static_cast<size_t>(SphereSetSection::kVertexOffsets);   // 17
-constexpr size_t kFirstMeshSection = static_cast<size_t>(SphereSetSection::kTriangleVertices);    // 21
+constexpr size_t kFirstFastOnlyOmitted = static_cast<size_t>(SphereSetSection::kVertexOffsets);  // 17
+constexpr size_t kFirstMeshSection = static_cast<size_t>(SphereSetSection::kTriangleVertices);   // 21
 
 struct SectionInfo {
   const char* name;
   uint32_t element_size;
 };
 constexpr std::array<SectionInfo, kSphereSetSectionCount> kSections = {{
-    {"string_offsets", 4}, {"string_bytes", 1}, {"joint_parents", 4}, {"joint_rest_world", 4},
-    {"part_joint_offsets", 4}, {"part_joints", 4}, {"centers_rest", 4}, {"radii_rest", 4}, {"radii_fast", 4},
-    {"sphere_part", 2}, {"sphere_joint", 2}, {"sphere_level", 2}, {"influence_offsets", 4},
-    {"influence_joints", 2}, {"influence_weights", 4}, {"excluded_pairs", 4}, {"vertex_offsets", 4},
-    {"vertices", 4}, {"triangle_offsets", 4}, {"triangles", 4}, {"triangle_vertices", 4},
-    {"positions_bind", 4}, {"bind_joints", 4}, {"bind_inverse", 4}, {"mesh_influence_offsets", 4},
-    {"mesh_influence_binds", 2}, {"mesh_influence_weights", 4}, {"influence_reach", 4},
+    {"string_offsets", 4},
+    {"string_bytes", 1},
+    {"joint_parents", 4},
+    {"joint_rest_world", 4},
+    {"part_joint_offsets", 4},
+    {"part_joints", 4},
+    {"centers_rest", 4},
+    {"radii_rest", 4},
+    {"radii_fast", 4},
+    {"sphere_part", 2},
+    {"sphere_joint", 2},
+    {"sphere_level", 2},
+    {"influence_offsets", 4},
+    {"influence_joints", 2},
+    {"influence_weights", 4},
+    {"excluded_pairs", 4},
+    {"vertex_offsets", 4},
+    {"vertices", 4},
+    {"triangle_offsets", 4},
+    {"triangles", 4},
+    {"triangle_vertices", 4},
+    {"positions_bind", 4},
+    {"bind_joints", 4},
+    {"bind_inverse", 4},
+    {"mesh_influence_offsets", 4},
+    {"mesh_influence_binds", 2},
+    {"mesh_influence_weights", 4},
+    {"influence_reach", 4},
 }};
 
 // Which sections a file of this layout version with these flags holds (index id - 1).
@@ -74,7 +96,9 @@ bool SectionPresent(size_t id, uint32_t flags, uint32_t version) {
   return true;
 }
 
-size_t AlignUp(size_t n) { return (n + kSphereSetBinaryAlignment - 1) / kSphereSetBinaryAlignment * kSphereSetBinaryAlignment; }
+size_t AlignUp(size_t n) {
+  return (n + kSphereSetBinaryAlignment - 1) / kSphereSetBinaryAlignment * kSphereSetBinaryAlignment;
+}
 
 // ---- Writer ------------------------------------------------------------------------------------
 
@@ -91,7 +115,9 @@ class Writer {
     s.bytes = count * sizeof(T);
   }
   template <typename T>
-  void Add(SphereSetSection id, const std::vector<T>& v) { Add(id, v.data(), v.size()); }
+  void Add(SphereSetSection id, const std::vector<T>& v) {
+    Add(id, v.data(), v.size());
+  }
   // Owned data for sections that need re-packing.
   template <typename T>
   void AddOwned(SphereSetSection id, std::vector<T> v) {
@@ -116,7 +142,8 @@ class Writer {
     Put32(out, kFlagsAt, flags);
     Put64(out, kFileSizeAt, out.size());
     Put32(out, kSectionCountAt, static_cast<uint32_t>(section_count));
-    const size_t count_at[6] = {kSphereCountAt, kJointCountAt, kPartCountAt, kVertexCountAt, kTriangleCountAt, kBindCountAt};
+    const size_t count_at[6] = {kSphereCountAt, kJointCountAt,    kPartCountAt,
+                                kVertexCountAt, kTriangleCountAt, kBindCountAt};
     for (size_t k = 0; k < 6; ++k) Put32(out, count_at[k], counts[k]);
     size_t entry = kSphereSetBinaryHeaderSize;
     for (size_t k = 0; k < kSphereSetSectionCount; ++k) {
@@ -171,10 +198,14 @@ std::pair<size_t, bool> Utf8Sequence(std::string_view s, size_t k) {
   size_t len = 0;
   unsigned char lo = 0x80, hi = 0xBF;  // the range of the second byte
   if (c < 0x80) return {1, true};
-  if (c >= 0xC2 && c <= 0xDF) len = 2;
-  else if (c >= 0xE0 && c <= 0xEF) len = 3, lo = c == 0xE0 ? 0xA0 : 0x80, hi = c == 0xED ? 0x9F : 0xBF;
-  else if (c >= 0xF0 && c <= 0xF4) len = 4, lo = c == 0xF0 ? 0x90 : 0x80, hi = c == 0xF4 ? 0x8F : 0xBF;
-  else return {1, false};
+  if (c >= 0xC2 && c <= 0xDF)
+    len = 2;
+  else if (c >= 0xE0 && c <= 0xEF)
+    len = 3, lo = c == 0xE0 ? 0xA0 : 0x80, hi = c == 0xED ? 0x9F : 0xBF;
+  else if (c >= 0xF0 && c <= 0xF4)
+    len = 4, lo = c == 0xF0 ? 0x90 : 0x80, hi = c == 0xF4 ? 0x8F : 0xBF;
+  else
+    return {1, false};
   for (size_t i = 1; i < len; ++i) {
     const bool fits = k + i < s.size() && byte(k + i) >= (i == 1 ? lo : 0x80) && byte(k + i) <= (i == 1 ? hi : 0xBF);
     if (!fits) return {i, false};
@@ -196,8 +227,10 @@ std::string ValidUtf8(std::string_view s) {
   std::string out;
   for (size_t k = 0; k < s.size();) {
     const auto [length, valid] = Utf8Sequence(s, k);
-    if (valid) out.append(s.substr(k, length));
-    else out += "\xEF\xBF\xBD";
+    if (valid)
+      out.append(s.substr(k, length));
+    else
+      out += "\xEF\xBF\xBD";
     k += length;
   }
   return out;
@@ -278,7 +311,8 @@ std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set, SphereSetBinar
   }
   std::vector<uint32_t> pairs;
   pairs.reserve(3 * set.excluded_pairs.size());
-  for (const ExcludedPair& p : set.excluded_pairs) pairs.insert(pairs.end(), {p.i, p.j, static_cast<uint32_t>(p.reason)});
+  for (const ExcludedPair& p : set.excluded_pairs)
+    pairs.insert(pairs.end(), {p.i, p.j, static_cast<uint32_t>(p.reason)});
 
   w.AddOwned(SphereSetSection::kStringOffsets, std::move(string_offsets));
   w.AddOwned(SphereSetSection::kStringBytes, std::vector<char>(strings.begin(), strings.end()));
@@ -336,172 +370,227 @@ std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set, SphereSetBinar
                           mesh ? static_cast<uint32_t>(set.mesh.binds.size()) : 0u});
 }
 
-Result<SphereSetBinaryView> SphereSetBinaryView::Open(std::span<const std::byte> bytes, std::string source_name) {
-  const std::string& src = source_name;
-  if (reinterpret_cast<uintptr_t>(bytes.data()) % kSphereSetBinaryAlignment != 0) {
-    return Refuse(src, "the buffer is not 16-byte aligned (map the file, or use ReadSphereSetBinary)",
-                  ErrorCode::kInvalidArgument);
-  }
-  if (!IsSphereSetBinary(bytes)) {
-    return Refuse(src, bytes.size() < 8 ? "not a binary sphere set (shorter than its magic number)"
-                                         : "not a binary sphere set (wrong magic number)",
-                  ErrorCode::kFormatRejected);
-  }
-  if (bytes.size() < kSphereSetBinaryHeaderSize) {
-    return Refuse(src, "truncated: " + std::to_string(bytes.size()) + " bytes, the header alone takes 64");
-  }
-  const std::byte* base = bytes.data();
-  const uint32_t version = Load32(base + kVersionAt);
-  if (version != kSphereSetBinaryVersion && version != kSphereSetBinaryVersionWithoutReach) {
-    return Refuse(src, "layout version " + std::to_string(version) + " is not supported (this build reads versions " +
-                           std::to_string(kSphereSetBinaryVersionWithoutReach) + " and " +
-                           std::to_string(kSphereSetBinaryVersion) + ")",
-                  ErrorCode::kVersionMismatch);
-  }
-  const uint64_t file_size = Load64(base + kFileSizeAt);
-  if (file_size > bytes.size()) {
-    return Refuse(src, "truncated: " + std::to_string(bytes.size()) + " of " + std::to_string(file_size) + " bytes");
-  }
-  if (file_size < bytes.size()) {
-    return Refuse(src, std::to_string(bytes.size() - file_size) + " bytes after the end of the set (" +
-                           std::to_string(file_size) + " bytes)");
-  }
-  if (Xxh64(bytes.subspan(kChecksummedFrom)) != Load64(base + kChecksumAt)) {
-    return Refuse(src, "checksum mismatch: the file is corrupted");
+// Open's steps, in order, each refusing with a message naming the source (Refuse).
+struct SphereSetBinaryReader {
+  // Alignment, magic, header size, layout version, file size, checksum.
+  static std::optional<Error> CheckFile(std::span<const std::byte> bytes, const std::string& src) {
+    if (reinterpret_cast<uintptr_t>(bytes.data()) % kSphereSetBinaryAlignment != 0) {
+      return Refuse(src, "the buffer is not 16-byte aligned (map the file, or use ReadSphereSetBinary)",
+                    ErrorCode::kInvalidArgument);
+    }
+    if (!IsSphereSetBinary(bytes)) {
+      return Refuse(src,
+                    bytes.size() < 8 ? "not a binary sphere set (shorter than its magic number)"
+                                     : "not a binary sphere set (wrong magic number)",
+                    ErrorCode::kFormatRejected);
+    }
+    if (bytes.size() < kSphereSetBinaryHeaderSize) {
+      return Refuse(src, "truncated: " + std::to_string(bytes.size()) + " bytes, the header alone takes 64");
+    }
+    const std::byte* base = bytes.data();
+    const uint32_t version = Load32(base + kVersionAt);
+    if (version != kSphereSetBinaryVersion && version != kSphereSetBinaryVersionWithoutReach) {
+      return Refuse(src,
+                    "layout version " + std::to_string(version) + " is not supported (this build reads versions " +
+                        std::to_string(kSphereSetBinaryVersionWithoutReach) + " and " +
+                        std::to_string(kSphereSetBinaryVersion) + ")",
+                    ErrorCode::kVersionMismatch);
+    }
+    const uint64_t file_size = Load64(base + kFileSizeAt);
+    if (file_size > bytes.size()) {
+      return Refuse(src, "truncated: " + std::to_string(bytes.size()) + " of " + std::to_string(file_size) + " bytes");
+    }
+    if (file_size < bytes.size()) {
+      return Refuse(src, std::to_string(bytes.size() - file_size) + " bytes after the end of the set (" +
+                             std::to_string(file_size) + " bytes)");
+    }
+    if (Xxh64(bytes.subspan(kChecksummedFrom)) != Load64(base + kChecksumAt)) {
+      return Refuse(src, "checksum mismatch: the file is corrupted");
+    }
+
+    return std::nullopt;
   }
 
-  SphereSetBinaryView v;
-  v.bytes_ = bytes;
-  v.version_ = version;
-  v.flags_ = Load32(base + kFlagsAt);
-  v.sphere_count_ = Load32(base + kSphereCountAt);
-  v.joint_count_ = Load32(base + kJointCountAt);
-  v.part_count_ = Load32(base + kPartCountAt);
-  v.source_vertex_count_ = Load32(base + kVertexCountAt);
-  v.source_triangle_count_ = Load32(base + kTriangleCountAt);
-  v.bind_count_ = Load32(base + kBindCountAt);
-  if ((v.flags_ & ~(kSphereSetBinaryFlagFastOnly | kSphereSetBinaryFlagHasMesh)) != 0 ||
-      (v.fast_only() && v.has_mesh())) {
-    return Refuse(src, "unknown or contradictory flags " + std::to_string(v.flags_));
+  // The header's counts and flags into v.
+  static std::optional<Error> ReadHeader(SphereSetBinaryView& v, const std::string& src) {
+    const std::byte* base = v.bytes_.data();
+    v.version_ = Load32(base + kVersionAt);
+    v.flags_ = Load32(base + kFlagsAt);
+    v.sphere_count_ = Load32(base + kSphereCountAt);
+    v.joint_count_ = Load32(base + kJointCountAt);
+    v.part_count_ = Load32(base + kPartCountAt);
+    v.source_vertex_count_ = Load32(base + kVertexCountAt);
+    v.source_triangle_count_ = Load32(base + kTriangleCountAt);
+    v.bind_count_ = Load32(base + kBindCountAt);
+    if ((v.flags_ & ~(kSphereSetBinaryFlagFastOnly | kSphereSetBinaryFlagHasMesh)) != 0 ||
+        (v.fast_only() && v.has_mesh())) {
+      return Refuse(src, "unknown or contradictory flags " + std::to_string(v.flags_));
+    }
+    if (!v.has_mesh() && v.bind_count_ != 0) return Refuse(src, "bind entries without a mesh");
+    if (Load32(base + 60) != 0) return Refuse(src, "reserved header field is not 0");
+
+    return std::nullopt;
   }
-  if (!v.has_mesh() && v.bind_count_ != 0) return Refuse(src, "bind entries without a mesh");
-  if (Load32(base + 60) != 0) return Refuse(src, "reserved header field is not 0");
 
   // The section table: ids ascending, exactly those the flags call for, each inside the file.
-  const uint64_t section_count = Load32(base + kSectionCountAt);
-  const uint64_t table_end = kSphereSetBinaryHeaderSize + section_count * kSphereSetBinarySectionEntrySize;
-  if (section_count > kSphereSetSectionCount || table_end > file_size) {
-    return Refuse(src, "section table of " + std::to_string(section_count) + " entries does not fit");
-  }
-  uint64_t previous_end = table_end;
-  uint32_t previous_id = 0;
-  for (uint64_t k = 0; k < section_count; ++k) {
-    const std::byte* e = base + kSphereSetBinaryHeaderSize + k * kSphereSetBinarySectionEntrySize;
-    const uint32_t id = Load32(e), element_size = Load32(e + 4);
-    const uint64_t offset = Load64(e + 8), count = Load64(e + 16);
-    if (id == 0 || id > kSphereSetSectionCount) return Refuse(src, "unknown section id " + std::to_string(id));
-    const SectionInfo& info = kSections[id - 1];
-    const std::string name = std::string("section ") + info.name;
-    if (id <= previous_id) return Refuse(src, name + " is out of order or repeated");
-    if (!SectionPresent(id, v.flags_, version)) {
-      return Refuse(src, name + " is not expected with these flags in layout version " + std::to_string(version));
+  // *table_end: where the table ends.
+  static std::optional<Error> ReadSections(SphereSetBinaryView& v, const std::string& src, uint64_t* table_end_out) {
+    const std::byte* base = v.bytes_.data();
+    const uint64_t file_size = v.bytes_.size();
+    const uint32_t version = v.version_;
+    const uint64_t section_count = Load32(base + kSectionCountAt);
+    const uint64_t table_end = kSphereSetBinaryHeaderSize + section_count * kSphereSetBinarySectionEntrySize;
+    if (section_count > kSphereSetSectionCount || table_end > file_size) {
+      return Refuse(src, "section table of " + std::to_string(section_count) + " entries does not fit");
     }
-    for (uint32_t missing = previous_id + 1; missing < id; ++missing) {
-      if (SectionPresent(missing, v.flags_, version)) return Refuse(src, std::string("section ") + kSections[missing - 1].name + " is missing");
+    uint64_t previous_end = table_end;
+    uint32_t previous_id = 0;
+    for (uint64_t k = 0; k < section_count; ++k) {
+      const std::byte* e = base + kSphereSetBinaryHeaderSize + k * kSphereSetBinarySectionEntrySize;
+      const uint32_t id = Load32(e), element_size = Load32(e + 4);
+      const uint64_t offset = Load64(e + 8), count = Load64(e + 16);
+      if (id == 0 || id > kSphereSetSectionCount) return Refuse(src, "unknown section id " + std::to_string(id));
+      const SectionInfo& info = kSections[id - 1];
+      const std::string name = std::string("section ") + info.name;
+      if (id <= previous_id) return Refuse(src, name + " is out of order or repeated");
+      if (!SectionPresent(id, v.flags_, version)) {
+        return Refuse(src, name + " is not expected with these flags in layout version " + std::to_string(version));
+      }
+      for (uint32_t missing = previous_id + 1; missing < id; ++missing) {
+        if (SectionPresent(missing, v.flags_, version))
+          return Refuse(src, std::string("section ") + kSections[missing - 1].name + " is missing");
+      }
+      previous_id = id;
+      if (element_size != info.element_size) {
+        return Refuse(src, name + " has elements of " + std::to_string(element_size) + " bytes, expected " +
+                               std::to_string(info.element_size));
+      }
+      if (offset % kSphereSetBinaryAlignment != 0)
+        return Refuse(src, name + " offset " + std::to_string(offset) + " is not 16-byte aligned");
+      if (offset < previous_end || offset > file_size || count > (file_size - offset) / element_size) {
+        return Refuse(src, name + " (offset " + std::to_string(offset) + ", " + std::to_string(count) +
+                               " elements) overlaps another or runs past the end of the file");
+      }
+      previous_end = offset + count * element_size;
+      v.sections_[id - 1] = {static_cast<size_t>(offset), static_cast<size_t>(count)};
     }
-    previous_id = id;
-    if (element_size != info.element_size) {
-      return Refuse(src, name + " has elements of " + std::to_string(element_size) + " bytes, expected " +
-                             std::to_string(info.element_size));
+    for (uint32_t missing = previous_id + 1; missing <= kSphereSetSectionCount; ++missing) {
+      if (SectionPresent(missing, v.flags_, version))
+        return Refuse(src, std::string("section ") + kSections[missing - 1].name + " is missing");
     }
-    if (offset % kSphereSetBinaryAlignment != 0) return Refuse(src, name + " offset " + std::to_string(offset) + " is not 16-byte aligned");
-    if (offset < previous_end || offset > file_size || count > (file_size - offset) / element_size) {
-      return Refuse(src, name + " (offset " + std::to_string(offset) + ", " + std::to_string(count) +
-                             " elements) overlaps another or runs past the end of the file");
-    }
-    previous_end = offset + count * element_size;
-    v.sections_[id - 1] = {static_cast<size_t>(offset), static_cast<size_t>(count)};
-  }
-  for (uint32_t missing = previous_id + 1; missing <= kSphereSetSectionCount; ++missing) {
-    if (SectionPresent(missing, v.flags_, version)) return Refuse(src, std::string("section ") + kSections[missing - 1].name + " is missing");
+
+    *table_end_out = table_end;
+    return std::nullopt;
   }
 
   // Counts: every section's length follows from the header counts and the CSR offsets.
-  const uint64_t n = v.sphere_count_, joints = v.joint_count_, parts = v.part_count_;
-  auto count_is = [&](SphereSetSection id, uint64_t expected) -> std::optional<Error> {
-    const size_t got = v.sections_[static_cast<uint32_t>(id) - 1].count;
-    if (got == expected) return std::nullopt;
-    return Refuse(src, std::string("section ") + kSections[static_cast<uint32_t>(id) - 1].name + " has " +
-                           std::to_string(got) + " elements, expected " + std::to_string(expected));
-  };
-  auto csr = [&](SphereSetSection offsets_id, uint64_t rows, std::initializer_list<SphereSetSection> lists)
-      -> std::optional<Error> {
-    if (auto err = count_is(offsets_id, rows + 1)) return err;
-    const auto offsets = v.Get<uint32_t>(offsets_id);
-    for (SphereSetSection list : lists) {
-      if (!CsrOffsetsOk(offsets, v.sections_[static_cast<uint32_t>(list) - 1].count)) {
-        return Refuse(src, std::string("section ") + kSections[static_cast<uint32_t>(offsets_id) - 1].name +
-                               " does not start at 0, decreases, or does not end at the length of section " +
-                               kSections[static_cast<uint32_t>(list) - 1].name);
+  static std::optional<Error> CheckCounts(SphereSetBinaryView& v, const std::string& src) {
+    const uint64_t n = v.sphere_count_, joints = v.joint_count_, parts = v.part_count_;
+    auto count_is = [&](SphereSetSection id, uint64_t expected) -> std::optional<Error> {
+      const size_t got = v.sections_[static_cast<uint32_t>(id) - 1].count;
+      if (got == expected) return std::nullopt;
+      return Refuse(src, std::string("section ") + kSections[static_cast<uint32_t>(id) - 1].name + " has " +
+                             std::to_string(got) + " elements, expected " + std::to_string(expected));
+    };
+    auto csr = [&](SphereSetSection offsets_id, uint64_t rows,
+                   std::initializer_list<SphereSetSection> lists) -> std::optional<Error> {
+      if (auto err = count_is(offsets_id, rows + 1)) return err;
+      const auto offsets = v.Get<uint32_t>(offsets_id);
+      for (SphereSetSection list : lists) {
+        if (!CsrOffsetsOk(offsets, v.sections_[static_cast<uint32_t>(list) - 1].count)) {
+          return Refuse(src, std::string("section ") + kSections[static_cast<uint32_t>(offsets_id) - 1].name +
+                                 " does not start at 0, decreases, or does not end at the length of section " +
+                                 kSections[static_cast<uint32_t>(list) - 1].name);
+        }
+      }
+      return std::nullopt;
+    };
+    using S = SphereSetSection;
+    const uint64_t strings = 2 + joints + parts;
+    std::optional<Error> err;
+    if ((err = csr(S::kStringOffsets, strings, {S::kStringBytes})) || (err = count_is(S::kJointParents, joints)) ||
+        (err = count_is(S::kJointRestWorld, 16 * joints)) ||
+        (err = csr(S::kPartJointOffsets, parts, {S::kPartJoints})) || (err = count_is(S::kCentersRest, 3 * n)) ||
+        (err = count_is(S::kRadiiRest, n)) || (err = count_is(S::kRadiiFast, n)) ||
+        (err = count_is(S::kSpherePart, n)) || (err = count_is(S::kSphereJoint, n)) ||
+        (err = count_is(S::kSphereLevel, n)) ||
+        (err = csr(S::kInfluenceOffsets, n, {S::kInfluenceJoints, S::kInfluenceWeights}))) {
+      return *err;
+    }
+    const size_t reach = v.sections_[static_cast<uint32_t>(S::kInfluenceReach) - 1].count;
+    const size_t influences = v.sections_[static_cast<uint32_t>(S::kInfluenceJoints) - 1].count;
+    if (reach != 0 && reach != influences) {
+      return Refuse(src, "section influence_reach has " + std::to_string(reach) + " elements, expected " +
+                             std::to_string(influences) + " (one per influence) or 0");
+    }
+    if (v.sections_[static_cast<uint32_t>(S::kExcludedPairs) - 1].count % 3 != 0) {
+      return Refuse(src, "section excluded_pairs does not hold whole (i, j, reason) triples");
+    }
+    if (!v.fast_only() &&
+        ((err = csr(S::kVertexOffsets, n, {S::kVertices})) || (err = csr(S::kTriangleOffsets, n, {S::kTriangles})))) {
+      return *err;
+    }
+    if (v.has_mesh()) {
+      const uint64_t vertices = v.source_vertex_count_;
+      if ((err = count_is(S::kTriangleVertices, 3 * uint64_t{v.source_triangle_count_})) ||
+          (err = count_is(S::kPositionsBind, 3 * vertices)) || (err = count_is(S::kBindJoints, v.bind_count_)) ||
+          (err = count_is(S::kBindInverse, 16 * uint64_t{v.bind_count_})) ||
+          (err = csr(S::kMeshInfluenceOffsets, vertices, {S::kMeshInfluenceBinds, S::kMeshInfluenceWeights}))) {
+        return *err;
       }
     }
     return std::nullopt;
-  };
-  using S = SphereSetSection;
-  const uint64_t strings = 2 + joints + parts;
-  std::optional<Error> err;
-  if ((err = csr(S::kStringOffsets, strings, {S::kStringBytes})) || (err = count_is(S::kJointParents, joints)) ||
-      (err = count_is(S::kJointRestWorld, 16 * joints)) || (err = csr(S::kPartJointOffsets, parts, {S::kPartJoints})) ||
-      (err = count_is(S::kCentersRest, 3 * n)) || (err = count_is(S::kRadiiRest, n)) ||
-      (err = count_is(S::kRadiiFast, n)) || (err = count_is(S::kSpherePart, n)) ||
-      (err = count_is(S::kSphereJoint, n)) || (err = count_is(S::kSphereLevel, n)) ||
-      (err = csr(S::kInfluenceOffsets, n, {S::kInfluenceJoints, S::kInfluenceWeights}))) {
-    return *err;
   }
-  const size_t reach = v.sections_[static_cast<uint32_t>(S::kInfluenceReach) - 1].count;
-  const size_t influences = v.sections_[static_cast<uint32_t>(S::kInfluenceJoints) - 1].count;
-  if (reach != 0 && reach != influences) {
-    return Refuse(src, "section influence_reach has " + std::to_string(reach) + " elements, expected " +
-                           std::to_string(influences) + " (one per influence) or 0");
-  }
-  if (v.sections_[static_cast<uint32_t>(S::kExcludedPairs) - 1].count % 3 != 0) {
-    return Refuse(src, "section excluded_pairs does not hold whole (i, j, reason) triples");
-  }
-  if (!v.fast_only() && ((err = csr(S::kVertexOffsets, n, {S::kVertices})) ||
-                         (err = csr(S::kTriangleOffsets, n, {S::kTriangles})))) {
-    return *err;
-  }
-  if (v.has_mesh()) {
-    const uint64_t vertices = v.source_vertex_count_;
-    if ((err = count_is(S::kTriangleVertices, 3 * uint64_t{v.source_triangle_count_})) ||
-        (err = count_is(S::kPositionsBind, 3 * vertices)) || (err = count_is(S::kBindJoints, v.bind_count_)) ||
-        (err = count_is(S::kBindInverse, 16 * uint64_t{v.bind_count_})) ||
-        (err = csr(S::kMeshInfluenceOffsets, vertices, {S::kMeshInfluenceBinds, S::kMeshInfluenceWeights}))) {
-      return *err;
-    }
-  }
+
   // The bytes between the table and the sections, and after the last, are zero (so a set has one
   // encoding and reads back byte for byte).
-  uint64_t covered = table_end;
-  for (size_t k = 0; k <= kSphereSetSectionCount; ++k) {
-    const bool last = k == kSphereSetSectionCount;
-    if (!last && !SectionPresent(k + 1, v.flags_, version)) continue;
-    const uint64_t start = last ? file_size : v.sections_[k].offset;
-    for (uint64_t at = covered; at < start; ++at) {
-      if (base[at] != std::byte{0}) return Refuse(src, "padding byte at offset " + std::to_string(at) + " is not 0");
+  static std::optional<Error> CheckPadding(const SphereSetBinaryView& v, const std::string& src, uint64_t table_end) {
+    const std::byte* base = v.bytes_.data();
+    const uint64_t file_size = v.bytes_.size();
+    const uint32_t version = v.version_;
+    uint64_t covered = table_end;
+    for (size_t k = 0; k <= kSphereSetSectionCount; ++k) {
+      const bool last = k == kSphereSetSectionCount;
+      if (!last && !SectionPresent(k + 1, v.flags_, version)) continue;
+      const uint64_t start = last ? file_size : v.sections_[k].offset;
+      for (uint64_t at = covered; at < start; ++at) {
+        if (base[at] != std::byte{0}) return Refuse(src, "padding byte at offset " + std::to_string(at) + " is not 0");
+      }
+      if (!last) covered = start + uint64_t{v.sections_[k].count} * kSections[k].element_size;
     }
-    if (!last) covered = start + uint64_t{v.sections_[k].count} * kSections[k].element_size;
+    return std::nullopt;
   }
-  for (size_t k = 0; k < strings; ++k) {
-    const std::string_view text = v.String(k);
-    const size_t valid = ValidUtf8Prefix(text);
-    if (valid == text.size()) continue;
-    const std::string which = k == 0   ? std::string("source_file")
-                              : k == 1 ? std::string("params")
-                              : k < 2 + joints ? "joint " + std::to_string(k - 2) + "'s name"
-                                               : "part " + std::to_string(k - 2 - joints) + "'s name";
-    return Refuse(src, which + " is not valid UTF-8 (byte " + std::to_string(valid) + ")");
+
+  // Every string is valid UTF-8.
+  static std::optional<Error> CheckStrings(const SphereSetBinaryView& v, const std::string& src) {
+    const uint64_t joints = v.joint_count_, parts = v.part_count_;
+    const uint64_t strings = 2 + joints + parts;
+    for (size_t k = 0; k < strings; ++k) {
+      const std::string_view text = v.String(k);
+      const size_t valid = ValidUtf8Prefix(text);
+      if (valid == text.size()) continue;
+      const std::string which = k == 0           ? std::string("source_file")
+                                : k == 1         ? std::string("params")
+                                : k < 2 + joints ? "joint " + std::to_string(k - 2) + "'s name"
+                                                 : "part " + std::to_string(k - 2 - joints) + "'s name";
+      return Refuse(src, which + " is not valid UTF-8 (byte " + std::to_string(valid) + ")");
+    }
+    return std::nullopt;
   }
+};
+
+Result<SphereSetBinaryView> SphereSetBinaryView::Open(std::span<const std::byte> bytes, std::string source_name) {
+  using Reader = SphereSetBinaryReader;
+  const std::string& src = source_name;
+  if (auto err = Reader::CheckFile(bytes, src)) return *err;
+  SphereSetBinaryView v;
+  v.bytes_ = bytes;
+  uint64_t table_end = 0;
+  if (auto err = Reader::ReadHeader(v, src)) return *err;
+  if (auto err = Reader::ReadSections(v, src, &table_end)) return *err;
+  if (auto err = Reader::CheckCounts(v, src)) return *err;
+  if (auto err = Reader::CheckPadding(v, src, table_end)) return *err;
+  if (auto err = Reader::CheckStrings(v, src)) return *err;
   v.source_name_ = std::move(source_name);
   return v;
 }
@@ -540,7 +629,8 @@ Result<SphereSet> SphereSetBinaryView::ToSphereSet() const {
   const auto all_part_joints = part_joints();
   for (size_t p = 0; p < part_count_; ++p) {
     set.parts[p].name = part_name(p);
-    set.parts[p].joints.assign(all_part_joints.begin() + part_offsets[p], all_part_joints.begin() + part_offsets[p + 1]);
+    set.parts[p].joints.assign(all_part_joints.begin() + part_offsets[p],
+                               all_part_joints.begin() + part_offsets[p + 1]);
   }
   CopyFloats(set.centers_rest, centers_rest(), 3);
   CopyInto(set.radii_rest, radii_rest());
@@ -557,7 +647,8 @@ Result<SphereSet> SphereSetBinaryView::ToSphereSet() const {
   for (size_t k = 0; k < set.excluded_pairs.size(); ++k) {
     const uint32_t reason = pairs[3 * k + 2];
     if (reason > static_cast<uint32_t>(ExclusionReason::kBindOverlap)) {
-      return Refuse(source_name_, "excluded pair " + std::to_string(k) + " has unknown reason " + std::to_string(reason));
+      return Refuse(source_name_,
+                    "excluded pair " + std::to_string(k) + " has unknown reason " + std::to_string(reason));
     }
     set.excluded_pairs[k] = {pairs[3 * k], pairs[3 * k + 1], static_cast<ExclusionReason>(reason)};
   }

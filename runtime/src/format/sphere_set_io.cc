@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <functional>
-#include <nlohmann/json.hpp>
 #include <new>
+#include <nlohmann/json.hpp>
 
 #include "skinspheres/runtime/format/file_io.h"
 #include "skinspheres/runtime/format/sphere_set_binary.h"
@@ -16,9 +16,8 @@ std::string WriteSphereSetJson(const SphereSet& set) {
   json j;
   j["format"] = kSphereSetFormat;
   j["version"] = set.has_mesh() ? kSphereSetVersion : kSphereSetVersionWithoutMesh;
-  j["source"] = {{"file", set.source_file},
-                 {"vertices", set.source_vertex_count},
-                 {"triangles", set.source_triangle_count}};
+  j["source"] = {
+      {"file", set.source_file}, {"vertices", set.source_vertex_count}, {"triangles", set.source_triangle_count}};
   json params = json::parse(set.params_json, nullptr, /*allow_exceptions=*/false);
   j["params"] = params.is_object() ? params : json::object();
 
@@ -57,8 +56,9 @@ std::string WriteSphereSetJson(const SphereSet& set) {
         {"influences", influences},
     });
     if (!set.influence_reach.empty() && set.influence_reach.size() == set.influence_joints.size()) {
-      spheres.back()["influence_reach"] = std::vector<float>(set.influence_reach.begin() + set.influence_offsets[s],
-                                                             set.influence_reach.begin() + set.influence_offsets[s + 1]);
+      spheres.back()["influence_reach"] =
+          std::vector<float>(set.influence_reach.begin() + set.influence_offsets[s],
+                             set.influence_reach.begin() + set.influence_offsets[s + 1]);
     }
   }
   j["spheres"] = spheres;
@@ -253,13 +253,9 @@ class SetStream {
     if (depth > 2) return true;
     const size_t d = static_cast<size_t>(depth);
     switch (event) {
-      case E::key:
-        key_[d] = parsed.get<std::string>();
-        return true;
+      case E::key: key_[d] = parsed.get<std::string>(); return true;
       case E::object_start:
-      case E::array_start:
-        array_[d] = event == E::array_start;
-        return true;
+      case E::array_start: array_[d] = event == E::array_start; return true;
       case E::object_end:
         if (d == 2 && array_[1] && key_[1] == "spheres") {
           ParseSphere(parsed, set_.size(), &set_, &has_reach_);
@@ -273,8 +269,7 @@ class SetStream {
         }
         if (d == 2 && !array_[1] && key_[1] == "mesh") return !TakeMeshArray(parsed);
         return true;
-      case E::value:
-        return true;
+      case E::value: return true;
     }
     return true;
   }
@@ -285,12 +280,18 @@ class SetStream {
   bool TakeMeshArray(const json& a) {
     const std::string& key = key_[2];
     const std::string where = "$.mesh." + key;
-    if (key == "triangles") mesh_.triangles = Numbers<uint32_t>(a, where);
-    else if (key == "positions_bind") mesh_.positions = Numbers<float>(a, where);
-    else if (key == "influence_offsets") mesh_.influence_offsets = Numbers<uint32_t>(a, where);
-    else if (key == "influence_binds") mesh_.influence_binds = Numbers<uint16_t>(a, where);
-    else if (key == "influence_weights") mesh_.influence_weights = Numbers<float>(a, where);
-    else return false;  // "binds" (small): read from the document
+    if (key == "triangles")
+      mesh_.triangles = Numbers<uint32_t>(a, where);
+    else if (key == "positions_bind")
+      mesh_.positions = Numbers<float>(a, where);
+    else if (key == "influence_offsets")
+      mesh_.influence_offsets = Numbers<uint32_t>(a, where);
+    else if (key == "influence_binds")
+      mesh_.influence_binds = Numbers<uint16_t>(a, where);
+    else if (key == "influence_weights")
+      mesh_.influence_weights = Numbers<float>(a, where);
+    else
+      return false;  // "binds" (small): read from the document
     mesh_.seen.push_back(key);
     return true;
   }
@@ -391,7 +392,8 @@ Result<SphereSet> ReadSphereSetJson(std::string_view text, const std::string& so
   } catch (const json::exception& e) {
     return MakeError(ErrorCode::kInvalidData, OneLine(source_name + ": " + e.what()));
   } catch (const std::bad_alloc&) {
-    return MakeError(ErrorCode::kFormatRejected, OneLine(source_name + ": implausible sizes (out of memory while reading)"));
+    return MakeError(ErrorCode::kFormatRejected,
+                     OneLine(source_name + ": implausible sizes (out of memory while reading)"));
   }
 }
 
@@ -402,9 +404,11 @@ std::optional<SphereSetFileFormat> SphereSetFormatForPath(const std::filesystem:
   return std::nullopt;
 }
 
-std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path, SphereSetFileFormat format) {
+std::optional<Error> SaveSphereSet(const SphereSet& set, const std::filesystem::path& path,
+                                   SphereSetFileFormat format) {
   if (format == SphereSetFileFormat::kBinary) return SaveSphereSetBinary(set, path);
-  if (format == SphereSetFileFormat::kBinaryFastOnly) return SaveSphereSetBinary(set, path, SphereSetBinaryContent::kFastOnly);
+  if (format == SphereSetFileFormat::kBinaryFastOnly)
+    return SaveSphereSetBinary(set, path, SphereSetBinaryContent::kFastOnly);
   if (set.fast_only) {
     return MakeError(ErrorCode::kInvalidArgument, PathText(path) + ": a fast-only sphere set (" +
                                                       (set.loaded_from.empty() ? "no vertex lists" : set.loaded_from) +
@@ -426,8 +430,8 @@ Result<SphereSet> ReadSphereSet(std::span<const std::byte> bytes, const std::str
   // Shorter than the binary magic: neither format (the smallest JSON set is far longer).
   if (bytes.empty()) return MakeError(ErrorCode::kFormatRejected, source_name + ": empty file");
   if (bytes.size() < sizeof kSphereSetBinaryMagic) {
-    return MakeError(ErrorCode::kFormatRejected, source_name + ": too short to be a sphere set (" +
-                                                     std::to_string(bytes.size()) + " bytes)");
+    return MakeError(ErrorCode::kFormatRejected,
+                     source_name + ": too short to be a sphere set (" + std::to_string(bytes.size()) + " bytes)");
   }
   return ReadSphereSetJson(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), source_name);
 }

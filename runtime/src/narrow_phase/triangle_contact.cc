@@ -34,14 +34,15 @@ int O2(const P2& a, const P2& b, const P2& c) { return exact::Orient2d(a.x, a.y,
 
 // r is collinear with p, q: is it on the closed segment? (coordinates compared exactly)
 bool OnSegment(const P2& p, const P2& q, const P2& r) {
-  return std::min(p.x, q.x) <= r.x && r.x <= std::max(p.x, q.x) && std::min(p.y, q.y) <= r.y && r.y <= std::max(p.y, q.y);
+  return std::min(p.x, q.x) <= r.x && r.x <= std::max(p.x, q.x) && std::min(p.y, q.y) <= r.y &&
+         r.y <= std::max(p.y, q.y);
 }
 
 bool SegmentsMeet(const P2& p1, const P2& q1, const P2& p2, const P2& q2) {
   const int o1 = O2(p1, q1, p2), o2 = O2(p1, q1, q2), o3 = O2(p2, q2, p1), o4 = O2(p2, q2, q1);
   if (o1 * o2 < 0 && o3 * o4 < 0) return true;
-  return (o1 == 0 && OnSegment(p1, q1, p2)) || (o2 == 0 && OnSegment(p1, q1, q2)) || (o3 == 0 && OnSegment(p2, q2, p1)) ||
-         (o4 == 0 && OnSegment(p2, q2, q1));
+  return (o1 == 0 && OnSegment(p1, q1, p2)) || (o2 == 0 && OnSegment(p1, q1, q2)) ||
+         (o3 == 0 && OnSegment(p2, q2, p1)) || (o4 == 0 && OnSegment(p2, q2, q1));
 }
 
 // p inside or on the counter-clockwise triangle t.
@@ -100,7 +101,9 @@ bool CheckMinMax(const P3& p1, const P3& q1, const P3& r1, const P3& p2, const P
 }
 
 // Permutes triangle 2 into canonical form (dp2, dq2, dr2: its vertices' signs w.r.t. plane 1).
-// 'coplanar' is set when every sign is zero (handled by the caller).
+// 'coplanar' is set when every sign is zero (handled by the caller). Ten parameters: the signature
+// of Guigue and Devillers' published routine, kept so the code can be checked against theirs.
+// NOLINTNEXTLINE(readability-function-size)
 bool TriTri3d(const P3& p1, const P3& q1, const P3& r1, const P3& p2, const P3& q2, const P3& r2, int dp2, int dq2,
               int dr2, bool* coplanar) {
   if (dp2 > 0) {
@@ -139,19 +142,29 @@ Overlap Classify(const P3 a[3], const P3 b[3]) {
   bool coplanar = false;
   bool meet;
   if (dp1 > 0) {
-    if (dq1 > 0) meet = TriTri3d(r1, p1, q1, p2, r2, q2, dp2, dr2, dq2, &coplanar);
-    else if (dr1 > 0) meet = TriTri3d(q1, r1, p1, p2, r2, q2, dp2, dr2, dq2, &coplanar);
-    else meet = TriTri3d(p1, q1, r1, p2, q2, r2, dp2, dq2, dr2, &coplanar);
+    if (dq1 > 0)
+      meet = TriTri3d(r1, p1, q1, p2, r2, q2, dp2, dr2, dq2, &coplanar);
+    else if (dr1 > 0)
+      meet = TriTri3d(q1, r1, p1, p2, r2, q2, dp2, dr2, dq2, &coplanar);
+    else
+      meet = TriTri3d(p1, q1, r1, p2, q2, r2, dp2, dq2, dr2, &coplanar);
   } else if (dp1 < 0) {
-    if (dq1 < 0) meet = TriTri3d(r1, p1, q1, p2, q2, r2, dp2, dq2, dr2, &coplanar);
-    else if (dr1 < 0) meet = TriTri3d(q1, r1, p1, p2, q2, r2, dp2, dq2, dr2, &coplanar);
-    else meet = TriTri3d(p1, q1, r1, p2, r2, q2, dp2, dr2, dq2, &coplanar);
+    if (dq1 < 0)
+      meet = TriTri3d(r1, p1, q1, p2, q2, r2, dp2, dq2, dr2, &coplanar);
+    else if (dr1 < 0)
+      meet = TriTri3d(q1, r1, p1, p2, q2, r2, dp2, dq2, dr2, &coplanar);
+    else
+      meet = TriTri3d(p1, q1, r1, p2, r2, q2, dp2, dr2, dq2, &coplanar);
   } else if (dq1 < 0) {
-    if (dr1 >= 0) meet = TriTri3d(q1, r1, p1, p2, r2, q2, dp2, dr2, dq2, &coplanar);
-    else meet = TriTri3d(p1, q1, r1, p2, q2, r2, dp2, dq2, dr2, &coplanar);
+    if (dr1 >= 0)
+      meet = TriTri3d(q1, r1, p1, p2, r2, q2, dp2, dr2, dq2, &coplanar);
+    else
+      meet = TriTri3d(p1, q1, r1, p2, q2, r2, dp2, dq2, dr2, &coplanar);
   } else if (dq1 > 0) {
-    if (dr1 > 0) meet = TriTri3d(p1, q1, r1, p2, r2, q2, dp2, dr2, dq2, &coplanar);
-    else meet = TriTri3d(q1, r1, p1, p2, q2, r2, dp2, dq2, dr2, &coplanar);
+    if (dr1 > 0)
+      meet = TriTri3d(p1, q1, r1, p2, r2, q2, dp2, dr2, dq2, &coplanar);
+    else
+      meet = TriTri3d(q1, r1, p1, p2, q2, r2, dp2, dq2, dr2, &coplanar);
   } else if (dr1 > 0) {
     meet = TriTri3d(r1, p1, q1, p2, q2, r2, dp2, dq2, dr2, &coplanar);
   } else if (dr1 < 0) {

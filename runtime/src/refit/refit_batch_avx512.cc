@@ -15,11 +15,11 @@
 #include "refit/refit_internal.h"
 
 #if defined(SKINSPHERES_X86_64)
+#include <immintrin.h>
+
 #include <cfloat>
 #include <cstdint>
 #include <limits>
-
-#include <immintrin.h>
 
 // GCC takes the target from the pragma; clang ignores it and needs the attribute on every function;
 // MSVC emits any intrinsic anywhere and needs neither.
@@ -101,9 +101,9 @@ struct Point {
 inline Point Apply(const V g[16], const float* q) {
   const V q0 = _mm512_set1_ps(q[0]), q1 = _mm512_set1_ps(q[1]), q2 = _mm512_set1_ps(q[2]);
   const auto row = [&](int m) {
-    return _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(g[m], q0),
-                                       _mm512_add_ps(_mm512_mul_ps(g[4 + m], q1), _mm512_mul_ps(g[8 + m], q2))),
-                         g[12 + m]);
+    return _mm512_add_ps(
+        _mm512_add_ps(_mm512_mul_ps(g[m], q0), _mm512_add_ps(_mm512_mul_ps(g[4 + m], q1), _mm512_mul_ps(g[8 + m], q2))),
+        g[12 + m]);
   };
   return {row(0), row(1), row(2)};
 }

@@ -25,7 +25,7 @@ namespace skinspheres::runtime::internal {
 // compiled for AVX2: an inline Eigen function instantiated there could be the copy the linker keeps
 // for the whole program).
 struct FastRefitArrays {
-  const float* world = nullptr;                 // G_j(t): 16 floats per joint, column-major
+  const float* world = nullptr;  // G_j(t): 16 floats per joint, column-major
   size_t joint_count = 0;
   const float* center_in_joint = nullptr;       // 3 floats per influence entry
   const float* weights = nullptr;               // per influence entry

@@ -23,10 +23,8 @@ using Vec4d = Eigen::Matrix<double, 4, 1, Eigen::ColMajor | Eigen::DontAlign>;
 
 const char* ToString(RefitMode mode) {
   switch (mode) {
-    case RefitMode::kExact:
-      return "exact";
-    case RefitMode::kFast:
-      return "fast";
+    case RefitMode::kExact: return "exact";
+    case RefitMode::kFast: return "fast";
   }
   return "unknown";
 }
@@ -46,8 +44,9 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
     const double det = g.topLeftCorner<3, 3>().determinant();
     const double scale = g.topLeftCorner<3, 3>().cwiseAbs().maxCoeff();
     if (!(std::abs(det) > 1e-12 * scale * scale * scale) || !std::isfinite(det)) {
-      return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file + "': rest transform of joint " +
-                                                    std::to_string(j) + " '" + set.joint_names[j] + "' is not invertible");
+      return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file +
+                                                    "': rest transform of joint " + std::to_string(j) + " '" +
+                                                    set.joint_names[j] + "' is not invertible");
     }
     Mat4d inv = Mat4d::Identity();
     const Eigen::Matrix3d li = g.topLeftCorner<3, 3>().inverse();
@@ -99,28 +98,27 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
 }
 
 bool RefitJob::Validate() const {
-  if (spheres == nullptr) return false;
-  const size_t n = spheres->size();
+  if (set == nullptr) return false;
+  const size_t n = set->size();
   if (out.size() < n) return false;
-  if (spheres->vertex_offsets.size() != n + 1 || spheres->influence_offsets.size() != n + 1) return false;
+  if (set->vertex_offsets.size() != n + 1 || set->influence_offsets.size() != n + 1) return false;
   const bool need_joints = mode == RefitMode::kFast || !joint_world.empty();
   if (need_joints) {
     if (rest == nullptr) return false;
-    if (rest->sphere_count() != n || rest->joint_count() != spheres->joint_count() ||
-        rest->influence_count() != spheres->influence_joints.size() || rest->reach().size() != rest->influence_count() ||
-        spheres->influence_weights.size() != spheres->influence_joints.size() ||
-        spheres->radii_fast.size() != n) {
+    if (rest->sphere_count() != n || rest->joint_count() != set->joint_count() ||
+        rest->influence_count() != set->influence_joints.size() || rest->reach().size() != rest->influence_count() ||
+        set->influence_weights.size() != set->influence_joints.size() || set->radii_fast.size() != n) {
       return false;
     }
-    if (joint_world.size() < spheres->joint_count()) return false;
+    if (joint_world.size() < set->joint_count()) return false;
   }
   if (mode == RefitMode::kExact) {
-    if (spheres->fast_only) return false;  // no vertex lists to bound
-    if (positions.size() < spheres->source_vertex_count) return false;
+    if (set->fast_only) return false;  // no vertex lists to bound
+    if (positions.size() < set->source_vertex_count) return false;
     // The set's vertex indices were checked against source_vertex_count when the rest data was
     // built; without rest data check the CSR end at least (O(1)).
-    if (spheres->vertex_offsets[n] > spheres->vertices.size()) return false;
-    if (rest != nullptr && rest->source_vertex_count() != spheres->source_vertex_count) return false;
+    if (set->vertex_offsets[n] > set->vertices.size()) return false;
+    if (rest != nullptr && rest->source_vertex_count() != set->source_vertex_count) return false;
   } else if (mode != RefitMode::kFast) {
     return false;
   }
@@ -171,14 +169,10 @@ bool PinRefitSimd(RefitSimd level) {
 
 const char* ToString(RefitSimd level) {
   switch (level) {
-    case RefitSimd::kAuto:
-      return "auto";
-    case RefitSimd::kSse2:
-      return "sse2";
-    case RefitSimd::kAvx2:
-      return "avx2";
-    case RefitSimd::kAvx512:
-      return "avx512 (crowd batches; avx2 alone)";
+    case RefitSimd::kAuto: return "auto";
+    case RefitSimd::kSse2: return "sse2";
+    case RefitSimd::kAvx2: return "avx2";
+    case RefitSimd::kAvx512: return "avx512 (crowd batches; avx2 alone)";
     case RefitSimd::kPortable: return "portable";
   }
   return "unknown";
@@ -215,7 +209,7 @@ inline float SquaredDistance(const Eigen::Vector3f& p, const float c[3]) {
 
 // c' = Σ_k w_k G_j(k)(t) · (G_j(k)(rest)^-1 c).
 inline void BlendedCentre(const RefitJob& job, size_t s, float c[3]) {
-  const auto& set = *job.spheres;
+  const auto& set = *job.set;
   const auto q = job.rest->center_in_joint();
   const auto w = job.rest->weights();
   c[0] = c[1] = c[2] = 0.0f;
@@ -226,7 +220,7 @@ inline void BlendedCentre(const RefitJob& job, size_t s, float c[3]) {
 
 // The centre of the box of the sphere's vertices [v0, v1) (v0 < v1).
 inline void BoxCentre(const RefitJob& job, uint32_t v0, uint32_t v1, float c[3]) {
-  const auto& set = *job.spheres;
+  const auto& set = *job.set;
   float lo[3], hi[3];
   for (int a = 0; a < 3; ++a) lo[a] = hi[a] = job.positions[set.vertices[v0]][a];
   for (uint32_t k = v0 + 1; k < v1; ++k) {
@@ -240,7 +234,7 @@ inline void BoxCentre(const RefitJob& job, uint32_t v0, uint32_t v1, float c[3])
 }
 
 bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
-  const auto& set = *job.spheres;
+  const auto& set = *job.set;
   const bool joints = !job.joint_world.empty();
   bool ok = true;
   for (size_t s = begin; s < end; ++s) {
@@ -286,7 +280,7 @@ internal::FastRefitArrays SharedArrays(const SphereSet& set, const RefitRestData
 
 // Fast mode: the vector loop of refit_fast.inc at the level RefitSimdInUse() picks (same bits).
 bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
-  internal::FastRefitArrays a = SharedArrays(*job.spheres, *job.rest);
+  internal::FastRefitArrays a = SharedArrays(*job.set, *job.rest);
   a.world = reinterpret_cast<const float*>(job.joint_world.data());
   a.out = reinterpret_cast<float*>(job.out.data());
   switch (internal::RefitSimdInUse()) {
@@ -302,20 +296,20 @@ bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
 }  // namespace
 
 bool RefitJob::RunRange(size_t begin, size_t end) const {
-  if (!Validate() || begin > end || end > spheres->size()) return false;
+  if (!Validate() || begin > end || end > set->size()) return false;
   return mode == RefitMode::kExact ? RefitExact(*this, begin, end) : RefitFast(*this, begin, end);
 }
 
 bool RefitJob::Run() const {
   if (!Validate()) return false;
-  return RunRange(0, spheres->size());
+  return RunRange(0, set->size());
 }
 
-bool RefitParallel(const RefitJob& job, size_t grain, const ParallelFor& parallel_for) {
-  if (!job.Validate()) return false;
+bool RefitJob::RunParallel(const ParallelFor& parallel_for, size_t grain) const {
+  if (!Validate()) return false;
   std::atomic<bool> ok{true};
-  parallel_for(job.spheres->size(), std::max<size_t>(grain, 1), [&](size_t begin, size_t end) {
-    const bool good = job.mode == RefitMode::kExact ? RefitExact(job, begin, end) : RefitFast(job, begin, end);
+  parallel_for(set->size(), std::max<size_t>(grain, 1), [&](size_t begin, size_t end) {
+    const bool good = mode == RefitMode::kExact ? RefitExact(*this, begin, end) : RefitFast(*this, begin, end);
     if (!good) ok.store(false, std::memory_order_relaxed);
   });
   return ok.load();

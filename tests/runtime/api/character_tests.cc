@@ -1,4 +1,4 @@
-// CharacterAsset / CharacterInstance / UpdateAndQueryCrowd: asset matching, updates equal to the
+// CharacterAsset / CharacterInstance / CrowdUpdateAndFindSpherePairs: asset matching, updates equal to the
 // RefitJob, contacts equal to the all-pairs broad-phase oracle, the touch clip's hand-chest contact
 // is found, NaN input fails only its instance, crowd = serial for 1 and 2 threads, no allocation
 // per frame after the first.
@@ -97,24 +97,24 @@ TEST(CharacterInstanceTest, UpdatesMatchTheJobAndQueryMatchesAllPairs) {
   auto asset = BuiltinAsset(&fc);
   ASSERT_TRUE(asset);
   CharacterInstance inst = MakeInstance(asset);
-  EXPECT_TRUE(inst.Query().empty()) << "no update yet";
+  EXPECT_TRUE(inst.FindSpherePairs().empty()) << "no update yet";
   EXPECT_FALSE(inst.status().ok());
-  std::vector<Contact> oracle;
+  std::vector<SpherePair> oracle;
   std::vector<skinspheres::Vec4f> expected(asset->size());
   size_t total_contacts = 0;
   for (const test::Pose& pose : test::ClipPoses(fc->character, 20)) {
     for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
-      const FrameStatus st = mode == RefitMode::kFast ? inst.UpdateFast(pose.world)
-                                                      : inst.UpdateExact(pose.positions, pose.world);
+      const FrameStatus st =
+          mode == RefitMode::kFast ? inst.UpdateFast(pose.world) : inst.UpdateExact(pose.positions, pose.world);
       ASSERT_TRUE(st.ok()) << st.message;
       RefitJob job{mode, &asset->sphere_set(), &asset->rest(), pose.world, pose.positions, expected};
       ASSERT_TRUE(job.Run());
       ASSERT_EQ(inst.spheres().size(), expected.size());
       for (size_t s = 0; s < expected.size(); ++s) ASSERT_EQ(inst.spheres()[s], expected[s]);
-      const auto contacts = inst.Query();
+      const auto contacts = inst.FindSpherePairs();
       ASSERT_TRUE(inst.status().ok()) << inst.status().message;
       ASSERT_TRUE(SelfCollisionAllPairs(inst.spheres(), asset->filter(), &oracle));
-      ASSERT_EQ(std::vector<Contact>(contacts.begin(), contacts.end()), oracle) << pose.label;
+      ASSERT_EQ(std::vector<SpherePair>(contacts.begin(), contacts.end()), oracle) << pose.label;
       total_contacts += contacts.size();
     }
   }
@@ -156,15 +156,17 @@ TEST(CharacterInstanceTest, TouchClipHandsOnChestAndHeadAreReportedAndNotAtRest)
     const test::Pose pose = test::MakePose(fc->character, test::SampleLocal(fc->character, clip, t), clip.name);
     EXPECT_TRUE(inst.Update(mode, pose.world, pose.positions).ok());
     std::set<int> sides;
-    for (const Contact& c : inst.Query()) {
+    for (const SpherePair& c : inst.FindSpherePairs()) {
       if (c.part_j == target && hand_side(c.i) >= 0) sides.insert(hand_side(c.i));
       if (c.part_i == target && hand_side(c.j) >= 0) sides.insert(hand_side(c.j));
     }
     return sides.size();
   };
   for (RefitMode mode : {RefitMode::kExact, RefitMode::kFast}) {
-    for (float t : {0.9f, 1.2f, 1.5f}) EXPECT_EQ(hands_on(*touch, t, mode, torso), 2u) << "chest, t=" << t << " " << ToString(mode);
-    for (float t : {2.5f, 2.8f, 3.1f}) EXPECT_EQ(hands_on(*touch, t, mode, head), 2u) << "head, t=" << t << " " << ToString(mode);
+    for (float t : {0.9f, 1.2f, 1.5f})
+      EXPECT_EQ(hands_on(*touch, t, mode, torso), 2u) << "chest, t=" << t << " " << ToString(mode);
+    for (float t : {2.5f, 2.8f, 3.1f})
+      EXPECT_EQ(hands_on(*touch, t, mode, head), 2u) << "head, t=" << t << " " << ToString(mode);
     // Rest pose (the clip's start) and the whole walk: hands touch neither.
     for (int target : {torso, head}) {
       EXPECT_EQ(hands_on(*touch, 0.0f, mode, target), 0u) << "rest " << ToString(mode);
@@ -187,8 +189,8 @@ TEST(CharacterInstanceTest, BadInputFailsThatUpdateOnly) {
   FrameStatus st = inst.UpdateFast(std::span<const skinspheres::Mat4f>(pose.world).first(pose.world.size() - 1));
   EXPECT_EQ(st.code, ErrorCode::kInvalidArgument);
   EXPECT_FALSE(inst.spheres_valid());
-  EXPECT_TRUE(inst.Query().empty());
-  EXPECT_EQ(inst.status().code, ErrorCode::kInvalidArgument) << "Query keeps the update's reason";
+  EXPECT_TRUE(inst.FindSpherePairs().empty());
+  EXPECT_EQ(inst.status().code, ErrorCode::kInvalidArgument) << "FindSpherePairs keeps the update's reason";
   st = inst.UpdateExact(std::span<const Eigen::Vector3f>(pose.positions).first(10), pose.world);
   EXPECT_EQ(st.code, ErrorCode::kInvalidArgument);
   // NaN joint matrix / position.
@@ -197,13 +199,13 @@ TEST(CharacterInstanceTest, BadInputFailsThatUpdateOnly) {
   st = inst.UpdateFast(world);
   EXPECT_EQ(st.code, ErrorCode::kInvalidData);
   EXPECT_NE(std::string(st.message).find("non-finite"), std::string::npos);
-  EXPECT_TRUE(inst.Query().empty());
+  EXPECT_TRUE(inst.FindSpherePairs().empty());
   std::vector<Eigen::Vector3f> positions = pose.positions;
   positions[asset->sphere_set().vertices[0]].x() = std::numeric_limits<float>::infinity();
   EXPECT_EQ(inst.UpdateExact(positions, pose.world).code, ErrorCode::kInvalidData);
   // Recovers on good input.
   EXPECT_TRUE(inst.UpdateExact(pose.positions, pose.world).ok());
-  inst.Query();
+  inst.FindSpherePairs();
   EXPECT_TRUE(inst.status().ok());
 }
 
@@ -228,7 +230,7 @@ TEST(CharacterCrowdTest, CrowdEqualsSerialAndNaNFailsOnlyItsInstance) {
     for (int i = 0; i < kCount; ++i) {
       serial.push_back(MakeInstance(asset));
       serial.back().Update(mode, poses[i].world, poses[i].positions);
-      serial.back().Query();
+      serial.back().FindSpherePairs();
     }
     // TBB with 1 and 2 threads, then an engine's own job system (3 threads, reversed order).
     for (int threads : {1, 2, 3}) {
@@ -241,9 +243,9 @@ TEST(CharacterCrowdTest, CrowdEqualsSerialAndNaNFailsOnlyItsInstance) {
       // Two frames: the second exercises the broad phase's frame-to-frame memory.
       for (int frame = 0; frame < 2; ++frame) {
         if (threads == 3) {
-          st = UpdateAndQueryCrowd(ptrs, inputs, mode, engine);
+          st = CrowdUpdateAndFindSpherePairs(ptrs, inputs, mode, engine);
         } else {
-          test::WithDefaultThreads(threads, [&] { st = UpdateAndQueryCrowd(ptrs, inputs, mode); });
+          test::WithDefaultThreads(threads, [&] { st = CrowdUpdateAndFindSpherePairs(ptrs, inputs, mode); });
         }
       }
       EXPECT_EQ(st.code, ErrorCode::kInvalidData);
@@ -251,20 +253,20 @@ TEST(CharacterCrowdTest, CrowdEqualsSerialAndNaNFailsOnlyItsInstance) {
         EXPECT_EQ(crowd[i].status().ok(), i != bad) << i;
         EXPECT_EQ(crowd[i].spheres_valid(), i != bad) << i;
         if (i == bad) {
-          EXPECT_TRUE(crowd[i].contacts().empty());
+          EXPECT_TRUE(crowd[i].sphere_pairs().empty());
           continue;
         }
         ASSERT_TRUE(serial[i].status().ok());
         for (size_t s = 0; s < asset->size(); ++s) ASSERT_EQ(crowd[i].spheres()[s], serial[i].spheres()[s]);
-        EXPECT_EQ(std::vector<Contact>(crowd[i].contacts().begin(), crowd[i].contacts().end()),
-                  std::vector<Contact>(serial[i].contacts().begin(), serial[i].contacts().end()));
+        EXPECT_EQ(std::vector<SpherePair>(crowd[i].sphere_pairs().begin(), crowd[i].sphere_pairs().end()),
+                  std::vector<SpherePair>(serial[i].sphere_pairs().begin(), serial[i].sphere_pairs().end()));
       }
       if (mode == RefitMode::kFast) {
         // The broad-phase-only call keeps no joint matrices: FindContacts without positions (mode b)
         // is refused, saying why, until an update that keeps them.
         CharacterInstance& first = crowd[0];
         EXPECT_EQ(first.FindContacts().code, ErrorCode::kInvalidArgument);
-        EXPECT_NE(std::string(first.status().message).find("UpdateAndQueryCrowd"), std::string::npos)
+        EXPECT_NE(std::string(first.status().message).find("CrowdUpdateAndFindSpherePairs"), std::string::npos)
             << first.status().message;
         ASSERT_TRUE(first.UpdateFast(poses[0].world).ok());
         EXPECT_TRUE(first.FindContacts().ok()) << first.status().message;
@@ -273,10 +275,12 @@ TEST(CharacterCrowdTest, CrowdEqualsSerialAndNaNFailsOnlyItsInstance) {
   }
   // Caller errors: mismatched spans, null instance.
   std::vector<CharacterInstance*> none(2, nullptr);
-  EXPECT_EQ(UpdateAndQueryCrowd(none, std::span<const CharacterFrameInput>(inputs).first(1), RefitMode::kFast).code,
-            ErrorCode::kInvalidArgument);
-  EXPECT_EQ(UpdateAndQueryCrowd(none, std::span<const CharacterFrameInput>(inputs).first(2), RefitMode::kFast).code,
-            ErrorCode::kInvalidArgument);
+  EXPECT_EQ(
+      CrowdUpdateAndFindSpherePairs(none, std::span<const CharacterFrameInput>(inputs).first(1), RefitMode::kFast).code,
+      ErrorCode::kInvalidArgument);
+  EXPECT_EQ(
+      CrowdUpdateAndFindSpherePairs(none, std::span<const CharacterFrameInput>(inputs).first(2), RefitMode::kFast).code,
+      ErrorCode::kInvalidArgument);
 }
 
 // The crowd calls refit up to 16 instances of one asset at once (one per AVX-512 lane, when the CPU
@@ -331,7 +335,7 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
     alone.push_back(make(i));
     alone.back().Update(RefitMode::kFast, inputs[i].joint_world, {});
     if (alone.back().status().ok()) {
-      alone.back().Query();
+      alone.back().FindSpherePairs();
       alone.back().FindContacts();
     }
   }
@@ -361,19 +365,21 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
         if (loop_kind == 2) {
           for (size_t begin = 0; begin < ptrs.size(); begin += 16) {
             const size_t count = std::min<size_t>(16, ptrs.size() - begin);
-            const FrameStatus range = CrowdRange(std::span(ptrs).subspan(begin, count),
-                                                 std::span(inputs).subspan(begin, count), RefitMode::kFast,
-                                                 find_contacts);
+            const FrameStatus range =
+                CrowdRange(std::span(ptrs).subspan(begin, count), std::span(inputs).subspan(begin, count),
+                           RefitMode::kFast, find_contacts);
             if (!range.ok()) st = range;
           }
         } else {
           const ParallelFor& loop = loop_kind == 1 ? DefaultParallelFor() : SerialFor();
-          st = find_contacts ? UpdateAndFindContactsCrowd(ptrs, inputs, RefitMode::kFast, loop)
-                             : UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, loop);
+          st = find_contacts ? CrowdUpdateAndFindContacts(ptrs, inputs, RefitMode::kFast, loop)
+                             : CrowdUpdateAndFindSpherePairs(ptrs, inputs, RefitMode::kFast, loop);
         }
         const std::string what = std::string(internal::ToString(level)) +
                                  (find_contacts ? ", find contacts" : ", query") +
-                                 (loop_kind == 0 ? ", serial" : loop_kind == 1 ? ", TBB" : ", CrowdRange");
+                                 (loop_kind == 0   ? ", serial"
+                                  : loop_kind == 1 ? ", TBB"
+                                                   : ", CrowdRange");
         if (loop_kind != 1) {
           EXPECT_EQ(internal::LastRefitSimdRun(), level) << what;
         }
@@ -386,9 +392,10 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
           for (size_t s = 0; s < crowd[i].spheres().size(); ++s) {
             ASSERT_EQ(crowd[i].spheres()[s], alone[i].spheres()[s]) << what << ", instance " << i << ", sphere " << s;
           }
-          EXPECT_TRUE(std::ranges::equal(crowd[i].contacts(), alone[i].contacts())) << what << ", instance " << i;
+          EXPECT_TRUE(std::ranges::equal(crowd[i].sphere_pairs(), alone[i].sphere_pairs()))
+              << what << ", instance " << i;
           if (find_contacts) {
-            EXPECT_EQ(crowd[i].frame_contacts(), alone[i].frame_contacts()) << what << ", instance " << i;
+            EXPECT_EQ(crowd[i].contacts(), alone[i].contacts()) << what << ", instance " << i;
           }
         }
       }
@@ -416,7 +423,7 @@ TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
   for (size_t k = 0; k < kCount; ++k) crowd.push_back(MakeInstance(asset));
   std::vector<CharacterInstance*> ptrs;
   for (auto& c : crowd) ptrs.push_back(&c);
-  std::vector<Contact> oracle;
+  std::vector<SpherePair> oracle;
   size_t total = 0, batched_frames = 0;
   const auto frame = [&](size_t f, bool alone) {
     std::vector<CharacterFrameInput> inputs;
@@ -427,20 +434,20 @@ TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
     if (alone) {
       for (size_t k = 0; k < kCount; ++k) {
         ASSERT_TRUE(crowd[k].UpdateFast(inputs[k].joint_world).ok());
-        crowd[k].Query();
+        crowd[k].FindSpherePairs();
       }
     } else {
       const uint64_t batches = internal::CrowdQueryBatches();
-      ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());
+      ASSERT_TRUE(CrowdUpdateAndFindSpherePairs(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());
       batched_frames += internal::CrowdQueryBatches() > batches;
     }
     for (size_t k = 0; k < kCount; ++k) {
       ASSERT_TRUE(crowd[k].status().ok()) << crowd[k].status().message;
       ASSERT_TRUE(SelfCollisionAllPairs(crowd[k].spheres(), asset->filter(), &oracle));
-      ASSERT_EQ(std::vector<Contact>(crowd[k].contacts().begin(), crowd[k].contacts().end()), oracle)
+      ASSERT_EQ(std::vector<SpherePair>(crowd[k].sphere_pairs().begin(), crowd[k].sphere_pairs().end()), oracle)
           << "frame " << f << ", instance " << k << (alone ? ", alone" : ", crowd");
       for (size_t c = 0; c < oracle.size(); ++c) {  // == compares depths as floats: their bits too
-        ASSERT_EQ(std::bit_cast<uint32_t>(crowd[k].contacts()[c].depth), std::bit_cast<uint32_t>(oracle[c].depth));
+        ASSERT_EQ(std::bit_cast<uint32_t>(crowd[k].sphere_pairs()[c].depth), std::bit_cast<uint32_t>(oracle[c].depth));
       }
       total += oracle.size();
       if (f % 4 == 1 && k >= f % 3 && (k - f % 3) % 3 == 0) {
@@ -456,12 +463,12 @@ TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
   std::vector<CharacterFrameInput> inputs;
   inputs.reserve(kCount);
   for (size_t k = 0; k < kCount; ++k) inputs.push_back({poses[(3 + 5 * k) % poses.size()].world, {}});
-  ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());  // warm-up
+  ASSERT_TRUE(CrowdUpdateAndFindSpherePairs(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());  // warm-up
   {  // warm now: the crowd call allocates nothing
     test::AllocationCounter counter;
     for (size_t f = 0; f < poses.size(); ++f) {
       for (size_t k = 0; k < kCount; ++k) inputs[k].joint_world = poses[(f + 5 * k) % poses.size()].world;
-      ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());
+      ASSERT_TRUE(CrowdUpdateAndFindSpherePairs(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());
     }
     EXPECT_EQ(counter.count(), 0);
   }
@@ -473,9 +480,9 @@ TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
   ASSERT_TRUE(CrowdRange(twice, twice_inputs, RefitMode::kFast, false).ok());
   CharacterInstance expected = MakeInstance(asset);
   ASSERT_TRUE(expected.UpdateFast(twice_inputs[3].joint_world).ok());
-  expected.Query();
+  expected.FindSpherePairs();
   EXPECT_TRUE(std::ranges::equal(crowd[0].spheres(), expected.spheres()));
-  EXPECT_TRUE(std::ranges::equal(crowd[0].contacts(), expected.contacts()));
+  EXPECT_TRUE(std::ranges::equal(crowd[0].sphere_pairs(), expected.sphere_pairs()));
   if (batched_frames == 0) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd queried one instance at a time";
   EXPECT_EQ(batched_frames, 2 * poses.size() - poses.size() * 2 / 3) << "every crowd frame queried at once";
 }
@@ -534,19 +541,19 @@ TEST(CharacterCrowdTest, BatchedQueryBoundsBySphereCount) {
     for (auto& c : crowd) ptrs.push_back(&c);
     std::vector<std::vector<Mat4f>> worlds(kCount, std::vector<Mat4f>(2, Mat4f::Identity()));
     std::vector<CharacterFrameInput> inputs(kCount);
-    std::vector<Contact> oracle;
+    std::vector<SpherePair> oracle;
     const std::string what = std::to_string(n) + " spheres" + (exclude_all ? ", every pair excluded" : "");
     for (int frame = 0; frame < 3; ++frame) {
       for (size_t k = 0; k < kCount; ++k) {
         for (Mat4f& g : worlds[k]) {
-          g.topLeftCorner<3, 3>() = Eigen::AngleAxisf(3.0f * u(rng), Eigen::Vector3f(u(rng), u(rng), 1.0f).normalized())
-                                        .toRotationMatrix();
+          g.topLeftCorner<3, 3>() =
+              Eigen::AngleAxisf(3.0f * u(rng), Eigen::Vector3f(u(rng), u(rng), 1.0f).normalized()).toRotationMatrix();
           g.col(3).head<3>() = Eigen::Vector3f(0.3f * u(rng), 0.3f * u(rng), 0.3f * u(rng));
         }
         inputs[k] = {worlds[k], {}};
       }
       const uint64_t batches = internal::CrowdQueryBatches();
-      ASSERT_TRUE(UpdateAndQueryCrowd(ptrs, inputs, RefitMode::kFast, SerialFor()).ok()) << what;
+      ASSERT_TRUE(CrowdUpdateAndFindSpherePairs(ptrs, inputs, RefitMode::kFast, SerialFor()).ok()) << what;
       const bool batched = internal::CrowdQueryBatches() > batches;
       batched_any |= batched;
       if (batched) {
@@ -556,7 +563,7 @@ TEST(CharacterCrowdTest, BatchedQueryBoundsBySphereCount) {
       for (size_t k = 0; k < kCount; ++k) {
         ASSERT_TRUE(crowd[k].status().ok()) << what;
         ASSERT_TRUE(SelfCollisionAllPairs(crowd[k].spheres(), (*asset)->filter(), &oracle));
-        ASSERT_EQ(std::vector<Contact>(crowd[k].contacts().begin(), crowd[k].contacts().end()), oracle)
+        ASSERT_EQ(std::vector<SpherePair>(crowd[k].sphere_pairs().begin(), crowd[k].sphere_pairs().end()), oracle)
             << what << ", frame " << frame << ", instance " << k;
         touching += oracle.size();
       }
@@ -583,7 +590,7 @@ TEST(CharacterInstanceTest, ReserveContactsSizesTheNarrowPhase) {
   CharacterInstance reserved = MakeInstance(asset);
   reserved.ReserveContacts(4096);
   ASSERT_TRUE(reserved.UpdateExact(pose.positions, pose.world).ok());
-  reserved.Query();
+  reserved.FindSpherePairs();
   {
     test::AllocationCounter counter;
     EXPECT_TRUE(reserved.FindContacts(pose.positions).ok());
@@ -591,22 +598,22 @@ TEST(CharacterInstanceTest, ReserveContactsSizesTheNarrowPhase) {
   }
   CharacterInstance plain = MakeInstance(asset);
   ASSERT_TRUE(plain.UpdateExact(pose.positions, pose.world).ok());
-  plain.Query();
+  plain.FindSpherePairs();
   {
     test::AllocationCounter counter;
     EXPECT_TRUE(plain.FindContacts(pose.positions).ok());
     EXPECT_GE(counter.count(), 1);
   }
-  EXPECT_EQ(reserved.frame_contacts(), plain.frame_contacts());
+  EXPECT_EQ(reserved.contacts(), plain.contacts());
 }
 
-// ReserveSphereContacts pins Query's list without the narrow phase's scratch. Every vertex on one
+// ReserveSpherePairs pins FindSpherePairs' list without the narrow phase's scratch. Every vertex on one
 // point makes the spheres collapse onto it, so nearly every allowed pair touches: far more
-// contacts than Create's room (4 per sphere). The reserved instance's first frame allocates
-// nothing, an unreserved one grows its list, both give the same contacts, and the reserved
-// instance's first FindContacts still sizes the narrow phase's scratch (ReserveSphereContacts
+// sphere pairs than Create's room (4 per sphere). The reserved instance's first frame allocates
+// nothing, an unreserved one grows its list, both give the same sphere pairs, and the reserved
+// instance's first FindContacts still sizes the narrow phase's scratch (ReserveSpherePairs
 // did not).
-TEST(CharacterInstanceTest, ReserveSphereContactsPinsOnlyTheSphereContacts) {
+TEST(CharacterInstanceTest, ReserveSpherePairsPinsOnlyTheSpherePairs) {
   std::shared_ptr<const test::FittedCharacter> fc;
   auto asset = BuiltinAsset(&fc);
   ASSERT_TRUE(asset);
@@ -615,27 +622,27 @@ TEST(CharacterInstanceTest, ReserveSphereContactsPinsOnlyTheSphereContacts) {
   const std::vector<Eigen::Vector3f> collapsed(fc->character.vertex_count(), Eigen::Vector3f(0.1f, 1.0f, 0.05f));
   const size_t room = n * (n - 1) / 2;
   CharacterInstance reserved = MakeInstance(asset);
-  reserved.ReserveSphereContacts(room);
+  reserved.ReserveSpherePairs(room);
   CharacterInstance plain = MakeInstance(asset);
   CharacterInstance both = MakeInstance(asset);  // the control: ReserveContacts sizes the narrow phase
   both.ReserveContacts(room);
   {
     test::AllocationCounter counter;
     ASSERT_TRUE(reserved.UpdateExact(collapsed, {}).ok());
-    reserved.Query();
+    reserved.FindSpherePairs();
     EXPECT_EQ(counter.count(), 0);
   }
   ASSERT_TRUE(reserved.status().ok());
-  EXPECT_GT(reserved.contacts().size(), 4 * n);
+  EXPECT_GT(reserved.sphere_pairs().size(), 4 * n);
   {
     test::AllocationCounter counter;
     ASSERT_TRUE(plain.UpdateExact(collapsed, {}).ok());
-    plain.Query();
+    plain.FindSpherePairs();
     EXPECT_GE(counter.count(), 1);
   }
-  EXPECT_TRUE(std::ranges::equal(plain.contacts(), reserved.contacts()));
+  EXPECT_TRUE(std::ranges::equal(plain.sphere_pairs(), reserved.sphere_pairs()));
   ASSERT_TRUE(both.UpdateExact(collapsed, {}).ok());
-  both.Query();
+  both.FindSpherePairs();
   {
     test::AllocationCounter counter;
     EXPECT_TRUE(both.FindContacts(collapsed).ok()) << both.status().message;
@@ -646,7 +653,7 @@ TEST(CharacterInstanceTest, ReserveSphereContactsPinsOnlyTheSphereContacts) {
     EXPECT_TRUE(reserved.FindContacts(collapsed).ok()) << reserved.status().message;
     EXPECT_GE(counter.count(), 1);
   }
-  EXPECT_EQ(reserved.frame_contacts(), both.frame_contacts());
+  EXPECT_EQ(reserved.contacts(), both.contacts());
 }
 
 TEST(CharacterInstanceTest, NoAllocationPerFrameAfterTheFirst) {
@@ -658,9 +665,9 @@ TEST(CharacterInstanceTest, NoAllocationPerFrameAfterTheFirst) {
   auto run_all = [&] {
     for (const auto& p : poses) {
       inst.UpdateExact(p.positions, p.world);
-      inst.Query();
+      inst.FindSpherePairs();
       inst.UpdateFast(p.world);
-      inst.Query();
+      inst.FindSpherePairs();
     }
   };
   run_all();  // warm-up: the contact list reaches its largest size

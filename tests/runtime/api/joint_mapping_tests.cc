@@ -3,8 +3,6 @@
 // mapped instance gives exactly the spheres and contacts of an instance fed in the set's order;
 // what is missing or extra is reported by name; Matches names the loaded set file; no allocation
 // per frame.
-#include "skinspheres/runtime/api/joint_mapping.h"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,6 +12,7 @@
 #include "allocation_counter.h"
 #include "runtime/posed_characters.h"
 #include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/api/joint_mapping.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
 #include "test_support.h"
 
@@ -113,8 +112,8 @@ TEST(JointMappingTest, EngineOrderGivesTheSameSpheresAndContacts) {
       EXPECT_TRUE(std::equal(plain->spheres().begin(), plain->spheres().end(), mapped->spheres().begin(),
                              mapped->spheres().end()))
           << pose.label;
-      const std::vector<Contact> a(plain->Query().begin(), plain->Query().end());
-      const auto b = mapped->Query();
+      const std::vector<SpherePair> a(plain->FindSpherePairs().begin(), plain->FindSpherePairs().end());
+      const auto b = mapped->FindSpherePairs();
       EXPECT_TRUE(std::equal(a.begin(), a.end(), b.begin(), b.end())) << pose.label;
       contacts += a.size();
     }
@@ -123,7 +122,7 @@ TEST(JointMappingTest, EngineOrderGivesTheSameSpheresAndContacts) {
   // Too few matrices for the engine's joint count: refused, instance invalid.
   const std::vector<Mat4f> short_list(rig.names.size() - 1, Mat4f::Identity());
   EXPECT_EQ(mapped->UpdateFast(short_list).code, ErrorCode::kInvalidArgument);
-  EXPECT_TRUE(mapped->Query().empty());
+  EXPECT_TRUE(mapped->FindSpherePairs().empty());
 }
 
 TEST(JointMappingTest, MissingAndRepeatedJointsAreNamedWithTheSetFile) {
@@ -164,7 +163,8 @@ TEST(JointMappingTest, MissingAndRepeatedJointsAreNamedWithTheSetFile) {
   EXPECT_EQ(err->message, msg);
   err = (*asset)->Matches(fc->set.joint_names, fc->character.vertex_count() + 1);
   ASSERT_TRUE(err.has_value());
-  EXPECT_NE(err->message.find("sphere set '" + (dir / "builtin.ssb").string() + "'"), std::string::npos) << err->message;
+  EXPECT_NE(err->message.find("sphere set '" + (dir / "builtin.ssb").string() + "'"), std::string::npos)
+      << err->message;
 
   const size_t first_read = static_cast<size_t>(std::find(read.begin(), read.end(), true) - read.begin());
   ASSERT_LT(first_read, read.size());
@@ -204,13 +204,13 @@ TEST(JointMappingTest, NoAllocationPerFrameInEngineOrder) {
   for (const auto& p : poses) engine.push_back(InEngineOrder(rig, p.world));
   for (const auto& e : engine) {  // warm-up: the contact list reaches its largest size
     ASSERT_TRUE(inst->UpdateFast(e).ok());
-    inst->Query();
+    inst->FindSpherePairs();
   }
   test::AllocationCounter counter;
   for (int round = 0; round < 3; ++round) {
     for (const auto& e : engine) {
       inst->UpdateFast(e);
-      inst->Query();
+      inst->FindSpherePairs();
     }
   }
   EXPECT_EQ(counter.count(), 0);

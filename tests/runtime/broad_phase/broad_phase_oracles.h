@@ -3,6 +3,8 @@
 // O(n^2) loop. And the instruction sets this CPU runs.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -15,20 +17,22 @@
 
 namespace skinspheres::test {
 
-inline bool ByPair(const runtime::Contact& p, const runtime::Contact& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; }
+inline bool ByPair(const runtime::SpherePair& p, const runtime::SpherePair& q) {
+  return p.i != q.i ? p.i < q.i : p.j < q.j;
+}
 
 // Appends contact (i, j) when spheres i < j touch: dx = c_j - c_i, ((dx dx + dy dy) + dz dz) <=
 // (r_i + r_j)^2 in float, depth r_i + r_j - sqrt. The filter only gives the parts.
 inline void TestPair(const std::vector<Vec4f>& s, uint32_t i, uint32_t j, const runtime::PairFilter& f,
-                     std::vector<runtime::Contact>* out) {
+                     std::vector<runtime::SpherePair>* out) {
   const float dx = s[j].x() - s[i].x(), dy = s[j].y() - s[i].y(), dz = s[j].z() - s[i].z();
   const float d2 = (dx * dx + dy * dy) + dz * dz, rs = s[i].w() + s[j].w();
-  if (d2 <= rs * rs) out->push_back(runtime::Contact{i, j, rs - std::sqrt(d2), f.part(i), f.part(j)});
+  if (d2 <= rs * rs) out->push_back(runtime::SpherePair{i, j, rs - std::sqrt(d2), f.part(i), f.part(j)});
 }
 
 // Every pair not excluded by f that touches, sorted by (i, j): cells one largest diameter wide, the
 // 27 neighbouring cells of each sphere's cell, TestPair, then a sort.
-inline std::vector<runtime::Contact> GridOracle(const std::vector<Vec4f>& s, const runtime::PairFilter& f) {
+inline std::vector<runtime::SpherePair> GridOracle(const std::vector<Vec4f>& s, const runtime::PairFilter& f) {
   float r_max = 0.0f;
   for (const auto& v : s) r_max = std::max(r_max, v.w());
   const double cell = std::max(2.0 * double(r_max), 1e-6);
@@ -42,7 +46,7 @@ inline std::vector<runtime::Contact> GridOracle(const std::vector<Vec4f>& s, con
     for (int a = 0; a < 3; ++a) at[i][a] = int64_t(std::floor(double(s[i][a]) / cell));
     cells[at[i]].push_back(i);
   }
-  std::vector<runtime::Contact> out;
+  std::vector<runtime::SpherePair> out;
   for (uint32_t i = 0; i < s.size(); ++i) {
     for (int d = 0; d < 27; ++d) {
       auto it = cells.find(Cell{at[i][0] + d % 3 - 1, at[i][1] + d / 3 % 3 - 1, at[i][2] + d / 9 - 1});
@@ -64,6 +68,21 @@ inline std::vector<runtime::BroadPhaseSimd> SupportedLevels() {
     if (runtime::BroadPhaseSimdSupported(l)) levels.push_back(l);
   }
   return levels;
+}
+
+// The all-pairs oracle's sphere pairs (SelfCollisionAllPairs), with a test failure if it refuses.
+inline std::vector<runtime::SpherePair> Oracle(const std::vector<Vec4f>& s, const runtime::PairFilter& f) {
+  std::vector<runtime::SpherePair> out;
+  EXPECT_TRUE(runtime::SelfCollisionAllPairs(s, f, &out));
+  return out;
+}
+
+// One space of the members' spheres laid end to end (PairFilter::Combine).
+inline runtime::PairFilter Combined(const std::vector<runtime::PairFilter>& members,
+                                    runtime::PairFilter::CombineOptions options) {
+  std::vector<const runtime::PairFilter*> pointers;
+  for (const auto& m : members) pointers.push_back(&m);
+  return runtime::PairFilter::Combine(pointers, options).value();
 }
 
 }  // namespace skinspheres::test

@@ -10,7 +10,7 @@
 //   loop over the pairs of two characters; while the characters walk and change pose;
 // - 50,000 spheres of fitted characters in one space: the filter's storage is the listed
 //   exclusions (not n^2) and the contacts equal the per-character oracle plus a grid oracle;
-// - several spaces run by RunSelfCollisionJobs on 1 and 2 TBB threads, an engine-style pool and
+// - several spaces run by RunParallel on 1 and 2 TBB threads, an engine-style pool and
 //   serially: identical contacts on every frame;
 // - no allocation per frame once warmed up, for one space and for a crowd under TBB.
 #include <gtest/gtest.h>
@@ -73,7 +73,7 @@ TEST(BroadPhaseWorkloadTest, CoherentCloudMatchesAllPairsEveryFrame) {
     for (float amplitude : {0.02f, 0.3f}) {
       std::vector<BroadPhaseContext> contexts(levels.size());
       for (auto& c : contexts) c.Resize(n);
-      std::vector<Contact> out, expected;
+      std::vector<SpherePair> out, expected;
       size_t cached = 0, contacts = 0;
       const int frames = 120;
       for (int f = 0; f < frames; ++f) {
@@ -105,7 +105,7 @@ TEST(BroadPhaseWorkloadTest, ConstantDensityWorkGrowsNearlyLinearly) {
   // The cloud's density (300 spheres in 1.8 x 1.8 x 0.3) in a slab growing in x and y. At every
   // instruction set: the counts depend on the vector width (a block sweep tests whole blocks), so
   // each level gets its own slope.
-  const auto work_at = [](size_t n, BroadPhaseSimd level, std::vector<Contact>* last, Spheres* last_spheres,
+  const auto work_at = [](size_t n, BroadPhaseSimd level, std::vector<SpherePair>* last, Spheres* last_spheres,
                           const PairFilter& f) {
     const float side = 1.8f * std::sqrt(float(n) / 300.0f);
     const Spheres base = Cloud(n, side, side, 0.3f);
@@ -125,7 +125,7 @@ TEST(BroadPhaseWorkloadTest, ConstantDensityWorkGrowsNearlyLinearly) {
     std::vector<std::pair<size_t, double>> points;
     for (size_t n : {1000, 4000, 16000}) {
       const PairFilter none = PairFilter::Create(n, {}, {}).value();
-      std::vector<Contact> out;
+      std::vector<SpherePair> out;
       Spheres s;
       points.emplace_back(n, work_at(n, level, &out, &s, none));
       ASSERT_EQ(out, GridOracle(s, none)) << n << " at " << ToString(level);
@@ -143,9 +143,9 @@ TEST(BroadPhaseWorkloadTest, ConstantDensityWorkGrowsNearlyLinearly) {
 
 struct Crowd {
   std::shared_ptr<const test::FittedCharacter> fitted;
-  PairFilter member;                 // the character's own filter (fitted exclusions and parts)
-  std::vector<Spheres> poses;        // the character's spheres in a few poses
-  float height = 0.0f;               // of the rest pose's spheres
+  PairFilter member;           // the character's own filter (fitted exclusions and parts)
+  std::vector<Spheres> poses;  // the character's spheres in a few poses
+  float height = 0.0f;         // of the rest pose's spheres
 };
 
 const Crowd* BuiltinCrowd() {
@@ -191,13 +191,13 @@ Spheres CrowdFrame(const Crowd& crowd, size_t count, float spacing, int frame) {
 }
 
 // Each character alone, by the all-pairs oracle with its own filter, indices shifted.
-std::vector<Contact> EachAlone(const Spheres& all, const PairFilter& member, size_t count) {
+std::vector<SpherePair> EachAlone(const Spheres& all, const PairFilter& member, size_t count) {
   const size_t m = member.size();
-  std::vector<Contact> expected, one;
+  std::vector<SpherePair> expected, one;
   for (size_t k = 0; k < count; ++k) {
     const Spheres s(all.begin() + long(k * m), all.begin() + long((k + 1) * m));
     EXPECT_TRUE(SelfCollisionAllPairs(s, member, &one));
-    for (Contact c : one) {
+    for (SpherePair c : one) {
       c.i += uint32_t(k * m);
       c.j += uint32_t(k * m);
       expected.push_back(c);
@@ -216,10 +216,10 @@ TEST(BroadPhaseSpaceTest, CrowdInOneSpaceIsEachAlonePlusThePairsBetween) {
     const PairFilter space = PairFilter::Combine(members, {.pairs_between_members = between}).value();
     ASSERT_EQ(space.size(), count * m);
     BroadPhaseContext ctx(space.size());
-    std::vector<Contact> out;
+    std::vector<SpherePair> out;
     for (int frame = 0; frame < 40; ++frame) {
       const Spheres all = CrowdFrame(*crowd, count, 0.3f, frame);
-      std::vector<Contact> expected = EachAlone(all, crowd->member, count);
+      std::vector<SpherePair> expected = EachAlone(all, crowd->member, count);
       if (between) {  // every pair of spheres of two different characters, brute force
         for (uint32_t i = 0; i < all.size(); ++i) {
           for (uint32_t j = uint32_t((i / m + 1) * m); j < all.size(); ++j) TestPair(all, i, j, space, &expected);
@@ -228,7 +228,7 @@ TEST(BroadPhaseSpaceTest, CrowdInOneSpaceIsEachAlonePlusThePairsBetween) {
       std::sort(expected.begin(), expected.end(), ByPair);
       ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out}.Run()));
       ASSERT_EQ(out, expected) << "between " << between << " frame " << frame << " " << ToString(ctx.last_method());
-      for (const Contact& c : out) {
+      for (const SpherePair& c : out) {
         ASSERT_EQ(space.group(c.i), c.i / m);
         between_seen += space.group(c.i) != space.group(c.j) ? 1 : 0;
       }
@@ -256,12 +256,12 @@ TEST(BroadPhaseSpaceTest, FiftyThousandSpheresOfCharactersInOneSpace) {
   // The pairs between characters by a grid over a filter that allows only those; then each alone.
   const PairFilter only_between = PairFilter::Combine(members, {.pairs_within_members = false}).value();
   BroadPhaseContext ctx(n);
-  std::vector<Contact> out;
+  std::vector<SpherePair> out;
   size_t across = 0;
   for (int frame : {0, 1, 2, 9}) {
     const Spheres all = CrowdFrame(*crowd, count, 0.3f, frame);
-    std::vector<Contact> expected = EachAlone(all, crowd->member, count);
-    const std::vector<Contact> between = GridOracle(all, only_between);
+    std::vector<SpherePair> expected = EachAlone(all, crowd->member, count);
+    const std::vector<SpherePair> between = GridOracle(all, only_between);
     across = between.size();
     expected.insert(expected.end(), between.begin(), between.end());
     std::sort(expected.begin(), expected.end(), ByPair);
@@ -291,7 +291,8 @@ Spaces MakeSpaces(const Crowd& crowd) {
 }
 
 void SpacesFrame(const Crowd& crowd, int frame, Spaces* sp) {
-  for (size_t k = 0; k < sp->counts.size(); ++k) sp->spheres[k] = CrowdFrame(crowd, sp->counts[k], 0.25f + 0.05f * k, frame);
+  for (size_t k = 0; k < sp->counts.size(); ++k)
+    sp->spheres[k] = CrowdFrame(crowd, sp->counts[k], 0.25f + 0.05f * k, frame);
 }
 
 TEST(BroadPhaseSpaceTest, SpacesAreIdenticalForAnyThreadCount) {
@@ -302,7 +303,7 @@ TEST(BroadPhaseSpaceTest, SpacesAreIdenticalForAnyThreadCount) {
   // One set of contexts and outputs per way of running, each kept across the frames.
   constexpr int kWays = 4;  // TBB on 1 thread, TBB on 2, an engine-style pool of 3, serial
   std::vector<std::vector<BroadPhaseContext>> contexts(kWays, std::vector<BroadPhaseContext>(jobs_count));
-  std::vector<std::vector<std::vector<Contact>>> outs(kWays, std::vector<std::vector<Contact>>(jobs_count));
+  std::vector<std::vector<std::vector<SpherePair>>> outs(kWays, std::vector<std::vector<SpherePair>>(jobs_count));
   for (auto& c : contexts) {
     for (size_t k = 0; k < jobs_count; ++k) c[k].Resize(sp.filters[k].size());
   }
@@ -311,19 +312,20 @@ TEST(BroadPhaseSpaceTest, SpacesAreIdenticalForAnyThreadCount) {
     SpacesFrame(*crowd, frame, &sp);
     for (int way = 0; way < kWays; ++way) {
       std::vector<SelfCollisionJob> jobs(jobs_count);
-      for (size_t k = 0; k < jobs_count; ++k) jobs[k] = {sp.spheres[k], &sp.filters[k], &contexts[way][k], &outs[way][k]};
+      for (size_t k = 0; k < jobs_count; ++k)
+        jobs[k] = {sp.spheres[k], &sp.filters[k], &contexts[way][k], &outs[way][k]};
       bool ok = false;
       if (way < 2) {
-        test::WithDefaultThreads(way + 1, [&] { ok = RunSelfCollisionJobs(jobs); });
+        test::WithDefaultThreads(way + 1, [&] { ok = RunParallel(jobs); });
       } else {
-        ok = RunSelfCollisionJobs(jobs, way == 2 ? engine : SerialFor());
+        ok = RunParallel(jobs, way == 2 ? engine : SerialFor());
       }
       ASSERT_TRUE(ok);
     }
     for (int way = 1; way < kWays; ++way) ASSERT_EQ(outs[way], outs[0]) << "way " << way << " frame " << frame;
     if (frame % 4 == 0) {
       for (size_t k = 0; k < jobs_count; ++k) {
-        std::vector<Contact> expected;
+        std::vector<SpherePair> expected;
         ASSERT_TRUE(SelfCollisionAllPairs(sp.spheres[k], sp.filters[k], &expected));
         ASSERT_EQ(outs[0][k], expected) << "space " << k << " frame " << frame;
       }
@@ -337,7 +339,7 @@ TEST(BroadPhaseSpaceTest, NoAllocationPerFrameInOneSpaceOrACrowdOfSpaces) {
   Spaces sp = MakeSpaces(*crowd);
   const size_t jobs_count = sp.counts.size();
   std::vector<BroadPhaseContext> contexts(jobs_count);
-  std::vector<std::vector<Contact>> outs(jobs_count);
+  std::vector<std::vector<SpherePair>> outs(jobs_count);
   std::vector<SelfCollisionJob> jobs(jobs_count);
   for (size_t k = 0; k < jobs_count; ++k) {
     contexts[k].Resize(sp.filters[k].size());
@@ -353,8 +355,8 @@ TEST(BroadPhaseSpaceTest, NoAllocationPerFrameInOneSpaceOrACrowdOfSpaces) {
     bool ok = true;
     for (int f = first; f < last; ++f) {
       for (size_t k = 0; k < jobs_count; ++k) jobs[k] = {frames[f][k], &sp.filters[k], &contexts[k], &outs[k]};
-      ok &= RunSelfCollisionJobRange(jobs, 0, 1);  // a single character, then every space under TBB
-      ok &= RunSelfCollisionJobs(jobs);
+      ok &= RunRange(jobs, 0, 1);  // a single character, then every space under TBB
+      ok &= RunParallel(jobs);
       for (const auto& o : outs) contacts += o.size();
     }
     return ok;

@@ -1,10 +1,9 @@
-// Tests for broad_phase.h (pair_filter.h has its own, pair_filter_tests.cc): the self-collision query against the all-pairs
-// oracle on random sets (touching spheres, identical centres, zero radii, dense clumps, large
-// coordinates), frame sequences (the candidate cache under coherent, fast, rigid, growing and
-// teleporting motion), every instruction set, contexts too small for any cache, several
-// characters in one space (PairFilter::Combine), 50,000 spheres with exclusions against an
-// independent grid oracle, the shared characters' own clips, crowds at 1 and 2 threads and on an
-// engine-style loop, refusals, and no allocation per frame.
+// Tests for broad_phase.h (pair_filter.h has its own, pair_filter_tests.cc): the self-collision query against the
+// all-pairs oracle on random sets (touching spheres, identical centres, zero radii, dense clumps, large coordinates),
+// frame sequences (the candidate cache under coherent, fast, rigid, growing and teleporting motion), every instruction
+// set, several characters in one space (PairFilter::Combine), the shared characters' own clips, crowds at 1 and 2
+// threads and on an engine-style loop, refusals, and no allocation per frame. The sweep's own cases are in
+// sweep_tests.cc.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -36,27 +35,13 @@ namespace skinspheres::runtime {
 namespace {
 
 using Spheres = std::vector<skinspheres::Vec4f>;
+using test::Combined;
 using test::GridOracle;
-using test::SupportedLevels;
-using test::RandomExclusions;
-using test::RandomParts;
-using test::RandomSpheres;
 using test::kKinds;
 using test::MakeFilter;
-
-
-std::vector<Contact> Oracle(const Spheres& s, const PairFilter& f) {
-  std::vector<Contact> out;
-  EXPECT_TRUE(SelfCollisionAllPairs(s, f, &out));
-  return out;
-}
-
-// One space of the members' spheres laid end to end (PairFilter::Combine).
-PairFilter Combined(const std::vector<PairFilter>& members, PairFilter::CombineOptions options) {
-  std::vector<const PairFilter*> pointers;
-  for (const auto& m : members) pointers.push_back(&m);
-  return PairFilter::Combine(pointers, options).value();
-}
+using test::Oracle;
+using test::RandomSpheres;
+using test::SupportedLevels;
 
 // ------------------------------------------------------------------------------------------ oracle
 
@@ -69,11 +54,11 @@ TEST(BroadPhaseTest, OracleOnAHandMadeSet) {
   ASSERT_TRUE(f.ok());
   const auto c = Oracle(s, *f);
   ASSERT_EQ(c.size(), 2u);
-  EXPECT_EQ(c[0], (Contact{0, 1, 0.5f, 0, 1}));
-  EXPECT_EQ(c[1], (Contact{1, 2, 0.0f, 1, 1}));
+  EXPECT_EQ(c[0], (SpherePair{0, 1, 0.5f, 0, 1}));
+  EXPECT_EQ(c[1], (SpherePair{1, 2, 0.0f, 1, 1}));
 
   BroadPhaseContext ctx(4);
-  std::vector<Contact> out;
+  std::vector<SpherePair> out;
   SelfCollisionJob job{s, &*f, &ctx, &out};
   ASSERT_TRUE(job.Run());
   EXPECT_EQ(out, c);
@@ -86,7 +71,7 @@ TEST(BroadPhaseTest, RandomSetsMatchAllPairsOnEveryInstructionSet) {
   ASSERT_FALSE(levels.empty());
   std::map<BroadPhaseSimd, BroadPhaseContext> shared;
   for (auto l : levels) shared[l].Resize(900);
-  std::vector<Contact> out;
+  std::vector<SpherePair> out;
   size_t total_contacts = 0;
   std::set<BroadPhaseMethod> methods;
   for (int seed = 0; seed < 420; ++seed) {
@@ -124,10 +109,10 @@ TEST(BroadPhaseTest, EveryContactIsRealAndEveryMissedPairIsApartOrExcluded) {
   const Spheres s = RandomSpheres(250, 0, rng);
   const PairFilter f = MakeFilter(250, 0.3, rng);
   BroadPhaseContext ctx(250);
-  std::vector<Contact> out;
+  std::vector<SpherePair> out;
   ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
   std::vector<std::vector<int>> found(250, std::vector<int>(250, 0));
-  for (const Contact& c : out) {
+  for (const SpherePair& c : out) {
     ASSERT_LT(c.i, c.j);
     found[c.i][c.j] = 1;
     EXPECT_FALSE(f.excluded(c.i, c.j));
@@ -159,7 +144,7 @@ void CheckSequence(size_t n, int kind, Motion motion, unsigned seed, size_t* cac
   std::normal_distribution<float> g(0.0f, speed);
   for (auto& v : velocity) v = {g(rng), g(rng), g(rng), 0.0f};
   BroadPhaseContext ctx(n);
-  std::vector<Contact> out;
+  std::vector<SpherePair> out;
   for (int frame = 0; frame < 80; ++frame) {
     for (size_t k = 0; k < n; ++k) {
       s[k] += velocity[k];
@@ -172,8 +157,8 @@ void CheckSequence(size_t n, int kind, Motion motion, unsigned seed, size_t* cac
     if (motion == Motion::kTeleport && frame % 30 == 29) std::shuffle(s.begin(), s.end(), rng);
     ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
     ASSERT_EQ(out, n > 400 ? GridOracle(s, f) : Oracle(s, f))
-        << "n " << n << " kind " << kind << " motion " << int(motion) << " frame " << frame
-                                 << " " << ToString(ctx.last_method());
+        << "n " << n << " kind " << kind << " motion " << int(motion) << " frame " << frame << " "
+        << ToString(ctx.last_method());
     *cached_frames += ctx.last_method() == BroadPhaseMethod::kCached ? 1 : 0;
     ++*frames;
   }
@@ -202,7 +187,7 @@ TEST(BroadPhaseTest, CoherentAndWalkingSetsKeepTheirCache) {
     Spheres s = RandomSpheres(n, 5, rng);
     const PairFilter f = MakeFilter(n, 0.05, rng);
     BroadPhaseContext ctx(n);
-    std::vector<Contact> out;
+    std::vector<SpherePair> out;
     for (int frame = 0; frame < 100; ++frame) {
       for (size_t k = 0; k < n; ++k) {
         s[k].x() += 0.002f * std::sin(0.1f * float(frame) + float(k));
@@ -221,7 +206,7 @@ TEST(BroadPhaseTest, AnotherFilterOfTheSameSizeIsNeverServedFromTheCache) {
   PairFilter a = MakeFilter(200, 0.0, rng);
   const PairFilter b = MakeFilter(200, 0.5, rng);
   BroadPhaseContext ctx(200);
-  std::vector<Contact> out;
+  std::vector<SpherePair> out;
   for (int k = 0; k < 3; ++k) ASSERT_TRUE((SelfCollisionJob{s, &a, &ctx, &out}.Run()));
   ASSERT_TRUE((SelfCollisionJob{s, &b, &ctx, &out}.Run()));
   EXPECT_EQ(out, Oracle(s, b));
@@ -235,12 +220,11 @@ TEST(BroadPhaseTest, LargeCoordinatesAndTinyRadii) {
     std::mt19937 rng(21);
     Spheres s = RandomSpheres(400, 0, rng);
     for (auto& v : s) {
-      v.head<3>() = v.head<3>() * (offset > 0 ? offset * 1e-6f + 1.0f : 1.0f) +
-                    Eigen::Vector3f::Constant(offset);
+      v.head<3>() = v.head<3>() * (offset > 0 ? offset * 1e-6f + 1.0f : 1.0f) + Eigen::Vector3f::Constant(offset);
     }
     const PairFilter f = MakeFilter(400, 0.1, rng);
     BroadPhaseContext ctx(400);
-    std::vector<Contact> out;
+    std::vector<SpherePair> out;
     for (int frame = 0; frame < 10; ++frame) {
       for (auto& v : s) v.x() += offset * 1e-7f;
       ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
@@ -252,7 +236,7 @@ TEST(BroadPhaseTest, LargeCoordinatesAndTinyRadii) {
   for (auto& v : tiny) v *= 1e-30f;
   const PairFilter f = MakeFilter(300, 0.0, rng);
   BroadPhaseContext ctx(300);
-  std::vector<Contact> out;
+  std::vector<SpherePair> out;
   ASSERT_TRUE((SelfCollisionJob{tiny, &f, &ctx, &out}.Run()));
   EXPECT_EQ(out, Oracle(tiny, f));
 }
@@ -275,12 +259,12 @@ TEST(BroadPhaseTest, SeveralCharactersInOneSpaceMatchTheOracle) {
     for (bool within : {true, false}) {
       const PairFilter space = Combined(members, {within, between});
       // The oracle from the members' own filters, independently of Combine.
-      std::vector<Contact> expected;
+      std::vector<SpherePair> expected;
       for (uint32_t i = 0; i < all.size(); ++i) {
         for (uint32_t j = i + 1; j < all.size(); ++j) {
           const uint32_t g = space.group(i), h = space.group(j);
-          const bool allowed = g == h ? within && !members[g].excluded(i - space.group_begin(g), j - space.group_begin(h))
-                                      : between;
+          const bool allowed =
+              g == h ? within && !members[g].excluded(i - space.group_begin(g), j - space.group_begin(h)) : between;
           const float dx = all[j].x() - all[i].x(), dy = all[j].y() - all[i].y(), dz = all[j].z() - all[i].z();
           const float d2 = (dx * dx + dy * dy) + dz * dz, rs = all[i].w() + all[j].w();
           if (allowed && d2 <= rs * rs) expected.push_back({i, j, rs - std::sqrt(d2), space.part(i), space.part(j)});
@@ -288,7 +272,7 @@ TEST(BroadPhaseTest, SeveralCharactersInOneSpaceMatchTheOracle) {
       }
       EXPECT_EQ(Oracle(all, space), expected);
       BroadPhaseContext ctx(all.size());
-      std::vector<Contact> out;
+      std::vector<SpherePair> out;
       for (int frame = 0; frame < 5; ++frame) {
         ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out}.Run()));
         ASSERT_EQ(out, expected) << "between " << between << " within " << within;
@@ -346,10 +330,10 @@ TEST(BroadPhaseTest, ASpaceOfCharactersRunsEachOnItsOwnCacheAndMatchesTheOracleE
       // through it in many chunks.
       BroadPhaseContext small(total, 1);
       size_t across = 0, within_count = 0;
-      std::vector<Contact> out;
+      std::vector<SpherePair> out;
       for (int frame = 0; frame < frames; ++frame) {
         const Spheres all = frame_of(frame);
-        const std::vector<Contact> expected = Oracle(all, space);
+        const std::vector<SpherePair> expected = Oracle(all, space);
         for (size_t l = 0; l < levels.size(); ++l) {
           ASSERT_TRUE((SelfCollisionJob{all, &space, &contexts[l], &out, levels[l]}.Run()));
           ASSERT_EQ(out, expected) << "between " << between << " within " << within << " frame " << frame << " "
@@ -392,13 +376,13 @@ TEST(BroadPhaseTest, ASpaceOfCharactersInOneClumpHasMoreContactsBetweenThemThanT
     members.push_back(MakeFilter(200, 0.3, rng));
   }
   const PairFilter space = Combined(members, {true, true});
-  const std::vector<Contact> expected = Oracle(all, space);
+  const std::vector<SpherePair> expected = Oracle(all, space);
   size_t across = 0;
   for (const auto& c : expected) across += space.group(c.i) != space.group(c.j) ? 1 : 0;
   ASSERT_GT(across, all.size());
   for (const BroadPhaseSimd level : SupportedLevels()) {
     BroadPhaseContext ctx(all.size());
-    std::vector<Contact> out;
+    std::vector<SpherePair> out;
     // By character on the first frame; then, the pairs between characters being far more than 16
     // per sphere, as one set for 64 frames; then by character again, and so on.
     std::vector<int> by_character;
@@ -414,260 +398,7 @@ TEST(BroadPhaseTest, ASpaceOfCharactersInOneClumpHasMoreContactsBetweenThemThanT
 // The direct sweep (a set above kAllPairsMax too dense for any cache) writes only the contacts the
 // filter allows. With the output reserved for exactly the frame's contacts, the frame allocates
 // nothing: the touching pairs that the filter lists (30% here) no longer pass through the output
-// first (which made ReserveContacts / ReserveSphereContacts of the contact count not enough).
-TEST(BroadPhaseTest, DirectSweepOutputHoldsNoMoreThanTheContacts) {
-  for (const BroadPhaseSimd level : SupportedLevels()) {
-    Spheres line(600);
-    for (size_t k = 0; k < line.size(); ++k) line[k] = {1e-25f * float(k), 0.0f, 0.0f, 0.0f};
-    std::mt19937 rng(53);
-    const PairFilter f = MakeFilter(line.size(), 0.3, rng);
-    const std::vector<Contact> expected = Oracle(line, f);
-    ASSERT_GT(expected.size(), 50 * line.size());
-    BroadPhaseContext ctx(line.size());
-    std::vector<Contact> out;
-    out.reserve(expected.size());
-    long allocations = 0;
-    {
-      test::AllocationCounter counter;
-      ASSERT_TRUE((SelfCollisionJob{line, &f, &ctx, &out, level}.Run()));
-      allocations = counter.count();
-    }
-    EXPECT_EQ(ctx.last_method(), BroadPhaseMethod::kSweepDirect) << ToString(level);
-    EXPECT_EQ(out, expected) << ToString(level);
-    EXPECT_EQ(allocations, 0) << ToString(level);
-  }
-}
-
-TEST(BroadPhaseTest, SpheresCloserThanTheirSquaresResolveTouchOnEveryPath) {
-  // Centres closer than about 2^-75 touch whatever their radii (the squares underflow to 0), so
-  // the boxes and intervals the paths compare must be padded by more than that.
-  for (const BroadPhaseSimd level : SupportedLevels()) {
-    // 600 zero-radius spheres 1e-25 apart on a line: ~260 neighbours each touch, far more than
-    // any cache holds, so the job sweeps straight into the output.
-    Spheres line(600);
-    for (size_t k = 0; k < line.size(); ++k) line[k] = {1e-25f * float(k), 0.0f, 0.0f, 0.0f};
-    std::mt19937 rng(47);
-    const PairFilter f = MakeFilter(line.size(), 0.0, rng);
-    BroadPhaseContext ctx(line.size());
-    std::vector<Contact> out;
-    ASSERT_TRUE((SelfCollisionJob{line, &f, &ctx, &out, level}.Run()));
-    EXPECT_EQ(ctx.last_method(), BroadPhaseMethod::kSweepDirect);
-    const std::vector<Contact> expected = Oracle(line, f);
-    EXPECT_GT(expected.size(), 100 * line.size());
-    EXPECT_EQ(out, expected) << ToString(level);
-    // Two characters whose only contact is two zero-radius spheres 1e-23 apart.
-    Spheres two(600);
-    for (size_t k = 0; k < 300; ++k) {
-      two[k] = {k == 0 ? 0.0f : -float(k), 0.0f, 0.0f, k == 0 ? 0.0f : 0.1f};
-      two[300 + k] = {k == 0 ? 1e-23f : float(k), 0.0f, 0.0f, k == 0 ? 0.0f : 0.1f};
-    }
-    const std::vector<PairFilter> members = {MakeFilter(300, 0.0, rng), MakeFilter(300, 0.0, rng)};
-    const PairFilter space = Combined(members, {.pairs_within_members = false});
-    BroadPhaseContext space_ctx(two.size());
-    ASSERT_TRUE((SelfCollisionJob{two, &space, &space_ctx, &out, level}.Run()));
-    EXPECT_EQ(space_ctx.last_method(), BroadPhaseMethod::kGroups);
-    ASSERT_EQ(Oracle(two, space).size(), 1u);
-    EXPECT_EQ(out, Oracle(two, space)) << ToString(level);
-  }
-}
-
-TEST(BroadPhaseTest, ASpaceOfCharactersAtLargeCoordinatesAndInARowAlongEachAxis) {
-  // Six characters of 150..400 spheres (2 wide) in a row along x, y or z (the sweep of their boxes
-  // picks the axis), 2.4 apart, far from the origin, moving a little each frame.
-  for (float offset : {0.0f, -3.0e4f}) {  // float steps of 0.002 there
-    for (int axis = 0; axis < 3; ++axis) {
-      std::mt19937 rng(unsigned(49 + axis));
-      std::vector<PairFilter> members;
-      Spheres all;
-      for (int c = 0; c < 6; ++c) {
-        const size_t n = 150 + 50 * size_t(c);
-        Spheres s = RandomSpheres(n, 0, rng);
-        for (auto& v : s) {
-          v[axis] += 2.4f * float(c);
-          v.head<3>() += Eigen::Vector3f::Constant(offset);
-        }
-        all.insert(all.end(), s.begin(), s.end());
-        members.push_back(MakeFilter(n, 0.2, rng));
-      }
-      const PairFilter space = Combined(members, {true, true});
-      BroadPhaseContext ctx(all.size());
-      std::vector<Contact> out;
-      size_t across = 0;
-      for (int frame = 0; frame < 6; ++frame) {
-        for (size_t k = 0; k < all.size(); ++k) all[k][(axis + 1) % 3] += (offset * 1e-7f + 0.01f) * float(k % 3);
-        ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out}.Run()));
-        ASSERT_EQ(out, Oracle(all, space)) << offset << " " << axis << " " << frame;
-        ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kGroups) << offset << " " << axis << " " << frame;
-        for (const Contact& c : out) across += space.group(c.i) != space.group(c.j) ? 1 : 0;
-      }
-      EXPECT_GT(across, 0u) << offset << " " << axis;
-    }
-  }
-}
-
-TEST(BroadPhaseTest, ASpaceOfCharactersAllocatesNothingAfterItsFirstFrame) {
-  std::mt19937 rng(43);
-  std::vector<PairFilter> members;
-  Spheres all;
-  for (int c = 0; c < 10; ++c) {
-    Spheres s = RandomSpheres(100, 0, rng);
-    for (auto& v : s) v.x() += 1.8f * float(c);
-    all.insert(all.end(), s.begin(), s.end());
-    members.push_back(MakeFilter(100, 0.2, rng));
-  }
-  const PairFilter space = Combined(members, {true, true});
-  BroadPhaseContext ctx(all.size());
-  std::vector<Contact> out;
-  out.reserve(all.size() * 50);
-  ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out}.Run()));
-  ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kGroups);
-  bool ok = true;
-  long allocations = 0;
-  int by_character = 0;
-  {
-    test::AllocationCounter counter;
-    for (int frame = 0; frame < 30; ++frame) {
-      for (auto& v : all) v.y() += (frame % 10 == 9 ? 0.3f : 0.001f) * float(frame % 5);
-      ok &= SelfCollisionJob{all, &space, &ctx, &out}.Run();
-      by_character += ctx.last_method() == BroadPhaseMethod::kGroups ? 1 : 0;
-    }
-    allocations = counter.count();
-  }
-  EXPECT_TRUE(ok);
-  EXPECT_EQ(by_character, 30);
-  EXPECT_EQ(allocations, 0);
-  EXPECT_EQ(out, Oracle(all, space));
-}
-
-TEST(BroadPhaseTest, ListedExclusionsAtEveryIndexDistanceAreLeftOutByTheSweep) {
-  // Every pair of a clump touches; the listed pairs sit at index distances on both sides of the
-  // sweep's exclusion bits (|i - j| up to 256 on one side, 255 on the other) and far past them.
-  const uint32_t n = 1100;
-  std::mt19937 rng(77);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  Spheres s(n);
-  for (auto& v : s) v = {u(rng), u(rng), u(rng), 1.0f};
-  std::vector<ExcludedPair> pairs;
-  for (uint32_t i = 0; i < n; ++i) {
-    for (uint32_t d : {1u, 2u, 63u, 64u, 65u, 254u, 255u, 256u, 257u, 300u, 511u, 512u, 700u, 1099u}) {
-      if (i + d >= n || (i + d) % 3 == 0) continue;
-      const bool swap = (i + d) % 2 == 0;  // both orders of a listed pair
-      pairs.push_back({swap ? i + d : i, swap ? i : i + d, ExclusionReason::kSameJoint});
-    }
-  }
-  const PairFilter f = PairFilter::Create(n, {}, pairs).value();
-  // The expected list, independently: every pair but the listed ones.
-  std::set<std::pair<uint32_t, uint32_t>> listed;
-  for (const auto& p : pairs) listed.insert({std::min(p.i, p.j), std::max(p.i, p.j)});
-  std::vector<std::pair<uint32_t, uint32_t>> expected;
-  for (uint32_t i = 0; i < n; ++i) {
-    for (uint32_t j = i + 1; j < n; ++j) {
-      if (!listed.count({i, j})) expected.push_back({i, j});
-    }
-  }
-  for (auto level : SupportedLevels()) {
-    BroadPhaseContext ctx(n, size_t{n} * n / 2);
-    std::vector<Contact> out;
-    SelfCollisionJob job{s, &f, &ctx, &out};
-    job.simd = level;
-    ASSERT_TRUE(job.Run());
-    ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kSweepBuild) << ToString(ctx.last_method());
-    ASSERT_EQ(out.size(), expected.size()) << ToString(level);
-    for (size_t k = 0; k < out.size(); ++k) {
-      ASSERT_EQ(std::make_pair(out[k].i, out[k].j), expected[k]) << k << " " << ToString(level);
-    }
-    EXPECT_EQ(out, Oracle(s, f));
-  }
-}
-
-TEST(BroadPhaseTest, SpheresChangingStripsKeepTheSweepOrderWithoutAFullSort) {
-  // A slab whose spheres swing across the strips by about a strip's width every frame (and
-  // barely along the sweep axis), so many change strips at each build: the previous order still
-  // serves.
-  std::mt19937 rng(8);
-  const size_t n = 6000;
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  Spheres base(n);
-  for (auto& v : base) v = {60.0f * u(rng), 0.3f * u(rng), 40.0f * u(rng), 0.05f + 0.1f * u(rng)};
-  const PairFilter f = MakeFilter(n, 0.0, rng);
-  for (auto level : SupportedLevels()) {
-    BroadPhaseContext ctx(n);
-    std::vector<Contact> out;
-    size_t builds = 0, full_sorts = 0;
-    for (int frame = 0; frame < 40; ++frame) {
-      Spheres s = base;
-      for (size_t k = 0; k < n; ++k) {
-        s[k].x() += 0.02f * std::sin(0.7f * float(frame) + float(k));
-        s[k].z() += 0.4f * std::cos(0.7f * float(frame) + float(k));
-      }
-      SelfCollisionJob job{s, &f, &ctx, &out};
-      job.simd = level;
-      ASSERT_TRUE(job.Run());
-      ASSERT_EQ(out, GridOracle(s, f)) << frame << " " << ToString(ctx.last_method());
-      if (frame > 0 && ctx.last_method() == BroadPhaseMethod::kSweepBuild) {
-        ++builds;
-        full_sorts += ctx.last_full_sort() ? 1 : 0;
-      }
-    }
-    // The first builds may still change the strip width while the skins settle (that sorts from
-    // scratch by design); an insertion sort of whole strips overran its budget on every build here.
-    EXPECT_GT(builds, 15u) << ToString(level);
-    EXPECT_LE(full_sorts, builds / 4) << "of " << builds << " builds, " << ToString(level);
-  }
-}
-
-TEST(BroadPhaseTest, OneContextAcrossFiltersAndSizesNeverUsesAnotherFiltersExclusions) {
-  // The sweep's exclusion bits are made per filter and size: one context serves filter A, then
-  // B (other listed pairs), then A again, then a smaller set, each checked against the oracle.
-  std::mt19937 rng(31);
-  const size_t n = 1500, m = 900;
-  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  Spheres s(n);
-  for (auto& v : s) v = {3.0f * u(rng), 3.0f * u(rng), 0.2f * u(rng), 0.15f};  // ~6 contacts per sphere
-  const Spheres small(s.begin(), s.begin() + m);
-  const PairFilter a = MakeFilter(n, 0.2, rng);
-  const PairFilter b = MakeFilter(n, 0.2, rng);
-  const PairFilter c = MakeFilter(m, 0.2, rng);
-  BroadPhaseContext ctx(n);
-  std::vector<Contact> out;
-  size_t sweeps = 0;
-  const std::vector<std::pair<const Spheres*, const PairFilter*>> runs = {
-      {&s, &a}, {&s, &b}, {&s, &a}, {&small, &c}, {&s, &b}};
-  for (const auto& [set, filter] : runs) {
-    ASSERT_TRUE((SelfCollisionJob{*set, filter, &ctx, &out}.Run()));
-    ASSERT_EQ(out, Oracle(*set, *filter)) << ToString(ctx.last_method());
-    sweeps += ctx.last_method() == BroadPhaseMethod::kSweepBuild ? 1 : 0;
-  }
-  EXPECT_EQ(sweeps, 5u);
-  EXPECT_NE(Oracle(s, a), Oracle(s, b));  // the filters do differ where it shows
-}
-
-TEST(BroadPhaseTest, FiftyThousandSpheresWithExclusionsMatchAGridOracle) {
-  // A slab of 50,000 spheres (a crowd's floor), each excluding its next eight by index.
-  std::mt19937 rng(41);
-  const uint32_t n = 50000;
-  Spheres s(n);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  for (auto& v : s) v = {30.0f * u(rng), 30.0f * u(rng), 0.3f * u(rng), 0.02f + 0.06f * u(rng)};
-  std::vector<ExcludedPair> pairs;
-  for (uint32_t i = 0; i < n; ++i) {
-    for (uint32_t d = 1; d <= 8 && i + d < n; ++d) pairs.push_back({i, i + d, ExclusionReason::kSameJoint});
-  }
-  const PairFilter f = PairFilter::Create(n, RandomParts(n, rng), pairs).value();
-  const auto expected = GridOracle(s, f);
-  ASSERT_GT(expected.size(), 15000u);
-  BroadPhaseContext ctx(n);
-  std::vector<Contact> out;
-  for (int frame = 0; frame < 3; ++frame) {  // the same frame again: now from the cache
-    ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
-    ASSERT_EQ(out, expected) << frame << " " << ToString(ctx.last_method());
-  }
-  // The grid oracle itself agrees with the O(n^2) loop on a part of the set.
-  const Spheres part(s.begin(), s.begin() + 3000);
-  const PairFilter f_part = PairFilter::Create(3000, {}, std::span(pairs).first(8 * 2990)).value();
-  EXPECT_EQ(GridOracle(part, f_part), Oracle(part, f_part));
-}
-
+// first (which made ReserveContacts / ReserveSpherePairs of the contact count not enough).
 // ------------------------------------------------------------------------ real characters' clips
 
 TEST(BroadPhaseTest, SharedCharactersClipsMatchAllPairsWithAndWithoutExclusions) {
@@ -688,7 +419,7 @@ TEST(BroadPhaseTest, SharedCharactersClipsMatchAllPairsWithAndWithoutExclusions)
     std::vector<skinning::Transform> locals(ch->skeleton.size());
     std::vector<Mat4f> world(ch->skeleton.size());
     BroadPhaseContext with(fitted.size()), without(fitted.size());
-    std::vector<Contact> out;
+    std::vector<SpherePair> out;
     for (int f = 0; f < 45; ++f) {
       const float t = float(f) / 30.0f;
       ASSERT_TRUE((skinning::SamplingJob{&clip, &ch->skeleton, skinning::LoopTime(t, clip.duration_s), locals}.Run()));
@@ -721,7 +452,7 @@ TEST(BroadPhaseTest, NoAllocationAfterTheFirstFrames) {
     Spheres s = RandomSpheres(n, kind, rng);
     const PairFilter f = MakeFilter(n, 0.1, rng);
     BroadPhaseContext ctx(n);
-    std::vector<Contact> out;
+    std::vector<SpherePair> out;
     out.reserve(n * n / 2);
     const auto* data_before = out.data();
     ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
@@ -755,16 +486,16 @@ TEST(BroadPhaseTest, CrowdIsIdenticalForAnyThreadsAndEqualsPerCharacterRuns) {
   }
   const auto run = [&](const ParallelFor& pf, int frames) {
     std::vector<BroadPhaseContext> contexts(characters);
-    std::vector<std::vector<Contact>> outs(characters);
+    std::vector<std::vector<SpherePair>> outs(characters);
     std::vector<SelfCollisionJob> jobs(characters);
     for (size_t c = 0; c < characters; ++c) {
       contexts[c].Resize(spheres[c].size());
       jobs[c] = {spheres[c], &filters[c], &contexts[c], &outs[c]};
     }
-    for (int k = 0; k < frames; ++k) EXPECT_TRUE(RunSelfCollisionJobs(jobs, pf));
+    for (int k = 0; k < frames; ++k) EXPECT_TRUE(RunParallel(jobs, pf));
     return outs;
   };
-  std::vector<std::vector<Contact>> one, two;
+  std::vector<std::vector<SpherePair>> one, two;
   test::WithDefaultThreads(1, [&] { one = run(DefaultParallelFor(), 3); });
   test::WithDefaultThreads(2, [&] { two = run(DefaultParallelFor(), 3); });
   ASSERT_EQ(one, two);
@@ -779,16 +510,16 @@ TEST(BroadPhaseTest, CrowdIsIdenticalForAnyThreadsAndEqualsPerCharacterRuns) {
 
   // The serial range runner gives the same.
   std::vector<BroadPhaseContext> contexts(characters);
-  std::vector<std::vector<Contact>> outs(characters);
+  std::vector<std::vector<SpherePair>> outs(characters);
   std::vector<SelfCollisionJob> jobs(characters);
   for (size_t c = 0; c < characters; ++c) {
     contexts[c].Resize(spheres[c].size());
     jobs[c] = {spheres[c], &filters[c], &contexts[c], &outs[c]};
   }
-  EXPECT_TRUE(RunSelfCollisionJobRange(jobs, 0, 30));
-  EXPECT_TRUE(RunSelfCollisionJobRange(jobs, 30, characters));
+  EXPECT_TRUE(RunRange(jobs, 0, 30));
+  EXPECT_TRUE(RunRange(jobs, 30, characters));
   EXPECT_EQ(outs, one);
-  EXPECT_FALSE(RunSelfCollisionJobRange(jobs, 10, characters + 1));
+  EXPECT_FALSE(RunRange(jobs, 10, characters + 1));
 }
 
 TEST(BroadPhaseTest, CrowdReportsAFailingCharacterAndRunsTheOthers) {
@@ -798,9 +529,9 @@ TEST(BroadPhaseTest, CrowdReportsAFailingCharacterAndRunsTheOthers) {
   bad[7].w() = -1.0f;
   const PairFilter f = MakeFilter(50, 0.1, rng);
   BroadPhaseContext c0(50), c1(50);
-  std::vector<Contact> o0, o1 = {Contact{}};
+  std::vector<SpherePair> o0, o1 = {SpherePair{}};
   const std::vector<SelfCollisionJob> jobs = {{good, &f, &c0, &o0}, {bad, &f, &c1, &o1}};
-  EXPECT_FALSE(RunSelfCollisionJobs(jobs));
+  EXPECT_FALSE(RunParallel(jobs));
   EXPECT_EQ(o0, Oracle(good, f));
   EXPECT_TRUE(o1.empty());
 }
@@ -816,13 +547,13 @@ TEST(BroadPhaseTest, ValidateRefusals) {
   const PairFilter f = MakeFilter(10, 0.1, rng);
   const PairFilter f9 = MakeFilter(9, 0.1, rng);
   BroadPhaseContext ctx(10), small(9);
-  std::vector<Contact> out;
+  std::vector<SpherePair> out;
   EXPECT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Validate()));
   EXPECT_FALSE((SelfCollisionJob{s, nullptr, &ctx, &out}.Validate()));
   EXPECT_FALSE((SelfCollisionJob{s, &f, nullptr, &out}.Validate()));
   EXPECT_FALSE((SelfCollisionJob{s, &f, &ctx, nullptr}.Validate()));
-  EXPECT_FALSE((SelfCollisionJob{s, &f9, &ctx, &out}.Validate()));    // size mismatch
-  EXPECT_FALSE((SelfCollisionJob{s, &f, &small, &out}.Validate()));   // context too small
+  EXPECT_FALSE((SelfCollisionJob{s, &f9, &ctx, &out}.Validate()));   // size mismatch
+  EXPECT_FALSE((SelfCollisionJob{s, &f, &small, &out}.Validate()));  // context too small
   EXPECT_FALSE((SelfCollisionJob{s, &f, &small, &out}.Run()));
   for (auto level : {BroadPhaseSimd::kAuto, BroadPhaseSimd::kSse2, BroadPhaseSimd::kAvx2, BroadPhaseSimd::kAvx512,
                      BroadPhaseSimd::kPortable}) {
@@ -840,21 +571,21 @@ TEST(BroadPhaseTest, BadValuesAreRefusedAndClearTheOutput) {
   const PairFilter f = MakeFilter(40, 0.0, rng);
   const Spheres good = RandomSpheres(40, 1, rng);
   BroadPhaseContext ctx(40);
-  std::vector<Contact> out;
+  std::vector<SpherePair> out;
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const float inf = std::numeric_limits<float>::infinity();
   ASSERT_TRUE((SelfCollisionJob{good, &f, &ctx, &out}.Run()));  // a cache to keep or drop
   for (int field = 0; field < 4; ++field) {
     // 3e38: finite, but c + r overflows to infinity (an interval end past every padding lane).
     for (float bad_value : {nan, inf, -inf, -0.5f, 3e38f, -3e38f}) {
-      if (field < 3 && bad_value == -0.5f) continue;  // negative coordinates are fine
+      if (field < 3 && bad_value == -0.5f) continue;    // negative coordinates are fine
       if (field == 3 && bad_value == -3e38f) continue;  // (a negative radius is covered by -0.5)
       Spheres s = good;
       s[17][field] = bad_value;
-      out.assign(3, Contact{});
+      out.assign(3, SpherePair{});
       EXPECT_FALSE((SelfCollisionJob{s, &f, &ctx, &out}.Run())) << field << " " << bad_value;
       EXPECT_TRUE(out.empty());
-      std::vector<Contact> oracle_out;
+      std::vector<SpherePair> oracle_out;
       EXPECT_FALSE(SelfCollisionAllPairs(s, f, &oracle_out));
     }
   }

@@ -1,8 +1,6 @@
 // Tests for pair_filter.h: which sphere pairs the broad phase may report (exclusions, parts), its
 // storage growing with the exclusions (50,000 spheres), refusals, building it from a sphere set,
 // combining several characters' filters into one space, and its identity.
-#include "skinspheres/runtime/broad_phase/pair_filter.h"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -12,6 +10,7 @@
 #include <vector>
 
 #include "runtime/broad_phase/random_sphere_sets.h"
+#include "skinspheres/runtime/broad_phase/pair_filter.h"
 #include "test_support.h"
 
 namespace skinspheres::runtime {
@@ -35,8 +34,8 @@ TEST(PairFilterTest, ExclusionsPartsAndCount) {
     EXPECT_EQ(f->part(i), parts[i]);
     EXPECT_EQ(f->group(i), 0u);
     for (uint32_t j = 0; j < 5; ++j) {
-      const bool expected = i == j || (std::min(i, j) == 0 && std::max(i, j) == 2) ||
-                            (std::min(i, j) == 1 && std::max(i, j) == 4);
+      const bool expected =
+          i == j || (std::min(i, j) == 0 && std::max(i, j) == 2) || (std::min(i, j) == 1 && std::max(i, j) == 4);
       EXPECT_EQ(f->excluded(i, j), expected) << i << "," << j;
     }
   }

@@ -63,8 +63,8 @@ inline std::vector<skinspheres::Vec4f> RandomSpheres(size_t n, int kind, std::mt
         v = {0.5f, 0.01f * u(rng), 4.0f * u(rng), 0.5f * ur(rng)};
         break;
       case 4:  // a long thin limb-like chain plus noise, large coordinates
-        v = {1000.0f + 0.05f * float(k) + 0.01f * u(rng), -500.0f + 0.02f * u(rng),
-             250.0f + 0.02f * u(rng), 0.04f + 0.02f * ur(rng)};
+        v = {1000.0f + 0.05f * float(k) + 0.01f * u(rng), -500.0f + 0.02f * u(rng), 250.0f + 0.02f * u(rng),
+             0.04f + 0.02f * ur(rng)};
         break;
       case 5:  // a wide slab (the sweep cuts it into strips)
         v = {20.0f * u(rng), 20.0f * u(rng), 0.2f * u(rng), 0.3f * ur(rng)};

@@ -4,10 +4,10 @@
 // prefix, every byte flipped (with and without a fixed-up checksum), absurd counts and offsets,
 // none of which may crash or allocate more than the input justifies.
 
-#include "skinspheres/runtime/format/sphere_set_binary.h"
-
 #include <fcntl.h>
 #include <gtest/gtest.h>
+
+#include "skinspheres/runtime/format/sphere_set_binary.h"
 #if defined(_WIN32)
 #ifndef WIN32_LEAN_AND_MEAN
 #define WIN32_LEAN_AND_MEAN
@@ -29,8 +29,8 @@
 #include "runtime/sample_sphere_set.h"
 #include "skinspheres/runtime/api/character.h"
 #include "skinspheres/runtime/format/file_io.h"
-#include "skinspheres/runtime/refit/refit_job.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
+#include "skinspheres/runtime/refit/refit_job.h"
 #include "test_support.h"
 
 namespace skinspheres::runtime {
@@ -38,7 +38,9 @@ namespace {
 
 using Bytes = std::vector<std::byte>;
 
-std::span<const std::byte> AsBytes(std::string_view s) { return {reinterpret_cast<const std::byte*>(s.data()), s.size()}; }
+std::span<const std::byte> AsBytes(std::string_view s) {
+  return {reinterpret_cast<const std::byte*>(s.data()), s.size()};
+}
 
 // A set with everything non-trivial: the built-in character's fit (mesh, parts, exclusions, a
 // params object), or the small hand-made one when a test wants every byte position.
@@ -280,8 +282,8 @@ TEST(SphereSetBinaryTest, FastOnlyGivesTheSameFastSpheresAndRefusesExactMode) {
     ASSERT_TRUE(a->UpdateFast(pose.world).ok());
     ASSERT_TRUE(b->UpdateFast(pose.world).ok());
     ASSERT_TRUE(std::equal(a->spheres().begin(), a->spheres().end(), b->spheres().begin(), b->spheres().end()));
-    const std::vector<Contact> ca(a->Query().begin(), a->Query().end());
-    const auto cb = b->Query();
+    const std::vector<SpherePair> ca(a->FindSpherePairs().begin(), a->FindSpherePairs().end());
+    const auto cb = b->FindSpherePairs();
     EXPECT_TRUE(std::equal(ca.begin(), ca.end(), cb.begin(), cb.end())) << pose.label;
     frames_with_contacts += !ca.empty();
   }
@@ -291,10 +293,10 @@ TEST(SphereSetBinaryTest, FastOnlyGivesTheSameFastSpheresAndRefusesExactMode) {
   const FrameStatus st = b->UpdateExact(positions, {});
   EXPECT_EQ(st.code, ErrorCode::kInvalidArgument);
   EXPECT_NE(std::string(st.message).find("fast-only"), std::string::npos) << st.message;
-  EXPECT_TRUE(b->Query().empty());
+  EXPECT_TRUE(b->FindSpherePairs().empty());
   RefitJob job;
   job.mode = RefitMode::kExact;
-  job.spheres = &*fast;
+  job.set = &*fast;
   job.positions = positions;
   std::vector<Vec4f> out(fast->size());
   job.out = out;
@@ -343,7 +345,8 @@ TEST(SphereSetBinaryTest, AMemoryMappedFileIsReadInPlace) {
   EXPECT_GE(reinterpret_cast<const std::byte*>(view->radii_rest().data()), bytes.data());
   EXPECT_LT(reinterpret_cast<const std::byte*>(view->radii_rest().data()), bytes.data() + size);
   EXPECT_EQ(reinterpret_cast<uintptr_t>(view->radii_rest().data()) % 16, 0u);
-  EXPECT_TRUE(std::equal(set.radii_fast.begin(), set.radii_fast.end(), view->radii_fast().begin(), view->radii_fast().end()));
+  EXPECT_TRUE(
+      std::equal(set.radii_fast.begin(), set.radii_fast.end(), view->radii_fast().begin(), view->radii_fast().end()));
   EXPECT_TRUE(std::equal(set.influence_joints.begin(), set.influence_joints.end(), view->influence_joints().begin(),
                          view->influence_joints().end()));
   EXPECT_EQ(view->centers_rest()[3 * 5 + 1], set.centers_rest[5].y());
@@ -423,8 +426,8 @@ TEST(SphereSetBinaryTest, CorruptionBehindAValidChecksumNeverCrashesNorOverAlloc
       }
     }
     EXPECT_GT(refused, 0u);
-    std::printf("%zu-byte file: %zu corruptions refused, %zu still a valid set (changed values)\n", good.size(), refused,
-                accepted);
+    std::printf("%zu-byte file: %zu corruptions refused, %zu still a valid set (changed values)\n", good.size(),
+                refused, accepted);
   }
 }
 
@@ -469,14 +472,20 @@ TEST(SphereSetBinaryTest, AbsurdHeadersAndTablesAreRefusedByName) {
       {"unknown id", [&](Bytes& b) { Put32(b, radii, 99); }, ErrorCode::kInvalidData, "unknown section id 99"},
       {"repeated id", [&](Bytes& b) { Put32(b, radii, Get32(b, radii - 24)); }, ErrorCode::kInvalidData,
        "out of order or repeated"},
-      {"fast-only flag with lists", [](Bytes& b) { Put32(b, 20, 1); Put32(b, 56, 0); }, ErrorCode::kInvalidData,
-       "section vertex_offsets is not expected"},
-      {"binds without a mesh", [](Bytes& b) { Put32(b, 20, 0); }, ErrorCode::kInvalidData, "bind entries without a mesh"},
+      {"fast-only flag with lists",
+       [](Bytes& b) {
+         Put32(b, 20, 1);
+         Put32(b, 56, 0);
+       },
+       ErrorCode::kInvalidData, "section vertex_offsets is not expected"},
+      {"binds without a mesh", [](Bytes& b) { Put32(b, 20, 0); }, ErrorCode::kInvalidData,
+       "bind entries without a mesh"},
       {"missing section", [&](Bytes& b) { Put32(b, radii, static_cast<uint32_t>(S::kRadiiFast)); },
        ErrorCode::kInvalidData, "section radii_rest is missing"},
       {"string offsets decrease", [&](Bytes& b) { Put32(b, Get64(b, strings + 8) + 4, 0xFFFFu); },
        ErrorCode::kInvalidData, "string_offsets does not start at 0, decreases"},
-      {"influence offsets", [&](Bytes& b) {
+      {"influence offsets",
+       [&](Bytes& b) {
          const size_t at = EntryOf(b, S::kInfluenceOffsets);
          Put32(b, Get64(b, at + 8) + 4, 7);
        },
@@ -575,7 +584,8 @@ TEST(SphereSetBinaryTest, ParamsAreAJsonObjectTheJsonReaderWouldRead) {
   auto deep = Read(WriteSphereSetBinary(set));
   ASSERT_FALSE(deep.ok());
   EXPECT_EQ(deep.error().code, ErrorCode::kInvalidData);
-  EXPECT_NE(deep.error().message.find("params) nest 100001 deep (at most 128"), std::string::npos) << deep.error().message;
+  EXPECT_NE(deep.error().message.find("params) nest 100001 deep (at most 128"), std::string::npos)
+      << deep.error().message;
   for (const char* not_object : {"[1,2]", "3", "{\"a\":"}) {
     set.params_json = not_object;
     auto read = Read(WriteSphereSetBinary(set));
@@ -624,7 +634,8 @@ TEST(SphereSetBinaryTest, EveryNonZeroPaddingByteIsRefused) {
     FixChecksum(bad);
     auto read = Read(bad);
     ASSERT_FALSE(read.ok()) << "padding byte " << at << " = 1 was accepted";
-    EXPECT_NE(read.error().message.find("padding byte at offset " + std::to_string(at) + " is not 0"), std::string::npos)
+    EXPECT_NE(read.error().message.find("padding byte at offset " + std::to_string(at) + " is not 0"),
+              std::string::npos)
         << read.error().message;
   }
   EXPECT_GT(padding, 16u);  // after the table, between sections and at the end
@@ -643,7 +654,9 @@ TEST(SphereSetBinaryTest, StringsThatAreNotUtf8AreRefusedByName) {
   const size_t bytes_at = Get64(good, EntryOf(good, SphereSetSection::kStringBytes) + 8);
   const size_t joints = set.joint_count(), strings = 2 + joints + set.parts.size();
   auto string_at = [&](size_t k) { return bytes_at + Get32(good, offsets_at + 4 * k); };
-  auto string_length = [&](size_t k) { return Get32(good, offsets_at + 4 * (k + 1)) - Get32(good, offsets_at + 4 * k); };
+  auto string_length = [&](size_t k) {
+    return Get32(good, offsets_at + 4 * (k + 1)) - Get32(good, offsets_at + 4 * k);
+  };
   for (size_t k = 0; k < strings; ++k) {
     ASSERT_GT(string_length(k), 0u) << "string " << k;
     Bytes bad = good;
@@ -651,18 +664,32 @@ TEST(SphereSetBinaryTest, StringsThatAreNotUtf8AreRefusedByName) {
     FixChecksum(bad);
     auto read = Read(bad);
     ASSERT_FALSE(read.ok()) << "string " << k << " with a 0xFF byte was accepted";
-    const std::string which = k == 0 ? "source_file" : k == 1 ? "params" : k < 2 + joints
-                                  ? "joint " + std::to_string(k - 2) + "'s name"
-                                  : "part " + std::to_string(k - 2 - joints) + "'s name";
-    EXPECT_NE(read.error().message.find(which + " is not valid UTF-8 (byte 0)"), std::string::npos) << read.error().message;
+    const std::string which = k == 0           ? "source_file"
+                              : k == 1         ? "params"
+                              : k < 2 + joints ? "joint " + std::to_string(k - 2) + "'s name"
+                                               : "part " + std::to_string(k - 2 - joints) + "'s name";
+    EXPECT_NE(read.error().message.find(which + " is not valid UTF-8 (byte 0)"), std::string::npos)
+        << read.error().message;
   }
   // Each malformed form in the source file ("small.glb", 9 bytes) is refused; each valid one read.
   ASSERT_EQ(string_length(0), 9u);
   const std::pair<std::string_view, bool> forms[] = {
-      {"\xC3\xA9", true},          {"\xE2\x82\xAC", true},      {"\xF0\x9F\x98\x80", true},   {"\xF4\x8F\xBF\xBF", true},
-      {"\xC0\x80", false},         {"\xC1\xBF", false},         {"\xE0\x80\x80", false},      {"\xED\xA0\x80", false},
-      {"\xF0\x80\x80\x80", false}, {"\xF4\x90\x80\x80", false}, {"\xF5\x80\x80\x80", false},  {"\x80", false},
-      {"\xC3", false},             {"\xE2\x82", false},         {"\xE2\x28\xAC", false},      {"\xF0\x9F\x98", false},
+      {"\xC3\xA9", true},
+      {"\xE2\x82\xAC", true},
+      {"\xF0\x9F\x98\x80", true},
+      {"\xF4\x8F\xBF\xBF", true},
+      {"\xC0\x80", false},
+      {"\xC1\xBF", false},
+      {"\xE0\x80\x80", false},
+      {"\xED\xA0\x80", false},
+      {"\xF0\x80\x80\x80", false},
+      {"\xF4\x90\x80\x80", false},
+      {"\xF5\x80\x80\x80", false},
+      {"\x80", false},
+      {"\xC3", false},
+      {"\xE2\x82", false},
+      {"\xE2\x28\xAC", false},
+      {"\xF0\x9F\x98", false},
   };
   for (const auto& [form, valid] : forms) {
     Bytes edited = good;

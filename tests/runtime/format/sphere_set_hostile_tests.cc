@@ -11,13 +11,13 @@
 #include <chrono>
 #include <fstream>
 #include <future>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <thread>
-#include <nlohmann/json.hpp>
 
 #include "runtime/sample_sphere_set.h"
-#include "skinspheres/runtime/format/file_io.h"
 #include "skinspheres/runtime/api/joint_mapping.h"
+#include "skinspheres/runtime/format/file_io.h"
 #include "skinspheres/runtime/format/sphere_set_binary.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
 #include "test_support.h"
@@ -53,7 +53,8 @@ TEST(SphereSetHostile, ParamsNested100000DeepAreRefusedBeforeParsing) {
   ExpectRefused(ReadSphereSetJson(text, "deep.json"), "deep.json", ErrorCode::kFormatRejected, "nests 100002 deep");
   // Within the limit the same set reads.
   text = WriteSphereSetJson(TwoSpheres());
-  text.replace(text.find("\"params\":{}"), 11, "\"params\":{\"x\":" + std::string(100, '[') + std::string(100, ']') + "}");
+  text.replace(text.find("\"params\":{}"), 11,
+               "\"params\":{\"x\":" + std::string(100, '[') + std::string(100, ']') + "}");
   EXPECT_TRUE(ReadSphereSetJson(text, "ok.json").ok());
 }
 
@@ -78,7 +79,8 @@ TEST(SphereSetHostile, ValidateRefusesRadiiOfZeroOrLess) {
     const auto err = set.Validate();
     ASSERT_TRUE(err.has_value()) << r;
     EXPECT_NE(err->message.find("sphere 1 has radius"), std::string::npos) << err->message;
-    ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "r.json"), "r.json", ErrorCode::kInvalidData, "(must be > 0)");
+    ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "r.json"), "r.json", ErrorCode::kInvalidData,
+                  "(must be > 0)");
   }
 }
 
@@ -91,8 +93,10 @@ TEST(SphereSetHostile, ValidateRefusesEmptyAndDuplicatePartNames) {
                                          set.parts[0].name + "'"),
             std::string::npos)
       << set.Validate()->message;
-  ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "dup.json"), "dup.json", ErrorCode::kInvalidData, "both named");
-  ExpectRefused(ReadSphereSetBinary(WriteSphereSetBinary(set), "dup.ssb"), "dup.ssb", ErrorCode::kInvalidData, "both named");
+  ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "dup.json"), "dup.json", ErrorCode::kInvalidData,
+                "both named");
+  ExpectRefused(ReadSphereSetBinary(WriteSphereSetBinary(set), "dup.ssb"), "dup.ssb", ErrorCode::kInvalidData,
+                "both named");
   set = TwoSpheres();
   set.parts[0].name.clear();
   ASSERT_TRUE(set.Validate().has_value());
@@ -164,10 +168,12 @@ TEST(SphereSetHostile, StreamedReadingKeepsEveryPartOfTheSet) {
   // A mesh array of the wrong type, or missing, is named.
   nlohmann::json bad = j;
   bad["mesh"]["triangles"] = 5;
-  ExpectRefused(ReadSphereSetJson(bad.dump(), "bad.json"), "bad.json", ErrorCode::kInvalidData, "$.mesh.triangles is missing");
+  ExpectRefused(ReadSphereSetJson(bad.dump(), "bad.json"), "bad.json", ErrorCode::kInvalidData,
+                "$.mesh.triangles is missing");
   bad = j;
   bad["mesh"]["positions_bind"][0] = "x";
-  ExpectRefused(ReadSphereSetJson(bad.dump(), "bad.json"), "bad.json", ErrorCode::kInvalidData, "$.mesh.positions_bind is not a number");
+  ExpectRefused(ReadSphereSetJson(bad.dump(), "bad.json"), "bad.json", ErrorCode::kInvalidData,
+                "$.mesh.positions_bind is not a number");
 }
 
 // An empty file and one shorter than the binary magic were reported as "not valid JSON"; an empty
@@ -178,7 +184,8 @@ TEST(SphereSetHostile, EmptyAndTinyFilesAndAnEmptyPathAreNamedForWhatTheyAre) {
   ASSERT_FALSE(WriteWholeFile(empty, ""));
   ASSERT_FALSE(WriteWholeFile(tiny, std::string_view(reinterpret_cast<const char*>(kSphereSetBinaryMagic), 5)));
   ExpectRefused(LoadSphereSet(empty), empty.string(), ErrorCode::kFormatRejected, "empty file");
-  ExpectRefused(LoadSphereSet(tiny), tiny.string(), ErrorCode::kFormatRejected, "too short to be a sphere set (5 bytes)");
+  ExpectRefused(LoadSphereSet(tiny), tiny.string(), ErrorCode::kFormatRejected,
+                "too short to be a sphere set (5 bytes)");
   const auto no_path = LoadSphereSet("");
   ASSERT_FALSE(no_path.ok());
   EXPECT_EQ(no_path.error().code, ErrorCode::kInvalidArgument);

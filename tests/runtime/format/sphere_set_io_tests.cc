@@ -1,5 +1,3 @@
-#include "skinspheres/runtime/format/sphere_set_io.h"
-
 #include <gtest/gtest.h>
 
 #include <cfloat>
@@ -7,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "runtime/sample_sphere_set.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 #include "test_support.h"
 
 namespace skinspheres::runtime {
@@ -172,15 +171,24 @@ TEST(SphereSetIoTest, WrongContentIsRefusedWithItsPlace) {
       {"version", [](json& j) { j["version"] = 3; }, ErrorCode::kVersionMismatch, "version 3"},
       {"version 2 without mesh", [](json& j) { j["version"] = 2; }, ErrorCode::kInvalidData, "$.mesh is missing"},
       {"missing spheres", [](json& j) { j.erase("spheres"); }, ErrorCode::kInvalidData, "$.spheres is missing"},
-      {"center size", [](json& j) { j["spheres"][1]["center"] = {1, 2}; }, ErrorCode::kInvalidData, "$.spheres[1].center"},
-      {"radius type", [](json& j) { j["spheres"][0]["radius"] = "big"; }, ErrorCode::kInvalidData, "$.spheres[0].radius"},
+      {"center size",
+       [](json& j) {
+         j["spheres"][1]["center"] = {1, 2};
+       },
+       ErrorCode::kInvalidData, "$.spheres[1].center"},
+      {"radius type", [](json& j) { j["spheres"][0]["radius"] = "big"; }, ErrorCode::kInvalidData,
+       "$.spheres[0].radius"},
       {"vertex range", [](json& j) { j["spheres"][0]["vertices"][0] = 99; }, ErrorCode::kInvalidData, "vertex 99"},
       {"negative index", [](json& j) { j["spheres"][0]["vertices"][0] = -1; }, ErrorCode::kInvalidData, "out of range"},
       {"reason", [](json& j) { j["excluded_pairs"][0][2] = "because"; }, ErrorCode::kInvalidData, "because"},
       // A quoted string of the file with control characters stays on one line, escaped.
       {"reason with a newline", [](json& j) { j["excluded_pairs"][0][2] = std::string("be\ncause\0", 9); },
        ErrorCode::kInvalidData, "unknown reason \"be\\ncause\\x00\""},
-      {"pair order", [](json& j) { j["excluded_pairs"][0] = {1, 0, "same_joint"}; }, ErrorCode::kInvalidData, "i < j"},
+      {"pair order",
+       [](json& j) {
+         j["excluded_pairs"][0] = {1, 0, "same_joint"};
+       },
+       ErrorCode::kInvalidData, "i < j"},
       {"id", [](json& j) { j["spheres"][1]["id"] = 5; }, ErrorCode::kInvalidData, "id is not its index"},
       {"huge unsigned", [](json& j) { j["skeleton"]["joints"][0]["parent"] = 18446744073709551615ull; },
        ErrorCode::kInvalidData, "parent is out of range"},
@@ -192,15 +200,25 @@ TEST(SphereSetIoTest, WrongContentIsRefusedWithItsPlace) {
       {"mesh triangle count", [](json& j) { j["mesh"]["triangles"].erase(5); }, ErrorCode::kInvalidData,
        "5 triangle indices, expected 3 x 2"},
       {"mesh positions", [](json& j) { j["mesh"]["positions_bind"].erase(0); }, ErrorCode::kInvalidData, "xyz triples"},
-      {"mesh vertex count", [](json& j) { j["mesh"]["positions_bind"] = {0, 0, 0}; }, ErrorCode::kInvalidData,
-       "1 vertices, expected 4"},
+      {"mesh vertex count",
+       [](json& j) {
+         j["mesh"]["positions_bind"] = {0, 0, 0};
+       },
+       ErrorCode::kInvalidData, "1 vertices, expected 4"},
       {"bind joint", [](json& j) { j["mesh"]["binds"][0]["joint"] = 3; }, ErrorCode::kInvalidData,
        "bind entry 0 names joint 3"},
-      {"bind matrix", [](json& j) { j["mesh"]["binds"][0]["inverse_bind"] = {1, 0}; }, ErrorCode::kInvalidData,
-       "$.mesh.binds[0].inverse_bind has 2 entries"},
+      {"bind matrix",
+       [](json& j) {
+         j["mesh"]["binds"][0]["inverse_bind"] = {1, 0};
+       },
+       ErrorCode::kInvalidData, "$.mesh.binds[0].inverse_bind has 2 entries"},
       {"influence bind", [](json& j) { j["mesh"]["influence_binds"][2] = 1; }, ErrorCode::kInvalidData,
        "bind entry out of range"},
-      {"influence offsets", [](json& j) { j["mesh"]["influence_offsets"][1] = 3; j["mesh"]["influence_offsets"][2] = 2; },
+      {"influence offsets",
+       [](json& j) {
+         j["mesh"]["influence_offsets"][1] = 3;
+         j["mesh"]["influence_offsets"][2] = 2;
+       },
        ErrorCode::kInvalidData, "mesh influence lists are malformed"},
       {"influence weight", [](json& j) { j["mesh"]["influence_weights"][0] = -1; }, ErrorCode::kInvalidData,
        "negative or not finite"},
@@ -211,10 +229,10 @@ TEST(SphereSetIoTest, WrongContentIsRefusedWithItsPlace) {
   reach_set.influence_reach = {1.0f, 0.5f, 0.75f, 1.0f};
   const json good_reach = json::parse(WriteSphereSetJson(reach_set));
   const std::vector<Case> reach_cases = {
-      {"reach missing on one sphere", [](json& j) { j["spheres"][1].erase("influence_reach"); }, ErrorCode::kInvalidData,
-       "$.spheres[1].influence_reach is missing (the first sphere has one)"},
-      {"reach only on a later sphere", [](json& j) { j["spheres"][0].erase("influence_reach"); }, ErrorCode::kInvalidData,
-       "$.spheres[1].influence_reach is given but the first sphere has none"},
+      {"reach missing on one sphere", [](json& j) { j["spheres"][1].erase("influence_reach"); },
+       ErrorCode::kInvalidData, "$.spheres[1].influence_reach is missing (the first sphere has one)"},
+      {"reach only on a later sphere", [](json& j) { j["spheres"][0].erase("influence_reach"); },
+       ErrorCode::kInvalidData, "$.spheres[1].influence_reach is given but the first sphere has none"},
       {"reach count", [](json& j) { j["spheres"][0]["influence_reach"] = {1}; }, ErrorCode::kInvalidData,
        "$.spheres[0].influence_reach has 1 entries, expected 2"},
       {"reach type", [](json& j) { j["spheres"][0]["influence_reach"][1] = "all"; }, ErrorCode::kInvalidData,

@@ -1,13 +1,12 @@
-#include "skinspheres/runtime/format/sphere_set.h"
-
-#include "runtime/sample_sphere_set.h"
-
 #include <gtest/gtest.h>
 
 #include <cfloat>
 #include <cmath>
 #include <limits>
 #include <string>
+
+#include "runtime/sample_sphere_set.h"
+#include "skinspheres/runtime/format/sphere_set.h"
 
 namespace skinspheres::runtime {
 namespace {
@@ -69,20 +68,24 @@ TEST(SphereSetTest, InfluenceReachBelowTheMeshOrOutOfRangeIsRefused) {
   s.influence_reach = {1.0f, 0.6f, 1.0f, 1.0f};
   EXPECT_EQ(message(s), "accepted") << "a larger reach only loosens the bound";
   s.influence_reach = {1.0f, std::nextafter(0.5f, 0.0f), 0.75f, 1.0f};
-  EXPECT_EQ(message(s), "sphere 0 has influence reach 0.49999997 on joint 1, below the weight 0.5 one of its source "
-                        "vertices gives that joint");
+  EXPECT_EQ(message(s),
+            "sphere 0 has influence reach 0.49999997 on joint 1, below the weight 0.5 one of its source "
+            "vertices gives that joint");
   s.influence_reach = {1.0f, 0.5f, 0.0f, 1.0f};
-  EXPECT_EQ(message(s), "sphere 1 has influence reach 0 on joint 0, below the weight 0.75 one of its source vertices "
-                        "gives that joint");
+  EXPECT_EQ(message(s),
+            "sphere 1 has influence reach 0 on joint 0, below the weight 0.75 one of its source vertices "
+            "gives that joint");
   s.influence_reach = {1.0f, 0.5f, 0.75f, 1.0f + FLT_EPSILON};
   EXPECT_EQ(message(s), "sphere 1 has influence reach 1.00000012 on joint 1 (must be within [0, 1])");
   s.influence_reach = {1.0f, std::numeric_limits<float>::quiet_NaN(), 0.75f, 1.0f};
   EXPECT_EQ(message(s), "sphere 0 has influence reach nan on joint 1 (must be within [0, 1])");
   s.influence_reach = {-0.0f, 0.5f, 0.75f, 1.0f};
-  EXPECT_EQ(message(s), "sphere 0 has influence reaches summing to 0.5, below 1 (one source vertex's weights alone sum to 1)");
+  EXPECT_EQ(message(s),
+            "sphere 0 has influence reaches summing to 0.5, below 1 (one source vertex's weights alone sum to 1)");
   s.influence_reach = {0.5f, 0.5f, 0.75f, 1.0f};
-  EXPECT_EQ(message(s), "sphere 0 has influence reach 0.5 on joint 0, below the weight 1 one of its source vertices "
-                        "gives that joint")
+  EXPECT_EQ(message(s),
+            "sphere 0 has influence reach 0.5 on joint 0, below the weight 1 one of its source vertices "
+            "gives that joint")
       << "summing to 1, still below the mesh's";
   s.influence_reach = {1.0f, 0.5f, 0.75f};
   EXPECT_EQ(message(s), "the spheres have 3 influence reach entries for 4 influences (one each, or none)");
@@ -106,8 +109,9 @@ TEST(SphereSetTest, InfluenceReachBelowTheMeshOrOutOfRangeIsRefused) {
   no_mesh.influence_reach = {1.0f, 1.0f};
   EXPECT_EQ(message(no_mesh), "accepted");
   no_mesh.influence_reach = {1.0f, 0.25f};
-  EXPECT_EQ(message(no_mesh), "sphere 1 has influence reaches summing to 0.25, below 1 (one source vertex's weights alone "
-                              "sum to 1)");
+  EXPECT_EQ(message(no_mesh),
+            "sphere 1 has influence reaches summing to 0.25, below 1 (one source vertex's weights alone "
+            "sum to 1)");
   no_mesh.influence_reach = {1.0f, 1.0f - 2 * FLT_EPSILON};
   EXPECT_EQ(message(no_mesh), "accepted") << "rounding of a normalised sum";
   no_mesh.influence_reach = {-1.0f, 0.25f};
@@ -117,7 +121,8 @@ TEST(SphereSetTest, InfluenceReachBelowTheMeshOrOutOfRangeIsRefused) {
   s.influence_offsets = {0, 1, 3};
   s.influence_joints = {0, 0, 1};
   s.influence_weights = {1.0f, 0.5f, 0.5f};
-  EXPECT_EQ(message(s), "sphere 0: its source vertex 1 is weighted on joint 1, which is not among the sphere's influences");
+  EXPECT_EQ(message(s),
+            "sphere 0: its source vertex 1 is weighted on joint 1, which is not among the sphere's influences");
   auto reach = InfluenceReachFromMesh(s);
   ASSERT_FALSE(reach.ok());
   EXPECT_EQ(reach.error().message, message(s));

@@ -4,9 +4,8 @@
 //    of every shared character, in exact and fast refit, with and without a margin;
 //  - fast mode with lazy skinning equals exact mode fed the fully skinned mesh, field by field;
 //  - identical output for 1, 2, 3 threads and TBB; no allocation after warm-up;
-//  - the exclusion rules (shared vertex by index and by rest position, rest-pose contacts) and
-//    version-1 sets refused;
-//  - the depth estimate on two closed sphere meshes overlapping by known depths.
+//  - version-1 sets and margins too large refused; mode (b) needs joint matrices and finite input.
+// The exclusion rules and the depth estimate on hand-made meshes: narrow_phase_rules_tests.cc.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -16,6 +15,7 @@
 #include <random>
 
 #include "allocation_counter.h"
+#include "runtime/narrow_phase/same_contacts.h"
 #include "runtime/posed_characters.h"
 #include "skinspheres/runtime/api/character.h"
 #include "skinspheres/runtime/crowd/crowd.h"
@@ -28,49 +28,6 @@ namespace skinspheres::runtime {
 namespace {
 
 using Eigen::Vector3f;
-
-// ------------------------------------------------------------------ comparing outputs
-
-bool SameFloats(const float* a, const float* b, int n) { return std::memcmp(a, b, sizeof(float) * n) == 0; }
-
-// Field by field, bit for bit; the first difference goes to *why.
-bool Same(const FrameContacts& a, const FrameContacts& b, std::string* why) {
-  if (a.parts.size() != b.parts.size()) return *why = "part pair counts differ", false;
-  if (a.sphere_pairs != b.sphere_pairs) return *why = "sphere pairs differ", false;
-  if (a.triangle_pairs.size() != b.triangle_pairs.size()) {
-    return *why = "triangle pair counts differ: " + std::to_string(a.triangle_pairs.size()) + " vs " +
-                  std::to_string(b.triangle_pairs.size()),
-           false;
-  }
-  for (size_t k = 0; k < a.triangle_pairs.size(); ++k) {
-    const auto &p = a.triangle_pairs[k], &q = b.triangle_pairs[k];
-    if (p.t != q.t || p.u != q.u || p.kind != q.kind || p.distance != q.distance || !SameFloats(p.point, q.point, 3) ||
-        !SameFloats(p.on_t, q.on_t, 3) || !SameFloats(p.on_u, q.on_u, 3)) {
-      return *why = "triangle pair " + std::to_string(k) + " differs: (" + std::to_string(p.t) + "," + std::to_string(p.u) +
-                    ") vs (" + std::to_string(q.t) + "," + std::to_string(q.u) + ")",
-             false;
-    }
-  }
-  for (size_t k = 0; k < a.parts.size(); ++k) {
-    const auto &p = a.parts[k], &q = b.parts[k];
-    if (p.part_a != q.part_a || p.part_b != q.part_b || p.first_sphere_pair != q.first_sphere_pair ||
-        p.sphere_pair_count != q.sphere_pair_count || p.first_triangle_pair != q.first_triangle_pair ||
-        p.triangle_pair_count != q.triangle_pair_count || p.intersecting_count != q.intersecting_count ||
-        p.depth != q.depth || p.min_distance != q.min_distance || !SameFloats(p.normal, q.normal, 3) ||
-        !SameFloats(p.center, q.center, 3)) {
-      return *why = "part pair " + std::to_string(k) + " differs (depth " + std::to_string(p.depth) + " vs " +
-                    std::to_string(q.depth) + ")",
-             false;
-    }
-  }
-  return true;
-}
-
-#define EXPECT_SAME_CONTACTS(a, b, label)                 \
-  do {                                                    \
-    std::string why_;                                     \
-    EXPECT_TRUE(Same((a), (b), &why_)) << label << ": " << why_; \
-  } while (0)
 
 // Every vertex skinned by SkinningJob (CSR, no subset): the mesh an engine would skin in full.
 std::vector<Vector3f> SkinAll(const SphereSet& set, std::span<const Mat4f> joint_world) {
@@ -117,7 +74,7 @@ void CheckAgainstOracle(const test::FittedCharacter& fc, const std::vector<test:
       ASSERT_TRUE(inst->Update(mode, pose.world, pose.positions).ok());
       const FrameStatus st = inst->FindContacts(pose.positions);
       ASSERT_TRUE(st.ok()) << st.message;
-      EXPECT_SAME_CONTACTS(inst->frame_contacts(), oracle, pose.label << " " << ToString(mode));
+      EXPECT_SAME_CONTACTS(inst->contacts(), oracle, pose.label << " " << ToString(mode));
       totals->triangle_tests += inst->narrow_phase_stats().triangle_tests;
     }
     ++totals->frames;
@@ -138,10 +95,11 @@ std::vector<test::Pose> RandomPoses(const test::Character& c, int count, float m
 }
 
 void PrintTotals(const std::string& name, float margin, const Totals& t) {
-  std::printf("[oracle] %s margin %.4f: %zu frames, %zu intersecting + %zu within-margin triangle pairs in %zu part-pair "
-              "groups, %.0f triangle tests per frame and mode\n",
-              name.c_str(), margin, t.frames, t.intersecting, t.within, t.part_pairs,
-              t.frames ? double(t.triangle_tests) / double(2 * t.frames) : 0.0);
+  std::printf(
+      "[oracle] %s margin %.4f: %zu frames, %zu intersecting + %zu within-margin triangle pairs in %zu part-pair "
+      "groups, %.0f triangle tests per frame and mode\n",
+      name.c_str(), margin, t.frames, t.intersecting, t.within, t.part_pairs,
+      t.frames ? double(t.triangle_tests) / double(2 * t.frames) : 0.0);
 }
 
 TEST(NarrowPhaseOracle, BuiltinRandomPosesAndClips) {
@@ -190,7 +148,8 @@ bool OnJoint(const test::Character& c, uint32_t t, const std::string& name) {
     float best = 0;
     int32_t joint = -1;
     for (uint32_t i = c.skin.influence_offsets[v]; i < c.skin.influence_offsets[v + 1]; ++i) {
-      if (c.skin.influence_weights[i] > best) best = c.skin.influence_weights[i], joint = c.skin.binds[c.skin.influence_binds[i]].joint;
+      if (c.skin.influence_weights[i] > best)
+        best = c.skin.influence_weights[i], joint = c.skin.binds[c.skin.influence_binds[i]].joint;
     }
     if (c.skeleton.joint_names[joint].find(name) != std::string::npos) return true;
   }
@@ -215,7 +174,7 @@ TEST(NarrowPhase, BuiltinWalkTouchesNothingAndTouchOnlyWithTheHands) {
         ASSERT_TRUE(inst->FindContacts(mode == RefitMode::kExact ? std::span<const Vector3f>(pose.positions)
                                                                  : std::span<const Vector3f>())
                         .ok());
-        const FrameContacts& out = inst->frame_contacts();
+        const FrameContacts& out = inst->contacts();
         if (clip.name == "walk") {
           ASSERT_TRUE(out.empty()) << "walk t=" << t << ": " << set.parts[out.parts[0].part_a].name << " - "
                                    << set.parts[out.parts[0].part_b].name;
@@ -223,12 +182,13 @@ TEST(NarrowPhase, BuiltinWalkTouchesNothingAndTouchOnlyWithTheHands) {
         }
         for (const PartContact& p : out.parts) {
           const std::string a = set.parts[p.part_a].name, b = set.parts[p.part_b].name;
-          ASSERT_TRUE((a == "torso" || a == "head") && b.rfind("arm_", 0) == 0) << "touch t=" << t << ": " << a << " - " << b;
+          ASSERT_TRUE((a == "torso" || a == "head") && b.rfind("arm_", 0) == 0)
+              << "touch t=" << t << ": " << a << " - " << b;
           EXPECT_GT(p.depth, 0.0f);
           EXPECT_LT(p.depth, 0.06f) << "the hands sink at most a few cm";
           for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
-            ASSERT_TRUE(OnJoint(c, out.triangle_pairs[k].u, "Hand")) << "touch t=" << t << ": arm triangle "
-                                                                     << out.triangle_pairs[k].u << " is not the hand's";
+            ASSERT_TRUE(OnJoint(c, out.triangle_pairs[k].u, "Hand"))
+                << "touch t=" << t << ": arm triangle " << out.triangle_pairs[k].u << " is not the hand's";
           }
         }
         contact_frames += !out.empty() && mode == RefitMode::kExact;
@@ -255,9 +215,10 @@ std::vector<std::string> BuiltinAndPresentSharedCharacters() {
 // Runs mode (b) on one frame's pairs with a fresh context and checks what it skinned: every vertex
 // of the spheres in pairs equals the whole-mesh skinning `all` to the bit, and the count skinned is
 // at least theirs (the depth estimate may add spheres) and at most the mesh.
-void ExpectLazyPositionsAreTheWholeMeshs(const SphereSet& set, const CharacterAsset& asset, std::span<const Vec4f> spheres,
-                                         std::span<const Contact> pairs, std::span<const Mat4f> world,
-                                         const std::vector<Vector3f>& all, const std::string& label) {
+void ExpectLazyPositionsAreTheWholeMeshs(const SphereSet& set, const CharacterAsset& asset,
+                                         std::span<const Vec4f> spheres, std::span<const SpherePair> pairs,
+                                         std::span<const Mat4f> world, const std::vector<Vector3f>& all,
+                                         const std::string& label) {
   const NarrowPhaseData& data = *asset.narrow_phase();
   NarrowPhaseContext ctx;
   ctx.Resize(data, true);
@@ -265,7 +226,7 @@ void ExpectLazyPositionsAreTheWholeMeshs(const SphereSet& set, const CharacterAs
   NarrowPhaseJob job{&set, &data, spheres, pairs, {}, world, &ctx, &out};
   ASSERT_TRUE(job.Run()) << label;
   std::vector<char> needed(set.source_vertex_count, 0);
-  for (const Contact& p : pairs) {
+  for (const SpherePair& p : pairs) {
     for (uint32_t s : {p.i, p.j}) {
       for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
         for (int c = 0; c < 3; ++c) needed[set.triangle_vertices[3 * size_t{set.triangles[k]} + c]] = 1;
@@ -304,12 +265,12 @@ TEST(NarrowPhase, FastModeWithLazySkinningEqualsExactModeOnTheFullySkinnedMesh) 
       ASSERT_TRUE(full->FindContacts(all).ok());
       ASSERT_TRUE(lazy->UpdateFast(pose.world).ok());
       ASSERT_TRUE(lazy->FindContacts().ok()) << lazy->status().message;
-      EXPECT_SAME_CONTACTS(lazy->frame_contacts(), full->frame_contacts(), name << " " << pose.label);
+      EXPECT_SAME_CONTACTS(lazy->contacts(), full->contacts(), name << " " << pose.label);
       // The same frame through the job itself: the vertices of every sphere in a pair are skinned
       // bit for bit as the whole mesh (equal contacts alone would not show a run left unskinned).
-      ExpectLazyPositionsAreTheWholeMeshs(fc->set, **asset, lazy->spheres(), lazy->contacts(), pose.world, all,
+      ExpectLazyPositionsAreTheWholeMeshs(fc->set, **asset, lazy->spheres(), lazy->sphere_pairs(), pose.world, all,
                                           name + " " + pose.label);
-      contacts += full->frame_contacts().triangle_pairs.size();
+      contacts += full->contacts().triangle_pairs.size();
       EXPECT_LE(lazy->narrow_phase_stats().skinned_vertices, fc->set.source_vertex_count);
       if (k >= random_count) {
         ++clip_frames;
@@ -318,9 +279,10 @@ TEST(NarrowPhase, FastModeWithLazySkinningEqualsExactModeOnTheFullySkinnedMesh) 
       ++frames;
     }
     const double skinned_share = double(clip_skinned) / double(clip_frames) / double(fc->set.source_vertex_count);
-    std::printf("[lazy] %s: %zu triangle pairs over %zu poses; on clip frames fast mode skinned %.0f%% of the %u "
-                "vertices\n",
-                name.c_str(), contacts, frames, 100.0 * skinned_share, fc->set.source_vertex_count);
+    std::printf(
+        "[lazy] %s: %zu triangle pairs over %zu poses; on clip frames fast mode skinned %.0f%% of the %u "
+        "vertices\n",
+        name.c_str(), contacts, frames, 100.0 * skinned_share, fc->set.source_vertex_count);
     EXPECT_LT(skinned_share, 1.0) << name << ": clip frames skinned the whole mesh";
     EXPECT_GT(contacts, 0u) << name;
   }
@@ -360,7 +322,8 @@ TEST(NarrowPhase, LazySkinningRunsHoldEachSpheresVerticesOnce) {
         const uint32_t g = d.sphere_groups()[k];
         for (uint32_t q = d.group_run_offsets()[g]; q < d.group_run_offsets()[g + 1]; ++q) {
           const uint32_t r = d.group_runs()[q];
-          for (uint32_t slot = d.run_begin()[r]; slot < d.run_begin()[r + 1]; ++slot) skinned.push_back(lazy.vertices()[slot]);
+          for (uint32_t slot = d.run_begin()[r]; slot < d.run_begin()[r + 1]; ++slot)
+            skinned.push_back(lazy.vertices()[slot]);
         }
       }
       std::sort(skinned.begin(), skinned.end());
@@ -385,7 +348,8 @@ TEST(NarrowPhase, LazySkinningRunsHoldEachSpheresVerticesOnce) {
           if (!(d.sphere_run_bits()[k] >> b & 1)) continue;
           const size_t r = size_t{word} * 64 + size_t(b);
           ASSERT_LT(r, d.run_count()) << name << ": sphere " << s;
-          for (uint32_t slot = d.run_begin()[r]; slot < d.run_begin()[r + 1]; ++slot) from_bits.push_back(lazy.vertices()[slot]);
+          for (uint32_t slot = d.run_begin()[r]; slot < d.run_begin()[r + 1]; ++slot)
+            from_bits.push_back(lazy.vertices()[slot]);
         }
       }
       std::sort(from_bits.begin(), from_bits.end());
@@ -404,15 +368,15 @@ TEST(NarrowPhase, IdenticalForAnyThreadCount) {
   for (const test::Pose& pose : RandomPoses(fc->character, 8, 60.0f, 6)) {
     ASSERT_TRUE(inst->UpdateFast(pose.world).ok());
     ASSERT_TRUE(inst->FindContacts({}, SerialFor()).ok());
-    const FrameContacts serial = inst->frame_contacts();
+    const FrameContacts serial = inst->contacts();
     total += serial.triangle_pairs.size();
     for (int threads : {1, 2, 3, 7}) {
       ASSERT_TRUE(inst->FindContacts({}, test::EngineStyleFor(threads)).ok());
-      EXPECT_SAME_CONTACTS(inst->frame_contacts(), serial, threads << " threads");
+      EXPECT_SAME_CONTACTS(inst->contacts(), serial, threads << " threads");
       ASSERT_TRUE(inst->FindContacts(pose.positions, test::EngineStyleFor(threads)).ok());
     }
     ASSERT_TRUE(inst->FindContacts({}, DefaultParallelFor()).ok());
-    EXPECT_SAME_CONTACTS(inst->frame_contacts(), serial, "TBB");
+    EXPECT_SAME_CONTACTS(inst->contacts(), serial, "TBB");
   }
   EXPECT_GT(total, 0u);
 }
@@ -436,13 +400,14 @@ TEST(NarrowPhase, CrowdEqualsInstancesRunAlone) {
       inputs.push_back({poses[k].world, poses[k].positions});
     }
     for (int threads : {1, 2}) {
-      ASSERT_TRUE(UpdateAndFindContactsCrowd(pointers, inputs, mode, test::EngineStyleFor(threads)).ok());
+      ASSERT_TRUE(CrowdUpdateAndFindContacts(pointers, inputs, mode, test::EngineStyleFor(threads)).ok());
       for (size_t k = 0; k < poses.size(); ++k) {
         ASSERT_TRUE(alone[k].Update(mode, poses[k].world, poses[k].positions).ok());
-        ASSERT_TRUE(alone[k].FindContacts(mode == RefitMode::kExact ? std::span<const Vector3f>(poses[k].positions)
-                                                                    : std::span<const Vector3f>())
+        ASSERT_TRUE(alone[k]
+                        .FindContacts(mode == RefitMode::kExact ? std::span<const Vector3f>(poses[k].positions)
+                                                                : std::span<const Vector3f>())
                         .ok());
-        EXPECT_SAME_CONTACTS(crowd[k].frame_contacts(), alone[k].frame_contacts(), "instance " << k);
+        EXPECT_SAME_CONTACTS(crowd[k].contacts(), alone[k].contacts(), "instance " << k);
       }
     }
   }
@@ -464,7 +429,7 @@ TEST(NarrowPhase, NoAllocationAfterWarmUp) {
     for (const test::Pose& pose : poses) {
       ASSERT_TRUE(inst->UpdateFast(pose.world).ok());
       ASSERT_TRUE(inst->FindContacts({}, threads).ok());
-      contacts += inst->frame_contacts().triangle_pairs.size();
+      contacts += inst->contacts().triangle_pairs.size();
       ASSERT_TRUE(inst->UpdateExact(pose.positions, pose.world).ok());
       ASSERT_TRUE(inst->FindContacts(pose.positions).ok());
     }
@@ -499,7 +464,7 @@ TEST(NarrowPhaseData, VersionOneSetsAreRefusedWithTheReason) {
   ASSERT_TRUE(inst->UpdateFast(pose.world).ok());
   const FrameStatus st = inst->FindContacts();
   EXPECT_EQ(st.code, ErrorCode::kVersionMismatch);
-  EXPECT_TRUE(inst->frame_contacts().empty());
+  EXPECT_TRUE(inst->contacts().empty());
   // A negative margin is refused.
   EXPECT_FALSE(CharacterAsset::Create(fc->set, NarrowPhaseSettings{-1.0f}).ok());
   EXPECT_FALSE(CharacterAsset::Create(fc->set, NarrowPhaseSettings{NAN}).ok());
@@ -532,7 +497,7 @@ TEST(NarrowPhaseData, MarginsBeyondAShareOfTheCharactersSizeAreRefused) {
   for (const auto& pose : test::ClipPoses(fc->character, 4)) {
     ASSERT_TRUE(inst->UpdateFast(pose.world).ok());
     ASSERT_TRUE(inst->FindContacts().ok());
-    for (const auto& t : inst->frame_contacts().triangle_pairs) within += t.kind == TriangleContactKind::kWithinMargin;
+    for (const auto& t : inst->contacts().triangle_pairs) within += t.kind == TriangleContactKind::kWithinMargin;
   }
   EXPECT_GT(within, 0u);
 }
@@ -554,11 +519,11 @@ TEST(NarrowPhase, ModeBNeedsJointMatricesAndFiniteInput) {
   std::vector<Vector3f> bad = pose.positions;
   for (auto& p : bad) p.x() = NAN;
   EXPECT_FALSE(inst->FindContacts(bad).ok());
-  EXPECT_TRUE(inst->frame_contacts().empty());
+  EXPECT_TRUE(inst->contacts().empty());
   // One non-finite coordinate, y or z, of one vertex of a sphere in a reported pair is enough.
-  ASSERT_FALSE(inst->contacts().empty());
+  ASSERT_FALSE(inst->sphere_pairs().empty());
   const SphereSet& set = fc->set;
-  const uint32_t s = inst->contacts().front().i;
+  const uint32_t s = inst->sphere_pairs().front().i;
   ASSERT_LT(set.triangle_offsets[s], set.triangle_offsets[s + 1]);
   const uint32_t v = set.triangle_vertices[3 * size_t{set.triangles[set.triangle_offsets[s]]} + 1];
   for (int axis : {1, 2}) {
@@ -569,219 +534,6 @@ TEST(NarrowPhase, ModeBNeedsJointMatricesAndFiniteInput) {
       EXPECT_TRUE(inst->FindContacts(pose.positions).ok());
     }
   }
-}
-
-// A hand-made set: one root joint, part "a" and part "b", one sphere per closed mesh, no excluded
-// pairs; positions are given directly (mode a), so the rest pose and the tested pose can differ.
-struct TwoMeshes {
-  SphereSet set;
-  std::vector<Vector3f> rest;  // = positions_bind (identity skin)
-};
-
-// A UV sphere: `rings` latitude rings, `segments` per ring, poles on the axis `pole`.
-void AddUvSphere(const Vector3f& centre, float radius, const Vector3f& pole, int rings, int segments,
-                 std::vector<Vector3f>* positions, std::vector<uint32_t>* triangles) {
-  const Vector3f z = pole.normalized();
-  const Vector3f x = (std::abs(z.x()) < 0.9f ? Vector3f::UnitX() : Vector3f::UnitY()).cross(z).normalized();
-  const Vector3f y = z.cross(x);
-  const uint32_t base = uint32_t(positions->size());
-  positions->push_back(centre + radius * z);
-  for (int r = 1; r < rings; ++r) {
-    const float th = std::numbers::pi_v<float> * float(r) / float(rings);
-    for (int s = 0; s < segments; ++s) {
-      const float ph = 2.0f * std::numbers::pi_v<float> * float(s) / float(segments);
-      positions->push_back(centre + radius * (std::sin(th) * (std::cos(ph) * x + std::sin(ph) * y) + std::cos(th) * z));
-    }
-  }
-  positions->push_back(centre - radius * z);
-  const uint32_t south = uint32_t(positions->size()) - 1;
-  auto ring = [&](int r, int s) { return base + 1 + uint32_t((r - 1) * segments + (s % segments)); };
-  for (int s = 0; s < segments; ++s) triangles->insert(triangles->end(), {base, ring(1, s), ring(1, s + 1)});
-  for (int r = 1; r + 1 < rings; ++r) {
-    for (int s = 0; s < segments; ++s) {
-      triangles->insert(triangles->end(), {ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)});
-      triangles->insert(triangles->end(), {ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)});
-    }
-  }
-  for (int s = 0; s < segments; ++s) triangles->insert(triangles->end(), {south, ring(rings - 1, s + 1), ring(rings - 1, s)});
-}
-
-// Two sphere meshes at rest: A at the origin, B at distance `rest_gap` + ra + rb along X.
-TwoMeshes MakeTwoSphereMeshes(float ra, float rb, float rest_distance, const Vector3f& pole_a, const Vector3f& pole_b,
-                              int rings = 48, int segments = 96) {
-  TwoMeshes m;
-  std::vector<Vector3f> pos;
-  std::vector<uint32_t> tris;
-  AddUvSphere(Vector3f::Zero(), ra, pole_a, rings, segments, &pos, &tris);
-  const uint32_t split_v = uint32_t(pos.size()), split_t = uint32_t(tris.size() / 3);
-  AddUvSphere(Vector3f(rest_distance, 0, 0), rb, pole_b, rings, segments, &pos, &tris);
-  SphereSet& s = m.set;
-  s.source_file = "two_spheres";
-  s.source_vertex_count = uint32_t(pos.size());
-  s.source_triangle_count = uint32_t(tris.size() / 3);
-  s.joint_names = {"root"};
-  s.joint_parents = {-1};
-  s.joint_rest_world = {Mat4f::Identity()};
-  s.parts = {{"a", {0}}, {"b", {0}}};
-  s.centers_rest = {Vector3f::Zero(), Vector3f(rest_distance, 0, 0)};
-  s.radii_rest = {ra * 1.001f, rb * 1.001f};
-  s.radii_fast = s.radii_rest;
-  s.sphere_part = {0, 1};
-  s.sphere_joint = {0, 0};
-  s.sphere_level = {0, 0};
-  s.vertex_offsets = {0, split_v, uint32_t(pos.size())};
-  for (uint32_t v = 0; v < pos.size(); ++v) s.vertices.push_back(v);
-  s.triangle_offsets = {0, split_t, uint32_t(tris.size() / 3)};
-  for (uint32_t t = 0; t < tris.size() / 3; ++t) s.triangles.push_back(t);
-  s.influence_offsets = {0, 1, 2};
-  s.influence_joints = {0, 0};
-  s.influence_weights = {1.0f, 1.0f};
-  s.triangle_vertices = tris;
-  s.mesh.positions_bind = pos;
-  s.mesh.binds = {skinning::BindEntry{0, Mat4f::Identity()}};
-  for (uint32_t v = 0; v <= pos.size(); ++v) s.mesh.influence_offsets.push_back(v);
-  s.mesh.influence_binds.assign(pos.size(), 0);
-  s.mesh.influence_weights.assign(pos.size(), 1.0f);
-  m.rest = pos;
-  return m;
-}
-
-// Runs the job on positions with B moved by `shift`; spheres are the meshes' bounding spheres.
-FrameContacts RunShifted(const TwoMeshes& m, const NarrowPhaseData& data, const Vector3f& shift, float ra, float rb) {
-  std::vector<Vector3f> pos = m.rest;
-  for (uint32_t v = m.set.vertex_offsets[1]; v < m.set.vertex_offsets[2]; ++v) pos[v] += shift;
-  const Vector3f cb = m.set.centers_rest[1] + shift;
-  const std::vector<Vec4f> spheres = {Vec4f(0, 0, 0, ra * 1.001f), Vec4f(cb.x(), cb.y(), cb.z(), rb * 1.001f)};
-  const std::vector<Contact> pairs = {Contact{0, 1, 0.0f, 0, 1}};
-  NarrowPhaseContext ctx;
-  ctx.Resize(data, false);
-  FrameContacts out;
-  NarrowPhaseJob job{&m.set, &data, spheres, pairs, pos, {}, &ctx, &out};
-  EXPECT_TRUE(job.Run());
-  return out;
-}
-
-TEST(NarrowPhaseDepth, TwoSphereMeshesOverlappingByAKnownDepth) {
-  struct Case {
-    float ra, rb;
-    Vector3f pole_a, pole_b;
-    const char* label;
-  };
-  const Case cases[] = {
-      {1.0f, 1.0f, Vector3f::UnitX(), Vector3f::UnitX(), "equal radii, poles on the axis"},
-      {1.0f, 0.5f, Vector3f::UnitX(), Vector3f::UnitX(), "radii 1 and 0.5, poles on the axis"},
-      {0.8f, 1.2f, Vector3f(0.3f, 1, 0.2f), Vector3f(1, -0.4f, 0.7f), "radii 0.8 and 1.2, tilted tessellations"},
-  };
-  for (const Case& c : cases) {
-    const float rest_distance = c.ra + c.rb + 0.5f;  // apart at rest
-    const TwoMeshes m = MakeTwoSphereMeshes(c.ra, c.rb, rest_distance, c.pole_a, c.pole_b);
-    auto filter = PairFilter::FromSphereSet(m.set);
-    ASSERT_TRUE(filter.ok());
-    auto data = NarrowPhaseData::Create(m.set, *filter);
-    ASSERT_TRUE(data.ok()) << data.error().message;
-    EXPECT_TRUE(data->rest_excluded_pairs().empty()) << "apart at rest";
-    for (float fraction : {0.05f, 0.2f, 0.5f}) {
-      const float depth = fraction * std::min(c.ra, c.rb);
-      const float distance = c.ra + c.rb - depth;
-      const FrameContacts out = RunShifted(m, *data, Vector3f(distance - rest_distance, 0, 0), c.ra, c.rb);
-      ASSERT_EQ(out.parts.size(), 1u) << c.label;
-      const PartContact& pc = out.parts[0];
-      EXPECT_EQ(pc.part_a, 0);
-      EXPECT_EQ(pc.part_b, 1);
-      EXPECT_GT(pc.intersecting_count, 20u);
-      // Tessellation: a chord of a 96-segment ring sits r (1 - cos(pi/96)) = 0.05% of r inside the
-      // sphere; near the rim the polygonal contour is a little off the circle as well.
-      EXPECT_NEAR(pc.depth, depth, 0.02f * depth + 0.002f * std::max(c.ra, c.rb)) << c.label << " depth " << depth;
-      // The normal points from B (part b) to A (part a): -X.
-      EXPECT_NEAR(pc.normal[0], -1.0f, 1e-3f) << c.label;
-      // The contour plane: x = (d^2 + ra^2 - rb^2) / 2d.
-      const float plane = (distance * distance + c.ra * c.ra - c.rb * c.rb) / (2 * distance);
-      EXPECT_NEAR(pc.center[0], plane, 0.01f * depth + 0.002f) << c.label;
-      std::printf("[depth] %s: overlap %.4f, estimate %.4f (%zu triangle pairs)\n", c.label, depth, pc.depth,
-                  size_t(pc.triangle_pair_count));
-    }
-  }
-}
-
-TEST(NarrowPhaseRules, RestContactsAndSharedVerticesAreNeverReported) {
-  // Overlapping at rest by 0.3: every pair that intersects at rest is excluded; pushing B further
-  // in reports only pairs that did not intersect at rest.
-  const TwoMeshes m = MakeTwoSphereMeshes(1.0f, 1.0f, 1.7f, Vector3f::UnitY(), Vector3f::UnitY(), 24, 48);
-  auto filter = PairFilter::FromSphereSet(m.set);
-  ASSERT_TRUE(filter.ok());
-  auto data = NarrowPhaseData::Create(m.set, *filter);
-  ASSERT_TRUE(data.ok());
-  EXPECT_GT(data->rest_excluded_pairs().size(), 20u);
-  EXPECT_TRUE(RunShifted(m, *data, Vector3f::Zero(), 1.0f, 1.0f).empty()) << "the rest pose reports nothing";
-  const FrameContacts deeper = RunShifted(m, *data, Vector3f(-0.2f, 0, 0), 1.0f, 1.0f);
-  ASSERT_EQ(deeper.parts.size(), 1u);
-  for (const auto& c : deeper.triangle_pairs) {
-    EXPECT_FALSE(data->RestExcluded(c.t, c.u));
-    EXPECT_FALSE(TrianglesIntersect(m.rest[m.set.triangle_vertices[3 * c.t]], m.rest[m.set.triangle_vertices[3 * c.t + 1]],
-                                    m.rest[m.set.triangle_vertices[3 * c.t + 2]], m.rest[m.set.triangle_vertices[3 * c.u]],
-                                    m.rest[m.set.triangle_vertices[3 * c.u + 1]], m.rest[m.set.triangle_vertices[3 * c.u + 2]]));
-  }
-  // The oracle agrees.
-  FrameContacts oracle;
-  std::vector<Vector3f> pos = m.rest;
-  for (uint32_t v = m.set.vertex_offsets[1]; v < m.set.vertex_offsets[2]; ++v) pos[v].x() -= 0.2f;
-  ASSERT_TRUE(FindContactsBruteForce(m.set, *data, *filter, pos, &oracle));
-  EXPECT_SAME_CONTACTS(deeper, oracle, "deeper");
-}
-
-TEST(NarrowPhaseRules, VerticesWeldedByRestPosition) {
-  // Two triangles that share a corner by rest POSITION only (vertex 2 and vertex 3 coincide), in
-  // spheres 0 and 1 of different parts: crossing each other, they are still never reported; moved
-  // apart from the weld they are.
-  SphereSet s;
-  s.source_file = "weld";
-  s.source_vertex_count = 6;
-  s.source_triangle_count = 2;
-  s.joint_names = {"root"};
-  s.joint_parents = {-1};
-  s.joint_rest_world = {Mat4f::Identity()};
-  s.parts = {{"a", {0}}, {"b", {0}}};
-  s.centers_rest = {Vector3f(0.5f, 0.3f, 0), Vector3f(0.5f, 0.3f, 0)};
-  s.radii_rest = {2, 2};
-  s.radii_fast = {2, 2};
-  s.sphere_part = {0, 1};
-  s.sphere_joint = {0, 0};
-  s.sphere_level = {0, 0};
-  s.vertex_offsets = {0, 3, 6};
-  s.vertices = {0, 1, 2, 3, 4, 5};
-  s.triangle_offsets = {0, 1, 2};
-  s.triangles = {0, 1};
-  s.influence_offsets = {0, 1, 2};
-  s.influence_joints = {0, 0};
-  s.influence_weights = {1, 1};
-  s.triangle_vertices = {0, 1, 2, 3, 4, 5};
-  // Triangle 0 in z = 0; triangle 1 stands up through it and has its corner 3 at vertex 2's spot.
-  s.mesh.positions_bind = {Vector3f(0, 0, 0), Vector3f(1, 0, 0), Vector3f(0, 1, 0),
-                           Vector3f(0, 1, 0), Vector3f(0.3f, 0.2f, 1), Vector3f(0.3f, 0.2f, -1)};
-  s.mesh.binds = {skinning::BindEntry{0, Mat4f::Identity()}};
-  s.mesh.influence_offsets = {0, 1, 2, 3, 4, 5, 6};
-  s.mesh.influence_binds.assign(6, 0);
-  s.mesh.influence_weights.assign(6, 1.0f);
-  ASSERT_FALSE(s.Validate().has_value()) << s.Validate()->message;
-  auto filter = PairFilter::FromSphereSet(s);
-  ASSERT_TRUE(filter.ok());
-  auto data = NarrowPhaseData::Create(s, *filter);
-  ASSERT_TRUE(data.ok()) << data.error().message;
-  EXPECT_TRUE(data->ShareVertex(0, 1));
-  EXPECT_TRUE(data->rest_excluded_pairs().empty()) << "shared-vertex pairs need no rest rule";
-  std::vector<Vector3f> pos = s.mesh.positions_bind;
-  FrameContacts out;
-  ASSERT_TRUE(FindContactsBruteForce(s, *data, *filter, pos, &out));
-  EXPECT_TRUE(out.empty());
-  // The same two triangles when the second one's corner is a vertex of its own rest position.
-  SphereSet apart = s;
-  apart.mesh.positions_bind[3] = Vector3f(-0.5f, 1.5f, 0);
-  auto data2 = NarrowPhaseData::Create(apart, *filter);
-  ASSERT_TRUE(data2.ok());
-  EXPECT_FALSE(data2->ShareVertex(0, 1));
-  ASSERT_TRUE(FindContactsBruteForce(apart, *data2, *filter, apart.mesh.positions_bind, &out));
-  EXPECT_TRUE(out.empty()) << "they cross at rest: rule 3";
-  EXPECT_EQ(data2->rest_excluded_pairs().size(), 1u);
 }
 
 }  // namespace

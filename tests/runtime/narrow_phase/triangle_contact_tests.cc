@@ -5,8 +5,6 @@
 //  - analytic configurations with known answers (crossing, touching at a vertex / an edge, coplanar
 //    overlap / containment / shared edge, one float step apart, degenerate and sliver triangles);
 //  - distances: parallel faces, vertex-face, skew edges with known distance, and dense sampling.
-#include "skinspheres/runtime/narrow_phase/triangle_contact.h"
-
 #include <gtest/gtest.h>
 
 #include <array>
@@ -16,6 +14,7 @@
 #include <random>
 
 #include "narrow_phase/exact_predicates.h"
+#include "skinspheres/runtime/narrow_phase/triangle_contact.h"
 
 namespace skinspheres::runtime {
 namespace {
@@ -61,7 +60,8 @@ I2 Drop(const I3& p, int axis) {
   return {p.x, p.y};
 }
 bool OnSeg(const I2& p, const I2& q, const I2& r) {
-  return std::min(p.x, q.x) <= r.x && r.x <= std::max(p.x, q.x) && std::min(p.y, q.y) <= r.y && r.y <= std::max(p.y, q.y);
+  return std::min(p.x, q.x) <= r.x && r.x <= std::max(p.x, q.x) && std::min(p.y, q.y) <= r.y &&
+         r.y <= std::max(p.y, q.y);
 }
 bool Seg2(const I2& p1, const I2& q1, const I2& p2, const I2& q2) {
   const int o1 = Sgn(Orient2(p1, q1, p2)), o2 = Sgn(Orient2(p1, q1, q2)), o3 = Sgn(Orient2(p2, q2, p1)),
@@ -141,8 +141,8 @@ TEST(TriangleIntersect, MatchesExactIntegerOracleOnASmallGrid) {
     }
     const bool expected = OracleIntersect(a, b);
     degenerate += IsDegenerate(a) || IsDegenerate(b);
-    coplanar += !IsDegenerate(a) && Sgn(Orient(a[0], a[1], a[2], b[0])) == 0 && Sgn(Orient(a[0], a[1], a[2], b[1])) == 0 &&
-                Sgn(Orient(a[0], a[1], a[2], b[2])) == 0;
+    coplanar += !IsDegenerate(a) && Sgn(Orient(a[0], a[1], a[2], b[0])) == 0 &&
+                Sgn(Orient(a[0], a[1], a[2], b[1])) == 0 && Sgn(Orient(a[0], a[1], a[2], b[2])) == 0;
     hits += expected;
     // Scales that are powers of two keep the coordinates exact in float.
     const float scale = (n % 2) ? 1.0f : 0.125f;
@@ -197,7 +197,8 @@ TEST(ExactPredicates, Orient3dSignIsExact) {
     for (int k = 0; k < 3; ++k) p[k] = {c(rng), c(rng), c(rng)};
     // d near the plane of a, b, c: a + (b - a) + (c - a) / 2^k rounded, with +-1 nudges.
     const int shift = n % 8;
-    p[3] = {p[0].x + (p[1].x - p[0].x) / 2 + ((p[2].x - p[0].x) >> shift) + (n % 3 - 1), p[0].y + (p[1].y - p[0].y) / 2 + ((p[2].y - p[0].y) >> shift),
+    p[3] = {p[0].x + (p[1].x - p[0].x) / 2 + ((p[2].x - p[0].x) >> shift) + (n % 3 - 1),
+            p[0].y + (p[1].y - p[0].y) / 2 + ((p[2].y - p[0].y) >> shift),
             p[0].z + (p[1].z - p[0].z) / 2 + ((p[2].z - p[0].z) >> shift)};
     if (std::abs(p[3].x) > (1 << 24) || std::abs(p[3].y) > (1 << 24) || std::abs(p[3].z) > (1 << 24)) continue;
     exact::P3 q[4];
@@ -285,15 +286,15 @@ TEST(TriangleIntersect, EdgeAgainstEdge) {
 }
 
 TEST(TriangleIntersect, CoplanarCases) {
-  EXPECT_TRUE(Hit(kFloor, {{0.5f, 0.5f, 0}, {3, 0.5f, 0}, {0.5f, 3, 0}}));          // overlapping
-  EXPECT_TRUE(Hit(kFloor, {{0.1f, 0.1f, 0}, {0.5f, 0.1f, 0}, {0.1f, 0.5f, 0}}));    // contained
-  EXPECT_TRUE(Hit({{0.1f, 0.1f, 0}, {0.5f, 0.1f, 0}, {0.1f, 0.5f, 0}}, kFloor));    // container second
-  EXPECT_TRUE(Hit(kFloor, {{2, 0, 0}, {0, 2, 0}, {2, 2, 0}}));                      // shared edge
-  EXPECT_TRUE(Hit(kFloor, {{2, 0, 0}, {3, 0, 0}, {3, 1, 0}}));                      // shared vertex
-  EXPECT_TRUE(Hit(kFloor, {{1, 1, 0}, {3, 1, 0}, {1, 3, 0}}));                      // vertex on edge
-  EXPECT_FALSE(Hit(kFloor, {{Up(1.0f), Up(1.0f), 0}, {3, 1, 0}, {1, 3, 0}}));       // a float step off
-  EXPECT_FALSE(Hit(kFloor, {{3, 0, 0}, {4, 0, 0}, {3, 1, 0}}));                     // apart
-  EXPECT_TRUE(Hit(kFloor, {{-1, 1, 0}, {3, 1, 0}, {1, 1.5f, 0}}));                  // edges cross, no vertex inside
+  EXPECT_TRUE(Hit(kFloor, {{0.5f, 0.5f, 0}, {3, 0.5f, 0}, {0.5f, 3, 0}}));        // overlapping
+  EXPECT_TRUE(Hit(kFloor, {{0.1f, 0.1f, 0}, {0.5f, 0.1f, 0}, {0.1f, 0.5f, 0}}));  // contained
+  EXPECT_TRUE(Hit({{0.1f, 0.1f, 0}, {0.5f, 0.1f, 0}, {0.1f, 0.5f, 0}}, kFloor));  // container second
+  EXPECT_TRUE(Hit(kFloor, {{2, 0, 0}, {0, 2, 0}, {2, 2, 0}}));                    // shared edge
+  EXPECT_TRUE(Hit(kFloor, {{2, 0, 0}, {3, 0, 0}, {3, 1, 0}}));                    // shared vertex
+  EXPECT_TRUE(Hit(kFloor, {{1, 1, 0}, {3, 1, 0}, {1, 3, 0}}));                    // vertex on edge
+  EXPECT_FALSE(Hit(kFloor, {{Up(1.0f), Up(1.0f), 0}, {3, 1, 0}, {1, 3, 0}}));     // a float step off
+  EXPECT_FALSE(Hit(kFloor, {{3, 0, 0}, {4, 0, 0}, {3, 1, 0}}));                   // apart
+  EXPECT_TRUE(Hit(kFloor, {{-1, 1, 0}, {3, 1, 0}, {1, 1.5f, 0}}));                // edges cross, no vertex inside
 }
 
 TEST(TriangleIntersect, DegenerateTrianglesNeverIntersect) {
@@ -426,7 +427,8 @@ TEST(TriangleDistance, NeverAboveDenseSamplingAndClose) {
     for (const auto& p : sa) {
       for (const auto& q : sb) best = std::min(best, (p - q).norm());
     }
-    const float spacing = std::max({(a.b - a.a).norm(), (a.c - a.a).norm(), (b.b - b.a).norm(), (b.c - b.a).norm()}) / kN;
+    const float spacing =
+        std::max({(a.b - a.a).norm(), (a.c - a.a).norm(), (b.b - b.a).norm(), (b.c - b.a).norm()}) / kN;
     EXPECT_LE(d, best + 1e-5f);
     EXPECT_GE(d, best - 2 * spacing);
   }

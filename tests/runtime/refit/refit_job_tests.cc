@@ -1,8 +1,8 @@
 // RefitJob: conservativeness on the built-in and shared characters (clip frames and random poses
 // with non-uniform scale, against a naive LBS of every vertex), exact radius = brute-force max
 // distance, fast >= exact, the fast bound with the influences' reach never above the bound without
-// it (and below it on a case built for it), analytic single-joint and two-joint cases, 1 vs 2
-// threads, Validate() refusals, NaN.
+// it (and below it on a case built for it), 1 vs 2 threads, Validate() refusals, NaN. The analytic
+// cases of the fast bound are in fast_bound_tests.cc.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -15,6 +15,7 @@
 
 #include "refit/refit_internal.h"  // runtime/src: pins the instruction set of the fast refit
 #include "runtime/posed_characters.h"
+#include "runtime/refit/scalar_fast_refit.h"
 #include "runtime/sample_sphere_set.h"
 #include "skinspheres/runtime/refit/refit_job.h"
 
@@ -24,65 +25,7 @@ namespace {
 using test::FittedCharacter;
 using test::Pose;
 
-// The fast refit as the plain scalar formula of the header, one float operation after the other:
-// the bit-equality reference of every SIMD and portable copy, on every platform.
-// reach: W per influence entry (the rest data's when the caller passes rest.reach()); nullptr: the
-// bound without it, Kavan & Žára's r' = s_max · radius_fast + max_j |d_j| as written before reach
-// existed (no min), the oracle of "never above the old bound" and "a set without reach is the old
-// bound".
-std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, const RefitRestData& rest,
-                                                std::span<const skinspheres::Mat4f> world, const float* reach) {
-  // Written out in plain floats in the order refit_job.h documents (every 3-term sum as
-  // a0 + (a1 + a2)): Eigen's own evaluation order differs between targets (NEON has 2-float
-  // packets), and the runtime must give these bits on every platform.
-  const auto apply = [](const skinspheres::Mat4f& g, const Eigen::Vector3f& p) {
-    Eigen::Vector3f r;
-    for (int m = 0; m < 3; ++m) r[m] = (g(m, 0) * p.x() + (g(m, 1) * p.y() + g(m, 2) * p.z())) + g(m, 3);
-    return r;
-  };
-  const auto norm2 = [](const Eigen::Vector3f& d) { return d.x() * d.x() + (d.y() * d.y() + d.z() * d.z()); };
-  std::vector<skinspheres::Vec4f> out(set.size());
-  const auto q = rest.center_in_joint();
-  const auto w = rest.weights();
-  const auto rinv = rest.rest_linear_inverse();
-  for (size_t s = 0; s < set.size(); ++s) {
-    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
-    Eigen::Vector3f c = Eigen::Vector3f::Zero();
-    for (uint32_t k = k0; k < k1; ++k) {
-      const Eigen::Vector3f p = apply(world[set.influence_joints[k]], q[k]);
-      for (int m = 0; m < 3; ++m) c[m] = c[m] + w[k] * p[m];
-    }
-    float spread2 = 0.0f, reached = 0.0f, s2 = 0.0f;
-    for (uint32_t k = k0; k < k1; ++k) {
-      const uint16_t j = set.influence_joints[k];
-      const Eigen::Vector3f d = apply(world[j], q[k]) - c;
-      const float d2 = norm2(d);
-      float a[3][3], ata[3][3];  // A = linear(G_j(t)) · R_j, then AᵀA
-      for (int m = 0; m < 3; ++m) {
-        for (int k2 = 0; k2 < 3; ++k2) {
-          a[m][k2] =
-              world[j](m, 0) * rinv[j](0, k2) + (world[j](m, 1) * rinv[j](1, k2) + world[j](m, 2) * rinv[j](2, k2));
-        }
-      }
-      for (int i = 0; i < 3; ++i) {
-        for (int k2 = 0; k2 < 3; ++k2) ata[i][k2] = a[0][i] * a[0][k2] + (a[1][i] * a[1][k2] + a[2][i] * a[2][k2]);
-      }
-      float row_max = 0.0f;
-      for (int i = 0; i < 3; ++i) {
-        row_max = std::max(row_max, std::fabs(ata[i][0]) + (std::fabs(ata[i][1]) + std::fabs(ata[i][2])));
-      }
-      spread2 = std::max(spread2, d2);
-      if (reach != nullptr) reached += reach[k] * std::sqrt(d2);
-      s2 = std::max(s2, row_max);
-    }
-    const float spread = reach != nullptr ? std::min(std::sqrt(spread2), reached) : std::sqrt(spread2);
-    const float r = std::sqrt(s2) * set.radii_fast[s] + spread;
-    const float largest = std::max(std::fabs(c.x()), std::max(std::fabs(c.y()), std::fabs(c.z())));
-    const float radius = r + 16.0f * FLT_EPSILON * (largest + r);
-    out[s] = skinspheres::Vec4f(c.x(), c.y(), c.z(), radius);
-  }
-  return out;
-}
+using test::ScalarFastRefit;
 
 struct Refits {
   std::vector<skinspheres::Vec4f> exact, exact_box, fast;
@@ -93,7 +36,7 @@ Refits RunAll(const SphereSet& set, const RefitRestData& rest, const Pose& pose)
   r.exact.assign(set.size(), skinspheres::Vec4f::Zero());
   r.exact_box = r.fast = r.exact;
   RefitJob job;
-  job.spheres = &set;
+  job.set = &set;
   job.rest = &rest;
   job.mode = RefitMode::kExact;
   job.joint_world = pose.world;
@@ -115,7 +58,8 @@ Refits RunAll(const SphereSet& set, const RefitRestData& rest, const Pose& pose)
 // brute-force max distance over the source vertices; fast radius >= exact radius (same centre).
 // Returns the number of failures found (stops reporting after a few).
 double g_sum_exact = 0, g_sum_fast = 0, g_sum_old = 0;  // radius sums over the poses checked, for the printout
-size_t g_old_spheres = 0, g_tighter = 0;  // fast spheres compared with the bound without reach, and how many are smaller
+size_t g_old_spheres = 0,
+       g_tighter = 0;  // fast spheres compared with the bound without reach, and how many are smaller
 
 int CheckPose(const FittedCharacter& fc, const RefitRestData& rest, const Pose& pose) {
   const SphereSet& set = fc.set;
@@ -152,7 +96,8 @@ int CheckPose(const FittedCharacter& fc, const RefitRestData& rest, const Pose& 
     // Oracle: the max distance from the exact centre to the source vertices.
     double dmax = 0.0;
     for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
-      dmax = std::max(dmax, (pose.positions[set.vertices[k]].cast<double>() - r.exact[s].head<3>().cast<double>()).norm());
+      dmax =
+          std::max(dmax, (pose.positions[set.vertices[k]].cast<double>() - r.exact[s].head<3>().cast<double>()).norm());
     }
     const double coord = r.exact[s].head<3>().cwiseAbs().maxCoeff();
     if (!(r.exact[s].w() >= dmax * (1 - 1e-6) && r.exact[s].w() <= dmax + 4e-6 * (coord + dmax) + 1e-30)) {
@@ -216,10 +161,11 @@ void CheckCharacter(const std::string& name, int frames_per_clip, int random_pos
     sum_fit += fc->set.radii_rest[s];
     EXPECT_NEAR(r.exact[s].w(), fc->set.radii_rest[s], 1e-4 * (fc->set.radii_rest[s] + fc->set.centers_rest[s].norm()));
   }
-  std::printf("%s: %zu spheres, %d poses; rest pose sum of radii exact/fit %.4f fast/fit %.4f; posed fast/exact %.3f "
-              "(without reach %.3f; %.0f%% of the fast spheres smaller with it)\n",
-              name.c_str(), fc->set.size(), poses, sum_exact / sum_fit, sum_fast / sum_fit, posed_ratio, old_ratio,
-              100.0 * tighter_share);
+  std::printf(
+      "%s: %zu spheres, %d poses; rest pose sum of radii exact/fit %.4f fast/fit %.4f; posed fast/exact %.3f "
+      "(without reach %.3f; %.0f%% of the fast spheres smaller with it)\n",
+      name.c_str(), fc->set.size(), poses, sum_exact / sum_fit, sum_fast / sum_fit, posed_ratio, old_ratio,
+      100.0 * tighter_share);
 }
 
 TEST(RefitJobTest, BuiltinCharacterIsCoveredInBothModes) { CheckCharacter("builtin", 1000, 100); }
@@ -308,7 +254,8 @@ void CheckFastBitsAtOneLevel(const std::string& name, int poses) {
     for (size_t s = 0; s < fc->set.size(); ++s) {
       for (int c = 0; c < 4; ++c) {
         ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c]))
-            << name << " pose " << p << " sphere " << s << " coordinate " << c << ": " << got[s][c] << " vs " << want[s][c];
+            << name << " pose " << p << " sphere " << s << " coordinate " << c << ": " << got[s][c] << " vs "
+            << want[s][c];
         ASSERT_EQ(std::bit_cast<uint32_t>(split[s][c]), std::bit_cast<uint32_t>(want[s][c])) << name << " sphere " << s;
       }
       ++compared;
@@ -386,7 +333,8 @@ TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
       ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, got}.Run()));
       for (size_t s = 0; s < 2; ++s) {
         for (int c = 0; c < 4; ++c) {
-          ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c])) << "pose " << p << " sphere " << s;
+          ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c]))
+              << "pose " << p << " sphere " << s;
         }
       }
     }
@@ -396,8 +344,8 @@ TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
 }
 
 // The crowd's batch (internal::RefitFastBatch: 16 instances of one set at once, one per AVX-512
-// lane) against the scalar formula, lane by lane, bit for bit, in both of its outputs. worlds: one joint-matrix array per
-// lane (lanes may share one, and then their output); bad: lanes expected to fail (non-finite).
+// lane) against the scalar formula, lane by lane, bit for bit, in both of its outputs. worlds: one joint-matrix array
+// per lane (lanes may share one, and then their output); bad: lanes expected to fail (non-finite).
 void CheckBatchLanes(const SphereSet& set, const RefitRestData& rest,
                      const std::vector<const std::vector<skinspheres::Mat4f>*>& worlds, uint32_t bad,
                      const std::string& what) {
@@ -504,180 +452,6 @@ INSTANTIATE_TEST_SUITE_P(Assets, SharedCharacterRefit, ::testing::ValuesIn(test:
                            return n.substr(0, n.find('.'));
                          });
 
-// One joint, one sphere: analytic answers for rigid motion, uniform and non-uniform scale.
-SphereSet OneJointSet(const skinspheres::Mat4f& rest_world) {
-  SphereSet set = TwoSpheres();
-  set.joint_rest_world = {rest_world};
-  set.radii_fast = {1.5f, 1.0f};
-  set.source_vertex_count = 4;
-  return set;
-}
-
-TEST(RefitJobTest, FastModeSingleJointAnalytic) {
-  skinspheres::Mat4f rest_world = skinspheres::Mat4f::Identity();
-  rest_world.topRightCorner<3, 1>() = Eigen::Vector3f(0.5f, -1.0f, 2.0f);
-  const SphereSet set = OneJointSet(rest_world);
-  auto rest = RefitRestData::Create(set);
-  ASSERT_TRUE(rest.ok()) << rest.error().message;
-  std::vector<skinspheres::Vec4f> out(2);
-  RefitJob job{RefitMode::kFast, &set, &*rest, {}, {}, out};
-
-  Eigen::Affine3f motion = Eigen::Translation3f(3, 4, 5) * Eigen::AngleAxisf(0.7f, Eigen::Vector3f(1, 2, 3).normalized());
-  auto expect = [&](const skinspheres::Mat4f& t, float s_max, const char* what) {
-    const skinspheres::Mat4f g = t * rest_world;  // G(t) = T · G(rest)
-    job.joint_world = std::span<const skinspheres::Mat4f>(&g, 1);
-    ASSERT_TRUE(job.Run()) << what;
-    for (int s = 0; s < 2; ++s) {
-      const Eigen::Vector3f c = (t * set.centers_rest[s].homogeneous()).head<3>();
-      EXPECT_LT((out[s].head<3>() - c).norm(), 1e-5f) << what;
-      EXPECT_NEAR(out[s].w(), s_max * set.radii_fast[s], 1e-4f) << what;
-    }
-  };
-  expect(motion.matrix(), 1.0f, "rigid");
-  expect((motion * Eigen::Scaling(2.0f)).matrix(), 2.0f, "uniform scale");
-  // Non-uniform diag(3, 1, 1), unrotated so the bound is exact: AᵀA = diag(9, 1, 1), largest row
-  // sum 9, s_max = 3.
-  expect(skinspheres::Mat4f(Eigen::Affine3f(Eigen::Translation3f(1, 0, 0) * Eigen::Scaling(Eigen::Vector3f(3, 1, 1))).matrix()),
-         3.0f, "non-uniform scale");
-}
-
-TEST(RefitJobTest, TwoJointSpreadTermIsAdded) {
-  // A sphere at the origin half on joint 0, half on joint 1; joint 1 moves by (2, 0, 0):
-  // c' = (1, 0, 0), spread = 1, radius = 1 · radius_fast + 1.
-  SphereSet set = TwoSpheres();
-  set.joint_names = {"a", "b"};
-  set.joint_parents = {-1, 0};
-  set.joint_rest_world = {skinspheres::Mat4f::Identity(), skinspheres::Mat4f::Identity()};
-  set.influence_offsets = {0, 2, 3};
-  set.influence_joints = {0, 1, 0};
-  set.influence_weights = {0.5f, 0.5f, 1.0f};
-  auto rest = RefitRestData::Create(set);
-  ASSERT_TRUE(rest.ok()) << rest.error().message;
-  std::vector<skinspheres::Mat4f> world(2, skinspheres::Mat4f::Identity());
-  world[1](0, 3) = 2.0f;
-  std::vector<skinspheres::Vec4f> out(2);
-  RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
-  ASSERT_TRUE(job.Run());
-  EXPECT_NEAR(out[0].x(), 1.0f, 1e-6f);
-  EXPECT_NEAR(out[0].w(), set.radii_fast[0] + 1.0f, 1e-5f);
-}
-
-// The influences' reach, by hand (sample_sphere_set.h, TwoJointsWithMesh): the mesh gives it, the
-// rest data takes it from the mesh when the set stores none, and 1 without a mesh.
-TEST(RefitJobTest, InfluenceReachComesFromTheMeshWeights) {
-  SphereSet set = TwoJointsWithMesh();
-  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
-  auto reach = InfluenceReachFromMesh(set);
-  ASSERT_TRUE(reach.ok()) << reach.error().message;
-  EXPECT_EQ(*reach, (std::vector<float>{1.0f, 0.5f, 0.75f, 1.0f}));
-  auto rest = RefitRestData::Create(set);
-  ASSERT_TRUE(rest.ok()) << rest.error().message;
-  EXPECT_TRUE(std::ranges::equal(rest->reach(), *reach));
-  set.influence_reach = {1.0f, 0.75f, 0.75f, 1.0f};  // stored (larger than the mesh's: allowed)
-  rest = RefitRestData::Create(set);
-  ASSERT_TRUE(rest.ok()) << rest.error().message;
-  EXPECT_TRUE(std::ranges::equal(rest->reach(), set.influence_reach));
-  SphereSet no_mesh = TwoSpheres();
-  rest = RefitRestData::Create(no_mesh);
-  ASSERT_TRUE(rest.ok());
-  EXPECT_TRUE(std::ranges::equal(rest->reach(), std::vector<float>(no_mesh.influence_joints.size(), 1.0f)));
-}
-
-// Joint b moves by t = (10, 0, 0). Sphere 0 (weights a 0.75, b 0.25): c' = c + 2.5 x, d_a = 2.5,
-// d_b = 7.5; without reach the spread term is 7.5, with reach (a 1, b 0.5) 1 · 2.5 + 0.5 · 7.5 =
-// 6.25. Sphere 1 (a 5/12, b 7/12): d_a = 70/12, d_b = 50/12; the weighted sum (0.75 · 70/12 +
-// 50/12 = 102.5/12) exceeds the max, which stays.
-TEST(RefitJobTest, FastModeReachAnalyticTwoJoints) {
-  const SphereSet set = TwoJointsWithMesh();
-  auto rest = RefitRestData::Create(set);
-  ASSERT_TRUE(rest.ok()) << rest.error().message;
-  std::vector<skinspheres::Mat4f> world(2, skinspheres::Mat4f::Identity());
-  world[1](0, 3) = 10.0f;
-  std::vector<skinspheres::Vec4f> out(2);
-  RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
-  ASSERT_TRUE(job.Run());
-  EXPECT_NEAR(out[0].x(), 2.75f, 1e-5f);
-  EXPECT_NEAR(out[0].w(), 0.5f + 6.25f, 1e-4f);
-  EXPECT_NEAR(out[1].x(), 0.75f + 70.0f / 12.0f, 1e-5f);
-  EXPECT_NEAR(out[1].w(), 0.5f + 70.0f / 12.0f, 1e-4f);
-  const auto old = ScalarFastRefit(set, *rest, world, nullptr);
-  EXPECT_NEAR(old[0].w(), 0.5f + 7.5f, 1e-4f);
-  EXPECT_LT(out[0].w(), old[0].w()) << "strictly tighter where the reach is below 1";
-  EXPECT_EQ(out[1].w(), old[1].w()) << "the max where it is the smaller";
-}
-
-// Random poses of the two joints (rotations, translations, non-uniform scales), the four vertices
-// skinned by the linear blend skinning formula in double: every vertex inside its fast spheres, the
-// bound never above the one without reach, and below it on some poses.
-TEST(RefitJobTest, FastModeWithReachHoldsEveryVertexOnRandomPoses) {
-  const SphereSet set = TwoJointsWithMesh();
-  auto rest = RefitRestData::Create(set);
-  ASSERT_TRUE(rest.ok()) << rest.error().message;
-  std::mt19937 rng(2026);
-  std::uniform_real_distribution<float> angle(-3.1f, 3.1f), move(-3.0f, 3.0f), scale(0.3f, 3.0f);
-  std::vector<skinspheres::Mat4f> world(2);
-  std::vector<skinspheres::Vec4f> out(2);
-  int tighter = 0;
-  for (int p = 0; p < 2000; ++p) {
-    for (auto& g : world) {
-      const Eigen::Vector3f axis = Eigen::Vector3f(move(rng), move(rng), move(rng)).normalized();
-      Eigen::Affine3f t = Eigen::Translation3f(move(rng), move(rng), move(rng)) * Eigen::AngleAxisf(angle(rng), axis);
-      if (p % 2) t = t * Eigen::Scaling(Eigen::Vector3f(scale(rng), scale(rng), scale(rng)));
-      g = t.matrix();
-    }
-    RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
-    ASSERT_TRUE(job.Run());
-    const auto old = ScalarFastRefit(set, *rest, world, nullptr);
-    for (size_t s = 0; s < 2; ++s) {
-      ASSERT_LE(out[s].w(), old[s].w()) << "pose " << p << " sphere " << s;
-      tighter += out[s].w() < old[s].w();
-      for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
-        const uint32_t v = set.vertices[k];
-        Eigen::Vector3d skinned = Eigen::Vector3d::Zero();
-        for (uint32_t q = set.mesh.influence_offsets[v]; q < set.mesh.influence_offsets[v + 1]; ++q) {
-          const skinning::BindEntry& b = set.mesh.binds[set.mesh.influence_binds[q]];
-          const Eigen::Matrix4d m = world[static_cast<size_t>(b.joint)].cast<double>() * b.inverse_bind.cast<double>();
-          skinned += double{set.mesh.influence_weights[q]} * (m * set.mesh.positions_bind[v].cast<double>().homogeneous()).head<3>();
-        }
-        const double d = (skinned - out[s].head<3>().cast<double>()).norm();
-        ASSERT_LE(d, out[s].w()) << "pose " << p << " sphere " << s << " vertex " << v;
-      }
-    }
-  }
-  EXPECT_GT(tighter, 100);
-  std::printf("two joints: %d of 4000 fast spheres tighter with reach\n", tighter);
-}
-
-// A set with neither reach nor mesh (a version-1 file, or a fast-only one written before reach)
-// refits with the bound without reach bit for bit, and so does any set whose reach is all 1.
-TEST(RefitJobTest, WithoutReachOrMeshTheFastBoundIsTheOldOneBitForBit) {
-  auto fc = test::LoadFitted("builtin");
-  ASSERT_TRUE(fc);
-  SphereSet old_set = fc->set;
-  old_set.influence_reach.clear();
-  old_set.mesh = {};
-  old_set.triangle_vertices.clear();
-  ASSERT_FALSE(old_set.Validate().has_value()) << old_set.Validate()->message;
-  SphereSet ones = fc->set;
-  ones.influence_reach.assign(ones.influence_joints.size(), 1.0f);
-  std::mt19937 rng(5);
-  for (const SphereSet* set : {&old_set, &ones}) {
-    auto rest = RefitRestData::Create(*set);
-    ASSERT_TRUE(rest.ok()) << rest.error().message;
-    for (int p = 0; p < 40; ++p) {
-      const Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 90.0f, 0.3f), "random");
-      const auto want = ScalarFastRefit(*set, *rest, pose.world, nullptr);
-      std::vector<skinspheres::Vec4f> got(set->size());
-      ASSERT_TRUE((RefitJob{RefitMode::kFast, set, &*rest, pose.world, {}, got}.Run()));
-      for (size_t s = 0; s < set->size(); ++s) {
-        for (int c = 0; c < 4; ++c) {
-          ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c])) << "sphere " << s;
-        }
-      }
-    }
-  }
-}
-
 TEST(RefitJobTest, SameOutputForOneAndTwoThreads) {
   auto fc = test::LoadFitted("builtin");
   ASSERT_TRUE(fc);
@@ -690,9 +464,9 @@ TEST(RefitJobTest, SameOutputForOneAndTwoThreads) {
     RefitJob job{mode, &fc->set, &*rest, pose.world, pose.positions, serial};
     ASSERT_TRUE(job.Run());
     job.out = one;
-    test::WithDefaultThreads(1, [&] { EXPECT_TRUE(RefitParallel(job, 1)); });
+    test::WithDefaultThreads(1, [&] { EXPECT_TRUE(job.RunParallel(DefaultParallelFor(), 1)); });
     job.out = two;
-    test::WithDefaultThreads(2, [&] { EXPECT_TRUE(RefitParallel(job, 1)); });
+    test::WithDefaultThreads(2, [&] { EXPECT_TRUE(job.RunParallel(DefaultParallelFor(), 1)); });
     // Split by hand too: any range split gives the same bits.
     std::vector<skinspheres::Vec4f> split(fc->set.size());
     job.out = split;
@@ -755,7 +529,7 @@ TEST(RefitJobTest, ValidateRefusesBadJobs) {
   other.influence_weights = {1, 1, 1};
   ASSERT_FALSE(other.Validate().has_value()) << other.Validate()->message;
   j = good_fast;
-  j.spheres = &other;
+  j.set = &other;
   std::vector<skinspheres::Vec4f> out3(3);
   j.out = out3;
   EXPECT_FALSE(j.Validate()) << "rest data from another set";
@@ -803,7 +577,7 @@ void NonFiniteInputFails() {
     EXPECT_TRUE(box.Run());
     world[0](1, 1) = bad;  // linear part only: centre may stay finite, the scale bound may not
     EXPECT_FALSE(fast.Run());
-    EXPECT_FALSE(RefitParallel(fast, 1));
+    EXPECT_FALSE(fast.RunParallel(DefaultParallelFor(), 1));
     world[0] = skinspheres::Mat4f::Identity();
     world[0](0, 3) = bad;
     EXPECT_FALSE(fast.Run());

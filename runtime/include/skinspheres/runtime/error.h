@@ -21,13 +21,13 @@ enum class ErrorCode {
   kOk = 0,
   kFileNotFound,
   kFileUnreadable,
-  kFormatRejected,      // the reader (Assimp, JSON, binary) refused the file
-  kInvalidData,         // read, but the content breaks a rule (NaN, weights, indices, ...)
+  kFormatRejected,  // the reader (Assimp, JSON, binary) refused the file
+  kInvalidData,     // read, but the content breaks a rule (NaN, weights, indices, ...)
   kVersionMismatch,
-  kMismatchedAsset,     // a sphere set made for another character
+  kMismatchedAsset,  // a sphere set made for another character
   kInvalidArgument,
-  kNotFound,            // a named thing (clip, joint) is not there
-  kCheckFailed,         // a self-check failed (a triangle outside its sphere): a bug, not bad input
+  kNotFound,     // a named thing (clip, joint) is not there
+  kCheckFailed,  // a self-check failed (a triangle outside its sphere): a bug, not bad input
 };
 
 // A short lower-case name: "ok", "file not found", "file unreadable", "format rejected",
@@ -67,8 +67,8 @@ namespace detail {
 template <typename T>
 class Result {
  public:
-  Result(T value) : v_(std::move(value)) {}          // NOLINT(google-explicit-constructor)
-  Result(Error error) : v_(std::move(error)) {}      // NOLINT(google-explicit-constructor)
+  Result(T value) : v_(std::move(value)) {}      // NOLINT(google-explicit-constructor)
+  Result(Error error) : v_(std::move(error)) {}  // NOLINT(google-explicit-constructor)
   bool ok() const { return v_.index() == 0; }
   explicit operator bool() const { return ok(); }
   // Precondition ok(): see the header comment.
@@ -89,7 +89,8 @@ class Result {
  private:
   T* Value() {
     T* v = std::get_if<0>(&v_);
-    if (v == nullptr) detail::ResultContractViolation("Result::value() called on an error", std::get_if<1>(&v_)->message);
+    if (v == nullptr)
+      detail::ResultContractViolation("Result::value() called on an error", std::get_if<1>(&v_)->message);
     return v;
   }
   const T* Value() const { return const_cast<Result*>(this)->Value(); }

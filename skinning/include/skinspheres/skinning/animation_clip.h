@@ -19,8 +19,8 @@ enum class Interpolation : uint8_t { kStep, kLinear, kCubicSpline };
 template <typename Value>
 struct Track {
   Interpolation interpolation = Interpolation::kLinear;
-  std::vector<float> times_s;   // strictly increasing
-  std::vector<Value> values;    // times_s.size() values, or 3x that for kCubicSpline
+  std::vector<float> times_s;  // strictly increasing
+  std::vector<Value> values;   // times_s.size() values, or 3x that for kCubicSpline
   bool empty() const { return times_s.empty(); }
 };
 

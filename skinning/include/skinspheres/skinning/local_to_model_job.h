@@ -17,9 +17,9 @@ namespace skinspheres::skinning {
 
 struct LocalToModelJob {
   const Skeleton* skeleton = nullptr;
-  Mat4f root = Mat4f::Identity();  // applied to every root joint
-  std::span<const Transform> input;                   // >= skeleton->size(), joint-local TRS
-  std::span<Mat4f> output;                  // >= skeleton->size(), model space
+  Mat4f root = Mat4f::Identity();    // applied to every root joint
+  std::span<const Transform> input;  // >= skeleton->size(), joint-local TRS
+  std::span<Mat4f> output;           // >= skeleton->size(), model space
 
   bool Validate() const;
   bool Run() const;

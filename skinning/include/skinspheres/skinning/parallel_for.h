@@ -1,9 +1,9 @@
 // ParallelFor: the one seam between skinspheres' per-frame work and a thread pool.
 //
-// Every parallel entry point (SkinParallel, RefitParallel, RunSelfCollisionJobs,
-// UpdateAndQueryCrowd, ...) takes a `const ParallelFor&`, so an engine runs the work on its own
-// job system; by default it runs under TBB (DefaultParallelFor()), or serially on the calling
-// thread in a build configured with -DSKINSPHERES_WITH_TBB=OFF (which never links TBB).
+// Every parallel entry point (the jobs' RunParallel, CrowdUpdateAndFindSpherePairs, ...) takes a
+// `const ParallelFor&`, so an engine runs the work on its own job system; by default it runs under
+// TBB (DefaultParallelFor()), or serially on the calling thread in a build configured with
+// -DSKINSPHERES_WITH_TBB=OFF (which never links TBB).
 //
 // Contract of a ParallelFor `pf`: pf(count, grain, body) calls body(begin, end) on ranges that are
 // disjoint and together cover [0, count) exactly once, and returns when every call has returned.
@@ -19,7 +19,7 @@
 //   skinspheres::ParallelFor pf = [&pool](size_t count, size_t grain, skinspheres::RangeBody body) {
 //     pool.ForEachRange(count, grain, [body](size_t b, size_t e) { body(b, e); });
 //   };
-//   UpdateAndQueryCrowd(instances, inputs, RefitMode::kFast, pf);
+//   CrowdUpdateAndFindSpherePairs(instances, inputs, RefitMode::kFast, pf);
 #pragma once
 
 #include <cstddef>
@@ -35,8 +35,7 @@ class RangeBody {
  public:
   template <typename F, typename = std::enable_if_t<!std::is_same_v<std::decay_t<F>, RangeBody>>>
   RangeBody(F&& f)  // NOLINT(google-explicit-constructor): made implicitly from a lambda
-      : object_(static_cast<const void*>(std::addressof(f))),
-        call_([](const void* o, size_t begin, size_t end) {
+      : object_(static_cast<const void*>(std::addressof(f))), call_([](const void* o, size_t begin, size_t end) {
           using Callable = std::remove_reference_t<F>;
           (*static_cast<Callable*>(const_cast<void*>(o)))(begin, end);
         }) {}

@@ -32,13 +32,12 @@ class PreparedInfluences {
   // subset: vertex indices to skin (each < vertex_count, duplicates allowed); empty = every vertex.
   // Returns false (and says why in *error) on inconsistent input; the object is then empty.
   bool Build(size_t vertex_count, std::span<const uint32_t> offsets, std::span<const uint16_t> binds,
-             std::span<const float> weights, std::span<const uint32_t> subset = {},
-             std::string* error = nullptr);
+             std::span<const float> weights, std::span<const uint32_t> subset = {}, std::string* error = nullptr);
 
-  size_t size() const { return vertices_.size(); }   // slots
+  size_t size() const { return vertices_.size(); }  // slots
   bool empty() const { return vertices_.empty(); }
   std::span<const Group> groups() const { return groups_; }
-  std::span<const uint32_t> vertices() const { return vertices_; }          // per slot
+  std::span<const uint32_t> vertices() const { return vertices_; }              // per slot
   std::span<const uint32_t> matrix_offsets() const { return matrix_offsets_; }  // bind * 16 (floats)
   std::span<const float> weights() const { return std::span<const float>(weights_).first(matrix_offsets_.size()); }
   // Buffers a job needs: vertex_count >= required_vertex_count(), joint_matrices > max bind.

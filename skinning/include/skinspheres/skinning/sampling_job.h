@@ -27,8 +27,8 @@ namespace skinspheres::skinning {
 struct SamplingJob {
   const AnimationClip* clip = nullptr;
   const Skeleton* skeleton = nullptr;
-  float time_s = 0.0f;              // seconds from the clip's start
-  std::span<Transform> out_local;   // >= skeleton->size()
+  float time_s = 0.0f;             // seconds from the clip's start
+  std::span<Transform> out_local;  // >= skeleton->size()
 
   bool Validate() const;
   bool Run() const;

@@ -30,8 +30,8 @@ struct Transform {
 
 struct Skeleton {
   std::vector<std::string> joint_names;
-  std::vector<int32_t> parents;          // -1 for a root; parents[i] < i
-  std::vector<Transform> rest_local;     // each joint's own node transform at rest
+  std::vector<int32_t> parents;       // -1 for a root; parents[i] < i
+  std::vector<Transform> rest_local;  // each joint's own node transform at rest
 
   size_t size() const { return joint_names.size(); }
   // Index of the joint with this exact name, or -1.

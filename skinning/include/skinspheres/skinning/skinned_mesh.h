@@ -20,7 +20,7 @@
 namespace skinspheres::skinning {
 
 struct BindEntry {
-  int32_t joint = -1;                                        // Skeleton joint index
+  int32_t joint = -1;  // Skeleton joint index
   Mat4f inverse_bind = Mat4f::Identity();
 };
 
@@ -51,9 +51,9 @@ struct SkinnedMesh {
   std::vector<Eigen::Vector3f> positions_bind;  // per vertex, in the space IBMs map from
   std::vector<BindEntry> binds;
   // Influences in CSR form: vertex v uses [influence_offsets[v], influence_offsets[v+1]).
-  std::vector<uint32_t> influence_offsets;      // vertex_count() + 1
-  std::vector<uint16_t> influence_binds;        // index into binds
-  std::vector<float> influence_weights;         // > 0, sum to 1 per vertex
+  std::vector<uint32_t> influence_offsets;  // vertex_count() + 1
+  std::vector<uint16_t> influence_binds;    // index into binds
+  std::vector<float> influence_weights;     // > 0, sum to 1 per vertex
 
   size_t vertex_count() const { return positions_bind.size(); }
 };

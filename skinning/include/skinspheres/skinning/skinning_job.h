@@ -18,7 +18,7 @@
 // Work: WorkSize() items (subset entries, vertices, or prepared slots). RunRange(begin, end) skins
 // items [begin, end) so any scheduler can split the job; RunRanges() skins a list of such ranges
 // (e.g. the runs of a prepared subset that a frame needs) for one validation of the job;
-// SkinParallel() does it through a
+// RunParallel() does it through a
 // ParallelFor (an engine's job system, or TBB). Each vertex is computed by the same instructions whatever the split, so
 // results are bit-identical for any thread count and grain.
 // Validate() refuses every job that could read or write out of bounds (null or short spans, bad
@@ -54,17 +54,17 @@ const char* SimdLevelName(SimdLevel level);
 struct SkinningJob {
   std::span<const Mat4f> joint_matrices;  // M_b per bind entry, > every bind index used
 
-  size_t vertex_count = 0;                          // vertices addressable in the buffers
-  std::span<const float> in_positions;              // see the size rule above
+  size_t vertex_count = 0;              // vertices addressable in the buffers
+  std::span<const float> in_positions;  // see the size rule above
   size_t in_stride_bytes = 3 * sizeof(float);
-  std::span<float> out_positions;                   // see the size rule above
+  std::span<float> out_positions;  // see the size rule above
   size_t out_stride_bytes = 3 * sizeof(float);
 
   // CSR influences.
-  std::span<const uint32_t> influence_offsets;      // vertex_count + 1
-  std::span<const uint16_t> influence_binds;        // >= influence_offsets[vertex_count]
-  std::span<const float> influence_weights;         // >= influence_offsets[vertex_count]
-  std::span<const uint32_t> subset;                 // optional: only these vertices (< vertex_count)
+  std::span<const uint32_t> influence_offsets;  // vertex_count + 1
+  std::span<const uint16_t> influence_binds;    // >= influence_offsets[vertex_count]
+  std::span<const float> influence_weights;     // >= influence_offsets[vertex_count]
+  std::span<const uint32_t> subset;             // optional: only these vertices (< vertex_count)
 
   // Prepared influences (instead of CSR + subset).
   const PreparedInfluences* prepared = nullptr;
@@ -80,12 +80,10 @@ struct SkinningJob {
   // RunRange would refuse one of them. For a prepared job, the job is checked once (O(1)) and each
   // range in O(1), where a RunRange call per range re-checks the whole job.
   bool RunRanges(std::span<const std::pair<uint32_t, uint32_t>> ranges) const;
+  // Validates once, then runs [0, WorkSize()) through parallel_for (parallel_for.h; TBB by default)
+  // in chunks of >= grain items.
+  bool RunParallel(const ParallelFor& parallel_for = DefaultParallelFor(), size_t grain = 2048) const;
 };
-
-// Validates once, then runs [0, WorkSize()) through parallel_for (parallel_for.h; TBB by default) in
-// chunks of >= grain items.
-bool SkinParallel(const SkinningJob& job, size_t grain = 2048,
-                  const ParallelFor& parallel_for = DefaultParallelFor());
 
 // The oracle: the plain loop (per vertex, per influence, Matrix4f · Vector4f, accumulate
 // weighted), for CSR jobs only (prepared jobs are refused). Validates like SkinningJob.

@@ -16,9 +16,9 @@
 namespace skinspheres::skinning {
 
 struct SkinningMatricesJob {
-  std::span<const BindEntry> binds;               // e.g. SkinnedMesh::binds
-  std::span<const Mat4f> joint_model;   // G_j per skeleton joint
-  std::span<Mat4f> output;              // >= binds.size(): M_b
+  std::span<const BindEntry> binds;    // e.g. SkinnedMesh::binds
+  std::span<const Mat4f> joint_model;  // G_j per skeleton joint
+  std::span<Mat4f> output;             // >= binds.size(): M_b
 
   bool Validate() const;
   bool Run() const;

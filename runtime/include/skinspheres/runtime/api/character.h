@@ -7,9 +7,9 @@
 //   auto instance = CharacterInstance::Create(*asset, *mapping);       // missing joints and the file
 //   each frame:
 //     FrameStatus st = instance->UpdateFast(joint_world);   // my joint order; or UpdateExact(skinned, joint_world)
-//     if (st.ok()) for (const Contact& c : instance->Query()) ...          // sphere pairs (broad phase)
+//     if (st.ok()) for (const SpherePair& c : instance->FindSpherePairs()) ...          // sphere pairs (broad phase)
 //     if (instance->FindContacts().ok())                                    // triangles (narrow phase)
-//       for (const PartContact& p : instance->frame_contacts().parts) ...
+//       for (const PartContact& p : instance->contacts().parts) ...
 //
 // CharacterAsset holds the SphereSet, the refit's rest data (RefitRestData: G_j(rest)^-1 applied to
 // the centres), the broad phase's PairFilter and, for a set with a mesh (format version 2), the
@@ -24,7 +24,7 @@
 // unless ReserveContacts did, and the first FindContacts without positions its skinned-position
 // buffer; nothing else. Per-frame calls never throw; they return a FrameStatus whose message is a
 // static string (no allocation). A failed
-// update (non-finite input, short spans) marks the instance's spheres invalid, so Query() then
+// update (non-finite input, short spans) marks the instance's spheres invalid, so FindSpherePairs() then
 // returns no contacts and status() says why; other instances are untouched. Not thread-safe per
 // instance; distinct instances may run concurrently.
 //
@@ -39,15 +39,15 @@
 #include <utility>
 #include <vector>
 
+#include "skinspheres/runtime/api/joint_mapping.h"
+#include "skinspheres/runtime/broad_phase/broad_phase.h"
+#include "skinspheres/runtime/broad_phase/pair_filter.h"
+#include "skinspheres/runtime/error.h"
+#include "skinspheres/runtime/format/sphere_set.h"
+#include "skinspheres/runtime/narrow_phase/narrow_phase.h"
+#include "skinspheres/runtime/refit/refit_job.h"
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/parallel_for.h"
-#include "skinspheres/runtime/broad_phase/broad_phase.h"
-#include "skinspheres/runtime/error.h"
-#include "skinspheres/runtime/api/joint_mapping.h"
-#include "skinspheres/runtime/narrow_phase/narrow_phase.h"
-#include "skinspheres/runtime/broad_phase/pair_filter.h"
-#include "skinspheres/runtime/refit/refit_job.h"
-#include "skinspheres/runtime/format/sphere_set.h"
 
 namespace skinspheres::runtime {
 
@@ -116,19 +116,18 @@ class CharacterInstance {
   FrameStatus UpdateFast(std::span<const Mat4f> joint_world);
   // Exact refit from skinned positions indexed by source vertex (>= source_vertex_count()), with
   // G_j(t) for the centres (may be empty: box-centre fallback, see refit_job.h).
-  FrameStatus UpdateExact(std::span<const Eigen::Vector3f> skinned_positions,
-                          std::span<const Mat4f> joint_world);
+  FrameStatus UpdateExact(std::span<const Eigen::Vector3f> skinned_positions, std::span<const Mat4f> joint_world);
   // Either of the above by mode (positions ignored in fast mode).
   FrameStatus Update(RefitMode mode, std::span<const Mat4f> joint_world,
                      std::span<const Eigen::Vector3f> skinned_positions);
 
-  // Self-collision contacts of the current spheres (broad_phase.h: pairs i < j sorted, depth,
+  // The sphere pairs of the current spheres that overlap (broad_phase.h: i < j sorted, depth,
   // parts). Empty, with status() set, when the last update failed or none ran. The span stays
-  // valid until the next Query().
-  std::span<const Contact> Query();
-  std::span<const Contact> contacts() const { return contacts_; }
+  // valid until the next FindSpherePairs().
+  std::span<const SpherePair> FindSpherePairs();
+  std::span<const SpherePair> sphere_pairs() const { return sphere_pairs_; }
 
-  // The narrow phase (narrow_phase.h) behind this frame's sphere pairs (Query() runs first if it
+  // The narrow phase (narrow_phase.h) behind this frame's sphere pairs (FindSpherePairs() runs first if it
   // has not since the last update). Positions:
   //  - skinned_positions given: mode (a), the positions the spheres were refitted from (UpdateExact's
   //    buffer), or the LBS of the same joint matrices after UpdateFast, with the asset's own skin
@@ -138,11 +137,11 @@ class CharacterInstance {
   //  - empty: mode (b), the instance skins only the vertices of the spheres it tests, from the
   //    joint matrices of the last update (kInvalidArgument when that update had none).
   // Refused (kVersionMismatch) when the asset has no mesh. parallel_for spreads the sphere pairs
-  // over threads (same output); the default runs on the calling thread. Results: frame_contacts(),
+  // over threads (same output); the default runs on the calling thread. Results: contacts(),
   // empty after a failure.
   FrameStatus FindContacts(std::span<const Eigen::Vector3f> skinned_positions = {},
                            const ParallelFor& parallel_for = SerialFor());
-  const FrameContacts& frame_contacts() const { return frame_contacts_; }
+  const FrameContacts& contacts() const { return contacts_; }
   // Counters of the last FindContacts (pairs, culled triangles, tests, skinned vertices).
   const NarrowPhaseContext::Stats& narrow_phase_stats() const { return narrow_context_.last_stats(); }
 
@@ -150,17 +149,17 @@ class CharacterInstance {
   // spheres_valid().
   std::span<const Vec4f> spheres() const { return spheres_; }
   bool spheres_valid() const { return valid_; }
-  // Outcome of the last Update*/Query call.
+  // Outcome of the last Update*/FindSpherePairs call.
   FrameStatus status() const { return status_; }
 
   // Room for this many sphere pairs and as many triangle pairs, and (an asset with a mesh) the
   // narrow phase's scratch, so later frames do not allocate (but for the skinned-position buffer
   // of the first FindContacts without positions).
   void ReserveContacts(size_t count);
-  // Room for this many sphere pairs only (Query's list), for an instance that runs only the broad
+  // Room for this many sphere pairs only (FindSpherePairs' list), for an instance that runs only the broad
   // phase (a crowd): no triangle-pair room and no narrow-phase scratch (about 570 KB for Xbot,
   // which ReserveContacts would size); a later FindContacts still sizes those itself.
-  void ReserveSphereContacts(size_t count);
+  void ReserveSpherePairs(size_t count);
   const CharacterAsset& asset() const { return *asset_; }
   const std::shared_ptr<const CharacterAsset>& shared_asset() const { return asset_; }
 
@@ -180,7 +179,7 @@ class CharacterInstance {
   std::shared_ptr<const CharacterAsset> asset_;
   std::vector<Vec4f> spheres_;
   BroadPhaseContext context_;
-  std::vector<Contact> contacts_;
+  std::vector<SpherePair> sphere_pairs_;
   // Engine joint order (a JointMapping): per set joint read per frame, the engine joint; the
   // matrices are gathered into joint_world_ (set order, sized at Create) before the refit. It also
   // keeps the last update's G_j(t) in set order for FindContacts mode (b).
@@ -188,11 +187,11 @@ class CharacterInstance {
   std::vector<Mat4f> joint_world_;
   bool mapped_ = false;
   size_t joint_input_count_ = 0;
-  bool has_joints_ = false;             // joint_world_ holds the last update's matrices
-  bool queried_ = false;                // Query() ran since the last update
-  bool query_ok_ = false;               // and succeeded
+  bool has_joints_ = false;  // joint_world_ holds the last update's matrices
+  bool queried_ = false;     // FindSpherePairs() ran since the last update
+  bool query_ok_ = false;    // and succeeded
   NarrowPhaseContext narrow_context_;
-  FrameContacts frame_contacts_;
+  FrameContacts contacts_;
   bool valid_ = false;
   FrameStatus status_{ErrorCode::kInvalidArgument, "no update has run yet"};
 };

@@ -2,7 +2,7 @@
 // sharing a space, see PairFilter::Combine) that overlaps or touches, except the pairs its
 // PairFilter excludes, with the penetration depth and the body parts.
 //
-//   contact (i, j), i < j, when |c_i - c_j|^2 <= (r_i + r_j)^2 and !filter.excluded(i, j)
+//   sphere pair (i, j), i < j, when |c_i - c_j|^2 <= (r_i + r_j)^2 and !filter.excluded(i, j)
 //   depth = (r_i + r_j) - |c_i - c_j|            (>= 0 up to rounding; 0 when touching)
 //
 // Evaluated in float, in exactly this order ((dx*dx + dy*dy) + dz*dz, dx = c_j.x - c_i.x), by the
@@ -27,21 +27,21 @@
 // test is SIMD: SSE2, AVX2 or AVX-512, picked at run time (or forced with
 // SelfCollisionJob::simd) with bit-identical results.
 //
-// Output: contacts sorted by (i, j), identical for any thread count, instruction set and
+// Output: sphere pairs sorted by (i, j), identical for any thread count, instruction set and
 // previous frame history. No allocation and no exception per frame once the context is sized
-// (Resize) and the output vector has held the largest contact count seen (reserve it at set-up).
+// (Resize) and the output vector has held the largest sphere pair count seen (reserve it at set-up).
 // The candidate cache never grows: when a build does not fit the context's max_candidates, a
 // small set is answered without a cache (all pairs straight into the output), a larger one is
 // rebuilt without skins and, if even that does not fit, answered by a sweep straight into the
 // output, then sorted.
 //
 // Crowds, each character alone: one SelfCollisionJob per character (each with its own context
-// and output), run by RunSelfCollisionJobs through a ParallelFor (TBB by default, or the
-// engine's job system), or by RunSelfCollisionJobRange.
+// and output), run by RunParallel through a ParallelFor (TBB by default, or the
+// engine's job system), or by RunRange.
 //
 // Characters that may touch each other: one job over their spheres laid end to end, with the
 // filter of PairFilter::Combine (pairs between characters on or off; each character keeps its
-// own exclusions). Sphere k of character g is index filter.group_begin(g) + k; a contact (i, j)
+// own exclusions). Sphere k of character g is index filter.group_begin(g) + k; a sphere pair (i, j)
 // belongs to characters filter.group(i) and filter.group(j). Above kAllPairsMax spheres (and 16
 // or more per character on average) the context runs such a space by character (method kGroups):
 // each character on a context and cache of its own, exactly as if it were alone, so one walking
@@ -58,7 +58,7 @@
 //   PairFilter space = PairFilter::Combine(members, {.pairs_between_members = true}).value();
 //   BroadPhaseContext context(space.size());
 //   each frame: copy each instance's spheres() to all[space.group_begin(g) ...], then
-//   SelfCollisionJob{all, &space, &context, &contacts}.Run();
+//   SelfCollisionJob{all, &space, &context, &sphere pairs}.Run();
 #pragma once
 
 #include <Eigen/Core>
@@ -78,19 +78,19 @@ namespace broad_phase {
 class Frame;  // runtime/src/broad_phase/frame.h
 }  // namespace broad_phase
 
-struct Contact {
-  uint32_t i = 0;          // sphere index, i < j
+struct SpherePair {
+  uint32_t i = 0;  // sphere index, i < j
   uint32_t j = 0;
-  float depth = 0.0f;      // r_i + r_j - |c_i - c_j|, same units as the spheres
-  uint16_t part_i = 0;     // filter.part(i)
-  uint16_t part_j = 0;     // filter.part(j)
+  float depth = 0.0f;   // r_i + r_j - |c_i - c_j|, same units as the spheres
+  uint16_t part_i = 0;  // filter.part(i)
+  uint16_t part_j = 0;  // filter.part(j)
 
-  friend bool operator==(const Contact&, const Contact&) = default;
+  friend bool operator==(const SpherePair&, const SpherePair&) = default;
 };
 
 // Instruction set of the broad-phase kernels. kAuto: the widest the CPU has (x86-64: AVX-512, AVX2,
 // SSE2; elsewhere kPortable). kPortable: plain C++ over arrays of 4 floats, on every platform.
-// Every level, on every platform, gives the same contacts, bit for bit.
+// Every level, on every platform, gives the same sphere pairs, bit for bit.
 enum class BroadPhaseSimd : uint8_t { kAuto, kSse2, kAvx2, kAvx512, kPortable };
 bool BroadPhaseSimdSupported(BroadPhaseSimd level);
 BroadPhaseSimd ResolveBroadPhaseSimd(BroadPhaseSimd level);  // kAuto -> the level it runs
@@ -98,14 +98,14 @@ const char* ToString(BroadPhaseSimd level);
 
 // How the last Run() answered (BroadPhaseContext::last_method()).
 enum class BroadPhaseMethod : uint8_t {
-  kNone,             // no run yet, a refused run, or fewer than 2 spheres
-  kCached,           // the candidate cache held: exact test on its candidates only
-  kAllPairsBuild,    // cache rebuilt by all pairs in index order, then tested
-  kSweepBuild,       // cache rebuilt by sort and sweep in grid columns, then tested
-  kAllPairsDirect,   // no cache fits: all pairs straight into the output
-  kSweepDirect,      // no cache fits: sweep straight into the output, then sorted
-  kGroups,           // a space of several characters: each character's own cache, then the
-                     // pairs between characters whose bounding boxes overlap
+  kNone,            // no run yet, a refused run, or fewer than 2 spheres
+  kCached,          // the candidate cache held: exact test on its candidates only
+  kAllPairsBuild,   // cache rebuilt by all pairs in index order, then tested
+  kSweepBuild,      // cache rebuilt by sort and sweep in grid columns, then tested
+  kAllPairsDirect,  // no cache fits: all pairs straight into the output
+  kSweepDirect,     // no cache fits: sweep straight into the output, then sorted
+  kGroups,          // a space of several characters: each character's own cache, then the
+                    // pairs between characters whose bounding boxes overlap
 };
 const char* ToString(BroadPhaseMethod method);
 
@@ -116,7 +116,7 @@ const char* ToString(BroadPhaseMethod method);
 // exclusions as 64 bytes of sweep bits, 16 bytes per candidate). A space run by character (kGroups) adds, from its
 // first frame, each character's own context and filter (with the default candidate room, about
 // 250 bytes per sphere for a character of up to kAllPairsMax spheres) and 16 bytes per sphere for
-// the contacts between characters.
+// the sphere pairs between characters.
 class BroadPhaseContext {
  public:
   // Sets of up to this many spheres build their cache by all pairs, larger ones by the sweep.
@@ -166,8 +166,8 @@ class BroadPhaseContext {
 struct SelfCollisionJob {
   std::span<const Vec4f> spheres;  // xyz centre, w radius (>= 0); size == filter->size()
   const PairFilter* filter = nullptr;
-  BroadPhaseContext* context = nullptr;      // max_spheres() >= spheres.size()
-  std::vector<Contact>* out = nullptr;       // cleared, then filled, sorted by (i, j)
+  BroadPhaseContext* context = nullptr;         // max_spheres() >= spheres.size()
+  std::vector<SpherePair>* out = nullptr;       // cleared, then filled, sorted by (i, j)
   BroadPhaseSimd simd = BroadPhaseSimd::kAuto;  // refused (Validate) when the CPU lacks it
 
   // Every reason the job is refused: null pointers, sizes, an instruction set the CPU lacks.
@@ -180,17 +180,15 @@ struct SelfCollisionJob {
 
 // Runs jobs[begin, end) one after the other on the calling thread; false if any failed (the
 // others still run). For engines that schedule work themselves.
-bool RunSelfCollisionJobRange(std::span<const SelfCollisionJob> jobs, size_t begin, size_t end);
+bool RunRange(std::span<const SelfCollisionJob> jobs, size_t begin, size_t end);
 
 // Runs every job through parallel_for (parallel_for.h; TBB in the current task arena by default).
 // Every job must have its own context and output. Output is identical to running them one by one.
-bool RunSelfCollisionJobs(std::span<const SelfCollisionJob> jobs,
-                          const ParallelFor& parallel_for = DefaultParallelFor());
+bool RunParallel(std::span<const SelfCollisionJob> jobs, const ParallelFor& parallel_for = DefaultParallelFor());
 
 // The obvious O(n^2) loop over i < j: the test oracle and the benchmark baseline. Same rules and
 // arithmetic as the fast path; out cleared then filled in (i, j) order. False (out cleared) when
 // spheres.size() != filter.size() or a value is not finite or a radius negative.
-bool SelfCollisionAllPairs(std::span<const Vec4f> spheres, const PairFilter& filter,
-                           std::vector<Contact>* out);
+bool SelfCollisionAllPairs(std::span<const Vec4f> spheres, const PairFilter& filter, std::vector<SpherePair>* out);
 
 }  // namespace skinspheres::runtime

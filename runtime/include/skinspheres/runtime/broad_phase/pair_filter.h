@@ -96,11 +96,11 @@ class PairFilter {
   uint64_t id_ = 0;
   bool within_ = true;
   bool between_ = true;
-  std::vector<uint32_t> row_begin_;       // sphere_count_ + 1, or empty for no sphere
-  std::vector<uint32_t> partners_;         // row_begin_.back(), sorted per row
-  std::vector<uint16_t> parts_;            // sphere_count_
-  std::vector<uint32_t> group_;            // sphere_count_, or empty for one group
-  std::vector<uint32_t> group_begin_;      // group_count() + 1, or empty for no sphere
+  std::vector<uint32_t> row_begin_;    // sphere_count_ + 1, or empty for no sphere
+  std::vector<uint32_t> partners_;     // row_begin_.back(), sorted per row
+  std::vector<uint16_t> parts_;        // sphere_count_
+  std::vector<uint32_t> group_;        // sphere_count_, or empty for one group
+  std::vector<uint32_t> group_begin_;  // group_count() + 1, or empty for no sphere
 };
 
 inline bool PairFilter::excluded(uint32_t i, uint32_t j) const {

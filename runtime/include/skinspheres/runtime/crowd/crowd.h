@@ -1,8 +1,8 @@
-// Crowds: Update + Query (+ FindContacts) for many CharacterInstances (api/character.h) at once,
+// Crowds: Update + FindSpherePairs (+ FindContacts) for many CharacterInstances (api/character.h) at once,
 // through a ParallelFor (parallel_for.h: TBB by default, or the engine's job system), or in an
 // engine's own loop (CrowdRange). Takes the instances and one CharacterFrameInput each; gives each
 // instance updated and queried (its status() set) and a FrameStatus for the whole call. Every
-// instance's spheres and contacts are identical to running it alone, serially.
+// instance's spheres and sphere pairs are identical to running it alone, serially.
 //
 // Fast mode on a CPU with AVX-512F: consecutive instances of one asset are refitted, and (an asset
 // of up to 256 spheres) queried, 16 at a time, one per vector lane (runtime/src/crowd/), with the
@@ -26,7 +26,7 @@ struct CharacterFrameInput {
 };
 
 // One instance's step of the crowd calls below, for an engine that writes its own crowd loop:
-// Update(mode, input), then Query(), then, when find_contacts, FindContacts (mode (a) with the
+// Update(mode, input), then FindSpherePairs(), then, when find_contacts, FindContacts (mode (a) with the
 // input's positions in exact mode, mode (b) in fast mode). Without find_contacts the joint
 // matrices are not kept for a later FindContacts without positions (see below). The instance's
 // status() after the step, kOk or why it failed.
@@ -36,10 +36,10 @@ FrameStatus CrowdStep(CharacterInstance& instance, RefitMode mode, const Charact
 // CrowdStep for instances[i] with inputs[i], one after the other on the calling thread, except
 // that consecutive instances of one asset are refitted, and (an asset of up to 256 spheres) queried,
 // together in fast mode: 16 at a time, one per AVX-512 lane, when the CPU has AVX-512F (each gets
-// the spheres and contacts it gets alone, bit for bit; several times faster per instance than one at
+// the spheres and sphere pairs it gets alone, bit for bit; several times faster per instance than one at
 // a time). The batched query tests all the asset's allowed pairs; it resets each instance's
 // candidate cache (BroadPhaseContext::Invalidate), whose motion statistics it does not keep, so a
-// later query alone rebuilds it (and gives exact contacts either way). The batch's spheres go to a
+// later query alone rebuilds it (and gives exact sphere pairs either way). The batch's spheres go to a
 // per-thread buffer (64-byte aligned, room for 256 spheres: 64 KB), allocated by the thread's first
 // batch and kept for its life. What the crowd calls below run on each range their parallel_for
 // hands out; for an engine that runs its own loop, give it ranges of instances ordered by asset, in
@@ -54,25 +54,25 @@ FrameStatus CrowdRange(std::span<CharacterInstance* const> instances, std::span<
 // batch short; 1 otherwise (the narrow phase's work per instance outweighs the batch's gain).
 size_t CrowdBlock(RefitMode mode, bool find_contacts);
 
-// Update(mode, input) then Query() for instances[i] with inputs[i], in parallel (parallel_for over
+// Update(mode, input) then FindSpherePairs() for instances[i] with inputs[i], in parallel (parallel_for over
 // blocks of CrowdBlock instances; each range it hands out runs as CrowdRange, so instances ordered
 // by asset batch). It
 // does not keep the joint matrices for FindContacts mode (b) (a copy of every joint's matrix per
 // instance and frame, a tenth of a 10,000-character crowd's frame): a FindContacts without
-// positions after it is refused until the next Update, UpdateFast or UpdateAndFindContactsCrowd.
+// positions after it is refused until the next Update, UpdateFast or CrowdUpdateAndFindContacts.
 // Returns kInvalidArgument (and runs nothing) when the spans differ in size or an instance pointer
 // is null (listing the same instance twice is a data race the caller
 // must avoid); kInvalidData when at least one instance failed (each instance's
 // status() says why; the others are fully updated); kOk otherwise.
-FrameStatus UpdateAndQueryCrowd(std::span<CharacterInstance* const> instances,
-                                std::span<const CharacterFrameInput> inputs, RefitMode mode,
-                                const ParallelFor& parallel_for = DefaultParallelFor());
+FrameStatus CrowdUpdateAndFindSpherePairs(std::span<CharacterInstance* const> instances,
+                                          std::span<const CharacterFrameInput> inputs, RefitMode mode,
+                                          const ParallelFor& parallel_for = DefaultParallelFor());
 
 // The same, then FindContacts for every instance: mode (a) with the input's skinned positions in
 // exact mode, mode (b) (lazy skinning from the joint matrices) in fast mode. Each instance's
 // narrow phase runs on the thread that updates it. kInvalidData also when an instance's asset has
 // no mesh (its status() says so).
-FrameStatus UpdateAndFindContactsCrowd(std::span<CharacterInstance* const> instances,
+FrameStatus CrowdUpdateAndFindContacts(std::span<CharacterInstance* const> instances,
                                        std::span<const CharacterFrameInput> inputs, RefitMode mode,
                                        const ParallelFor& parallel_for = DefaultParallelFor());
 

@@ -30,15 +30,15 @@
 #include <string>
 #include <vector>
 
-#include "skinspheres/skinning/math_types.h"
 #include "skinspheres/runtime/error.h"
+#include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/skinned_mesh.h"
 
 namespace skinspheres::runtime {
 
 inline constexpr const char* kSphereSetFormat = "skinspheres.sphere_set";
 inline constexpr int kSphereSetVersion = 2;             // written when the set has a mesh
-inline constexpr int kSphereSetVersionWithoutMesh = 1;   // written when it has none; both are read
+inline constexpr int kSphereSetVersionWithoutMesh = 1;  // written when it has none; both are read
 
 enum class ExclusionReason : uint8_t {
   kSameJoint = 0,       // both spheres belong to the same joint
@@ -55,8 +55,8 @@ struct ExcludedPair {
 };
 
 struct SpherePart {
-  std::string name;                // "torso", "head", "arm_l", "arm_r", "leg_l", "leg_r", or chain names
-  std::vector<uint32_t> joints;    // skeleton joint indices
+  std::string name;              // "torso", "head", "arm_l", "arm_r", "leg_l", "leg_r", or chain names
+  std::vector<uint32_t> joints;  // skeleton joint indices
 };
 
 struct SphereSet {
@@ -68,18 +68,18 @@ struct SphereSet {
 
   // The skeleton it was fitted on (for matching an instance's joints, and for fast refit).
   std::vector<std::string> joint_names;
-  std::vector<int32_t> joint_parents;              // -1 for roots, parents[i] < i
-  std::vector<Mat4f> joint_rest_world;   // G_j at rest
+  std::vector<int32_t> joint_parents;   // -1 for roots, parents[i] < i
+  std::vector<Mat4f> joint_rest_world;  // G_j at rest
 
   std::vector<SpherePart> parts;
 
   // Per sphere (all of size size()).
   std::vector<Eigen::Vector3f> centers_rest;
   std::vector<float> radii_rest;
-  std::vector<float> radii_fast;         // >= radii_rest; see the header comment
-  std::vector<uint16_t> sphere_part;     // index into parts
-  std::vector<uint16_t> sphere_joint;    // dominant joint of the owned triangles
-  std::vector<uint16_t> sphere_level;    // disk level within its part (paper §4.3)
+  std::vector<float> radii_fast;       // >= radii_rest; see the header comment
+  std::vector<uint16_t> sphere_part;   // index into parts
+  std::vector<uint16_t> sphere_joint;  // dominant joint of the owned triangles
+  std::vector<uint16_t> sphere_level;  // disk level within its part (paper §4.3)
 
   // CSR lists (offsets have size()+1 entries).
   std::vector<uint32_t> vertex_offsets, vertices;
@@ -108,8 +108,8 @@ struct SphereSet {
   //   rest (G = joint_rest_world) the positions the spheres were fitted on. Rigid meshes hanging
   //   under a joint appear as one bind entry with weight 1 (see skinning/skinned_mesh.h).
   // Every vertex of a triangle a sphere owns is among that sphere's source vertices.
-  skinning::SkinnedMesh mesh;                // vertex_count() == source_vertex_count when present
-  std::vector<uint32_t> triangle_vertices;   // 3 * source_triangle_count when present
+  skinning::SkinnedMesh mesh;               // vertex_count() == source_vertex_count when present
+  std::vector<uint32_t> triangle_vertices;  // 3 * source_triangle_count when present
 
   // True for a set read from a fast-only binary file (sphere_set_binary.h): the per-sphere vertex
   // and triangle lists are empty (offsets all 0) and there is no mesh. Fast refit works; exact

@@ -111,11 +111,34 @@ inline constexpr uint32_t kSphereSetBinaryFlagFastOnly = 1u << 0;
 inline constexpr uint32_t kSphereSetBinaryFlagHasMesh = 1u << 1;
 
 enum class SphereSetSection : uint32_t {
-  kStringOffsets = 1, kStringBytes, kJointParents, kJointRestWorld, kPartJointOffsets, kPartJoints,
-  kCentersRest, kRadiiRest, kRadiiFast, kSpherePart, kSphereJoint, kSphereLevel, kInfluenceOffsets,
-  kInfluenceJoints, kInfluenceWeights, kExcludedPairs, kVertexOffsets, kVertices, kTriangleOffsets,
-  kTriangles, kTriangleVertices, kPositionsBind, kBindJoints, kBindInverse, kMeshInfluenceOffsets,
-  kMeshInfluenceBinds, kMeshInfluenceWeights, kInfluenceReach,
+  kStringOffsets = 1,
+  kStringBytes,
+  kJointParents,
+  kJointRestWorld,
+  kPartJointOffsets,
+  kPartJoints,
+  kCentersRest,
+  kRadiiRest,
+  kRadiiFast,
+  kSpherePart,
+  kSphereJoint,
+  kSphereLevel,
+  kInfluenceOffsets,
+  kInfluenceJoints,
+  kInfluenceWeights,
+  kExcludedPairs,
+  kVertexOffsets,
+  kVertices,
+  kTriangleOffsets,
+  kTriangles,
+  kTriangleVertices,
+  kPositionsBind,
+  kBindJoints,
+  kBindInverse,
+  kMeshInfluenceOffsets,
+  kMeshInfluenceBinds,
+  kMeshInfluenceWeights,
+  kInfluenceReach,
 };
 inline constexpr uint32_t kSphereSetSectionCount = 28;  // ids 1..28
 
@@ -161,7 +184,7 @@ class SphereSetBinaryView {
 
   std::string_view source_file() const { return String(0); }
   std::string_view params_json() const { return String(1); }
-  std::string_view joint_name(size_t j) const { return String(2 + j); }      // j < joint_count()
+  std::string_view joint_name(size_t j) const { return String(2 + j); }                // j < joint_count()
   std::string_view part_name(size_t p) const { return String(2 + joint_count_ + p); }  // p < part_count()
 
   std::span<const int32_t> joint_parents() const { return Get<int32_t>(SphereSetSection::kJointParents); }
@@ -188,8 +211,12 @@ class SphereSetBinaryView {
   std::span<const float> positions_bind() const { return Get<float>(SphereSetSection::kPositionsBind); }
   std::span<const int32_t> bind_joints() const { return Get<int32_t>(SphereSetSection::kBindJoints); }
   std::span<const float> bind_inverse() const { return Get<float>(SphereSetSection::kBindInverse); }
-  std::span<const uint32_t> mesh_influence_offsets() const { return Get<uint32_t>(SphereSetSection::kMeshInfluenceOffsets); }
-  std::span<const uint16_t> mesh_influence_binds() const { return Get<uint16_t>(SphereSetSection::kMeshInfluenceBinds); }
+  std::span<const uint32_t> mesh_influence_offsets() const {
+    return Get<uint32_t>(SphereSetSection::kMeshInfluenceOffsets);
+  }
+  std::span<const uint16_t> mesh_influence_binds() const {
+    return Get<uint16_t>(SphereSetSection::kMeshInfluenceBinds);
+  }
   std::span<const float> mesh_influence_weights() const { return Get<float>(SphereSetSection::kMeshInfluenceWeights); }
   // Empty in a version-1 file and when the set has none.
   std::span<const float> influence_reach() const { return Get<float>(SphereSetSection::kInfluenceReach); }
@@ -199,6 +226,7 @@ class SphereSetBinaryView {
   Result<SphereSet> ToSphereSet() const;
 
  private:
+  friend struct SphereSetBinaryReader;  // sphere_set_binary.cc: Open's steps
   struct Range {
     size_t offset = 0;  // bytes from the start
     size_t count = 0;   // elements

@@ -76,27 +76,32 @@
 // frame so far (FrameContacts::Reserve and NarrowPhaseContext sizes pin them), no exception. The
 // shared NarrowPhaseData holds about what the mesh holds (welded indices, clusters, prepared
 // influences of the spheres' vertices). Mode (b) keeps a skinned-position buffer of 12 bytes per mesh
-// vertex in the context (allocated by Resize(data, true), or by the first mode-(b) run). Output is identical for any ParallelFor and
-// thread count: work is split into a fixed number of chunks of sphere pairs whose results are
-// merged in order, and everything is sorted by indices.
+// vertex in the context (allocated by Resize(data, true), or by the first mode-(b) run). Output is identical for any
+// ParallelFor and thread count: work is split into a fixed number of chunks of sphere pairs whose results are merged in
+// order, and everything is sorted by indices.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <utility>
 #include <vector>
 
+#include "skinspheres/runtime/broad_phase/broad_phase.h"
+#include "skinspheres/runtime/broad_phase/pair_filter.h"
+#include "skinspheres/runtime/error.h"
+#include "skinspheres/runtime/format/sphere_set.h"
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/parallel_for.h"
 #include "skinspheres/skinning/prepared_influences.h"
-#include "skinspheres/runtime/broad_phase/broad_phase.h"
-#include "skinspheres/runtime/error.h"
-#include "skinspheres/runtime/broad_phase/pair_filter.h"
-#include "skinspheres/runtime/format/sphere_set.h"
 
 namespace skinspheres::runtime {
+
+namespace narrow_phase {
+struct Access;  // runtime/src/narrow_phase/internal.h
+}  // namespace narrow_phase
 
 // The largest margin NarrowPhaseData::Create accepts, as a share of the character's rest size (the
 // largest extent of its mesh at rest): beyond it nearly every triangle pair near a joint is within
@@ -115,44 +120,45 @@ struct NarrowPhaseSettings {
 enum class TriangleContactKind : uint8_t { kIntersecting = 0, kWithinMargin = 1 };
 const char* ToString(TriangleContactKind kind);  // "intersecting", "within_margin"
 
-struct TrianglePairContact {
+struct TriangleContact {
   uint32_t t = 0;  // source triangle of the part pair's part_a
   uint32_t u = 0;  // source triangle of part_b (same part: t < u)
   TriangleContactKind kind = TriangleContactKind::kIntersecting;
-  float distance = 0.0f;  // 0 when intersecting, else the closest distance (< margin)
+  float distance = 0.0f;       // 0 when intersecting, else the closest distance (< margin)
   float point[3] = {0, 0, 0};  // representative point: the midpoint of on_t and on_u
   // Intersecting: the two ends of the intersection segment (a coplanar overlap gives its centre
   // twice). Within margin: the closest points, on t and on u.
   float on_t[3] = {0, 0, 0};
   float on_u[3] = {0, 0, 0};
-  friend bool operator==(const TrianglePairContact&, const TrianglePairContact&) = default;
+  friend bool operator==(const TriangleContact&, const TriangleContact&) = default;
 };
 
-struct SpherePair {
+// A sphere pair by its indices alone (broad_phase.h's SpherePair also carries the depth and parts).
+struct SpherePairId {
   uint32_t i = 0;  // i < j, sphere indices
   uint32_t j = 0;
-  friend bool operator==(const SpherePair&, const SpherePair&) = default;
+  friend bool operator==(const SpherePairId&, const SpherePairId&) = default;
 };
 
 struct PartContact {
   uint16_t part_a = 0;  // part_a <= part_b, SphereSet::parts indices
   uint16_t part_b = 0;
-  uint32_t first_sphere_pair = 0;    // FrameContacts::sphere_pairs[first, first + count)
+  uint32_t first_sphere_pair = 0;  // FrameContacts::sphere_pairs[first, first + count)
   uint32_t sphere_pair_count = 0;
   uint32_t first_triangle_pair = 0;  // FrameContacts::triangle_pairs[first, first + count)
   uint32_t triangle_pair_count = 0;
-  uint32_t intersecting_count = 0;   // how many of those are kIntersecting
-  float depth = 0.0f;                // penetration depth estimate (header comment); 0 without intersections
-  float min_distance = 0.0f;         // 0 with intersections, else the smallest within-margin distance
-  float normal[3] = {0, 0, 0};       // contact normal, from part_b towards part_a (0 without intersections)
-  float center[3] = {0, 0, 0};       // contact centre C (with intersections), else the closest pair's point
+  uint32_t intersecting_count = 0;  // how many of those are kIntersecting
+  float depth = 0.0f;               // penetration depth estimate (header comment); 0 without intersections
+  float min_distance = 0.0f;        // 0 with intersections, else the smallest within-margin distance
+  float normal[3] = {0, 0, 0};      // contact normal, from part_b towards part_a (0 without intersections)
+  float center[3] = {0, 0, 0};      // contact centre C (with intersections), else the closest pair's point
   friend bool operator==(const PartContact&, const PartContact&) = default;
 };
 
 struct FrameContacts {
   std::vector<PartContact> parts;
-  std::vector<SpherePair> sphere_pairs;
-  std::vector<TrianglePairContact> triangle_pairs;
+  std::vector<SpherePairId> sphere_pairs;
+  std::vector<TriangleContact> triangle_pairs;
 
   void clear() {
     parts.clear();
@@ -170,79 +176,69 @@ struct FrameContacts {
 // exclusions, the spheres' neighbours for the depth estimate.
 class NarrowPhaseData {
  public:
-  NarrowPhaseData() = default;  // empty: usable with no set
+  NarrowPhaseData();  // empty: usable with no set
+  ~NarrowPhaseData();
+  NarrowPhaseData(const NarrowPhaseData& other);
+  NarrowPhaseData& operator=(const NarrowPhaseData& other);
+  NarrowPhaseData(NarrowPhaseData&&) noexcept;
+  NarrowPhaseData& operator=(NarrowPhaseData&&) noexcept;
 
   // Needs set.has_mesh() (else kVersionMismatch naming the set's file) and a filter built from the
   // set (same sphere count, else kInvalidArgument). The set must pass SphereSet::Validate().
   static Result<NarrowPhaseData> Create(const SphereSet& set, const PairFilter& filter,
                                         const NarrowPhaseSettings& settings = {});
 
-  const NarrowPhaseSettings& settings() const { return settings_; }
-  float margin() const { return settings_.margin; }
-  size_t sphere_count() const { return sphere_vertex_offsets_.empty() ? 0 : sphere_vertex_offsets_.size() - 1; }
-  size_t triangle_count() const { return welded_.size() / 3; }
-  size_t vertex_count() const { return rest_positions_.size(); }
-  size_t max_sphere_triangles() const { return max_sphere_triangles_; }
-  size_t max_sphere_clusters() const { return max_sphere_clusters_; }
+  const NarrowPhaseSettings& settings() const;
+  float margin() const;
+  size_t sphere_count() const;
+  size_t triangle_count() const;
+  size_t vertex_count() const;
+  size_t max_sphere_triangles() const;
+  size_t max_sphere_clusters() const;
 
   // Rule 2: canonical vertex ids (the first vertex with the same rest position), 3 per triangle.
-  std::span<const uint32_t> welded_triangle_vertices() const { return welded_; }
+  std::span<const uint32_t> welded_triangle_vertices() const;
   bool ShareVertex(uint32_t t, uint32_t u) const;
   // Rule 3: sorted (t << 32 | u) keys, t < u, of the triangle pairs that intersect or lie within the
   // margin at rest (among sphere pairs the filter does not exclude).
-  std::span<const uint64_t> rest_excluded_pairs() const { return rest_excluded_; }
+  std::span<const uint64_t> rest_excluded_pairs() const;
   bool RestExcluded(uint32_t t, uint32_t u) const;
   // Per sphere, the distinct vertices of the triangles it owns (CSR: offsets has sphere_count + 1).
-  std::span<const uint32_t> sphere_vertex_offsets() const { return sphere_vertex_offsets_; }
-  std::span<const uint32_t> sphere_vertices() const { return sphere_vertices_; }
+  std::span<const uint32_t> sphere_vertex_offsets() const;
+  std::span<const uint32_t> sphere_vertices() const;
   // Per sphere, its neighbours of the same part (overlapping or sharing a vertex at rest), CSR.
-  std::span<const uint32_t> neighbour_offsets() const { return neighbour_offsets_; }
-  std::span<const uint32_t> neighbours() const { return neighbours_; }
+  std::span<const uint32_t> neighbour_offsets() const;
+  std::span<const uint32_t> neighbours() const;
   // The rest-pose positions (mesh skinned with the rest transforms), per source vertex.
-  std::span<const Eigen::Vector3f> rest_positions() const { return rest_positions_; }
-  size_t cluster_count() const { return cluster_vertex_offsets_.empty() ? 0 : cluster_vertex_offsets_.size() - 1; }
+  std::span<const Eigen::Vector3f> rest_positions() const;
+  size_t cluster_count() const;
   // Mode (b): vertex groups (the vertices used by the same spheres), CSR per sphere. The groups'
   // lists are the layout's description (tests, benchmarks); a frame reads the run bitsets below.
-  size_t group_count() const { return group_run_offsets_.empty() ? 0 : group_run_offsets_.size() - 1; }
-  std::span<const uint32_t> sphere_group_offsets() const { return sphere_group_offsets_; }
-  std::span<const uint32_t> sphere_groups() const { return sphere_groups_; }
+  size_t group_count() const;
+  std::span<const uint32_t> sphere_group_offsets() const;
+  std::span<const uint32_t> sphere_groups() const;
   // Every vertex of a sphere, once, as prepared influences: slots by influence count, then by group.
-  const skinning::PreparedInfluences& lazy_influences() const { return lazy_influences_; }
+  const skinning::PreparedInfluences& lazy_influences() const;
   // Runs: run r is slots [run_begin()[r], run_begin()[r + 1]) of lazy_influences(), all of one
   // group; the runs tile the slots in order. Group g owns runs group_runs()[group_run_offsets()[g] ..).
-  size_t run_count() const { return run_begin_.empty() ? 0 : run_begin_.size() - 1; }
-  std::span<const uint32_t> run_begin() const { return run_begin_; }
-  std::span<const uint32_t> group_run_offsets() const { return group_run_offsets_; }
-  std::span<const uint32_t> group_runs() const { return group_runs_; }
-  std::span<const uint32_t> group_sizes() const { return group_sizes_; }  // vertices per group
+  size_t run_count() const;
+  std::span<const uint32_t> run_begin() const;
+  std::span<const uint32_t> group_run_offsets() const;
+  std::span<const uint32_t> group_runs() const;
+  std::span<const uint32_t> group_sizes() const;  // vertices per group
   // The same per sphere, as a bitset over runs (bit r of word r / 64): sphere s's runs are the bits
   // sphere_run_bits()[k] of words sphere_run_words()[k], k in [sphere_run_offsets()[s],
   // sphere_run_offsets()[s + 1]), words ascending, no zero mask (what a frame ORs in per sphere).
-  std::span<const uint32_t> sphere_run_offsets() const { return sphere_run_offsets_; }
-  std::span<const uint32_t> sphere_run_words() const { return sphere_run_words_; }
-  std::span<const uint64_t> sphere_run_bits() const { return sphere_run_bits_; }
+  std::span<const uint32_t> sphere_run_offsets() const;
+  std::span<const uint32_t> sphere_run_words() const;
+  std::span<const uint64_t> sphere_run_bits() const;
+
+  // Opaque: defined in runtime/src/narrow_phase/internal.h.
+  struct Layout;
 
  private:
-  friend struct NarrowPhaseAccess;
-  NarrowPhaseSettings settings_;
-  size_t max_sphere_triangles_ = 0;
-  size_t max_sphere_clusters_ = 0;
-  // Clusters: sphere s has clusters [cluster_offsets_[s], cluster_offsets_[s + 1]); cluster c has
-  // triangles cluster_triangles_[cluster_triangle_offsets_[c] ..), and vertices likewise.
-  std::vector<uint32_t> cluster_offsets_;
-  std::vector<uint32_t> cluster_triangle_offsets_, cluster_triangles_;
-  std::vector<uint32_t> cluster_vertex_offsets_, cluster_vertices_;
-  // Mode (b): see the accessors.
-  skinning::PreparedInfluences lazy_influences_;
-  std::vector<uint32_t> run_begin_, group_run_offsets_, group_runs_, group_sizes_;
-  std::vector<uint32_t> sphere_group_offsets_, sphere_groups_;
-  std::vector<uint32_t> sphere_run_offsets_, sphere_run_words_;
-  std::vector<uint64_t> sphere_run_bits_;
-  std::vector<uint32_t> welded_;
-  std::vector<uint64_t> rest_excluded_;
-  std::vector<uint32_t> sphere_vertex_offsets_, sphere_vertices_;
-  std::vector<uint32_t> neighbour_offsets_, neighbours_;
-  std::vector<Eigen::Vector3f> rest_positions_;
+  friend struct narrow_phase::Access;
+  std::unique_ptr<Layout> layout_;
 };
 
 // Per-character scratch (one per instance running concurrently; never share between jobs running at
@@ -253,84 +249,52 @@ class NarrowPhaseContext {
   // the output, do not depend on the thread count).
   static constexpr size_t kChunks = 16;
 
-  NarrowPhaseContext() = default;
+  NarrowPhaseContext();
+  ~NarrowPhaseContext();
+  NarrowPhaseContext(const NarrowPhaseContext& other);  // a copy of its scratch
+  NarrowPhaseContext& operator=(const NarrowPhaseContext& other);
+  NarrowPhaseContext(NarrowPhaseContext&&) noexcept;
+  NarrowPhaseContext& operator=(NarrowPhaseContext&&) noexcept;
   // Set-up only (allocates). lazy_skinning: also the mode-(b) buffers (skinned positions, marks).
   void Resize(const NarrowPhaseData& data, bool lazy_skinning);
-  bool sized_for(const NarrowPhaseData& data) const { return sized_for_ == &data; }
-  bool has_lazy_skinning() const { return !run_done_.empty() || skinned_.size() > 0; }
+  bool sized_for(const NarrowPhaseData& data) const;
+  bool has_lazy_skinning() const;
 
   struct Stats {
-    size_t sphere_pairs = 0;         // pairs examined
-    size_t clusters_bounded = 0;     // clusters of the spheres in pairs, boxed this frame
-    size_t cluster_pairs = 0;        // cluster pairs compared (clusters that reached into the other sphere)
-    size_t culled_triangles = 0;     // triangles that reached the other cluster's box (both sides)
-    size_t box_tests = 0;            // triangle box pairs compared
-    size_t triangle_tests = 0;       // exact triangle-triangle tests run
-    size_t skinned_vertices = 0;     // mode (b): vertices skinned this frame
-    size_t depth_vertices = 0;       // vertices examined by the depth estimate
+    size_t sphere_pairs = 0;      // pairs examined
+    size_t clusters_bounded = 0;  // clusters of the spheres in pairs, boxed this frame
+    size_t cluster_pairs = 0;     // cluster pairs compared (clusters that reached into the other sphere)
+    size_t culled_triangles = 0;  // triangles that reached the other cluster's box (both sides)
+    size_t box_tests = 0;         // triangle box pairs compared
+    size_t triangle_tests = 0;    // exact triangle-triangle tests run
+    size_t skinned_vertices = 0;  // mode (b): vertices skinned this frame
+    size_t depth_vertices = 0;    // vertices examined by the depth estimate
   };
-  const Stats& last_stats() const { return stats_; }
+  const Stats& last_stats() const;
   // Mode (b), diagnostics: the positions the last run skinned, by source vertex (empty before the
   // first mode-(b) run). Current only for the vertices of the spheres it skinned: those in its pairs
   // and those the depth estimate visited; the others hold earlier frames' values.
-  std::span<const Eigen::Vector3f> lazy_positions() const { return skinned_; }
+  std::span<const Eigen::Vector3f> lazy_positions() const;
+
+  // Opaque: defined in runtime/src/narrow_phase/internal.h.
+  struct State;
 
  private:
-  friend struct NarrowPhaseJob;
-  friend struct NarrowPhaseAccess;
-
-  struct Box {
-    float lo[3], hi[3];
-    uint32_t id;  // triangle or cluster
-  };
-  struct Hit {
-    uint32_t i, j;  // sphere pair
-    uint32_t t, u;  // t owned by i, u by j
-    TriangleContactKind kind;
-    float distance;
-    float on_t[3], on_u[3];
-  };
-  struct Chunk {
-    std::vector<Box> a, b;         // a cluster's triangles (cluster_triangles each)
-    std::vector<uint32_t> ka, kb;  // a sphere's clusters (max_sphere_clusters each)
-    std::vector<Hit> hits;
-    Stats stats;
-    bool ok = true;
-  };
-
-  const NarrowPhaseData* sized_for_ = nullptr;
-  Chunk chunks_[kChunks];
-  std::vector<Hit> merged_;
-  std::vector<uint64_t> keys_;             // scratch for sorting sphere pairs
-  std::vector<uint32_t> sphere_mark_;      // per sphere: the depth estimate's visits
-  std::vector<uint32_t> queue_;            // per sphere
-  uint32_t sphere_stamp_ = 0;
-  std::vector<uint32_t> sphere_seen_;      // per sphere: frame stamp when listed in involved_ or skinned on demand
-  std::vector<uint32_t> involved_;         // the spheres in this frame's pairs
-  std::vector<Box> cluster_box_;           // per cluster: this frame's box
-  std::vector<Box> sphere_box_;            // per sphere: the union of its clusters' boxes
-  uint32_t frame_stamp_ = 0;
-  // Mode (b).
-  std::vector<Eigen::Vector3f> skinned_;   // per vertex
-  std::vector<uint64_t> run_bits_;         // per run, one bit: marked, not yet skinned
-  std::vector<uint64_t> run_done_;         // per run, one bit: skinned this frame
-  size_t marked_begin_ = 0, marked_end_ = 0;  // words of run_bits_ that may be non-zero (begin >= end: none)
-  std::vector<std::pair<uint32_t, uint32_t>> spans_;  // slot spans to skin (<= runs + slots / block + 1)
-  std::vector<Mat4f> bind_matrices_;       // per bind entry
-  Stats stats_;
+  friend struct narrow_phase::Access;
+  std::unique_ptr<State> state_;
 };
 
 struct NarrowPhaseJob {
-  const SphereSet* set = nullptr;            // has_mesh()
-  const NarrowPhaseData* data = nullptr;     // built from *set
-  std::span<const Vec4f> spheres;            // the refitted spheres the pairs came from, set->size()
-  std::span<const Contact> pairs;            // the broad phase's pairs (i < j < set->size())
+  const SphereSet* set = nullptr;         // has_mesh()
+  const NarrowPhaseData* data = nullptr;  // built from *set
+  std::span<const Vec4f> spheres;         // the refitted spheres the pairs came from, set->size()
+  std::span<const SpherePair> pairs;      // the broad phase's pairs (i < j < set->size())
   // (a) skinned positions by source vertex (>= set->source_vertex_count), or, when empty,
   // (b) G_j(t) per skeleton joint (>= set->joint_count()): the job skins what it tests.
   std::span<const Eigen::Vector3f> positions;
   std::span<const Mat4f> joint_world;
-  NarrowPhaseContext* context = nullptr;     // Resize(*data, ...) done
-  FrameContacts* out = nullptr;              // cleared, then filled
+  NarrowPhaseContext* context = nullptr;  // Resize(*data, ...) done
+  FrameContacts* out = nullptr;           // cleared, then filled
 
   // Every reason the job is refused: null pointers, sizes, a context sized for other data, no
   // positions and no joint matrices. O(1).

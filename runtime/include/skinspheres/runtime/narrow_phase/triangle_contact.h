@@ -48,8 +48,8 @@ Eigen::Vector3d ClosestPointOnTriangle(const Eigen::Vector3d& p, const Eigen::Ve
                                        const Eigen::Vector3d& c);
 
 struct TriangleContactGeometry {
-  bool intersecting = false;      // TrianglesIntersect
-  float distance = 0.0f;          // 0 when intersecting; else the smallest distance between the triangles
+  bool intersecting = false;  // TrianglesIntersect
+  float distance = 0.0f;      // 0 when intersecting; else the smallest distance between the triangles
   // Intersecting: the two ends of the intersection segment (for coplanar overlap, both are the centroid
   // of the overlap polygon's corners). Otherwise: the closest points, on a and on b.
   Eigen::Vector3f on_a = Eigen::Vector3f::Zero();

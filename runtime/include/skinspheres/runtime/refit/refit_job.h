@@ -69,7 +69,7 @@
 // Jobs: spans in, spans out; Validate() is O(1) (sizes and pointers; the
 // SphereSet's indices were checked when RefitRestData was built from it); Run()/RunRange() never
 // allocate nor throw; RunRange(begin, end) refits spheres [begin, end), each sphere computed by the
-// same instructions whatever the split, so RefitParallel (any ParallelFor) gives bit-identical
+// same instructions whatever the split, so RunParallel (any ParallelFor) gives bit-identical
 // output for any thread count. Non-finite input (NaN/Inf joint matrices or positions) makes
 // Run() return false; the spheres it touched then hold unspecified (possibly NaN) values.
 #pragma once
@@ -80,10 +80,10 @@
 #include <span>
 #include <vector>
 
-#include "skinspheres/skinning/math_types.h"
-#include "skinspheres/skinning/parallel_for.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/runtime/format/sphere_set.h"
+#include "skinspheres/skinning/math_types.h"
+#include "skinspheres/skinning/parallel_for.h"
 
 namespace skinspheres::runtime {
 
@@ -133,29 +133,28 @@ class RefitRestData {
 
 struct RefitJob {
   RefitMode mode = RefitMode::kFast;
-  const SphereSet* spheres = nullptr;     // the fitted set; must pass SphereSet::Validate()
-                                          // (RefitRestData::Create and CharacterAsset check it)
-  const RefitRestData* rest = nullptr;    // built from *spheres; required unless exact mode
-                                          // without joint_world
-  // G_j(t) per skeleton joint, >= spheres->joint_count(). Required in fast mode; optional in exact
+  const SphereSet* set = nullptr;       // the fitted set; must pass SphereSet::Validate()
+                                        // (RefitRestData::Create and CharacterAsset check it)
+  const RefitRestData* rest = nullptr;  // built from *set; required unless exact mode
+                                        // without joint_world
+  // G_j(t) per skeleton joint, >= set->joint_count(). Required in fast mode; optional in exact
   // mode (empty: box-centre fallback). Affine; the last row is ignored.
   std::span<const Mat4f> joint_world;
-  // Exact mode: skinned positions indexed by source vertex, >= spheres->source_vertex_count.
+  // Exact mode: skinned positions indexed by source vertex, >= set->source_vertex_count.
   // Only the spheres' source vertices are read. Ignored (may be empty) in fast mode.
   std::span<const Eigen::Vector3f> positions;
-  std::span<Vec4f> out;         // >= spheres->size(): xyz centre, w radius
+  std::span<Vec4f> out;  // >= set->size(): xyz centre, w radius
 
   // Every reason the job is refused: null pointers, short spans, rest data from another set,
   // exact mode on a fast-only set (SphereSet::fast_only: no vertex lists).
   bool Validate() const;
   // Validates, refits every sphere. False on a refused job or non-finite input / output.
   bool Run() const;
-  // Validates, refits spheres [begin, end) (end <= spheres->size(), begin <= end).
+  // Validates, refits spheres [begin, end) (end <= set->size(), begin <= end).
   bool RunRange(size_t begin, size_t end) const;
+  // Validates once, then refits [0, size) through parallel_for (parallel_for.h; TBB by default) in
+  // chunks of >= grain spheres. Output bit-identical to Run().
+  bool RunParallel(const ParallelFor& parallel_for = DefaultParallelFor(), size_t grain = 32) const;
 };
-
-// Validates once, then refits [0, size) through parallel_for (parallel_for.h; TBB by default) in
-// chunks of >= grain spheres. Output bit-identical to Run().
-bool RefitParallel(const RefitJob& job, size_t grain = 32, const ParallelFor& parallel_for = DefaultParallelFor());
 
 }  // namespace skinspheres::runtime

@@ -1,0 +1,273 @@
+// The narrow phase's job (narrow_phase.h): a frame's steps in order (internal.h lists them and
+// their files), the context and the data's accessors, and the brute-force oracle's entry point.
+#include <algorithm>
+#include <atomic>
+#include <cstring>
+#include <optional>
+
+#include "narrow_phase/depth.h"
+#include "narrow_phase/internal.h"
+#include "narrow_phase/lazy_skinning.h"
+#include "skinspheres/runtime/narrow_phase/narrow_phase.h"
+#include "skinspheres/skinning/skinning_matrices_job.h"
+
+namespace skinspheres::runtime {
+
+using namespace narrow_phase;
+
+const char* ToString(TriangleContactKind kind) {
+  switch (kind) {
+    case TriangleContactKind::kIntersecting: return "intersecting";
+    case TriangleContactKind::kWithinMargin: return "within_margin";
+  }
+  return "unknown";
+}
+
+void FrameContacts::Reserve(size_t triangle_pairs_capacity) {
+  parts.reserve(triangle_pairs_capacity);
+  sphere_pairs.reserve(triangle_pairs_capacity);
+  triangle_pairs.reserve(triangle_pairs_capacity);
+}
+
+bool NarrowPhaseData::ShareVertex(uint32_t t, uint32_t u) const {
+  const uint32_t* a = &layout_->welded[3 * size_t{t}];
+  const uint32_t* b = &layout_->welded[3 * size_t{u}];
+  for (int k = 0; k < 3; ++k) {
+    if (a[k] == b[0] || a[k] == b[1] || a[k] == b[2]) return true;
+  }
+  return false;
+}
+
+bool NarrowPhaseData::RestExcluded(uint32_t t, uint32_t u) const {
+  if (t > u) std::swap(t, u);
+  const uint64_t key = (uint64_t{t} << 32) | u;
+  return std::binary_search(layout_->rest_excluded.begin(), layout_->rest_excluded.end(), key);
+}
+
+// The internals shared by set-up, the job and the oracle.
+
+NarrowPhaseData::NarrowPhaseData() : layout_(std::make_unique<Layout>()) {}
+NarrowPhaseData::~NarrowPhaseData() = default;
+NarrowPhaseData::NarrowPhaseData(const NarrowPhaseData& other)
+    : layout_(std::make_unique<Layout>(other.layout_ ? *other.layout_ : Layout{})) {}
+NarrowPhaseData& NarrowPhaseData::operator=(const NarrowPhaseData& other) {
+  if (this != &other) layout_ = std::make_unique<Layout>(other.layout_ ? *other.layout_ : Layout{});
+  return *this;
+}
+NarrowPhaseData::NarrowPhaseData(NarrowPhaseData&&) noexcept = default;
+NarrowPhaseData& NarrowPhaseData::operator=(NarrowPhaseData&&) noexcept = default;
+
+const NarrowPhaseSettings& NarrowPhaseData::settings() const { return layout_->settings; }
+float NarrowPhaseData::margin() const { return layout_->settings.margin; }
+size_t NarrowPhaseData::sphere_count() const {
+  return layout_->sphere_vertex_offsets.empty() ? 0 : layout_->sphere_vertex_offsets.size() - 1;
+}
+size_t NarrowPhaseData::triangle_count() const { return layout_->welded.size() / 3; }
+size_t NarrowPhaseData::vertex_count() const { return layout_->rest_positions.size(); }
+size_t NarrowPhaseData::max_sphere_triangles() const { return layout_->max_sphere_triangles; }
+size_t NarrowPhaseData::max_sphere_clusters() const { return layout_->max_sphere_clusters; }
+std::span<const uint32_t> NarrowPhaseData::welded_triangle_vertices() const { return layout_->welded; }
+std::span<const uint64_t> NarrowPhaseData::rest_excluded_pairs() const { return layout_->rest_excluded; }
+std::span<const uint32_t> NarrowPhaseData::sphere_vertex_offsets() const { return layout_->sphere_vertex_offsets; }
+std::span<const uint32_t> NarrowPhaseData::sphere_vertices() const { return layout_->sphere_vertices; }
+std::span<const uint32_t> NarrowPhaseData::neighbour_offsets() const { return layout_->neighbour_offsets; }
+std::span<const uint32_t> NarrowPhaseData::neighbours() const { return layout_->neighbours; }
+std::span<const Eigen::Vector3f> NarrowPhaseData::rest_positions() const { return layout_->rest_positions; }
+size_t NarrowPhaseData::cluster_count() const {
+  return layout_->cluster_vertex_offsets.empty() ? 0 : layout_->cluster_vertex_offsets.size() - 1;
+}
+size_t NarrowPhaseData::group_count() const {
+  return layout_->group_run_offsets.empty() ? 0 : layout_->group_run_offsets.size() - 1;
+}
+std::span<const uint32_t> NarrowPhaseData::sphere_group_offsets() const { return layout_->sphere_group_offsets; }
+std::span<const uint32_t> NarrowPhaseData::sphere_groups() const { return layout_->sphere_groups; }
+const skinning::PreparedInfluences& NarrowPhaseData::lazy_influences() const { return layout_->lazy_influences; }
+size_t NarrowPhaseData::run_count() const { return layout_->run_begin.empty() ? 0 : layout_->run_begin.size() - 1; }
+std::span<const uint32_t> NarrowPhaseData::run_begin() const { return layout_->run_begin; }
+std::span<const uint32_t> NarrowPhaseData::group_run_offsets() const { return layout_->group_run_offsets; }
+std::span<const uint32_t> NarrowPhaseData::group_runs() const { return layout_->group_runs; }
+std::span<const uint32_t> NarrowPhaseData::group_sizes() const { return layout_->group_sizes; }
+std::span<const uint32_t> NarrowPhaseData::sphere_run_offsets() const { return layout_->sphere_run_offsets; }
+std::span<const uint32_t> NarrowPhaseData::sphere_run_words() const { return layout_->sphere_run_words; }
+std::span<const uint64_t> NarrowPhaseData::sphere_run_bits() const { return layout_->sphere_run_bits; }
+
+NarrowPhaseContext::NarrowPhaseContext() : state_(std::make_unique<State>()) {}
+NarrowPhaseContext::~NarrowPhaseContext() = default;
+NarrowPhaseContext::NarrowPhaseContext(const NarrowPhaseContext& other)
+    : state_(std::make_unique<State>(other.state_ ? *other.state_ : State{})) {}
+NarrowPhaseContext& NarrowPhaseContext::operator=(const NarrowPhaseContext& other) {
+  if (this != &other) state_ = std::make_unique<State>(other.state_ ? *other.state_ : State{});
+  return *this;
+}
+NarrowPhaseContext::NarrowPhaseContext(NarrowPhaseContext&&) noexcept = default;
+NarrowPhaseContext& NarrowPhaseContext::operator=(NarrowPhaseContext&&) noexcept = default;
+
+bool NarrowPhaseContext::sized_for(const NarrowPhaseData& data) const { return state_->sized_for == &data; }
+bool NarrowPhaseContext::has_lazy_skinning() const { return !state_->run_done.empty() || state_->skinned.size() > 0; }
+const NarrowPhaseContext::Stats& NarrowPhaseContext::last_stats() const { return state_->stats; }
+std::span<const Eigen::Vector3f> NarrowPhaseContext::lazy_positions() const { return state_->skinned; }
+
+// ------------------------------------------------------------------------------- set-up
+
+void NarrowPhaseContext::Resize(const NarrowPhaseData& data, bool lazy_skinning) {
+  State& st = *state_;
+  st.sized_for = &data;
+  for (narrow_phase::Chunk& c : st.chunks) {
+    c.a.assign(data.settings().cluster_triangles, narrow_phase::Box{});
+    c.b.assign(data.settings().cluster_triangles, narrow_phase::Box{});
+    c.ka.assign(data.max_sphere_clusters(), 0);
+    c.kb.assign(data.max_sphere_clusters(), 0);
+    c.hits.reserve(256);
+  }
+  st.merged.reserve(256 * kChunks);
+  st.keys.reserve(256);
+  st.sphere_mark.assign(data.sphere_count(), 0);
+  st.queue.assign(data.sphere_count(), 0);
+  st.sphere_stamp = 0;
+  st.sphere_seen.assign(data.sphere_count(), 0);
+  st.involved.reserve(data.sphere_count());
+  st.cluster_box.assign(data.cluster_count(), narrow_phase::Box{});
+  st.sphere_box.assign(data.sphere_count(), narrow_phase::Box{});
+  st.frame_stamp = 0;
+  if (lazy_skinning) {
+    st.skinned.assign(data.vertex_count(), Eigen::Vector3f::Zero());
+    st.run_bits.assign((data.run_count() + 63) / 64, 0);
+    st.run_done.assign(st.run_bits.size(), 0);
+    st.marked_begin = st.run_bits.size();
+    st.marked_end = 0;
+    st.spans.reserve(data.run_count() + data.lazy_influences().size() / narrow_phase::LazySkinner::kBlock + 1);
+  } else {
+    st.skinned.clear();
+    st.skinned.shrink_to_fit();
+    st.run_bits.clear();
+    st.run_bits.shrink_to_fit();
+    st.run_done.clear();
+    st.run_done.shrink_to_fit();
+    st.spans.clear();
+    st.spans.shrink_to_fit();
+  }
+}
+
+// ------------------------------------------------------------------------------- per frame
+
+bool NarrowPhaseJob::Validate() const {
+  if (set == nullptr || data == nullptr || context == nullptr || out == nullptr) return false;
+  if (!set->has_mesh() || data->sphere_count() != set->size() || data->triangle_count() != set->source_triangle_count ||
+      data->vertex_count() != set->source_vertex_count) {
+    return false;
+  }
+  if (spheres.size() != set->size() || !context->sized_for(*data)) return false;
+  if (!positions.empty()) return positions.size() >= set->source_vertex_count;
+  return joint_world.size() >= set->joint_count() && !joint_world.empty();
+}
+
+bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
+  if (out != nullptr) out->clear();
+  if (!Validate()) return false;
+  NarrowPhaseContext& ctx = *context;
+  Of(ctx).stats = {};
+  const size_t n = set->size();
+  for (const SpherePair& p : pairs) {
+    if (p.i >= p.j || p.j >= n) return false;
+  }
+  const bool lazy = positions.empty();
+  if (lazy && !ctx.has_lazy_skinning()) ctx.Resize(*data, true);  // first mode-(b) run: warm-up allocation
+  if (++Of(ctx).frame_stamp == 0) {
+    std::fill(Of(ctx).sphere_seen.begin(), Of(ctx).sphere_seen.end(), 0u);
+    Of(ctx).frame_stamp = 1;
+  }
+  Involved(pairs, ctx);
+  Frame frame{*set,
+              *data,
+              positions.data(),
+              data->margin(),
+              /*rest_rule=*/true,
+              Of(ctx).cluster_box.data(),
+              Of(ctx).sphere_box.data()};
+  // Positions: the caller's (mode a), or skinned here, the involved spheres' vertices only (mode b).
+  std::optional<LazySkinner> skinner;
+  if (lazy) {
+    Of(ctx).bind_matrices.resize(set->mesh.binds.size());
+    if (!skinning::SkinningMatricesJob{set->mesh.binds, joint_world.first(set->joint_count()), Of(ctx).bind_matrices}
+             .Run()) {
+      return false;
+    }
+    std::fill(Of(ctx).run_done.begin(), Of(ctx).run_done.end(), uint64_t{0});
+    skinner.emplace(LazySkinner{*set, *data, ctx, Of(ctx).bind_matrices});
+    for (uint32_t s : Of(ctx).involved) skinner->Collect(s);
+    // Non-finite positions are caught by PrepareClusters, which boxes every vertex skinned here.
+    if (!skinner->Skin(parallel_for)) return false;
+    frame.pos = Of(ctx).skinned.data();
+  }
+  if (!PrepareClusters(frame, ctx, parallel_for)) return false;
+  const size_t chunks = std::min(pairs.size(), NarrowPhaseContext::kChunks);
+  for (size_t c = 0; c < chunks; ++c) {
+    Of(ctx).chunks[c].hits.clear();
+    Of(ctx).chunks[c].stats = {};
+    Of(ctx).chunks[c].ok = true;
+  }
+  parallel_for(chunks, 1, [&](size_t begin, size_t end) {
+    for (size_t c = begin; c < end; ++c) {
+      Chunk& chunk = Of(ctx).chunks[c];
+      const size_t first = c * pairs.size() / chunks, last = (c + 1) * pairs.size() / chunks;
+      for (size_t k = first; k < last; ++k) {
+        const SpherePair& p = pairs[k];
+        chunk.ok &= TestPair(frame, p.i, p.j, spheres[p.i], spheres[p.j], chunk);
+      }
+    }
+  });
+  bool ok = true;
+  Of(ctx).merged.clear();
+  for (size_t c = 0; c < chunks; ++c) {
+    const Chunk& chunk = Of(ctx).chunks[c];
+    ok &= chunk.ok;
+    Of(ctx).merged.insert(Of(ctx).merged.end(), chunk.hits.begin(), chunk.hits.end());
+    Of(ctx).stats.sphere_pairs += chunk.stats.sphere_pairs;
+    Of(ctx).stats.cluster_pairs += chunk.stats.cluster_pairs;
+    Of(ctx).stats.culled_triangles += chunk.stats.culled_triangles;
+    Of(ctx).stats.box_tests += chunk.stats.box_tests;
+    Of(ctx).stats.triangle_tests += chunk.stats.triangle_tests;
+  }
+  if (!ok) {
+    out->clear();
+    return false;
+  }
+  Merge(*set, Of(ctx).merged, Of(ctx).keys, out);
+  DepthScratch scratch{Of(ctx).sphere_mark, Of(ctx).queue, Of(ctx).sphere_stamp};
+  if (lazy) {
+    Depths(frame, Of(ctx).merged, *skinner, scratch, out);
+    if (!skinner->ok) {
+      out->clear();
+      return false;
+    }
+  } else {
+    Depths(frame, Of(ctx).merged, NoSkinning{}, scratch, out);
+  }
+  Of(ctx).stats.depth_vertices = scratch.vertices;
+  return true;
+}
+
+bool NarrowPhaseJob::Run() const { return RunParallel(SerialFor()); }
+
+bool FindContactsBruteForce(const SphereSet& set, const NarrowPhaseData& data, const PairFilter& filter,
+                            std::span<const Eigen::Vector3f> positions, FrameContacts* out) {
+  if (out == nullptr) return false;
+  out->clear();
+  if (!set.has_mesh() || data.sphere_count() != set.size() || data.triangle_count() != set.source_triangle_count ||
+      data.vertex_count() != set.source_vertex_count || filter.size() != set.size() ||
+      positions.size() < set.source_vertex_count) {
+    return false;
+  }
+  const Frame frame{set, data, positions.data(), data.margin(), /*rest_rule=*/true};
+  std::vector<Hit> hits;
+  if (!AllPairs(frame, filter, &hits)) return false;
+  std::vector<uint64_t> keys;
+  Merge(set, hits, keys, out);
+  std::vector<uint32_t> marks(set.size(), 0), queue(set.size(), 0);
+  uint32_t stamp = 0;
+  DepthScratch scratch{marks, queue, stamp};
+  Depths(frame, hits, NoSkinning{}, scratch, out);
+  return true;
+}
+
+}  // namespace skinspheres::runtime

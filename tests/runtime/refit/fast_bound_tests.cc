@@ -1,0 +1,203 @@
+// The fast refit's bound on analytic cases (refit_job.h): one joint under rigid motion, uniform
+// and non-uniform scale; the spread term of two joints; the influences' reach from the mesh
+// weights and its analytic two-joint value; every vertex held on random poses; a set without reach
+// or mesh gives the old bound bit for bit. Against the scalar formula (scalar_fast_refit.h) and
+// closed-form answers.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <random>
+
+#include "runtime/posed_characters.h"
+#include "runtime/refit/scalar_fast_refit.h"
+#include "runtime/sample_sphere_set.h"
+#include "skinspheres/runtime/refit/refit_job.h"
+
+namespace skinspheres::runtime {
+namespace {
+
+using test::Pose;
+using test::ScalarFastRefit;
+
+// One joint, one sphere: analytic answers for rigid motion, uniform and non-uniform scale.
+SphereSet OneJointSet(const skinspheres::Mat4f& rest_world) {
+  SphereSet set = TwoSpheres();
+  set.joint_rest_world = {rest_world};
+  set.radii_fast = {1.5f, 1.0f};
+  set.source_vertex_count = 4;
+  return set;
+}
+
+TEST(RefitJobTest, FastModeSingleJointAnalytic) {
+  skinspheres::Mat4f rest_world = skinspheres::Mat4f::Identity();
+  rest_world.topRightCorner<3, 1>() = Eigen::Vector3f(0.5f, -1.0f, 2.0f);
+  const SphereSet set = OneJointSet(rest_world);
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::vector<skinspheres::Vec4f> out(2);
+  RefitJob job{RefitMode::kFast, &set, &*rest, {}, {}, out};
+
+  Eigen::Affine3f motion =
+      Eigen::Translation3f(3, 4, 5) * Eigen::AngleAxisf(0.7f, Eigen::Vector3f(1, 2, 3).normalized());
+  auto expect = [&](const skinspheres::Mat4f& t, float s_max, const char* what) {
+    const skinspheres::Mat4f g = t * rest_world;  // G(t) = T · G(rest)
+    job.joint_world = std::span<const skinspheres::Mat4f>(&g, 1);
+    ASSERT_TRUE(job.Run()) << what;
+    for (int s = 0; s < 2; ++s) {
+      const Eigen::Vector3f c = (t * set.centers_rest[s].homogeneous()).head<3>();
+      EXPECT_LT((out[s].head<3>() - c).norm(), 1e-5f) << what;
+      EXPECT_NEAR(out[s].w(), s_max * set.radii_fast[s], 1e-4f) << what;
+    }
+  };
+  expect(motion.matrix(), 1.0f, "rigid");
+  expect((motion * Eigen::Scaling(2.0f)).matrix(), 2.0f, "uniform scale");
+  // Non-uniform diag(3, 1, 1), unrotated so the bound is exact: AᵀA = diag(9, 1, 1), largest row
+  // sum 9, s_max = 3.
+  expect(skinspheres::Mat4f(
+             Eigen::Affine3f(Eigen::Translation3f(1, 0, 0) * Eigen::Scaling(Eigen::Vector3f(3, 1, 1))).matrix()),
+         3.0f, "non-uniform scale");
+}
+
+TEST(RefitJobTest, TwoJointSpreadTermIsAdded) {
+  // A sphere at the origin half on joint 0, half on joint 1; joint 1 moves by (2, 0, 0):
+  // c' = (1, 0, 0), spread = 1, radius = 1 · radius_fast + 1.
+  SphereSet set = TwoSpheres();
+  set.joint_names = {"a", "b"};
+  set.joint_parents = {-1, 0};
+  set.joint_rest_world = {skinspheres::Mat4f::Identity(), skinspheres::Mat4f::Identity()};
+  set.influence_offsets = {0, 2, 3};
+  set.influence_joints = {0, 1, 0};
+  set.influence_weights = {0.5f, 0.5f, 1.0f};
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::vector<skinspheres::Mat4f> world(2, skinspheres::Mat4f::Identity());
+  world[1](0, 3) = 2.0f;
+  std::vector<skinspheres::Vec4f> out(2);
+  RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
+  ASSERT_TRUE(job.Run());
+  EXPECT_NEAR(out[0].x(), 1.0f, 1e-6f);
+  EXPECT_NEAR(out[0].w(), set.radii_fast[0] + 1.0f, 1e-5f);
+}
+
+// The influences' reach, by hand (sample_sphere_set.h, TwoJointsWithMesh): the mesh gives it, the
+// rest data takes it from the mesh when the set stores none, and 1 without a mesh.
+TEST(RefitJobTest, InfluenceReachComesFromTheMeshWeights) {
+  SphereSet set = TwoJointsWithMesh();
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  auto reach = InfluenceReachFromMesh(set);
+  ASSERT_TRUE(reach.ok()) << reach.error().message;
+  EXPECT_EQ(*reach, (std::vector<float>{1.0f, 0.5f, 0.75f, 1.0f}));
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  EXPECT_TRUE(std::ranges::equal(rest->reach(), *reach));
+  set.influence_reach = {1.0f, 0.75f, 0.75f, 1.0f};  // stored (larger than the mesh's: allowed)
+  rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  EXPECT_TRUE(std::ranges::equal(rest->reach(), set.influence_reach));
+  SphereSet no_mesh = TwoSpheres();
+  rest = RefitRestData::Create(no_mesh);
+  ASSERT_TRUE(rest.ok());
+  EXPECT_TRUE(std::ranges::equal(rest->reach(), std::vector<float>(no_mesh.influence_joints.size(), 1.0f)));
+}
+
+// Joint b moves by t = (10, 0, 0). Sphere 0 (weights a 0.75, b 0.25): c' = c + 2.5 x, d_a = 2.5,
+// d_b = 7.5; without reach the spread term is 7.5, with reach (a 1, b 0.5) 1 · 2.5 + 0.5 · 7.5 =
+// 6.25. Sphere 1 (a 5/12, b 7/12): d_a = 70/12, d_b = 50/12; the weighted sum (0.75 · 70/12 +
+// 50/12 = 102.5/12) exceeds the max, which stays.
+TEST(RefitJobTest, FastModeReachAnalyticTwoJoints) {
+  const SphereSet set = TwoJointsWithMesh();
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::vector<skinspheres::Mat4f> world(2, skinspheres::Mat4f::Identity());
+  world[1](0, 3) = 10.0f;
+  std::vector<skinspheres::Vec4f> out(2);
+  RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
+  ASSERT_TRUE(job.Run());
+  EXPECT_NEAR(out[0].x(), 2.75f, 1e-5f);
+  EXPECT_NEAR(out[0].w(), 0.5f + 6.25f, 1e-4f);
+  EXPECT_NEAR(out[1].x(), 0.75f + 70.0f / 12.0f, 1e-5f);
+  EXPECT_NEAR(out[1].w(), 0.5f + 70.0f / 12.0f, 1e-4f);
+  const auto old = ScalarFastRefit(set, *rest, world, nullptr);
+  EXPECT_NEAR(old[0].w(), 0.5f + 7.5f, 1e-4f);
+  EXPECT_LT(out[0].w(), old[0].w()) << "strictly tighter where the reach is below 1";
+  EXPECT_EQ(out[1].w(), old[1].w()) << "the max where it is the smaller";
+}
+
+// Random poses of the two joints (rotations, translations, non-uniform scales), the four vertices
+// skinned by the linear blend skinning formula in double: every vertex inside its fast spheres, the
+// bound never above the one without reach, and below it on some poses.
+TEST(RefitJobTest, FastModeWithReachHoldsEveryVertexOnRandomPoses) {
+  const SphereSet set = TwoJointsWithMesh();
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::mt19937 rng(2026);
+  std::uniform_real_distribution<float> angle(-3.1f, 3.1f), move(-3.0f, 3.0f), scale(0.3f, 3.0f);
+  std::vector<skinspheres::Mat4f> world(2);
+  std::vector<skinspheres::Vec4f> out(2);
+  int tighter = 0;
+  for (int p = 0; p < 2000; ++p) {
+    for (auto& g : world) {
+      const Eigen::Vector3f axis = Eigen::Vector3f(move(rng), move(rng), move(rng)).normalized();
+      Eigen::Affine3f t = Eigen::Translation3f(move(rng), move(rng), move(rng)) * Eigen::AngleAxisf(angle(rng), axis);
+      if (p % 2) t = t * Eigen::Scaling(Eigen::Vector3f(scale(rng), scale(rng), scale(rng)));
+      g = t.matrix();
+    }
+    RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
+    ASSERT_TRUE(job.Run());
+    const auto old = ScalarFastRefit(set, *rest, world, nullptr);
+    for (size_t s = 0; s < 2; ++s) {
+      ASSERT_LE(out[s].w(), old[s].w()) << "pose " << p << " sphere " << s;
+      tighter += out[s].w() < old[s].w();
+      for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+        const uint32_t v = set.vertices[k];
+        Eigen::Vector3d skinned = Eigen::Vector3d::Zero();
+        for (uint32_t q = set.mesh.influence_offsets[v]; q < set.mesh.influence_offsets[v + 1]; ++q) {
+          const skinning::BindEntry& b = set.mesh.binds[set.mesh.influence_binds[q]];
+          const Eigen::Matrix4d m = world[static_cast<size_t>(b.joint)].cast<double>() * b.inverse_bind.cast<double>();
+          skinned += double{set.mesh.influence_weights[q]} *
+                     (m * set.mesh.positions_bind[v].cast<double>().homogeneous()).head<3>();
+        }
+        const double d = (skinned - out[s].head<3>().cast<double>()).norm();
+        ASSERT_LE(d, out[s].w()) << "pose " << p << " sphere " << s << " vertex " << v;
+      }
+    }
+  }
+  EXPECT_GT(tighter, 100);
+  std::printf("two joints: %d of 4000 fast spheres tighter with reach\n", tighter);
+}
+
+// A set with neither reach nor mesh (a version-1 file, or a fast-only one written before reach)
+// refits with the bound without reach bit for bit, and so does any set whose reach is all 1.
+TEST(RefitJobTest, WithoutReachOrMeshTheFastBoundIsTheOldOneBitForBit) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  SphereSet old_set = fc->set;
+  old_set.influence_reach.clear();
+  old_set.mesh = {};
+  old_set.triangle_vertices.clear();
+  ASSERT_FALSE(old_set.Validate().has_value()) << old_set.Validate()->message;
+  SphereSet ones = fc->set;
+  ones.influence_reach.assign(ones.influence_joints.size(), 1.0f);
+  std::mt19937 rng(5);
+  for (const SphereSet* set : {&old_set, &ones}) {
+    auto rest = RefitRestData::Create(*set);
+    ASSERT_TRUE(rest.ok()) << rest.error().message;
+    for (int p = 0; p < 40; ++p) {
+      const Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 90.0f, 0.3f), "random");
+      const auto want = ScalarFastRefit(*set, *rest, pose.world, nullptr);
+      std::vector<skinspheres::Vec4f> got(set->size());
+      ASSERT_TRUE((RefitJob{RefitMode::kFast, set, &*rest, pose.world, {}, got}.Run()));
+      for (size_t s = 0; s < set->size(); ++s) {
+        for (int c = 0; c < 4; ++c) {
+          ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c])) << "sphere " << s;
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace skinspheres::runtime
