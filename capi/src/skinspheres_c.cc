@@ -44,7 +44,7 @@ static_assert(offsetof(skinspheres_sphere_pair, part_i) == offsetof(rt::SpherePa
 static_assert(offsetof(skinspheres_sphere_pair, part_j) == offsetof(rt::SpherePair, part_j));
 // No padding in the narrow phase's C structs (their documented sizes): bindings declare them field
 // by field, and a caller may compare them bytewise.
-static_assert(sizeof(skinspheres_part_contact) == 52 && sizeof(skinspheres_triangle_contact) == 52);
+static_assert(sizeof(skinspheres_part_contact) == 56 && sizeof(skinspheres_triangle_contact) == 52);
 static_assert(sizeof(Mat4f) == 16 * sizeof(float) && alignof(Mat4f) == alignof(float));
 static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float) && alignof(Eigen::Vector3f) == alignof(float));
 static_assert(sizeof(skinspheres::Vec4f) == 4 * sizeof(float));
@@ -122,6 +122,10 @@ bool NarrowSettings(const skinspheres_asset_options* options, rt::NarrowPhaseSet
     return false;
   }
   narrow.margin = options->narrow_margin;
+  const size_t with_tolerance = offsetof(skinspheres_asset_options, touch_tolerance_share) + sizeof(float);
+  if (options->struct_size >= with_tolerance && options->touch_tolerance_share != 0.0f) {
+    narrow.touch_tolerance_share = options->touch_tolerance_share;  // range checked by the runtime
+  }
   return true;
 }
 
@@ -160,6 +164,7 @@ skinspheres_part_contact ToC(const rt::PartContact& p) {
   c.min_distance = p.min_distance;
   std::copy_n(p.normal, 3, c.normal);
   std::copy_n(p.center, 3, c.center);
+  c.kind = p.kind == rt::PartContactKind::kPenetrating ? SKINSPHERES_PARTS_PENETRATING : SKINSPHERES_PARTS_TOUCHING;
   return c;
 }
 
@@ -300,6 +305,11 @@ skinspheres_status skinspheres_asset_load_memory_with(const void* data, size_t s
 float skinspheres_asset_narrow_margin(const skinspheres_asset* asset) {
   const rt::NarrowPhaseData* narrow = asset ? asset->asset->narrow_phase() : nullptr;
   return narrow ? narrow->margin() : 0.0f;
+}
+
+float skinspheres_asset_touch_tolerance(const skinspheres_asset* asset) {
+  const rt::NarrowPhaseData* narrow = asset ? asset->asset->narrow_phase() : nullptr;
+  return narrow ? narrow->touch_tolerance() : 0.0f;
 }
 
 void skinspheres_asset_release(skinspheres_asset* asset) { delete asset; }

@@ -370,7 +370,7 @@ void CompareWithSources(std::vector<Checked>& checked, const runtime::SphereSet&
       continue;
     }
     auto fit = lib::FitSpheres(source->character, source->parts, a.fit.settings);
-    auto playback = fit.ok() ? Playback::Create(*source, fit->spheres, options.margin)
+    auto playback = fit.ok() ? Playback::Create(*source, fit->spheres, NarrowSettings(options))
                              : Result<std::shared_ptr<const Playback>>(fit.error());
     if (!playback.ok()) {
       std::printf("  %s: nothing to compare with (%s)\n", file.c_str(),
@@ -460,7 +460,7 @@ int RunCheck(CheckArgs& a) {
   options.fps = a.fps;
   options.fast = a.mode == "fast";
   options.touch_tolerance = a.touch_tolerance;
-  auto playback = Playback::Create(*loaded, *set, options.margin);
+  auto playback = Playback::Create(*loaded, *set, NarrowSettings(options));
   if (!playback.ok()) return Fail(playback.error().message);
   const float height = (*playback)->body_height();
 

@@ -59,7 +59,7 @@ nlohmann::json DumpLine(const FrameView& fr, const runtime::SphereSet& set, bool
     nlohmann::json entry = {{"parts", {set.parts[p.part_a].name, set.parts[p.part_b].name}},
                             {"triangles", std::move(triangles)},
                             {"depth", p.depth},
-                            {"kind", Penetrating(p, fr.touch_tolerance) ? "penetrating" : "touching"}};
+                            {"kind", runtime::ToString(p.kind)}};
     if (margin) entry["near"] = std::move(near);
     contacts.push_back(std::move(entry));
   }
@@ -124,7 +124,7 @@ int RunPlay(PlayArgs& a) {
   opts.progress = isatty(STDERR_FILENO);
   // Set up once (the set checked against the mesh, the runtime asset), then every clip played by
   // one player.
-  auto playback = Playback::Create(*loaded, set, opts.margin);
+  auto playback = Playback::Create(*loaded, set, NarrowSettings(opts));
   if (!playback.ok()) return Fail(playback.error().message);
   auto player = ClipPlayer::Create(*playback, opts);
   if (!player.ok()) return Fail(player.error().message);

@@ -99,7 +99,7 @@ FrameSink RecordFrames(std::vector<FrameRecord>* out, FrameSink next) {
       if (c.kind == runtime::TriangleContactKind::kIntersecting) r.triangle_pairs.push_back({c.t, c.u});
     }
     for (const runtime::PartContact& p : fr.contacts->parts) {
-      r.parts.push_back({p.part_a, p.part_b, Penetrating(p, fr.touch_tolerance), p.depth});
+      r.parts.push_back({p.part_a, p.part_b, p.kind == runtime::PartContactKind::kPenetrating, p.depth});
     }
     out->push_back(std::move(r));
     if (next) next(fr);
@@ -166,8 +166,11 @@ std::optional<std::string> CheckTouchTolerance(float share) {
   return "--touch-tolerance must be a share of the body height in [0, 1)";
 }
 
-bool Penetrating(const runtime::PartContact& contact, float tolerance) {
-  return contact.intersecting_count > 0 && contact.depth > tolerance;
+runtime::NarrowPhaseSettings NarrowSettings(const PlayOptions& options) {
+  runtime::NarrowPhaseSettings narrow;
+  narrow.margin = options.margin;
+  narrow.touch_tolerance_share = options.touch_tolerance;
+  return narrow;
 }
 
 namespace {
@@ -227,7 +230,7 @@ std::string Playback::file() const {
 }
 
 Result<std::shared_ptr<const Playback>> Playback::Create(const LoadedCharacter& loaded, const runtime::SphereSet& set,
-                                                         float margin) {
+                                                         const runtime::NarrowPhaseSettings& narrow) {
   const lib::RawCharacter& ch = loaded.character;
   std::shared_ptr<Playback> p(new Playback(loaded, set));
   const std::string file = p->file();
@@ -240,7 +243,7 @@ Result<std::shared_ptr<const Playback>> Playback::Create(const LoadedCharacter& 
     return MakeError(ErrorCode::kVersionMismatch,
                      file + ": the sphere set has no mesh (format version 1): fit it again");
   }
-  auto asset = runtime::CharacterAsset::Create(set, runtime::NarrowPhaseSettings{margin});
+  auto asset = runtime::CharacterAsset::Create(set, narrow);
   if (!asset.ok()) return asset.error();
   if (auto err = (*asset)->Matches(ch.skeleton.joint_names, ch.vertex_count())) {
     return MakeError(err->code, file + ": " + err->message);
@@ -352,7 +355,7 @@ void ClipPlayer::Summarise(int f, PlayResult* result) const {
     PartPairSummary& e = Entry(result->contacts, p.part_a, p.part_b);
     const bool first_touch = e.frames.frames() == 0;
     e.frames.Add(f);
-    if (Penetrating(p, result->touch_tolerance)) e.penetrating.Add(f);
+    if (p.kind == runtime::PartContactKind::kPenetrating) e.penetrating.Add(f);
     e.most_triangle_pairs = std::max(e.most_triangle_pairs, p.triangle_pair_count);
     if (e.worst_frame < 0 || p.depth > e.max_depth) {
       e.worst_frame = f;
@@ -417,7 +420,7 @@ Result<PlayResult> ClipPlayer::Play(size_t clip_index, const FrameSink& sink) {
   PlayResult result;
   result.clip = clip.name;
   result.body_height = playback_->body_height();
-  result.touch_tolerance = options_.touch_tolerance * result.body_height;
+  result.touch_tolerance = playback_->asset()->narrow_phase()->touch_tolerance();
   if (options_.verify) {  // every triangle of the mesh owned by a sphere (checked once)
     std::vector<bool> owned(ch.triangle_count(), false);
     for (uint32_t t : playback_->set().triangles) owned[t] = true;
@@ -456,7 +459,7 @@ Result<PlayResult> ClipPlayer::Play(size_t clip_index, const FrameSink& sink) {
 
 Result<PlayResult> PlayClip(const LoadedCharacter& loaded, const runtime::SphereSet& set, size_t clip,
                             const PlayOptions& options, const FrameSink& sink) {
-  auto playback = Playback::Create(loaded, set, options.margin);
+  auto playback = Playback::Create(loaded, set, NarrowSettings(options));
   if (!playback.ok()) return playback.error();
   auto player = ClipPlayer::Create(std::move(*playback), options);
   if (!player.ok()) return player.error();

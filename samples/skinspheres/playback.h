@@ -10,7 +10,8 @@
 //
 // Touching and penetrating: a part pair's contact on a frame is *penetrating* when its triangles
 // intersect deeper than the touch tolerance (a share of the body height, PlayOptions), else
-// *touching* (surfaces within the margin, or intersecting by less than the tolerance).
+// *touching* (surfaces within the margin, or intersecting by less than the tolerance): the
+// runtime's classification (runtime::PartContact::kind), which engines and the C API read too.
 //
 // Memory stays flat whatever the clip length: each frame is handed to an optional FrameSink as it
 // is played and then forgotten; the result keeps only bounded summaries (per part pair: frame
@@ -38,7 +39,7 @@
 namespace skinspheres::tool {
 
 // Intersections up to this share of the body height are touching, deeper ones penetrating.
-inline constexpr float kDefaultTouchTolerance = 0.005f;
+inline constexpr float kDefaultTouchTolerance = runtime::kDefaultTouchToleranceShare;
 
 // The clip time a playback time samples: t itself up to the clip's end (the frame at t = duration
 // samples the end pose), then looping (t - k * duration); 0 for a clip without duration.
@@ -71,8 +72,9 @@ struct FrameView {
 void AddTouchToleranceOption(CLI::App& app, float* share);
 std::optional<std::string> CheckTouchTolerance(float share);
 
-// A part pair's contact on one frame is penetrating (an intersection deeper than the tolerance).
-bool Penetrating(const runtime::PartContact& contact, float tolerance);
+// The narrow phase's settings for these options: the margin, and the touch tolerance by which the
+// runtime classifies each part pair (runtime::PartContact::kind).
+runtime::NarrowPhaseSettings NarrowSettings(const PlayOptions& options);
 using FrameSink = std::function<void(const FrameView&)>;
 
 // One played frame kept for what needs every frame at the end (the viewer page, a GLB export):
@@ -170,7 +172,7 @@ std::vector<int32_t> SkinJoints(const lib::RawCharacter& character);
 class Playback {
  public:
   static Result<std::shared_ptr<const Playback>> Create(const LoadedCharacter& loaded, const runtime::SphereSet& set,
-                                                        float margin);
+                                                        const runtime::NarrowPhaseSettings& narrow);
   const LoadedCharacter& loaded() const { return loaded_; }
   const runtime::SphereSet& set() const { return set_; }
   const std::shared_ptr<const runtime::CharacterAsset>& asset() const { return asset_; }

@@ -22,6 +22,8 @@
 #include "skinspheres/skinspheres.h"
 
 static int failures = 0;
+static float touch_tolerance = 0.0f;     /* the assets' (set units) */
+static unsigned long part_kinds[2] = {0}; /* part pairs seen touching, penetrating */
 
 static void check(int ok, const char* what, size_t frame) {
   if (!ok) {
@@ -96,6 +98,12 @@ static size_t check_triangle_contacts(skinspheres_instance* inst, const frame* f
         "get_part_contacts", f);
   check(written == 0 || memcmp(parts, fr->parts[m], written * sizeof(skinspheres_part_contact)) == 0,
         "part contacts equal the C++ API's", f);
+  for (k = 0; k < written && k < part_capacity; ++k) {
+    const int deeper = parts[k].intersecting_count > 0 && parts[k].depth > touch_tolerance;
+    check(parts[k].kind == (deeper ? SKINSPHERES_PARTS_PENETRATING : SKINSPHERES_PARTS_TOUCHING),
+          "a part pair penetrates exactly when it intersects deeper than the touch tolerance", f);
+    ++part_kinds[deeper];
+  }
   check(skinspheres_instance_get_triangle_contacts(inst, SKINSPHERES_ALL_PART_PAIRS, triangles, triangle_capacity,
                                                    &written) == SKINSPHERES_OK,
         "get_triangle_contacts", f);
@@ -242,6 +250,17 @@ int main(int argc, char** argv) {
     bad.narrow_margin = (float)strtod("nan", NULL);
     check(skinspheres_asset_load_file_with(join(dir, "set.ssb"), &bad, &missing) == SKINSPHERES_INVALID_ARGUMENT,
           "a NaN margin refused", 0);
+    bad = options;
+    bad.touch_tolerance_share = -0.01f;
+    check(skinspheres_asset_load_file_with(join(dir, "set.ssb"), &bad, &missing) == SKINSPHERES_INVALID_ARGUMENT &&
+              strstr(skinspheres_last_error(), "touch tolerance") != NULL,
+          "a negative touch tolerance refused", 0);
+    bad.touch_tolerance_share = 1.0f;
+    check(skinspheres_asset_load_file_with(join(dir, "set.ssb"), &bad, &missing) == SKINSPHERES_INVALID_ARGUMENT,
+          "a touch tolerance of the whole height refused", 0);
+    bad.touch_tolerance_share = (float)strtod("nan", NULL);
+    check(skinspheres_asset_load_file_with(join(dir, "set.ssb"), &bad, &missing) == SKINSPHERES_INVALID_ARGUMENT,
+          "a NaN touch tolerance refused", 0);
   }
 
   /* The set: binary from a file, JSON from memory (both with the options), and the fast-only
@@ -255,6 +274,10 @@ int main(int argc, char** argv) {
   check(skinspheres_asset_narrow_margin(binary) == options.narrow_margin &&
             skinspheres_asset_narrow_margin(json) == options.narrow_margin,
         "the assets' margin is the options'", 0);
+  touch_tolerance = skinspheres_asset_touch_tolerance(binary);
+  check(touch_tolerance > 0.0f && touch_tolerance == skinspheres_asset_touch_tolerance(json) &&
+            skinspheres_asset_touch_tolerance(NULL) == 0.0f,
+        "the assets' touch tolerance: the default share of the rest height", 0);
   check(skinspheres_asset_load_file(join(dir, "set_fast.ssb"), &fast_only) == SKINSPHERES_OK, "load set_fast.ssb", 0);
   if (failures) return 1;
   check(skinspheres_asset_sphere_count(binary) == skinspheres_asset_sphere_count(json) &&
@@ -459,11 +482,15 @@ int main(int argc, char** argv) {
     fprintf(stderr, "FAILED: a margin but no within-margin triangle pairs, the margin is not tested\n");
     ++failures;
   }
+  if (part_kinds[1] == 0) {
+    fprintf(stderr, "FAILED: no penetrating part pair, the classification is not tested\n");
+    ++failures;
+  }
   printf("C API (%s): %u frames, %lu fast and %lu exact sphere pairs, %lu fast and %lu exact triangle contacts "
-         "(%lu within the margin %g), %s\n",
+         "(%lu within the margin %g), part pairs %lu touching and %lu penetrating, %s\n",
          skinspheres_version_string(), frame_count, (unsigned long)total[0], (unsigned long)total[1],
          (unsigned long)triangle_total[0], (unsigned long)triangle_total[1], (unsigned long)within_margin,
-         (double)options.narrow_margin,
+         (double)options.narrow_margin, part_kinds[0], part_kinds[1],
          failures ? "DIFFERENT from the C++ API" : "all equal to the C++ API's");
   return failures ? 1 : 0;
 }

@@ -12,9 +12,9 @@
 // frames.bin (little-endian): u32 joint_count, u32 vertex_count, u32 frame_count; joint_count names
 // (u32 length + bytes + padding); then per frame: 16 * joint_count floats, 3 * vertex_count floats, and for
 // fast then exact mode a u32 contact count followed by that many 16-byte contacts, then the narrow
-// phase's part pairs (u32 count, then 52 bytes each: u16 part_a, part_b, u32 first triangle pair,
+// phase's part pairs (u32 count, then 56 bytes each: u16 part_a, part_b, u32 first triangle pair,
 // triangle pair count, intersecting count, sphere pair count, f32 depth, min_distance, normal[3],
-// center[3]) and triangle pairs (u32 count, then 52 bytes each: u32 t, u, kind, f32 distance,
+// center[3], u32 kind) and triangle pairs (u32 count, then 52 bytes each: u32 t, u, kind, f32 distance,
 // point[3], on_t[3], on_u[3]): the C API's structs, field by field. Names are padded
 // with zeros to a multiple of 4 bytes so that every float is 4-byte aligned in a malloc'ed copy.
 #include <cstdio>
@@ -138,6 +138,7 @@ std::string WriteMode(FILE* f, runtime::CharacterInstance& instance, runtime::Re
     Put(f, &p.min_distance, 4);
     Put(f, p.normal, 12);
     Put(f, p.center, 12);
+    Put32(f, static_cast<uint32_t>(p.kind));
   }
   Put32(f, static_cast<uint32_t>(found.triangle_pairs.size()));
   for (const runtime::TriangleContact& t : found.triangle_pairs) {

@@ -133,6 +133,11 @@ typedef struct skinspheres_asset_options {
      0: intersections only. Pairs within the margin at rest are never reported, so it is fixed
      when the asset is loaded. */
   float narrow_margin;
+  /* Part pairs intersecting deeper than this share of the character's rest height are
+     SKINSPHERES_PARTS_PENETRATING, the others touching; in [0, 1). 0 gives the default, 0.005
+     (9 mm on a 1.8 m character); to call every intersection penetrating, give a share below any
+     depth, such as 1e-9. */
+  float touch_tolerance_share;
 } skinspheres_asset_options;
 
 /* skinspheres_asset_load_file / _load_memory with options (NULL: the defaults). */
@@ -144,6 +149,9 @@ SKINSPHERES_C_API skinspheres_status skinspheres_asset_load_memory_with(const vo
                                                                         skinspheres_asset** out_asset);
 /* The narrow-phase margin the asset was loaded with (0 for NULL and for a set without its mesh). */
 SKINSPHERES_C_API float skinspheres_asset_narrow_margin(const skinspheres_asset* asset);
+/* The depth (set units) above which a part pair penetrates: the touch tolerance's share of the rest
+   pose's height (0 for NULL and for a set without its mesh). */
+SKINSPHERES_C_API float skinspheres_asset_touch_tolerance(const skinspheres_asset* asset);
 /* Drops the caller's reference: the set is freed once every instance made from it is destroyed.
    NULL is ignored. */
 SKINSPHERES_C_API void skinspheres_asset_release(skinspheres_asset* asset);
@@ -237,10 +245,18 @@ typedef enum skinspheres_triangle_contact_kind {
   SKINSPHERES_TRIANGLES_WITHIN_MARGIN = 1 /* apart, but closer than the asset's margin */
 } skinspheres_triangle_contact_kind;
 
+/* A part pair's contact: penetrating when its triangles intersect deeper than the asset's touch
+   tolerance (skinspheres_asset_touch_tolerance), else touching (surfaces within the margin, or
+   intersecting by less than the tolerance). */
+typedef enum skinspheres_part_contact_kind {
+  SKINSPHERES_PARTS_TOUCHING = 0,
+  SKINSPHERES_PARTS_PENETRATING = 1
+} skinspheres_part_contact_kind;
+
 /* One body-part pair in contact this frame (part_a <= part_b; skinspheres_asset_part_name).
    Its triangle pairs are entries [first_triangle_pair, first_triangle_pair +
    triangle_pair_count) of the frame's triangle contacts (skinspheres_instance_get_triangle_contacts
-   with SKINSPHERES_ALL_PART_PAIRS), or all of them with its own index. 52 bytes. */
+   with SKINSPHERES_ALL_PART_PAIRS), or all of them with its own index. 56 bytes. */
 typedef struct skinspheres_part_contact {
   uint16_t part_a;
   uint16_t part_b;
@@ -252,6 +268,7 @@ typedef struct skinspheres_part_contact {
   float min_distance;          /* 0 with intersections, else the smallest within-margin distance */
   float normal[3];             /* contact normal, from part_b towards part_a (0 without intersections) */
   float center[3];             /* contact centre, or the closest pair's point */
+  uint32_t kind;               /* skinspheres_part_contact_kind */
 } skinspheres_part_contact;
 
 /* One pair of touching triangles: triangle_a of the part pair's part_a, triangle_b of its part_b

@@ -88,8 +88,8 @@ inline double Flood(const Frame& f, std::span<const Hit> hits, bool side_t, cons
   return h;
 }
 
-// Fills depth, normal and centre of every part pair with intersections. hits: the merged hits
-// (same order as out->triangle_pairs).
+// Fills depth, normal, centre and kind (touching or penetrating) of every part pair with
+// intersections. hits: the merged hits (same order as out->triangle_pairs).
 template <class Ensure>
 inline void Depths(const Frame& f, const std::vector<Hit>& hits, Ensure&& ensure, DepthScratch& scratch,
                    FrameContacts* out) {
@@ -154,6 +154,7 @@ inline void Depths(const Frame& f, const std::vector<Hit>& hits, Ensure&& ensure
     const double ha = Flood(f, pair_hits, true, contour, ensure, scratch);
     const double hb = Flood(f, pair_hits, false, contour, ensure, scratch);
     pc.depth = float(ha + hb);
+    pc.kind = pc.depth > f.data.touch_tolerance() ? PartContactKind::kPenetrating : PartContactKind::kTouching;
     for (int k = 0; k < 3; ++k) {
       pc.normal[k] = float(n[k]);
       pc.center[k] = float(c[k]);

@@ -4,7 +4,7 @@
 //
 // Set-up (setup.cc, NarrowPhaseData::Create), in order:
 //   1. CheckInputs: a set with its mesh, a filter built from it, a margin and cluster size in range;
-//   2. RestPositions: the mesh skinned with the rest transforms; the margin against its size;
+//   2. RestMesh: the mesh skinned with the rest transforms; its height; the margin against its size;
 //   3. WeldVertices (rule 2): one id per rest position;
 //   4. SphereVertices: each sphere's triangle vertices;
 //   5. BuildClusters: each sphere's triangles cut into clusters (median splits);
@@ -81,6 +81,7 @@ struct NarrowPhaseData::Layout {
   std::vector<uint32_t> sphere_vertex_offsets, sphere_vertices;
   std::vector<uint32_t> neighbour_offsets, neighbours;
   std::vector<Eigen::Vector3f> rest_positions;
+  float rest_height = 0.0f;  // rest_positions' extent along +Y
 };
 
 // A NarrowPhaseContext's scratch, sized by Resize.

@@ -23,6 +23,14 @@ const char* ToString(TriangleContactKind kind) {
   return "unknown";
 }
 
+const char* ToString(PartContactKind kind) {
+  switch (kind) {
+    case PartContactKind::kTouching: return "touching";
+    case PartContactKind::kPenetrating: return "penetrating";
+  }
+  return "unknown";
+}
+
 void FrameContacts::Reserve(size_t triangle_pairs_capacity) {
   parts.reserve(triangle_pairs_capacity);
   sphere_pairs.reserve(triangle_pairs_capacity);
@@ -59,6 +67,10 @@ NarrowPhaseData& NarrowPhaseData::operator=(NarrowPhaseData&&) noexcept = defaul
 
 const NarrowPhaseSettings& NarrowPhaseData::settings() const { return layout_->settings; }
 float NarrowPhaseData::margin() const { return layout_->settings.margin; }
+float NarrowPhaseData::rest_height() const { return layout_->rest_height; }
+float NarrowPhaseData::touch_tolerance() const {
+  return layout_->settings.touch_tolerance_share * layout_->rest_height;
+}
 size_t NarrowPhaseData::sphere_count() const {
   return layout_->sphere_vertex_offsets.empty() ? 0 : layout_->sphere_vertex_offsets.size() - 1;
 }

@@ -188,17 +188,21 @@ std::optional<Error> CheckInputs(const SphereSet& set, const PairFilter& filter,
   if (!(settings.margin >= 0.0f) || !std::isfinite(settings.margin)) {
     return MakeError(ErrorCode::kInvalidArgument, who + ": the narrow-phase margin must be finite and >= 0");
   }
+  if (!(settings.touch_tolerance_share >= 0.0f && settings.touch_tolerance_share < 1.0f)) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     who + ": the touch tolerance must be a share of the body height in [0, 1)");
+  }
   if (settings.cluster_triangles < 1 || settings.cluster_triangles > 256) {
     return MakeError(ErrorCode::kInvalidArgument, who + ": the narrow-phase cluster size must be 1..256 triangles");
   }
   return std::nullopt;
 }
 
-// Stage 2: the mesh at rest, finite, and the margin against its size. A margin is a contact
-// distance, not a search radius: the rest-pose exclusions (and a frame's contacts) grow with the
-// square of the triangle count within it. Xbot (1.8 units tall) at a margin of 0.1 peaked at
-// 290 MB, at 0.18 at 2.7 GB and 100 s of set-up, at 1e30 past 4 GB. Refused beyond the limit, with
-// the size, so the caller can choose.
+// Stage 2: the mesh at rest, finite, its height (for the touch tolerance), and the margin against
+// its size. A margin is a contact distance, not a search radius: the rest-pose exclusions (and a
+// frame's contacts) grow with the square of the triangle count within it. Xbot (1.8 units tall) at a margin of 0.1
+// peaked at 290 MB, at 0.18 at 2.7 GB and 100 s of set-up, at 1e30 past 4 GB. Refused beyond the limit, with the size,
+// so the caller can choose.
 std::optional<Error> RestMesh(const SphereSet& set, const NarrowPhaseSettings& settings, const std::string& who,
                               NarrowPhaseData::Layout& d) {
   if (!RestPositions(set, &d.rest_positions)) {
@@ -212,6 +216,7 @@ std::optional<Error> RestMesh(const SphereSet& set, const NarrowPhaseSettings& s
     high = high.cwiseMax(p);
   }
   const float size = d.rest_positions.empty() ? 0.0f : (high - low).maxCoeff();
+  d.rest_height = d.rest_positions.empty() ? 0.0f : high.y() - low.y();
   if (settings.margin > kMaxMarginShareOfSize * size) {
     char text[200];
     std::snprintf(text, sizeof text,

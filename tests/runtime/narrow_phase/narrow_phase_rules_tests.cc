@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <vector>
 
@@ -149,6 +150,60 @@ TEST(NarrowPhaseDepth, TwoSphereMeshesOverlappingByAKnownDepth) {
                   size_t(pc.triangle_pair_count));
     }
   }
+}
+
+// Touching or penetrating: two unit spheres overlapping by 0.05 and by 0.3, with the tolerance at
+// 5% of the rest height (about 0.1: the spheres' extent along +Y, computed here from the mesh).
+TEST(NarrowPhaseDepth, TouchingUpToTheToleranceThenPenetrating) {
+  const TwoMeshes m = MakeTwoSphereMeshes(1.0f, 1.0f, 2.5f, Vector3f::UnitX(), Vector3f::UnitX());
+  float low = m.rest[0].y(), high = low;
+  for (const Vector3f& p : m.rest) {
+    low = std::min(low, p.y());
+    high = std::max(high, p.y());
+  }
+  const float height = high - low;
+  ASSERT_GT(height, 1.9f);
+  auto filter = PairFilter::FromSphereSet(m.set);
+  ASSERT_TRUE(filter.ok());
+  NarrowPhaseSettings settings;
+  settings.touch_tolerance_share = 0.05f;
+  auto data = NarrowPhaseData::Create(m.set, *filter, settings);
+  ASSERT_TRUE(data.ok()) << data.error().message;
+  EXPECT_EQ(data->rest_height(), height);
+  EXPECT_EQ(data->touch_tolerance(), 0.05f * height);
+  for (const auto& [overlap, kind] :
+       {std::pair{0.05f, PartContactKind::kTouching}, std::pair{0.3f, PartContactKind::kPenetrating}}) {
+    const FrameContacts out = RunShifted(m, *data, Vector3f(2.0f - overlap - 2.5f, 0, 0), 1.0f, 1.0f);
+    ASSERT_EQ(out.parts.size(), 1u);
+    EXPECT_EQ(out.parts[0].kind, kind) << "overlap " << overlap << ", depth " << out.parts[0].depth << ", tolerance "
+                                       << data->touch_tolerance() << ": " << ToString(out.parts[0].kind);
+  }
+  // The default: 0.5% of the height, so the 0.05 overlap penetrates.
+  auto by_default = NarrowPhaseData::Create(m.set, *filter);
+  ASSERT_TRUE(by_default.ok());
+  EXPECT_EQ(by_default->touch_tolerance(), kDefaultTouchToleranceShare * height);
+  EXPECT_EQ(RunShifted(m, *by_default, Vector3f(-0.55f, 0, 0), 1.0f, 1.0f).parts.at(0).kind,
+            PartContactKind::kPenetrating);
+  // Apart but within a margin: touching, whatever the tolerance.
+  NarrowPhaseSettings margin;
+  margin.margin = 0.05f;
+  margin.touch_tolerance_share = 0.0f;
+  auto with_margin = NarrowPhaseData::Create(m.set, *filter, margin);
+  ASSERT_TRUE(with_margin.ok()) << with_margin.error().message;
+  const FrameContacts near = RunShifted(m, *with_margin, Vector3f(-0.48f, 0, 0), 1.0f, 1.0f);
+  ASSERT_EQ(near.parts.size(), 1u);
+  EXPECT_EQ(near.parts[0].intersecting_count, 0u);
+  EXPECT_EQ(near.parts[0].kind, PartContactKind::kTouching);
+  for (float bad : {-0.01f, 1.0f, std::numeric_limits<float>::quiet_NaN()}) {
+    NarrowPhaseSettings refused;
+    refused.touch_tolerance_share = bad;
+    auto r = NarrowPhaseData::Create(m.set, *filter, refused);
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_EQ(r.error().code, ErrorCode::kInvalidArgument);
+    EXPECT_NE(r.error().message.find("touch tolerance"), std::string::npos) << r.error().message;
+  }
+  EXPECT_STREQ(ToString(PartContactKind::kTouching), "touching");
+  EXPECT_STREQ(ToString(PartContactKind::kPenetrating), "penetrating");
 }
 
 TEST(NarrowPhaseRules, RestContactsAndSharedVerticesAreNeverReported) {

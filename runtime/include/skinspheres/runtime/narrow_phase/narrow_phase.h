@@ -71,6 +71,10 @@
 //  For two spheres overlapping by d this is d (the lens between their caps); for a palm pressed
 //  into a flat chest it is how deep the palm sinks. It depends only on positions, so exact and fast
 //  mode give the same value. Part pairs with only within-margin pairs have depth 0.
+// Touching or penetrating (PartContact::kind): a part pair is PENETRATING when it has intersecting
+// pairs and its depth is above NarrowPhaseData::touch_tolerance() (NarrowPhaseSettings::
+// touch_tolerance_share of the rest pose's height), else TOUCHING: surfaces within the margin, or
+// intersecting by less than the tolerance (skin pressed on skin, a hand resting on a thigh).
 //
 // Cost and memory: per frame no allocation once the outputs and scratch have held the largest
 // frame so far (FrameContacts::Reserve and NarrowPhaseContext sizes pin them), no exception. The
@@ -108,6 +112,10 @@ struct Access;  // runtime/src/narrow_phase/internal.h
 // the margin, and set-up memory and per-frame contacts grow with the square of the triangle count.
 inline constexpr float kMaxMarginShareOfSize = 0.05f;
 
+// Intersections up to this share of the rest pose's height are touching, deeper ones penetrating:
+// 9 mm on a 1.8 m character.
+inline constexpr float kDefaultTouchToleranceShare = 0.005f;
+
 struct NarrowPhaseSettings {
   // > 0: also report triangle pairs whose distance is below this (model units); 0: intersections
   // only. Pairs within this distance at rest are excluded, so it is fixed at set-up. At most
@@ -115,7 +123,13 @@ struct NarrowPhaseSettings {
   float margin = 0.0f;
   // Triangles per cluster at most, 1..256 (bench/narrow_phase_bench.cc, BM_ClusterSize, chose 16).
   uint32_t cluster_triangles = 16;
+  // Part pairs intersecting deeper than this share of the rest pose's height (its extent along +Y,
+  // glTF's up) are penetrating, the others touching (PartContact::kind). Finite, in [0, 1).
+  float touch_tolerance_share = kDefaultTouchToleranceShare;
 };
+
+enum class PartContactKind : uint8_t { kTouching = 0, kPenetrating = 1 };
+const char* ToString(PartContactKind kind);  // "touching", "penetrating"
 
 enum class TriangleContactKind : uint8_t { kIntersecting = 0, kWithinMargin = 1 };
 const char* ToString(TriangleContactKind kind);  // "intersecting", "within_margin"
@@ -152,6 +166,8 @@ struct PartContact {
   float min_distance = 0.0f;        // 0 with intersections, else the smallest within-margin distance
   float normal[3] = {0, 0, 0};      // contact normal, from part_b towards part_a (0 without intersections)
   float center[3] = {0, 0, 0};      // contact centre C (with intersections), else the closest pair's point
+  // Penetrating: intersecting deeper than NarrowPhaseData::touch_tolerance(); else touching.
+  PartContactKind kind = PartContactKind::kTouching;
   friend bool operator==(const PartContact&, const PartContact&) = default;
 };
 
@@ -190,6 +206,10 @@ class NarrowPhaseData {
 
   const NarrowPhaseSettings& settings() const;
   float margin() const;
+  // The rest pose's height (the mesh skinned at rest: its extent along +Y), and the depth above
+  // which a part pair penetrates (settings().touch_tolerance_share of it), in model units.
+  float rest_height() const;
+  float touch_tolerance() const;
   size_t sphere_count() const;
   size_t triangle_count() const;
   size_t vertex_count() const;
