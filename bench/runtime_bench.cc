@@ -41,11 +41,12 @@
 //                            instances, on a TBB arena of exactly 1 or 2 threads (thread_cpu.h),
 //                            with each thread's CPU time in the work next to the wall time. G_j(t)
 //                            per instance is precomputed per frame OUTSIDE the timed region.
-//                            simd: the refit's level as in BM_XbotRefitFast, 3 = AVX-512 batches of
-//                            16 instances refitted at once, then queried one by one, 4 = refitted
-//                            and queried at once (0 picks 4 when the CPU has AVX-512F); 1000 and
-//                            10,000 instances also at SSE2, AVX2 (one at a time), 3 and 4 side by
-//                            side, and the denser fits 2 and 3 at 1000 instances, one thread.
+//                            simd: the refit's level and batch (PinnedRefit: 1 SSE2, 2 AVX2, 4
+//                            AVX-512 batches of 4, 8 and 16 instances refitted and queried at once,
+//                            3 the AVX-512 batch queried one by one, 5 portable C++, 6 and 7 AVX2
+//                            and SSE2 one instance at a time; 0 picks the CPU's best); 1000 and
+//                            10,000 instances at every level, and the denser fits 2 and 3 at 1000
+//                            instances, one thread, at AVX2, AVX-512 and one at a time.
 //   BM_CrowdPose             the separate row for that input: LocalToModelJob per instance under
 //                            tbb::parallel_for (what an engine's animation system would do).
 //
@@ -389,27 +390,35 @@ void BM_XbotRefitExact(benchmark::State& state) {
 }
 BENCHMARK(BM_XbotRefitExact)->Arg(0)->Arg(1)->ArgName("fit")->Unit(benchmark::kMicrosecond);
 
-// The fast refit's instruction set for a row (range: 0 the CPU's best, 1 SSE2, 2 AVX2, 3 AVX-512: the
-// crowd's 16-instance batches refitted at once and then queried one by one, 4 AVX-512 with the
-// batch's query at once too, what the CPU's best does; one instance alone refits at AVX2), unpinned
-// again when the row ends. False (row skipped) when the CPU lacks it.
+// The fast refit's instruction set for a row, unpinned again when the row ends; the row is skipped
+// when the CPU lacks it. One instance alone refits at SSE2, AVX2 (also at AVX-512) or portable; the
+// crowd calls batch instances of one asset, one per lane, and query the batch at once:
+//   0 the CPU's best; 1 SSE2 (4 lanes); 2 AVX2 (8 lanes); 3 AVX-512 (16 lanes) refitted at once and
+//   then queried one by one; 4 AVX-512 refitted and queried at once; 5 portable C++ (4 lanes);
+//   6 AVX2 and 7 SSE2 one instance at a time (no batch: the per-instance loop the batch is measured
+//   against).
 class PinnedRefit {
  public:
   PinnedRefit(benchmark::State& state, int64_t level) {
-    constexpr rt::internal::RefitSimd kLevels[] = {rt::internal::RefitSimd::kAuto, rt::internal::RefitSimd::kSse2,
-                                                   rt::internal::RefitSimd::kAvx2, rt::internal::RefitSimd::kAvx512,
-                                                   rt::internal::RefitSimd::kAvx512};
+    using rt::internal::RefitSimd;
+    constexpr RefitSimd kLevels[] = {RefitSimd::kAuto,   RefitSimd::kSse2,     RefitSimd::kAvx2, RefitSimd::kAvx512,
+                                     RefitSimd::kAvx512, RefitSimd::kPortable, RefitSimd::kAvx2, RefitSimd::kSse2};
     ok_ = rt::internal::PinRefitSimd(kLevels[level]);
     rt::internal::SetCrowdQueryBatched(level != 3);
-    if (!ok_)
+    rt::internal::SetCrowdBatched(level < 6);
+    if (!ok_) {
       state.SkipWithError("the CPU lacks this instruction set");
-    else
-      state.SetLabel(std::string(rt::internal::ToString(rt::internal::RefitSimdInUse())) +
-                     (level == 3 ? ", query one by one" : ""));
+    } else {
+      const std::string batch = level >= 6   ? ", one at a time"
+                                : level == 3 ? ", batch of 16, query one by one"
+                                             : ", batch of " + std::to_string(rt::internal::RefitBatchLanes());
+      state.SetLabel(std::string(rt::internal::ToString(rt::internal::RefitSimdInUse())) + batch);
+    }
   }
   ~PinnedRefit() {
     rt::internal::PinRefitSimd(rt::internal::RefitSimd::kAuto);
     rt::internal::SetCrowdQueryBatched(true);
+    rt::internal::SetCrowdBatched(true);
   }
   PinnedRefit(const PinnedRefit&) = delete;
   PinnedRefit& operator=(const PinnedRefit&) = delete;
@@ -592,8 +601,8 @@ void BM_CrowdFast(benchmark::State& state) {
 }
 BENCHMARK(BM_CrowdFast)
     ->ArgsProduct({{0, 1}, {1, 10, 100, 1000, 10000}, {1, 2}, {0}})
-    ->ArgsProduct({{0}, {1000, 10000}, {1, 2}, {1, 2, 3, 4}})  // SSE2, AVX2 and the AVX-512 batch side by side
-    ->ArgsProduct({{2, 3}, {1000}, {1}, {2, 3, 4}})            // denser sets: where the batch's query stops paying
+    ->ArgsProduct({{0}, {1000, 10000}, {1, 2}, {1, 2, 3, 4, 5, 6, 7}})  // every level, batched and one at a time
+    ->ArgsProduct({{2, 3}, {1000}, {1}, {2, 4, 6}})  // denser sets: where the batch's query stops paying
     ->ArgNames({"fit", "instances", "threads", "simd"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();

@@ -7,6 +7,7 @@
 #include <atomic>
 
 #include "crowd/crowd_batch.h"
+#include "crowd/crowd_query.h"
 
 namespace skinspheres::runtime {
 
@@ -52,7 +53,9 @@ FrameStatus RunCrowd(std::span<CharacterInstance* const> instances, std::span<co
 }  // namespace
 
 size_t CrowdBlock(RefitMode mode, bool find_contacts) {
-  return mode == RefitMode::kFast && !find_contacts && internal::RefitBatchUsable() ? CrowdBatch::kLanes : 1;
+  return mode == RefitMode::kFast && !find_contacts && internal::CrowdBatched() && internal::RefitBatchUsable()
+             ? internal::RefitBatchLanes()
+             : 1;
 }
 
 FrameStatus CrowdRange(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,

@@ -1,5 +1,6 @@
-// The crowd calls' batch (crowd/crowd_batch.h): instances of one asset refitted, and queried, 16 at
-// a time in AVX-512 lanes, each with the bits it gets alone; the switch and counter the tests use.
+// The crowd calls' batch (crowd/crowd_batch.h): instances of one asset refitted, and queried, several
+// at a time in vector lanes (16 at AVX-512, 8 at AVX2, 4 at SSE2 and portable), each with the bits it
+// gets alone; the switch and counter the tests use.
 #include "crowd/crowd_batch.h"
 
 #include <algorithm>
@@ -16,13 +17,27 @@
 namespace skinspheres::runtime {
 namespace {
 
-// Sets of up to this many spheres are queried 16 instances at a time in the crowd calls (all the
-// allowed pairs of 16 instances in one vector test each); larger sets query one by one, where the
+// Sets of up to this many spheres are queried a batch at a time in the crowd calls (all the allowed
+// pairs of the batch's instances in one vector test each); larger sets query one by one, where the
 // candidate cache tests far fewer pairs than all of them.
 constexpr size_t kCrowdQueryMaxSpheres = 256;
 
+std::atomic<bool> crowd_batched{true};
 std::atomic<bool> crowd_query_batched{true};
 thread_local uint64_t batched_queries = 0;  // batches queried at once on this thread (tests)
+
+// BatchTestPairs of the level in use (the level the batch was refitted at: the same lanes).
+size_t TestPairs(const float* soa, const uint32_t* pairs, size_t begin, size_t end, uint32_t lanes,
+                 internal::BatchHits* hits) {
+  switch (internal::RefitSimdInUse()) {
+#if defined(SKINSPHERES_X86_64)
+    case internal::RefitSimd::kAvx512: return internal::avx512::BatchTestPairs(soa, pairs, begin, end, lanes, hits);
+    case internal::RefitSimd::kAvx2: return internal::avx2::BatchTestPairs(soa, pairs, begin, end, lanes, hits);
+    case internal::RefitSimd::kSse2: return internal::sse2::BatchTestPairs(soa, pairs, begin, end, lanes, hits);
+#endif
+    default: return internal::portable::BatchTestPairs(soa, pairs, begin, end, lanes, hits);
+  }
+}
 
 }  // namespace
 
@@ -39,6 +54,8 @@ std::vector<uint32_t> CrowdPairs(const PairFilter& filter) {
   return pairs;
 }
 
+void SetCrowdBatched(bool batched) { crowd_batched.store(batched, std::memory_order_relaxed); }
+bool CrowdBatched() { return crowd_batched.load(std::memory_order_relaxed); }
 void SetCrowdQueryBatched(bool batched) { crowd_query_batched.store(batched, std::memory_order_relaxed); }
 bool CrowdQueryBatched() { return crowd_query_batched.load(std::memory_order_relaxed); }
 uint64_t CrowdQueryBatches() { return batched_queries; }
@@ -63,7 +80,7 @@ FrameStatus CrowdBatch::AfterQuery(CharacterInstance& inst, RefitMode mode, cons
 // and kept for its life (not on the stack: engines run jobs on small stacks).
 float* CrowdBatch::SoaScratch() {
   constexpr size_t kAlign = 64 / sizeof(float);
-  thread_local std::vector<float> soa(kCrowdQueryMaxSpheres * internal::kBatchSphereFloats + kAlign);
+  thread_local std::vector<float> soa(kCrowdQueryMaxSpheres * 4 * kLanes + kAlign);
   const uintptr_t address = reinterpret_cast<uintptr_t>(soa.data());
   return soa.data() + ((64 - address % 64) % 64) / sizeof(float);
 }
@@ -73,15 +90,19 @@ float* CrowdBatch::SoaScratch() {
 // for their own FindSpherePairs() to report.
 uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, const float* soa, uint32_t lanes,
                                 CharacterInstance* const inst[kLanes]) {
-#if !defined(SKINSPHERES_X86_64)
-  (void)asset, (void)soa, (void)lanes, (void)inst;
-  return 0;  // never called: the batch runs only on AVX-512F (RefitBatchUsable)
-#else
-  lanes &= internal::avx512::BatchValuesOk(soa, asset.size(), internal::kMaxMagnitude);
+  const size_t n = asset.size();
+  switch (internal::RefitSimdInUse()) {
+#if defined(SKINSPHERES_X86_64)
+    case internal::RefitSimd::kAvx512: lanes &= internal::avx512::BatchValuesOk(soa, n, internal::kMaxMagnitude); break;
+    case internal::RefitSimd::kAvx2: lanes &= internal::avx2::BatchValuesOk(soa, n, internal::kMaxMagnitude); break;
+    case internal::RefitSimd::kSse2: lanes &= internal::sse2::BatchValuesOk(soa, n, internal::kMaxMagnitude); break;
+#endif
+    default: lanes &= internal::portable::BatchValuesOk(soa, n, internal::kMaxMagnitude); break;
+  }
   if (lanes == 0) return 0;
   for (uint32_t m = lanes; m != 0; m &= m - 1) inst[std::countr_zero(m)]->sphere_pairs_.clear();
   constexpr size_t kHits = 16;
-  alignas(64) float depth[kLanes * kHits];
+  alignas(64) float depth[internal::kBatchDepthStride * kHits];
   uint32_t pair[kHits];
   uint16_t mask[kHits];
   internal::BatchHits hits{pair, mask, depth, kHits, 0};
@@ -90,13 +111,13 @@ uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, const float* soa, u
   const PairFilter& filter = asset.filter();
   for (size_t pos = 0; pos < count;) {
     hits.count = 0;
-    pos = internal::avx512::BatchTestPairs(soa, pairs, pos, count, lanes, &hits);
+    pos = TestPairs(soa, pairs, pos, count, lanes, &hits);
     for (size_t h = 0; h < hits.count; ++h) {
       const uint32_t i = pair[h] >> 16, j = pair[h] & 0xFFFFu;
       const uint16_t part_i = filter.part(i), part_j = filter.part(j);
       for (uint32_t m = mask[h]; m != 0; m &= m - 1) {
         const int b = std::countr_zero(m);
-        inst[b]->sphere_pairs_.push_back(SpherePair{i, j, depth[kLanes * h + b], part_i, part_j});
+        inst[b]->sphere_pairs_.push_back(SpherePair{i, j, depth[internal::kBatchDepthStride * h + b], part_i, part_j});
       }
     }
   }
@@ -111,22 +132,23 @@ uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, const float* soa, u
   }
   ++batched_queries;
   return lanes;
-#endif
 }
 
-// Instances [begin, end) with their inputs; true when all succeeded. In fast mode, with AVX-512F,
-// consecutive instances of one asset are refitted together; the others one by one (CrowdStep).
+// Instances [begin, end) with their inputs; true when all succeeded. In fast mode, consecutive
+// instances of one asset are refitted together, RefitBatchLanes() at a time; the others one by one
+// (CrowdStep).
 bool CrowdBatch::Run(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
                      RefitMode mode, bool find_contacts, size_t begin, size_t end) {
   bool all_ok = true;
+  const size_t width = internal::RefitBatchLanes();
   for (size_t i = begin; i < end;) {
     const CharacterAsset* asset = instances[i]->asset_.get();
-    size_t last = i + 1;  // the run of instances of this asset, at most kLanes, none listed twice
-    while (last < end && last - i < kLanes && instances[last]->asset_.get() == asset &&
+    size_t last = i + 1;  // the run of instances of this asset, at most width, none listed twice
+    while (last < end && last - i < width && instances[last]->asset_.get() == asset &&
            std::find(instances.begin() + i, instances.begin() + last, instances[last]) == instances.begin() + last) {
       ++last;
     }
-    if (mode != RefitMode::kFast || last - i < 2 || !internal::RefitBatchUsable()) {
+    if (mode != RefitMode::kFast || last - i < 2 || !internal::CrowdBatched() || !internal::RefitBatchUsable()) {
       for (; i < last; ++i) all_ok &= CrowdStep(*instances[i], mode, inputs[i], find_contacts).ok();
       continue;
     }
@@ -155,7 +177,7 @@ bool CrowdBatch::Run(std::span<CharacterInstance* const> instances, std::span<co
     uint32_t finite = 0;
     float* soa = nullptr;
     if (lanes > 0) {
-      for (size_t b = lanes; b < kLanes; ++b) {  // idle lanes repeat the first (same bits, written twice)
+      for (size_t b = lanes; b < width; ++b) {  // idle lanes repeat the first (same bits, written twice)
         world[b] = world[0];
         out[b] = out[0];
       }

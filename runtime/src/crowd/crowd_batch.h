@@ -1,5 +1,6 @@
-// The crowd calls' batch: consecutive instances of one asset in fast mode, refitted 16 at a time in
-// AVX-512 lanes (refit/refit_internal.h: the same bits as each alone) and, for an asset of up to 256
+// The crowd calls' batch: consecutive instances of one asset in fast mode, refitted several at a time
+// in vector lanes (16 at AVX-512, 8 at AVX2, 4 at SSE2 and portable; refit/refit_internal.h: the same
+// bits as each alone) and, for an asset of up to 256
 // spheres, queried at once too (crowd/crowd_query.h: the same sphere pairs as each alone); then each
 // one's narrow phase if asked. A friend of CharacterAsset and CharacterInstance (api/character.h).
 #pragma once
@@ -23,7 +24,7 @@ std::vector<uint32_t> CrowdPairs(const PairFilter& filter);
 }  // namespace internal
 
 struct CrowdBatch {
-  static constexpr size_t kLanes = internal::kRefitBatchLanes;
+  static constexpr size_t kLanes = internal::kRefitBatchLanes;  // the most lanes of any level
   // FindSpherePairs (AfterUpdate), then FindContacts when asked: mode (a) with the input's positions in exact
   // mode, mode (b) in fast mode. The instance's status() after it.
   static FrameStatus AfterUpdate(CharacterInstance& inst, RefitMode mode, const CharacterFrameInput& input,
@@ -39,8 +40,9 @@ struct CrowdBatch {
   // for their own FindSpherePairs() to report.
   static uint32_t QueryBatch(const CharacterAsset& asset, const float* soa, uint32_t lanes,
                              CharacterInstance* const inst[kLanes]);
-  // Instances [begin, end) with their inputs; true when all succeeded. In fast mode, with AVX-512F,
-  // consecutive instances of one asset are refitted together; the others one by one (CrowdStep).
+  // Instances [begin, end) with their inputs; true when all succeeded. In fast mode, consecutive
+  // instances of one asset are refitted together, RefitBatchLanes() at a time; the others one by one
+  // (CrowdStep).
   static bool Run(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
                   RefitMode mode, bool find_contacts, size_t begin, size_t end);
 };

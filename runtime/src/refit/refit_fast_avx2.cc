@@ -12,15 +12,7 @@
 #include <type_traits>
 
 #include "simd/float4.h"
-
-// GCC takes the target from the pragma; clang ignores it and needs the attribute on every function;
-// MSVC emits any intrinsic anywhere and needs neither.
-#if defined(__clang__)
-#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
-#elif defined(__GNUC__)
-#pragma GCC push_options
-#pragma GCC target("avx2")
-#endif
+#include "simd/target_begin_avx2.inc"
 
 namespace skinspheres::runtime::internal::avx2 {
 constexpr RefitSimd kThisLevel = RefitSimd::kAvx2;
@@ -28,9 +20,5 @@ namespace F = simd::sse;
 #include "refit/refit_fast.inc"
 }  // namespace skinspheres::runtime::internal::avx2
 
-#if defined(__clang__)
-#pragma clang attribute pop
-#elif defined(__GNUC__)
-#pragma GCC pop_options
-#endif
+#include "simd/target_end.inc"
 #endif  // x86

@@ -37,7 +37,7 @@ struct FastRefitArrays {
   float* out = nullptr;                         // 4 floats per sphere: centre, radius
 };
 
-// kAvx512: the crowd calls refit 16 instances of one set at once (RefitFastBatch16), one instance
+// kAvx512: the crowd calls refit 16 instances of one set at once (RefitFastBatch), one instance
 // alone at AVX2; not a level of RefitJob.
 // kPortable: the portable copy (what every platform but x86-64 runs; on x86-64 for tests).
 enum class RefitSimd : uint8_t { kAuto, kSse2, kAvx2, kAvx512, kPortable };
@@ -67,25 +67,40 @@ bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
 }
 #endif
 
-// The fast refit of kRefitBatchLanes instances of one set at once (refit_batch_avx512.cc): lane b
-// reads world[b] (a's world is not read) and writes out[b], with the same bits as
-// RefitFastRange(a, 0, sphere_count) for that instance alone. Returns the mask of lanes whose
+// The fast refit of up to kRefitBatchLanes instances of one set at once (refit_batch.inc), the
+// crowd calls' batch: RefitBatchLanes() lanes, by level: 16 at AVX-512 (refit_batch_avx512.cc), 8 at
+// AVX2 (refit_batch_avx2.cc), 4 at SSE2 (refit_batch_sse2.cc) and portable (refit_batch_portable.cc:
+// what aarch64 runs). Lane b reads world[b] (a's world is not read) and writes out[b], with the same
+// bits as RefitFastRange(a, 0, sphere_count) for that instance alone. Returns the mask of lanes whose
 // spheres are finite (RefitFastRange's result per lane). A lane may repeat another's world and out
 // (the same bits are written twice). soa, unless null, also receives the spheres lanes side by side
-// (64 floats per sphere: x, y, z, r of the 16 lanes; crowd/crowd_query.h). Only when the CPU has
-// AVX-512F.
+// (4 RefitBatchLanes() floats per sphere: x, y, z, r of the lanes; crowd/crowd_query.h).
 constexpr size_t kRefitBatchLanes = 16;
-// Whether the crowd calls refit kRefitBatchLanes instances at a time (RefitSimdInUse() is kAvx512),
+// The lanes of the crowd's batch at the level in use (RefitSimdInUse()).
+size_t RefitBatchLanes();
+// Whether the crowd calls refit several instances at a time (always, today: every level batches),
 // and the call that does it (refit_job.cc; world[b]: 16 floats per set joint, out[b]: 4 floats per
-// sphere), which the caller makes only when RefitBatchUsable() said yes, having checked every
-// lane's inputs as RefitJob::Validate does.
+// sphere, for b < RefitBatchLanes()), which the caller makes only when RefitBatchUsable() said yes,
+// having checked every lane's inputs as RefitJob::Validate does.
 bool RefitBatchUsable();
 uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
                         float* const out[kRefitBatchLanes], float* soa = nullptr);
+namespace portable {  // 4 lanes
+uint32_t RefitFastBatch(const FastRefitArrays& a, size_t sphere_count, const float* const world[], float* const out[],
+                        float* soa);
+}
 #if defined(SKINSPHERES_X86_64)
-namespace avx512 {
-uint32_t RefitFastBatch16(const FastRefitArrays& a, size_t sphere_count, const float* const world[kRefitBatchLanes],
-                          float* const out[kRefitBatchLanes], float* soa);
+namespace sse2 {  // 4 lanes
+uint32_t RefitFastBatch(const FastRefitArrays& a, size_t sphere_count, const float* const world[], float* const out[],
+                        float* soa);
+}
+namespace avx2 {  // 8 lanes
+uint32_t RefitFastBatch(const FastRefitArrays& a, size_t sphere_count, const float* const world[], float* const out[],
+                        float* soa);
+}
+namespace avx512 {  // 16 lanes
+uint32_t RefitFastBatch(const FastRefitArrays& a, size_t sphere_count, const float* const world[], float* const out[],
+                        float* soa);
 }
 #endif
 

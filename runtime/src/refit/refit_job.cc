@@ -317,16 +317,30 @@ bool RefitJob::RunParallel(const ParallelFor& parallel_for, size_t grain) const 
 
 namespace internal {
 
-bool RefitBatchUsable() { return RefitSimdInUse() == RefitSimd::kAvx512; }
+size_t RefitBatchLanes() {
+  switch (RefitSimdInUse()) {
+#if defined(SKINSPHERES_X86_64)
+    case RefitSimd::kAvx512: return 16;
+    case RefitSimd::kAvx2: return 8;
+    case RefitSimd::kSse2: return 4;
+#endif
+    default: return 4;  // portable
+  }
+}
+
+bool RefitBatchUsable() { return RefitBatchLanes() > 1; }
 
 uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
                         float* const out[kRefitBatchLanes], float* soa) {
+  const FastRefitArrays a = SharedArrays(set, rest);
+  switch (RefitSimdInUse()) {
 #if defined(SKINSPHERES_X86_64)
-  return avx512::RefitFastBatch16(SharedArrays(set, rest), set.size(), world, out, soa);
-#else
-  (void)set, (void)rest, (void)world, (void)out, (void)soa;
-  return 0;  // never called: RefitBatchUsable() is false off x86-64
+    case RefitSimd::kAvx512: return avx512::RefitFastBatch(a, set.size(), world, out, soa);
+    case RefitSimd::kAvx2: return avx2::RefitFastBatch(a, set.size(), world, out, soa);
+    case RefitSimd::kSse2: return sse2::RefitFastBatch(a, set.size(), world, out, soa);
 #endif
+    default: return portable::RefitFastBatch(a, set.size(), world, out, soa);
+  }
 }
 
 }  // namespace internal

@@ -17,8 +17,9 @@
 
 #include "allocation_counter.h"
 #include "crowd/crowd_query.h"     // runtime/src: counts the crowd's batched queries
-#include "refit/refit_internal.h"  // runtime/src: pins the crowd's refit (batched or one at a time)
+#include "refit/refit_internal.h"  // runtime/src: pins the crowd's refit level (and so its batch width)
 #include "runtime/posed_characters.h"
+#include "runtime/refit/refit_levels.h"
 #include "skinspheres/runtime/api/character.h"
 #include "skinspheres/runtime/crowd/crowd.h"
 
@@ -283,14 +284,14 @@ TEST(CharacterCrowdTest, CrowdEqualsSerialAndNaNFailsOnlyItsInstance) {
       ErrorCode::kInvalidArgument);
 }
 
-// The crowd calls refit up to 16 instances of one asset at once (one per AVX-512 lane, when the CPU
-// has it) and must give every instance the spheres, contacts and triangle contacts it gets alone.
-// 37 instances: 32 of one asset (two full batches) then 5 of another (a batch ends where the asset
-// changes: a partial one), two of them in an engine's joint order (a mapping), one with a NaN joint matrix
-// (it alone fails), one given too few joint matrices (refused before the refit); both crowd calls,
-// on the calling thread and on TBB, and CrowdRange over an engine's ranges of 16; with the batch
-// and with the crowd pinned to one instance at a time (AVX2). Skipped, saying so, when the CPU
-// lacks AVX-512F (after checking the one-at-a-time crowd).
+// The crowd calls refit several instances of one asset at once (one per vector lane: 16 at AVX-512,
+// 8 at AVX2, 4 at SSE2 and portable) and must give every instance the spheres, contacts and triangle
+// contacts it gets alone. 37 instances: 32 of one asset (full batches) then 5 of another (a batch
+// ends where the asset changes: a partial one at 16 and 8 lanes; at 4, a full one and one instance
+// alone), two of them in an engine's joint order (a mapping), one with a NaN joint matrix (it alone
+// fails), one given too few joint matrices (refused before the refit); both crowd calls, on the
+// calling thread and on TBB, and CrowdRange over an engine's ranges of 16; at every level the CPU
+// has (portable and SSE2 on any x86-64).
 TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
   std::shared_ptr<const test::FittedCharacter> fc;
   auto first = BuiltinAsset(&fc);
@@ -329,7 +330,7 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
     if (i == short_at) world = world.first(world.size() - 1);
     inputs.push_back({world, {}});
   }
-  // Each instance alone, one at a time (AVX2 or SSE2: the batch is not used by Update).
+  // Each instance alone, one at a time (the batch is not used by Update).
   std::vector<CharacterInstance> alone;
   for (int i = 0; i < kCount; ++i) {
     alone.push_back(make(i));
@@ -348,12 +349,13 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
     explicit Pin(internal::RefitSimd level) : ok(internal::PinRefitSimd(level)) {}
     ~Pin() { internal::PinRefitSimd(internal::RefitSimd::kAuto); }
   };
-  bool batch_checked = false;
-  for (const bool batch : {false, true}) {
-    const internal::RefitSimd level = batch ? internal::RefitSimd::kAvx512 : internal::RefitSimd::kAvx2;
+  for (const internal::RefitSimd level : {internal::RefitSimd::kPortable, internal::RefitSimd::kSse2,
+                                          internal::RefitSimd::kAvx2, internal::RefitSimd::kAvx512}) {
     const Pin pin(level);
-    if (!pin.ok) continue;
-    batch_checked |= batch;
+    if (!pin.ok) {
+      std::printf("%s: not on this CPU, not checked\n", internal::ToString(level));
+      continue;
+    }
     for (const bool find_contacts : {false, true}) {
       for (const int loop_kind : {0, 1, 2}) {  // serial, TBB, CrowdRange over ranges of 16
         std::vector<CharacterInstance> crowd;
@@ -401,15 +403,26 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
       }
     }
   }
-  if (!batch_checked) GTEST_SKIP() << "the CPU lacks AVX-512F: only the one-at-a-time crowd was checked";
 }
 
-// The crowd's batched query (16 instances of one asset per AVX-512 lane) against the all-pairs
+// The crowd at each refit level the CPU has, pinned for the test: AVX-512 (16 lanes), AVX2 (8), SSE2
+// and portable (4).
+class CharacterCrowdLevelTest : public ::testing::TestWithParam<internal::RefitSimd> {
+ protected:
+  void SetUp() override {
+    if (!internal::PinRefitSimd(GetParam())) GTEST_SKIP() << "the CPU lacks " << internal::ToString(GetParam());
+  }
+  void TearDown() override { internal::PinRefitSimd(internal::RefitSimd::kAuto); }
+};
+
+INSTANTIATE_TEST_SUITE_P(Levels, CharacterCrowdLevelTest, test::AllRefitLevels(), test::RefitLevelName);
+
+// The crowd's batched query (the instances of one asset side by side in vector lanes) against the all-pairs
 // oracle over a clip, every instance at its own point of the clip, frames of the crowd call
 // alternating with frames where each instance runs alone (its candidate cache then restarts from
 // a state the batch left behind), every frame's contacts equal to the oracle's; and the crowd call
 // allocates nothing once warm.
-TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
+TEST_P(CharacterCrowdLevelTest, BatchedQueryMatchesAllPairsOverAClip) {
   std::shared_ptr<const test::FittedCharacter> fc;
   auto asset = BuiltinAsset(&fc);
   ASSERT_TRUE(asset);
@@ -418,7 +431,7 @@ TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
   // share one centre, so every allowed pair touches, far more than the batch's hit buffer holds.
   std::vector<Mat4f> collapsed(poses[0].world.size(), Mat4f::Zero());
   for (Mat4f& g : collapsed) g.col(3) << 0.5f, 1.0f, -0.25f, 1.0f;
-  constexpr size_t kCount = 21;  // a batch of 16 and one of 5
+  constexpr size_t kCount = 21;  // batches of 16 and 5, 8 8 and 5, or five of 4 and one alone
   std::vector<CharacterInstance> crowd;
   for (size_t k = 0; k < kCount; ++k) crowd.push_back(MakeInstance(asset));
   std::vector<CharacterInstance*> ptrs;
@@ -483,7 +496,6 @@ TEST(CharacterCrowdTest, BatchedQueryMatchesAllPairsOverAClip) {
   expected.FindSpherePairs();
   EXPECT_TRUE(std::ranges::equal(crowd[0].spheres(), expected.spheres()));
   EXPECT_TRUE(std::ranges::equal(crowd[0].sphere_pairs(), expected.sphere_pairs()));
-  if (batched_frames == 0) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd queried one instance at a time";
   EXPECT_EQ(batched_frames, 2 * poses.size() - poses.size() * 2 / 3) << "every crowd frame queried at once";
 }
 
@@ -526,7 +538,7 @@ SphereSet CrowdTestSet(size_t n, bool exclude_all, std::mt19937& rng) {
 // excluded. Each crowd of 20 instances (a batch of 16 and one of 4) under random rigid motions gives
 // every instance the oracle's contacts; the batch queries at once only from 2 to 256 spheres with
 // some pair allowed, and one by one otherwise.
-TEST(CharacterCrowdTest, BatchedQueryBoundsBySphereCount) {
+TEST_P(CharacterCrowdLevelTest, BatchedQueryBoundsBySphereCount) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   bool batched_any = false;
@@ -575,7 +587,7 @@ TEST(CharacterCrowdTest, BatchedQueryBoundsBySphereCount) {
       }
     }
   }
-  if (!batched_any) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd queried one instance at a time";
+  EXPECT_TRUE(batched_any);
 }
 
 // ReserveContacts at set-up sizes the narrow phase's scratch too: the first FindContacts (with

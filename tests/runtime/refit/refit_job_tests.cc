@@ -15,6 +15,7 @@
 
 #include "refit/refit_internal.h"  // runtime/src: pins the instruction set of the fast refit
 #include "runtime/posed_characters.h"
+#include "runtime/refit/refit_levels.h"
 #include "runtime/refit/scalar_fast_refit.h"
 #include "runtime/sample_sphere_set.h"
 #include "skinspheres/runtime/refit/refit_job.h"
@@ -343,13 +344,15 @@ TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
   std::printf("sum term smaller on %d of the poses checked\n", sum_term_smaller);
 }
 
-// The crowd's batch (internal::RefitFastBatch: 16 instances of one set at once, one per AVX-512
-// lane) against the scalar formula, lane by lane, bit for bit, in both of its outputs. worlds: one joint-matrix array
-// per lane (lanes may share one, and then their output); bad: lanes expected to fail (non-finite).
-void CheckBatchLanes(const SphereSet& set, const RefitRestData& rest,
+// The crowd's batch (internal::RefitFastBatch: W instances of one set at once, one per lane, W =
+// RefitBatchLanes() at the level pinned) against the scalar formula, lane by lane, bit for bit, in
+// both of its outputs. worlds: one joint-matrix array per lane (lanes may share one, and then their
+// output); bad: lanes expected to fail (non-finite).
+void CheckBatchLanes(internal::RefitSimd level, const SphereSet& set, const RefitRestData& rest,
                      const std::vector<const std::vector<skinspheres::Mat4f>*>& worlds, uint32_t bad,
                      const std::string& what) {
-  ASSERT_EQ(worlds.size(), internal::kRefitBatchLanes);
+  const size_t width = internal::RefitBatchLanes();
+  ASSERT_EQ(worlds.size(), width);
   std::vector<std::vector<skinspheres::Vec4f>> outs(worlds.size(), std::vector<skinspheres::Vec4f>(set.size()));
   const float* world[internal::kRefitBatchLanes];
   float* out[internal::kRefitBatchLanes];
@@ -360,10 +363,10 @@ void CheckBatchLanes(const SphereSet& set, const RefitRestData& rest,
     out[b] = reinterpret_cast<float*>(outs[first].data());
   }
   internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
-  std::vector<float> soa(64 * set.size(), -1.0f);  // the same spheres lanes side by side (crowd query)
+  std::vector<float> soa(4 * width * set.size(), -1.0f);  // the same spheres lanes side by side (crowd query)
   const uint32_t finite = internal::RefitFastBatch(set, rest, world, out, soa.data());
-  ASSERT_EQ(internal::LastRefitSimdRun(), internal::RefitSimd::kAvx512) << what;
-  EXPECT_EQ(finite, 0xFFFFu & ~bad) << what;
+  ASSERT_EQ(internal::LastRefitSimdRun(), level) << what;
+  EXPECT_EQ(finite, ((1u << width) - 1) & ~bad) << what;
   for (size_t b = 0; b < worlds.size(); ++b) {
     if ((bad >> b) & 1u) continue;
     size_t first = b;
@@ -373,45 +376,50 @@ void CheckBatchLanes(const SphereSet& set, const RefitRestData& rest,
       for (int c = 0; c < 4; ++c) {
         ASSERT_EQ(std::bit_cast<uint32_t>(outs[first][s][c]), std::bit_cast<uint32_t>(want[s][c]))
             << what << ": lane " << b << " sphere " << s << " coordinate " << c;
-        ASSERT_EQ(std::bit_cast<uint32_t>(soa[64 * s + 16 * c + b]), std::bit_cast<uint32_t>(want[s][c]))
+        ASSERT_EQ(std::bit_cast<uint32_t>(soa[4 * width * s + width * c + b]), std::bit_cast<uint32_t>(want[s][c]))
             << what << ": lanes side by side, lane " << b << " sphere " << s << " coordinate " << c;
       }
     }
   }
 }
 
-// 16 poses of the built-in character per batch, random (half of them with every coefficient
-// perturbed and far translations, any affine map), then a batch with a NaN in lane 7 (it alone
-// fails) and one whose lanes 5..15 repeat lane 4 (a crowd's last, partial batch).
-TEST(RefitJobTest, CrowdBatchGivesEachInstanceTheScalarBits) {
-  const PinnedRefit pin(internal::RefitSimd::kAvx512);
-  if (!pin.ok()) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd refits one instance at a time";
+// Every level's batch: AVX-512 (16 lanes), AVX2 (8), SSE2 and portable (4), where the CPU has it.
+class CrowdBatchLevel : public ::testing::TestWithParam<internal::RefitSimd> {};
+
+// W poses of the built-in character per batch, random (half of them with every coefficient
+// perturbed and far translations, any affine map), then a batch with a NaN in lane W/2 + 1 (it
+// alone fails) and one whose lanes from W/4 + 1 on repeat lane W/4 (a crowd's last, partial batch).
+TEST_P(CrowdBatchLevel, GivesEachInstanceTheScalarBits) {
+  const PinnedRefit pin(GetParam());
+  if (!pin.ok()) GTEST_SKIP() << "the CPU lacks " << internal::ToString(GetParam());
   auto fc = test::LoadFitted("builtin");
   ASSERT_TRUE(fc);
   auto rest = RefitRestData::Create(fc->set);
   ASSERT_TRUE(rest.ok());
   ASSERT_TRUE(internal::RefitBatchUsable());
+  const size_t width = internal::RefitBatchLanes();
   const std::vector<std::vector<skinspheres::Mat4f>> poses = AnyAffinePoses(*fc, 23, 16 * 12);
-  for (size_t batch = 0; batch < poses.size() / 16; ++batch) {
+  for (size_t batch = 0; batch < poses.size() / width; ++batch) {
     std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
-    for (size_t b = 0; b < 16; ++b) lanes.push_back(&poses[16 * batch + b]);
-    CheckBatchLanes(fc->set, *rest, lanes, 0, "batch " + std::to_string(batch));
+    for (size_t b = 0; b < width; ++b) lanes.push_back(&poses[width * batch + b]);
+    CheckBatchLanes(GetParam(), fc->set, *rest, lanes, 0, "batch " + std::to_string(batch));
   }
-  std::vector<skinspheres::Mat4f> nan_pose = poses[7];
+  const size_t nan_lane = width / 2 + 1, repeated = width / 4;
+  std::vector<skinspheres::Mat4f> nan_pose = poses[nan_lane];
   nan_pose[fc->set.influence_joints[0]](1, 3) = std::numeric_limits<float>::quiet_NaN();
   std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
-  for (size_t b = 0; b < 16; ++b) lanes.push_back(b == 7 ? &nan_pose : &poses[b]);
-  CheckBatchLanes(fc->set, *rest, lanes, 1u << 7, "NaN in lane 7");
-  for (size_t b = 5; b < 16; ++b) lanes[b] = lanes[4];
-  CheckBatchLanes(fc->set, *rest, lanes, 0, "lanes 5..15 repeat lane 4");
+  for (size_t b = 0; b < width; ++b) lanes.push_back(b == nan_lane ? &nan_pose : &poses[b]);
+  CheckBatchLanes(GetParam(), fc->set, *rest, lanes, 1u << nan_lane, "NaN in lane " + std::to_string(nan_lane));
+  for (size_t b = repeated + 1; b < width; ++b) lanes[b] = lanes[repeated];
+  CheckBatchLanes(GetParam(), fc->set, *rest, lanes, 0, "lanes repeat lane " + std::to_string(repeated));
 }
 
 // The batch on a sphere of more influences than it keeps moved points for (20 > 8), and on one of 6
 // whose joints all share one slot of its stretch table (every 16th joint: each stretch evicts the
 // last, so the second pass computes them again), on a set of 300 joints.
-TEST(RefitJobTest, CrowdBatchManyInfluencesAndJoints) {
-  const PinnedRefit pin(internal::RefitSimd::kAvx512);
-  if (!pin.ok()) GTEST_SKIP() << "the CPU lacks AVX-512F: the crowd refits one instance at a time";
+TEST_P(CrowdBatchLevel, ManyInfluencesAndJoints) {
+  const PinnedRefit pin(GetParam());
+  if (!pin.ok()) GTEST_SKIP() << "the CPU lacks " << internal::ToString(GetParam());
   constexpr int kJoints = 300;
   for (const auto& [influences, stride] : {std::pair{20, 15}, std::pair{6, 16}}) {
     ManyInfluences many(kJoints, influences, stride);
@@ -420,17 +428,19 @@ TEST(RefitJobTest, CrowdBatchManyInfluencesAndJoints) {
     ASSERT_TRUE(rest.ok()) << rest.error().message;
     ASSERT_TRUE(internal::RefitBatchUsable());
     for (int batch = 0; batch < 8; ++batch) {
-      std::vector<std::vector<skinspheres::Mat4f>> worlds(16);
+      std::vector<std::vector<skinspheres::Mat4f>> worlds(internal::RefitBatchLanes());
       std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
       for (auto& w : worlds) {
         for (int j = 0; j < kJoints; ++j) w.push_back(many.RandomAffine(0.5f));
         lanes.push_back(&w);
       }
-      CheckBatchLanes(many.set, *rest, lanes, 0,
+      CheckBatchLanes(GetParam(), many.set, *rest, lanes, 0,
                       std::to_string(influences) + " influences, 300 joints, batch " + std::to_string(batch));
     }
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(Levels, CrowdBatchLevel, test::AllRefitLevels(), test::RefitLevelName);
 
 class SharedCharacterRefit : public ::testing::TestWithParam<std::string> {};
 

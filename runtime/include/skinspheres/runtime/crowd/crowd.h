@@ -4,9 +4,9 @@
 // instance updated and queried (its status() set) and a FrameStatus for the whole call. Every
 // instance's spheres and sphere pairs are identical to running it alone, serially.
 //
-// Fast mode on a CPU with AVX-512F: consecutive instances of one asset are refitted, and (an asset
-// of up to 256 spheres) queried, 16 at a time, one per vector lane (runtime/src/crowd/), with the
-// bits each gets alone.
+// Fast mode: consecutive instances of one asset are refitted, and (an asset of up to 256 spheres)
+// queried, several at a time, one per vector lane (runtime/src/crowd/): 16 on a CPU with AVX-512F,
+// 8 with AVX2, 4 otherwise (SSE2, and every other platform), with the bits each gets alone.
 #pragma once
 
 #include <Eigen/Core>
@@ -35,23 +35,22 @@ FrameStatus CrowdStep(CharacterInstance& instance, RefitMode mode, const Charact
 
 // CrowdStep for instances[i] with inputs[i], one after the other on the calling thread, except
 // that consecutive instances of one asset are refitted, and (an asset of up to 256 spheres) queried,
-// together in fast mode: 16 at a time, one per AVX-512 lane, when the CPU has AVX-512F (each gets
-// the spheres and sphere pairs it gets alone, bit for bit; several times faster per instance than one at
-// a time). The batched query tests all the asset's allowed pairs; it resets each instance's
-// candidate cache (BroadPhaseContext::Invalidate), whose motion statistics it does not keep, so a
-// later query alone rebuilds it (and gives exact sphere pairs either way). The batch's spheres go to a
-// per-thread buffer (64-byte aligned, room for 256 spheres: 64 KB), allocated by the thread's first
-// batch and kept for its life. What the crowd calls below run on each range their parallel_for
-// hands out; for an engine that runs its own loop, give it ranges of instances ordered by asset, in
-// multiples of 16. An instance listed twice in one range is updated twice, in order, as CrowdStep
-// would. Returns kInvalidArgument (and runs nothing) when the spans differ in size or a pointer is
-// null; kInvalidData when at least one instance failed (its status() says why); kOk.
+// together in fast mode: 16, 8 or 4 at a time, one per vector lane, by the widest the CPU has
+// (AVX-512F, AVX2, else SSE2 or any other platform; each gets the spheres and sphere pairs it gets
+// alone, bit for bit; faster per instance than one at a time). The batched query tests all the asset's allowed pairs;
+// it resets each instance's candidate cache (BroadPhaseContext::Invalidate), whose motion statistics it does not keep,
+// so a later query alone rebuilds it (and gives exact sphere pairs either way). The batch's spheres go to a per-thread
+// buffer (64-byte aligned, room for 256 spheres: 64 KB), allocated by the thread's first batch and kept for its life.
+// What the crowd calls below run on each range their parallel_for hands out; for an engine that runs its own loop, give
+// it ranges of instances ordered by asset, in multiples of 16. An instance listed twice in one range is updated twice,
+// in order, as CrowdStep would. Returns kInvalidArgument (and runs nothing) when the spans differ in size or a pointer
+// is null; kInvalidData when at least one instance failed (its status() says why); kOk.
 FrameStatus CrowdRange(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
                        RefitMode mode, bool find_contacts);
 
-// How many consecutive instances the crowd calls below give each index of their parallel_for: 16 for
-// a broad-phase-only crowd in fast mode on a CPU that batches (AVX-512F), so that no range cuts a
-// batch short; 1 otherwise (the narrow phase's work per instance outweighs the batch's gain).
+// How many consecutive instances the crowd calls below give each index of their parallel_for: the
+// batch's width (16, 8 or 4, as above) for a broad-phase-only crowd in fast mode, so that no range
+// cuts a batch short; 1 otherwise (the narrow phase's work per instance outweighs the batch's gain).
 size_t CrowdBlock(RefitMode mode, bool find_contacts);
 
 // Update(mode, input) then FindSpherePairs() for instances[i] with inputs[i], in parallel (parallel_for over
