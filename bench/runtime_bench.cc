@@ -45,7 +45,7 @@
 //                            AVX-512 batches of 4, 8 and 16 instances refitted and queried at once,
 //                            3 the AVX-512 batch queried one by one, 5 portable C++, 6 and 7 AVX2
 //                            and SSE2 one instance at a time; 0 picks the CPU's best); 1000 and
-//                            10,000 instances at every level, and the denser fits 2 and 3 at 1000
+//                            10,000 instances at every level, and the denser fits 2, 3 and 4 at 1000
 //                            instances, one thread, at AVX2, AVX-512 and one at a time.
 //   BM_CrowdPose             the separate row for that input: LocalToModelJob per instance under
 //                            tbb::parallel_for (what an engine's animation system would do).
@@ -188,7 +188,8 @@ void Fail(Xbot* x, std::string message) { x->error = std::move(message); }
 // Fit variants: 0 = default FitSettings (tightening on: centre search, hand-over, splitting up
 // to max_spheres); 1 = FitSettings::tighten = false, the paper's spheres after ownership and
 // refinement only: fewer, looser spheres; 2 and 3 = split on towards 160 and 256 spheres (no
-// standoff target, split_gain 0.99), denser sets for the crowd's rows. The `spheres` counter of
+// standoff target, split_gain 0.99), 4 = towards 512 (split_gain 0.999), denser sets for the
+// crowd's rows (4: past the 256 spheres up to which the crowd's query lists every pair). The `spheres` counter of
 // every row says how many.
 // Fills *x, or sets x->error and returns at the first failure.
 void Load(Xbot* x, int variant) {
@@ -209,8 +210,8 @@ void Load(Xbot* x, int variant) {
   if (variant == 1) settings.tighten = false;
   if (variant >= 2) {  // denser sets, to see how the crowd's batched query scales with the sphere count
     settings.target_standoff = 0.0f;
-    settings.split_gain = 0.99f;
-    settings.max_spheres = variant == 2 ? 160 : 256;
+    settings.split_gain = variant == 4 ? 0.999f : 0.99f;
+    settings.max_spheres = variant == 2 ? 160 : variant == 3 ? 256 : 512;
   }
   auto fit = lib::FitSpheres(x->ch, x->parts, settings);
   x->fit_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -281,7 +282,7 @@ std::unique_ptr<Xbot> LoadXbot(int variant) {
 
 // variant: see "Fit variants" above. Loaded once per variant, on first use.
 const Xbot* GetXbot(benchmark::State& state, int variant = 0) {
-  static std::unique_ptr<Xbot> cache[4];
+  static std::unique_ptr<Xbot> cache[5];
   std::unique_ptr<Xbot>& xbot = cache[variant];
   if (!xbot) xbot = LoadXbot(variant);
   if (!xbot->error.empty()) {
@@ -602,7 +603,7 @@ void BM_CrowdFast(benchmark::State& state) {
 BENCHMARK(BM_CrowdFast)
     ->ArgsProduct({{0, 1}, {1, 10, 100, 1000, 10000}, {1, 2}, {0}})
     ->ArgsProduct({{0}, {1000, 10000}, {1, 2}, {1, 2, 3, 4, 5, 6, 7}})  // every level, batched and one at a time
-    ->ArgsProduct({{2, 3}, {1000}, {1}, {2, 4, 6}})  // denser sets: where the batch's query stops paying
+    ->ArgsProduct({{2, 3, 4}, {1000}, {1}, {2, 4, 6}})                  // denser sets: the cost against the contacts
     ->ArgNames({"fit", "instances", "threads", "simd"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();

@@ -31,7 +31,7 @@ Result<std::shared_ptr<const CharacterAsset>> CharacterAsset::Create(SphereSet s
   asset->set_ = std::move(set);
   asset->rest_ = std::move(rest).value();
   asset->filter_ = std::move(filter).value();
-  asset->crowd_pairs_ = internal::CrowdPairs(asset->filter_);
+  CrowdBatch::ListPairs(asset.get());
   return std::shared_ptr<const CharacterAsset>(std::move(asset));
 }
 

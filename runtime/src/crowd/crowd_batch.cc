@@ -17,41 +17,67 @@
 namespace skinspheres::runtime {
 namespace {
 
-// Sets of up to this many spheres are queried a batch at a time in the crowd calls (all the allowed
-// pairs of the batch's instances in one vector test each); larger sets query one by one, where the
-// candidate cache tests far fewer pairs than all of them.
-constexpr size_t kCrowdQueryMaxSpheres = 256;
-
 std::atomic<bool> crowd_batched{true};
 std::atomic<bool> crowd_query_batched{true};
 thread_local uint64_t batched_queries = 0;  // batches queried at once on this thread (tests)
 
-// BatchTestPairs of the level in use (the level the batch was refitted at: the same lanes).
-size_t TestPairs(const float* soa, const uint32_t* pairs, size_t begin, size_t end, uint32_t lanes,
-                 internal::BatchHits* hits) {
-  switch (internal::RefitSimdInUse()) {
-#if defined(SKINSPHERES_X86_64)
-    case internal::RefitSimd::kAvx512: return internal::avx512::BatchTestPairs(soa, pairs, begin, end, lanes, hits);
-    case internal::RefitSimd::kAvx2: return internal::avx2::BatchTestPairs(soa, pairs, begin, end, lanes, hits);
-    case internal::RefitSimd::kSse2: return internal::sse2::BatchTestPairs(soa, pairs, begin, end, lanes, hits);
-#endif
-    default: return internal::portable::BatchTestPairs(soa, pairs, begin, end, lanes, hits);
+// Insertion sort by (i, j): the grouped query's pairs come row by row already, out of order only
+// within a row (part by part), so this is close to linear.
+void SortByRowThenColumn(std::vector<SpherePair>& pairs) {
+  for (size_t k = 1; k < pairs.size(); ++k) {
+    const SpherePair p = pairs[k];
+    size_t m = k;
+    for (; m > 0 && (pairs[m - 1].i > p.i || (pairs[m - 1].i == p.i && pairs[m - 1].j > p.j)); --m) {
+      pairs[m] = pairs[m - 1];
+    }
+    pairs[m] = p;
   }
 }
 
 }  // namespace
 
-namespace internal {
-std::vector<uint32_t> CrowdPairs(const PairFilter& filter) {
-  std::vector<uint32_t> pairs;
+void CrowdBatch::ListPairs(CharacterAsset* asset) {
+  const PairFilter& filter = asset->filter_;
+  Lists lists{asset->crowd_pairs_, asset->crowd_groups_, asset->crowd_part_count_, asset->crowd_pairs_sorted_};
+  asset->crowd_sorted_pairs_.clear();
+  lists.pairs.clear();
+  lists.groups.clear();
+  lists.part_count = 0;
+  lists.sorted = true;
   const size_t n = filter.size();
-  if (n < 2 || n > kCrowdQueryMaxSpheres) return pairs;
+  if (n < 2 || n > internal::kCrowdQueryMaxSpheres) return;
+  // Grouped: row i, then the spheres j > i of each part, ascending.
+  for (uint32_t i = 0; i < n; ++i) lists.part_count = std::max<size_t>(lists.part_count, filter.part(i) + size_t{1});
+  std::vector<std::vector<uint32_t>> members(lists.part_count);
+  for (uint32_t i = 0; i < n; ++i) members[filter.part(i)].push_back(i);
   for (uint32_t i = 0; i < n; ++i) {
-    for (uint32_t j = i + 1; j < n; ++j) {
-      if (!filter.excluded(i, j)) pairs.push_back(i << 16 | j);
+    for (uint32_t part = 0; part < lists.part_count; ++part) {
+      const auto begin = static_cast<uint32_t>(lists.pairs.size());
+      for (auto it = std::upper_bound(members[part].begin(), members[part].end(), i); it != members[part].end(); ++it) {
+        if (!filter.excluded(i, *it)) lists.pairs.push_back(i << 16 | *it);
+      }
+      const auto end = static_cast<uint32_t>(lists.pairs.size());
+      if (end > begin) lists.groups.insert(lists.groups.end(), {begin, end, part});
     }
   }
-  return pairs;
+  lists.sorted = std::is_sorted(lists.pairs.begin(), lists.pairs.end());
+  if (n <= internal::kCrowdAllPairsMaxSpheres) {
+    asset->crowd_sorted_pairs_ = lists.pairs;
+    std::sort(asset->crowd_sorted_pairs_.begin(), asset->crowd_sorted_pairs_.end());
+  }
+}
+
+namespace internal {
+
+const CrowdQueryKernels& CrowdQueryKernelsInUse() {
+  switch (RefitSimdInUse()) {
+#if defined(SKINSPHERES_X86_64)
+    case RefitSimd::kAvx512: return avx512::CrowdQueryKernelTable();
+    case RefitSimd::kAvx2: return avx2::CrowdQueryKernelTable();
+    case RefitSimd::kSse2: return sse2::CrowdQueryKernelTable();
+#endif
+    default: return portable::CrowdQueryKernelTable();
+  }
 }
 
 void SetCrowdBatched(bool batched) { crowd_batched.store(batched, std::memory_order_relaxed); }
@@ -75,14 +101,36 @@ FrameStatus CrowdBatch::AfterQuery(CharacterInstance& inst, RefitMode mode, cons
   return inst.status();
 }
 
-// The batch's spheres lanes side by side (RefitFastBatch's soa), per thread: room for the largest
-// set batched, 64-byte aligned (each lane vector one cache line), made by the thread's first batch
-// and kept for its life (not on the stack: engines run jobs on small stacks).
-float* CrowdBatch::SoaScratch() {
+// Per-thread scratch of at least `floats` floats, 64-byte aligned (each lane vector one cache line),
+// grown when a batch needs more and kept for the thread's life (not on the stack: engines run jobs
+// on small stacks). Two of them: the batch's spheres (RefitFastBatch's soa) and its parts' boxes.
+float* CrowdBatch::SoaScratch(size_t floats) {
+  thread_local std::vector<float> soa;
+  return Aligned(soa, floats);
+}
+float* CrowdBatch::BoxScratch(size_t floats) {
+  thread_local std::vector<float> boxes;
+  return Aligned(boxes, floats);
+}
+float* CrowdBatch::Aligned(std::vector<float>& buffer, size_t floats) {
   constexpr size_t kAlign = 64 / sizeof(float);
-  thread_local std::vector<float> soa(kCrowdQueryMaxSpheres * 4 * kLanes + kAlign);
-  const uintptr_t address = reinterpret_cast<uintptr_t>(soa.data());
-  return soa.data() + ((64 - address % 64) % 64) / sizeof(float);
+  if (buffer.size() < floats + kAlign) buffer.resize(floats + kAlign);
+  const uintptr_t address = reinterpret_cast<uintptr_t>(buffer.data());
+  return buffer.data() + ((64 - address % 64) % 64) / sizeof(float);
+}
+
+// The hits of a batch into its instances' sphere pairs (BatchFlush; context: the QueryBatch's lanes).
+void CrowdBatch::AppendHits(void* context, const internal::BatchHits& hits) {
+  const auto& to = *static_cast<const HitTarget*>(context);
+  for (size_t h = 0; h < hits.count; ++h) {
+    const uint32_t i = hits.pair[h] >> 16, j = hits.pair[h] & 0xFFFFu;
+    const uint16_t part_i = to.filter->part(i), part_j = to.filter->part(j);
+    for (uint32_t m = hits.mask[h]; m != 0; m &= m - 1) {
+      const int b = std::countr_zero(m);
+      to.inst[b]->sphere_pairs_.push_back(
+          SpherePair{i, j, hits.depth[internal::kBatchDepthStride * h + b], part_i, part_j});
+    }
+  }
 }
 
 // FindSpherePairs of the instances in `lanes` at once: what FindSpherePairs() gives each, from soa. Lanes whose
@@ -90,15 +138,9 @@ float* CrowdBatch::SoaScratch() {
 // for their own FindSpherePairs() to report.
 uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, const float* soa, uint32_t lanes,
                                 CharacterInstance* const inst[kLanes]) {
+  const internal::CrowdQueryKernels& kernels = internal::CrowdQueryKernelsInUse();
   const size_t n = asset.size();
-  switch (internal::RefitSimdInUse()) {
-#if defined(SKINSPHERES_X86_64)
-    case internal::RefitSimd::kAvx512: lanes &= internal::avx512::BatchValuesOk(soa, n, internal::kMaxMagnitude); break;
-    case internal::RefitSimd::kAvx2: lanes &= internal::avx2::BatchValuesOk(soa, n, internal::kMaxMagnitude); break;
-    case internal::RefitSimd::kSse2: lanes &= internal::sse2::BatchValuesOk(soa, n, internal::kMaxMagnitude); break;
-#endif
-    default: lanes &= internal::portable::BatchValuesOk(soa, n, internal::kMaxMagnitude); break;
-  }
+  lanes &= kernels.values_ok(soa, n, internal::kMaxMagnitude);
   if (lanes == 0) return 0;
   for (uint32_t m = lanes; m != 0; m &= m - 1) inst[std::countr_zero(m)]->sphere_pairs_.clear();
   constexpr size_t kHits = 16;
@@ -106,19 +148,23 @@ uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, const float* soa, u
   uint32_t pair[kHits];
   uint16_t mask[kHits];
   internal::BatchHits hits{pair, mask, depth, kHits, 0};
-  const uint32_t* pairs = asset.crowd_pairs_.data();
-  const size_t count = asset.crowd_pairs_.size();
-  const PairFilter& filter = asset.filter();
-  for (size_t pos = 0; pos < count;) {
-    hits.count = 0;
-    pos = TestPairs(soa, pairs, pos, count, lanes, &hits);
-    for (size_t h = 0; h < hits.count; ++h) {
-      const uint32_t i = pair[h] >> 16, j = pair[h] & 0xFFFFu;
-      const uint16_t part_i = filter.part(i), part_j = filter.part(j);
-      for (uint32_t m = mask[h]; m != 0; m &= m - 1) {
-        const int b = std::countr_zero(m);
-        inst[b]->sphere_pairs_.push_back(SpherePair{i, j, depth[internal::kBatchDepthStride * h + b], part_i, part_j});
-      }
+  HitTarget target{&asset.filter(), inst};
+  const std::vector<uint32_t>& sorted = asset.crowd_sorted_pairs_;
+  if (kernels.width == internal::kRefitBatchLanes && !sorted.empty()) {
+    for (size_t pos = 0; pos < sorted.size();) {  // every pair, in (i, j) order, no boxes
+      hits.count = 0;
+      pos = kernels.test_pairs(soa, sorted.data(), pos, sorted.size(), lanes, &hits);
+      AppendHits(&target, hits);
+    }
+  } else {
+    const std::vector<uint32_t>& pairs = asset.crowd_pairs_;
+    float* boxes = BoxScratch(6 * kernels.width * asset.crowd_part_count_);
+    kernels.part_boxes(soa, asset.filter().parts().data(), n, asset.crowd_part_count_, boxes);
+    kernels.test_groups(soa, pairs.data(), asset.crowd_groups_.data(), asset.crowd_groups_.size() / 3, boxes, lanes,
+                        internal::BatchSink{&hits, &AppendHits, &target});
+    AppendHits(&target, hits);
+    if (!asset.crowd_pairs_sorted_) {  // each instance's pairs in the order of its own query: by (i, j)
+      for (uint32_t m = lanes; m != 0; m &= m - 1) SortByRowThenColumn(inst[std::countr_zero(m)]->sphere_pairs_);
     }
   }
   for (uint32_t m = lanes; m != 0; m &= m - 1) {
@@ -181,7 +227,7 @@ bool CrowdBatch::Run(std::span<CharacterInstance* const> instances, std::span<co
         world[b] = world[0];
         out[b] = out[0];
       }
-      if (!asset->crowd_pairs_.empty() && internal::CrowdQueryBatched()) soa = SoaScratch();
+      if (!asset->crowd_pairs_.empty() && internal::CrowdQueryBatched()) soa = SoaScratch(4 * width * asset->size());
       finite = internal::RefitFastBatch(asset->sphere_set(), asset->rest(), world, out, soa);
     }
     uint32_t updated = 0;  // lanes refitted and recorded

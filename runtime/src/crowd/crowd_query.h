@@ -43,33 +43,64 @@ bool CrowdQueryBatched();
 // How many batches the calling thread has queried at once (tests: that the batched query ran).
 uint64_t CrowdQueryBatches();
 
-// Per level, for its W lanes (crowd_query.inc):
-// BatchValuesOk: the lanes whose spheres [0, n) all have |x|, |y|, |z|, r <= max_magnitude and
-// r >= 0 (the broad phase's value check; the refit already refused non-finite spheres).
-// BatchTestPairs: tests pairs[begin, end) (i << 16 | j, i < j, sorted) in every lane of `lanes`,
-// appending the pairs that touch somewhere to *hits. Returns the position reached: end, or the first
-// pair not tested because hits was full.
-namespace portable {  // 4 lanes
-uint32_t BatchValuesOk(const float* soa, size_t n, float max_magnitude);
-size_t BatchTestPairs(const float* soa, const uint32_t* pairs, size_t begin, size_t end, uint32_t lanes,
-                      BatchHits* hits);
-}  // namespace portable
+// The batched query lists the allowed pairs (i << 16 | j) of sets of up to kCrowdQueryMaxSpheres
+// spheres (larger ones query one instance at a time) in groups, each the pairs of one row i with the
+// spheres j > i of one part (by row, then part, then j). A group is tested only where sphere i's box
+// meets the part's box in some lane (BatchTestGroups), so the cost follows the parts that come near
+// each other, not the square of the sphere count; at 16 lanes, sets of up to
+// kCrowdAllPairsMaxSpheres test every pair instead (BatchTestPairs over the whole list: measured
+// faster there, bench/runtime_bench.cc BM_CrowdFast). Either way each instance's pairs come out by
+// (i, j), sorted after the query when the groups' order is not that.
+inline constexpr size_t kCrowdAllPairsMaxSpheres = 160;
+inline constexpr size_t kCrowdQueryMaxSpheres = 1024;
+
+// Where the grouped query's hits go: into *hits, handed to flush(context, *hits) whenever it is full
+// (then emptied); the hits left at the end stay in *hits.
+using BatchFlush = void (*)(void* context, const BatchHits& hits);
+struct BatchSink {
+  BatchHits* hits;
+  BatchFlush flush;
+  void* context;
+};
+
+// One level's batched query, for its `width` lanes (crowd_query.inc):
+struct CrowdQueryKernels {
+  size_t width;
+  // The lanes whose spheres [0, n) all have |x|, |y|, |z|, r <= max_magnitude and r >= 0 (the
+  // broad phase's value check; the refit already refused non-finite spheres).
+  uint32_t (*values_ok)(const float* soa, size_t n, float max_magnitude);
+  // Tests pairs[begin, end) (i << 16 | j, i < j, sorted) in every lane of `lanes`, appending the
+  // pairs that touch somewhere to *hits. Returns the position reached: end, or the first pair not
+  // tested because hits was full.
+  size_t (*test_pairs)(const float* soa, const uint32_t* pairs, size_t begin, size_t end, uint32_t lanes,
+                       BatchHits* hits);
+  // Each part's box per lane, grown by a margin that covers the rounding of every value the pair test
+  // compares (crowd_query.inc): boxes + 6 width p holds min x, y, z then max x, y, z of part p, width
+  // floats each. sphere_part: n parts, each < part_count.
+  void (*part_boxes)(const float* soa, const uint16_t* sphere_part, size_t n, size_t part_count, float* boxes);
+  // Tests the groups (begin, end, part: 3 values each, into pairs) whose row's sphere box meets the
+  // part's box in a lane of `lanes`, every pair of such a group in every lane of `lanes` (as
+  // test_pairs), into sink.
+  void (*test_groups)(const float* soa, const uint32_t* pairs, const uint32_t* groups, size_t group_count,
+                      const float* boxes, uint32_t lanes, const BatchSink& sink);
+};
+
+// The kernels of the level in use (refit/refit_internal.h: RefitSimdInUse()), the level the batch was
+// refitted at.
+const CrowdQueryKernels& CrowdQueryKernelsInUse();
+namespace portable {
+const CrowdQueryKernels& CrowdQueryKernelTable();  // 4 lanes
+}
 #if defined(SKINSPHERES_X86_64)
-namespace sse2 {  // 4 lanes
-uint32_t BatchValuesOk(const float* soa, size_t n, float max_magnitude);
-size_t BatchTestPairs(const float* soa, const uint32_t* pairs, size_t begin, size_t end, uint32_t lanes,
-                      BatchHits* hits);
-}  // namespace sse2
-namespace avx2 {  // 8 lanes
-uint32_t BatchValuesOk(const float* soa, size_t n, float max_magnitude);
-size_t BatchTestPairs(const float* soa, const uint32_t* pairs, size_t begin, size_t end, uint32_t lanes,
-                      BatchHits* hits);
-}  // namespace avx2
-namespace avx512 {  // 16 lanes
-uint32_t BatchValuesOk(const float* soa, size_t n, float max_magnitude);
-size_t BatchTestPairs(const float* soa, const uint32_t* pairs, size_t begin, size_t end, uint32_t lanes,
-                      BatchHits* hits);
-}  // namespace avx512
+namespace sse2 {
+const CrowdQueryKernels& CrowdQueryKernelTable();  // 4 lanes
+}
+namespace avx2 {
+const CrowdQueryKernels& CrowdQueryKernelTable();  // 8 lanes
+}
+namespace avx512 {
+const CrowdQueryKernels& CrowdQueryKernelTable();  // 16 lanes
+}
 #endif
 
 }  // namespace skinspheres::runtime::internal

@@ -5,6 +5,8 @@
 #if defined(SKINSPHERES_X86_64)
 #include <immintrin.h>
 
+#include <limits>
+
 #include "simd/target_begin_avx512.inc"
 
 namespace skinspheres::runtime::internal::avx512 {

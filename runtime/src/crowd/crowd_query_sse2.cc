@@ -3,6 +3,8 @@
 #include "crowd/crowd_query.h"
 
 #if defined(SKINSPHERES_X86_64)
+#include <limits>
+
 #include "simd/float4.h"
 
 namespace skinspheres::runtime::internal::sse2 {

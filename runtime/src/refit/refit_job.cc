@@ -322,9 +322,8 @@ size_t RefitBatchLanes() {
 #if defined(SKINSPHERES_X86_64)
     case RefitSimd::kAvx512: return 16;
     case RefitSimd::kAvx2: return 8;
-    case RefitSimd::kSse2: return 4;
 #endif
-    default: return 4;  // portable
+    default: return 4;  // SSE2 and portable
   }
 }
 

@@ -500,8 +500,11 @@ TEST_P(CharacterCrowdLevelTest, BatchedQueryMatchesAllPairsOverAClip) {
 }
 
 // A set of n spheres on two joints (sphere s on joint s % 2, owning vertex s and triangle s), centres
-// spread over a box a few radii wide so that many pairs touch; exclusions: none, or every pair.
-SphereSet CrowdTestSet(size_t n, bool exclude_all, std::mt19937& rng) {
+// spread over a box a few radii wide so that many pairs touch; exclusions: none, or every pair. With
+// parts > 2: the spheres of each part in a small cluster of its own on a ring, the whole part on one
+// joint (part % 2), the parts' spheres interleaved (sphere s in part s % parts) or in runs (sphere s
+// in part s * parts / n).
+SphereSet CrowdTestSet(size_t n, bool exclude_all, std::mt19937& rng, uint32_t parts = 2, bool interleaved = true) {
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   SphereSet set;
   set.source_vertex_count = n;
@@ -509,22 +512,31 @@ SphereSet CrowdTestSet(size_t n, bool exclude_all, std::mt19937& rng) {
   set.joint_names = {"a", "b"};
   set.joint_parents = {-1, 0};
   set.joint_rest_world = {Mat4f::Identity(), Mat4f::Identity()};
-  set.parts = {{"p0", {0}}, {"p1", {1}}};
+  for (uint32_t p = 0; p < parts; ++p) set.parts.push_back({"p" + std::to_string(p), {static_cast<uint16_t>(p % 2)}});
   set.vertex_offsets = {0};
   set.triangle_offsets = {0};
   set.influence_offsets = {0};
   for (uint32_t k = 0; k < n; ++k) {
-    set.centers_rest.emplace_back(2.0f * u(rng), 2.0f * u(rng), 0.5f * u(rng));
-    set.radii_rest.push_back(0.2f + 0.1f * u(rng));
+    const auto part = static_cast<uint32_t>(interleaved ? k % parts : size_t{k} * parts / n);
+    const uint32_t joint = parts > 2 ? part % 2 : k % 2;
+    if (parts > 2) {
+      const float angle = 6.2831853f * float(part) / float(parts);
+      set.centers_rest.emplace_back(2.5f * std::cos(angle) + 0.3f * u(rng), 2.5f * std::sin(angle) + 0.3f * u(rng),
+                                    0.3f * u(rng));
+      set.radii_rest.push_back(0.06f + 0.03f * u(rng));
+    } else {
+      set.centers_rest.emplace_back(2.0f * u(rng), 2.0f * u(rng), 0.5f * u(rng));
+      set.radii_rest.push_back(0.2f + 0.1f * u(rng));
+    }
     set.radii_fast.push_back(set.radii_rest.back());
-    set.sphere_part.push_back(static_cast<uint16_t>(k % 2));
-    set.sphere_joint.push_back(static_cast<uint16_t>(k % 2));
+    set.sphere_part.push_back(static_cast<uint16_t>(part));
+    set.sphere_joint.push_back(static_cast<uint16_t>(joint));
     set.sphere_level.push_back(0);
     set.vertices.push_back(k);
     set.vertex_offsets.push_back(k + 1);
     set.triangles.push_back(k);
     set.triangle_offsets.push_back(k + 1);
-    set.influence_joints.push_back(static_cast<uint16_t>(k % 2));
+    set.influence_joints.push_back(static_cast<uint16_t>(joint));
     set.influence_weights.push_back(1.0f);
     set.influence_offsets.push_back(k + 1);
   }
@@ -534,17 +546,36 @@ SphereSet CrowdTestSet(size_t n, bool exclude_all, std::mt19937& rng) {
   return set;
 }
 
-// The batched query's bounds: sets of 1, 2, 255, 256 and 257 spheres, and one whose every pair is
-// excluded. Each crowd of 20 instances (a batch of 16 and one of 4) under random rigid motions gives
-// every instance the oracle's contacts; the batch queries at once only from 2 to 256 spheres with
-// some pair allowed, and one by one otherwise.
+// The batched query's bounds: sets of 1, 2, 255, 256 (every pair listed), 257 and 1024 (grouped by
+// row and part, two parts spread everywhere: no box culls), 400 in 12 small clusters, their spheres
+// interleaved (the grouped order is not (i, j)'s: each instance's pairs are sorted after) or in runs
+// (it is), 1025 (too many: one by one), and one whose every pair is excluded. Each crowd of 20
+// instances (batches of 16 and 4, 8 8 and 4, or five of 4) under random rigid motions gives every
+// instance the oracle's contacts; the batch queries at once only from 2 to 1024 spheres with some
+// pair allowed, and one by one otherwise.
 TEST_P(CharacterCrowdLevelTest, BatchedQueryBoundsBySphereCount) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   bool batched_any = false;
-  for (const auto& [n, exclude_all] : std::vector<std::pair<size_t, bool>>{
-           {1, false}, {2, false}, {255, false}, {256, false}, {257, false}, {40, true}}) {
-    auto asset = CharacterAsset::Create(CrowdTestSet(n, exclude_all, rng));
+  struct Case {
+    size_t n;
+    bool exclude_all;
+    uint32_t parts;
+    bool interleaved;
+  };
+  for (const Case& set : std::vector<Case>{{1, false, 2, true},
+                                           {2, false, 2, true},
+                                           {255, false, 2, true},
+                                           {256, false, 2, true},
+                                           {257, false, 2, true},
+                                           {400, false, 12, true},
+                                           {400, false, 12, false},
+                                           {1024, false, 2, true},
+                                           {1025, false, 2, true},
+                                           {40, true, 2, true}}) {
+    const size_t n = set.n;
+    const bool exclude_all = set.exclude_all;
+    auto asset = CharacterAsset::Create(CrowdTestSet(n, exclude_all, rng, set.parts, set.interleaved));
     ASSERT_TRUE(asset.ok()) << asset.error().message;
     constexpr size_t kCount = 20;
     std::vector<CharacterInstance> crowd;
@@ -554,7 +585,8 @@ TEST_P(CharacterCrowdLevelTest, BatchedQueryBoundsBySphereCount) {
     std::vector<std::vector<Mat4f>> worlds(kCount, std::vector<Mat4f>(2, Mat4f::Identity()));
     std::vector<CharacterFrameInput> inputs(kCount);
     std::vector<SpherePair> oracle;
-    const std::string what = std::to_string(n) + " spheres" + (exclude_all ? ", every pair excluded" : "");
+    const std::string what = std::to_string(n) + " spheres, " + std::to_string(set.parts) + " parts" +
+                             (set.interleaved ? "" : " in runs") + (exclude_all ? ", every pair excluded" : "");
     for (int frame = 0; frame < 3; ++frame) {
       for (size_t k = 0; k < kCount; ++k) {
         for (Mat4f& g : worlds[k]) {
@@ -569,7 +601,7 @@ TEST_P(CharacterCrowdLevelTest, BatchedQueryBoundsBySphereCount) {
       const bool batched = internal::CrowdQueryBatches() > batches;
       batched_any |= batched;
       if (batched) {
-        EXPECT_TRUE(n >= 2 && n <= 256 && !exclude_all) << what;
+        EXPECT_TRUE(n >= 2 && n <= 1024 && !exclude_all) << what;
       }
       size_t touching = 0;
       for (size_t k = 0; k < kCount; ++k) {
@@ -582,7 +614,7 @@ TEST_P(CharacterCrowdLevelTest, BatchedQueryBoundsBySphereCount) {
       if (n > 2 && !exclude_all) {
         EXPECT_GT(touching, 0u) << what;
       }
-      if (internal::RefitBatchUsable() && n >= 2 && n <= 256 && !exclude_all) {
+      if (internal::RefitBatchUsable() && n >= 2 && n <= 1024 && !exclude_all) {
         EXPECT_TRUE(batched) << what;
       }
     }

@@ -92,9 +92,16 @@ class CharacterAsset {
   RefitRestData rest_;
   PairFilter filter_;
   std::optional<NarrowPhaseData> narrow_;
-  // The pairs the filter allows, (i << 16) | j sorted, for the crowd calls' batched query (sets of
-  // up to 256 spheres; empty otherwise, and the instances query one by one).
+  // The crowd calls' batched query (runtime/src/crowd/crowd_query.h), for sets of 2 to 1024 spheres
+  // (empty otherwise: their instances query one by one): the pairs the filter allows, (i << 16) | j,
+  // in groups of one row and one part (crowd_groups_: begin, end, part; crowd_part_count_ parts;
+  // crowd_pairs_sorted_ when that order is (i, j)'s), and, for sets of up to 160 spheres, the same
+  // pairs sorted (crowd_sorted_pairs_).
   std::vector<uint32_t> crowd_pairs_;
+  std::vector<uint32_t> crowd_groups_;
+  std::vector<uint32_t> crowd_sorted_pairs_;
+  size_t crowd_part_count_ = 0;
+  bool crowd_pairs_sorted_ = true;
 };
 
 struct CharacterFrameInput;  // crowd/crowd.h

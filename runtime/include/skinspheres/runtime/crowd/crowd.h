@@ -4,7 +4,7 @@
 // instance updated and queried (its status() set) and a FrameStatus for the whole call. Every
 // instance's spheres and sphere pairs are identical to running it alone, serially.
 //
-// Fast mode: consecutive instances of one asset are refitted, and (an asset of up to 256 spheres)
+// Fast mode: consecutive instances of one asset are refitted, and (an asset of up to 1024 spheres)
 // queried, several at a time, one per vector lane (runtime/src/crowd/): 16 on a CPU with AVX-512F,
 // 8 with AVX2, 4 otherwise (SSE2, and every other platform), with the bits each gets alone.
 #pragma once
@@ -34,13 +34,16 @@ FrameStatus CrowdStep(CharacterInstance& instance, RefitMode mode, const Charact
                       bool find_contacts);
 
 // CrowdStep for instances[i] with inputs[i], one after the other on the calling thread, except
-// that consecutive instances of one asset are refitted, and (an asset of up to 256 spheres) queried,
-// together in fast mode: 16, 8 or 4 at a time, one per vector lane, by the widest the CPU has
-// (AVX-512F, AVX2, else SSE2 or any other platform; each gets the spheres and sphere pairs it gets
-// alone, bit for bit; faster per instance than one at a time). The batched query tests all the asset's allowed pairs;
-// it resets each instance's candidate cache (BroadPhaseContext::Invalidate), whose motion statistics it does not keep,
-// so a later query alone rebuilds it (and gives exact sphere pairs either way). The batch's spheres go to a per-thread
-// buffer (64-byte aligned, room for 256 spheres: 64 KB), allocated by the thread's first batch and kept for its life.
+// that consecutive instances of one asset are refitted, and (an asset of up to 1024 spheres)
+// queried, together in fast mode: 16, 8 or 4 at a time, one per vector lane, by the widest the CPU
+// has (AVX-512F, AVX2, else SSE2 or any other platform; each gets the spheres and sphere pairs it
+// gets alone, bit for bit; faster per instance than one at a time). The batched query tests the
+// asset's allowed pairs between spheres and body parts whose boxes meet in some instance of the
+// batch; it resets each instance's candidate cache (BroadPhaseContext::Invalidate), whose motion
+// statistics it does not keep, so a later query alone rebuilds it (and gives exact sphere pairs
+// either way). The batch's spheres and its parts' boxes go to per-thread buffers (64-byte aligned;
+// 16 lanes: 256 bytes a sphere, 384 bytes a part), grown by the first batch that needs more and
+// kept for the thread's life.
 // What the crowd calls below run on each range their parallel_for hands out; for an engine that runs its own loop, give
 // it ranges of instances ordered by asset, in multiples of 16. An instance listed twice in one range is updated twice,
 // in order, as CrowdStep would. Returns kInvalidArgument (and runs nothing) when the spans differ in size or a pointer
