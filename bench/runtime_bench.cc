@@ -57,6 +57,10 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
@@ -555,6 +559,15 @@ BENCHMARK(BM_XbotFrameFast)->Arg(0)->Arg(1)->ArgName("fit")->Unit(benchmark::kMi
 
 // ---------------------------------------------------------------------------------- crowds
 
+// Bytes of heap in use (glibc's mallinfo2; 0 elsewhere): the crowd rows' bytes per instance.
+size_t HeapInUse() {
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
+  return mallinfo2().uordblks;
+#else
+  return 0;
+#endif
+}
+
 constexpr size_t kPhaseShift = 7;  // instance k plays the loop 7k frames ahead
 
 // range(0) fit variant, range(1) instances, range(2) threads, range(3) refit instruction set (PinnedRefit). Fast-mode
@@ -569,6 +582,7 @@ void BM_CrowdFast(benchmark::State& state) {
   std::vector<rt::CharacterInstance> instances;
   std::vector<rt::CharacterInstance*> pointers;
   instances.reserve(count);
+  const size_t heap_before = HeapInUse();
   for (size_t k = 0; k < count; ++k) {
     // No ReserveContacts: it also sizes the narrow phase's scratch (about 570 KB for Xbot), which a
     // broad-phase-only crowd never uses (10,000 instances: 5.3 GB of RSS with it, 0.47 GB without;
@@ -576,15 +590,21 @@ void BM_CrowdFast(benchmark::State& state) {
     // holds the ~22 contacts of a frame.
     instances.push_back(rt::CharacterInstance::Create(x->asset).value());
   }
+  const size_t heap_created = HeapInUse() - heap_before;
   for (auto& i : instances) pointers.push_back(&i);
   // inputs[f][k]: instance k's input at loop frame f.
   std::vector<std::vector<rt::CharacterFrameInput>> inputs(kFrames, std::vector<rt::CharacterFrameInput>(count));
   for (int f = 0; f < kFrames; ++f)
     for (size_t k = 0; k < count; ++k) inputs[f][k].joint_world = x->joint_world[(f + kPhaseShift * k) % kFrames];
   // One warm-up frame (caches, contact lists), then per-thread CPU time of the timed frames only.
+  const size_t heap_before_frame = HeapInUse();
   if (!rt::CrowdUpdateAndFindSpherePairs(pointers, inputs[0], rt::RefitMode::kFast, pf.get()).ok()) {
     return state.SkipWithError("crowd update failed");
   }
+  // The instances' heap: what Create took, and what the first frame added (each instance's own
+  // buffers grown, the threads' batch buffers: a few KB in all).
+  state.counters["heap_bytes_per_instance"] =
+      double(heap_created + (HeapInUse() - heap_before_frame)) / double(std::max<size_t>(count, 1));
   pf.Reset();
   size_t frame = 1;
   for (auto _ : state) {

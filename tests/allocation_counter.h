@@ -12,12 +12,14 @@
 
 namespace skinspheres::test {
 
-// While one is alive, every operator new on any thread is counted and the largest size kept.
+// While one is alive, every operator new on any thread is counted, its bytes summed and the largest
+// size kept.
 // One at a time.
 class AllocationCounter {
  public:
   AllocationCounter() {
     count_ = 0;
+    bytes_ = 0;
     largest_ = 0;
     active_ = true;
   }
@@ -26,11 +28,13 @@ class AllocationCounter {
   AllocationCounter& operator=(const AllocationCounter&) = delete;
 
   long count() const { return count_.load(); }
+  size_t bytes() const { return bytes_.load(); }
   size_t largest() const { return largest_.load(); }
 
   static void Note(size_t size) {
     if (!active_.load(std::memory_order_relaxed)) return;
     count_.fetch_add(1, std::memory_order_relaxed);
+    bytes_.fetch_add(size, std::memory_order_relaxed);
     size_t seen = largest_.load(std::memory_order_relaxed);
     while (size > seen && !largest_.compare_exchange_weak(seen, size, std::memory_order_relaxed)) {
     }
@@ -39,6 +43,7 @@ class AllocationCounter {
  private:
   static inline std::atomic<bool> active_{false};
   static inline std::atomic<long> count_{0};
+  static inline std::atomic<size_t> bytes_{0};
   static inline std::atomic<size_t> largest_{0};
 };
 

@@ -221,13 +221,16 @@ SKINSPHERES_C_API const float* skinspheres_instance_spheres(const skinspheres_in
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_status(const skinspheres_instance* instance,
                                                                  const char** message);
 /* Sizes the buffers so that frames with up to `count` sphere pairs, and as many part and
-   triangle pairs, never allocate; for an asset with a mesh, also the narrow phase's scratch (else
-   sized by the first skinspheres_instance_find_contacts). */
+   triangle pairs, never allocate, and the single query's cache (else sized by the first
+   skinspheres_instance_find_sphere_pairs; never, for an instance the crowd calls only ever query in
+   a batch); for an asset with a mesh, also the narrow phase's scratch (else sized by the first
+   skinspheres_instance_find_contacts). */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_contacts(skinspheres_instance* instance,
                                                                            size_t count);
-/* Sizes only the sphere-pair buffer (skinspheres_instance_find_sphere_pairs's) for up to `count` pairs: for
-   an instance that runs only the broad phase (a crowd), which then holds no triangle-pair room and no
-   narrow-phase scratch (a later skinspheres_instance_find_contacts sizes those itself). */
+/* Sizes only the sphere-pair buffer (skinspheres_instance_find_sphere_pairs's) for up to `count` pairs,
+   and the single query's cache: for an instance that runs only the broad phase, which then holds no
+   triangle-pair room and no narrow-phase scratch (a later skinspheres_instance_find_contacts sizes
+   those itself). */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_sphere_pairs(skinspheres_instance* instance,
                                                                                size_t count);
 

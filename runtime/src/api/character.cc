@@ -51,7 +51,9 @@ Result<CharacterInstance> CharacterInstance::Create(std::shared_ptr<const Charac
   CharacterInstance inst;
   const size_t n = asset->size();
   inst.spheres_.assign(n, Vec4f::Zero());
-  inst.context_.Resize(n);
+  // The single query's candidate cache (BroadPhaseContext: about 16 KB for Xbot's 77 spheres) is
+  // sized by the first FindSpherePairs, or by ReserveSpherePairs / ReserveContacts: an instance the
+  // crowd calls only ever query in a batch never holds it.
   inst.sphere_pairs_.reserve(std::max<size_t>(64, 4 * n));
   inst.joint_world_.assign(asset->joint_count(), Mat4f::Identity());
   inst.joint_input_count_ = asset->joint_count();
@@ -185,6 +187,7 @@ std::span<const SpherePair> CharacterInstance::FindSpherePairs() {
     if (status_.ok()) status_ = {ErrorCode::kInvalidArgument, "no valid spheres to query"};
     return {};
   }
+  SizeQueryContext();  // first call: warm-up allocation (Create says why)
   SelfCollisionJob job;
   job.spheres = spheres_;
   job.filter = &asset_->filter();
@@ -250,7 +253,12 @@ FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> ski
   return status_;
 }
 
+void CharacterInstance::SizeQueryContext() {
+  if (context_.max_candidates() == 0 || context_.max_spheres() < asset_->size()) context_.Resize(asset_->size());
+}
+
 void CharacterInstance::ReserveContacts(size_t count) {
+  SizeQueryContext();
   sphere_pairs_.reserve(count);
   contacts_.Reserve(count);
   if (const NarrowPhaseData* data = asset_->narrow_phase(); data != nullptr && !narrow_context_.sized_for(*data)) {
@@ -258,6 +266,9 @@ void CharacterInstance::ReserveContacts(size_t count) {
   }
 }
 
-void CharacterInstance::ReserveSpherePairs(size_t count) { sphere_pairs_.reserve(count); }
+void CharacterInstance::ReserveSpherePairs(size_t count) {
+  SizeQueryContext();
+  sphere_pairs_.reserve(count);
+}
 
 }  // namespace skinspheres::runtime

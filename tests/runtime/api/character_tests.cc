@@ -499,6 +499,62 @@ TEST_P(CharacterCrowdLevelTest, BatchedQueryMatchesAllPairsOverAClip) {
   EXPECT_EQ(batched_frames, 2 * poses.size() - poses.size() * 2 / 3) << "every crowd frame queried at once";
 }
 
+// An instance the crowd calls only ever query in a batch never holds the single query's candidate
+// cache: Create leaves it unsized (ReserveSpherePairs sizes it: more bytes), warm batched frames
+// allocate nothing, and the instance's first FindSpherePairs alone allocates it, giving the
+// oracle's pairs, the next one nothing.
+TEST_P(CharacterCrowdLevelTest, BatchedInstancesHoldNoQueryCache) {
+  std::shared_ptr<const test::FittedCharacter> fc;
+  auto asset = BuiltinAsset(&fc);
+  ASSERT_TRUE(asset);
+  const std::vector<test::Pose> poses = test::ClipPoses(fc->character, 12);
+  size_t created_bytes = 0, reserved_bytes = 0;
+  {
+    test::AllocationCounter counter;
+    CharacterInstance created = MakeInstance(asset);
+    created_bytes = counter.bytes();
+  }
+  {
+    test::AllocationCounter counter;
+    CharacterInstance reserved = MakeInstance(asset);
+    reserved.ReserveSpherePairs(0);
+    reserved_bytes = counter.bytes();
+  }
+  EXPECT_GT(reserved_bytes, created_bytes + 1024) << "the query cache is more than a kilobyte";
+  std::printf("bytes per instance at Create: %zu; with the single query's cache: %zu\n", created_bytes, reserved_bytes);
+  constexpr size_t kCount = 16;
+  std::vector<CharacterInstance> crowd;
+  for (size_t k = 0; k < kCount; ++k) crowd.push_back(MakeInstance(asset));
+  std::vector<CharacterInstance*> ptrs;
+  for (auto& c : crowd) ptrs.push_back(&c);
+  std::vector<CharacterFrameInput> inputs(kCount);
+  const auto frame = [&](size_t f) {
+    for (size_t k = 0; k < kCount; ++k) inputs[k] = {poses[(f + k) % poses.size()].world, {}};
+    return CrowdUpdateAndFindSpherePairs(ptrs, inputs, RefitMode::kFast, SerialFor()).ok();
+  };
+  ASSERT_TRUE(frame(0));  // warm-up: the thread's batch buffers
+  {
+    test::AllocationCounter counter;
+    for (size_t f = 1; f < poses.size(); ++f) ASSERT_TRUE(frame(f));
+    EXPECT_EQ(counter.count(), 0);
+  }
+  std::vector<SpherePair> oracle;
+  ASSERT_TRUE(crowd[3].UpdateFast(poses[5].world).ok());
+  {
+    test::AllocationCounter counter;
+    crowd[3].FindSpherePairs();
+    EXPECT_GE(counter.bytes(), reserved_bytes - created_bytes) << "the first query alone sizes the cache";
+  }
+  ASSERT_TRUE(SelfCollisionAllPairs(crowd[3].spheres(), asset->filter(), &oracle));
+  EXPECT_EQ(std::vector<SpherePair>(crowd[3].sphere_pairs().begin(), crowd[3].sphere_pairs().end()), oracle);
+  ASSERT_TRUE(crowd[3].UpdateFast(poses[6].world).ok());
+  {
+    test::AllocationCounter counter;
+    crowd[3].FindSpherePairs();
+    EXPECT_EQ(counter.count(), 0);
+  }
+}
+
 // A set of n spheres on two joints (sphere s on joint s % 2, owning vertex s and triangle s), centres
 // spread over a box a few radii wide so that many pairs touch; exclusions: none, or every pair. With
 // parts > 2: the spheres of each part in a small cluster of its own on a ring, the whole part on one

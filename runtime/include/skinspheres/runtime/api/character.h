@@ -20,13 +20,12 @@
 // CharacterInstance: refitted spheres (refit_job.h) + the self-collision broad phase
 // (broad_phase.h) + the narrow phase (narrow_phase.h). Allocation, in full in docs/EMBEDDING.md:
 // Create allocates; per frame, a list grows the first time a frame needs more room than any before
-// (ReserveContacts pins them at set-up), the first FindContacts sizes the narrow phase's scratch
-// unless ReserveContacts did, and the first FindContacts without positions its skinned-position
-// buffer; nothing else. Per-frame calls never throw; they return a FrameStatus whose message is a
-// static string (no allocation). A failed
-// update (non-finite input, short spans) marks the instance's spheres invalid, so FindSpherePairs() then
-// returns no contacts and status() says why; other instances are untouched. Not thread-safe per
-// instance; distinct instances may run concurrently.
+// (ReserveContacts pins them at set-up), the first FindSpherePairs sizes the single query's cache
+// and the first FindContacts the narrow phase's scratch unless ReserveSpherePairs or ReserveContacts
+// did, and the first FindContacts without positions its skinned-position buffer; nothing else. Per-frame calls never
+// throw; they return a FrameStatus whose message is a static string (no allocation). A failed update (non-finite input,
+// short spans) marks the instance's spheres invalid, so FindSpherePairs() then returns no contacts and status() says
+// why; other instances are untouched. Not thread-safe per instance; distinct instances may run concurrently.
 //
 // Many instances at once (a crowd): crowd/crowd.h.
 #pragma once
@@ -108,8 +107,12 @@ struct CharacterFrameInput;  // crowd/crowd.h
 
 class CharacterInstance {
  public:
-  // Sizes every buffer for the asset (kInvalidArgument for a null asset). Joint matrices are then
-  // in the set's joint order (SphereSet::joint_names).
+  // Sizes the spheres, the sphere-pair list and the joint matrices for the asset (kInvalidArgument
+  // for a null asset). Joint matrices are then in the set's joint order (SphereSet::joint_names).
+  // Two buffers wait for their first use, so that an instance that never needs them never holds
+  // them: the single query's candidate cache (the first FindSpherePairs; a crowd call that queries
+  // the instance in a batch does not use it) and the narrow phase's scratch (the first
+  // FindContacts). ReserveSpherePairs and ReserveContacts size them up front.
   static Result<CharacterInstance> Create(std::shared_ptr<const CharacterAsset> asset);
   // The same, with joint matrices in the engine's own order (mapping: MapJoints on this asset's
   // set; kInvalidArgument when it was built for another set).
@@ -159,13 +162,14 @@ class CharacterInstance {
   // Outcome of the last Update*/FindSpherePairs call.
   FrameStatus status() const { return status_; }
 
-  // Room for this many sphere pairs and as many triangle pairs, and (an asset with a mesh) the
-  // narrow phase's scratch, so later frames do not allocate (but for the skinned-position buffer
-  // of the first FindContacts without positions).
+  // Room for this many sphere pairs and as many triangle pairs, the single query's cache and (an
+  // asset with a mesh) the narrow phase's scratch, so later frames do not allocate (but for the
+  // skinned-position buffer of the first FindContacts without positions).
   void ReserveContacts(size_t count);
-  // Room for this many sphere pairs only (FindSpherePairs' list), for an instance that runs only the broad
-  // phase (a crowd): no triangle-pair room and no narrow-phase scratch (about 570 KB for Xbot,
-  // which ReserveContacts would size); a later FindContacts still sizes those itself.
+  // Room for this many sphere pairs (FindSpherePairs' list) and the single query's cache, for an
+  // instance that runs only the broad phase: no triangle-pair room and no narrow-phase scratch
+  // (about 570 KB for Xbot, which ReserveContacts would size); a later FindContacts still sizes
+  // those itself.
   void ReserveSpherePairs(size_t count);
   const CharacterAsset& asset() const { return *asset_; }
   const std::shared_ptr<const CharacterAsset>& shared_asset() const { return asset_; }
@@ -183,6 +187,8 @@ class CharacterInstance {
   bool PrepareUpdate(RefitMode mode, std::span<const Mat4f> joint_world,
                      std::span<const Eigen::Vector3f> skinned_positions, RefitJob* job);
   FrameStatus FinishUpdate(bool refit_ok, std::span<const Mat4f> joint_world, bool keep_joints);
+  // Sizes context_ for the asset unless it is already.
+  void SizeQueryContext();
   std::shared_ptr<const CharacterAsset> asset_;
   std::vector<Vec4f> spheres_;
   BroadPhaseContext context_;
