@@ -38,31 +38,32 @@ void SortByRowThenColumn(std::vector<SpherePair>& pairs) {
 
 void CrowdBatch::ListPairs(CharacterAsset* asset) {
   const PairFilter& filter = asset->filter_;
-  Lists lists{asset->crowd_pairs_, asset->crowd_groups_, asset->crowd_part_count_, asset->crowd_pairs_sorted_};
+  std::vector<uint32_t>& pairs = asset->crowd_pairs_;
+  std::vector<uint32_t>& groups = asset->crowd_groups_;
+  size_t& part_count = asset->crowd_part_count_;
+  pairs.clear();
+  groups.clear();
   asset->crowd_sorted_pairs_.clear();
-  lists.pairs.clear();
-  lists.groups.clear();
-  lists.part_count = 0;
-  lists.sorted = true;
+  part_count = 0;
   const size_t n = filter.size();
   if (n < 2 || n > internal::kCrowdQueryMaxSpheres) return;
   // Grouped: row i, then the spheres j > i of each part, ascending.
-  for (uint32_t i = 0; i < n; ++i) lists.part_count = std::max<size_t>(lists.part_count, filter.part(i) + size_t{1});
-  std::vector<std::vector<uint32_t>> members(lists.part_count);
+  for (uint32_t i = 0; i < n; ++i) part_count = std::max<size_t>(part_count, filter.part(i) + size_t{1});
+  std::vector<std::vector<uint32_t>> members(part_count);
   for (uint32_t i = 0; i < n; ++i) members[filter.part(i)].push_back(i);
   for (uint32_t i = 0; i < n; ++i) {
-    for (uint32_t part = 0; part < lists.part_count; ++part) {
-      const auto begin = static_cast<uint32_t>(lists.pairs.size());
+    for (uint32_t part = 0; part < part_count; ++part) {
+      const auto begin = static_cast<uint32_t>(pairs.size());
       for (auto it = std::upper_bound(members[part].begin(), members[part].end(), i); it != members[part].end(); ++it) {
-        if (!filter.excluded(i, *it)) lists.pairs.push_back(i << 16 | *it);
+        if (!filter.excluded(i, *it)) pairs.push_back(i << 16 | *it);
       }
-      const auto end = static_cast<uint32_t>(lists.pairs.size());
-      if (end > begin) lists.groups.insert(lists.groups.end(), {begin, end, part});
+      const auto end = static_cast<uint32_t>(pairs.size());
+      if (end > begin) groups.insert(groups.end(), {begin, end, part});
     }
   }
-  lists.sorted = std::is_sorted(lists.pairs.begin(), lists.pairs.end());
+  asset->crowd_pairs_sorted_ = std::is_sorted(pairs.begin(), pairs.end());
   if (n <= internal::kCrowdAllPairsMaxSpheres) {
-    asset->crowd_sorted_pairs_ = lists.pairs;
+    asset->crowd_sorted_pairs_ = pairs;
     std::sort(asset->crowd_sorted_pairs_.begin(), asset->crowd_sorted_pairs_.end());
   }
 }

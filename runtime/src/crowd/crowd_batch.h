@@ -20,12 +20,6 @@ struct CharacterFrameInput;
 
 struct CrowdBatch {
  private:
-  struct Lists {
-    std::vector<uint32_t>& pairs;
-    std::vector<uint32_t>& groups;
-    size_t& part_count;
-    bool& sorted;
-  };
   static float* Aligned(std::vector<float>& buffer, size_t floats);
 
  public:
