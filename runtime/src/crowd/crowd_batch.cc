@@ -21,17 +21,10 @@ std::atomic<bool> crowd_batched{true};
 std::atomic<bool> crowd_query_batched{true};
 thread_local uint64_t batched_queries = 0;  // batches queried at once on this thread (tests)
 
-// Insertion sort by (i, j): the grouped query's pairs come row by row already, out of order only
-// within a row (part by part), so this is close to linear.
+// By (i, j): the order of the instance's own query.
 void SortByRowThenColumn(std::vector<SpherePair>& pairs) {
-  for (size_t k = 1; k < pairs.size(); ++k) {
-    const SpherePair p = pairs[k];
-    size_t m = k;
-    for (; m > 0 && (pairs[m - 1].i > p.i || (pairs[m - 1].i == p.i && pairs[m - 1].j > p.j)); --m) {
-      pairs[m] = pairs[m - 1];
-    }
-    pairs[m] = p;
-  }
+  std::sort(pairs.begin(), pairs.end(),
+            [](const SpherePair& a, const SpherePair& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
 }
 
 }  // namespace
@@ -70,8 +63,8 @@ void CrowdBatch::ListPairs(CharacterAsset* asset) {
 
 namespace internal {
 
-const CrowdQueryKernels& CrowdQueryKernelsInUse() {
-  switch (RefitSimdInUse()) {
+const CrowdQueryKernels& CrowdQueryKernelsFor(RefitSimd level) {
+  switch (level) {
 #if defined(SKINSPHERES_X86_64)
     case RefitSimd::kAvx512: return avx512::CrowdQueryKernelTable();
     case RefitSimd::kAvx2: return avx2::CrowdQueryKernelTable();
@@ -137,9 +130,9 @@ void CrowdBatch::AppendHits(void* context, const internal::BatchHits& hits) {
 // FindSpherePairs of the instances in `lanes` at once: what FindSpherePairs() gives each, from soa. Lanes whose
 // spheres the broad phase would refuse (beyond kMaxMagnitude) are left out of the returned mask,
 // for their own FindSpherePairs() to report.
-uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, const float* soa, uint32_t lanes,
-                                CharacterInstance* const inst[kLanes]) {
-  const internal::CrowdQueryKernels& kernels = internal::CrowdQueryKernelsInUse();
+uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, internal::RefitSimd level, const float* soa,
+                                uint32_t lanes, CharacterInstance* const inst[kLanes]) {
+  const internal::CrowdQueryKernels& kernels = internal::CrowdQueryKernelsFor(level);
   const size_t n = asset.size();
   lanes &= kernels.values_ok(soa, n, internal::kMaxMagnitude);
   if (lanes == 0) return 0;
@@ -187,7 +180,9 @@ uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, const float* soa, u
 bool CrowdBatch::Run(std::span<CharacterInstance* const> instances, std::span<const CharacterFrameInput> inputs,
                      RefitMode mode, bool find_contacts, size_t begin, size_t end) {
   bool all_ok = true;
-  const size_t width = internal::RefitBatchLanes();
+  // The level and width, read once: the refit and the query of every batch below use the same.
+  const internal::RefitSimd level = internal::RefitSimdInUse();
+  const size_t width = internal::RefitBatchLanes(level);
   for (size_t i = begin; i < end;) {
     const CharacterAsset* asset = instances[i]->asset_.get();
     size_t last = i + 1;  // the run of instances of this asset, at most width, none listed twice
@@ -195,7 +190,7 @@ bool CrowdBatch::Run(std::span<CharacterInstance* const> instances, std::span<co
            std::find(instances.begin() + i, instances.begin() + last, instances[last]) == instances.begin() + last) {
       ++last;
     }
-    if (mode != RefitMode::kFast || last - i < 2 || !internal::CrowdBatched() || !internal::RefitBatchUsable()) {
+    if (mode != RefitMode::kFast || last - i < 2 || !internal::CrowdBatched() || width < 2) {
       for (; i < last; ++i) all_ok &= CrowdStep(*instances[i], mode, inputs[i], find_contacts).ok();
       continue;
     }
@@ -229,7 +224,7 @@ bool CrowdBatch::Run(std::span<CharacterInstance* const> instances, std::span<co
         out[b] = out[0];
       }
       if (!asset->crowd_pairs_.empty() && internal::CrowdQueryBatched()) soa = SoaScratch(4 * width * asset->size());
-      finite = internal::RefitFastBatch(asset->sphere_set(), asset->rest(), world, out, soa);
+      finite = internal::RefitFastBatch(asset->sphere_set(), asset->rest(), world, out, soa, level);
     }
     uint32_t updated = 0;  // lanes refitted and recorded
     for (size_t k = i; k < last; ++k) {
@@ -241,7 +236,7 @@ bool CrowdBatch::Run(std::span<CharacterInstance* const> instances, std::span<co
       }
       updated |= 1u << lane_of[k - i];
     }
-    const uint32_t queried = soa != nullptr && updated != 0 ? QueryBatch(*asset, soa, updated, lane_inst) : 0;
+    const uint32_t queried = soa != nullptr && updated != 0 ? QueryBatch(*asset, level, soa, updated, lane_inst) : 0;
     for (size_t k = i; k < last; ++k) {
       if (!prepared[k - i] || !((updated >> lane_of[k - i]) & 1u)) continue;
       CharacterInstance& inst = *instances[k];

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "refit/refit_internal.h"
 #include "skinspheres/skinning/platform.h"
 
 namespace skinspheres::runtime::internal {
@@ -85,9 +86,8 @@ struct CrowdQueryKernels {
                       const float* boxes, uint32_t lanes, const BatchSink& sink);
 };
 
-// The kernels of the level in use (refit/refit_internal.h: RefitSimdInUse()), the level the batch was
-// refitted at.
-const CrowdQueryKernels& CrowdQueryKernelsInUse();
+// The kernels of a refit level (refit/refit_internal.h: the level the batch was refitted at).
+const CrowdQueryKernels& CrowdQueryKernelsFor(RefitSimd level);
 namespace portable {
 const CrowdQueryKernels& CrowdQueryKernelTable();  // 4 lanes
 }

@@ -76,15 +76,17 @@ bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
 // (the same bits are written twice). soa, unless null, also receives the spheres lanes side by side
 // (4 RefitBatchLanes() floats per sphere: x, y, z, r of the lanes; crowd/crowd_query.h).
 constexpr size_t kRefitBatchLanes = 16;
-// The lanes of the crowd's batch at the level in use (RefitSimdInUse()).
-size_t RefitBatchLanes();
+// The lanes of the crowd's batch at `level` (kAuto: the level in use, RefitSimdInUse()).
+size_t RefitBatchLanes(RefitSimd level = RefitSimd::kAuto);
 // Whether the crowd calls refit several instances at a time (always, today: every level batches),
 // and the call that does it (refit_job.cc; world[b]: 16 floats per set joint, out[b]: 4 floats per
 // sphere, for b < RefitBatchLanes()), which the caller makes only when RefitBatchUsable() said yes,
 // having checked every lane's inputs as RefitJob::Validate does.
 bool RefitBatchUsable();
+// `level`: as RefitBatchLanes (a caller that sized its lanes by a level passes that level, so that
+// a pin changed meanwhile cannot widen the batch).
 uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
-                        float* const out[kRefitBatchLanes], float* soa = nullptr);
+                        float* const out[kRefitBatchLanes], float* soa = nullptr, RefitSimd level = RefitSimd::kAuto);
 namespace portable {  // 4 lanes
 uint32_t RefitFastBatch(const FastRefitArrays& a, size_t sphere_count, const float* const world[], float* const out[],
                         float* soa);

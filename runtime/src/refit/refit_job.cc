@@ -317,8 +317,8 @@ bool RefitJob::RunParallel(const ParallelFor& parallel_for, size_t grain) const 
 
 namespace internal {
 
-size_t RefitBatchLanes() {
-  switch (RefitSimdInUse()) {
+size_t RefitBatchLanes(RefitSimd level) {
+  switch (level == RefitSimd::kAuto ? RefitSimdInUse() : level) {
 #if defined(SKINSPHERES_X86_64)
     case RefitSimd::kAvx512: return 16;
     case RefitSimd::kAvx2: return 8;
@@ -330,9 +330,9 @@ size_t RefitBatchLanes() {
 bool RefitBatchUsable() { return RefitBatchLanes() > 1; }
 
 uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
-                        float* const out[kRefitBatchLanes], float* soa) {
+                        float* const out[kRefitBatchLanes], float* soa, RefitSimd level) {
   const FastRefitArrays a = SharedArrays(set, rest);
-  switch (RefitSimdInUse()) {
+  switch (level == RefitSimd::kAuto ? RefitSimdInUse() : level) {
 #if defined(SKINSPHERES_X86_64)
     case RefitSimd::kAvx512: return avx512::RefitFastBatch(a, set.size(), world, out, soa);
     case RefitSimd::kAvx2: return avx2::RefitFastBatch(a, set.size(), world, out, soa);

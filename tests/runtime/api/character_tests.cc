@@ -35,6 +35,14 @@ std::shared_ptr<const CharacterAsset> BuiltinAsset(std::shared_ptr<const test::F
   return asset.ok() ? *asset : nullptr;
 }
 
+struct PinnedLevel {  // the crowd's refit level (and batch width) pinned for a scope
+  bool ok;
+  explicit PinnedLevel(internal::RefitSimd level) : ok(internal::PinRefitSimd(level)) {}
+  ~PinnedLevel() { internal::PinRefitSimd(internal::RefitSimd::kAuto); }
+  PinnedLevel(const PinnedLevel&) = delete;
+  PinnedLevel& operator=(const PinnedLevel&) = delete;
+};
+
 CharacterInstance MakeInstance(std::shared_ptr<const CharacterAsset> asset) {
   auto inst = CharacterInstance::Create(std::move(asset));
   EXPECT_TRUE(inst.ok());
@@ -344,14 +352,9 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
   ASSERT_FALSE(alone[short_at].status().ok());
   ASSERT_FALSE(alone[huge_at].status().ok());
   ASSERT_TRUE(alone[huge_at].spheres_valid());
-  struct Pin {  // the crowd's refit pinned for a scope
-    bool ok;
-    explicit Pin(internal::RefitSimd level) : ok(internal::PinRefitSimd(level)) {}
-    ~Pin() { internal::PinRefitSimd(internal::RefitSimd::kAuto); }
-  };
   for (const internal::RefitSimd level : {internal::RefitSimd::kPortable, internal::RefitSimd::kSse2,
                                           internal::RefitSimd::kAvx2, internal::RefitSimd::kAvx512}) {
-    const Pin pin(level);
+    const PinnedLevel pin(level);
     if (!pin.ok) {
       std::printf("%s: not on this CPU, not checked\n", internal::ToString(level));
       continue;
@@ -498,6 +501,64 @@ TEST_P(CharacterCrowdLevelTest, BatchedQueryMatchesAllPairsOverAClip) {
   EXPECT_TRUE(std::ranges::equal(crowd[0].sphere_pairs(), expected.sphere_pairs()));
   EXPECT_EQ(batched_frames, 2 * poses.size() - poses.size() * 2 / 3) << "every crowd frame queried at once";
 }
+
+// The batched crowd on the shared characters (fits of files no one here made), at every level the CPU
+// has: 37 instances of one asset, each at its own frame of the character's clips or in a random pose
+// (joints turned up to 60 degrees: limbs through the body; a character without clips has only
+// these), every instance's spheres and sphere pairs equal to running it alone.
+class SharedCharacterCrowd : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(SharedCharacterCrowd, BatchEqualsEachInstanceAlone) {
+  SKINSPHERES_REQUIRE_ASSET(path, GetParam());
+  (void)path;
+  auto fc = test::LoadFitted(GetParam());
+  ASSERT_TRUE(fc);
+  auto asset = CharacterAsset::Create(fc->set);
+  ASSERT_TRUE(asset.ok()) << asset.error().message;
+  std::vector<test::Pose> poses = test::ClipPoses(fc->character, 12);
+  std::mt19937 rng(29);
+  for (int k = 0; k < 12; ++k) {
+    poses.push_back(test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, 0.0f),
+                                   "random#" + std::to_string(k)));
+  }
+  constexpr size_t kCount = 37;
+  std::vector<CharacterFrameInput> inputs;
+  std::vector<CharacterInstance> alone;
+  size_t pairs = 0;
+  for (size_t k = 0; k < kCount; ++k) {
+    inputs.push_back({poses[(7 * k) % poses.size()].world, {}});
+    alone.push_back(MakeInstance(*asset));
+    ASSERT_TRUE(alone[k].UpdateFast(inputs[k].joint_world).ok());
+    pairs += alone[k].FindSpherePairs().size();
+  }
+  EXPECT_GT(pairs, 0u);
+  for (const internal::RefitSimd level : {internal::RefitSimd::kPortable, internal::RefitSimd::kSse2,
+                                          internal::RefitSimd::kAvx2, internal::RefitSimd::kAvx512}) {
+    const PinnedLevel pin(level);
+    if (!pin.ok) continue;
+    std::vector<CharacterInstance> crowd;
+    for (size_t k = 0; k < kCount; ++k) crowd.push_back(MakeInstance(*asset));
+    std::vector<CharacterInstance*> ptrs;
+    for (auto& c : crowd) ptrs.push_back(&c);
+    const uint64_t batches = internal::CrowdQueryBatches();
+    ASSERT_TRUE(CrowdUpdateAndFindSpherePairs(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());
+    EXPECT_GT(internal::CrowdQueryBatches(), batches) << internal::ToString(level) << ": queried in batches";
+    for (size_t k = 0; k < kCount; ++k) {
+      ASSERT_TRUE(std::ranges::equal(crowd[k].spheres(), alone[k].spheres()))
+          << internal::ToString(level) << ", instance " << k;
+      ASSERT_TRUE(std::ranges::equal(crowd[k].sphere_pairs(), alone[k].sphere_pairs()))
+          << internal::ToString(level) << ", instance " << k;
+    }
+  }
+  std::printf("%s: %zu spheres, %zu sphere pairs over %zu instances\n", GetParam().c_str(), (*asset)->size(), pairs,
+              kCount);
+}
+
+INSTANTIATE_TEST_SUITE_P(Assets, SharedCharacterCrowd, ::testing::ValuesIn(test::SharedCharacters()),
+                         [](const auto& param_info) {
+                           std::string n = param_info.param;
+                           return n.substr(0, n.find('.'));
+                         });
 
 // An instance the crowd calls only ever query in a batch never holds the single query's candidate
 // cache: Create leaves it unsized (ReserveSpherePairs sizes it: more bytes), warm batched frames
