@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "broad_phase/frame.h"
 #include "broad_phase/sphere_test.h"
 #include "crowd/crowd_query.h"
 #include "refit/refit_internal.h"
@@ -20,12 +21,6 @@ namespace {
 std::atomic<bool> crowd_batched{true};
 std::atomic<bool> crowd_query_batched{true};
 thread_local uint64_t batched_queries = 0;  // batches queried at once on this thread (tests)
-
-// By (i, j): the order of the instance's own query.
-void SortByRowThenColumn(std::vector<SpherePair>& pairs) {
-  std::sort(pairs.begin(), pairs.end(),
-            [](const SpherePair& a, const SpherePair& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
-}
 
 }  // namespace
 
@@ -158,7 +153,10 @@ uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, internal::RefitSimd
                         internal::BatchSink{&hits, &AppendHits, &target});
     AppendHits(&target, hits);
     if (!asset.crowd_pairs_sorted_) {  // each instance's pairs in the order of its own query: by (i, j)
-      for (uint32_t m = lanes; m != 0; m &= m - 1) SortByRowThenColumn(inst[std::countr_zero(m)]->sphere_pairs_);
+      for (uint32_t m = lanes; m != 0; m &= m - 1) {
+        auto& found = inst[std::countr_zero(m)]->sphere_pairs_;
+        std::sort(found.begin(), found.end(), broad_phase::ByPair);
+      }
     }
   }
   for (uint32_t m = lanes; m != 0; m &= m - 1) {
