@@ -14,6 +14,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -21,6 +22,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "check.h"
 #include "clip_files.h"
 #include "html_page.h"
 #include "playback.h"
@@ -29,19 +31,6 @@
 
 namespace skinspheres::tool {
 namespace {
-
-inline constexpr float kDefaultMaxDepth = 0.01f;  // share of the body height
-
-struct CheckArgs {
-  std::string input, spheres, clip = "all", mode = "exact", report, csv, html;
-  ClipFileOptions clip_files;
-  float fps = 30.0f;
-  float max_depth = kDefaultMaxDepth;
-  float touch_tolerance = kDefaultTouchTolerance;
-  int jobs = 0;
-  bool compare_source = false;
-  FitOptions fit;
-};
 
 // One clip to check: its index in the character's clips, the file it came from ("" = the
 // character's own) and its name in that file.
@@ -75,6 +64,27 @@ struct Checked {
   // and those that penetrate here but not there (introduced by retargeting).
   std::optional<std::vector<std::string>> source_penetrating;
   std::vector<std::string> introduced;
+};
+
+// stdout, or nothing when the command runs quietly (in-process, for the Python module).
+class Say {
+ public:
+  explicit Say(bool quiet) : quiet_(quiet) {}
+  bool quiet() const { return quiet_; }
+  void operator()(const char* format, ...) const
+#if defined(__GNUC__)
+      __attribute__((format(printf, 2, 3)))
+#endif
+  {
+    if (quiet_) return;
+    va_list args;
+    va_start(args, format);
+    std::vfprintf(stdout, format, args);
+    va_end(args);
+  }
+
+ private:
+  bool quiet_;
 };
 
 std::string PartName(const runtime::SphereSet& set, uint16_t p) {
@@ -273,7 +283,7 @@ std::string ReportCsv(const nlohmann::json& report) {
 // The clips to check: the files' (retargeted, appended to the character's clips; a file that
 // fails is reported and skipped), else the character's own; only those named --clip.
 std::vector<Entry> CollectClips(LoadedCharacter& loaded, const CheckArgs& a, const ClipFileContext& context,
-                                std::vector<std::pair<std::string, std::string>>* bad) {
+                                std::vector<std::pair<std::string, std::string>>* bad, const Say& say) {
   std::vector<Entry> entries;
   auto wanted = [&](const std::string& original, const std::string& added) {
     return a.clip == "all" || a.clip == original || a.clip == added;
@@ -289,7 +299,7 @@ std::vector<Entry> CollectClips(LoadedCharacter& loaded, const CheckArgs& a, con
     lib::RetargetReport report;
     auto clips = ReadClipFile(loaded, file, context, &report);
     if (!clips.ok()) {
-      Fail(clips.error().message);  // one line on stderr; the others still run
+      if (!say.quiet()) Fail(clips.error().message);  // one line on stderr; the others still run
       bad->emplace_back(file, runtime::OneLine(clips.error().message));
       continue;
     }
@@ -297,7 +307,7 @@ std::vector<Entry> CollectClips(LoadedCharacter& loaded, const CheckArgs& a, con
     for (const auto& clip : *clips) originals.push_back(clip.name);
     const size_t first = loaded.character.clips.size();
     const std::vector<std::string> names = AppendClips(loaded, file, std::move(*clips));
-    for (const std::string& note : DescribeRetarget(report, loaded, file, names)) std::printf("%s\n", note.c_str());
+    for (const std::string& note : DescribeRetarget(report, loaded, file, names)) say("%s\n", note.c_str());
     for (size_t k = 0; k < names.size(); ++k) {
       if (wanted(originals[k], names[k])) entries.push_back({first + k, file, originals[k]});
     }
@@ -308,7 +318,8 @@ std::vector<Entry> CollectClips(LoadedCharacter& loaded, const CheckArgs& a, con
 // One page per file, named for its stem ("_2", "_3", ... where stems repeat), holding the
 // character with that file's clips only.
 std::optional<std::string> WritePages(const std::vector<Checked>& checked, const LoadedCharacter& loaded,
-                                      const runtime::SphereSet& set, const CheckArgs& a, double fit_seconds) {
+                                      const runtime::SphereSet& set, const CheckArgs& a, double fit_seconds,
+                                      const Say& say) {
   std::error_code ec;
   std::filesystem::create_directories(a.html, ec);
   if (ec) return a.html + ": cannot create the folder (" + ec.message() + ")";
@@ -335,7 +346,7 @@ std::optional<std::string> WritePages(const std::vector<Checked>& checked, const
     if (page.clips.empty()) continue;
     const std::string path = (std::filesystem::path(a.html) / (stem + ".html")).string();
     if (auto err = WriteViewerPage(page, path)) return err->message;
-    std::printf("wrote %s\n", path.c_str());
+    say("wrote %s\n", path.c_str());
   }
   return std::nullopt;
 }
@@ -354,27 +365,25 @@ std::vector<std::string> PenetratingPairs(const PlayResult& r, const runtime::Sp
 // retargeting. Prints what it finds; a file without a character (or one that fails to fit) is
 // said so in a line, and is no error of the run.
 void CompareWithSources(std::vector<Checked>& checked, const runtime::SphereSet& set, const CheckArgs& a,
-                        const PlayOptions& options, int jobs) {
+                        const PlayOptions& options, int jobs, const Say& say) {
   std::vector<std::string> files;
   for (const Checked& c : checked) {
     if (!c.entry.file.empty() && c.played && std::find(files.begin(), files.end(), c.entry.file) == files.end())
       files.push_back(c.entry.file);
   }
   if (files.empty()) return;
-  std::printf("compared with the characters the clips' files hold (--compare-source):\n");
+  say("compared with the characters the clips' files hold (--compare-source):\n");
   for (const std::string& file : files) {
     auto source = LoadCharacter(file, "");
     if (!source.ok()) {
-      std::printf("  %s: nothing to compare with (%s)\n", file.c_str(),
-                  runtime::OneLine(source.error().message).c_str());
+      say("  %s: nothing to compare with (%s)\n", file.c_str(), runtime::OneLine(source.error().message).c_str());
       continue;
     }
     auto fit = lib::FitSpheres(source->character, source->parts, a.fit.settings);
     auto playback = fit.ok() ? Playback::Create(*source, fit->spheres, NarrowSettings(options))
                              : Result<std::shared_ptr<const Playback>>(fit.error());
     if (!playback.ok()) {
-      std::printf("  %s: nothing to compare with (%s)\n", file.c_str(),
-                  runtime::OneLine(playback.error().message).c_str());
+      say("  %s: nothing to compare with (%s)\n", file.c_str(), runtime::OneLine(playback.error().message).c_str());
       continue;
     }
     std::vector<Checked> own;
@@ -394,8 +403,8 @@ void CompareWithSources(std::vector<Checked>& checked, const runtime::SphereSet&
     for (size_t k = 0; k < own.size(); ++k) {
       Checked& c = *targets[k];
       if (!own[k].played) {
-        std::printf("  %s [%s]: its own character cannot play it (%s)\n", c.entry.original.c_str(), file.c_str(),
-                    own[k].error.c_str());
+        say("  %s [%s]: its own character cannot play it (%s)\n", c.entry.original.c_str(), file.c_str(),
+            own[k].error.c_str());
         continue;
       }
       c.source_penetrating = PenetratingPairs(*own[k].played, fit->spheres);
@@ -408,9 +417,9 @@ void CompareWithSources(std::vector<Checked>& checked, const runtime::SphereSet&
       }
       std::string there;
       for (const std::string& pair : *c.source_penetrating) there += (there.empty() ? "" : ", ") + pair;
-      std::printf("  %s [%s]: %s; penetrating on its own character: %s\n", c.entry.original.c_str(), file.c_str(),
-                  line.empty() ? "nothing introduced by retargeting" : ("introduced by retargeting: " + line).c_str(),
-                  there.empty() ? "none" : there.c_str());
+      say("  %s [%s]: %s; penetrating on its own character: %s\n", c.entry.original.c_str(), file.c_str(),
+          line.empty() ? "nothing introduced by retargeting" : ("introduced by retargeting: " + line).c_str(),
+          there.empty() ? "none" : there.c_str());
     }
   }
 }
@@ -438,39 +447,52 @@ Result<runtime::SphereSet> SpheresFor(const LoadedCharacter& loaded, CheckArgs& 
   return std::move(fit->spheres);
 }
 
-int RunCheck(CheckArgs& a) {
-  if (auto why = Validate(a)) return Fail(*why);
-  if (auto why = a.fit.Resolve()) return Fail(*why);
+// The command; quiet: nothing printed, the failure in outcome.error.
+CheckOutcome RunCheckCommand(CheckArgs& a, bool quiet) {
+  CheckOutcome out;
+  const Say say(quiet);
+  auto fail = [&](const std::string& message, ErrorCode code = ErrorCode::kInvalidArgument) {
+    out.error = runtime::OneLine(message);
+    out.error_code = code;
+    out.exit_code = quiet ? kExitBadInput : Fail(message);
+    return out;
+  };
+  if (auto why = Validate(a)) return fail(*why);
+  if (auto why = a.fit.Resolve()) return fail(*why);
   const auto start = std::chrono::steady_clock::now();
   auto loaded = LoadCharacter(a.input, a.fit.parts_file);
-  if (!loaded.ok()) return Fail(loaded.error().message);
+  if (!loaded.ok()) return fail(loaded.error().message, loaded.error().code);
   auto context = ResolveClipFileOptions(a.clip_files, a.fps);
-  if (!context.ok()) return Fail(context.error().message);
+  if (!context.ok()) return fail(context.error().message, context.error().code);
   std::vector<std::pair<std::string, std::string>> bad;
-  const std::vector<Entry> entries = CollectClips(*loaded, a, *context, &bad);
+  const std::vector<Entry> entries = CollectClips(*loaded, a, *context, &bad, say);
   if (entries.empty()) {
-    if (!bad.empty()) return kExitBadInput;  // each file that failed has had its line
-    return Fail((a.input.empty() ? std::string("built-in character") : a.input) + ": no clip to check" +
+    if (!bad.empty()) {  // each file that failed has had its line
+      out.exit_code = kExitBadInput;
+      out.error = bad.front().second;
+      out.error_code = ErrorCode::kInvalidData;
+      return out;
+    }
+    return fail((a.input.empty() ? std::string("built-in character") : a.input) + ": no clip to check" +
                 (a.clip == "all" ? std::string() : " named \"" + a.clip + "\""));
   }
   double fit_seconds = -1.0;
   auto set = SpheresFor(*loaded, a, &fit_seconds);
-  if (!set.ok()) return Fail(set.error().message);
+  if (!set.ok()) return fail(set.error().message, set.error().code);
   PlayOptions options;
   options.fps = a.fps;
   options.fast = a.mode == "fast";
   options.touch_tolerance = a.touch_tolerance;
   auto playback = Playback::Create(*loaded, *set, NarrowSettings(options));
-  if (!playback.ok()) return Fail(playback.error().message);
+  if (!playback.ok()) return fail(playback.error().message, playback.error().code);
   const float height = (*playback)->body_height();
 
   std::vector<Checked> checked(entries.size());
   for (size_t k = 0; k < entries.size(); ++k) checked[k].entry = entries[k];
   const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int jobs = std::min<int>(a.jobs > 0 ? a.jobs : hardware, static_cast<int>(entries.size()));
-  const bool bar = isatty(STDERR_FILENO) != 0;
-  std::printf(
-      "checking %zu clips on %s (%d workers): penetration deeper than %s of height (%.4g) fails, "
+  const bool bar = !quiet && isatty(STDERR_FILENO) != 0;
+  say("checking %zu clips on %s (%d workers): penetration deeper than %s of height (%.4g) fails, "
       "intersections up to %s touch\n",
       entries.size(), (*playback)->file().c_str(), jobs, Percent(a.max_depth).c_str(), a.max_depth * height,
       Percent(a.touch_tolerance).c_str());
@@ -479,7 +501,7 @@ int RunCheck(CheckArgs& a) {
   PlayAll(*playback, options, !a.html.empty(), jobs, &checked, [&](size_t k) {
     Judge(checked[k], a.max_depth);
     if (bar) std::fprintf(stderr, "\r\033[K");
-    std::printf("  %s\n", ClipLine(checked[k], *loaded, *set, a.max_depth).c_str());
+    say("  %s\n", ClipLine(checked[k], *loaded, *set, a.max_depth).c_str());
     std::fflush(stdout);
     if (bar) {
       const size_t n = k + 1, width = 30, filled = width * n / checked.size();
@@ -488,12 +510,12 @@ int RunCheck(CheckArgs& a) {
       if (n == checked.size()) std::fprintf(stderr, "\r\033[K");
     }
   });
-  if (a.compare_source) CompareWithSources(checked, *set, a, options, jobs);
+  if (a.compare_source) CompareWithSources(checked, *set, a, options, jobs, say);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const nlohmann::json report = ReportJson(checked, bad, *loaded, *set, a, seconds, height);
+  out.report = ReportJson(checked, bad, *loaded, *set, a, seconds, height);
+  const nlohmann::json& report = out.report;
   const auto& sum = report["summary"];
-  std::printf(
-      "checked %zu clips in %.1f s: %zu penetrate deeper than %s of height, %zu penetrate less, %zu do not "
+  say("checked %zu clips in %.1f s: %zu penetrate deeper than %s of height, %zu penetrate less, %zu do not "
       "penetrate%s%s\n",
       checked.size(), seconds, sum["over_limit"].get<size_t>(), Percent(a.max_depth).c_str(),
       sum["penetrating_within_limit"].get<size_t>(), sum["clean"].get<size_t>(),
@@ -506,17 +528,21 @@ int RunCheck(CheckArgs& a) {
   const std::string json_text = report.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
   for (const auto& [path, text] : {std::pair{a.report, json_text}, std::pair{a.csv, ReportCsv(report)}}) {
     if (path.empty()) continue;
-    if (auto err = runtime::WriteWholeFile(path, text)) return Fail(err->message);
-    std::printf("wrote %s\n", path.c_str());
+    if (auto err = runtime::WriteWholeFile(path, text)) return fail(err->message);
+    say("wrote %s\n", path.c_str());
   }
   if (!a.html.empty()) {
-    if (auto err = WritePages(checked, *loaded, *set, a, fit_seconds)) return Fail(*err);
+    if (auto err = WritePages(checked, *loaded, *set, a, fit_seconds, say)) return fail(*err);
   }
-  if (!bad.empty() || sum["failed"].get<size_t>() > 0) return kExitBadInput;
-  return sum["over_limit"].get<size_t>() > 0 ? 1 : 0;
+  out.exit_code = !bad.empty() || sum["failed"].get<size_t>() > 0 ? kExitBadInput
+                  : sum["over_limit"].get<size_t>() > 0           ? 1
+                                                                  : 0;
+  return out;
 }
 
 }  // namespace
+
+CheckOutcome RunCheck(CheckArgs& a, bool quiet) { return RunCheckCommand(a, quiet); }
 
 void AddCheckCommand(CLI::App& app, int* exit_code) {
   auto a = std::make_shared<CheckArgs>();
@@ -544,7 +570,7 @@ void AddCheckCommand(CLI::App& app, int* exit_code) {
                 "part pairs that penetrate here but not there (introduced by retargeting)");
   cmd->add_option("--jobs", a->jobs, "clips played at once (0: one per core)")->capture_default_str();
   a->fit.AddTo(*cmd);
-  cmd->callback([a, exit_code] { *exit_code = RunCheck(*a); });
+  cmd->callback([a, exit_code] { *exit_code = RunCheck(*a, false).exit_code; });
 }
 
 }  // namespace skinspheres::tool

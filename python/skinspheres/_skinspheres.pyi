@@ -1,0 +1,211 @@
+"""Types of the native module (python/src/module.cc); skinspheres re-exports every public name."""
+
+from typing import Any, NamedTuple, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+# Structured dtypes. kind: TOUCHING / PENETRATING (part pairs), INTERSECTING / WITHIN_MARGIN
+# (triangle pairs). Part indices are into part_names; triangle indices are the source file's.
+SPHERE_PAIR_DTYPE: np.dtype  # i, j (u4, i < j), depth (f4), part_i, part_j (u2)
+PART_CONTACT_DTYPE: np.dtype  # part_a, part_b (u2), kind (u4), depth, min_distance (f4), normal, center ((3,) f4),
+#                               triangle_pairs, intersecting, sphere_pairs, first_triangle (u4)
+TRIANGLE_CONTACT_DTYPE: np.dtype  # part_contact, triangle_a, triangle_b, kind (u4), distance (f4),
+#                                   point, on_a, on_b ((3,) f4)
+FRAME_SPHERE_PAIR_DTYPE: np.dtype  # frame (u4), then SPHERE_PAIR_DTYPE's fields
+FRAME_PART_CONTACT_DTYPE: np.dtype  # frame (u4), then PART_CONTACT_DTYPE's fields
+FRAME_TRIANGLE_CONTACT_DTYPE: np.dtype  # frame (u4), then TRIANGLE_CONTACT_DTYPE's fields
+TOUCHING: int
+PENETRATING: int
+INTERSECTING: int
+WITHIN_MARGIN: int
+DEFAULT_TOUCH_TOLERANCE: float
+
+FloatArray = npt.NDArray[Union[np.float32, np.float64]]
+
+class Error(Exception):
+    """A failed call: str(e) is the one-line message, e.code its kind ("file not found", ...)."""
+
+    code: str
+
+class FileNotFound(Error, FileNotFoundError): ...
+class FileUnreadable(Error, OSError): ...
+class FormatRejected(Error, ValueError): ...
+class InvalidData(Error, ValueError): ...
+class VersionMismatch(Error, ValueError): ...
+class MismatchedAsset(Error, ValueError): ...
+class InvalidArgument(Error, ValueError): ...
+class NotFound(Error, LookupError): ...
+class CheckFailed(Error, RuntimeError): ...
+
+class Contacts(NamedTuple):
+    parts: np.ndarray  # PART_CONTACT_DTYPE, sorted by (part_a, part_b)
+    triangles: np.ndarray  # TRIANGLE_CONTACT_DTYPE, grouped by part pair (part_contact)
+
+class SphereSet:
+    """A fitted sphere set (rest pose). Arrays are copies the caller owns."""
+
+    def __len__(self) -> int: ...
+    def save(self, path: str, *, fast_only: bool = False) -> None:
+        """.json (JSON) or .ssb (binary); fast_only (.ssb only) leaves out the mesh."""
+    @property
+    def centers(self) -> npt.NDArray[np.float32]: ...  # (S, 3)
+    @property
+    def radii(self) -> npt.NDArray[np.float32]: ...  # (S,)
+    @property
+    def radii_fast(self) -> npt.NDArray[np.float32]: ...  # (S,) the fast refit's radii at rest
+    @property
+    def sphere_part(self) -> npt.NDArray[np.uint16]: ...  # (S,) index into part_names
+    @property
+    def sphere_joint(self) -> npt.NDArray[np.uint16]: ...  # (S,) dominant joint, index into joint_names
+    def sphere_joints(self, sphere: int) -> tuple[npt.NDArray[np.uint16], npt.NDArray[np.float32]]:
+        """The joints that move the sphere, and their weights (summing to 1)."""
+    @property
+    def part_names(self) -> list[str]: ...
+    @property
+    def joint_names(self) -> list[str]: ...
+    @property
+    def joint_parents(self) -> npt.NDArray[np.int32]: ...  # -1 for roots
+    @property
+    def joint_rest_world(self) -> npt.NDArray[np.float32]: ...  # (J, 4, 4)
+    @property
+    def excluded_pairs(self) -> npt.NDArray[np.uint32]: ...  # (E, 2): pairs never reported
+    @property
+    def excluded_reasons(self) -> list[str]: ...  # "same_joint", "adjacent_joints", "bind_overlap"
+    @property
+    def vertex_count(self) -> int: ...
+    @property
+    def triangle_count(self) -> int: ...
+    @property
+    def triangles(self) -> npt.NDArray[np.uint32]: ...  # (T, 3) vertex indices (empty without mesh)
+    @property
+    def mesh(self) -> dict[str, np.ndarray]:
+        """The skinned mesh the set carries: positions_bind (V, 3), bind_joints (B,), inverse_binds
+        (B, 4, 4), influence_offsets (V + 1,), influence_binds, influence_weights (CSR)."""
+    @property
+    def has_mesh(self) -> bool: ...
+    @property
+    def fast_only(self) -> bool: ...
+    @property
+    def source_file(self) -> str: ...
+    @property
+    def loaded_from(self) -> str: ...
+    @property
+    def fit_report(self) -> dict[str, Any]: ...  # fit(): seconds, body_height, standoff_before/after, ...
+
+class Asset:
+    """A sphere set ready for the runtime; immutable; shared by its instances (any thread)."""
+
+    def __init__(self, sphere_set: SphereSet, *, margin: float = 0.0, touch_tolerance: float = ...) -> None:
+        """margin: also report triangle pairs nearer than this (set units). touch_tolerance: part pairs
+        intersecting deeper than this share of the rest height penetrate, the others touch."""
+    def instance(self, joint_names: Optional[Sequence[str]] = None) -> Instance: ...
+    def check(self, joint_names: Sequence[str], vertex_count: int) -> None:
+        """Raises MismatchedAsset unless the set was fitted on this character."""
+    @property
+    def sphere_set(self) -> SphereSet: ...
+    @property
+    def part_names(self) -> list[str]: ...
+    @property
+    def joint_names(self) -> list[str]: ...
+    @property
+    def joints_read(self) -> npt.NDArray[np.bool_]: ...  # per set joint: read every frame
+    @property
+    def sphere_count(self) -> int: ...
+    @property
+    def vertex_count(self) -> int: ...
+    @property
+    def has_contacts(self) -> bool: ...  # holds its mesh: contacts() works
+    @property
+    def margin(self) -> float: ...
+    @property
+    def touch_tolerance(self) -> float: ...  # set units
+
+class Instance:
+    """One character's per-frame state. One thread at a time (a second raises ValueError)."""
+
+    def __init__(self, asset: Asset, joint_names: Optional[Sequence[str]] = None) -> None: ...
+    def update_fast(self, world: FloatArray) -> None:
+        """world: (J, 4, 4), J >= joint_count, in joint_names' order; world[j] @ [x, y, z, 1]."""
+    def update_exact(self, positions: FloatArray, world: Optional[FloatArray] = None) -> None:
+        """positions: (V, 3) skinned vertices, V >= the set's vertex_count; world as update_fast, or None."""
+    def sphere_pairs(self) -> np.ndarray:
+        """The overlapping sphere pairs (SPHERE_PAIR_DTYPE), sorted by (i, j)."""
+    def contacts(self, positions: Optional[FloatArray] = None) -> Contacts:
+        """The triangles that touch, behind the sphere pairs. positions: the skinned vertices the
+        spheres came from (exact mode), or None: the instance skins what it tests."""
+    @property
+    def spheres(self) -> npt.NDArray[np.float32]: ...  # (S, 4): x, y, z, radius
+    @property
+    def asset(self) -> Asset: ...
+    @property
+    def joint_count(self) -> int: ...
+    @property
+    def extra_joints(self) -> list[str]: ...  # the engine's joints the set does not list
+    @property
+    def unmapped_joints(self) -> list[str]: ...  # the set's joints the engine's list lacks (never read)
+
+def fit(
+    path: Optional[str] = None,
+    *,
+    parts: str = "",
+    rays: int = 80,
+    per_level: int = 2,
+    method: str = "m1a",
+    overlap: float = 0.3,
+    step: float = 0.02,
+    hops: int = 1,
+    refine: int = 2,
+    tighten: bool = True,
+    split_gain: float = 0.9,
+    target_standoff: float = 0.0125,
+    max_spheres: int = 200,
+    exclude_bind_overlaps: bool = True,
+) -> SphereSet:
+    """Fits a character file (glTF, GLB, FBX, ...; None: the built-in character), as `skinspheres fit`."""
+
+def load(path: str) -> SphereSet:
+    """Reads a sphere set, .ssb or .json (told apart by content)."""
+
+def play(
+    character: Optional[str] = None,
+    clip_file: Optional[str] = None,
+    *,
+    clip: Union[int, str] = 0,
+    fps: float = 30.0,
+    mode: str = "exact",
+    frames: int = 0,
+    spheres: Optional[str] = None,
+    margin: float = 0.0,
+    touch_tolerance: float = ...,
+    joint_map: str = "",
+    source_rest: str = "",
+    retarget: str = "auto",
+) -> dict[str, Any]:
+    """Every frame of one clip, as `skinspheres play` (fitting on the fly unless spheres= names a
+    set). clip_file: an animation file retargeted onto the character (clip then counts its clips).
+    Returns clip, frames, times, clip_times, sphere_pairs (FRAME_SPHERE_PAIR_DTYPE), part_contacts
+    (FRAME_PART_CONTACT_DTYPE; first_triangle indexes triangle_contacts), triangle_contacts
+    (FRAME_TRIANGLE_CONTACT_DTYPE; part_contact indexes part_contacts), part_names, body_height,
+    touch_tolerance (set units), notes (what the retarget did)."""
+
+def check(
+    character: str,
+    clip_files: Sequence[str] = ...,
+    *,
+    clip: str = "all",
+    max_depth: float = 0.01,
+    touch_tolerance: float = ...,
+    spheres: Optional[str] = None,
+    fps: float = 30.0,
+    mode: str = "exact",
+    jobs: int = 0,
+    joint_map: str = "",
+    source_rest: str = "",
+    retarget: str = "auto",
+    compare_source: bool = False,
+) -> dict[str, Any]:
+    """`skinspheres check`: the report its --report writes (format "skinspheres.check"), plus
+    exit_code (0 clean, 1 some clip deeper than max_depth, 2 some file could not be read)."""
