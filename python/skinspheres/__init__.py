@@ -43,6 +43,7 @@ from ._skinspheres import (  # noqa: F401  (the public names)
     VersionMismatch,
     __version__,
     check,
+    clip_names,
     fit,
     load,
     play,

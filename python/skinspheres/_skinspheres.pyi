@@ -169,6 +169,9 @@ def fit(
 def load(path: str) -> SphereSet:
     """Reads a sphere set, .ssb or .json (told apart by content)."""
 
+def clip_names(path: str) -> list[str]:
+    """The clips a file holds (a character or an animation-only file), in its order."""
+
 def play(
     character: Optional[str] = None,
     clip_file: Optional[str] = None,

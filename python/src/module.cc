@@ -34,6 +34,7 @@
 #include "clip_files.h"
 #include "commands.h"
 #include "playback.h"
+#include "skinspheres/lib/io/clip_import.h"
 #include "skinspheres/runtime/api/character.h"
 #include "skinspheres/runtime/api/joint_mapping.h"
 #include "skinspheres/runtime/format/file_io.h"
@@ -563,6 +564,33 @@ struct PlayCollect {
   std::vector<FrameTriangleContactRecord> triangles;
 };
 
+// With a clip file, `clip` counts or names the file's clips (appended after the character's own
+// `own` clips, renamed "<file stem>/<name>" where the name was taken).
+size_t FileClip(const lib::RawCharacter& character, size_t own, const std::string& file, const std::string& clip) {
+  const size_t added = character.clips.size() - own;
+  if (!clip.empty() && clip.find_first_not_of("0123456789") == std::string::npos) {
+    const size_t k = clip.size() < 10 ? std::stoul(clip) : added;
+    if (k < added) return own + k;
+  }
+  std::string names;
+  for (size_t k = own; k < character.clips.size(); ++k) {
+    const std::string& name = character.clips[k].name;
+    if (name == clip || (name.size() > clip.size() && name.ends_with("/" + clip))) return k;
+    names += (names.empty() ? "" : ", ") + std::to_string(k - own) + ":" + name;
+  }
+  Throw(Error{ErrorCode::kNotFound, file + ": no clip \"" + clip + "\"; clips: " + names});
+}
+
+// The clips a file holds, by name (an animation-only file too).
+std::vector<std::string> ClipNames(const std::string& path) {
+  std::vector<std::string> names;
+  py::gil_scoped_release release;
+  auto file = lib::ReadAnimationFile(path);
+  if (!file.ok()) Throw(file.error());
+  for (const auto& clip : file->clips) names.push_back(clip.name);
+  return names;
+}
+
 py::dict Play(const std::optional<std::string>& character, const PlayArgs& a, const FitArgs& fit_args) {
   if (a.mode != "exact" && a.mode != "fast") ThrowArgument("mode must be 'exact' or 'fast' (got '" + a.mode + "')");
   if (!(a.fps > 0.0f) || a.fps > 10000.0f) ThrowArgument("fps must be in (0, 10000]");
@@ -592,10 +620,8 @@ py::dict Play(const std::optional<std::string>& character, const PlayArgs& a, co
     } else {
       set = Take(lib::FitSpheres(loaded->character, loaded->parts, fit_options.settings)).spheres;
     }
-    // With clip files, clip indices count the files' clips (the character's own come first).
-    std::string wanted = a.clip;
-    if (!a.clip_files.empty() && wanted == "0") wanted = std::to_string(own_clips);
-    const size_t clip = Take(tool::FindClip(loaded->character, wanted));
+    const size_t clip = a.clip_files.empty() ? Take(tool::FindClip(loaded->character, a.clip))
+                                             : FileClip(loaded->character, own_clips, a.clip_files.front(), a.clip);
     clip_name = loaded->character.clips[clip].name;
     tool::PlayOptions options;
     options.fps = a.fps;
@@ -901,6 +927,7 @@ PYBIND11_MODULE(_skinspheres, m) {
       "tighten"_a = d.tighten, "split_gain"_a = d.split_gain, "target_standoff"_a = d.target_standoff,
       "max_spheres"_a = d.max_spheres, "exclude_bind_overlaps"_a = d.exclude_bind_overlaps);
   m.def("load", &Load, "path"_a);
+  m.def("clip_names", &ClipNames, "path"_a);
   m.def(
       "play",
       [](const std::optional<std::string>& character, const std::optional<std::string>& clip_file,
