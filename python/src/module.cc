@@ -23,6 +23,7 @@
 
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -122,17 +123,6 @@ struct FloatArray {
   bool f64 = false;
   std::vector<py::ssize_t> shape, strides;
 
-  double At(py::ssize_t i, py::ssize_t j, py::ssize_t k = 0) const {
-    const char* p = data + i * strides[0] + j * strides[1] + (shape.size() > 2 ? k * strides[2] : 0);
-    if (f64) {
-      double v;
-      std::memcpy(&v, p, sizeof v);
-      return v;
-    }
-    float v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-  }
   float AtF(py::ssize_t i, py::ssize_t j, py::ssize_t k = 0) const {
     const char* p = data + i * strides[0] + j * strides[1] + (shape.size() > 2 ? k * strides[2] : 0);
     if (f64) {
@@ -474,6 +464,54 @@ class PyInstance {
     }
     Check(Released([&] { return instance_->FindContacts(skinned); }));
     return ContactArrays(instance_->contacts());
+  }
+
+  // The per-frame loop of a C++ engine on these frames (update_fast, sphere pairs, contacts when
+  // asked), with no Python between frames: what bench/python_overhead.py sets the Python loop
+  // against. Returns seconds per frame (the matrices are read before the clock starts).
+  double CppFrameLoop(const py::handle& worlds, bool contacts, int repeats) {
+    Busy busy(this);
+    const FloatArray a = ReadFloatArray(worlds, "worlds", {-1, -1, 4, 4});
+    const size_t frames = static_cast<size_t>(a.shape[0]), joints = instance_->joint_input_count();
+    if (frames == 0 || static_cast<size_t>(a.shape[1]) < joints || repeats < 1) {
+      ThrowArgument("worlds: (F >= 1, J >= joint_count, 4, 4) and repeats >= 1");
+    }
+    std::vector<Mat4f> all(frames * joints);
+    for (size_t f = 0; f < frames; ++f) {
+      for (size_t j = 0; j < joints; ++j) {
+        for (int r = 0; r < 4; ++r) {
+          for (int c = 0; c < 4; ++c) {
+            const char* p = a.data + static_cast<py::ssize_t>(f) * a.strides[0] +
+                            static_cast<py::ssize_t>(j) * a.strides[1] + r * a.strides[2] + c * a.strides[3];
+            float v;
+            if (a.f64) {
+              double d;
+              std::memcpy(&d, p, sizeof d);
+              v = static_cast<float>(d);
+            } else {
+              std::memcpy(&v, p, sizeof v);
+            }
+            all[f * joints + j](r, c) = v;
+          }
+        }
+      }
+    }
+    py::gil_scoped_release release;
+    size_t checksum = 0;
+    const auto start = std::chrono::steady_clock::now();
+    for (int rep = 0; rep < repeats; ++rep) {
+      for (size_t f = 0; f < frames; ++f) {
+        Check(instance_->UpdateFast(std::span<const Mat4f>(all.data() + f * joints, joints)));
+        checksum += instance_->FindSpherePairs().size();
+        if (contacts) {
+          Check(instance_->FindContacts());
+          checksum += instance_->contacts().triangle_pairs.size();
+        }
+      }
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (checksum == static_cast<size_t>(-1)) std::abort();  // keeps the loop's results alive
+    return seconds / (static_cast<double>(frames) * repeats);
   }
 
   py::array Spheres() const {
@@ -888,6 +926,7 @@ PYBIND11_MODULE(_skinspheres, m) {
             return g_contacts_type(t[0], t[1]);
           },
           "positions"_a = py::none())
+      .def("_cpp_frame_loop", &PyInstance::CppFrameLoop, "worlds"_a, "contacts"_a = true, "repeats"_a = 1)
       .def_property_readonly("spheres", &PyInstance::Spheres)
       .def_property_readonly("asset", &PyInstance::asset)
       .def_property_readonly("joint_count", &PyInstance::joint_count)

@@ -111,3 +111,18 @@ def test_blender_markers_are_the_tool_penetrating_frames(builtin_glb, tmp_path):
 def test_blender_snippet_outside_blender_says_so():
     run = subprocess.run([sys.executable, str(SAMPLES / "blender_mark_penetrations.py")], capture_output=True, text=True)
     assert run.returncode == 1 and "inside Blender" in run.stderr
+
+
+def test_quickstart_counts_the_frames_the_tool_finds(builtin_glb, tmp_path):
+    character = shared("CesiumMan.glb")
+    run = subprocess.run([sys.executable, str(SAMPLES / "quickstart.py"), character], capture_output=True, text=True,
+                         check=True)
+    lines = dict(line.split(": ", 1) for line in run.stdout.splitlines() if line.startswith("frames "))
+    dump = tmp_path / "dump.jsonl"
+    subprocess.run([tool(), "play", character, "--dump", str(dump)], check=True, capture_output=True)
+    frames = [json.loads(line) for line in dump.read_text().splitlines()]
+    assert int(lines["frames with contacts"]) == sum(1 for f in frames if f["contacts"])
+    assert int(lines["frames penetrating"]) == sum(
+        1 for f in frames if any(c["kind"] == "penetrating" for c in f["contacts"])
+    )
+    print(run.stdout)
