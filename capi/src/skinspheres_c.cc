@@ -3,6 +3,7 @@
 // thread-local string, per-frame errors point at the runtime's static messages (no allocation).
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cstddef>
 #include <cstring>
 #include <exception>
@@ -26,13 +27,22 @@ using skinspheres::ErrorCode;
 using skinspheres::Mat4f;
 namespace rt = skinspheres::runtime;
 
+// Reference-counted: the loader's reference, one per instance, one per skinspheres_asset_retain.
 struct skinspheres_asset {
   std::shared_ptr<const rt::CharacterAsset> asset;
-  std::vector<bool> joint_read;  // JointsReadPerFrame
+  std::vector<bool> joint_read;               // JointsReadPerFrame
+  mutable std::atomic<size_t> references{1};  // (an instance of a const asset adds one)
 };
 
 struct skinspheres_instance {
   rt::CharacterInstance instance;
+  const skinspheres_asset* asset = nullptr;  // one reference, dropped by skinspheres_instance_destroy
+  // The joint mapping's lists (JointMapping::extra_engine_joints, unmapped_set_joints).
+  std::vector<std::string> extra_joints, unmapped_joints;
+  // The strided calls' copies of their inputs (set-order count of what an update reads), sized at
+  // the first strided call with a layout other than the packed one.
+  std::vector<Mat4f> joint_gather;
+  std::vector<Eigen::Vector3f> position_gather;
 };
 
 // The C structs are the C++ ones, byte for byte: contacts are handed out in place.
@@ -143,13 +153,98 @@ skinspheres_status MakeAsset(skinspheres::Result<rt::SphereSet> set, const skins
   return SKINSPHERES_OK;
 }
 
-std::span<const Mat4f> Joints(const float* joint_world, size_t joint_count) {
-  if (joint_world == nullptr) return {};
-  return {reinterpret_cast<const Mat4f*>(joint_world), joint_count};
+// False (the failure recorded) for a null handle or an index not below count; message: static.
+bool InRange(const void* handle, size_t index, size_t count, const char* message) {
+  if (handle == nullptr) {
+    FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null handle");
+    return false;
+  }
+  if (index >= count) {
+    FailStatic(SKINSPHERES_INVALID_ARGUMENT, message);
+    return false;
+  }
+  return true;
 }
-std::span<const Eigen::Vector3f> Positions(const float* positions, size_t vertex_count) {
+
+// names[k] (NULL, the failure recorded, for null names or k out of range).
+const char* NameAt(const std::vector<std::string>* names, size_t k, const char* message) {
+  if (!InRange(names, k, names ? names->size() : 0, message)) return nullptr;
+  return (*names)[k].c_str();
+}
+
+// A sphere's entries of the set's influence lists (CSR).
+struct Influences {
+  std::span<const uint16_t> joints;
+  std::span<const float> weights;
+};
+Influences SphereInfluences(const skinspheres_asset& asset, size_t sphere) {
+  const rt::SphereSet& set = asset.asset->sphere_set();
+  const size_t begin = set.influence_offsets[sphere], end = set.influence_offsets[sphere + 1];
+  return {std::span(set.influence_joints).subspan(begin, end - begin),
+          std::span(set.influence_weights).subspan(begin, end - begin)};
+}
+
+// The packed layouts: column-major matrices, 3 floats per vertex.
+constexpr skinspheres_matrix_layout kPackedJoints = {64, 4, 16};
+constexpr ptrdiff_t kPackedPositionStride = 3 * sizeof(float);
+
+bool Packed(const skinspheres_matrix_layout* layout) {
+  return layout == nullptr ||
+         (layout->joint_stride == kPackedJoints.joint_stride && layout->row_stride == kPackedJoints.row_stride &&
+          layout->column_stride == kPackedJoints.column_stride);
+}
+
+// Sizes the instance's gather buffers for inputs in these layouts (the first time: set-up
+// allocation, which may throw).
+void SizeGather(skinspheres_instance& inst, const skinspheres_matrix_layout* joint_layout, const float* positions,
+                ptrdiff_t position_stride) {
+  if (!Packed(joint_layout) && inst.joint_gather.size() < inst.instance.joint_input_count()) {
+    inst.joint_gather.resize(inst.instance.joint_input_count());
+  }
+  const size_t vertices = inst.instance.asset().source_vertex_count();
+  if (positions != nullptr && position_stride != kPackedPositionStride && inst.position_gather.size() < vertices) {
+    inst.position_gather.resize(vertices);
+  }
+}
+
+float FloatAt(const float* base, ptrdiff_t offset) {
+  float v;
+  std::memcpy(&v, reinterpret_cast<const unsigned char*>(base) + offset, sizeof v);  // may be unaligned
+  return v;
+}
+
+// The joint matrices as the runtime reads them: the caller's own when packed, else copied into the
+// instance's buffer (sized by SizeGather), at most as many as an update reads (a shorter list stays
+// shorter, so the runtime refuses it as it would the packed one).
+std::span<const Mat4f> Joints(skinspheres_instance& inst, const float* joint_world, size_t joint_count,
+                              const skinspheres_matrix_layout* layout) {
+  if (joint_world == nullptr) return {};
+  if (Packed(layout)) return {reinterpret_cast<const Mat4f*>(joint_world), joint_count};
+  const size_t n = std::min(joint_count, inst.joint_gather.size());
+  for (size_t j = 0; j < n; ++j) {
+    const ptrdiff_t joint = static_cast<ptrdiff_t>(j) * layout->joint_stride;
+    for (ptrdiff_t c = 0; c < 4; ++c) {
+      for (ptrdiff_t r = 0; r < 4; ++r) {
+        inst.joint_gather[j](r, c) = FloatAt(joint_world, joint + r * layout->row_stride + c * layout->column_stride);
+      }
+    }
+  }
+  return {inst.joint_gather.data(), n};
+}
+
+// The same for positions (x, y, z contiguous, vertices `stride` bytes apart).
+std::span<const Eigen::Vector3f> Positions(skinspheres_instance& inst, const float* positions, size_t vertex_count,
+                                           ptrdiff_t stride) {
   if (positions == nullptr) return {};
-  return {reinterpret_cast<const Eigen::Vector3f*>(positions), vertex_count};
+  if (stride == kPackedPositionStride) return {reinterpret_cast<const Eigen::Vector3f*>(positions), vertex_count};
+  const size_t n = std::min(vertex_count, inst.position_gather.size());
+  for (size_t v = 0; v < n; ++v) {
+    const ptrdiff_t vertex = static_cast<ptrdiff_t>(v) * stride;
+    for (ptrdiff_t k = 0; k < 3; ++k) {
+      inst.position_gather[v][k] = FloatAt(positions, vertex + k * static_cast<ptrdiff_t>(sizeof(float)));
+    }
+  }
+  return {inst.position_gather.data(), n};
 }
 
 skinspheres_part_contact ToC(const rt::PartContact& p) {
@@ -181,9 +276,40 @@ skinspheres_triangle_contact ToC(const rt::TriangleContact& t) {
   return c;
 }
 
+skinspheres_sphere_pair ToC(const rt::SpherePair& p) { return std::bit_cast<skinspheres_sphere_pair>(p); }
+
+// Copies min(capacity, total) entries of `from` into out (as their C structs), *out_count = the
+// total; SKINSPHERES_BUFFER_TOO_SMALL (too_small: static) when they do not all fit.
+template <typename T, typename C>
+skinspheres_status CopyOut(std::span<const T> from, C* out, size_t capacity, size_t* out_count, const char* too_small) {
+  const size_t n = std::min(from.size(), capacity);
+  for (size_t k = 0; k < n; ++k) out[k] = ToC(from[k]);
+  if (out_count) *out_count = from.size();
+  if (n < from.size()) return FailStatic(SKINSPHERES_BUFFER_TOO_SMALL, too_small);
+  return SKINSPHERES_OK;
+}
+
+// A crowd input as the runtime reads it (the strided one copied into the instance's buffers; its
+// positions only in exact mode, the only one that reads them).
+rt::CharacterFrameInput FrameInput(skinspheres_instance& inst, const skinspheres_frame_input& in, rt::RefitMode) {
+  return {Joints(inst, in.joint_world, in.joint_count, nullptr),
+          Positions(inst, in.positions, in.vertex_count, kPackedPositionStride)};
+}
+rt::CharacterFrameInput FrameInput(skinspheres_instance& inst, const skinspheres_frame_input_strided& in,
+                                   rt::RefitMode mode) {
+  const float* positions = mode == rt::RefitMode::kExact ? in.positions : nullptr;
+  return {Joints(inst, in.joint_world, in.joint_count, in.joint_layout),
+          Positions(inst, positions, in.vertex_count, in.position_stride)};
+}
+void SizeGather(skinspheres_instance&, const skinspheres_frame_input&, rt::RefitMode) {}
+void SizeGather(skinspheres_instance& inst, const skinspheres_frame_input_strided& in, rt::RefitMode mode) {
+  SizeGather(inst, in.joint_layout, mode == rt::RefitMode::kExact ? in.positions : nullptr, in.position_stride);
+}
+
+template <typename Input>
 struct CrowdWork {
   skinspheres_instance* const* instances;
-  const skinspheres_frame_input* inputs;
+  const Input* inputs;
   rt::RefitMode mode;
   bool find_contacts;              // then the narrow phase (skinspheres_crowd_update_and_find_contacts)
   size_t count;                    // instances
@@ -193,17 +319,16 @@ struct CrowdWork {
 
 // The range in blocks of 16 through rt::CrowdRange (consecutive instances of one asset refitted
 // together when the CPU has AVX-512F), the C inputs converted on the stack.
-void RunCrowdRange(void* context, size_t begin, size_t end) {
-  auto* work = static_cast<CrowdWork*>(context);
+template <typename Input>
+void RunCrowdRange(CrowdWork<Input>* work, size_t begin, size_t end) {
   constexpr size_t kBlock = 16;
   for (size_t first = begin; first < end; first += kBlock) {
     const size_t count = std::min(kBlock, end - first);
     rt::CharacterInstance* instances[kBlock];
     rt::CharacterFrameInput inputs[kBlock];
     for (size_t k = 0; k < count; ++k) {
-      const skinspheres_frame_input& in = work->inputs[first + k];
       instances[k] = &work->instances[first + k]->instance;
-      inputs[k] = {Joints(in.joint_world, in.joint_count), Positions(in.positions, in.vertex_count)};
+      inputs[k] = FrameInput(*work->instances[first + k], work->inputs[first + k], work->mode);
     }
     if (!rt::CrowdRange(std::span(instances, count), std::span(inputs, count), work->mode, work->find_contacts).ok()) {
       work->all_ok.store(false, std::memory_order_relaxed);
@@ -212,13 +337,15 @@ void RunCrowdRange(void* context, size_t begin, size_t end) {
 }
 
 // Blocks [begin, end) of the loop: instances [begin * block, min(end * block, count)).
+template <typename Input>
 void RunCrowdBlocks(void* context, size_t begin, size_t end) {
-  auto* work = static_cast<CrowdWork*>(context);
+  auto* work = static_cast<CrowdWork<Input>*>(context);
   RunCrowdRange(work, begin * work->block, std::min(end * work->block, work->count));
 }
 
 // Update + FindSpherePairs (+ FindContacts) of every instance through the engine's loop or the default one.
-skinspheres_status RunCrowd(skinspheres_instance* const* instances, const skinspheres_frame_input* inputs, size_t count,
+template <typename Input>
+skinspheres_status RunCrowd(skinspheres_instance* const* instances, const Input* inputs, size_t count,
                             skinspheres_refit_mode mode, bool find_contacts, skinspheres_parallel_for_fn parallel_for,
                             void* user) {
   return Guard([&] {
@@ -232,16 +359,18 @@ skinspheres_status RunCrowd(skinspheres_instance* const* instances, const skinsp
       if (instances[i] == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
     }
     const rt::RefitMode rt_mode = mode == SKINSPHERES_MODE_FAST ? rt::RefitMode::kFast : rt::RefitMode::kExact;
+    // Strided inputs: the instances' gather buffers, sized here (the loop then allocates nothing).
+    for (size_t i = 0; i < count; ++i) SizeGather(*instances[i], inputs[i], rt_mode);
     // The loop's indices are blocks of instances, as rt::CrowdUpdateAndFindSpherePairs's (CrowdBlock): no range
     // it hands out cuts a batch of 16 short.
     const size_t block = rt::CrowdBlock(rt_mode, find_contacts);
-    CrowdWork work{instances, inputs, rt_mode, find_contacts, count, block};
+    CrowdWork<Input> work{instances, inputs, rt_mode, find_contacts, count, block};
     const size_t blocks = (count + block - 1) / block;
     if (parallel_for != nullptr) {
-      if (count) parallel_for(user, blocks, 1, &RunCrowdBlocks, &work);
+      if (count) parallel_for(user, blocks, 1, &RunCrowdBlocks<Input>, &work);
     } else {
-      skinspheres::DefaultParallelFor()(blocks, 1,
-                                        [&work](size_t begin, size_t end) { RunCrowdBlocks(&work, begin, end); });
+      skinspheres::DefaultParallelFor()(
+          blocks, 1, [&work](size_t begin, size_t end) { RunCrowdBlocks<Input>(&work, begin, end); });
     }
     if (!work.all_ok.load()) {
       return FailStatic(SKINSPHERES_INVALID_DATA, "at least one instance failed; see skinspheres_instance_status");
@@ -267,6 +396,7 @@ const char* skinspheres_status_string(skinspheres_status status) {
 }
 
 const char* skinspheres_last_error(void) { return t_last_error; }
+void skinspheres_clear_last_error(void) { t_last_error = ""; }
 
 skinspheres_status skinspheres_asset_load_file(const char* path, skinspheres_asset** out_asset) {
   return skinspheres_asset_load_file_with(path, nullptr, out_asset);
@@ -312,16 +442,22 @@ float skinspheres_asset_touch_tolerance(const skinspheres_asset* asset) {
   return narrow ? narrow->touch_tolerance() : 0.0f;
 }
 
-void skinspheres_asset_release(skinspheres_asset* asset) { delete asset; }
+void skinspheres_asset_release(skinspheres_asset* asset) {
+  if (asset != nullptr && asset->references.fetch_sub(1, std::memory_order_acq_rel) == 1) delete asset;
+}
+
+skinspheres_asset* skinspheres_asset_retain(skinspheres_asset* asset) {
+  if (asset != nullptr) asset->references.fetch_add(1, std::memory_order_relaxed);
+  return asset;
+}
 
 size_t skinspheres_asset_sphere_count(const skinspheres_asset* asset) { return asset ? asset->asset->size() : 0; }
 size_t skinspheres_asset_joint_count(const skinspheres_asset* asset) { return asset ? asset->asset->joint_count() : 0; }
 const char* skinspheres_asset_joint_name(const skinspheres_asset* asset, size_t joint) {
-  if (!asset || joint >= asset->asset->joint_count()) return nullptr;
-  return asset->asset->sphere_set().joint_names[joint].c_str();
+  return NameAt(asset ? &asset->asset->sphere_set().joint_names : nullptr, joint, "joint index out of range");
 }
 const float* skinspheres_asset_joint_rest_world(const skinspheres_asset* asset, size_t joint) {
-  if (!asset || joint >= asset->asset->joint_count()) return nullptr;
+  if (!InRange(asset, joint, asset ? asset->asset->joint_count() : 0, "joint index out of range")) return nullptr;
   return asset->asset->sphere_set().joint_rest_world[joint].data();
 }
 int skinspheres_asset_joint_is_read(const skinspheres_asset* asset, size_t joint) {
@@ -331,8 +467,51 @@ size_t skinspheres_asset_part_count(const skinspheres_asset* asset) {
   return asset ? asset->asset->sphere_set().parts.size() : 0;
 }
 const char* skinspheres_asset_part_name(const skinspheres_asset* asset, size_t part) {
-  if (!asset || part >= asset->asset->sphere_set().parts.size()) return nullptr;
+  if (!InRange(asset, part, asset ? asset->asset->sphere_set().parts.size() : 0, "part index out of range"))
+    return nullptr;
   return asset->asset->sphere_set().parts[part].name.c_str();
+}
+
+skinspheres_status skinspheres_asset_sphere_part(const skinspheres_asset* asset, size_t sphere, size_t* out_part) {
+  if (out_part == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null out_part");
+  if (!InRange(asset, sphere, asset ? asset->asset->size() : 0, "sphere index out of range"))
+    return SKINSPHERES_INVALID_ARGUMENT;
+  *out_part = asset->asset->sphere_set().sphere_part[sphere];
+  return SKINSPHERES_OK;
+}
+
+skinspheres_status skinspheres_asset_sphere_joints(const skinspheres_asset* asset, size_t sphere, uint32_t* out_joints,
+                                                   float* out_weights, size_t capacity, size_t* out_count) {
+  if (out_count == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null out_count");
+  *out_count = 0;
+  if (!InRange(asset, sphere, asset ? asset->asset->size() : 0, "sphere index out of range"))
+    return SKINSPHERES_INVALID_ARGUMENT;
+  const Influences in = SphereInfluences(*asset, sphere);
+  for (size_t k = 0; k < std::min(capacity, in.joints.size()); ++k) {
+    if (out_joints) out_joints[k] = in.joints[k];
+    if (out_weights) out_weights[k] = in.weights[k];
+  }
+  *out_count = in.joints.size();
+  if (capacity < in.joints.size()) {
+    return FailStatic(SKINSPHERES_BUFFER_TOO_SMALL, "the joint buffer holds fewer entries than the sphere's joints");
+  }
+  return SKINSPHERES_OK;
+}
+
+skinspheres_status skinspheres_asset_sphere_joint(const skinspheres_asset* asset, size_t sphere, size_t* out_joint) {
+  if (out_joint == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null out_joint");
+  if (!InRange(asset, sphere, asset ? asset->asset->size() : 0, "sphere index out of range"))
+    return SKINSPHERES_INVALID_ARGUMENT;
+  const Influences in = SphereInfluences(*asset, sphere);
+  if (in.joints.empty()) return FailStatic(SKINSPHERES_INVALID_DATA, "the sphere has no joints");
+  size_t best = 0;
+  for (size_t k = 1; k < in.joints.size(); ++k) {
+    if (in.weights[k] > in.weights[best] || (in.weights[k] == in.weights[best] && in.joints[k] < in.joints[best])) {
+      best = k;
+    }
+  }
+  *out_joint = in.joints[best];
+  return SKINSPHERES_OK;
 }
 size_t skinspheres_asset_vertex_count(const skinspheres_asset* asset) {
   return asset ? asset->asset->source_vertex_count() : 0;
@@ -361,18 +540,47 @@ skinspheres_status skinspheres_instance_create(const skinspheres_asset* asset, c
       return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null asset, joint_names or out_instance");
     }
     skinspheres::Result<rt::CharacterInstance> created = rt::CharacterInstance::Create(asset->asset);
+    rt::JointMapping mapping;
     if (joint_names != nullptr) {
-      auto mapping = rt::MapJoints(asset->asset->sphere_set(), Names(joint_names, joint_count));
-      if (!mapping.ok()) return Fail(mapping.error());
-      created = rt::CharacterInstance::Create(asset->asset, *mapping);
+      auto mapped = rt::MapJoints(asset->asset->sphere_set(), Names(joint_names, joint_count));
+      if (!mapped.ok()) return Fail(mapped.error());
+      mapping = std::move(mapped).value();
+      created = rt::CharacterInstance::Create(asset->asset, mapping);
     }
     if (!created.ok()) return Fail(created.error());
-    *out_instance = new skinspheres_instance{std::move(created).value()};
+    auto instance = std::make_unique<skinspheres_instance>(std::move(created).value());
+    instance->extra_joints = std::move(mapping.extra_engine_joints);
+    instance->unmapped_joints = std::move(mapping.unmapped_set_joints);
+    asset->references.fetch_add(1, std::memory_order_relaxed);  // nothing throws after this
+    instance->asset = asset;
+    *out_instance = instance.release();
     return SKINSPHERES_OK;
   });
 }
 
-void skinspheres_instance_destroy(skinspheres_instance* instance) { delete instance; }
+void skinspheres_instance_destroy(skinspheres_instance* instance) {
+  if (instance == nullptr) return;
+  skinspheres_asset* asset = const_cast<skinspheres_asset*>(instance->asset);  // immutable: only counted
+  delete instance;
+  skinspheres_asset_release(asset);
+}
+
+skinspheres_asset* skinspheres_instance_asset(const skinspheres_instance* instance) {
+  return instance ? const_cast<skinspheres_asset*>(instance->asset) : nullptr;
+}
+
+size_t skinspheres_instance_extra_joint_count(const skinspheres_instance* instance) {
+  return instance ? instance->extra_joints.size() : 0;
+}
+const char* skinspheres_instance_extra_joint_name(const skinspheres_instance* instance, size_t k) {
+  return NameAt(instance ? &instance->extra_joints : nullptr, k, "extra joint index out of range");
+}
+size_t skinspheres_instance_unmapped_joint_count(const skinspheres_instance* instance) {
+  return instance ? instance->unmapped_joints.size() : 0;
+}
+const char* skinspheres_instance_unmapped_joint_name(const skinspheres_instance* instance, size_t k) {
+  return NameAt(instance ? &instance->unmapped_joints : nullptr, k, "unmapped joint index out of range");
+}
 
 size_t skinspheres_instance_joint_count(const skinspheres_instance* instance) {
   return instance ? instance->instance.joint_input_count() : 0;
@@ -380,18 +588,41 @@ size_t skinspheres_instance_joint_count(const skinspheres_instance* instance) {
 
 skinspheres_status skinspheres_instance_update_fast(skinspheres_instance* instance, const float* joint_world,
                                                     size_t joint_count) {
-  if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
-  if (joint_world == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "fast mode needs joint matrices");
-  return FromFrame(instance->instance.UpdateFast(Joints(joint_world, joint_count)));
+  return skinspheres_instance_update_fast_strided(instance, joint_world, joint_count, nullptr);
 }
 
 skinspheres_status skinspheres_instance_update_exact(skinspheres_instance* instance, const float* positions,
                                                      size_t vertex_count, const float* joint_world,
                                                      size_t joint_count) {
-  if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
-  if (positions == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "exact mode needs vertex positions");
-  return FromFrame(
-      instance->instance.UpdateExact(Positions(positions, vertex_count), Joints(joint_world, joint_count)));
+  return skinspheres_instance_update_exact_strided(instance, positions, vertex_count, kPackedPositionStride,
+                                                   joint_world, joint_count, nullptr);
+}
+
+skinspheres_status skinspheres_instance_update_fast_strided(skinspheres_instance* instance, const float* joint_world,
+                                                            size_t joint_count,
+                                                            const skinspheres_matrix_layout* joint_layout) {
+  return Guard([&] {
+    if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
+    if (joint_world == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "fast mode needs joint matrices");
+    SizeGather(*instance, joint_layout, nullptr, kPackedPositionStride);
+    return FromFrame(instance->instance.UpdateFast(Joints(*instance, joint_world, joint_count, joint_layout)));
+  });
+}
+
+skinspheres_status skinspheres_instance_update_exact_strided(skinspheres_instance* instance, const float* positions,
+                                                             size_t vertex_count, ptrdiff_t position_stride,
+                                                             const float* joint_world, size_t joint_count,
+                                                             const skinspheres_matrix_layout* joint_layout) {
+  return Guard([&] {
+    if (instance == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance");
+    if (positions == nullptr) return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "exact mode needs vertex positions");
+    if (joint_world == nullptr && joint_count != 0) {
+      return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null joint_world with a joint count");
+    }
+    SizeGather(*instance, joint_layout, positions, position_stride);
+    return FromFrame(instance->instance.UpdateExact(Positions(*instance, positions, vertex_count, position_stride),
+                                                    Joints(*instance, joint_world, joint_count, joint_layout)));
+  });
 }
 
 skinspheres_status skinspheres_instance_find_sphere_pairs(skinspheres_instance* instance, size_t* out_count) {
@@ -406,18 +637,13 @@ skinspheres_status skinspheres_instance_find_sphere_pairs(skinspheres_instance* 
 
 skinspheres_status skinspheres_instance_get_sphere_pairs(const skinspheres_instance* instance,
                                                          skinspheres_sphere_pair* out, size_t capacity,
-                                                         size_t* out_written) {
-  if (out_written) *out_written = 0;
+                                                         size_t* out_count) {
+  if (out_count) *out_count = 0;
   if (instance == nullptr || (out == nullptr && capacity != 0)) {
     return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance or buffer");
   }
-  const auto contacts = instance->instance.sphere_pairs();
-  const size_t n = contacts.size() < capacity ? contacts.size() : capacity;
-  if (n) std::memcpy(out, contacts.data(), n * sizeof(skinspheres_sphere_pair));
-  if (out_written) *out_written = n;
-  if (n < contacts.size())
-    return FailStatic(SKINSPHERES_BUFFER_TOO_SMALL, "the contact buffer holds fewer entries than the count");
-  return SKINSPHERES_OK;
+  return CopyOut(instance->instance.sphere_pairs(), out, capacity, out_count,
+                 "the sphere-pair buffer holds fewer entries than the count");
 }
 
 const skinspheres_sphere_pair* skinspheres_instance_sphere_pairs(const skinspheres_instance* instance,
@@ -470,6 +696,13 @@ int skinspheres_asset_has_triangle_contacts(const skinspheres_asset* asset) {
 skinspheres_status skinspheres_instance_find_contacts(skinspheres_instance* instance, const float* positions,
                                                       size_t vertex_count, size_t* out_part_pairs,
                                                       size_t* out_triangle_pairs) {
+  return skinspheres_instance_find_contacts_strided(instance, positions, vertex_count, kPackedPositionStride,
+                                                    out_part_pairs, out_triangle_pairs);
+}
+
+skinspheres_status skinspheres_instance_find_contacts_strided(skinspheres_instance* instance, const float* positions,
+                                                              size_t vertex_count, ptrdiff_t position_stride,
+                                                              size_t* out_part_pairs, size_t* out_triangle_pairs) {
   return Guard([&] {
     if (out_part_pairs) *out_part_pairs = 0;
     if (out_triangle_pairs) *out_triangle_pairs = 0;
@@ -477,7 +710,9 @@ skinspheres_status skinspheres_instance_find_contacts(skinspheres_instance* inst
     if (positions == nullptr && vertex_count != 0) {
       return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null positions with a vertex count");
     }
-    const rt::FrameStatus st = instance->instance.FindContacts(Positions(positions, vertex_count));
+    SizeGather(*instance, nullptr, positions, position_stride);
+    const rt::FrameStatus st =
+        instance->instance.FindContacts(Positions(*instance, positions, vertex_count, position_stride));
     const rt::FrameContacts& found = instance->instance.contacts();
     if (out_part_pairs) *out_part_pairs = found.parts.size();
     if (out_triangle_pairs) *out_triangle_pairs = found.triangle_pairs.size();
@@ -487,43 +722,32 @@ skinspheres_status skinspheres_instance_find_contacts(skinspheres_instance* inst
 
 skinspheres_status skinspheres_instance_get_part_contacts(const skinspheres_instance* instance,
                                                           skinspheres_part_contact* out, size_t capacity,
-                                                          size_t* out_written) {
-  if (out_written) *out_written = 0;
+                                                          size_t* out_count) {
+  if (out_count) *out_count = 0;
   if (instance == nullptr || (out == nullptr && capacity != 0)) {
     return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance or buffer");
   }
-  const std::vector<rt::PartContact>& parts = instance->instance.contacts().parts;
-  const size_t n = std::min(parts.size(), capacity);
-  for (size_t k = 0; k < n; ++k) out[k] = ToC(parts[k]);
-  if (out_written) *out_written = n;
-  if (n < parts.size())
-    return FailStatic(SKINSPHERES_BUFFER_TOO_SMALL, "the part-contact buffer holds fewer entries than the count");
-  return SKINSPHERES_OK;
+  return CopyOut(std::span<const rt::PartContact>(instance->instance.contacts().parts), out, capacity, out_count,
+                 "the part-contact buffer holds fewer entries than the count");
 }
 
 skinspheres_status skinspheres_instance_get_triangle_contacts(const skinspheres_instance* instance, size_t part_contact,
                                                               skinspheres_triangle_contact* out, size_t capacity,
-                                                              size_t* out_written) {
-  if (out_written) *out_written = 0;
+                                                              size_t* out_count) {
+  if (out_count) *out_count = 0;
   if (instance == nullptr || (out == nullptr && capacity != 0)) {
     return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "null instance or buffer");
   }
   const rt::FrameContacts& found = instance->instance.contacts();
   std::span<const rt::TriangleContact> pairs = found.triangle_pairs;
-  if (part_contact != SKINSPHERES_ALL_PART_PAIRS) {
+  if (part_contact != static_cast<size_t>(SKINSPHERES_ALL_PART_PAIRS)) {
     if (part_contact >= found.parts.size()) {
       return FailStatic(SKINSPHERES_INVALID_ARGUMENT, "part_contact is not below the part-pair count");
     }
     const rt::PartContact& p = found.parts[part_contact];
     pairs = pairs.subspan(p.first_triangle_pair, p.triangle_pair_count);
   }
-  const size_t n = std::min(pairs.size(), capacity);
-  for (size_t k = 0; k < n; ++k) out[k] = ToC(pairs[k]);
-  if (out_written) *out_written = n;
-  if (n < pairs.size()) {
-    return FailStatic(SKINSPHERES_BUFFER_TOO_SMALL, "the triangle-contact buffer holds fewer entries than the count");
-  }
-  return SKINSPHERES_OK;
+  return CopyOut(pairs, out, capacity, out_count, "the triangle-contact buffer holds fewer entries than the count");
 }
 
 skinspheres_status skinspheres_crowd_update_and_find_sphere_pairs(skinspheres_instance* const* instances,
@@ -538,6 +762,22 @@ skinspheres_status skinspheres_crowd_update_and_find_contacts(skinspheres_instan
                                                               const skinspheres_frame_input* inputs, size_t count,
                                                               skinspheres_refit_mode mode,
                                                               skinspheres_parallel_for_fn parallel_for, void* user) {
+  return RunCrowd(instances, inputs, count, mode, /*find_contacts=*/true, parallel_for, user);
+}
+
+skinspheres_status skinspheres_crowd_update_and_find_sphere_pairs_strided(skinspheres_instance* const* instances,
+                                                                          const skinspheres_frame_input_strided* inputs,
+                                                                          size_t count, skinspheres_refit_mode mode,
+                                                                          skinspheres_parallel_for_fn parallel_for,
+                                                                          void* user) {
+  return RunCrowd(instances, inputs, count, mode, /*find_contacts=*/false, parallel_for, user);
+}
+
+skinspheres_status skinspheres_crowd_update_and_find_contacts_strided(skinspheres_instance* const* instances,
+                                                                      const skinspheres_frame_input_strided* inputs,
+                                                                      size_t count, skinspheres_refit_mode mode,
+                                                                      skinspheres_parallel_for_fn parallel_for,
+                                                                      void* user) {
   return RunCrowd(instances, inputs, count, mode, /*find_contacts=*/true, parallel_for, user);
 }
 

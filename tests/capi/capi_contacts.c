@@ -122,10 +122,121 @@ static size_t check_triangle_contacts(skinspheres_instance* inst, const frame* f
         "a part-pair index out of range is refused", f);
   if (triangle_count > 1) {
     check(skinspheres_instance_get_triangle_contacts(inst, SKINSPHERES_ALL_PART_PAIRS, one, 1, &written) ==
-                  SKINSPHERES_BUFFER_TOO_SMALL && written == 1 && memcmp(&one[0], &fr->triangles[m][0], sizeof one[0]) == 0,
-          "a small triangle buffer is refused, its first entry copied", f);
+                  SKINSPHERES_BUFFER_TOO_SMALL && written == triangle_count &&
+              memcmp(&one[0], &fr->triangles[m][0], sizeof one[0]) == 0,
+          "a small triangle buffer is refused, its first entry copied, the total count given", f);
   }
   return triangle_count;
+}
+
+/* The layouts the strided calls are tested with: the frame's matrices and positions rewritten. */
+typedef struct strided_frame {
+  float* row_major;          /* joints x 16, C order: {64, 16, 4} */
+  unsigned char* interleaved; /* 69-byte records: a tag byte, the matrix row-major, 4 bytes: {69, 16, 4}, base + 1 */
+  float* reversed;           /* joints in reverse order, each column-major with its rows reversed: {-64, -4, 16} */
+  float* vertices;           /* 8 floats per vertex (position, normal, uv): stride 32 */
+  float* vertices_reversed;  /* packed, last vertex first: stride -12 from the last record */
+} strided_frame;
+
+static const skinspheres_matrix_layout row_major_layout = {64, 16, 4};
+static const skinspheres_matrix_layout interleaved_layout = {69, 16, 4};
+static const skinspheres_matrix_layout reversed_layout = {-64, -4, 16};
+
+static void make_strided(strided_frame* sf, const float* joint_world, size_t joints, const float* positions,
+                         size_t vertices) {
+  size_t j, r, c, v;
+  for (j = 0; j < joints; ++j) {
+    const float* m = joint_world + 16 * j; /* column-major: element (r, c) at m[4c + r] */
+    sf->interleaved[69 * j] = 0xAB;
+    for (r = 0; r < 4; ++r) {
+      for (c = 0; c < 4; ++c) {
+        sf->row_major[16 * j + 4 * r + c] = m[4 * c + r];
+        memcpy(sf->interleaved + 69 * j + 1 + 16 * r + 4 * c, &m[4 * c + r], sizeof(float));
+        sf->reversed[16 * (joints - 1 - j) + 4 * c + (3 - r)] = m[4 * c + r];
+      }
+    }
+  }
+  for (v = 0; v < vertices; ++v) {
+    memcpy(sf->vertices + 8 * v, positions + 3 * v, 3 * sizeof(float));
+    sf->vertices[8 * v + 3] = sf->vertices[8 * v + 6] = -1.0f; /* normal and uv: not read */
+    memcpy(sf->vertices_reversed + 3 * (vertices - 1 - v), positions + 3 * v, 3 * sizeof(float));
+  }
+}
+
+/* Spheres and sphere pairs of inst, equal byte for byte to a copy taken after the packed call. */
+static int same_state(skinspheres_instance* inst, const float* spheres, size_t sphere_count,
+                      const skinspheres_sphere_pair* pairs, size_t pair_count) {
+  size_t n = 0, np = 0;
+  const float* now = skinspheres_instance_spheres(inst, &n);
+  const skinspheres_sphere_pair* now_pairs;
+  if (skinspheres_instance_find_sphere_pairs(inst, &np) != SKINSPHERES_OK) return 0;
+  now_pairs = skinspheres_instance_sphere_pairs(inst, &np);
+  return now && n == sphere_count && memcmp(now, spheres, 4 * n * sizeof(float)) == 0 &&
+         same_contacts(now_pairs, np, pairs, pair_count);
+}
+
+/* Every strided layout on instance s gives, frame by frame, the packed call's spheres and sphere
+   pairs (bit for bit) and the C++ API's sphere pairs and triangle contacts. */
+static void check_strided(skinspheres_instance* s, const frame* fr, size_t f, const strided_frame* sf,
+                          size_t joint_count, size_t vertex_count, float* spheres,
+                          skinspheres_triangle_contact* triangles, size_t triangle_capacity) {
+  const float* last_vertex = sf->vertices_reversed + 3 * (vertex_count - 1);
+  const float* last_joint = sf->reversed + 16 * (joint_count - 1) + 3; /* joint 0's element (0, 0) */
+  const skinspheres_matrix_layout* layouts[3];
+  const float* bases[3];
+  size_t n = 0, k, written = 0, parts = 0, tris = 0;
+  int m;
+  layouts[0] = &row_major_layout;
+  layouts[1] = &interleaved_layout;
+  layouts[2] = &reversed_layout;
+  bases[0] = sf->row_major;
+  bases[1] = (const float*)(const void*)(sf->interleaved + 1);
+  bases[2] = last_joint;
+  for (m = 0; m < 2; ++m) {
+    const float* packed;
+    check((m == 0 ? skinspheres_instance_update_fast(s, fr->joint_world, joint_count)
+                  : skinspheres_instance_update_exact(s, fr->positions, vertex_count, fr->joint_world, joint_count)) ==
+              SKINSPHERES_OK,
+          "packed update for the strided comparison", f);
+    packed = skinspheres_instance_spheres(s, &n);
+    memcpy(spheres, packed, 4 * n * sizeof(float));
+    for (k = 0; k < 3; ++k) {
+      const skinspheres_status st =
+          m == 0 ? skinspheres_instance_update_fast_strided(s, bases[k], joint_count, layouts[k])
+                 : skinspheres_instance_update_exact_strided(s, k == 2 ? last_vertex : sf->vertices, vertex_count,
+                                                             k == 2 ? -12 : 32, bases[k], joint_count, layouts[k]);
+      check(st == SKINSPHERES_OK, m == 0 ? "update_fast_strided" : "update_exact_strided", f);
+      check(same_state(s, spheres, n, fr->contacts[m], fr->contact_count[m]),
+            k == 0   ? "row-major matrices: the packed call's spheres and the C++ API's sphere pairs"
+            : k == 1 ? "interleaved, unaligned matrices: the packed call's spheres and the C++ API's sphere pairs"
+                     : "negative strides: the packed call's spheres and the C++ API's sphere pairs",
+            f);
+    }
+    /* The narrow phase from strided positions (exact mode's), or without positions (fast mode). */
+    check(skinspheres_instance_find_contacts_strided(s, m == 0 ? NULL : last_vertex, m == 0 ? 0 : vertex_count, -12,
+                                                     &parts, &tris) == SKINSPHERES_OK &&
+              skinspheres_instance_get_triangle_contacts(s, SKINSPHERES_ALL_PART_PAIRS, triangles, triangle_capacity,
+                                                         &written) == SKINSPHERES_OK &&
+              same_triangles(triangles, written, fr->triangles[m], fr->triangle_count[m]),
+          "find_contacts_strided: the C++ API's triangle contacts", f);
+  }
+  /* The plain layout spelled out is the plain call; a null data pointer with a count is refused. */
+  {
+    const skinspheres_matrix_layout packed_layout = {64, 4, 16};
+    const skinspheres_sphere_pair* pairs;
+    check(skinspheres_instance_update_fast_strided(s, fr->joint_world, joint_count, &packed_layout) == SKINSPHERES_OK &&
+              skinspheres_instance_find_sphere_pairs(s, &n) == SKINSPHERES_OK,
+          "the packed layout spelled out", f);
+    pairs = skinspheres_instance_sphere_pairs(s, &n);
+    check(same_contacts(pairs, n, fr->contacts[0], fr->contact_count[0]), "the packed layout: the C++ API's pairs", f);
+    check(skinspheres_instance_update_exact_strided(s, fr->positions, vertex_count, 12, NULL, joint_count, NULL) ==
+                  SKINSPHERES_INVALID_ARGUMENT &&
+              strchr(skinspheres_last_error(), '\n') == NULL && strstr(skinspheres_last_error(), "null") != NULL,
+          "null joint matrices with a count refused", f);
+    check(skinspheres_instance_update_fast_strided(NULL, fr->joint_world, joint_count, NULL) ==
+              SKINSPHERES_INVALID_ARGUMENT,
+          "null instance refused", f);
+  }
 }
 
 /* The engine's job system, simplified: ranges of `grain` items, last range first. */
@@ -153,7 +264,9 @@ int main(int argc, char** argv) {
   const char** names;
   frame* frames;
   skinspheres_asset *binary = NULL, *json = NULL, *fast_only = NULL, *missing = NULL;
-  skinspheres_instance *a = NULL, *b = NULL, *c = NULL, *in_set_order = NULL;
+  skinspheres_instance *a = NULL, *b = NULL, *c = NULL, *in_set_order = NULL, *strided = NULL;
+  strided_frame sf;
+  float* sphere_copy;
   skinspheres_sphere_pair small[1];
   skinspheres_sphere_pair* buffer;
   size_t capacity = 4096, part_capacity = 256, triangle_capacity = 65536;
@@ -309,6 +422,7 @@ int main(int argc, char** argv) {
   check(skinspheres_instance_create(json, names, joint_count, &b) == SKINSPHERES_OK, "instance b", 0);
   check(skinspheres_instance_create(fast_only, names, joint_count, &c) == SKINSPHERES_OK, "instance c", 0);
   check(skinspheres_instance_create(binary, NULL, 0, &in_set_order) == SKINSPHERES_OK, "instance in set order", 0);
+  check(skinspheres_instance_create(binary, names, joint_count, &strided) == SKINSPHERES_OK, "instance strided", 0);
   check(skinspheres_instance_joint_count(a) == joint_count, "instance joint count", 0);
   /* A count no vector can hold is refused as out of memory, never an "internal error". */
   {
@@ -333,6 +447,12 @@ int main(int argc, char** argv) {
   part_buffer = (skinspheres_part_contact*)malloc(part_capacity * sizeof(skinspheres_part_contact));
   triangle_buffer = (skinspheres_triangle_contact*)malloc(triangle_capacity * sizeof(skinspheres_triangle_contact));
   check(skinspheres_instance_reserve_contacts(a, capacity) == SKINSPHERES_OK, "reserve", 0);
+  sf.row_major = (float*)malloc(16 * sizeof(float) * joint_count);
+  sf.interleaved = (unsigned char*)malloc(69 * (size_t)joint_count);
+  sf.reversed = (float*)malloc(16 * sizeof(float) * joint_count);
+  sf.vertices = (float*)malloc(8 * sizeof(float) * vertex_count);
+  sf.vertices_reversed = (float*)malloc(3 * sizeof(float) * vertex_count);
+  sphere_copy = (float*)malloc(4 * sizeof(float) * skinspheres_asset_sphere_count(binary));
 
   for (f = 0; f < frame_count; ++f) {
     const frame* fr = &frames[f];
@@ -349,8 +469,9 @@ int main(int argc, char** argv) {
       check(count == fr->contact_count[m], "contact count equals the C++ API's", f);
       /* Count first, then fill: a one-entry buffer is too small when there are more. */
       if (count > 1) {
-        check(skinspheres_instance_get_sphere_pairs(inst, small, 1, &written) == SKINSPHERES_BUFFER_TOO_SMALL && written == 1,
-              "a small buffer is refused", f);
+        check(skinspheres_instance_get_sphere_pairs(inst, small, 1, &written) == SKINSPHERES_BUFFER_TOO_SMALL &&
+                  written == count,
+              "a small buffer is refused, the total count given", f);
         check(memcmp(&small[0], &fr->contacts[m][0], sizeof small[0]) == 0, "the first contact still copied", f);
       }
       check(skinspheres_instance_get_sphere_pairs(inst, buffer, capacity, &written) == SKINSPHERES_OK, "get_contacts", f);
@@ -363,6 +484,8 @@ int main(int argc, char** argv) {
                                                    triangle_buffer, triangle_capacity);
       for (k = 0; k < fr->triangle_count[m]; ++k) within_margin += fr->triangles[m][k].kind == SKINSPHERES_TRIANGLES_WITHIN_MARGIN;
     }
+    make_strided(&sf, fr->joint_world, joint_count, fr->positions, vertex_count);
+    check_strided(strided, fr, f, &sf, joint_count, vertex_count, sphere_copy, triangle_buffer, triangle_capacity);
     /* The fast-only set: the same fast contacts; exact mode refused with a clear message. */
     check(skinspheres_instance_update_fast(c, fr->joint_world, joint_count) == SKINSPHERES_OK, "fast-only update", f);
     check(skinspheres_instance_find_sphere_pairs(c, &count) == SKINSPHERES_OK, "fast-only query", f);
@@ -421,6 +544,44 @@ int main(int argc, char** argv) {
       }
     }
     check(parallel_calls == 3, "the engine's loop ran every instance", 0);
+    /* The strided crowd calls: row-major matrices, interleaved positions; the same as packed. */
+    {
+      skinspheres_frame_input_strided strided_inputs[2];
+      make_strided(&sf, fr->joint_world, joint_count, fr->positions, vertex_count);
+      for (k = 0; k < 2; ++k) {
+        strided_inputs[k].joint_world = k == 0 ? sf.row_major : sf.reversed + 16 * (joint_count - 1) + 3;
+        strided_inputs[k].joint_count = joint_count;
+        strided_inputs[k].joint_layout = k == 0 ? &row_major_layout : &reversed_layout;
+        strided_inputs[k].positions = sf.vertices;
+        strided_inputs[k].vertex_count = vertex_count;
+        strided_inputs[k].position_stride = 32;
+      }
+      for (m = 0; m < 2; ++m) {
+        size_t written = 0;
+        const skinspheres_refit_mode mode = m == 0 ? SKINSPHERES_MODE_FAST : SKINSPHERES_MODE_EXACT;
+        check(skinspheres_crowd_update_and_find_contacts_strided(crowd, strided_inputs, 2, mode, NULL, NULL) ==
+                  SKINSPHERES_OK,
+              "strided crowd with contacts", frame_count / 2);
+        for (k = 0; k < 2; ++k) {
+          size_t np = 0;
+          const skinspheres_sphere_pair* pairs = skinspheres_instance_sphere_pairs(crowd[k], &np);
+          check(same_contacts(pairs, np, fr->contacts[m], fr->contact_count[m]) &&
+                    skinspheres_instance_get_triangle_contacts(crowd[k], SKINSPHERES_ALL_PART_PAIRS, triangle_buffer,
+                                                               triangle_capacity, &written) == SKINSPHERES_OK &&
+                    same_triangles(triangle_buffer, written, fr->triangles[m], fr->triangle_count[m]),
+                "strided crowd: the C++ API's sphere pairs and triangle contacts", frame_count / 2);
+        }
+        check(skinspheres_crowd_update_and_find_sphere_pairs_strided(crowd, strided_inputs, 2, mode, reversed_parallel_for,
+                                                                     &parallel_calls) == SKINSPHERES_OK,
+              "strided crowd, sphere pairs", frame_count / 2);
+        for (k = 0; k < 2; ++k) {
+          size_t np = 0;
+          const skinspheres_sphere_pair* pairs = skinspheres_instance_sphere_pairs(crowd[k], &np);
+          check(same_contacts(pairs, np, fr->contacts[m], fr->contact_count[m]),
+                "strided crowd: the C++ API's sphere pairs", frame_count / 2);
+        }
+      }
+    }
     {
       /* The broad-phase-only crowd call through the engine's loop: its indices are blocks of
          instances (16 on an AVX-512 CPU, else 1), every instance run once, the same contacts. */
@@ -464,6 +625,13 @@ int main(int argc, char** argv) {
   skinspheres_instance_destroy(b);
   skinspheres_instance_destroy(c);
   skinspheres_instance_destroy(in_set_order);
+  skinspheres_instance_destroy(strided);
+  free(sf.row_major);
+  free(sf.interleaved);
+  free(sf.reversed);
+  free(sf.vertices);
+  free(sf.vertices_reversed);
+  free(sphere_copy);
   skinspheres_asset_release(binary);
   skinspheres_asset_release(NULL);
   skinspheres_instance_destroy(NULL);

@@ -24,11 +24,25 @@
    Matrices: 16 floats per joint, column-major (OpenGL / glTF order: the translation in elements
    12, 13, 14), affine (the last row is ignored), one world (model) transform G_j per joint, all in
    one frame: the spheres come out in that frame. Positions: 3 floats (x, y, z) per vertex,
-   tightly packed, indexed like the source file's vertices.
+   tightly packed, indexed like the source file's vertices. Other layouts (row-major, transposed,
+   interleaved, padded, negative strides: numpy's views) go through the *_strided calls, which give
+   the same results, bit for bit, as the packed calls on the same values.
 
    Errors: every call that can fail returns a skinspheres_status; skinspheres_last_error() then
    gives one line saying why (the file and the problem at set-up), until the next failing call on
-   the same thread. Per-frame calls never allocate for it.
+   the same thread or skinspheres_clear_last_error(). Per-frame calls never allocate for it.
+
+   Lifetimes: every pointer a call returns says how long it stays valid. In short: static strings
+   (version, status strings, skinspheres_instance_status's message) for the program's life; the
+   asset's names and rest matrices while the asset lives (a reference of the caller's, of an
+   instance's, or of skinspheres_asset_retain's); an instance's sphere pairs and spheres until its
+   next update, find or destroy; skinspheres_last_error()'s text until the next failing call on the
+   thread or skinspheres_clear_last_error().
+
+   Caller buffers: every skinspheres_*_get_* call (and skinspheres_asset_sphere_joints) that copies
+   into a caller's buffer of `capacity` entries sets *out_count to the TOTAL number of entries, also
+   when it returns SKINSPHERES_BUFFER_TOO_SMALL (having copied the first `capacity`): allocate
+   *out_count entries and call again (0.3.0; in 0.2 it was the number copied).
 
    Threads: an asset is immutable once loaded and may be used by any number of threads and
    instances. An instance is used by one thread at a time; distinct instances may be updated and
@@ -39,7 +53,10 @@
    (skinspheres_instance_reserve_contacts pins them at set-up), the first
    skinspheres_instance_find_contacts sizes the narrow phase's scratch unless
    skinspheres_instance_reserve_contacts did, and the first one without positions its
-   skinned-position buffer; nothing else.
+   skinned-position buffer; an instance's first strided call with a layout other than the packed
+   one sizes its gather buffer for that input (joint matrices: 64 bytes per joint it reads;
+   positions: 12 bytes per vertex of the asset; the crowd's strided calls do it on the calling
+   thread, before the loop); nothing else.
 
    Queries follow one pattern: a call computes and gives the count (skinspheres_instance_find_sphere_pairs for
    the overlapping spheres, skinspheres_instance_find_contacts for the triangles behind them); a
@@ -105,13 +122,18 @@ typedef struct skinspheres_instance skinspheres_instance; /* one character's per
 
 /* ---- Version and errors ---- */
 
-/* The linked library's SKINSPHERES_VERSION (MAJOR * 10000 + MINOR * 100 + PATCH) and string. */
+/* The linked library's SKINSPHERES_VERSION (MAJOR * 10000 + MINOR * 100 + PATCH) and string (a
+   static string, valid for the program's life). */
 SKINSPHERES_C_API int skinspheres_version(void);
 SKINSPHERES_C_API const char* skinspheres_version_string(void);
-/* "ok", "file not found", ..., "buffer too small": a static string. */
+/* "ok", "file not found", ..., "buffer too small": a static string (valid for the program's life). */
 SKINSPHERES_C_API const char* skinspheres_status_string(skinspheres_status status);
-/* The message of the last failing call on this thread ("" when none). */
+/* The message of the last failing call on this thread ("" when none): one line, never NULL. Valid
+   until the next failing call on this thread or skinspheres_clear_last_error() (copy it to keep
+   it). A call that succeeds leaves it as it was. */
 SKINSPHERES_C_API const char* skinspheres_last_error(void);
+/* Forgets this thread's last error: skinspheres_last_error() gives "" until the next failing call. */
+SKINSPHERES_C_API void skinspheres_clear_last_error(void);
 
 /* ---- Assets ---- */
 
@@ -152,21 +174,53 @@ SKINSPHERES_C_API float skinspheres_asset_narrow_margin(const skinspheres_asset*
 /* The depth (set units) above which a part pair penetrates: the touch tolerance's share of the rest
    pose's height (0 for NULL and for a set without its mesh). */
 SKINSPHERES_C_API float skinspheres_asset_touch_tolerance(const skinspheres_asset* asset);
-/* Drops the caller's reference: the set is freed once every instance made from it is destroyed.
-   NULL is ignored. */
+/* An asset is reference-counted: loading gives the caller one reference, each instance holds one,
+   skinspheres_asset_retain adds one. Release drops one: the set is freed with the last (every
+   instance made from it destroyed, every retain released). NULL is ignored. Both may be called
+   from any thread. */
 SKINSPHERES_C_API void skinspheres_asset_release(skinspheres_asset* asset);
+/* Adds a reference to the asset (dropped by skinspheres_asset_release), e.g. to keep the asset of
+   skinspheres_instance_asset after the instance is destroyed. Returns asset (NULL for NULL). */
+SKINSPHERES_C_API skinspheres_asset* skinspheres_asset_retain(skinspheres_asset* asset);
 
+/* Lookups into the asset. The pointers they return (names, rest matrices) stay valid while the
+   asset lives (until its last reference is released: see skinspheres_asset_release); NULL for a
+   null asset or an index out of range, skinspheres_last_error() then saying which. Counts are 0
+   for NULL. */
 SKINSPHERES_C_API size_t skinspheres_asset_sphere_count(const skinspheres_asset* asset);
 /* The set's joints (see docs: the skin's joints plus their non-joint ancestors, parents first). */
 SKINSPHERES_C_API size_t skinspheres_asset_joint_count(const skinspheres_asset* asset);
+/* The joint's name, UTF-8, NUL-terminated. */
 SKINSPHERES_C_API const char* skinspheres_asset_joint_name(const skinspheres_asset* asset, size_t joint);
 /* The joint's world transform in the rest pose the set was fitted in (16 floats, column-major),
-   e.g. to check an engine's own rest pose against it. NULL for an index out of range. */
+   e.g. to check an engine's own rest pose against it. */
 SKINSPHERES_C_API const float* skinspheres_asset_joint_rest_world(const skinspheres_asset* asset, size_t joint);
-/* 1 when the runtime reads this joint's matrix every frame (it must be in the engine's list). */
+/* 1 when the runtime reads this joint's matrix every frame (it must be in the engine's list); 0
+   otherwise, and for NULL or an index out of range. */
 SKINSPHERES_C_API int skinspheres_asset_joint_is_read(const skinspheres_asset* asset, size_t joint);
 SKINSPHERES_C_API size_t skinspheres_asset_part_count(const skinspheres_asset* asset);
+/* The body part's name ("torso", "arm_l", ...), UTF-8, NUL-terminated. */
 SKINSPHERES_C_API const char* skinspheres_asset_part_name(const skinspheres_asset* asset, size_t part);
+/* Which body part sphere `sphere` (< skinspheres_asset_sphere_count) belongs to: *out_part (an
+   index below skinspheres_asset_part_count; the part_i / part_j of its sphere pairs).
+   SKINSPHERES_INVALID_ARGUMENT for a null asset or out_part or a sphere out of range (*out_part
+   then unchanged). */
+SKINSPHERES_C_API skinspheres_status skinspheres_asset_sphere_part(const skinspheres_asset* asset, size_t sphere,
+                                                                   size_t* out_part);
+/* The joints that move sphere `sphere` and their blend weights (the set's influence lists: weights
+   > 0 that sum to 1, in the set's order): out_joints[k] (a set joint, skinspheres_asset_joint_name)
+   and out_weights[k] for k < min(capacity, *out_count). Either array may be NULL (not filled);
+   *out_count = the sphere's number of joints, SKINSPHERES_BUFFER_TOO_SMALL when capacity is below it
+   (the first capacity copied). SKINSPHERES_INVALID_ARGUMENT (*out_count 0) for a null asset or
+   out_count, or a sphere out of range. */
+SKINSPHERES_C_API skinspheres_status skinspheres_asset_sphere_joints(const skinspheres_asset* asset, size_t sphere,
+                                                                     uint32_t* out_joints, float* out_weights,
+                                                                     size_t capacity, size_t* out_count);
+/* The sphere's main joint: of its joints (skinspheres_asset_sphere_joints), the one of largest
+   weight, the lowest joint index among equal weights. Errors as skinspheres_asset_sphere_part
+   (and SKINSPHERES_INVALID_DATA for a sphere without joints, which a loaded set never has). */
+SKINSPHERES_C_API skinspheres_status skinspheres_asset_sphere_joint(const skinspheres_asset* asset, size_t sphere,
+                                                                    size_t* out_joint);
 /* Vertices the set was fitted on (exact mode reads that many positions). */
 SKINSPHERES_C_API size_t skinspheres_asset_vertex_count(const skinspheres_asset* asset);
 /* 1 for a set loaded from a fast-only binary file: exact mode is refused. */
@@ -181,43 +235,90 @@ SKINSPHERES_C_API skinspheres_status skinspheres_asset_check(const skinspheres_a
 
 /* ---- Instances ---- */
 
-/* An instance of the asset (which it keeps alive). joint_names: the engine's joints, in the order
-   its matrices will come (MISMATCHED_ASSET when a joint the spheres move with is missing); NULL:
-   matrices in the set's own order (skinspheres_asset_joint_name). */
+/* An instance of the asset (it holds a reference until destroyed). joint_names: the engine's
+   joints, in the order its matrices will come (MISMATCHED_ASSET when a joint the spheres move with
+   is missing); NULL: matrices in the set's own order (skinspheres_asset_joint_name). The names are
+   copied: the caller's strings may be freed on return. */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_create(const skinspheres_asset* asset,
                                                                  const char* const* joint_names, size_t joint_count,
                                                                  skinspheres_instance** out_instance);
+/* Frees the instance and drops its reference to the asset. NULL is ignored. */
 SKINSPHERES_C_API void skinspheres_instance_destroy(skinspheres_instance* instance);
+/* The asset the instance was made from: a borrowed pointer, valid while the instance lives (NULL
+   for NULL). skinspheres_asset_retain it to keep it longer. */
+SKINSPHERES_C_API skinspheres_asset* skinspheres_instance_asset(const skinspheres_instance* instance);
 /* Joint matrices an update reads: joint_count given at creation (or the set's). */
 SKINSPHERES_C_API size_t skinspheres_instance_joint_count(const skinspheres_instance* instance);
+/* How the engine's joint list given at creation maps onto the set's (0 and nothing for an instance
+   made without names):
+   - extra joints: the engine's joints the set does not list (never read), in the engine's order;
+   - unmapped joints: the set's joints the engine's list lacks, none of them read per frame (e.g.
+     Xbot's `Armature`), in the set's order.
+   The names (UTF-8) stay valid while the instance lives; NULL for a null instance or an index out
+   of range, skinspheres_last_error() then saying which. */
+SKINSPHERES_C_API size_t skinspheres_instance_extra_joint_count(const skinspheres_instance* instance);
+SKINSPHERES_C_API const char* skinspheres_instance_extra_joint_name(const skinspheres_instance* instance, size_t k);
+SKINSPHERES_C_API size_t skinspheres_instance_unmapped_joint_count(const skinspheres_instance* instance);
+SKINSPHERES_C_API const char* skinspheres_instance_unmapped_joint_name(const skinspheres_instance* instance, size_t k);
 
 /* Fast refit: joint_world holds 16 floats per joint, joint_count >= skinspheres_instance_joint_count. */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_update_fast(skinspheres_instance* instance,
                                                                       const float* joint_world, size_t joint_count);
 /* Exact refit: positions holds 3 floats per vertex, vertex_count >= skinspheres_asset_vertex_count;
-   joint_world as above, or NULL with joint_count 0 (sphere centres then from the vertices alone). */
+   joint_world as above, or NULL with joint_count 0 (sphere centres then from the vertices alone;
+   NULL with a count is refused). */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_update_exact(skinspheres_instance* instance,
                                                                        const float* positions, size_t vertex_count,
                                                                        const float* joint_world, size_t joint_count);
+
+/* Where the joint matrices are in memory, in bytes and signed (numpy's strides): element (row r,
+   column c) of joint j is the float at (const char*)joint_world + j * joint_stride + r * row_stride
+   + c * column_stride, for j below the joint count and r, c < 4 (all 16 are read). The packed
+   column-major layout of the plain calls is {64, 4, 16}; row-major (C order, numpy's
+   array[j][r][c]) is {64, 16, 4}. Any strides are taken as given (zero and negative too: a
+   negative stride reads backwards from joint_world, which points at joint 0's element (0, 0));
+   every element they address must be readable. Floats may be unaligned. */
+typedef struct skinspheres_matrix_layout {
+  ptrdiff_t joint_stride;
+  ptrdiff_t row_stride;
+  ptrdiff_t column_stride;
+} skinspheres_matrix_layout;
+
+/* The update calls with strided inputs: joint matrices laid out as *joint_layout (NULL: the packed
+   column-major layout, the plain call exactly), positions as 3 contiguous floats (x, y, z) per vertex
+   at a byte stride of position_stride (12: packed; any value, negative and zero too, as above). They
+   copy the values into the instance's own buffers (only the matrices and vertices an update reads;
+   no copy for the packed layouts) and then run as the plain calls: the same spheres, sphere pairs,
+   contacts and statuses, bit for bit. Allocation: as the header's note says. Refused
+   (SKINSPHERES_INVALID_ARGUMENT, nothing read) for a null instance, joint_world NULL in fast mode,
+   positions NULL in exact mode, and joint_world NULL with joint_count > 0. */
+SKINSPHERES_C_API skinspheres_status
+skinspheres_instance_update_fast_strided(skinspheres_instance* instance, const float* joint_world, size_t joint_count,
+                                         const skinspheres_matrix_layout* joint_layout);
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_update_exact_strided(
+    skinspheres_instance* instance, const float* positions, size_t vertex_count, ptrdiff_t position_stride,
+    const float* joint_world, size_t joint_count, const skinspheres_matrix_layout* joint_layout);
 
 /* The broad phase on the current spheres; *out_count = the number of sphere pairs that overlap (0
    and an error when the last update failed). */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_find_sphere_pairs(skinspheres_instance* instance,
                                                                             size_t* out_count);
 /* Copies the last sphere pairs found (sorted by sphere_i, sphere_j) into out[0, capacity);
-   *out_written = how many. SKINSPHERES_BUFFER_TOO_SMALL when capacity < the count (the first
-   capacity are copied; call again with a larger buffer, no need to find them again). */
+   *out_count = the total count (when not NULL). SKINSPHERES_BUFFER_TOO_SMALL when capacity < the
+   count: the first capacity are copied and *out_count is still the total; call again with a buffer
+   of *out_count, no need to find them again. */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_get_sphere_pairs(const skinspheres_instance* instance,
                                                                            skinspheres_sphere_pair* out,
-                                                                           size_t capacity, size_t* out_written);
-/* The last sphere pairs found, in place (valid until they are found again or the next update);
- *out_count set. */
+                                                                           size_t capacity, size_t* out_count);
+/* The last sphere pairs found, in place; *out_count set. Valid until the instance's next update
+   (single or crowd), find (of sphere pairs or contacts) or destroy; NULL (count 0) for NULL. */
 SKINSPHERES_C_API const skinspheres_sphere_pair* skinspheres_instance_sphere_pairs(const skinspheres_instance* instance,
                                                                                    size_t* out_count);
-/* The current spheres, 4 floats each (x, y, z, radius), NULL when the last update failed. */
+/* The current spheres, 4 floats each (x, y, z, radius), NULL when the last update failed. Valid
+   until the instance's next update (single or crowd) or destroy. */
 SKINSPHERES_C_API const float* skinspheres_instance_spheres(const skinspheres_instance* instance, size_t* out_count);
 /* The outcome of the instance's last update or search; *message (when not NULL) gets a static
-   string saying why. */
+   string saying why (valid for the program's life). */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_status(const skinspheres_instance* instance,
                                                                  const char** message);
 /* Sizes the buffers so that frames with up to `count` sphere pairs, and as many part and
@@ -286,8 +387,11 @@ typedef struct skinspheres_triangle_contact {
   float on_b[3];  /* closest points on triangle_a and triangle_b */
 } skinspheres_triangle_contact;
 
-/* The part_contact argument of skinspheres_instance_get_triangle_contacts for every part pair's. */
-#define SKINSPHERES_ALL_PART_PAIRS ((size_t)-1)
+/* The part_contact argument of skinspheres_instance_get_triangle_contacts for every part pair's:
+   an enum constant (binding generators see it; 0.2 had a #define), of value -1, which the size_t
+   parameter receives as SIZE_MAX ((size_t)-1, as in 0.2). A binding passes -1 converted to size_t
+   (ctypes: c_size_t(-1).value). */
+typedef enum skinspheres_part_pair_selector { SKINSPHERES_ALL_PART_PAIRS = -1 } skinspheres_part_pair_selector;
 
 /* 1 when the asset can give triangle contacts (it holds its mesh). */
 SKINSPHERES_C_API int skinspheres_asset_has_triangle_contacts(const skinspheres_asset* asset);
@@ -302,19 +406,26 @@ SKINSPHERES_C_API skinspheres_status skinspheres_instance_find_contacts(skinsphe
                                                                         const float* positions, size_t vertex_count,
                                                                         size_t* out_part_pairs,
                                                                         size_t* out_triangle_pairs);
-/* Copies the last find's part pairs (sorted by part_a, part_b) into out[0, capacity); *out_written =
-   how many. SKINSPHERES_BUFFER_TOO_SMALL when capacity < the count (the first capacity are copied). */
+/* The same with positions at a byte stride (skinspheres_instance_update_exact_strided; NULL with
+   vertex_count 0: no positions, as above): the same contacts, bit for bit. */
+SKINSPHERES_C_API skinspheres_status skinspheres_instance_find_contacts_strided(
+    skinspheres_instance* instance, const float* positions, size_t vertex_count, ptrdiff_t position_stride,
+    size_t* out_part_pairs, size_t* out_triangle_pairs);
+/* Copies the last find's part pairs (sorted by part_a, part_b) into out[0, capacity); *out_count =
+   the total count. SKINSPHERES_BUFFER_TOO_SMALL when capacity < the count (the first capacity are
+   copied, *out_count still the total). */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_get_part_contacts(const skinspheres_instance* instance,
                                                                             skinspheres_part_contact* out,
-                                                                            size_t capacity, size_t* out_written);
+                                                                            size_t capacity, size_t* out_count);
 /* Copies the triangle pairs of part pair `part_contact` (an index below the part-pair count), or of
    every part pair (SKINSPHERES_ALL_PART_PAIRS: grouped by part pair in the part pairs' order, each
-   group sorted by triangle_a, triangle_b), into out[0, capacity); *out_written = how many.
-   SKINSPHERES_BUFFER_TOO_SMALL as above; SKINSPHERES_INVALID_ARGUMENT for an index out of range. */
+   group sorted by triangle_a, triangle_b), into out[0, capacity); *out_count = the total count of
+   that selection. SKINSPHERES_BUFFER_TOO_SMALL as above; SKINSPHERES_INVALID_ARGUMENT (*out_count 0)
+   for an index out of range. */
 SKINSPHERES_C_API skinspheres_status skinspheres_instance_get_triangle_contacts(const skinspheres_instance* instance,
                                                                                 size_t part_contact,
                                                                                 skinspheres_triangle_contact* out,
-                                                                                size_t capacity, size_t* out_written);
+                                                                                size_t capacity, size_t* out_count);
 
 /* ---- Crowds, on the engine's job system ---- */
 
@@ -351,6 +462,31 @@ SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_find_sphere_pa
    instance's asset has no mesh (its status says so). */
 SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_find_contacts(
     skinspheres_instance* const* instances, const skinspheres_frame_input* inputs, size_t count,
+    skinspheres_refit_mode mode, skinspheres_parallel_for_fn parallel_for, void* user);
+
+/* A crowd frame input with strides (a struct of its own: skinspheres_frame_input keeps its layout).
+   joint_layout: NULL for packed column-major, else as skinspheres_matrix_layout says (read during
+   the call only); position_stride: bytes from one vertex to the next (12: packed). A null pointer
+   with a count is taken as no input, as in skinspheres_frame_input (the instance then fails and
+   says why). */
+typedef struct skinspheres_frame_input_strided {
+  const float* joint_world;
+  size_t joint_count;
+  const skinspheres_matrix_layout* joint_layout;
+  const float* positions; /* exact mode; fast mode: ignored (not read) */
+  size_t vertex_count;
+  ptrdiff_t position_stride;
+} skinspheres_frame_input_strided;
+
+/* The two crowd calls with strided inputs: the same results, bit for bit, as with the same values
+   packed. Each instance's gather buffers are sized on the calling thread before the loop (the first
+   time it is given a layout other than the packed one); the copies are made on the thread that runs
+   the instance. */
+SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_find_sphere_pairs_strided(
+    skinspheres_instance* const* instances, const skinspheres_frame_input_strided* inputs, size_t count,
+    skinspheres_refit_mode mode, skinspheres_parallel_for_fn parallel_for, void* user);
+SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_find_contacts_strided(
+    skinspheres_instance* const* instances, const skinspheres_frame_input_strided* inputs, size_t count,
     skinspheres_refit_mode mode, skinspheres_parallel_for_fn parallel_for, void* user);
 
 #ifdef __cplusplus
