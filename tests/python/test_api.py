@@ -1,0 +1,58 @@
+"""check() is the tool's check; the type stubs describe the module that is there."""
+
+import ast
+import json
+import pathlib
+import subprocess
+
+import skinspheres as ss
+import skinspheres._skinspheres as native
+from conftest import shared, tool
+
+
+def without_times(report):
+    report = dict(report)
+    report["summary"] = {k: v for k, v in report["summary"].items() if k != "seconds"}
+    report.pop("exit_code", None)
+    return report
+
+
+def test_check_returns_the_tool_report(tmp_path):
+    character, clips = shared("Xbot.glb"), shared("Soldier.glb")
+    path = tmp_path / "report.json"
+    run = subprocess.run([tool(), "check", character, "--clips", clips, "--mode", "fast", "--report", str(path)],
+                         capture_output=True)
+    mine = ss.check(character, [clips], mode="fast")
+    assert mine["exit_code"] == run.returncode
+    assert without_times(mine) == without_times(json.loads(path.read_text()))
+    assert mine["summary"]["clips"] == len(ss.clip_names(clips))
+
+
+def test_check_reports_an_unreadable_file_and_runs_the_others(tmp_path, builtin_glb):
+    broken = tmp_path / "broken.glb"
+    broken.write_bytes(b"glTF?")
+    report = ss.check(builtin_glb, [str(broken), builtin_glb], mode="fast")
+    assert report["exit_code"] == 2
+    assert [e["file"] for e in report["errors"]] == [str(broken)]
+    assert report["summary"]["clips"] == len(ss.clip_names(builtin_glb)) > 0
+
+
+def test_the_stubs_name_what_the_module_has():
+    stub = pathlib.Path(ss.__file__).with_name("_skinspheres.pyi")
+    tree = ast.parse(stub.read_text())
+    declared = set()
+    for node in tree.body:
+        if isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+            declared.add(node.name)
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            declared.add(node.target.id)
+    declared.discard("FloatArray")  # a type alias of the stubs
+    public = {n for n in dir(native) if not n.startswith("_")} | {"__version__"}
+    assert declared == public, (declared - public, public - declared)
+    for cls in ("SphereSet", "Asset", "Instance"):
+        node = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == cls)
+        members = {n.name for n in node.body if isinstance(n, ast.FunctionDef)} - {"__init__"}
+        present = {n for n in dir(getattr(native, cls)) if not n.startswith("_")} | {"__len__"} & set(
+            dir(getattr(native, cls))
+        )
+        assert members == present, (cls, members - present, present - members)
