@@ -1,5 +1,6 @@
 """Types of the native module (python/src/module.cc); skinspheres re-exports every public name."""
 
+import os
 from typing import Any, NamedTuple, Optional, Sequence, Union
 
 import numpy as np
@@ -24,6 +25,8 @@ WITHIN_MARGIN: int
 DEFAULT_TOUCH_TOLERANCE: float
 
 FloatArray = npt.NDArray[Union[np.float32, np.float64]]
+# Paths: str, UTF-8 bytes or os.PathLike (ValueError for a NUL byte or bytes that are not UTF-8).
+Path = Union[str, bytes, os.PathLike]
 
 class Error(Exception):
     """A failed call: str(e) is the one-line message, e.code its kind ("file not found", ...)."""
@@ -48,7 +51,7 @@ class SphereSet:
     """A fitted sphere set (rest pose). Arrays are copies the caller owns."""
 
     def __len__(self) -> int: ...
-    def save(self, path: str, *, fast_only: bool = False) -> None:
+    def save(self, path: Path, *, fast_only: bool = False) -> None:
         """.json (JSON) or .ssb (binary); fast_only (.ssb only) leaves out the mesh."""
     @property
     def centers(self) -> npt.NDArray[np.float32]: ...  # (S, 3)
@@ -148,7 +151,7 @@ class Instance:
     def unmapped_joints(self) -> list[str]: ...  # the set's joints the engine's list lacks (never read)
 
 def fit(
-    path: Optional[str] = None,
+    path: Optional[Path] = None,
     *,
     parts: str = "",
     rays: int = 80,
@@ -166,21 +169,21 @@ def fit(
 ) -> SphereSet:
     """Fits a character file (glTF, GLB, FBX, ...; None: the built-in character), as `skinspheres fit`."""
 
-def load(path: str) -> SphereSet:
+def load(path: Path) -> SphereSet:
     """Reads a sphere set, .ssb or .json (told apart by content)."""
 
-def clip_names(path: str) -> list[str]:
+def clip_names(path: Path) -> list[str]:
     """The clips a file holds (a character or an animation-only file), in its order."""
 
 def play(
-    character: Optional[str] = None,
-    clip_file: Optional[str] = None,
+    character: Optional[Path] = None,
+    clip_file: Optional[Path] = None,
     *,
     clip: Union[int, str] = 0,
     fps: float = 30.0,
     mode: str = "exact",
-    frames: int = 0,
-    spheres: Optional[str] = None,
+    frames: int = 0,  # 0: the whole clip; at most 1,000,000
+    spheres: Optional[Path] = None,
     margin: float = 0.0,
     touch_tolerance: float = ...,
     joint_map: str = "",
@@ -195,13 +198,13 @@ def play(
     touch_tolerance (set units), notes (what the retarget did)."""
 
 def check(
-    character: str,
-    clip_files: Sequence[str] = ...,
+    character: Path,
+    clip_files: Sequence[Path] = ...,
     *,
     clip: str = "all",
     max_depth: float = 0.01,
     touch_tolerance: float = ...,
-    spheres: Optional[str] = None,
+    spheres: Optional[Path] = None,
     fps: float = 30.0,
     mode: str = "exact",
     jobs: int = 0,

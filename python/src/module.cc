@@ -29,6 +29,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "check.h"
@@ -43,6 +44,58 @@
 #include "skinspheres/version.h"
 
 namespace py = pybind11;
+
+namespace skinspheres::python {
+// A path argument: str, bytes or os.PathLike, as UTF-8 (what the library's readers take on every
+// platform). ValueError, as Python's own open() gives, for a NUL byte (the C++ side would cut the
+// path there) or bytes that are not UTF-8.
+struct PathText {
+  std::string value;
+};
+}  // namespace skinspheres::python
+
+namespace pybind11::detail {
+template <>
+struct type_caster<skinspheres::python::PathText> {
+  PYBIND11_TYPE_CASTER(skinspheres::python::PathText, const_name("os.PathLike"));
+  bool load(handle source, bool) {
+    PyObject* fs = PyOS_FSPath(source.ptr());
+    if (!fs) {
+      PyErr_Clear();
+      return false;  // not a path: TypeError from the dispatcher
+    }
+    object path = reinterpret_steal<object>(fs);
+    if (PyUnicode_Check(path.ptr())) {
+      Py_ssize_t size = 0;
+      const char* text = PyUnicode_AsUTF8AndSize(path.ptr(), &size);
+      if (!text) {
+        PyErr_Clear();
+        throw value_error("path: not encodable as UTF-8");
+      }
+      value.value.assign(text, static_cast<size_t>(size));
+    } else {
+      char* bytes = nullptr;
+      Py_ssize_t size = 0;
+      if (PyBytes_AsStringAndSize(path.ptr(), &bytes, &size) != 0) {
+        PyErr_Clear();
+        return false;
+      }
+      value.value.assign(bytes, static_cast<size_t>(size));
+      PyObject* check = PyUnicode_DecodeUTF8(bytes, size, "strict");
+      if (!check) {
+        PyErr_Clear();
+        throw value_error("path: bytes that are not UTF-8 (the library reads UTF-8 paths)");
+      }
+      Py_DECREF(check);
+    }
+    if (value.value.find('\0') != std::string::npos) throw value_error("path: embedded null byte");
+    return true;
+  }
+  static handle cast(const skinspheres::python::PathText& p, return_value_policy, handle) {
+    return PyUnicode_DecodeUTF8(p.value.data(), static_cast<Py_ssize_t>(p.value.size()), "replace");
+  }
+};
+}  // namespace pybind11::detail
 
 namespace skinspheres::python {
 namespace {
@@ -62,10 +115,32 @@ struct LibraryError {
   throw LibraryError{ErrorCode::kInvalidArgument, message};
 }
 
+// A file name given as text (a joint map, a rest rig, a parts file): the C++ side would cut it at a
+// NUL byte and read another file.
+void NoNul(const std::string& text, const char* what) {
+  if (text.find('\0') != std::string::npos) throw py::value_error(std::string(what) + ": embedded null byte");
+}
+
+// play(frames=...): at most this many (a day at 30 fps would be 2.6 million; the per-frame arrays
+// grow with it, and the call cannot be interrupted while it runs).
+constexpr int64_t kMaxPlayFrames = 1000000;
+
 template <typename T>
 T Take(Result<T> r) {
   if (!r.ok()) Throw(r.error());
   return std::move(r).value();
+}
+
+// Text the library holds (names and paths from files) as str: invalid UTF-8 is replaced, never an
+// exception on reading a property.
+py::str Text(const std::string& text) {
+  return py::reinterpret_steal<py::str>(
+      PyUnicode_DecodeUTF8(text.data(), static_cast<Py_ssize_t>(text.size()), "replace"));
+}
+py::list Texts(const std::vector<std::string>& texts) {
+  py::list out;
+  for (const std::string& t : texts) out.append(Text(t));
+  return out;
 }
 
 void RegisterErrors(py::module_& m) {
@@ -107,7 +182,7 @@ void RegisterErrors(py::module_& m) {
     } catch (const LibraryError& e) {
       const size_t index = static_cast<size_t>(e.code);
       PyObject* type = index < g_error_types.size() && g_error_types[index] ? g_error_types[index] : g_error_types[0];
-      py::object instance = py::reinterpret_borrow<py::object>(type)(e.message);
+      py::object instance = py::reinterpret_borrow<py::object>(type)(Text(e.message));
       instance.attr("code") = ToString(e.code);
       PyErr_SetObject(type, instance.ptr());
     }
@@ -140,6 +215,9 @@ FloatArray ReadFloatArray(const py::handle& object, const char* what, std::vecto
   if (!py::isinstance<py::array>(object)) {
     throw py::type_error(std::string(what) + ": expected a numpy array of float32 or float64, got " +
                          std::string(py::str(py::type::of(object).attr("__name__"))));
+  }
+  if (py::isinstance(object, py::module_::import("numpy.ma").attr("MaskedArray"))) {
+    throw py::type_error(std::string(what) + ": a masked array (its mask would be ignored): pass .filled() or .data");
   }
   auto a = py::reinterpret_borrow<py::array>(object);
   FloatArray out;
@@ -335,7 +413,8 @@ struct PySphereSet {
   py::dict fit_report;  // empty unless made by fit()
 };
 
-PySphereSet Load(const std::string& path) {
+PySphereSet Load(const PathText& path_arg) {
+  const std::string& path = path_arg.value;
   runtime::SphereSet set;
   {
     py::gil_scoped_release release;
@@ -373,13 +452,13 @@ tool::FitOptions ResolveFit(const FitArgs& a) {
   return o;
 }
 
-PySphereSet Fit(const std::optional<std::string>& path, const FitArgs& args) {
+PySphereSet Fit(const std::optional<PathText>& path, const FitArgs& args) {
   tool::FitOptions options = ResolveFit(args);
   lib::FitResult fit;
   double import_seconds = 0.0;
   {
     py::gil_scoped_release release;
-    auto loaded = tool::LoadCharacter(path.value_or(""), options.parts_file);
+    auto loaded = tool::LoadCharacter(path ? path->value : std::string(), options.parts_file);
     if (!loaded.ok()) Throw(loaded.error());
     import_seconds = loaded->import_seconds;
     auto result = lib::FitSpheres(loaded->character, loaded->parts, options.settings);
@@ -514,7 +593,8 @@ class PyInstance {
     return seconds / (static_cast<double>(frames) * repeats);
   }
 
-  py::array Spheres() const {
+  py::array Spheres() {
+    Busy busy(this);
     const auto spheres = instance_->spheres();
     if (!instance_->spheres_valid()) Check(instance_->status());
     py::array_t<float> out({static_cast<py::ssize_t>(spheres.size()), py::ssize_t{4}});
@@ -620,7 +700,8 @@ size_t FileClip(const lib::RawCharacter& character, size_t own, const std::strin
 }
 
 // The clips a file holds, by name (an animation-only file too).
-std::vector<std::string> ClipNames(const std::string& path) {
+std::vector<std::string> ClipNames(const PathText& path_arg) {
+  const std::string& path = path_arg.value;
   std::vector<std::string> names;
   py::gil_scoped_release release;
   auto file = lib::ReadAnimationFile(path);
@@ -650,7 +731,7 @@ py::dict Play(const std::optional<std::string>& character, const PlayArgs& a, co
     files.source_rest = a.source_rest;
     files.retarget = a.retarget;
     const size_t own_clips = loaded->character.clips.size();
-    if (auto why = tool::AddClipFiles(*loaded, files, a.fps, &notes)) Throw(Error{ErrorCode::kInvalidData, *why});
+    if (auto why = tool::AddClipFiles(*loaded, files, a.fps, &notes)) Throw(*why);
     runtime::SphereSet set;
     if (a.spheres) {
       set = Take(runtime::LoadSphereSet(*a.spheres));
@@ -693,17 +774,17 @@ py::dict Play(const std::optional<std::string>& character, const PlayArgs& a, co
     part_names = PartNames(set);
   }
   py::dict out;
-  out["clip"] = clip_name;
+  out["clip"] = Text(clip_name);
   out["frames"] = frame_count;
   out["times"] = CopyArray(got.times);
   out["clip_times"] = CopyArray(got.clip_times);
   out["sphere_pairs"] = CopyArray(got.sphere_pairs);
   out["part_contacts"] = CopyArray(got.parts);
   out["triangle_contacts"] = CopyArray(got.triangles);
-  out["part_names"] = part_names;
+  out["part_names"] = Texts(part_names);
   out["body_height"] = body_height;
   out["touch_tolerance"] = tolerance;
-  out["notes"] = notes;
+  out["notes"] = Texts(notes);
   return out;
 }
 
@@ -791,15 +872,15 @@ PYBIND11_MODULE(_skinspheres, m) {
            [](const PySphereSet& s) {
              return "<skinspheres.SphereSet " + std::to_string(s.set->size()) + " spheres, " +
                     std::to_string(s.set->parts.size()) + " parts, " + std::to_string(s.set->joint_count()) +
-                    " joints, fitted on '" + s.set->source_file + "'>";
+                    " joints, fitted on '" + std::string(py::str(Text(s.set->source_file))) + "'>";
            })
       .def(
           "save",
-          [](const PySphereSet& s, const std::string& path, bool fast_only) {
+          [](const PySphereSet& s, const PathText& path, bool fast_only) {
             std::optional<std::string> why;
             {
               py::gil_scoped_release release;
-              why = tool::SaveSetFile(*s.set, path, fast_only);
+              why = tool::SaveSetFile(*s.set, path.value, fast_only);
             }
             if (why) ThrowArgument(*why);
           },
@@ -823,8 +904,8 @@ PYBIND11_MODULE(_skinspheres, m) {
             return py::make_tuple(CopyArray(joints), CopyArray(weights));
           },
           "sphere"_a)
-      .def_property_readonly("part_names", [](const PySphereSet& s) { return PartNames(*s.set); })
-      .def_property_readonly("joint_names", [](const PySphereSet& s) { return s.set->joint_names; })
+      .def_property_readonly("part_names", [](const PySphereSet& s) { return Texts(PartNames(*s.set)); })
+      .def_property_readonly("joint_names", [](const PySphereSet& s) { return Texts(s.set->joint_names); })
       .def_property_readonly("joint_parents", [](const PySphereSet& s) { return CopyArray(s.set->joint_parents); })
       .def_property_readonly("joint_rest_world",
                              [](const PySphereSet& s) { return MatrixArray(s.set->joint_rest_world); })
@@ -849,9 +930,9 @@ PYBIND11_MODULE(_skinspheres, m) {
       .def_property_readonly("triangle_count", [](const PySphereSet& s) { return s.set->source_triangle_count; })
       .def_property_readonly("has_mesh", [](const PySphereSet& s) { return s.set->has_mesh(); })
       .def_property_readonly("fast_only", [](const PySphereSet& s) { return s.set->fast_only; })
-      .def_property_readonly("source_file", [](const PySphereSet& s) { return s.set->source_file; })
-      .def_property_readonly("loaded_from", [](const PySphereSet& s) { return s.set->loaded_from; })
-      .def_property_readonly("fit_report", [](const PySphereSet& s) { return s.fit_report; })
+      .def_property_readonly("source_file", [](const PySphereSet& s) { return Text(s.set->source_file); })
+      .def_property_readonly("loaded_from", [](const PySphereSet& s) { return Text(s.set->loaded_from); })
+      .def_property_readonly("fit_report", [](const PySphereSet& s) { return py::dict(s.fit_report.attr("copy")()); })
       .def_property_readonly("triangles",
                              [](const PySphereSet& s) {
                                const auto& tv = s.set->triangle_vertices;
@@ -894,8 +975,8 @@ PYBIND11_MODULE(_skinspheres, m) {
           },
           "joint_names"_a, "vertex_count"_a)
       .def_property_readonly("sphere_set", &SetOf)
-      .def_property_readonly("part_names", [](const PyAsset& a) { return PartNames(a.asset->sphere_set()); })
-      .def_property_readonly("joint_names", [](const PyAsset& a) { return a.asset->sphere_set().joint_names; })
+      .def_property_readonly("part_names", [](const PyAsset& a) { return Texts(PartNames(a.asset->sphere_set())); })
+      .def_property_readonly("joint_names", [](const PyAsset& a) { return Texts(a.asset->sphere_set().joint_names); })
       .def_property_readonly("joints_read",
                              [](const PyAsset& a) {
                                const std::vector<bool> read = runtime::JointsReadPerFrame(a.asset->sphere_set());
@@ -930,8 +1011,9 @@ PYBIND11_MODULE(_skinspheres, m) {
       .def_property_readonly("spheres", &PyInstance::Spheres)
       .def_property_readonly("asset", &PyInstance::asset)
       .def_property_readonly("joint_count", &PyInstance::joint_count)
-      .def_property_readonly("extra_joints", [](const PyInstance& i) { return i.mapping().extra_engine_joints; })
-      .def_property_readonly("unmapped_joints", [](const PyInstance& i) { return i.mapping().unmapped_set_joints; });
+      .def_property_readonly("extra_joints", [](const PyInstance& i) { return Texts(i.mapping().extra_engine_joints); })
+      .def_property_readonly("unmapped_joints",
+                             [](const PyInstance& i) { return Texts(i.mapping().unmapped_set_joints); });
 
   auto fit_args = [](const std::string& parts, int rays, int per_level, const std::string& method, float overlap,
                      float step, int hops, int refine, bool tighten, float split_gain, float target_standoff,
@@ -955,9 +1037,10 @@ PYBIND11_MODULE(_skinspheres, m) {
   const FitArgs d;
   m.def(
       "fit",
-      [fit_args](const std::optional<std::string>& path, const std::string& parts, int rays, int per_level,
+      [fit_args](const std::optional<PathText>& path, const std::string& parts, int rays, int per_level,
                  const std::string& method, float overlap, float step, int hops, int refine, bool tighten,
                  float split_gain, float target_standoff, int max_spheres, bool exclude_bind_overlaps) {
+        NoNul(parts, "parts");
         return Fit(path, fit_args(parts, rays, per_level, method, overlap, step, hops, refine, tighten, split_gain,
                                   target_standoff, max_spheres, exclude_bind_overlaps));
       },
@@ -966,41 +1049,58 @@ PYBIND11_MODULE(_skinspheres, m) {
       "tighten"_a = d.tighten, "split_gain"_a = d.split_gain, "target_standoff"_a = d.target_standoff,
       "max_spheres"_a = d.max_spheres, "exclude_bind_overlaps"_a = d.exclude_bind_overlaps);
   m.def("load", &Load, "path"_a);
-  m.def("clip_names", &ClipNames, "path"_a);
+  m.def(
+      "clip_names", [](const PathText& path) { return Texts(ClipNames(path)); }, "path"_a);
   m.def(
       "play",
-      [](const std::optional<std::string>& character, const std::optional<std::string>& clip_file,
-         const py::object& clip, float fps, const std::string& mode, int frames,
-         const std::optional<std::string>& spheres, float margin, float touch_tolerance, const std::string& joint_map,
+      [](const std::optional<PathText>& character, const std::optional<PathText>& clip_file,
+         const std::variant<int64_t, std::string>& clip, float fps, const std::string& mode, int64_t frames,
+         const std::optional<PathText>& spheres, float margin, float touch_tolerance, const std::string& joint_map,
          const std::string& source_rest, const std::string& retarget) {
         PlayArgs a;
-        if (clip_file) a.clip_files.push_back(*clip_file);
-        a.clip = py::str(clip);
+        if (clip_file) a.clip_files.push_back(clip_file->value);
+        if (const int64_t* index = std::get_if<int64_t>(&clip)) {
+          if (*index < 0) ThrowArgument("clip: " + std::to_string(*index) + " (an index counts from 0)");
+          a.clip = std::to_string(*index);
+        } else {
+          a.clip = std::get<std::string>(clip);
+        }
+        if (frames < 0 || frames > kMaxPlayFrames) {
+          ThrowArgument("frames: " + std::to_string(frames) + " (0: the whole clip; at most " +
+                        std::to_string(kMaxPlayFrames) + ")");
+        }
+        NoNul(joint_map, "joint_map");
+        NoNul(source_rest, "source_rest");
         a.fps = fps;
         a.mode = mode;
-        a.frames = frames;
-        a.spheres = spheres;
+        a.frames = static_cast<int>(frames);
+        if (spheres) a.spheres = spheres->value;
         a.margin = margin;
         a.touch_tolerance = touch_tolerance;
         a.joint_map = joint_map;
         a.source_rest = source_rest;
         a.retarget = retarget;
-        return Play(character, a, FitArgs{});
+        return Play(character ? std::optional<std::string>(character->value) : std::nullopt, a, FitArgs{});
       },
-      "character"_a = py::none(), "clip_file"_a = py::none(), py::kw_only(), "clip"_a = 0, "fps"_a = 30.0f,
+      "character"_a = py::none(), "clip_file"_a = py::none(), py::kw_only(), "clip"_a = int64_t{0}, "fps"_a = 30.0f,
       "mode"_a = "exact", "frames"_a = 0, "spheres"_a = py::none(), "margin"_a = 0.0f,
       "touch_tolerance"_a = tool::kDefaultTouchTolerance, "joint_map"_a = "", "source_rest"_a = "",
       "retarget"_a = "auto");
   m.def(
       "check",
-      [](const std::string& character, const std::vector<std::string>& clip_files, const std::string& clip,
-         float max_depth, float touch_tolerance, const std::optional<std::string>& spheres, float fps,
-         const std::string& mode, int jobs, const std::string& joint_map, const std::string& source_rest,
-         const std::string& retarget, bool compare_source) {
-        return Check(character, clip_files, clip, max_depth, touch_tolerance, spheres, fps, mode, jobs, joint_map,
+      [](const PathText& character, const std::vector<PathText>& clip_files, const std::string& clip, float max_depth,
+         float touch_tolerance, const std::optional<PathText>& spheres, float fps, const std::string& mode, int jobs,
+         const std::string& joint_map, const std::string& source_rest, const std::string& retarget,
+         bool compare_source) {
+        std::vector<std::string> files;
+        for (const PathText& f : clip_files) files.push_back(f.value);
+        NoNul(joint_map, "joint_map");
+        NoNul(source_rest, "source_rest");
+        return Check(character.value, files, clip, max_depth, touch_tolerance,
+                     spheres ? std::optional<std::string>(spheres->value) : std::nullopt, fps, mode, jobs, joint_map,
                      source_rest, retarget, compare_source, FitArgs{});
       },
-      "character"_a, "clip_files"_a = std::vector<std::string>{}, py::kw_only(), "clip"_a = "all",
+      "character"_a, "clip_files"_a = std::vector<PathText>{}, py::kw_only(), "clip"_a = "all",
       "max_depth"_a = tool::kDefaultMaxDepth, "touch_tolerance"_a = tool::kDefaultTouchTolerance,
       "spheres"_a = py::none(), "fps"_a = 30.0f, "mode"_a = "exact", "jobs"_a = 0, "joint_map"_a = "",
       "source_rest"_a = "", "retarget"_a = "auto", "compare_source"_a = false);

@@ -190,15 +190,15 @@ std::vector<std::string> AppendClips(LoadedCharacter& loaded, const std::string&
   return names;
 }
 
-std::optional<std::string> AddClipFiles(LoadedCharacter& loaded, const ClipFileOptions& options, float fps,
-                                        std::vector<std::string>* notes) {
+std::optional<Error> AddClipFiles(LoadedCharacter& loaded, const ClipFileOptions& options, float fps,
+                                  std::vector<std::string>* notes) {
   if (options.files.empty()) return std::nullopt;
   auto context = ResolveClipFileOptions(options, fps);
-  if (!context.ok()) return context.error().message;
+  if (!context.ok()) return context.error();
   for (const std::string& file : options.files) {
     lib::RetargetReport report;
     auto clips = ReadClipFile(loaded, file, *context, &report);
-    if (!clips.ok()) return clips.error().message;
+    if (!clips.ok()) return clips.error();
     const std::vector<std::string> names = AppendClips(loaded, file, std::move(*clips));
     const std::vector<std::string> lines = DescribeRetarget(report, loaded, file, names);
     notes->insert(notes->end(), lines.begin(), lines.end());

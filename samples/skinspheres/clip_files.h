@@ -49,9 +49,9 @@ std::vector<std::string> DescribeRetarget(const lib::RetargetReport& report, con
 std::vector<std::string> AppendClips(LoadedCharacter& loaded, const std::string& file,
                                      std::vector<skinning::AnimationClip> clips);
 
-// Every file's clips, in order (ReadClipFile, then AppendClips); the first error as one line
-// naming the file and the problem.
-std::optional<std::string> AddClipFiles(LoadedCharacter& loaded, const ClipFileOptions& options, float fps,
-                                        std::vector<std::string>* notes);
+// Every file's clips, in order (ReadClipFile, then AppendClips); the first error, its message one
+// line naming the file and the problem (its code: a missing file, a bad option, bad data).
+std::optional<Error> AddClipFiles(LoadedCharacter& loaded, const ClipFileOptions& options, float fps,
+                                  std::vector<std::string>* notes);
 
 }  // namespace skinspheres::tool

@@ -84,7 +84,7 @@ int RunPlay(PlayArgs& a) {
   auto loaded = LoadCharacter(a.input, a.fit.parts_file);
   if (!loaded.ok()) return Fail(loaded.error().message);
   std::vector<std::string> notes;
-  if (auto why = AddClipFiles(*loaded, a.clip_files, a.fps, &notes)) return Fail(*why);
+  if (auto why = AddClipFiles(*loaded, a.clip_files, a.fps, &notes)) return Fail(why->message);
   for (const auto& note : notes) std::printf("%s\n", note.c_str());
   std::vector<size_t> clips;
   if (a.clip == "all") {

@@ -71,7 +71,18 @@ def calls(folder, spheres, asset):
         ("play a missing clip", lambda: ss.play(clip="nope"), ss.Error),
         ("play in a bad mode", lambda: ss.play(mode="slow"), ss.InvalidArgument),
         ("play at 0 fps", lambda: ss.play(fps=0), ss.InvalidArgument),
-        ("play with a missing clip file", lambda: ss.play(clip_file=str(folder / "missing.glb")), ss.Error),
+        ("play with a missing clip file", lambda: ss.play(clip_file=str(folder / "missing.glb")), ss.FileNotFound),
+        ("play with a bad retarget mode", lambda: ss.play(clip_file=str(folder / "missing.glb"), retarget="zzz"),
+         ss.InvalidArgument),
+        ("play a negative clip index", lambda: ss.play(clip=-1), ss.InvalidArgument),
+        ("play clip None", lambda: ss.play(clip=None), TypeError),
+        ("play 10^12 frames", lambda: ss.play(frames=10**12), ss.InvalidArgument),
+        ("load a path with a NUL byte", lambda: ss.load(str(folder / "set.ssb") + "\0.json"), ValueError),
+        ("fit a path with a NUL byte", lambda: ss.fit(str(folder / "x.glb") + "\0"), ValueError),
+        ("save to a path with a NUL byte", lambda: spheres.save(str(folder / "x.ssb") + "\0.json"), ValueError),
+        ("load bytes that are not UTF-8", lambda: ss.load(bytes(folder) + b"/\xff.ssb"), ValueError),
+        ("load a number as a path", lambda: ss.load(3), TypeError),
+        ("update with a masked array", lambda: asset.instance().update_fast(np.ma.masked_array(world)), TypeError),
         ("play with a missing set", lambda: ss.play(spheres=str(folder / "missing.ssb")), ss.FileNotFound),
         ("check a missing character", lambda: ss.check(str(folder / "missing.glb")), ss.FileNotFound),
         ("check with max_depth 2", lambda: ss.check("", max_depth=2.0), ss.InvalidArgument),
@@ -99,6 +110,14 @@ def test_every_wrong_call_raises_with_one_line(setup):
         print(f"{what}: {type(info.value).__name__}: {text}")
 
 
+def test_paths_may_be_pathlike_or_bytes(setup):
+    folder, spheres, _ = setup
+    assert len(ss.load(folder / "set.ssb")) == len(spheres)
+    assert len(ss.load(bytes(folder / "set.ssb"))) == len(spheres)
+    spheres.save(folder / "again.json")
+    assert ss.load(str(folder / "again.json")).joint_names == spheres.joint_names
+
+
 def test_errors_are_also_the_builtin_kinds(setup):
     folder, _, _ = setup
     with pytest.raises(FileNotFoundError):
@@ -118,6 +137,7 @@ def test_an_instance_used_by_two_threads_at_once_raises_instead_of_racing(setup)
             try:
                 inst.update_fast(world)
                 inst.contacts()
+                assert inst.spheres.shape == (len(spheres), 4)
             except ValueError as e:
                 errors.append(str(e))
 
