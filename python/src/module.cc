@@ -26,6 +26,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <initializer_list>
 #include <memory>
 #include <optional>
 #include <string>
@@ -198,8 +199,11 @@ struct FloatArray {
   bool f64 = false;
   std::vector<py::ssize_t> shape, strides;
 
-  float AtF(py::ssize_t i, py::ssize_t j, py::ssize_t k = 0) const {
-    const char* p = data + i * strides[0] + j * strides[1] + (shape.size() > 2 ? k * strides[2] : 0);
+  // The element at `index` (one entry per axis) as float.
+  float At(std::initializer_list<py::ssize_t> index) const {
+    const char* p = data;
+    size_t axis = 0;
+    for (py::ssize_t i : index) p += i * strides[axis++];
     if (f64) {
       double v;
       std::memcpy(&v, p, sizeof v);
@@ -425,35 +429,14 @@ PySphereSet Load(const PathText& path_arg) {
   return {std::make_shared<const runtime::SphereSet>(std::move(set)), {}};
 }
 
-struct FitArgs {
-  std::string parts;
-  int rays = 80, per_level = 2, hops = 1, refine = 2, max_spheres = 200;
-  std::string method = "m1a";
-  float overlap = 0.3f, step = 0.02f, split_gain = 0.9f, target_standoff = 0.0125f;
-  bool tighten = true, exclude_bind_overlaps = true;
-};
-
-tool::FitOptions ResolveFit(const FitArgs& a) {
-  tool::FitOptions o;
-  o.parts_file = a.parts;
-  o.settings.rays = a.rays;
-  o.settings.per_level = a.per_level;
-  o.method = a.method;
-  o.settings.overlap = a.overlap;
-  o.settings.step = a.step;
-  o.hops = a.hops;
-  o.settings.refine_iterations = a.refine;
-  o.no_tighten = !a.tighten;
-  o.settings.split_gain = a.split_gain;
-  o.settings.target_standoff = a.target_standoff;
-  o.settings.max_spheres = a.max_spheres;
-  o.no_bind_overlap = !a.exclude_bind_overlaps;
-  if (auto why = o.Resolve()) ThrowArgument(*why);
-  return o;
+// The fit options as the tool resolves them (method name, hops, flags); InvalidArgument when refused.
+tool::FitOptions Resolved(tool::FitOptions options) {
+  if (auto why = options.Resolve()) ThrowArgument(*why);
+  return options;
 }
 
-PySphereSet Fit(const std::optional<PathText>& path, const FitArgs& args) {
-  tool::FitOptions options = ResolveFit(args);
+PySphereSet Fit(const std::optional<PathText>& path, const tool::FitOptions& fit_options) {
+  const tool::FitOptions options = Resolved(fit_options);
   lib::FitResult fit;
   double import_seconds = 0.0;
   {
@@ -560,17 +543,7 @@ class PyInstance {
       for (size_t j = 0; j < joints; ++j) {
         for (int r = 0; r < 4; ++r) {
           for (int c = 0; c < 4; ++c) {
-            const char* p = a.data + static_cast<py::ssize_t>(f) * a.strides[0] +
-                            static_cast<py::ssize_t>(j) * a.strides[1] + r * a.strides[2] + c * a.strides[3];
-            float v;
-            if (a.f64) {
-              double d;
-              std::memcpy(&d, p, sizeof d);
-              v = static_cast<float>(d);
-            } else {
-              std::memcpy(&v, p, sizeof v);
-            }
-            all[f * joints + j](r, c) = v;
+            all[f * joints + j](r, c) = a.At({static_cast<py::ssize_t>(f), static_cast<py::ssize_t>(j), r, c});
           }
         }
       }
@@ -636,7 +609,7 @@ class PyInstance {
     for (size_t j = 0; j < need; ++j) {
       Mat4f& m = (*out)[j];
       for (int r = 0; r < 4; ++r) {
-        for (int c = 0; c < 4; ++c) m(r, c) = a.AtF(static_cast<py::ssize_t>(j), r, c);
+        for (int c = 0; c < 4; ++c) m(r, c) = a.At({static_cast<py::ssize_t>(j), r, c});
       }
     }
   }
@@ -650,7 +623,7 @@ class PyInstance {
     }
     positions_.resize(need);
     for (size_t v = 0; v < need; ++v) {
-      for (int c = 0; c < 3; ++c) positions_[v][c] = a.AtF(static_cast<py::ssize_t>(v), c);
+      for (int c = 0; c < 3; ++c) positions_[v][c] = a.At({static_cast<py::ssize_t>(v), c});
     }
   }
 
@@ -710,12 +683,12 @@ std::vector<std::string> ClipNames(const PathText& path_arg) {
   return names;
 }
 
-py::dict Play(const std::optional<std::string>& character, const PlayArgs& a, const FitArgs& fit_args) {
+py::dict Play(const std::optional<std::string>& character, const PlayArgs& a) {
   if (a.mode != "exact" && a.mode != "fast") ThrowArgument("mode must be 'exact' or 'fast' (got '" + a.mode + "')");
   if (!(a.fps > 0.0f) || a.fps > 10000.0f) ThrowArgument("fps must be in (0, 10000]");
   if (a.frames < 0) ThrowArgument("frames must be >= 0 (0: the whole clip)");
   if (auto why = tool::CheckTouchTolerance(a.touch_tolerance)) ThrowArgument(*why);
-  tool::FitOptions fit_options = ResolveFit(fit_args);
+  const tool::FitOptions fit_options = Resolved(tool::FitOptions{});  // as `play` fits on the fly
   PlayCollect got;
   std::string clip_name;
   std::vector<std::string> notes, part_names;
@@ -793,7 +766,7 @@ py::dict Play(const std::optional<std::string>& character, const PlayArgs& a, co
 py::dict Check(const std::string& character, const std::vector<std::string>& clip_files, const std::string& clip,
                float max_depth, float touch_tolerance, const std::optional<std::string>& spheres, float fps,
                const std::string& mode, int jobs, const std::string& joint_map, const std::string& source_rest,
-               const std::string& retarget, bool compare_source, const FitArgs& fit_args) {
+               const std::string& retarget, bool compare_source) {
   tool::CheckArgs a;
   a.input = character;
   a.clip_files.files = clip_files;
@@ -808,7 +781,6 @@ py::dict Check(const std::string& character, const std::vector<std::string>& cli
   a.mode = mode;
   a.jobs = jobs;
   a.compare_source = compare_source;
-  a.fit = ResolveFit(fit_args);
   tool::CheckOutcome outcome;
   {
     py::gil_scoped_release release;
@@ -1015,39 +987,35 @@ PYBIND11_MODULE(_skinspheres, m) {
       .def_property_readonly("unmapped_joints",
                              [](const PyInstance& i) { return Texts(i.mapping().unmapped_set_joints); });
 
-  auto fit_args = [](const std::string& parts, int rays, int per_level, const std::string& method, float overlap,
-                     float step, int hops, int refine, bool tighten, float split_gain, float target_standoff,
-                     int max_spheres, bool exclude_bind_overlaps) {
-    FitArgs a;
-    a.parts = parts;
-    a.rays = rays;
-    a.per_level = per_level;
-    a.method = method;
-    a.overlap = overlap;
-    a.step = step;
-    a.hops = hops;
-    a.refine = refine;
-    a.tighten = tighten;
-    a.split_gain = split_gain;
-    a.target_standoff = target_standoff;
-    a.max_spheres = max_spheres;
-    a.exclude_bind_overlaps = exclude_bind_overlaps;
-    return a;
-  };
-  const FitArgs d;
+  const tool::FitOptions d;  // the tool's defaults
   m.def(
       "fit",
-      [fit_args](const std::optional<PathText>& path, const std::string& parts, int rays, int per_level,
-                 const std::string& method, float overlap, float step, int hops, int refine, bool tighten,
-                 float split_gain, float target_standoff, int max_spheres, bool exclude_bind_overlaps) {
+      [](const std::optional<PathText>& path, const std::string& parts, int rays, int per_level,
+         const std::string& method, float overlap, float step, int hops, int refine, bool tighten, float split_gain,
+         float target_standoff, int max_spheres, bool exclude_bind_overlaps) {
         NoNul(parts, "parts");
-        return Fit(path, fit_args(parts, rays, per_level, method, overlap, step, hops, refine, tighten, split_gain,
-                                  target_standoff, max_spheres, exclude_bind_overlaps));
+        tool::FitOptions o;  // what the tool's options of the same names set
+        o.parts_file = parts;
+        o.settings.rays = rays;
+        o.settings.per_level = per_level;
+        o.method = method;
+        o.settings.overlap = overlap;
+        o.settings.step = step;
+        o.hops = hops;
+        o.settings.refine_iterations = refine;
+        o.no_tighten = !tighten;
+        o.settings.split_gain = split_gain;
+        o.settings.target_standoff = target_standoff;
+        o.settings.max_spheres = max_spheres;
+        o.no_bind_overlap = !exclude_bind_overlaps;
+        return Fit(path, o);
       },
-      "path"_a = py::none(), py::kw_only(), "parts"_a = d.parts, "rays"_a = d.rays, "per_level"_a = d.per_level,
-      "method"_a = d.method, "overlap"_a = d.overlap, "step"_a = d.step, "hops"_a = d.hops, "refine"_a = d.refine,
-      "tighten"_a = d.tighten, "split_gain"_a = d.split_gain, "target_standoff"_a = d.target_standoff,
-      "max_spheres"_a = d.max_spheres, "exclude_bind_overlaps"_a = d.exclude_bind_overlaps);
+      "path"_a = py::none(), py::kw_only(), "parts"_a = d.parts_file, "rays"_a = d.settings.rays,
+      "per_level"_a = d.settings.per_level, "method"_a = d.method, "overlap"_a = d.settings.overlap,
+      "step"_a = d.settings.step, "hops"_a = d.hops, "refine"_a = d.settings.refine_iterations,
+      "tighten"_a = !d.no_tighten, "split_gain"_a = d.settings.split_gain,
+      "target_standoff"_a = d.settings.target_standoff, "max_spheres"_a = d.settings.max_spheres,
+      "exclude_bind_overlaps"_a = !d.no_bind_overlap);
   m.def("load", &Load, "path"_a);
   m.def(
       "clip_names", [](const PathText& path) { return Texts(ClipNames(path)); }, "path"_a);
@@ -1080,7 +1048,7 @@ PYBIND11_MODULE(_skinspheres, m) {
         a.joint_map = joint_map;
         a.source_rest = source_rest;
         a.retarget = retarget;
-        return Play(character ? std::optional<std::string>(character->value) : std::nullopt, a, FitArgs{});
+        return Play(character ? std::optional<std::string>(character->value) : std::nullopt, a);
       },
       "character"_a = py::none(), "clip_file"_a = py::none(), py::kw_only(), "clip"_a = int64_t{0}, "fps"_a = 30.0f,
       "mode"_a = "exact", "frames"_a = 0, "spheres"_a = py::none(), "margin"_a = 0.0f,
@@ -1098,7 +1066,7 @@ PYBIND11_MODULE(_skinspheres, m) {
         NoNul(source_rest, "source_rest");
         return Check(character.value, files, clip, max_depth, touch_tolerance,
                      spheres ? std::optional<std::string>(spheres->value) : std::nullopt, fps, mode, jobs, joint_map,
-                     source_rest, retarget, compare_source, FitArgs{});
+                     source_rest, retarget, compare_source);
       },
       "character"_a, "clip_files"_a = std::vector<PathText>{}, py::kw_only(), "clip"_a = "all",
       "max_depth"_a = tool::kDefaultMaxDepth, "touch_tolerance"_a = tool::kDefaultTouchTolerance,
