@@ -215,12 +215,15 @@ struct FloatArray {
   }
 };
 
+// numpy.ma.MaskedArray, looked up once at import (not on every frame).
+py::object g_masked_array_type;
+
 FloatArray ReadFloatArray(const py::handle& object, const char* what, std::vector<py::ssize_t> want) {
   if (!py::isinstance<py::array>(object)) {
     throw py::type_error(std::string(what) + ": expected a numpy array of float32 or float64, got " +
                          std::string(py::str(py::type::of(object).attr("__name__"))));
   }
-  if (py::isinstance(object, py::module_::import("numpy.ma").attr("MaskedArray"))) {
+  if (py::isinstance(object, g_masked_array_type)) {
     throw py::type_error(std::string(what) + ": a masked array (its mask would be ignored): pass .filled() or .data");
   }
   auto a = py::reinterpret_borrow<py::array>(object);
@@ -832,11 +835,15 @@ PYBIND11_MODULE(_skinspheres, m) {
   m.attr("INTERSECTING") = 0;
   m.attr("WITHIN_MARGIN") = 1;
   m.attr("DEFAULT_TOUCH_TOLERANCE") = tool::kDefaultTouchTolerance;
+  g_masked_array_type = py::module_::import("numpy.ma").attr("MaskedArray");
   g_contacts_type = py::module_::import("collections").attr("namedtuple")("Contacts", "parts triangles");
   g_contacts_type.attr("__module__") = "skinspheres";
   m.attr("Contacts") = g_contacts_type;
   // The namedtuple outlives the interpreter's last reference only through this capsule.
-  m.add_object("_cleanup", py::capsule([] { g_contacts_type.release(); }));
+  m.add_object("_cleanup", py::capsule([] {
+                 g_contacts_type.release();
+                 g_masked_array_type.release();
+               }));
 
   py::class_<PySphereSet>(m, "SphereSet", "A fitted sphere set: spheres in the rest pose, their parts and joints.")
       .def("__len__", [](const PySphereSet& s) { return s.set->size(); })
