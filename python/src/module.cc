@@ -194,10 +194,14 @@ void RegisterErrors(py::module_& m) {
 
 // A float32 or float64 array of the given shape (-1: any length >= min_first on the first axis),
 // any strides. TypeError for another dtype, InvalidArgument for another shape.
+// At most 4 axes (the frame loop's (F, J, 4, 4)); fixed arrays, so reading a frame's input
+// allocates nothing.
+constexpr size_t kMaxAxes = 4;
+
 struct FloatArray {
   const char* data = nullptr;
   bool f64 = false;
-  std::vector<py::ssize_t> shape, strides;
+  std::array<py::ssize_t, kMaxAxes> shape{}, strides{};
 
   // The element at `index` (one entry per axis) as float.
   float At(std::initializer_list<py::ssize_t> index) const {
@@ -218,7 +222,20 @@ struct FloatArray {
 // numpy.ma.MaskedArray, looked up once at import (not on every frame).
 py::object g_masked_array_type;
 
-FloatArray ReadFloatArray(const py::handle& object, const char* what, std::vector<py::ssize_t> want) {
+// "(N, 4, 4)": a shape as a message shows it (-1: any length).
+std::string ShapeText(std::initializer_list<py::ssize_t> dims) {
+  std::string text = "(";
+  size_t d = 0;
+  for (py::ssize_t n : dims) {
+    text += (d ? ", " : "") + (n < 0 ? std::string(d == 0 ? "N" : "?") : std::to_string(n));
+    ++d;
+  }
+  return text + (dims.size() == 1 ? ",)" : ")");
+}
+
+// `object` as a float32 or float64 array of shape `want` (-1: any length on that axis), any
+// strides. TypeError for another type or dtype, InvalidArgument for another shape.
+FloatArray ReadFloatArray(const py::handle& object, const char* what, std::initializer_list<py::ssize_t> want) {
   if (!py::isinstance<py::array>(object)) {
     throw py::type_error(std::string(what) + ": expected a numpy array of float32 or float64, got " +
                          std::string(py::str(py::type::of(object).attr("__name__"))));
@@ -229,36 +246,32 @@ FloatArray ReadFloatArray(const py::handle& object, const char* what, std::vecto
   auto a = py::reinterpret_borrow<py::array>(object);
   FloatArray out;
   const py::dtype dt = a.dtype();
-  if (dt.is(py::dtype::of<float>()) || (dt.kind() == 'f' && dt.itemsize() == 4)) {
-    out.f64 = false;
-  } else if (dt.kind() == 'f' && dt.itemsize() == 8) {
-    out.f64 = true;
-  } else {
+  if (dt.kind() != 'f' || (dt.itemsize() != 4 && dt.itemsize() != 8)) {
     throw py::type_error(std::string(what) + ": expected float32 or float64 elements, got " +
                          std::string(py::str(py::handle(dt))));
   }
+  out.f64 = dt.itemsize() == 8;
   if (!(dt.byteorder() == '=' || dt.byteorder() == '|' ||
         (dt.byteorder() == '<') == (py::module_::import("sys").attr("byteorder").cast<std::string>() == "little"))) {
     throw py::type_error(std::string(what) + ": byte-swapped arrays are not read (use .astype(native dtype))");
   }
-  std::string shape_text = "(";
-  for (size_t d = 0; d < want.size(); ++d) {
-    shape_text += (d ? ", " : "") + (want[d] < 0 ? std::string(d == 0 ? "N" : "?") : std::to_string(want[d]));
-  }
-  shape_text += want.size() == 1 ? ",)" : ")";
   bool fits = static_cast<size_t>(a.ndim()) == want.size();
-  for (size_t d = 0; fits && d < want.size(); ++d)
-    fits = want[d] < 0 || a.shape(static_cast<py::ssize_t>(d)) == want[d];
+  size_t d = 0;
+  for (py::ssize_t n : want) {
+    if (!fits) break;
+    fits = n < 0 || a.shape(static_cast<py::ssize_t>(d)) == n;
+    ++d;
+  }
   if (!fits) {
     std::string got = "(";
-    for (py::ssize_t d = 0; d < a.ndim(); ++d) got += (d ? ", " : "") + std::to_string(a.shape(d));
+    for (py::ssize_t k = 0; k < a.ndim(); ++k) got += (k ? ", " : "") + std::to_string(a.shape(k));
     got += a.ndim() == 1 ? ",)" : ")";
-    ThrowArgument(std::string(what) + ": expected shape " + shape_text + ", got " + got);
+    ThrowArgument(std::string(what) + ": expected shape " + ShapeText(want) + ", got " + got);
   }
   out.data = static_cast<const char*>(a.data());
-  for (py::ssize_t d = 0; d < a.ndim(); ++d) {
-    out.shape.push_back(a.shape(d));
-    out.strides.push_back(a.strides(d));
+  for (py::ssize_t k = 0; k < a.ndim(); ++k) {
+    out.shape[static_cast<size_t>(k)] = a.shape(k);
+    out.strides[static_cast<size_t>(k)] = a.strides(k);
   }
   return out;
 }
