@@ -66,7 +66,8 @@ void FitOptions::AddTo(CLI::App& app) {
                  "average (0: split while it pays)")
       ->capture_default_str();
   app.add_option("--max-spheres", settings.max_spheres,
-                 "tightening: splitting stops at this many spheres (spheres are not merged to meet it)")
+                 "the budget: at most this many spheres (the cheapest pairs of a part are merged down to it, "
+                 "splitting stops at it; at least the character's body parts)")
       ->capture_default_str();
   app.add_flag("--no-bind-overlap", no_bind_overlap, "keep pairs that already overlap in the rest pose");
 }
@@ -106,6 +107,9 @@ void PrintFitSummary(const lib::FitResult& fit, double import_seconds) {
       "growth: %d spheres grew to hold their triangles, by %.4f of body height on average, %.4f at most; %d shrank; %d "
       "dropped\n",
       r.spheres_grown, r.growth_mean, r.growth_max, r.spheres_shrunk, r.spheres_dropped);
+  if (r.spheres_merged_for_budget > 0) {
+    std::printf("budget: %d pairs merged to meet --max-spheres\n", r.spheres_merged_for_budget);
+  }
   if (r.standoff_before > 0.0f) {
     std::printf(
         "tightening: mean standoff %.2f%% -> %.2f%% of body height (estimated); %d spheres added by splits, "

@@ -37,6 +37,20 @@ def test_check_reports_an_unreadable_file_and_runs_the_others(tmp_path, builtin_
     assert report["summary"]["clips"] == len(ss.clip_names(builtin_glb)) > 0
 
 
+def test_fit_meets_the_sphere_budget_and_refuses_one_below_the_parts():
+    default = ss.fit()  # the built-in character
+    assert len(default.radii) > 25
+    budget = ss.fit(max_spheres=25)
+    assert len(budget.radii) <= 25
+    parts = len(set(budget.sphere_part.tolist()))
+    try:
+        ss.fit(max_spheres=parts - 1)
+    except ss.InvalidArgument as e:
+        assert f"max spheres {parts - 1} is below its {parts} body parts" in str(e)
+    else:
+        raise AssertionError("a budget below the part count was accepted")
+
+
 def test_the_stubs_name_what_the_module_has():
     stub = pathlib.Path(ss.__file__).with_name("_skinspheres.pyi")
     tree = ast.parse(stub.read_text())

@@ -95,8 +95,13 @@ struct OwnedSpheres {
 Result<OwnedSpheres> AssignOwnership(const RawCharacter& ch, const BodyParts& parts, std::span<const PartSpheres> paper,
                                      int refine_iterations);
 
+// The budget is reachable: kInvalidArgument when settings.max_spheres is below the number of parts
+// that own triangles (each keeps at least one sphere), naming the character and both counts.
+std::optional<Error> CheckSphereBudget(const RawCharacter& ch, const OwnedSpheres& owned, const FitSettings& settings);
+
 // 4, beyond the paper: the tightening pass on the owned spheres (those owning nothing are dropped
-// first). Fills the report's dropped, split, hand-over, merge and standoff figures.
+// first), or with settings.tighten off its budget step alone. Fills the report's dropped, split,
+// hand-over, merge and standoff figures.
 void TightenOwnedSpheres(const RawCharacter& ch, const FitSettings& settings, OwnedSpheres* owned, FitReport* report);
 
 // What the set describes: source file, vertex and triangle counts, the settings (params_json), the

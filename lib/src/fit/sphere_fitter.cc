@@ -21,8 +21,11 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   // 4. Ownership and refinement, then the tightening pass.
   auto owned = AssignOwnership(ch, parts, *paper, settings.refine_iterations);
   if (!owned.ok()) return owned.error();
+  if (auto error = CheckSphereBudget(ch, *owned, settings)) return *error;
   FitResult out;
-  if (settings.tighten) TightenOwnedSpheres(ch, settings, &*owned, &out.report);
+  if (settings.tighten || owned->spheres.size() > static_cast<size_t>(settings.max_spheres)) {
+    TightenOwnedSpheres(ch, settings, &*owned, &out.report);  // (with tighten off: the budget only)
+  }
 
   // The set: what it describes and its spheres, 5. excluded pairs, 6. fast-refit data, 7. the mesh
   // (and the influences' reach, which needs it).

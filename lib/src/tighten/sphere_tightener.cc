@@ -2,6 +2,7 @@
 // tightener.h and their own files).
 #include "skinspheres/lib/tighten/sphere_tightener.h"
 
+#include <algorithm>
 #include <tuple>
 
 #include "tightener.h"
@@ -13,11 +14,20 @@ TightenReport TightenSpheres(const RawCharacter& character, const TightenSetting
   TightenReport rep;
   Tightener t(character, settings, *spheres);
   rep.dropped += t.DropEmpty();
+  if (settings.budget_only) {  // 3b alone
+    rep.budget_merges = t.MergeToBudget(static_cast<size_t>(std::max(1, settings.max_spheres)));
+    rep.dropped += t.DropEmpty();
+    t.Finish();
+    return rep;
+  }
   std::tie(rep.exposure_before, rep.standoff_before) = t.TotalExposure();
   // 1. Centre search, 2. hand-over, 3. merge (spheres left with nothing are dropped).
   for (int round = 0; round < settings.search_rounds; ++round) t.SearchAll();
   rep.triangles_handed_over += t.HandOver();
   rep.merges = t.MergeStacked();
+  rep.dropped += t.DropEmpty();
+  // 3b. The budget.
+  rep.budget_merges = t.MergeToBudget(static_cast<size_t>(std::max(1, settings.max_spheres)));
   rep.dropped += t.DropEmpty();
   // 4. Splitting.
   rep.splits = t.SplitLoop();

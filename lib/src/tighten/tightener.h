@@ -49,6 +49,9 @@ class Tightener {
   int HandOver();
   // Step 3: merges spheres of one part that nearly coincide. Returns the number of merges.
   int MergeStacked();
+  // Step 3b: merges the cheapest pairs of a part until at most `budget` spheres own triangles (or
+  // one is left per part). Returns the number of merges (merge.cc).
+  int MergeToBudget(size_t budget);
   // Removes spheres that own nothing. Returns how many.
   int DropEmpty();
   // Step 4. Returns the number of spheres added by splits (split.cc).

@@ -1,9 +1,13 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <limits>
+#include <string>
 
 #include "lib/analytic_shapes.h"
+#include "skinspheres/lib/body_parts/body_parts.h"
+#include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
 
@@ -292,6 +296,39 @@ TEST_P(SharedCharacterFit, CoversEveryTriangleAndIsThreadIndependent) {
 INSTANTIATE_TEST_SUITE_P(Assets, SharedCharacterFit,
                          ::testing::Values("CesiumMan.glb", "RobotExpressive.glb", "Soldier.glb", "Xbot.glb"),
                          [](const auto& p) { return p.param.substr(0, p.param.find('.')); });
+
+// --max-spheres is a budget: the built-in character's 70 spheres merge down to it, with or without
+// the tightening pass, every triangle still inside its sphere; below the part count it is refused
+// with a message naming both counts.
+TEST(SphereFitterTest, TheSphereBudgetIsMetByMergingAndRefusedBelowThePartCount) {
+  const RawCharacter ch = MakeBuiltinCharacter();
+  auto parts = SplitBodyParts(ch);
+  ASSERT_TRUE(parts.ok());
+  FitSettings settings;
+  const FitResult full = Fit(ch, *parts, settings);
+  std::vector<uint16_t> used(full.spheres.sphere_part.begin(), full.spheres.sphere_part.end());
+  std::sort(used.begin(), used.end());
+  const int part_count = static_cast<int>(std::unique(used.begin(), used.end()) - used.begin());
+  for (bool tighten : {true, false}) {
+    for (int budget : {part_count, 25, static_cast<int>(full.spheres.size()) - 1}) {
+      settings.tighten = tighten;
+      settings.max_spheres = budget;
+      const FitResult fit = Fit(ch, *parts, settings);
+      EXPECT_LE(static_cast<int>(fit.spheres.size()), budget) << "tighten " << tighten;
+      EXPECT_GT(fit.report.spheres_merged_for_budget, 0);
+      ExpectEveryTriangleCovered(ch, fit.spheres);
+      EXPECT_EQ(CountUncoveredTriangles(ch, fit.spheres), 0);
+    }
+  }
+  settings.max_spheres = part_count - 1;
+  auto refused = FitSpheres(ch, *parts, settings);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(refused.error().message.find("max spheres " + std::to_string(part_count - 1) + " is below its " +
+                                         std::to_string(part_count) + " body parts"),
+            std::string::npos)
+      << refused.error().message;
+}
 
 }  // namespace
 }  // namespace skinspheres::lib

@@ -1,9 +1,17 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <random>
+
 #include "lib/analytic_shapes.h"
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/lib/geometry/enclosing_sphere.h"
+#include "skinspheres/lib/geometry/mesh_helpers.h"
 #include "skinspheres/lib/metrics/fit_metrics.h"
 #include "skinspheres/lib/tighten/sphere_tightener.h"
 
@@ -152,6 +160,94 @@ TEST_F(TightenBuiltin, AStrayTriangleFarAwayDoesNotInflateTheSet) {
   TightenSpheres(stray, TightenSettings{}, &spheres);
   ExpectExactOwnership(stray, stray_parts, spheres);
   EXPECT_LE(spheres.size(), plain.size() + 3);  // not a flood of splits chasing a coarse field
+}
+
+// The budget (step 3b) alone: one sphere fewer, and the pair merged is the one whose joint ball
+// adds least volume to the pair's union, by an independent Monte Carlo estimate of that volume
+// for every pair of a part (the merge itself prices it in closed form).
+TEST_F(TightenBuiltin, TheBudgetMergesThePairThatAddsLeastVolume) {
+  std::vector<TightSphere> out = input_;
+  TightenSettings settings;
+  settings.budget_only = true;
+  settings.max_spheres = static_cast<int>(input_.size()) - 1;
+  const TightenReport rep = TightenSpheres(ch_, settings, &out);
+  ASSERT_EQ(out.size(), input_.size() - 1);
+  EXPECT_EQ(rep.budget_merges, 1);
+  EXPECT_EQ(rep.splits, 0);
+  ExpectExactOwnership(ch_, parts_, out);
+
+  // Added volume of merging a and b, sampled: vol(ball) x the share of it outside both spheres.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  auto added = [&](const TightSphere& a, const TightSphere& b) {
+    std::vector<Eigen::Vector3f> pts;
+    for (const auto* s : {&a, &b}) {
+      for (uint32_t t : s->triangles) {
+        for (int v = 0; v < 3; ++v) pts.push_back(ch_.positions_rest[ch_.triangles[t][v]]);
+      }
+    }
+    const Ball ball = MinimumBall(pts);
+    int outside = 0, inside_ball = 0;
+    while (inside_ball < 20000) {
+      const Eigen::Vector3d q(unit(rng), unit(rng), unit(rng));
+      if (q.squaredNorm() > 1.0) continue;
+      ++inside_ball;
+      const Eigen::Vector3d p = ball.center.cast<double>() + double(ball.radius) * q;
+      if ((p - a.center.cast<double>()).norm() > a.radius && (p - b.center.cast<double>()).norm() > b.radius) {
+        ++outside;
+      }
+    }
+    const double r = ball.radius;
+    return 4.0 / 3.0 * std::numbers::pi * r * r * r * outside / inside_ball;
+  };
+  // Which input pair became one output sphere.
+  std::vector<uint32_t> merged_triangles;
+  for (const auto& s : out) {
+    const bool unchanged = std::any_of(input_.begin(), input_.end(), [&](const TightSphere& in) {
+      return in.triangles == s.triangles && in.center == s.center;
+    });
+    if (!unchanged) merged_triangles = s.triangles;
+  }
+  ASSERT_FALSE(merged_triangles.empty());
+  double best = std::numeric_limits<double>::infinity(), chosen = -1.0;
+  for (size_t a = 0; a < input_.size(); ++a) {
+    for (size_t b = a + 1; b < input_.size(); ++b) {
+      if (input_[a].part != input_[b].part) continue;
+      const double v = added(input_[a], input_[b]);
+      best = std::min(best, v);
+      std::vector<uint32_t> both = input_[a].triangles;
+      both.insert(both.end(), input_[b].triangles.begin(), input_[b].triangles.end());
+      std::sort(both.begin(), both.end());
+      if (both == merged_triangles) chosen = v;
+    }
+  }
+  ASSERT_GE(chosen, 0.0) << "the merged sphere is not the union of two input spheres of one part";
+  // Within the sampling error of the smallest (20,000 samples: ~1% of the ball's volume at worst).
+  const double slack = 0.02 * best + 1e-6 * std::pow(BodyHeight(ch_.positions_rest), 3.0);
+  EXPECT_LE(chosen, best + slack) << "merged a pair adding " << chosen << " where one adds " << best;
+}
+
+// Budgets from the part count up: never more spheres than the budget, ownership exact, and a larger
+// budget never measures looser (the independent evaluator's union volume).
+TEST_F(TightenBuiltin, TheBudgetHoldsFromOneSpherePerPartUp) {
+  std::vector<uint16_t> parts;
+  for (const auto& s : input_) parts.push_back(s.part);
+  std::sort(parts.begin(), parts.end());
+  const int part_count = static_cast<int>(std::unique(parts.begin(), parts.end()) - parts.begin());
+  double previous = std::numeric_limits<double>::infinity();
+  for (int budget : {part_count, 20, 40}) {
+    std::vector<TightSphere> out = input_;
+    TightenSettings settings;
+    settings.max_spheres = budget;
+    const TightenReport rep = TightenSpheres(ch_, settings, &out);
+    EXPECT_LE(static_cast<int>(out.size()), budget);
+    EXPECT_GT(rep.budget_merges, 0);
+    ExpectExactOwnership(ch_, parts_, out);
+    const FitMetrics m = Measure(ch_, out);
+    EXPECT_EQ(m.uncovered_triangles, 0u);
+    EXPECT_LT(m.volume_ratio, previous) << "budget " << budget;
+    previous = m.volume_ratio;
+  }
 }
 
 TEST_F(TightenBuiltin, IsDeterministic) {

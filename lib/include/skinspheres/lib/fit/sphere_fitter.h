@@ -29,7 +29,8 @@
 //     `tighten` is off, the tightening pass (tighten/sphere_tightener.h) lowers the union's
 //     exposure (its surface outside the other spheres, weighted by the distance to the mesh):
 //     centre search, hand-over of rim triangles another sphere of the part already holds, merging
-//     of stacked spheres, and splitting while it pays by split_gain, up to max_spheres. Spheres
+//     of stacked spheres, merging down to the budget max_spheres when there are more, and
+//     splitting while it pays by split_gain, up to max_spheres. Spheres
 //     that own nothing are dropped. Each kept sphere's radius is the holding radius
 //     (geometry/enclosing_sphere.h) of the vertices of its triangles: growing where the paper's
 //     sphere left part of its patch outside (Figure 23), shrinking where it was larger than its
@@ -75,13 +76,14 @@ struct FitSettings {
   int refine_iterations = 2;
   // The tightening pass (tighten/sphere_tightener.h): centre search, hand-over, merging, then
   // splitting. A sphere is split when its searched halves expose at most split_gain of what it
-  // exposes (0: never split), the most exposed sphere first, until there are max_spheres spheres (a
-  // budget only stops splitting: spheres are not merged to meet it, so the paper's count can exceed
-  // it). false: the paper's spheres after ownership and refine only (docs/FIT_REPORT.md compares
-  // both). Splitting stops early once the union stands off the body by target_standoff of the body
-  // height on average (as the pass estimates it; 0: split while it pays): tight enough for a mean
-  // standoff of 1.5% of the height (the target tests/lib/metrics/tightness_tests.cc holds the fit
-  // to) with margin, without spending spheres (and run time) where they buy little.
+  // exposes (0: never split), the most exposed sphere first, until there are max_spheres spheres.
+  // max_spheres is a budget: when the paper's spheres are more, the pairs of a part whose joint
+  // ball adds least volume are merged down to it first (also with tighten off); it must be at
+  // least the number of body parts that have triangles (each needs a sphere). false: the paper's
+  // spheres after ownership and refine only (docs/FIT_REPORT.md compares both). Splitting stops early once the union
+  // stands off the body by target_standoff of the body height on average (as the pass estimates it; 0: split while it
+  // pays): tight enough for a mean standoff of 1.5% of the height (the target tests/lib/metrics/tightness_tests.cc
+  // holds the fit to) with margin, without spending spheres (and run time) where they buy little.
   bool tighten = true;
   float split_gain = 0.9f;
   int max_spheres = 200;
@@ -115,6 +117,7 @@ struct FitReport {
   int spheres_split = 0;          // splits taken by the tightening pass
   int triangles_handed_over = 0;  // triangles it moved to another sphere that already held them
   int spheres_merged = 0;
+  int spheres_merged_for_budget = 0;  // pairs merged to meet max_spheres
   // The union's mean standoff from the body as the tightening pass estimates it (relative to the
   // body height; fit_metrics.h measures it exactly): before and after the pass (0 without it).
   float standoff_before = 0.0f, standoff_after = 0.0f;

@@ -26,6 +26,9 @@
 //  3. Merge: two spheres of a part whose joint minimum ball is within 5% of the larger radius
 //     become that ball (stacked spheres hide each other's surface, so splitting one alone never
 //     pays). Spheres left with no triangle are dropped.
+//  3b. Budget: while more than `max_spheres` spheres are left, the pair of one part whose joint
+//     minimum ball adds least volume to what the pair covers, vol(ball) - vol(a ∪ b), becomes that
+//     ball (a part keeps at least one sphere; the fitter refuses a budget below its part count).
 //  4. Splitting, the most exposed sphere not yet tried first: its triangles are cut in two across
 //     the principal axes of their centroids (median cuts); the `searched_cuts` cuts whose halves'
 //     minimum balls expose least have both halves centre-searched against each other, and the
@@ -38,7 +41,7 @@
 //  5. Centre search, hand-over and merge again.
 // Guarantees: every input triangle ends up owned by exactly one sphere of its own part, and inside
 // it (radius = max distance from the float centre to its vertices, computed in double and rounded
-// up to float); splitting never takes the count past max(input count, max_spheres); the result is a pure
+// up to float); at most max(max_spheres, parts with triangles) spheres are left; the result is a pure
 // function of the inputs (sequential, no randomness), so independent of threads.
 // Cost: Xbot (49k triangles, 84 spheres in) ~100 ms on one core, most of it the field and the
 // searches (bench/fitter_bench.cc).
@@ -63,7 +66,8 @@ struct TightSphere {
 };
 
 struct TightenSettings {
-  int max_spheres = 200;  // splitting stops at this many spheres (all parts together)
+  int max_spheres = 200;     // the budget (all parts together): merged down to it, split up to it
+  bool budget_only = false;  // only step 3b (the fitter without its tightening pass)
   // Splitting also stops once the union's estimated mean standoff, Σ E / Σ exposed area, is at
   // most this fraction of the body height (extent along +Y); 0: split while it pays.
   float target_standoff = 0.0125f;
@@ -77,8 +81,9 @@ struct TightenSettings {
 };
 
 struct TightenReport {
-  int splits = 0;  // spheres added by splitting
-  int merges = 0;
+  int splits = 0;         // spheres added by splitting
+  int merges = 0;         // stacked pairs merged (steps 3 and 5)
+  int budget_merges = 0;  // pairs merged to meet max_spheres (step 3b)
   int triangles_handed_over = 0;
   int dropped = 0;               // spheres removed for owning nothing (after hand-over or merge)
   double exposure_before = 0.0;  // Σ E over the input spheres (model units³)
