@@ -93,9 +93,9 @@ int PrintMetrics(const LoadedCharacter& loaded, const lib::FitResult& fit) {
   }
   std::printf(
       "tightness: %zu spheres; union volume / body volume = %.3f (naive one sphere per joint: %.3f with %zu spheres); "
-      "boundary to surface: mean %.4f, max %.4f of body height; uncovered triangles %zu\n",
+      "boundary to surface: mean %.4f, p95 %.4f, max %.4f of body height; uncovered triangles %zu\n",
       set.size(), m->volume_ratio, naive_ratio, naive_count, m->boundary_distance_mean_rel,
-      m->boundary_distance_max_rel, m->uncovered_triangles);
+      m->boundary_distance_p95_rel, m->boundary_distance_max_rel, m->uncovered_triangles);
   std::printf("  (voxel grid %dx%dx%d, body volume %.6g, body covered %.4f, ambiguous voxels %.4f)\n", m->grid_dims.x(),
               m->grid_dims.y(), m->grid_dims.z(), m->body_volume, m->body_covered_fraction, m->body_ambiguous_fraction);
   // Where the boundary stands off most: the spheres with the largest share of the mean distance.

@@ -218,6 +218,19 @@ void MeasureBoundaryDistance(const FitMetricsInput& in, const FitMetricsSettings
     m->boundary_distance_max = mx;
     m->boundary_distance_mean_rel = m->boundary_distance_mean / height;
     m->boundary_distance_max_rel = mx / height;
+    // The area-weighted 95th percentile: the smallest distance below which 95% of the exposed
+    // boundary lies (samples by distance, ties by index).
+    std::vector<uint32_t> order(samples.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<uint32_t>(i);
+    std::sort(order.begin(), order.end(),
+              [&](uint32_t a, uint32_t b) { return dist[a] != dist[b] ? dist[a] < dist[b] : a < b; });
+    double below = 0.0;
+    for (uint32_t i : order) {
+      below += weights[i];
+      m->boundary_distance_p95 = dist[i];
+      if (below >= 0.95 * wsum) break;
+    }
+    m->boundary_distance_p95_rel = m->boundary_distance_p95 / height;
   }
 }
 

@@ -84,6 +84,32 @@ TEST(FitMetrics, SphereBiggerByD) {
   EXPECT_LT(res2->body_covered_fraction, 1.0);
 }
 
+// The 95th percentile is area weighted. Two unit sphere meshes far apart, one held by a sphere
+// 0.1 bigger, the other by one 1.0 bigger: 16π of the boundary area (77%) stands off by 1.0 and
+// 4.84π (23%) by 0.1, so the mean is ~0.79 and the p95 is 1.0; one sphere bigger by d has p95 d.
+TEST(FitMetrics, BoundaryP95IsAreaWeighted) {
+  Mesh m = SphereMesh({0, 0, 0}, 1.0f);
+  const Mesh b = SphereMesh({10, 0, 0}, 1.0f);
+  const int offset = static_cast<int>(m.positions.size());
+  m.positions.insert(m.positions.end(), b.positions.begin(), b.positions.end());
+  for (const Eigen::Vector3i& t : b.triangles) m.triangles.push_back(t + Eigen::Vector3i::Constant(offset));
+  const std::vector<Eigen::Vector3f> c{{0, 0, 0}, {10, 0, 0}};
+  const std::vector<float> rad{1.1f, 2.0f};
+  const auto res = MeasureFit(Input(m, c, rad));
+  ASSERT_TRUE(res.ok()) << res.error().message;
+  const double mean = (4.84 * 0.1 + 16.0 * 1.0) / (4.84 + 16.0);
+  EXPECT_NEAR(res->boundary_distance_mean, mean, 2e-3);
+  EXPECT_NEAR(res->boundary_distance_p95, 1.0, 2e-3);
+  EXPECT_NEAR(res->boundary_distance_p95_rel, res->boundary_distance_p95 / res->body_height, 1e-9);
+  // The second sphere only 0.05 bigger: 52% of the area stands off by 0.1, the rest by 0.05.
+  const std::vector<float> close{1.1f, 1.05f};
+  const auto near = MeasureFit(Input(m, c, close));
+  ASSERT_TRUE(near.ok());
+  EXPECT_NEAR(near->boundary_distance_p95, 0.1, 2e-3);
+  EXPECT_LE(near->boundary_distance_mean, near->boundary_distance_p95);
+  EXPECT_LE(near->boundary_distance_p95, near->boundary_distance_max);
+}
+
 TEST(FitMetrics, TwoOverlappingSpheresLensVolume) {
   const float r = 0.5f, dist = 0.6f;
   const std::vector<Eigen::Vector3f> c{{0, 0, 0}, {dist, 0, 0}};

@@ -4,8 +4,8 @@
 //   1. volume_ratio = vol(∪ spheres) / vol(body): target <= 2; one naive sphere per joint
 //      (NaiveJointSpheres) measures 5.5x on Xbot, 2.6-3.5x on CesiumMan, RobotExpressive and
 //      Soldier (resolution 192);
-//   2. the distance from the union's boundary ∂(∪ S_i) to the mesh surface: area-weighted mean and
-//      max, absolute and relative to the body height (target: mean <= 1.5% of height). Unsigned:
+//   2. the distance from the union's boundary ∂(∪ S_i) to the mesh surface: area-weighted mean,
+//      95th percentile and max, absolute and relative to the body height (target: mean <= 1.5% of height). Unsigned:
 //      boundary inside the body (a sphere too small) counts like boundary outside it;
 //   3. coverage: triangles not inside any single sphere (all three vertices within r + tolerance;
 //      a sphere is convex, so then the whole triangle is inside), and optionally triangles that are
@@ -107,6 +107,8 @@ struct FitMetrics {
   double boundary_distance_max = 0.0;
   double boundary_distance_mean_rel = 0.0;  // divided by body_height
   double boundary_distance_max_rel = 0.0;
+  double boundary_distance_p95 = 0.0;  // area weighted: 95% of the boundary stands off at most this
+  double boundary_distance_p95_rel = 0.0;
   // Each sphere's share of boundary_distance_mean (sums to it): where the union stands off most.
   std::vector<double> sphere_boundary_distance;
 
