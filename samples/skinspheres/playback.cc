@@ -393,14 +393,20 @@ void ClipPlayer::Verify(int f, PlayResult* result) {
   for (size_t s = 0; s < set.size(); ++s) {
     const Eigen::Vector3d c = spheres[s].head<3>().cast<double>();
     const double r = spheres[s].w() * (1.0 + 1e-5);
+    double needed = 0.0;  // the radius around this centre that holds the sphere's triangles
     for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
       const auto& tri = ch.triangles[set.triangles[k]];
+      bool out = false;
       for (int v = 0; v < 3; ++v) {
-        if ((skinned_[tri[v]].cast<double>() - c).norm() > r) {
-          ++outside;
-          break;
-        }
+        const double d = (skinned_[tri[v]].cast<double>() - c).norm();
+        needed = std::max(needed, d);
+        out |= d > r;
       }
+      outside += out ? 1 : 0;
+    }
+    if (needed > 0.0) {
+      result->radius_ratio_sum += spheres[s].w() / needed;
+      ++result->radius_ratio_count;
     }
   }
   if (outside && result->first_bad_frame < 0) result->first_bad_frame = f;
@@ -518,6 +524,11 @@ void PrintPlaySummary(const PlayResult& r, const runtime::SphereSet& set, float 
   stage("narrow", r.times.narrow);
   stage("verify", r.times.verify);
   if (verify) {
+    std::printf(
+        "radius / needed: mean %.3f over %zu sphere-frames (the refitted radius against the smallest around "
+        "the same centre that holds the sphere's triangles)\n",
+        r.radius_ratio_count ? r.radius_ratio_sum / static_cast<double>(r.radius_ratio_count) : 0.0,
+        r.radius_ratio_count);
     std::printf(
         "verify: %zu triangle-frames outside their sphere%s, %zu triangles owned by no sphere; narrow phase %s\n",
         r.triangles_outside,

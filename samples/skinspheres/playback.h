@@ -158,6 +158,11 @@ struct PlayResult {
   size_t triangles_outside = 0;  // triangle-frames outside their sphere (must be 0)
   size_t triangles_unowned = 0;  // triangles of the mesh that no sphere owns (must be 0)
   int first_bad_frame = -1;
+  // Σ over spheres and frames of the refitted radius / the smallest radius around the same centre
+  // holding the sphere's skinned triangles (1 in exact mode up to its rounding margin; the fast
+  // refit's looseness in fast mode), and how many terms.
+  double radius_ratio_sum = 0.0;
+  size_t radius_ratio_count = 0;
   size_t narrow_mismatches = 0;  // frames where the narrow phase differs from the brute-force oracle
   int first_mismatch_frame = -1;
   bool verified() const { return triangles_outside == 0 && triangles_unowned == 0 && narrow_mismatches == 0; }
