@@ -18,7 +18,7 @@ import subprocess
 import sys
 import tempfile
 
-BUDGETS = [8, 12, 16, 20, 30, 40, 60, 80, 100, 130, 160, 200]
+BUDGETS = [8, 12, 16, 20, 30, 40, 60, 80, 100, 130, 160, 200, 300, 400]
 TIGHTNESS = re.compile(r"tightness: (\d+) spheres; union volume / body volume = ([0-9.]+).*"
                        r"boundary to surface: mean ([0-9.]+), p95 ([0-9.]+), max ([0-9.]+)")
 TIME = re.compile(r"time: import [0-9.]+ ms, fit ([0-9.]+) ms")
@@ -28,7 +28,9 @@ def fit(tool, character, budget, out):
     run = subprocess.run([tool, "fit", character, "-o", out, "--metrics", "--target-standoff", "0",
                           "--max-spheres", str(budget)], capture_output=True, text=True)
     if run.returncode != 0:
-        return None  # a budget below the character's part count is refused
+        if "is below its" in run.stderr + run.stdout:
+            return None  # a budget below the character's part count is refused
+        sys.exit(f"{character}: fit --max-spheres {budget} failed:\n{run.stderr}")
     m = TIGHTNESS.search(run.stdout)
     t = TIME.search(run.stdout)
     if not m or not t:
@@ -42,8 +44,8 @@ def svg(curves, path, target):
     w, h, left, bottom, top, right = 640, 400, 60, 45, 20, 150
     xs = [r["spheres"] for rows in curves.values() for r in rows]
     ys = [100 * r["mean"] for rows in curves.values() for r in rows]
-    x_max = max(200, max(xs))
-    y_max = max(1.0, max(ys) * 1.05)
+    x_max = max(200, max(xs) if xs else 0)
+    y_max = max(1.0, max(ys) * 1.05 if ys else 0)
 
     def px(x):
         return left + (w - left - right) * x / x_max
@@ -95,7 +97,7 @@ def main():
         for character in a.characters:
             name = pathlib.Path(character).stem
             rows = [r for r in (fit(a.tool, character, b, out) for b in BUDGETS) if r]
-            # A budget above what splitting pays for gives the same set: keep the first of each count.
+            # Two budgets that end at the same count: keep the first.
             kept = []
             for r in rows:
                 if not kept or r["spheres"] != kept[-1]["spheres"]:

@@ -14,8 +14,10 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <new>
+#include <vector>
 
 #include "commands.h"
 #include "playback.h"
@@ -25,9 +27,10 @@ namespace {
 // Bytes alive through the replaced operator new (from the program's start).
 std::atomic<int64_t> g_live{0};
 
-constexpr size_t kHeader = alignof(std::max_align_t);  // keeps new's alignment
+constexpr size_t kHeader = __STDCPP_DEFAULT_NEW_ALIGNMENT__;  // keeps new's alignment
 
 void* Allocate(size_t size) noexcept {
+  if (size > SIZE_MAX - kHeader) return nullptr;
   auto* base = static_cast<unsigned char*>(std::malloc(size + kHeader));
   if (base == nullptr) return nullptr;
   *reinterpret_cast<size_t*>(base) = size;

@@ -54,7 +54,7 @@ double SharedVolume(double ra, double rb, double d) {
 // of one part whose joint ball adds least volume to what the two already cover,
 // vol(joint ball) - vol(a ∪ b), becomes that ball. The joint ball is the minimum ball of both
 // spheres' vertices, so ownership stays exact. Costs are cached per pair and recomputed only for
-// the sphere a merge changed; ties go to the lowest (a, b). O(P² · V) for the first scan (P
+// the sphere a merge changed; ties go to the lowest (part, a, b). O(P² · V) for the first scan (P
 // spheres in a part, V vertices per sphere), O(P · V) per merge after.
 int Tightener::MergeToBudget(size_t budget) {
   size_t alive = 0;

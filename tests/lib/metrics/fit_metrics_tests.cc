@@ -108,6 +108,18 @@ TEST(FitMetrics, BoundaryP95IsAreaWeighted) {
   EXPECT_NEAR(near->boundary_distance_p95, 0.1, 2e-3);
   EXPECT_LE(near->boundary_distance_mean, near->boundary_distance_p95);
   EXPECT_LE(near->boundary_distance_p95, near->boundary_distance_max);
+  // Weighted by area, not by sample: a small sphere mesh (radius 0.1, held 0.1 off by a 0.2
+  // sphere: 3.5% of the boundary area but half the samples) beside the unit one held 0.05 off.
+  // By area the p95 is 0.05; counting samples would give 0.1.
+  Mesh small = SphereMesh({0, 0, 0}, 1.0f);
+  const Mesh tiny = SphereMesh({10, 0, 0}, 0.1f);
+  const int base = static_cast<int>(small.positions.size());
+  small.positions.insert(small.positions.end(), tiny.positions.begin(), tiny.positions.end());
+  for (const Eigen::Vector3i& t : tiny.triangles) small.triangles.push_back(t + Eigen::Vector3i::Constant(base));
+  const std::vector<float> weighted{1.05f, 0.2f};
+  const auto w = MeasureFit(Input(small, c, weighted));
+  ASSERT_TRUE(w.ok());
+  EXPECT_NEAR(w->boundary_distance_p95, 0.05, 2e-3);
 }
 
 TEST(FitMetrics, TwoOverlappingSpheresLensVolume) {
