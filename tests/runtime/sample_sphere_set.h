@@ -1,6 +1,11 @@
 // A small, valid SphereSet for runtime tests.
 #pragma once
 
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
 #include "skinspheres/runtime/format/sphere_set.h"
 
 namespace skinspheres::runtime {
@@ -78,6 +83,46 @@ inline SphereSet TwoJointsWithMesh() {
   set.mesh.influence_offsets = {0, 1, 3, 6, 7};
   set.mesh.influence_binds = {0, 0, 1, 0, 1, 2, 1};
   set.mesh.influence_weights = {1.0f, 0.75f, 0.25f, 0.5f, 0.25f, 0.25f, 1.0f};
+  return set;
+}
+
+// TwoJointsWithMesh with joint b's rest transform moved by (0.3, 0.1, 0) from its bind pose (a bone
+// length that differs; the bind pose is identity for both joints), and the rest-pose data as the
+// fitter writes it: rest positions by skinning at rest, each sphere the box centre of its vertices,
+// radius_fast holding every rest copy. Each vertex's rest copies through its two joints lie apart:
+// the case the fast refit's bind-pose reference is for (refit_job.h, "Reference frame").
+inline SphereSet TwoJointsRestAwayFromBind() {
+  SphereSet set = TwoJointsWithMesh();
+  const Eigen::Affine3f turn(Eigen::Translation3f(0.3f, 0.1f, 0.0f));
+  set.joint_rest_world[1] = turn.matrix();
+  std::vector<Eigen::Vector3d> rest_positions(4, Eigen::Vector3d::Zero());
+  std::vector<std::vector<Eigen::Vector3d>> copies(4);
+  for (uint32_t v = 0; v < 4; ++v) {
+    for (uint32_t q = set.mesh.influence_offsets[v]; q < set.mesh.influence_offsets[v + 1]; ++q) {
+      const skinning::BindEntry& b = set.mesh.binds[set.mesh.influence_binds[q]];
+      const Eigen::Vector3d copy =
+          (set.joint_rest_world[static_cast<size_t>(b.joint)].cast<double>() * b.inverse_bind.cast<double>() *
+           set.mesh.positions_bind[v].cast<double>().homogeneous())
+              .head<3>();
+      rest_positions[v] += double{set.mesh.influence_weights[q]} * copy;
+      copies[v].push_back(copy);
+    }
+  }
+  for (size_t s = 0; s < 2; ++s) {
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e30), hi = -lo;
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+      lo = lo.cwiseMin(rest_positions[set.vertices[k]]), hi = hi.cwiseMax(rest_positions[set.vertices[k]]);
+    }
+    const Eigen::Vector3d c = 0.5 * (lo + hi);
+    double r = 0.0, r_fast = 0.0;
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+      r = std::max(r, (rest_positions[set.vertices[k]] - c).norm());
+      for (const auto& copy : copies[set.vertices[k]]) r_fast = std::max(r_fast, (copy - c).norm());
+    }
+    set.centers_rest[s] = c.cast<float>();
+    set.radii_rest[s] = std::nextafter(static_cast<float>(r), 1e30f);
+    set.radii_fast[s] = std::max(set.radii_rest[s], std::nextafter(static_cast<float>(r_fast), 1e30f));
+  }
   return set;
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "fit_stages.h"
+#include "skinspheres/runtime/refit/refit_job.h"
 
 namespace skinspheres::lib {
 
@@ -61,6 +62,16 @@ void WriteInfluenceReach(runtime::SphereSet* set) {
   // bit. It fails only for a vertex weighted on a joint outside its sphere's influences, which
   // WriteFastRefitData never leaves (and the self-check would refuse).
   if (auto reach = runtime::InfluenceReachFromMesh(*set); reach.ok()) set->influence_reach = std::move(*reach);
+}
+
+void WriteFastReference(runtime::SphereSet* set) {
+  // The runtime's own choice (refit_job.h, "Reference frame"), stored so that the set, its JSON and
+  // its fast-only binary file refit alike. An unsound set is left without one: the self-check
+  // refuses it with its own message.
+  if (!runtime::ChooseFastReference(set).ok()) {
+    set->fast_reference_inverse.clear();
+    set->fast_reference_spheres.clear();
+  }
 }
 
 }  // namespace skinspheres::lib

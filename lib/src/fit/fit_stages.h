@@ -12,6 +12,7 @@
 //   6. WriteFastRefitData               fast_refit_data.cc
 //   7. WriteSetMesh                     set_mesh.cc
 //      WriteInfluenceReach              fast_refit_data.cc
+//      WriteFastReference               fast_refit_data.cc
 //   report: SummarisePartReports        fit_report.cc
 //   self-check: CheckFittedSet          bind_pose_check.cc
 #pragma once
@@ -128,6 +129,10 @@ void WriteSetMesh(const RawCharacter& ch, runtime::SphereSet* set);
 // the largest weight any source vertex of the sphere gives that joint), which tightens the fast
 // refit bound; none without a mesh.
 void WriteInfluenceReach(runtime::SphereSet* set);
+
+// 7c. The fast refit's reference frame (runtime::ChooseFastReference): the bind pose when the rest
+// pose is not the bind pose and it bounds the spheres tighter; none otherwise.
+void WriteFastReference(runtime::SphereSet* set);
 
 // The per-part reports with their final sphere counts, and the paper's F over all parts (weighted
 // by the contact points).

@@ -28,13 +28,14 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   }
 
   // The set: what it describes and its spheres, 5. excluded pairs, 6. fast-refit data, 7. the mesh
-  // (and the influences' reach, which needs it).
+  // (and the influences' reach and the fast refit's reference frame, which need it).
   WriteSetHeader(ch, parts, settings, rest_world, &out.spheres);
   WriteOwnedSpheres(ch, parts, *owned, &out.spheres, &out.report);
   WriteExcludedPairs(ch.skeleton, settings, &out.spheres);
   WriteFastRefitData(ch, rest_world, &out.spheres);
   WriteSetMesh(ch, &out.spheres);
   WriteInfluenceReach(&out.spheres);
+  WriteFastReference(&out.spheres);
   SummarisePartReports(*paper, out.spheres, &out.report);
 
   // The self-check: a consistent set, every triangle inside its owner in the bind pose.

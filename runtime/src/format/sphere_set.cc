@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "format/affine_inverse.h"
+
 namespace skinspheres::runtime {
 
 const char* ToString(ExclusionReason reason) {
@@ -324,11 +326,49 @@ std::optional<Error> CheckMesh(const SphereSet& set) {
   return std::nullopt;
 }
 
+// The fast refit's reference frame (both arrays empty, or sized per joint and per sphere): finite,
+// invertible transforms, finite centres, positive radii; with a mesh, each radius at least the one
+// its source vertices' reference copies need (a smaller one from a hostile file would give fast
+// spheres that miss vertices).
+std::optional<Error> CheckFastReference(const SphereSet& set) {
+  if (set.fast_reference_inverse.empty() && set.fast_reference_spheres.empty()) return std::nullopt;
+  if (set.fast_reference_inverse.size() != set.joint_count() || set.fast_reference_spheres.size() != set.size()) {
+    return Invalid("the fast reference has " + std::to_string(set.fast_reference_inverse.size()) + " transforms and " +
+                   std::to_string(set.fast_reference_spheres.size()) + " spheres for " +
+                   std::to_string(set.joint_count()) + " joints and " + std::to_string(set.size()) +
+                   " spheres (one each, or none)");
+  }
+  for (size_t j = 0; j < set.joint_count(); ++j) {
+    const Mat4f& m = set.fast_reference_inverse[j];
+    if (!m.allFinite() || !internal::AffineInverse(m.cast<double>())) {
+      return Invalid("joint " + std::to_string(j) + "'s fast reference transform is not finite or not invertible");
+    }
+  }
+  for (size_t s = 0; s < set.size(); ++s) {
+    const Vec4f& r = set.fast_reference_spheres[s];
+    if (!r.allFinite() || !(r.w() > 0.0f) || r.cwiseAbs().maxCoeff() > 1e18f) {
+      return Invalid("sphere " + std::to_string(s) + "'s fast reference sphere is not finite, has a radius <= 0 or " +
+                     "lies beyond 1e18 units");
+    }
+  }
+  if (!set.has_mesh() || set.fast_only) return std::nullopt;
+  auto needed = FastReferenceRadiiFromMesh(set);
+  if (!needed.ok()) return needed.error();
+  for (size_t s = 0; s < set.size(); ++s) {
+    if (set.fast_reference_spheres[s].w() < (*needed)[s]) {
+      return Invalid("sphere " + std::to_string(s) + " has fast reference radius " +
+                     Digits(set.fast_reference_spheres[s].w()) + ", below the " + Digits((*needed)[s]) +
+                     " its source vertices need");
+    }
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 std::optional<Error> SphereSet::Validate() const {
   for (const auto check : {CheckSkeleton, CheckParts, CheckSphereArrays, CheckSpheres, CheckOwnership, CheckInfluences,
-                           CheckExclusions, CheckMesh}) {
+                           CheckExclusions, CheckMesh, CheckFastReference}) {
     if (auto err = check(*this)) return err;
   }
   return std::nullopt;
@@ -368,6 +408,43 @@ Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set) {
     for (uint32_t k = k0; k < k1; ++k) entry_of[set.influence_joints[k]] = UINT32_MAX;
   }
   return reach;
+}
+
+Result<std::vector<float>> FastReferenceRadiiFromMesh(const SphereSet& set) {
+  using internal::Mat4d;
+  using internal::Vec4d;
+  const skinning::SkinnedMesh& mesh = set.mesh;
+  // Per bind entry: R_j · IBM_b, carrying a bind-space vertex to its copy in reference space.
+  std::vector<Mat4d> copy_of(mesh.binds.size());
+  for (size_t b = 0; b < mesh.binds.size(); ++b) {
+    const size_t j = static_cast<size_t>(mesh.binds[b].joint);
+    const auto back = internal::AffineInverse(set.fast_reference_inverse[j].cast<double>());
+    if (!back) {
+      return Invalid("joint " + std::to_string(j) + "'s fast reference transform is not invertible");
+    }
+    copy_of[b] = *back * mesh.binds[b].inverse_bind.cast<double>();
+  }
+  std::vector<float> radii(set.size());
+  for (size_t s = 0; s < set.size(); ++s) {
+    const Eigen::Vector3d c = set.fast_reference_spheres[s].head<3>().cast<double>();
+    double r2 = 0.0;
+    for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
+      const uint32_t v = set.vertices[i];
+      const Vec4d p = mesh.positions_bind[v].cast<double>().homogeneous();
+      bool weighted = false;
+      for (uint32_t q = mesh.influence_offsets[v]; q < mesh.influence_offsets[v + 1]; ++q) {
+        if (!(mesh.influence_weights[q] > 0.0f)) continue;
+        weighted = true;
+        r2 = std::max(r2, ((copy_of[mesh.influence_binds[q]] * p).head<3>() - c).squaredNorm());
+      }
+      if (!weighted) {
+        return Invalid("sphere " + std::to_string(s) + ": its source vertex " + std::to_string(v) +
+                       " has no weight above 0");
+      }
+    }
+    radii[s] = std::nextafter(static_cast<float>(std::sqrt(r2)), std::numeric_limits<float>::infinity());
+  }
+  return radii;
 }
 
 }  // namespace skinspheres::runtime

@@ -86,11 +86,15 @@ constexpr std::array<SectionInfo, kSphereSetSectionCount> kSections = {{
     {"mesh_influence_binds", 2},
     {"mesh_influence_weights", 4},
     {"influence_reach", 4},
+    {"fast_reference_inverse", 4},
+    {"fast_reference_spheres", 4},
 }};
 
 // Which sections a file of this layout version with these flags holds (index id - 1).
 bool SectionPresent(size_t id, uint32_t flags, uint32_t version) {
-  if (id == static_cast<size_t>(SphereSetSection::kInfluenceReach)) return version >= kSphereSetBinaryVersion;
+  if (id >= static_cast<size_t>(SphereSetSection::kFastReferenceInverse)) return version >= kSphereSetBinaryVersion;
+  if (id == static_cast<size_t>(SphereSetSection::kInfluenceReach))
+    return version >= kSphereSetBinaryVersionWithoutReference;
   if (id >= kFirstMeshSection) return (flags & kSphereSetBinaryFlagHasMesh) != 0;
   if (id >= kFirstFastOnlyOmitted) return (flags & kSphereSetBinaryFlagFastOnly) == 0;
   return true;
@@ -345,6 +349,12 @@ std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set, SphereSetBinar
     if (auto reach = InfluenceReachFromMesh(set); reach.ok()) reach_from_mesh = std::move(*reach);
   }
   w.Add(SphereSetSection::kInfluenceReach, reach_from_mesh.empty() ? set.influence_reach : reach_from_mesh);
+  w.Add(SphereSetSection::kFastReferenceInverse,
+        set.fast_reference_inverse.empty() ? nullptr : set.fast_reference_inverse.data()->data(),
+        16 * set.fast_reference_inverse.size());
+  w.Add(SphereSetSection::kFastReferenceSpheres,
+        set.fast_reference_spheres.empty() ? nullptr : set.fast_reference_spheres.data()->data(),
+        4 * set.fast_reference_spheres.size());
   if (mesh) {
     const skinning::SkinnedMesh& m = set.mesh;
     std::vector<int32_t> bind_joints;
@@ -389,10 +399,11 @@ struct SphereSetBinaryReader {
     }
     const std::byte* base = bytes.data();
     const uint32_t version = Load32(base + kVersionAt);
-    if (version != kSphereSetBinaryVersion && version != kSphereSetBinaryVersionWithoutReach) {
+    if (version != kSphereSetBinaryVersion && version != kSphereSetBinaryVersionWithoutReference &&
+        version != kSphereSetBinaryVersionWithoutReach) {
       return Refuse(src,
                     "layout version " + std::to_string(version) + " is not supported (this build reads versions " +
-                        std::to_string(kSphereSetBinaryVersionWithoutReach) + " and " +
+                        std::to_string(kSphereSetBinaryVersionWithoutReach) + " to " +
                         std::to_string(kSphereSetBinaryVersion) + ")",
                     ErrorCode::kVersionMismatch);
     }
@@ -523,6 +534,14 @@ struct SphereSetBinaryReader {
       return Refuse(src, "section influence_reach has " + std::to_string(reach) + " elements, expected " +
                              std::to_string(influences) + " (one per influence) or 0");
     }
+    const size_t ref_inverse = v.sections_[static_cast<uint32_t>(S::kFastReferenceInverse) - 1].count;
+    const size_t ref_spheres = v.sections_[static_cast<uint32_t>(S::kFastReferenceSpheres) - 1].count;
+    if (!(ref_inverse == 0 && ref_spheres == 0) && !(ref_inverse == 16 * joints && ref_spheres == 4 * n)) {
+      return Refuse(src, "sections fast_reference_inverse and fast_reference_spheres have " +
+                             std::to_string(ref_inverse) + " and " + std::to_string(ref_spheres) +
+                             " elements, expected " + std::to_string(16 * joints) + " and " + std::to_string(4 * n) +
+                             " (one per joint and per sphere) or both 0");
+    }
     if (v.sections_[static_cast<uint32_t>(S::kExcludedPairs) - 1].count % 3 != 0) {
       return Refuse(src, "section excluded_pairs does not hold whole (i, j, reason) triples");
     }
@@ -642,6 +661,8 @@ Result<SphereSet> SphereSetBinaryView::ToSphereSet() const {
   CopyInto(set.influence_joints, influence_joints());
   CopyInto(set.influence_weights, influence_weights());
   CopyInto(set.influence_reach, influence_reach());
+  CopyFloats(set.fast_reference_inverse, fast_reference_inverse(), 16);
+  CopyFloats(set.fast_reference_spheres, fast_reference_spheres(), 4);
   const auto pairs = excluded_pairs();
   set.excluded_pairs.resize(pairs.size() / 3);
   for (size_t k = 0; k < set.excluded_pairs.size(); ++k) {

@@ -27,6 +27,10 @@ std::string WriteSphereSetJson(const SphereSet& set) {
     joints.push_back({{"name", set.joint_names[k]},
                       {"parent", set.joint_parents[k]},
                       {"rest_world", std::vector<float>(m.data(), m.data() + 16)}});
+    if (set.fast_reference_inverse.size() == set.joint_count()) {
+      const Mat4f& r = set.fast_reference_inverse[k];
+      joints.back()["fast_reference_inverse"] = std::vector<float>(r.data(), r.data() + 16);
+    }
   }
   j["skeleton"] = {{"joints", joints}};
 
@@ -55,6 +59,10 @@ std::string WriteSphereSetJson(const SphereSet& set) {
                                             set.triangles.begin() + set.triangle_offsets[s + 1])},
         {"influences", influences},
     });
+    if (set.fast_reference_spheres.size() == set.size()) {
+      const Vec4f& r = set.fast_reference_spheres[s];
+      spheres.back()["fast_reference"] = {r.x(), r.y(), r.z(), r.w()};
+    }
     if (!set.influence_reach.empty() && set.influence_reach.size() == set.influence_joints.size()) {
       spheres.back()["influence_reach"] =
           std::vector<float>(set.influence_reach.begin() + set.influence_offsets[s],
@@ -182,7 +190,7 @@ void ReadMesh(const json& m, StreamedMesh&& streamed, SphereSet* set) {
 
 // One element of "spheres", appended to the set's per-sphere arrays and CSR lists. "influence_reach"
 // is optional, but all spheres have it or none does (the first sphere decides: *has_reach).
-void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach) {
+void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool* has_reference) {
   const std::string where = "$.spheres[" + std::to_string(s) + "]";
   if (Number<uint32_t>(Field(sp, "id", where), where + ".id") != s) throw ReadError{where + ".id is not its index"};
   set->sphere_part.push_back(Number<uint16_t>(Field(sp, "part", where), where + ".part"));
@@ -224,6 +232,19 @@ void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach) {
     }
   }
   set->influence_offsets.push_back(static_cast<uint32_t>(set->influence_joints.size()));
+  // "fast_reference" (sphere_set.h): optional, all spheres or none, like "influence_reach".
+  const auto reference = sp.find("fast_reference");
+  if (s == 0) *has_reference = reference != sp.end();
+  if ((reference != sp.end()) != *has_reference) {
+    throw ReadError{where + (*has_reference ? ".fast_reference is missing (the first sphere has one)"
+                                            : ".fast_reference is given but the first sphere has none")};
+  }
+  if (*has_reference) {
+    const json& r = Array(*reference, where + ".fast_reference", 4);
+    set->fast_reference_spheres.emplace_back(
+        Number<float>(r[0], where + ".fast_reference"), Number<float>(r[1], where + ".fast_reference"),
+        Number<float>(r[2], where + ".fast_reference"), Number<float>(r[3], where + ".fast_reference"));
+  }
 }
 
 // One element of "excluded_pairs".
@@ -258,7 +279,7 @@ class SetStream {
       case E::array_start: array_[d] = event == E::array_start; return true;
       case E::object_end:
         if (d == 2 && array_[1] && key_[1] == "spheres") {
-          ParseSphere(parsed, set_.size(), &set_, &has_reach_);
+          ParseSphere(parsed, set_.size(), &set_, &has_reach_, &has_reference_);
           return false;
         }
         return true;
@@ -297,6 +318,7 @@ class SetStream {
   }
   SphereSet set_;
   bool has_reach_ = false;
+  bool has_reference_ = false;
   StreamedMesh mesh_;
   std::string key_[3];
   bool array_[3] = {false, false, false};
@@ -336,6 +358,20 @@ SphereSet Parse(const json& j, SetStream&& stream) {
     Mat4f mat;
     for (int e = 0; e < 16; ++e) mat.data()[e] = Number<float>(m[e], where + ".rest_world");
     set.joint_rest_world.push_back(mat);
+    // "fast_reference_inverse" (sphere_set.h): optional, on every joint or none, and with the
+    // spheres' "fast_reference".
+    const auto reference = joints[k].find("fast_reference_inverse");
+    const bool with_reference = !set.fast_reference_spheres.empty();
+    if ((reference != joints[k].end()) != with_reference) {
+      throw ReadError{where + (with_reference
+                                   ? ".fast_reference_inverse is missing (the spheres have a fast_reference)"
+                                   : ".fast_reference_inverse is given but the spheres have no fast_reference")};
+    }
+    if (with_reference) {
+      const json& r = Array(*reference, where + ".fast_reference_inverse", 16);
+      for (int e = 0; e < 16; ++e) mat.data()[e] = Number<float>(r[e], where + ".fast_reference_inverse");
+      set.fast_reference_inverse.push_back(mat);
+    }
   }
 
   const json& parts = Array(Field(j, "parts", "$"), "$.parts");

@@ -9,17 +9,19 @@
 #include <cfloat>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 #include <type_traits>
 
+#include "format/affine_inverse.h"
 #include "refit/refit_internal.h"
 #include "skinspheres/skinning/platform.h"
 
 namespace skinspheres::runtime {
 
 // Unaligned double types (math_types.h: no Eigen type of 32 bytes or more is aligned here).
-using Mat4d = Eigen::Matrix<double, 4, 4, Eigen::ColMajor | Eigen::DontAlign>;
-using Vec4d = Eigen::Matrix<double, 4, 1, Eigen::ColMajor | Eigen::DontAlign>;
+using internal::Mat4d;
+using internal::Vec4d;
 
 const char* ToString(RefitMode mode) {
   switch (mode) {
@@ -27,6 +29,168 @@ const char* ToString(RefitMode mode) {
     case RefitMode::kFast: return "fast";
   }
   return "unknown";
+}
+
+namespace {
+
+using internal::AffineInverse;
+
+// A frame of reference of the fast refit (refit_job.h, "Reference frame"): per joint the inverse of
+// its reference transform, per sphere its centre in reference space and the radius there holding
+// every reference copy of its source vertices.
+struct Reference {
+  std::vector<Mat4d> inverse;  // per joint: G_j(rest)^-1, or the stored R_j^-1
+  std::vector<Vec4d> center;   // per sphere, homogeneous
+  std::vector<float> radius;   // per sphere
+};
+
+// The reference the set stores (sphere_set.h), else its rest pose. An error names a joint whose
+// rest transform cannot be inverted.
+Result<Reference> StoredReference(const SphereSet& set) {
+  Reference ref;
+  const size_t joints = set.joint_count();
+  ref.inverse.resize(joints);
+  const bool stored = !set.fast_reference_inverse.empty();
+  for (size_t j = 0; j < joints; ++j) {
+    if (stored) {
+      ref.inverse[j] = set.fast_reference_inverse[j].cast<double>();
+      continue;
+    }
+    const auto inv = AffineInverse(set.joint_rest_world[j].cast<double>());
+    if (!inv) {
+      return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file +
+                                                    "': rest transform of joint " + std::to_string(j) + " '" +
+                                                    set.joint_names[j] + "' is not invertible");
+    }
+    ref.inverse[j] = *inv;
+  }
+  for (size_t s = 0; s < set.size(); ++s) {
+    if (stored) {
+      ref.center.push_back(set.fast_reference_spheres[s].head<3>().cast<double>().homogeneous());
+      ref.radius.push_back(set.fast_reference_spheres[s].w());
+    } else {
+      ref.center.push_back(set.centers_rest[s].cast<double>().homogeneous());
+      ref.radius.push_back(set.radii_fast[s]);
+    }
+  }
+  return ref;
+}
+
+// Every bind entry carries its vertices to the same place at rest, G_j(rest) · IBM_b = I (to 1e-6 of
+// the larger of 1 and the matrix's largest entry): the rest copies coincide and the rest reference
+// is already the tight one. Also true without a mesh.
+bool RestIsBind(const SphereSet& set) {
+  for (const skinning::BindEntry& b : set.mesh.binds) {
+    const Mat4d m = set.joint_rest_world[b.joint].cast<double>() * b.inverse_bind.cast<double>();
+    const double tolerance = 1e-6 * std::max(1.0, m.topRightCorner<3, 1>().cwiseAbs().maxCoeff());
+    if ((m.topLeftCorner<3, 4>() - Mat4d::Identity().topLeftCorner<3, 4>()).cwiseAbs().maxCoeff() > tolerance) {
+      return false;
+    }
+  }
+  return true;
+}
+
+// The bind pose as the reference, stored into set's fast_reference arrays: R_j^-1 the inverse bind
+// matrix of j's first bind entry (the rest inverse for a joint with none), each centre the rest
+// centre carried back by the sphere's blended rest-from-bind transform, each radius
+// FastReferenceRadiiFromMesh's. false (arrays cleared) where a transform cannot be inverted or a
+// source vertex has no weight.
+bool StoreBindReference(SphereSet* set, std::span<const Mat4d> rest_inverse, std::span<const float> weights) {
+  const skinning::SkinnedMesh& mesh = set->mesh;
+  const size_t joints = set->joint_count();
+  std::vector<int> first_bind(joints, -1);
+  for (size_t b = 0; b < mesh.binds.size(); ++b) {
+    if (first_bind[mesh.binds[b].joint] < 0) first_bind[mesh.binds[b].joint] = static_cast<int>(b);
+  }
+  std::vector<Mat4d> inverse(rest_inverse.begin(), rest_inverse.end());
+  set->fast_reference_inverse.resize(joints);
+  for (size_t j = 0; j < joints; ++j) {
+    if (first_bind[j] >= 0) inverse[j] = mesh.binds[first_bind[j]].inverse_bind.cast<double>();
+    set->fast_reference_inverse[j] = inverse[j].cast<float>();
+  }
+  set->fast_reference_spheres.clear();
+  for (size_t s = 0; s < set->size(); ++s) {
+    Mat4d blend = Mat4d::Zero();
+    for (uint32_t k = set->influence_offsets[s]; k < set->influence_offsets[s + 1]; ++k) {
+      const uint16_t j = set->influence_joints[k];
+      blend += double(weights[k]) * (set->joint_rest_world[j].cast<double>() * inverse[j]);
+    }
+    blend.row(3) = Eigen::RowVector4d(0.0, 0.0, 0.0, 1.0);
+    const auto unblend = AffineInverse(blend);
+    const Vec4d c = unblend ? Vec4d(*unblend * set->centers_rest[s].cast<double>().homogeneous()) : Vec4d::Zero();
+    if (!unblend || !c.allFinite()) break;
+    set->fast_reference_spheres.push_back(Vec4f(float(c.x()), float(c.y()), float(c.z()), 1.0f));
+  }
+  auto radii = set->fast_reference_spheres.size() == set->size()
+                   ? FastReferenceRadiiFromMesh(*set)
+                   : Result<std::vector<float>>(MakeError(ErrorCode::kInvalidData, "not invertible"));
+  if (!radii.ok()) {
+    set->fast_reference_inverse.clear();
+    set->fast_reference_spheres.clear();
+    return false;
+  }
+  for (size_t s = 0; s < set->size(); ++s) set->fast_reference_spheres[s].w() = (*radii)[s];
+  return true;
+}
+
+// Σ over spheres of the fast bound (without its rounding margin), in double, with the joints at
+// `world`: how loose a reference is at one pose.
+double BoundSum(const SphereSet& set, const Reference& ref, std::span<const Mat4d> world,
+                std::span<const float> weights, std::span<const float> reach) {
+  double sum = 0.0;
+  std::vector<Eigen::Vector3d> moved;
+  for (size_t s = 0; s < set.size(); ++s) {
+    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
+    moved.clear();
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    double s2 = 0.0;
+    for (uint32_t k = k0; k < k1; ++k) {
+      const uint16_t j = set.influence_joints[k];
+      const Mat4d t = world[j] * ref.inverse[j];
+      moved.push_back((t * ref.center[s]).head<3>());
+      c += double(weights[k]) * moved.back();
+      const Eigen::Matrix3d ata = t.topLeftCorner<3, 3>().transpose() * t.topLeftCorner<3, 3>();
+      s2 = std::max(s2, ata.cwiseAbs().rowwise().sum().maxCoeff());
+    }
+    double spread = 0.0, reached = 0.0;
+    for (uint32_t k = k0; k < k1; ++k) {
+      const double d = (moved[k - k0] - c).norm();
+      spread = std::max(spread, d);
+      reached += double(reach[k]) * d;
+    }
+    sum += std::sqrt(s2) * double(ref.radius[s]) + std::min(spread, reached);
+  }
+  return sum;
+}
+
+}  // namespace
+
+Result<bool> ChooseFastReference(SphereSet* set) {
+  set->fast_reference_inverse.clear();
+  set->fast_reference_spheres.clear();
+  if (!set->has_mesh() || set->fast_only || RestIsBind(*set)) return false;
+  auto data = RefitRestData::Create(*set);  // the rest reference, its weights and reach
+  if (!data.ok()) return data.error();
+  auto rest = StoredReference(*set);
+  if (!rest.ok()) return rest.error();
+  if (!StoreBindReference(set, rest->inverse, data->weights())) return false;
+  auto bind = StoredReference(*set);
+  if (!bind.ok()) return bind.error();
+  // The bound summed over the spheres at the rest pose and at the bind pose.
+  const size_t joints = set->joint_count();
+  std::vector<Mat4d> rest_world(joints), bind_world(joints);
+  for (size_t j = 0; j < joints; ++j) {
+    rest_world[j] = set->joint_rest_world[j].cast<double>();
+    bind_world[j] = AffineInverse(bind->inverse[j]).value_or(rest_world[j]);
+  }
+  const double with_rest = BoundSum(*set, *rest, rest_world, data->weights(), data->reach()) +
+                           BoundSum(*set, *rest, bind_world, data->weights(), data->reach());
+  const double with_bind = BoundSum(*set, *bind, rest_world, data->weights(), data->reach()) +
+                           BoundSum(*set, *bind, bind_world, data->weights(), data->reach());
+  if (with_bind < with_rest) return true;
+  set->fast_reference_inverse.clear();
+  set->fast_reference_spheres.clear();
+  return false;
 }
 
 Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
@@ -37,31 +201,8 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
   d.sphere_count_ = set.size();
   d.source_vertex_count_ = set.source_vertex_count;
   const size_t joints = set.joint_count();
-  std::vector<Mat4d> inverse(joints);
-  d.rest_linear_inverse_.resize(joints);
-  for (size_t j = 0; j < joints; ++j) {
-    const Mat4d g = set.joint_rest_world[j].cast<double>();
-    const double det = g.topLeftCorner<3, 3>().determinant();
-    const double scale = g.topLeftCorner<3, 3>().cwiseAbs().maxCoeff();
-    if (!(std::abs(det) > 1e-12 * scale * scale * scale) || !std::isfinite(det)) {
-      return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file +
-                                                    "': rest transform of joint " + std::to_string(j) + " '" +
-                                                    set.joint_names[j] + "' is not invertible");
-    }
-    Mat4d inv = Mat4d::Identity();
-    const Eigen::Matrix3d li = g.topLeftCorner<3, 3>().inverse();
-    inv.topLeftCorner<3, 3>() = li;
-    inv.topRightCorner<3, 1>() = -li * g.topRightCorner<3, 1>();
-    inverse[j] = inv;
-    d.rest_linear_inverse_[j] = li.cast<float>();
-  }
-  d.rest_inverse_rows_.assign(12 * joints, 0.0f);
-  for (size_t j = 0; j < joints; ++j) {
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) d.rest_inverse_rows_[12 * j + 4 * r + c] = d.rest_linear_inverse_[j](r, c);
-    }
-  }
-  d.center_in_joint_.resize(set.influence_joints.size());
+  auto ref = StoredReference(set);
+  if (!ref.ok()) return ref.error();
   d.weights_.resize(set.influence_joints.size());
   for (size_t s = 0; s < set.size(); ++s) {
     const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
@@ -75,11 +216,7 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
       return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file + "': sphere " +
                                                     std::to_string(s) + " has influence weights summing to 0");
     }
-    const Vec4d c(set.centers_rest[s].x(), set.centers_rest[s].y(), set.centers_rest[s].z(), 1.0);
-    for (uint32_t k = k0; k < k1; ++k) {
-      d.center_in_joint_[k] = (inverse[set.influence_joints[k]] * c).head<3>().cast<float>();
-      d.weights_[k] = static_cast<float>(set.influence_weights[k] / wsum);
-    }
+    for (uint32_t k = k0; k < k1; ++k) d.weights_[k] = static_cast<float>(set.influence_weights[k] / wsum);
   }
   // The reach (sphere_set.h): stored, else the mesh's, else 1 (the bound without it).
   if (!set.influence_reach.empty()) {
@@ -93,6 +230,22 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
     d.reach_ = std::move(*from_mesh);
   } else {
     d.reach_.assign(set.influence_joints.size(), 1.0f);
+  }
+  d.bind_reference_ = !set.fast_reference_inverse.empty();
+  d.radii_fast_ = ref->radius;
+  d.rest_linear_inverse_.resize(joints);
+  d.rest_inverse_rows_.assign(12 * joints, 0.0f);
+  for (size_t j = 0; j < joints; ++j) {
+    d.rest_linear_inverse_[j] = ref->inverse[j].topLeftCorner<3, 3>().cast<float>();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) d.rest_inverse_rows_[12 * j + 4 * r + c] = d.rest_linear_inverse_[j](r, c);
+    }
+  }
+  d.center_in_joint_.resize(set.influence_joints.size());
+  for (size_t s = 0; s < set.size(); ++s) {
+    for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
+      d.center_in_joint_[k] = (ref->inverse[set.influence_joints[k]] * ref->center[s]).head<3>().cast<float>();
+    }
   }
   return d;
 }
@@ -274,7 +427,7 @@ internal::FastRefitArrays SharedArrays(const SphereSet& set, const RefitRestData
   a.rest_inverse_rows = rest.rest_inverse_rows().data();
   a.influence_offsets = set.influence_offsets.data();
   a.influence_joints = set.influence_joints.data();
-  a.radii_fast = set.radii_fast.data();
+  a.radii_fast = rest.radii_fast().data();
   return a;
 }
 

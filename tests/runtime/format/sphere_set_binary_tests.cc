@@ -22,6 +22,8 @@
 #include <algorithm>
 #include <cstring>
 #include <functional>
+#include <nlohmann/json.hpp>
+#include <random>
 #include <string>
 
 #include "allocation_counter.h"
@@ -89,7 +91,9 @@ size_t EntryOf(const Bytes& b, SphereSetSection id) {
 // The same file as a version-1 writer (before the influence reach) wrote it: section 28 dropped,
 // the others laid out again as the writer lays them out (table, then each section on the next
 // 16-byte boundary, zero padding), version 1, checksum.
-Bytes DowngradeToVersion1(const Bytes& v2) {
+// The file as layout `version` (1 or 2) writes it: the sections that version lacks left out (28-30
+// for version 1, 29-30 for version 2).
+Bytes Downgrade(const Bytes& v2, uint32_t version) {
   struct Entry {
     uint32_t id, element_size;
     uint64_t offset, count;
@@ -98,7 +102,9 @@ Bytes DowngradeToVersion1(const Bytes& v2) {
   for (uint32_t k = 0; k < Get32(v2, 32); ++k) {
     const size_t at = kSphereSetBinaryHeaderSize + k * kSphereSetBinarySectionEntrySize;
     const Entry e{Get32(v2, at), Get32(v2, at + 4), Get64(v2, at + 8), Get64(v2, at + 16)};
-    if (e.id != static_cast<uint32_t>(SphereSetSection::kInfluenceReach)) entries.push_back(e);
+    const uint32_t first_dropped = static_cast<uint32_t>(version == 1 ? SphereSetSection::kInfluenceReach
+                                                                      : SphereSetSection::kFastReferenceInverse);
+    if (e.id < first_dropped) entries.push_back(e);
   }
   const auto align = [](size_t n) { return (n + 15) / 16 * 16; };
   size_t at = align(kSphereSetBinaryHeaderSize + entries.size() * kSphereSetBinarySectionEntrySize);
@@ -117,7 +123,7 @@ Bytes DowngradeToVersion1(const Bytes& v2) {
     at = align(at + e.count * e.element_size);
   }
   out.resize(at, std::byte{0});
-  Put32(out, 16, 1);
+  Put32(out, 16, version);
   Put32(out, 32, static_cast<uint32_t>(entries.size()));
   Put64(out, 24, out.size());
   FixChecksum(out);
@@ -446,10 +452,12 @@ TEST(SphereSetBinaryTest, AbsurdHeadersAndTablesAreRefusedByName) {
   const std::vector<Case> cases = {
       {"magic", [](Bytes& b) { b[1] = std::byte{'X'}; }, ErrorCode::kFormatRejected, "wrong magic number"},
       {"json", [](Bytes& b) { b.assign(5, std::byte{'{'}); }, ErrorCode::kFormatRejected, "shorter than its magic"},
-      {"version", [](Bytes& b) { Put32(b, 16, 3); }, ErrorCode::kVersionMismatch,
-       "layout version 3 is not supported (this build reads versions 1 and 2)"},
+      {"version", [](Bytes& b) { Put32(b, 16, 4); }, ErrorCode::kVersionMismatch,
+       "layout version 4 is not supported (this build reads versions 1 to 3)"},
       {"version 1 with a reach section", [](Bytes& b) { Put32(b, 16, 1); }, ErrorCode::kInvalidData,
        "section influence_reach is not expected with these flags in layout version 1"},
+      {"version 2 with reference sections", [](Bytes& b) { Put32(b, 16, 2); }, ErrorCode::kInvalidData,
+       "section fast_reference_inverse is not expected with these flags in layout version 2"},
       {"checksum", [](Bytes& b) { b[100] ^= std::byte{1}; }, ErrorCode::kInvalidData, "checksum mismatch", false},
       {"file size huge", [](Bytes& b) { Put64(b, 24, ~uint64_t{0}); }, ErrorCode::kInvalidData, "truncated"},
       {"flags", [](Bytes& b) { Put32(b, 20, 3); }, ErrorCode::kInvalidData, "contradictory flags"},
@@ -520,10 +528,10 @@ TEST(SphereSetBinaryTest, VersionOneFilesReadWithoutReachAndFastOnlyFilesKeepIt)
   const SphereSet& fitted = Builtin();
   ASSERT_EQ(fitted.influence_reach.size(), fitted.influence_joints.size());
   const Bytes v2 = WriteSphereSetBinary(fitted);
-  EXPECT_EQ(Get32(v2, 16), 2u);
-  const Bytes v1 = DowngradeToVersion1(v2);
+  EXPECT_EQ(Get32(v2, 16), 3u);
+  const Bytes v1 = Downgrade(v2, 1);
   EXPECT_EQ(Get32(v1, 16), 1u);
-  EXPECT_EQ(Get32(v1, 32), Get32(v2, 32) - 1);
+  EXPECT_EQ(Get32(v1, 32), Get32(v2, 32) - 3);
   auto old = Read(v1);
   ASSERT_TRUE(old.ok()) << old.error().message;
   EXPECT_TRUE(old->influence_reach.empty());
@@ -534,9 +542,9 @@ TEST(SphereSetBinaryTest, VersionOneFilesReadWithoutReachAndFastOnlyFilesKeepIt)
   auto rest = RefitRestData::Create(*old);
   ASSERT_TRUE(rest.ok()) << rest.error().message;
   EXPECT_TRUE(std::ranges::equal(rest->reach(), fitted.influence_reach)) << "the mesh's reach, as the fitter wrote it";
-  // Written again: version 2, an empty reach section, and back to the same set.
+  // Written again: version 3, an empty reach section, and back to the same set.
   const Bytes rewritten = WriteSphereSetBinary(*old);
-  EXPECT_EQ(Get32(rewritten, 16), 2u);
+  EXPECT_EQ(Get32(rewritten, 16), 3u);
   EXPECT_EQ(Get64(rewritten, EntryOf(rewritten, SphereSetSection::kInfluenceReach) + 16), 0u);
   EXPECT_TRUE(Read(rewritten)->influence_reach.empty());
 
@@ -544,7 +552,7 @@ TEST(SphereSetBinaryTest, VersionOneFilesReadWithoutReachAndFastOnlyFilesKeepIt)
   SphereSet no_mesh = expected;
   no_mesh.mesh = {};
   no_mesh.triangle_vertices.clear();
-  auto old_fast = Read(DowngradeToVersion1(WriteSphereSetBinary(no_mesh, SphereSetBinaryContent::kFastOnly)));
+  auto old_fast = Read(Downgrade(WriteSphereSetBinary(no_mesh, SphereSetBinaryContent::kFastOnly), 1));
   ASSERT_TRUE(old_fast.ok()) << old_fast.error().message;
   EXPECT_TRUE(old_fast->fast_only && old_fast->influence_reach.empty());
   rest = RefitRestData::Create(*old_fast);
@@ -571,6 +579,95 @@ TEST(SphereSetBinaryTest, VersionOneFilesReadWithoutReachAndFastOnlyFilesKeepIt)
   EXPECT_NE(refused.error().message.find("section influence_reach has 1 elements, expected 2 (one per influence) or 0"),
             std::string::npos)
       << refused.error().message;
+}
+
+// Layout version 3 adds sections 29-30, the fast refit's stored reference frame (sphere_set.h,
+// refit_job.h), and JSON the optional "fast_reference_inverse" per joint and "fast_reference" per
+// sphere. Checked on a set whose rest pose is not its bind pose (ChooseFastReference stores the
+// bind pose): JSON -> set -> JSON and binary -> set -> JSON give the same text; a fast-only file
+// keeps the reference and refits bit for bit as the whole set on random poses (and not as the set
+// without it); a version-2 file reads as a set without one; a section of the wrong length, and JSON
+// giving it on some joints or spheres only, are refused by name.
+TEST(SphereSetBinaryTest, FastReferenceRoundTripsInBothFormatsAndFastOnlyFilesKeepIt) {
+  SphereSet set = TwoJointsRestAwayFromBind();
+  auto chosen = ChooseFastReference(&set);
+  ASSERT_TRUE(chosen.ok() && *chosen);
+  const std::string json = WriteSphereSetJson(set);
+  EXPECT_NE(json.find("\"fast_reference_inverse\""), std::string::npos);
+  auto from_json = ReadSphereSetJson(json, "set.json");
+  ASSERT_TRUE(from_json.ok()) << from_json.error().message;
+  EXPECT_EQ(from_json->fast_reference_spheres, set.fast_reference_spheres);
+  EXPECT_EQ(from_json->fast_reference_inverse, set.fast_reference_inverse);
+  EXPECT_EQ(WriteSphereSetJson(*from_json), json);
+  const Bytes full = WriteSphereSetBinary(set);
+  EXPECT_EQ(Get32(full, 16), 3u);
+  auto from_binary = Read(full);
+  ASSERT_TRUE(from_binary.ok()) << from_binary.error().message;
+  EXPECT_EQ(WriteSphereSetJson(*from_binary), json);
+  auto fast = Read(WriteSphereSetBinary(set, SphereSetBinaryContent::kFastOnly));
+  ASSERT_TRUE(fast.ok()) << fast.error().message;
+  EXPECT_TRUE(fast->fast_only);
+  EXPECT_EQ(fast->fast_reference_spheres, set.fast_reference_spheres);
+
+  // Refits: the fast-only set as the whole one, bit for bit; the set without the reference differs.
+  SphereSet without = set;
+  without.fast_reference_inverse.clear();
+  without.fast_reference_spheres.clear();
+  auto rest_full = RefitRestData::Create(set), rest_fast = RefitRestData::Create(*fast),
+       rest_without = RefitRestData::Create(without);
+  ASSERT_TRUE(rest_full.ok() && rest_fast.ok() && rest_without.ok());
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> angle(-3.0f, 3.0f), move(-2.0f, 2.0f);
+  int differ = 0;
+  for (int p = 0; p < 200; ++p) {
+    std::vector<skinspheres::Mat4f> world(2);
+    for (auto& g : world) {
+      const Eigen::Vector3f axis = Eigen::Vector3f(move(rng), move(rng), move(rng)).normalized();
+      g = (Eigen::Translation3f(move(rng), move(rng), move(rng)) * Eigen::AngleAxisf(angle(rng), axis)).matrix();
+    }
+    std::vector<skinspheres::Vec4f> a(2), b(2), c(2);
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest_full, world, {}, a}.Run()));
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &*fast, &*rest_fast, world, {}, b}.Run()));
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &without, &*rest_without, world, {}, c}.Run()));
+    for (size_t s = 0; s < 2; ++s) {
+      ASSERT_EQ(std::memcmp(a[s].data(), b[s].data(), sizeof(float) * 4), 0) << "pose " << p << " sphere " << s;
+      differ += a[s] != c[s];
+    }
+  }
+  EXPECT_GT(differ, 300) << "the stored reference is what the refit uses";
+
+  // A version-2 file: no reference sections; it reads as the set without one.
+  const Bytes v2 = Downgrade(full, 2);
+  EXPECT_EQ(Get32(v2, 32), Get32(full, 32) - 2);
+  auto old = Read(v2);
+  ASSERT_TRUE(old.ok()) << old.error().message;
+  EXPECT_TRUE(old->fast_reference_inverse.empty() && old->fast_reference_spheres.empty());
+  EXPECT_EQ(WriteSphereSetJson(*old), WriteSphereSetJson(without));
+
+  // Sections of the wrong length.
+  Bytes bad = full;
+  Put64(bad, EntryOf(bad, SphereSetSection::kFastReferenceSpheres) + 16, 4);
+  FixChecksum(bad);
+  auto refused = Read(bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("sections fast_reference_inverse and fast_reference_spheres have 32 and 4 "
+                                         "elements, expected 32 and 8"),
+            std::string::npos)
+      << refused.error().message;
+  // JSON with the reference on one joint, or one sphere, only.
+  auto one_joint = nlohmann::json::parse(json);
+  one_joint["skeleton"]["joints"][1].erase("fast_reference_inverse");
+  auto refused_json = ReadSphereSetJson(one_joint.dump(), "set.json");
+  ASSERT_FALSE(refused_json.ok());
+  EXPECT_NE(refused_json.error().message.find("$.skeleton.joints[1].fast_reference_inverse is missing"),
+            std::string::npos)
+      << refused_json.error().message;
+  auto one_sphere = nlohmann::json::parse(json);
+  one_sphere["spheres"][1].erase("fast_reference");
+  refused_json = ReadSphereSetJson(one_sphere.dump(), "set.json");
+  ASSERT_FALSE(refused_json.ok());
+  EXPECT_NE(refused_json.error().message.find("$.spheres[1].fast_reference is missing"), std::string::npos)
+      << refused_json.error().message;
 }
 
 // The fit settings (params) become the JSON's "params" object when a binary set is converted:

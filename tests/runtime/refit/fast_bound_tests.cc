@@ -169,6 +169,85 @@ TEST(RefitJobTest, FastModeWithReachHoldsEveryVertexOnRandomPoses) {
   std::printf("two joints: %d of 4000 fast spheres tighter with reach\n", tighter);
 }
 
+// A rest pose away from the bind pose (joint b's rest transform moved by (0.3, 0.1, 0); the bind
+// pose is identity for both joints): each vertex's rest copies through its two joints lie apart,
+// so radius_fast around the rest centre must hold both, and ChooseFastReference stores the bind
+// pose as the reference instead (refit_job.h, "Reference frame").
+// Checked: the bind reference is chosen and stored; at the bind pose its spheres are the tight ones
+// (radius = farthest bind-space vertex from the centre, no spread) and smaller than the rest
+// reference's (the same set without it); on 2000 random poses every vertex, skinned in double, is
+// inside; the vector refit equals the scalar formula bit for bit; a stored radius one ulp below
+// what the vertices need is refused.
+TEST(RefitJobTest, ARestPoseAwayFromBindTakesTheBindPoseAsReference) {
+  SphereSet set = TwoJointsRestAwayFromBind();
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  // The rest reference: the set as it is, without a stored reference.
+  SphereSet no_mesh = set;
+  auto rest_only = RefitRestData::Create(no_mesh);
+  ASSERT_TRUE(rest_only.ok()) << rest_only.error().message;
+  EXPECT_FALSE(rest_only->bind_reference());
+  auto chosen = ChooseFastReference(&set);
+  ASSERT_TRUE(chosen.ok()) << chosen.error().message;
+  ASSERT_TRUE(*chosen);
+  ASSERT_EQ(set.fast_reference_inverse.size(), 2u);
+  ASSERT_EQ(set.fast_reference_spheres.size(), 2u);
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  EXPECT_TRUE(rest->bind_reference());
+  // A radius one ulp below the one the vertices need is refused by name.
+  SphereSet too_small = set;
+  too_small.fast_reference_spheres[1].w() = std::nextafter(too_small.fast_reference_spheres[1].w(), 0.0f);
+  auto needed = FastReferenceRadiiFromMesh(set);
+  ASSERT_TRUE(needed.ok());
+  ASSERT_EQ((*needed)[1], set.fast_reference_spheres[1].w());
+  const auto refused = too_small.Validate();
+  ASSERT_TRUE(refused.has_value());
+  EXPECT_NE(refused->message.find("sphere 1 has fast reference radius"), std::string::npos) << refused->message;
+
+  std::vector<skinspheres::Mat4f> world(2, skinspheres::Mat4f::Identity());  // the bind pose
+  std::vector<skinspheres::Vec4f> out(2), out_rest(2);
+  ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, out}.Run()));
+  ASSERT_TRUE((RefitJob{RefitMode::kFast, &no_mesh, &*rest_only, world, {}, out_rest}.Run()));
+  for (size_t s = 0; s < 2; ++s) {
+    double farthest = 0.0;
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+      farthest = std::max(
+          farthest, (set.mesh.positions_bind[set.vertices[k]].cast<double>() - out[s].head<3>().cast<double>()).norm());
+    }
+    EXPECT_NEAR(out[s].w(), farthest, 1e-5) << "sphere " << s;
+    EXPECT_LT(out[s].w(), out_rest[s].w()) << "sphere " << s;
+  }
+
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> angle(-3.1f, 3.1f), move(-3.0f, 3.0f), scale(0.3f, 3.0f);
+  for (int p = 0; p < 2000; ++p) {
+    for (auto& g : world) {
+      const Eigen::Vector3f axis = Eigen::Vector3f(move(rng), move(rng), move(rng)).normalized();
+      Eigen::Affine3f t = Eigen::Translation3f(move(rng), move(rng), move(rng)) * Eigen::AngleAxisf(angle(rng), axis);
+      if (p % 2) t = t * Eigen::Scaling(Eigen::Vector3f(scale(rng), scale(rng), scale(rng)));
+      g = t.matrix();
+    }
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, out}.Run()));
+    const auto scalar = ScalarFastRefit(set, *rest, world, rest->reach().data());
+    for (size_t s = 0; s < 2; ++s) {
+      ASSERT_EQ(out[s], scalar[s]) << "pose " << p << " sphere " << s;
+      for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+        const uint32_t v = set.vertices[k];
+        Eigen::Vector3d skinned = Eigen::Vector3d::Zero();
+        for (uint32_t q = set.mesh.influence_offsets[v]; q < set.mesh.influence_offsets[v + 1]; ++q) {
+          const skinning::BindEntry& b = set.mesh.binds[set.mesh.influence_binds[q]];
+          const Eigen::Matrix4d m = world[static_cast<size_t>(b.joint)].cast<double>() * b.inverse_bind.cast<double>();
+          skinned += double{set.mesh.influence_weights[q]} *
+                     (m * set.mesh.positions_bind[v].cast<double>().homogeneous()).head<3>();
+        }
+        ASSERT_LE((skinned - out[s].head<3>().cast<double>()).norm(), out[s].w())
+            << "pose " << p << " sphere " << s << " vertex " << v;
+      }
+    }
+  }
+}
+
 // A set with neither reach nor mesh (a version-1 file, or a fast-only one written before reach)
 // refits with the bound without reach bit for bit, and so does any set whose reach is all 1.
 TEST(RefitJobTest, WithoutReachOrMeshTheFastBoundIsTheOldOneBitForBit) {

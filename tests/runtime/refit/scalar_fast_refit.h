@@ -69,7 +69,7 @@ inline std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, con
       s2 = std::max(s2, row_max);
     }
     const float spread = reach != nullptr ? std::min(std::sqrt(spread2), reached) : std::sqrt(spread2);
-    const float r = std::sqrt(s2) * set.radii_fast[s] + spread;
+    const float r = std::sqrt(s2) * rest.radii_fast()[s] + spread;
     const float largest = std::max(std::fabs(c.x()), std::max(std::fabs(c.y()), std::fabs(c.z())));
     const float radius = r + 16.0f * FLT_EPSILON * (largest + r);
     out[s] = skinspheres::Vec4f(c.x(), c.y(), c.z(), radius);

@@ -97,6 +97,21 @@ struct SphereSet {
   // mesh: an engine that re-quantises or prunes them must not rely on a reach below 1.
   std::vector<float> influence_reach;
 
+  // The fast refit's reference frame (refit/refit_job.h, "Reference frame"), or both empty: the
+  // rest pose, i.e. R_j = joint_rest_world[j], the centre centers_rest[s] and the radius
+  // radii_fast[s]. The fitter fills them (ChooseFastReference, refit_job.h) when the file's rest pose
+  // is not its bind pose and the bind pose bounds the spheres tighter (Soldier: 1.64x to 1.30x of the
+  // radius the skinned vertices need); its centres and radii above stay the rest pose's, which a
+  // reader that ignores these still refits soundly with. A fast-only binary file keeps them, so
+  // it refits as the whole set does.
+  //   fast_reference_inverse[j]: R_j^-1 (column-major 4x4, affine), per joint;
+  //   fast_reference_spheres[s]: (c, r): the sphere's centre in reference space and the radius around
+  //   it holding every reference copy R_j(b) · IBM_b · p_bind of every source vertex, through each
+  //   bind entry b the vertex weighs (FastReferenceRadiiFromMesh); the fast bound's premise. With a
+  //   mesh, Validate() refuses a radius below it; without one (fast-only) nothing can check it.
+  std::vector<Mat4f> fast_reference_inverse;
+  std::vector<Vec4f> fast_reference_spheres;
+
   std::vector<ExcludedPair> excluded_pairs;  // sorted by (i, j), i < j, unique
 
   // The skinned mesh the set was fitted on (version 2; both empty in a version-1 set), indexed by
@@ -140,5 +155,13 @@ struct SphereSet {
 // not among its sphere's influences (no reach then bounds it). What the fitter stores and what
 // Validate() compares a stored reach with, bit for bit.
 Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set);
+
+// Per sphere, the radius around fast_reference_spheres[s].head<3>() that holds every reference copy
+// R_j(b) · IBM_b · p_bind of its source vertices (R_j the inverse of fast_reference_inverse[j],
+// inverted in double), computed in double and rounded up to float: the smallest sound
+// fast_reference_spheres[s].w(). Needs a mesh, a reference (both arrays sized) and lists that are
+// otherwise well formed. An error when a reference transform cannot be inverted or a source vertex
+// has no weight above 0.
+Result<std::vector<float>> FastReferenceRadiiFromMesh(const SphereSet& set);
 
 }  // namespace skinspheres::runtime

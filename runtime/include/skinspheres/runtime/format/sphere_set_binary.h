@@ -3,7 +3,8 @@
 // stays the interchange and debugging format; both hold the same set, and converting one into the
 // other and back is bit-exact (`skinspheres convert`).
 //
-// Layout, version 2 (version 1, the same without section 28, is still read). Every integer and
+// Layout, version 3 (version 2, the same without sections 29-30, and version 1, without 28-30, are
+// still read). Every integer and
 // float is little-endian; offsets count bytes from the start of the file (never pointers), so the
 // file works at any address.
 //
@@ -12,7 +13,7 @@
 //                catch 7-bit and text-mode transfers)
 //     8     8    u64 checksum: XXH64, seed 0 (Xxh64 below; xxhsum -H1 computes the same), of the
 //                bytes [16, file_size)
-//    16     4    u32 layout version (kSphereSetBinaryVersion; kSphereSetBinaryVersionWithoutReach read too)
+//    16     4    u32 layout version (kSphereSetBinaryVersion; the two before it read too)
 //    20     4    u32 flags: bit 0 fast-only, bit 1 has a mesh (never both); other bits 0
 //    24     8    u64 file_size: the file's exact length
 //    32     4    u32 section_count
@@ -64,11 +65,15 @@
 //   27  mesh_influence_weights  f32   o[V]
 //   28  influence_reach         f32   o[N] or 0        per entry of 14 (version 2, every file; 0
 //                                                       elements: the set has none, sphere_set.h)
+//   29  fast_reference_inverse  f32   16 J or 0        column-major 4x4 per joint } version 3, every
+//   30  fast_reference_spheres  f32   4 N or 0         (x, y, z, r) per sphere    } file; both 0: the
+//                                                       rest pose (sphere_set.h, refit_job.h)
 // A file holds exactly the sections its flags and version call for. A change of layout bumps the
-// version. A version-1 file reads as a set without influence reach.
+// version. A version-1 file reads as a set without influence reach, a version-1 or 2 file as one
+// without a fast reference (the rest pose).
 //
 // Fast-only variant: sections 17-27 left out, i.e. everything fast refit never reads (Xbot: 16 KB
-// instead of 1.6 MB; its JSON takes 3.5 MB). It keeps section 28, filled from the mesh when the set
+// instead of 1.6 MB; its JSON takes 3.5 MB). It keeps sections 28-30, 28 filled from the mesh when the set
 // has a mesh and no reach of its own (a fast-only set has no mesh to compute it from later), so it
 // refits exactly as the whole set does. A set read from it has SphereSet::fast_only set; exact refit and
 // triangle tests refuse it with an error saying so.
@@ -102,8 +107,9 @@
 namespace skinspheres::runtime {
 
 inline constexpr unsigned char kSphereSetBinaryMagic[8] = {0x89, 'S', 'S', 'B', '\r', '\n', 0x1A, '\n'};
-inline constexpr uint32_t kSphereSetBinaryVersion = 2;              // written
-inline constexpr uint32_t kSphereSetBinaryVersionWithoutReach = 1;  // read (no section 28)
+inline constexpr uint32_t kSphereSetBinaryVersion = 3;                  // written
+inline constexpr uint32_t kSphereSetBinaryVersionWithoutReference = 2;  // read (no sections 29-30)
+inline constexpr uint32_t kSphereSetBinaryVersionWithoutReach = 1;      // read (no sections 28-30)
 inline constexpr size_t kSphereSetBinaryHeaderSize = 64;
 inline constexpr size_t kSphereSetBinarySectionEntrySize = 24;
 inline constexpr size_t kSphereSetBinaryAlignment = 16;
@@ -139,8 +145,10 @@ enum class SphereSetSection : uint32_t {
   kMeshInfluenceBinds,
   kMeshInfluenceWeights,
   kInfluenceReach,
+  kFastReferenceInverse,
+  kFastReferenceSpheres,
 };
-inline constexpr uint32_t kSphereSetSectionCount = 28;  // ids 1..28
+inline constexpr uint32_t kSphereSetSectionCount = 30;  // ids 1..30
 
 enum class SphereSetBinaryContent : uint8_t {
   kFull,      // everything, mesh included: converts back to the same JSON
@@ -220,6 +228,9 @@ class SphereSetBinaryView {
   std::span<const float> mesh_influence_weights() const { return Get<float>(SphereSetSection::kMeshInfluenceWeights); }
   // Empty in a version-1 file and when the set has none.
   std::span<const float> influence_reach() const { return Get<float>(SphereSetSection::kInfluenceReach); }
+  // Empty in a version-1 or 2 file and when the set has none.
+  std::span<const float> fast_reference_inverse() const { return Get<float>(SphereSetSection::kFastReferenceInverse); }
+  std::span<const float> fast_reference_spheres() const { return Get<float>(SphereSetSection::kFastReferenceSpheres); }
   uint32_t version() const { return version_; }
 
   // Copies into a SphereSet (loaded_from = source_name()) and validates it (errors name the source).

@@ -5,7 +5,8 @@
 // can produce from the given joint transforms.
 //
 // Notation: G_j(t) world (model) transform of joint j this frame, G_j(rest) its rest transform
-// (SphereSet::joint_rest_world), T_j = G_j(t) · G_j(rest)^-1 the joint's motion since rest,
+// (SphereSet::joint_rest_world), T_j = G_j(t) · G_j(rest)^-1 the joint's motion since rest (or
+// since the bind pose: "Reference frame" below),
 // A_j the 3x3 linear part of T_j. c = centers_rest[s]; (j, w_j) the sphere's influences
 // (influence_joints / influence_weights, renormalised to sum exactly 1 in RefitRestData).
 //
@@ -62,6 +63,30 @@
 //   differs per joint) the copies p_b of one vertex differ, and radius_fast, which covers every
 //   copy, can exceed radius_rest; where rest = bind it equals radius_rest.
 //
+// Reference frame. Nothing above needs the rest pose itself. Take any invertible reference
+// transform R_j per joint in place of G_j(rest): T_j = G_j(t) · R_j^-1, a vertex's copy through
+// entry b p_b = R_j(b) · IBM_b · p_bind (so M_b(t) p_bind = T_j(b) p_b), c any point of the
+// reference space. The derivation holds word for word, with radius_fast the radius around c that
+// holds every copy. A set uses one of two (SphereSet::fast_reference_inverse / _spheres):
+//   - the rest pose, R_j = G_j(rest): c = centers_rest, radius_fast = SphereSet::radii_fast (every
+//     set without a stored reference, every file written before it);
+//   - the bind pose, R_j = IBM_first(j)^-1 (the inverse bind matrix of j's first bind entry): a
+//     vertex's copy through entry b is IBM_first(j)^-1 · IBM_b · p_bind, which is p_bind itself
+//     for j's first entry, so a vertex's copies coincide; c = the rest centre carried back by the
+//     sphere's blended rest-from-bind transform (Σ_j w_j G_j(rest) · IBM_first(j))^-1 · c_rest,
+//     rounded to float; radius_fast = the largest distance from c to a copy, in double, rounded up
+//     (FastReferenceRadiiFromMesh, which Validate() holds a stored radius to).
+//   The fitter stores the bind pose (ChooseFastReference) when the set has a mesh, its rest pose is
+//   not its bind pose (some G_j(rest) · IBM_b differs from I by more than 1e-6), and the bound
+//   summed over the spheres at the rest pose plus at the bind pose, in double, is smaller with it.
+//   The choice is stored, never made at load, so a set and its fast-only file refit alike.
+//   Measured (play --verify --mode fast, every clip): Soldier takes it, its fast radii over the
+//   radius the skinned vertices need go from 1.64 to 1.30 and its sphere pairs per frame from 1518
+//   to 806; RobotExpressive keeps the rest pose (its sum is 7x larger with the bind pose);
+//   CesiumMan, Xbot and the built-in character have rest = bind. The exact refit with joint
+//   transforms uses the same centre, so its spheres move with the reference too (their radii stay
+//   the exact ones).
+//
 // margin: both modes add 16·FLT_EPSILON·(max|c'_xyz| + r), a few ulps of the coordinates, so the
 // float evaluation (of the centre, the distances, and the caller's own skinning) cannot leave a
 // vertex outside by rounding. Exact-mode radii therefore equal the max distance to ~2e-6 relative.
@@ -93,6 +118,13 @@ enum class RefitMode : uint8_t {
 };
 const char* ToString(RefitMode mode);  // "exact", "fast"
 
+// The fitter's choice of the fast refit's reference frame (the header comment, "Reference frame"):
+// stores the bind pose in set->fast_reference_inverse / fast_reference_spheres and returns true when
+// the set has a mesh, its rest pose is not its bind pose and the bind pose bounds tighter; clears
+// them and returns false otherwise. The set must pass Validate() without a reference; an error only
+// when it does not.
+Result<bool> ChooseFastReference(SphereSet* set);
+
 // Rest-pose data the refit reads every frame, derived once from a SphereSet (allocates; then
 // immutable and shareable between threads and instances).
 class RefitRestData {
@@ -108,14 +140,21 @@ class RefitRestData {
   size_t influence_count() const { return center_in_joint_.size(); }
   size_t source_vertex_count() const { return source_vertex_count_; }
 
-  // Per influence entry k of sphere s (SphereSet CSR order): G_j(rest)^-1 · c_s, the centre in the
-  // joint's rest frame, so T_j c = G_j(t) · center_in_joint[k]; and w_k renormalised to sum 1.
+  // Per influence entry k of sphere s (SphereSet CSR order): R_j^-1 · c_s, the centre in the
+  // joint's reference frame (G_j(rest)^-1 · c_rest with the rest pose as the reference), so
+  // T_j c = G_j(t) · center_in_joint[k]; and w_k renormalised to sum 1.
   std::span<const Eigen::Vector3f> center_in_joint() const { return center_in_joint_; }
   std::span<const float> weights() const { return weights_; }
   // Per influence entry: the reach W_k the fast bound uses, SphereSet::influence_reach when the set
   // has one, else computed from its mesh (InfluenceReachFromMesh), else 1 (the bound without it).
   std::span<const float> reach() const { return reach_; }
-  // Per joint: the 3x3 linear part of G_j(rest)^-1 (A_j = linear(G_j(t)) · this).
+  // Per sphere: the radius_fast the bound uses, in the reference frame (SphereSet::radii_fast when
+  // it is the rest pose).
+  std::span<const float> radii_fast() const { return radii_fast_; }
+  // true: the set stores a reference frame (the bind pose; the header comment, "Reference frame").
+  bool bind_reference() const { return bind_reference_; }
+  // Per joint: the 3x3 linear part of the inverse of its reference transform, G_j(rest)^-1 or the
+  // inverse bind matrix (A_j = linear(G_j(t)) · this).
   std::span<const Eigen::Matrix3f> rest_linear_inverse() const { return rest_linear_inverse_; }
   // The same matrices by rows for the vector code: 12 floats per joint, rows 0..2 of
   // rest_linear_inverse()[j] at 12 j, 12 j + 4, 12 j + 8, each padded with a 0.
@@ -127,6 +166,8 @@ class RefitRestData {
   std::vector<Eigen::Vector3f> center_in_joint_;
   std::vector<float> weights_;
   std::vector<float> reach_;
+  std::vector<float> radii_fast_;
+  bool bind_reference_ = false;
   std::vector<Eigen::Matrix3f> rest_linear_inverse_;
   std::vector<float> rest_inverse_rows_;
 };
