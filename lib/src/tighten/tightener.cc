@@ -10,7 +10,8 @@ namespace skinspheres::lib {
 
 Tightener::Tightener(const RawCharacter& ch, const TightenSettings& settings, std::vector<TightSphere>& spheres)
     : ch_(ch), st_(settings), sp_(spheres), unique_(ch.triangles, ch.vertex_count()) {
-  field_ = DistanceField::Build(ch.positions_rest, ch.triangles, settings.field_resolution);
+  // Budget-only (step 3b alone) reads no distance: the field, most of the pass's set-up, is skipped.
+  if (!settings.budget_only) field_ = DistanceField::Build(ch.positions_rest, ch.triangles, settings.field_resolution);
   unit_ = FibonacciDirections(std::max(1, settings.samples));
   height_ = BodyHeight(ch.positions_rest);
   pts_.resize(sp_.size());

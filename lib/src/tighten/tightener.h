@@ -115,7 +115,7 @@ class Tightener {
   const RawCharacter& ch_;
   const TightenSettings& st_;
   std::vector<TightSphere>& sp_;
-  DistanceField field_;
+  DistanceField field_;  // empty in budget-only mode (TightenSettings::budget_only), which reads none
   std::vector<Eigen::Vector3f> unit_;
   std::vector<std::vector<Eigen::Vector3f>> pts_;  // each sphere's vertices, once each
   Nbrs nbrs_;                                      // scratch
