@@ -117,6 +117,9 @@ void PrintFitSummary(const lib::FitResult& fit, double import_seconds) {
         100.0 * r.standoff_before, 100.0 * r.standoff_after, r.spheres_split, r.spheres_merged,
         r.triangles_handed_over);
   }
+  if (!set.fast_reference_spheres.empty()) {
+    std::printf("fast refit: the bind pose is its reference (the rest pose is not the bind pose, and bounds looser)\n");
+  }
   std::printf("F (paper): mean %.6f, max %.6f (body height %.4f)\n", r.f_mean, r.f_max, r.body_height);
   std::printf("time: import %.1f ms, fit %.1f ms\n", import_seconds * 1e3, r.seconds * 1e3);
 }

@@ -163,6 +163,11 @@ double BoundSum(const SphereSet& set, const Reference& ref, std::span<const Mat4
   return sum;
 }
 
+// The bind pose is taken when it lowers the summed bound by more than this share: where the two
+// poses differ only by float rounding, or on bind entries no vertex weighs (Xbot, CesiumMan: 1e-6 of
+// the sum), the set keeps the rest pose and its files stay as they were.
+constexpr double kBindReferenceGain = 1e-3;
+
 }  // namespace
 
 Result<bool> ChooseFastReference(SphereSet* set) {
@@ -187,7 +192,7 @@ Result<bool> ChooseFastReference(SphereSet* set) {
                            BoundSum(*set, *rest, bind_world, data->weights(), data->reach());
   const double with_bind = BoundSum(*set, *bind, rest_world, data->weights(), data->reach()) +
                            BoundSum(*set, *bind, bind_world, data->weights(), data->reach());
-  if (with_bind < with_rest) return true;
+  if (with_bind < (1.0 - kBindReferenceGain) * with_rest) return true;
   set->fast_reference_inverse.clear();
   set->fast_reference_spheres.clear();
   return false;
