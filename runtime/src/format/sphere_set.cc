@@ -1,15 +1,15 @@
 #include "skinspheres/runtime/format/sphere_set.h"
 
 #include <algorithm>
+#include <array>
 #include <cfloat>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
-
-#include "format/affine_inverse.h"
 
 namespace skinspheres::runtime {
 
@@ -326,6 +326,55 @@ std::optional<Error> CheckMesh(const SphereSet& set) {
   return std::nullopt;
 }
 
+// A 3x4 affine transform in double, row-major: row r is (m[r][0], m[r][1], m[r][2], m[r][3]).
+using Affine34 = std::array<std::array<double, 4>, 3>;
+
+Affine34 FromFloat(const Mat4f& g) {
+  Affine34 m;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 4; ++c) m[r][c] = static_cast<double>(g(r, c));
+  }
+  return m;
+}
+
+// The inverse of an affine transform by cofactors, each operation written out in a fixed order, so
+// that every platform computes the same bits (what a stored radius is compared with must not
+// depend on how a compiler vectorises Eigen); nullopt when singular, as internal::AffineInverse.
+std::optional<Affine34> ScalarAffineInverse(const Affine34& m) {
+  const double c00 = m[1][1] * m[2][2] - m[1][2] * m[2][1], c01 = m[1][2] * m[2][0] - m[1][0] * m[2][2],
+               c02 = m[1][0] * m[2][1] - m[1][1] * m[2][0];
+  const double det = (m[0][0] * c00 + m[0][1] * c01) + m[0][2] * c02;
+  double scale = 0.0;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) scale = std::max(scale, std::fabs(m[r][c]));
+  }
+  if (!(std::fabs(det) > 1e-12 * scale * scale * scale) || !std::isfinite(det)) return std::nullopt;
+  const double inv_det = 1.0 / det;
+  Affine34 out;
+  out[0] = {c00 * inv_det, (m[0][2] * m[2][1] - m[0][1] * m[2][2]) * inv_det,
+            (m[0][1] * m[1][2] - m[0][2] * m[1][1]) * inv_det, 0.0};
+  out[1] = {c01 * inv_det, (m[0][0] * m[2][2] - m[0][2] * m[2][0]) * inv_det,
+            (m[0][2] * m[1][0] - m[0][0] * m[1][2]) * inv_det, 0.0};
+  out[2] = {c02 * inv_det, (m[0][1] * m[2][0] - m[0][0] * m[2][1]) * inv_det,
+            (m[0][0] * m[1][1] - m[0][1] * m[1][0]) * inv_det, 0.0};
+  for (int r = 0; r < 3; ++r) {
+    out[r][3] = -((out[r][0] * m[0][3] + out[r][1] * m[1][3]) + out[r][2] * m[2][3]);
+  }
+  return out;
+}
+
+// a · b for affine a, b (the last rows 0 0 0 1), in a fixed order.
+Affine34 Compose(const Affine34& a, const Affine34& b) {
+  Affine34 out;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 4; ++c) {
+      out[r][c] = (a[r][0] * b[0][c] + a[r][1] * b[1][c]) + a[r][2] * b[2][c];
+    }
+    out[r][3] += a[r][3];
+  }
+  return out;
+}
+
 // The fast refit's reference frame (both arrays empty, or sized per joint and per sphere): finite,
 // invertible transforms, finite centres, positive radii; with a mesh, each radius at least the one
 // its source vertices' reference copies need (a smaller one from a hostile file would give fast
@@ -340,7 +389,7 @@ std::optional<Error> CheckFastReference(const SphereSet& set) {
   }
   for (size_t j = 0; j < set.joint_count(); ++j) {
     const Mat4f& m = set.fast_reference_inverse[j];
-    if (!m.allFinite() || !internal::AffineInverse(m.cast<double>())) {
+    if (!m.allFinite() || !ScalarAffineInverse(FromFloat(m))) {
       return Invalid("joint " + std::to_string(j) + "'s fast reference transform is not finite or not invertible");
     }
   }
@@ -411,31 +460,37 @@ Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set) {
 }
 
 Result<std::vector<float>> FastReferenceRadiiFromMesh(const SphereSet& set) {
-  using internal::Mat4d;
-  using internal::Vec4d;
   const skinning::SkinnedMesh& mesh = set.mesh;
-  // Per bind entry: R_j · IBM_b, carrying a bind-space vertex to its copy in reference space.
-  std::vector<Mat4d> copy_of(mesh.binds.size());
+  // Per bind entry: R_j · IBM_b, carrying a bind-space vertex to its copy in reference space. Plain
+  // double arithmetic in a fixed order: the same bits on every platform.
+  std::vector<Affine34> copy_of(mesh.binds.size());
   for (size_t b = 0; b < mesh.binds.size(); ++b) {
     const size_t j = static_cast<size_t>(mesh.binds[b].joint);
-    const auto back = internal::AffineInverse(set.fast_reference_inverse[j].cast<double>());
+    const auto back = ScalarAffineInverse(FromFloat(set.fast_reference_inverse[j]));
     if (!back) {
       return Invalid("joint " + std::to_string(j) + "'s fast reference transform is not invertible");
     }
-    copy_of[b] = *back * mesh.binds[b].inverse_bind.cast<double>();
+    copy_of[b] = Compose(*back, FromFloat(mesh.binds[b].inverse_bind));
   }
   std::vector<float> radii(set.size());
   for (size_t s = 0; s < set.size(); ++s) {
-    const Eigen::Vector3d c = set.fast_reference_spheres[s].head<3>().cast<double>();
+    const double c[3] = {set.fast_reference_spheres[s].x(), set.fast_reference_spheres[s].y(),
+                         set.fast_reference_spheres[s].z()};
     double r2 = 0.0;
     for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
       const uint32_t v = set.vertices[i];
-      const Vec4d p = mesh.positions_bind[v].cast<double>().homogeneous();
+      const double p[3] = {mesh.positions_bind[v].x(), mesh.positions_bind[v].y(), mesh.positions_bind[v].z()};
       bool weighted = false;
       for (uint32_t q = mesh.influence_offsets[v]; q < mesh.influence_offsets[v + 1]; ++q) {
         if (!(mesh.influence_weights[q] > 0.0f)) continue;
         weighted = true;
-        r2 = std::max(r2, ((copy_of[mesh.influence_binds[q]] * p).head<3>() - c).squaredNorm());
+        const Affine34& m = copy_of[mesh.influence_binds[q]];
+        double d2 = 0.0;
+        for (int r = 0; r < 3; ++r) {
+          const double d = (((m[r][0] * p[0] + m[r][1] * p[1]) + m[r][2] * p[2]) + m[r][3]) - c[r];
+          d2 += d * d;
+        }
+        r2 = std::max(r2, d2);
       }
       if (!weighted) {
         return Invalid("sphere " + std::to_string(s) + ": its source vertex " + std::to_string(v) +
