@@ -49,6 +49,9 @@ inline SphereSet TwoSpheresWithMesh() {
   set.mesh.influence_offsets = {0, 1, 2, 3, 4};
   set.mesh.influence_binds = {0, 0, 0, 0};
   set.mesh.influence_weights = {1.0f, 1.0f, 1.0f, 1.0f};
+  // The fast radius holds every rest copy of the sphere's vertices (SphereSet::Validate checks it
+  // against the mesh): vertex 2's copy (0, 0.25, 0) lies 1.031 from sphere 1's centre.
+  set.radii_fast = {1.1f, 1.1f};
   return set;
 }
 

@@ -1,6 +1,7 @@
 // Stage 6 of the fitter: what the runtime's fast refit needs (runtime/sphere_set.h). See
 // fit_stages.h.
 #include <algorithm>
+#include <limits>
 
 #include "fit_stages.h"
 #include "skinspheres/runtime/refit/refit_job.h"
@@ -12,7 +13,9 @@ void WriteFastRefitData(const RawCharacter& ch, std::span<const Mat4f> rest_worl
   // M_b(rest) = G_joint(b)(rest) · IBM_b: where each bind entry carries a bind-space vertex at rest.
   std::vector<Eigen::Matrix4d> bind_rest(ch.skin.binds.size());
   for (size_t b = 0; b < ch.skin.binds.size(); ++b) {
-    bind_rest[b] = (rest_world[ch.skin.binds[b].joint] * ch.skin.binds[b].inverse_bind).cast<double>();
+    // Composed in double (in float, a large inverse bind matrix's rounding could leave a copy a few
+    // ulps of the radius outside: the reach groups, measured in double, must never exceed this).
+    bind_rest[b] = rest_world[ch.skin.binds[b].joint].cast<double>() * ch.skin.binds[b].inverse_bind.cast<double>();
   }
   const bool have_skin = ch.skin.influence_offsets.size() == ch.vertex_count() + 1;
   set->influence_offsets = {0};
@@ -64,6 +67,20 @@ void WriteInfluenceReach(runtime::SphereSet* set) {
   if (auto reach = runtime::InfluenceReachFromMesh(*set); reach.ok()) set->influence_reach = std::move(*reach);
 }
 
+void HoldMeshCopies(runtime::SphereSet* set) {
+  if (!set->has_mesh()) return;
+  // The rest copies as the runtime's own figures give them, from the set's mesh (whose bind entries
+  // for rigid meshes hold a float inverse of the rest transform): radius_fast at least their
+  // radius, so that it holds what the runtime skins, and no reach group ever exceeds it.
+  auto vertices = runtime::FastBoundVerticesFromMesh(*set);
+  if (!vertices.ok()) return;  // an unsound set: the self-check refuses it with its own message
+  for (size_t s = 0; s < set->size(); ++s) {
+    for (uint32_t i = set->vertex_offsets[s]; i < set->vertex_offsets[s + 1]; ++i) {
+      set->radii_fast[s] = std::max(set->radii_fast[s], vertices->radius[i]);
+    }
+  }
+}
+
 void WriteFastReference(runtime::SphereSet* set) {
   // The runtime's own choice (refit_job.h, "Reference frame"), stored so that the set, its JSON and
   // its fast-only binary file refit alike. An unsound set is left without one: the self-check
@@ -72,6 +89,108 @@ void WriteFastReference(runtime::SphereSet* set) {
     set->fast_reference_inverse.clear();
     set->fast_reference_spheres.clear();
   }
+}
+
+namespace {
+
+// The k-means groups of one sphere's source vertices by their weight vectors (rows of `w`, k_count
+// floats each): at most kMaxReachGroups, the first centre the first vertex, each next the vertex
+// farthest from the centres so far (the first of equals), then 10 rounds of assignment to the
+// nearest centre (the first of equals) and centres moved to their members' mean. Plain double
+// arithmetic in a fixed order: the same groups on every platform. Returns each vertex's group.
+std::vector<uint32_t> GroupByWeights(const float* w, size_t vertex_count, size_t k_count) {
+  const size_t m = std::min<size_t>(runtime::kMaxReachGroups, vertex_count);
+  auto dist2 = [&](size_t v, const std::vector<double>& c) {
+    double d2 = 0.0;
+    for (size_t k = 0; k < k_count; ++k) {
+      const double d = double(w[v * k_count + k]) - c[k];
+      d2 += d * d;
+    }
+    return d2;
+  };
+  auto row = [&](size_t v) { return std::vector<double>(w + v * k_count, w + (v + 1) * k_count); };
+  std::vector<std::vector<double>> centres = {row(0)};
+  while (centres.size() < m) {
+    size_t farthest = 0;
+    double best = -1.0;
+    for (size_t v = 0; v < vertex_count; ++v) {
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const auto& c : centres) nearest = std::min(nearest, dist2(v, c));
+      if (nearest > best) best = nearest, farthest = v;
+    }
+    if (best <= 0.0) break;  // fewer distinct weight vectors than groups
+    centres.push_back(row(farthest));
+  }
+  std::vector<uint32_t> group(vertex_count, 0);
+  for (int round = 0; round < 10; ++round) {
+    for (size_t v = 0; v < vertex_count; ++v) {
+      double best = std::numeric_limits<double>::infinity();
+      for (size_t g = 0; g < centres.size(); ++g) {
+        const double d2 = dist2(v, centres[g]);
+        if (d2 < best) best = d2, group[v] = static_cast<uint32_t>(g);
+      }
+    }
+    std::vector<double> count(centres.size(), 0.0);
+    for (auto& c : centres) std::fill(c.begin(), c.end(), 0.0);
+    for (size_t v = 0; v < vertex_count; ++v) {
+      count[group[v]] += 1.0;
+      for (size_t k = 0; k < k_count; ++k) centres[group[v]][k] += double(w[v * k_count + k]);
+    }
+    for (size_t g = 0; g < centres.size(); ++g) {
+      if (count[g] > 0.0) {
+        for (double& x : centres[g]) x /= count[g];
+      }
+    }
+  }
+  return group;
+}
+
+}  // namespace
+
+void WriteReachGroups(runtime::SphereSet* set) {
+  set->reach_group_offsets.clear();
+  set->reach_group_radii.clear();
+  set->reach_group_weights.clear();
+  if (!set->has_mesh()) return;  // nothing to group: one group per sphere (runtime/sphere_set.h)
+  // The runtime's own per-vertex figures (in the set's reference frame), so that Validate()'s
+  // domination check holds bit for bit. An unsound set is left without groups: the self-check
+  // refuses it with its own message.
+  auto vertices = runtime::FastBoundVerticesFromMesh(*set);
+  if (!vertices.ok()) return;
+  std::vector<uint32_t> offsets = {0};
+  std::vector<float> radii, weights;
+  for (size_t s = 0; s < set->size(); ++s) {
+    const uint32_t v0 = set->vertex_offsets[s], v1 = set->vertex_offsets[s + 1];
+    const size_t k_count = set->influence_offsets[s + 1] - set->influence_offsets[s];
+    const size_t n = v1 - v0;
+    const float* w = vertices->weights.data() + vertices->weight_offsets[s];
+    // One joint: the spread is 0 and groups cannot help; else the k-means groups.
+    const std::vector<uint32_t> group =
+        k_count < 2 || n < 2 ? std::vector<uint32_t>(n, 0) : GroupByWeights(w, n, k_count);
+    const uint32_t groups = n == 0 ? 1 : *std::max_element(group.begin(), group.end()) + 1;
+    std::vector<float> radius(groups, 0.0f), reach(groups * k_count, 0.0f);
+    std::vector<bool> used(groups, false);
+    for (size_t i = 0; i < n; ++i) {
+      const uint32_t g = group[i];
+      used[g] = true;
+      radius[g] = std::max(radius[g], vertices->radius[v0 + i]);
+      for (size_t k = 0; k < k_count; ++k)
+        reach[g * k_count + k] = std::max(reach[g * k_count + k], w[i * k_count + k]);
+    }
+    for (uint32_t g = 0; g < groups; ++g) {
+      if (!used[g] && n > 0) continue;
+      // Never above the reference radius, which holds every member's copies from the same figures
+      // (HoldMeshCopies; the stored reference's): no group's bound exceeds the one-group bound.
+      const float reference_radius =
+          set->fast_reference_spheres.empty() ? set->radii_fast[s] : set->fast_reference_spheres[s].w();
+      radii.push_back(n == 0 ? reference_radius : radius[g]);
+      for (size_t k = 0; k < k_count; ++k) weights.push_back(n == 0 ? 1.0f : reach[g * k_count + k]);
+    }
+    offsets.push_back(static_cast<uint32_t>(radii.size()));
+  }
+  set->reach_group_offsets = std::move(offsets);
+  set->reach_group_radii = std::move(radii);
+  set->reach_group_weights = std::move(weights);
 }
 
 }  // namespace skinspheres::lib

@@ -12,7 +12,9 @@
 //   6. WriteFastRefitData               fast_refit_data.cc
 //   7. WriteSetMesh                     set_mesh.cc
 //      WriteInfluenceReach              fast_refit_data.cc
+//      HoldMeshCopies                   fast_refit_data.cc
 //      WriteFastReference               fast_refit_data.cc
+//      WriteReachGroups                 fast_refit_data.cc
 //   report: SummarisePartReports        fit_report.cc
 //   self-check: CheckFittedSet          bind_pose_check.cc
 #pragma once
@@ -130,9 +132,19 @@ void WriteSetMesh(const RawCharacter& ch, runtime::SphereSet* set);
 // refit bound; none without a mesh.
 void WriteInfluenceReach(runtime::SphereSet* set);
 
+// 7b'. radius_fast raised, where it falls short, to hold every rest copy as the runtime computes it
+// from the set's mesh (runtime::FastBoundVerticesFromMesh): a rigid mesh's bind entry holds a float
+// inverse of its rest transform, whose rounding can put a copy a few ulps past the radius.
+void HoldMeshCopies(runtime::SphereSet* set);
+
 // 7c. The fast refit's reference frame (runtime::ChooseFastReference): the bind pose when the rest
 // pose is not the bind pose and it bounds the spheres tighter; none otherwise.
 void WriteFastReference(runtime::SphereSet* set);
+
+// 7d. The fast bound's reach groups (runtime/sphere_set.h): per sphere of two or more joints, its
+// source vertices in up to four k-means groups by their weights, each group's reference radius and
+// reach the largest of its members'; one group otherwise. Never looser than one group.
+void WriteReachGroups(runtime::SphereSet* set);
 
 // The per-part reports with their final sphere counts, and the paper's F over all parts (weighted
 // by the contact points).

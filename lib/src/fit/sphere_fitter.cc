@@ -35,7 +35,9 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   WriteFastRefitData(ch, rest_world, &out.spheres);
   WriteSetMesh(ch, &out.spheres);
   WriteInfluenceReach(&out.spheres);
+  HoldMeshCopies(&out.spheres);
   WriteFastReference(&out.spheres);
+  WriteReachGroups(&out.spheres);
   SummarisePartReports(*paper, out.spheres, &out.report);
 
   // The self-check: a consistent set, every triangle inside its owner in the bind pose.

@@ -389,8 +389,11 @@ std::optional<Error> CheckFastReference(const SphereSet& set) {
   }
   for (size_t j = 0; j < set.joint_count(); ++j) {
     const Mat4f& m = set.fast_reference_inverse[j];
-    if (!m.allFinite() || !ScalarAffineInverse(FromFloat(m))) {
-      return Invalid("joint " + std::to_string(j) + "'s fast reference transform is not finite or not invertible");
+    // Bounded as joint transforms are in practice (a scale of 1e20 would overflow the fast bound's
+    // stretch every frame instead of being refused here).
+    if (!m.allFinite() || m.cwiseAbs().maxCoeff() > 1e9f || !ScalarAffineInverse(FromFloat(m))) {
+      return Invalid("joint " + std::to_string(j) +
+                     "'s fast reference transform is not finite, has an entry beyond 1e9, or is not invertible");
     }
   }
   for (size_t s = 0; s < set.size(); ++s) {
@@ -413,11 +416,105 @@ std::optional<Error> CheckFastReference(const SphereSet& set) {
   return std::nullopt;
 }
 
+// With a mesh and the rest pose as the reference, each radius_fast holds its source vertices' rest
+// copies (FastBoundVerticesFromMesh), to 1e-4 of the radius: a file shrunk by hand would give fast
+// spheres that miss vertices, while files written before the fitter raised radius_fast to the
+// runtime's own figures (HoldMeshCopies) fall short of them by float rounding only.
+std::optional<Error> CheckFastRadii(const SphereSet& set) {
+  if (!set.has_mesh() || set.fast_only || !set.fast_reference_spheres.empty()) return std::nullopt;
+  auto vertices = FastBoundVerticesFromMesh(set);
+  if (!vertices.ok()) return vertices.error();
+  for (size_t s = 0; s < set.size(); ++s) {
+    for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
+      if (set.radii_fast[s] < vertices->radius[i] * (1.0f - 1e-4f)) {
+        return Invalid("sphere " + std::to_string(s) + " has fast radius " + Digits(set.radii_fast[s]) +
+                       ", below the " + Digits(vertices->radius[i]) + " its source vertex " +
+                       std::to_string(set.vertices[i]) + "'s rest copies need");
+      }
+    }
+  }
+  return std::nullopt;
+}
+
+// The reach groups (all three arrays empty, or: 1 to kMaxReachGroups groups per sphere, each with a
+// finite positive radius and a reach per influence entry in [0, 1] summing to at least 1); with a
+// mesh, every source vertex dominated by one of its sphere's groups (a group that misses a vertex
+// would give fast spheres that miss it).
+std::optional<Error> CheckReachGroups(const SphereSet& set) {
+  const size_t n = set.size();
+  if (set.reach_group_offsets.empty() && set.reach_group_radii.empty() && set.reach_group_weights.empty()) {
+    return std::nullopt;
+  }
+  if (!CsrOk(set.reach_group_offsets, n, set.reach_group_radii.size())) {
+    return Invalid("the reach groups' offsets are malformed (one per sphere plus one, from 0 to the group count)");
+  }
+  size_t weights = 0;
+  for (size_t s = 0; s < n; ++s) {
+    const uint32_t groups = set.reach_group_offsets[s + 1] - set.reach_group_offsets[s];
+    if (groups < 1 || groups > kMaxReachGroups) {
+      return Invalid("sphere " + std::to_string(s) + " has " + std::to_string(groups) + " reach groups (1 to " +
+                     std::to_string(kMaxReachGroups) + ")");
+    }
+    weights += size_t{groups} * (set.influence_offsets[s + 1] - set.influence_offsets[s]);
+  }
+  if (set.reach_group_weights.size() != weights) {
+    return Invalid("the reach groups have " + std::to_string(set.reach_group_weights.size()) + " reach entries for " +
+                   std::to_string(weights) + " (one per group and influence)");
+  }
+  for (size_t s = 0, base = 0; s < n; ++s) {
+    const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
+    for (uint32_t g = set.reach_group_offsets[s]; g < set.reach_group_offsets[s + 1]; ++g, base += k_count) {
+      const float r = set.reach_group_radii[g];
+      if (!(r > 0.0f) || !(r <= 1e18f)) {
+        return Invalid("sphere " + std::to_string(s) + "'s reach group " + std::to_string(g) + " has radius " +
+                       Digits(r) + " (must be > 0 and finite)");
+      }
+      double sum = 0.0;
+      for (uint32_t k = 0; k < k_count; ++k) {
+        const float w = set.reach_group_weights[base + k];
+        if (!(w >= 0.0f && w <= 1.0f)) {
+          return Invalid("sphere " + std::to_string(s) + "'s reach group " + std::to_string(g) + " has reach " +
+                         Digits(w) + " (must be within [0, 1])");
+        }
+        sum += w;
+      }
+      if (!(sum >= 1.0 - kWeightSumTolerance)) {
+        return Invalid("sphere " + std::to_string(s) + "'s reach group " + std::to_string(g) +
+                       " has reaches summing to " + Digits(float(sum)) + ", below 1");
+      }
+    }
+  }
+  if (!set.has_mesh() || set.fast_only) return std::nullopt;
+  auto vertices = FastBoundVerticesFromMesh(set);
+  if (!vertices.ok()) return vertices.error();
+  for (size_t s = 0, base = 0; s < n; ++s) {
+    const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
+    const uint32_t g0 = set.reach_group_offsets[s], g1 = set.reach_group_offsets[s + 1];
+    for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
+      const float* w =
+          vertices->weights.data() + vertices->weight_offsets[s] + size_t{i - set.vertex_offsets[s]} * k_count;
+      bool dominated = false;
+      for (uint32_t g = g0; g < g1 && !dominated; ++g) {
+        const float* group = set.reach_group_weights.data() + base + size_t{g - g0} * k_count;
+        dominated = set.reach_group_radii[g] >= vertices->radius[i];
+        for (uint32_t k = 0; k < k_count && dominated; ++k) dominated = group[k] >= w[k];
+      }
+      if (!dominated) {
+        return Invalid("sphere " + std::to_string(s) + "'s source vertex " + std::to_string(set.vertices[i]) +
+                       " is in none of its reach groups (reference radius " + Digits(vertices->radius[i]) +
+                       " or a weight above every group's)");
+      }
+    }
+    base += size_t{g1 - g0} * k_count;
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 std::optional<Error> SphereSet::Validate() const {
   for (const auto check : {CheckSkeleton, CheckParts, CheckSphereArrays, CheckSpheres, CheckOwnership, CheckInfluences,
-                           CheckExclusions, CheckMesh, CheckFastReference}) {
+                           CheckExclusions, CheckMesh, CheckFastRadii, CheckFastReference, CheckReachGroups}) {
     if (auto err = check(*this)) return err;
   }
   return std::nullopt;
@@ -459,31 +556,54 @@ Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set) {
   return reach;
 }
 
-Result<std::vector<float>> FastReferenceRadiiFromMesh(const SphereSet& set) {
+Result<FastBoundVertices> FastBoundVerticesFromMesh(const SphereSet& set) {
   const skinning::SkinnedMesh& mesh = set.mesh;
-  // Per bind entry: R_j · IBM_b, carrying a bind-space vertex to its copy in reference space. Plain
-  // double arithmetic in a fixed order: the same bits on every platform.
+  const bool stored = !set.fast_reference_inverse.empty();
+  // Per bind entry: R_j · IBM_b, carrying a bind-space vertex to its copy in reference space (R_j the
+  // stored reference's, else G_j(rest)). Plain double arithmetic in a fixed order: the same bits on
+  // every platform.
   std::vector<Affine34> copy_of(mesh.binds.size());
   for (size_t b = 0; b < mesh.binds.size(); ++b) {
     const size_t j = static_cast<size_t>(mesh.binds[b].joint);
-    const auto back = ScalarAffineInverse(FromFloat(set.fast_reference_inverse[j]));
-    if (!back) {
+    std::optional<Affine34> to_reference = FromFloat(set.joint_rest_world[j]);
+    if (stored) to_reference = ScalarAffineInverse(FromFloat(set.fast_reference_inverse[j]));
+    if (!to_reference) {
       return Invalid("joint " + std::to_string(j) + "'s fast reference transform is not invertible");
     }
-    copy_of[b] = Compose(*back, FromFloat(mesh.binds[b].inverse_bind));
+    copy_of[b] = Compose(*to_reference, FromFloat(mesh.binds[b].inverse_bind));
   }
-  std::vector<float> radii(set.size());
+  FastBoundVertices out;
+  out.radius.resize(set.vertices.size());
+  out.weight_offsets.resize(set.size());
+  size_t weight_count = 0;
   for (size_t s = 0; s < set.size(); ++s) {
-    const double c[3] = {set.fast_reference_spheres[s].x(), set.fast_reference_spheres[s].y(),
-                         set.fast_reference_spheres[s].z()};
-    double r2 = 0.0;
+    out.weight_offsets[s] = static_cast<uint32_t>(weight_count);
+    weight_count += size_t{set.vertex_offsets[s + 1] - set.vertex_offsets[s]} *
+                    (set.influence_offsets[s + 1] - set.influence_offsets[s]);
+  }
+  out.weights.assign(weight_count, 0.0f);
+  std::vector<uint32_t> entry_of(set.joint_count(), UINT32_MAX);  // the sphere's first entry per joint
+  for (size_t s = 0; s < set.size(); ++s) {
+    const Vec4f& ref = stored ? set.fast_reference_spheres[s] : Vec4f::Zero();
+    const Eigen::Vector3f& centre = stored ? Eigen::Vector3f(ref.head<3>()) : set.centers_rest[s];
+    const double c[3] = {centre.x(), centre.y(), centre.z()};
+    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
+    for (uint32_t k = k1; k-- > k0;) entry_of[set.influence_joints[k]] = k;
     for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
       const uint32_t v = set.vertices[i];
       const double p[3] = {mesh.positions_bind[v].x(), mesh.positions_bind[v].y(), mesh.positions_bind[v].z()};
+      float* w = out.weights.data() + out.weight_offsets[s] + size_t{i - set.vertex_offsets[s]} * (k1 - k0);
+      double r2 = 0.0;
       bool weighted = false;
       for (uint32_t q = mesh.influence_offsets[v]; q < mesh.influence_offsets[v + 1]; ++q) {
         if (!(mesh.influence_weights[q] > 0.0f)) continue;
         weighted = true;
+        const int32_t j = mesh.binds[mesh.influence_binds[q]].joint;
+        if (entry_of[j] == UINT32_MAX) {
+          return Invalid("sphere " + std::to_string(s) + ": its source vertex " + std::to_string(v) +
+                         " is weighted on joint " + std::to_string(j) + ", which is not among the sphere's influences");
+        }
+        w[entry_of[j] - k0] += mesh.influence_weights[q];
         const Affine34& m = copy_of[mesh.influence_binds[q]];
         double d2 = 0.0;
         for (int r = 0; r < 3; ++r) {
@@ -496,8 +616,25 @@ Result<std::vector<float>> FastReferenceRadiiFromMesh(const SphereSet& set) {
         return Invalid("sphere " + std::to_string(s) + ": its source vertex " + std::to_string(v) +
                        " has no weight above 0");
       }
+      // Each joint's total (a float sum may pass 1 by an ulp), copied to its repeated entries.
+      for (uint32_t k = k0; k < k1; ++k) w[k - k0] = std::min(w[entry_of[set.influence_joints[k]] - k0], 1.0f);
+      out.radius[i] = std::nextafter(static_cast<float>(std::sqrt(r2)), std::numeric_limits<float>::infinity());
     }
-    radii[s] = std::nextafter(static_cast<float>(std::sqrt(r2)), std::numeric_limits<float>::infinity());
+    for (uint32_t k = k0; k < k1; ++k) entry_of[set.influence_joints[k]] = UINT32_MAX;
+  }
+  return out;
+}
+
+Result<std::vector<float>> FastReferenceRadiiFromMesh(const SphereSet& set) {
+  // The largest of the vertices' radii: rounding up is monotone, so this is the radius of the
+  // farthest copy rounded up.
+  auto vertices = FastBoundVerticesFromMesh(set);
+  if (!vertices.ok()) return vertices.error();
+  std::vector<float> radii(set.size(), std::nextafter(0.0f, 1.0f));
+  for (size_t s = 0; s < set.size(); ++s) {
+    for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
+      radii[s] = std::max(radii[s], vertices->radius[i]);
+    }
   }
   return radii;
 }

@@ -88,6 +88,9 @@ constexpr std::array<SectionInfo, kSphereSetSectionCount> kSections = {{
     {"influence_reach", 4},
     {"fast_reference_inverse", 4},
     {"fast_reference_spheres", 4},
+    {"reach_group_offsets", 4},
+    {"reach_group_radii", 4},
+    {"reach_group_weights", 4},
 }};
 
 // Which sections a file of this layout version with these flags holds (index id - 1).
@@ -355,6 +358,9 @@ std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set, SphereSetBinar
   w.Add(SphereSetSection::kFastReferenceSpheres,
         set.fast_reference_spheres.empty() ? nullptr : set.fast_reference_spheres.data()->data(),
         4 * set.fast_reference_spheres.size());
+  w.Add(SphereSetSection::kReachGroupOffsets, set.reach_group_offsets);
+  w.Add(SphereSetSection::kReachGroupRadii, set.reach_group_radii);
+  w.Add(SphereSetSection::kReachGroupWeights, set.reach_group_weights);
   if (mesh) {
     const skinning::SkinnedMesh& m = set.mesh;
     std::vector<int32_t> bind_joints;
@@ -542,6 +548,17 @@ struct SphereSetBinaryReader {
                              " elements, expected " + std::to_string(16 * joints) + " and " + std::to_string(4 * n) +
                              " (one per joint and per sphere) or both 0");
     }
+    // Reach groups: none, or offsets per sphere over the radii (their sizes and the weights' count
+    // are SphereSet::Validate()'s, from the values).
+    const size_t group_offsets = v.sections_[static_cast<uint32_t>(S::kReachGroupOffsets) - 1].count;
+    if (group_offsets == 0) {
+      if (v.sections_[static_cast<uint32_t>(S::kReachGroupRadii) - 1].count != 0 ||
+          v.sections_[static_cast<uint32_t>(S::kReachGroupWeights) - 1].count != 0) {
+        return Refuse(src, "sections reach_group_radii and reach_group_weights are given without reach_group_offsets");
+      }
+    } else if ((err = csr(S::kReachGroupOffsets, n, {S::kReachGroupRadii}))) {
+      return *err;
+    }
     if (v.sections_[static_cast<uint32_t>(S::kExcludedPairs) - 1].count % 3 != 0) {
       return Refuse(src, "section excluded_pairs does not hold whole (i, j, reason) triples");
     }
@@ -663,6 +680,9 @@ Result<SphereSet> SphereSetBinaryView::ToSphereSet() const {
   CopyInto(set.influence_reach, influence_reach());
   CopyFloats(set.fast_reference_inverse, fast_reference_inverse(), 16);
   CopyFloats(set.fast_reference_spheres, fast_reference_spheres(), 4);
+  CopyInto(set.reach_group_offsets, reach_group_offsets());
+  CopyInto(set.reach_group_radii, reach_group_radii());
+  CopyInto(set.reach_group_weights, reach_group_weights());
   const auto pairs = excluded_pairs();
   set.excluded_pairs.resize(pairs.size() / 3);
   for (size_t k = 0; k < set.excluded_pairs.size(); ++k) {

@@ -1,6 +1,7 @@
 #include "skinspheres/runtime/format/sphere_set_io.h"
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <new>
 #include <nlohmann/json.hpp>
@@ -39,6 +40,7 @@ std::string WriteSphereSetJson(const SphereSet& set) {
   j["parts"] = parts;
 
   json spheres = json::array();
+  size_t group_base = 0;  // where the current sphere's reach groups' reaches start
   for (size_t s = 0; s < set.size(); ++s) {
     const auto& c = set.centers_rest[s];
     json influences = json::array();
@@ -62,6 +64,18 @@ std::string WriteSphereSetJson(const SphereSet& set) {
     if (set.fast_reference_spheres.size() == set.size()) {
       const Vec4f& r = set.fast_reference_spheres[s];
       spheres.back()["fast_reference"] = {r.x(), r.y(), r.z(), r.w()};
+    }
+    if (set.reach_group_offsets.size() == set.size() + 1) {  // [radius, reach per influence] per group
+      const size_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
+      json groups = json::array();
+      for (uint32_t g = set.reach_group_offsets[s]; g < set.reach_group_offsets[s + 1]; ++g, group_base += k_count) {
+        std::vector<float> row = {set.reach_group_radii[g]};
+        for (size_t k = 0; k < k_count && group_base + k < set.reach_group_weights.size(); ++k) {
+          row.push_back(set.reach_group_weights[group_base + k]);
+        }
+        groups.push_back(row);
+      }
+      spheres.back()["reach_groups"] = groups;
     }
     if (!set.influence_reach.empty() && set.influence_reach.size() == set.influence_joints.size()) {
       spheres.back()["influence_reach"] =
@@ -128,7 +142,10 @@ T Number(const json& v, const std::string& where) {
     }
     return static_cast<T>(x);
   } else {
-    return v.get<T>();
+    // A double beyond the float range converts with undefined behaviour: refused by name instead.
+    const double x = v.get<double>();
+    if (std::fabs(x) > static_cast<double>(std::numeric_limits<T>::max())) throw ReadError{where + " is out of range"};
+    return static_cast<T>(x);
   }
 }
 
@@ -190,7 +207,7 @@ void ReadMesh(const json& m, StreamedMesh&& streamed, SphereSet* set) {
 
 // One element of "spheres", appended to the set's per-sphere arrays and CSR lists. "influence_reach"
 // is optional, but all spheres have it or none does (the first sphere decides: *has_reach).
-void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool* has_reference) {
+void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool* has_reference, bool* has_groups) {
   const std::string where = "$.spheres[" + std::to_string(s) + "]";
   if (Number<uint32_t>(Field(sp, "id", where), where + ".id") != s) throw ReadError{where + ".id is not its index"};
   set->sphere_part.push_back(Number<uint16_t>(Field(sp, "part", where), where + ".part"));
@@ -239,6 +256,37 @@ void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool
     throw ReadError{where + (*has_reference ? ".fast_reference is missing (the first sphere has one)"
                                             : ".fast_reference is given but the first sphere has none")};
   }
+  // "reach_groups" (sphere_set.h): optional, all spheres or none; per group [radius, reach per
+  // influence].
+  const auto groups = sp.find("reach_groups");
+  if (s == 0) {
+    *has_groups = groups != sp.end();
+    if (*has_groups) set->reach_group_offsets = {0};
+  }
+  if ((groups != sp.end()) != *has_groups) {
+    throw ReadError{where + (*has_groups ? ".reach_groups is missing (the first sphere has them)"
+                                         : ".reach_groups is given but the first sphere has none")};
+  }
+  if (*has_groups) {
+    const size_t k_count = set->influence_offsets.back() - set->influence_offsets[set->influence_offsets.size() - 2];
+    const json& list = Array(*groups, where + ".reach_groups");
+    if (list.empty() || list.size() > kMaxReachGroups) {
+      throw ReadError{where + ".reach_groups has " + std::to_string(list.size()) + " groups (1 to " +
+                      std::to_string(kMaxReachGroups) + ")"};
+    }
+    for (const json& g : list) {
+      const json& row = Array(g, where + ".reach_groups[]", 1 + k_count);
+      if (row.size() != 1 + k_count) {
+        throw ReadError{where + ".reach_groups[] has " + std::to_string(row.size()) + " entries, expected " +
+                        std::to_string(1 + k_count)};
+      }
+      set->reach_group_radii.push_back(Number<float>(row[0], where + ".reach_groups[][0]"));
+      for (size_t k = 0; k < k_count; ++k) {
+        set->reach_group_weights.push_back(Number<float>(row[1 + k], where + ".reach_groups[][]"));
+      }
+    }
+    set->reach_group_offsets.push_back(static_cast<uint32_t>(set->reach_group_radii.size()));
+  }
   if (*has_reference) {
     const json& r = Array(*reference, where + ".fast_reference", 4);
     set->fast_reference_spheres.emplace_back(
@@ -279,7 +327,7 @@ class SetStream {
       case E::array_start: array_[d] = event == E::array_start; return true;
       case E::object_end:
         if (d == 2 && array_[1] && key_[1] == "spheres") {
-          ParseSphere(parsed, set_.size(), &set_, &has_reach_, &has_reference_);
+          ParseSphere(parsed, set_.size(), &set_, &has_reach_, &has_reference_, &has_groups_);
           return false;
         }
         return true;
@@ -319,6 +367,7 @@ class SetStream {
   SphereSet set_;
   bool has_reach_ = false;
   bool has_reference_ = false;
+  bool has_groups_ = false;
   StreamedMesh mesh_;
   std::string key_[3];
   bool array_[3] = {false, false, false};

@@ -21,6 +21,10 @@ struct SphereSet;
 
 namespace skinspheres::runtime::internal {
 
+// The most reach groups a sphere has (SphereSet's kMaxReachGroups; refit_job.cc checks they agree):
+// the kernels keep one sum per group on the stack.
+inline constexpr uint32_t kKernelReachGroups = 4;
+
 // What the fast refit of one range reads and writes, as plain arrays (no Eigen types in the code
 // compiled for AVX2: an inline Eigen function instantiated there could be the copy the linker keeps
 // for the whole program).
@@ -34,7 +38,13 @@ struct FastRefitArrays {
   const uint32_t* influence_offsets = nullptr;  // per sphere, CSR
   const uint16_t* influence_joints = nullptr;   // per influence entry
   const float* radii_fast = nullptr;            // per sphere
-  float* out = nullptr;                         // 4 floats per sphere: centre, radius
+  // The reach groups (RefitRestData::group_offsets etc.): per sphere CSR over groups, per group a
+  // radius, per sphere the start of its groups' reaches (K_s per group).
+  const uint32_t* group_offsets = nullptr;
+  const float* group_radii = nullptr;
+  const float* group_reach = nullptr;
+  const uint32_t* group_reach_offsets = nullptr;
+  float* out = nullptr;  // 4 floats per sphere: centre, radius
 };
 
 // kAvx512: the crowd calls refit 16 instances of one set at once (RefitFastBatch), one instance

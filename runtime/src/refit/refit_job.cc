@@ -31,6 +31,8 @@ const char* ToString(RefitMode mode) {
   return "unknown";
 }
 
+static_assert(internal::kKernelReachGroups == kMaxReachGroups, "the kernels keep one sum per reach group");
+
 namespace {
 
 using internal::AffineInverse;
@@ -173,6 +175,10 @@ constexpr double kBindReferenceGain = 1e-3;
 Result<bool> ChooseFastReference(SphereSet* set) {
   set->fast_reference_inverse.clear();
   set->fast_reference_spheres.clear();
+  // Reach groups are measured in the reference frame: they go with it (the fitter writes them after).
+  set->reach_group_offsets.clear();
+  set->reach_group_radii.clear();
+  set->reach_group_weights.clear();
   if (!set->has_mesh() || set->fast_only || RestIsBind(*set)) return false;
   auto data = RefitRestData::Create(*set);  // the rest reference, its weights and reach
   if (!data.ok()) return data.error();
@@ -238,6 +244,25 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
   }
   d.bind_reference_ = !set.fast_reference_inverse.empty();
   d.radii_fast_ = ref->radius;
+  // The reach groups: the set's, else one per sphere (its radius and reach), which gives the
+  // one-group bound bit for bit.
+  d.group_reach_offsets_.resize(set.size() + 1);
+  if (!set.reach_group_offsets.empty()) {
+    d.group_offsets_ = set.reach_group_offsets;
+    d.group_radii_ = set.reach_group_radii;
+    d.group_reach_ = set.reach_group_weights;
+  } else {
+    d.group_offsets_.resize(set.size() + 1);
+    for (size_t s = 0; s <= set.size(); ++s) d.group_offsets_[s] = static_cast<uint32_t>(s);
+    d.group_radii_ = d.radii_fast_;
+    d.group_reach_ = d.reach_;
+  }
+  for (size_t s = 0, base = 0; s < set.size(); ++s) {
+    d.group_reach_offsets_[s] = static_cast<uint32_t>(base);
+    base += size_t{d.group_offsets_[s + 1] - d.group_offsets_[s]} *
+            (set.influence_offsets[s + 1] - set.influence_offsets[s]);
+    d.group_reach_offsets_[s + 1] = static_cast<uint32_t>(base);
+  }
   d.rest_linear_inverse_.resize(joints);
   d.rest_inverse_rows_.assign(12 * joints, 0.0f);
   for (size_t j = 0; j < joints; ++j) {
@@ -265,7 +290,8 @@ bool RefitJob::Validate() const {
     if (rest == nullptr) return false;
     if (rest->sphere_count() != n || rest->joint_count() != set->joint_count() ||
         rest->influence_count() != set->influence_joints.size() || rest->reach().size() != rest->influence_count() ||
-        set->influence_weights.size() != set->influence_joints.size() || set->radii_fast.size() != n) {
+        set->influence_weights.size() != set->influence_joints.size() || set->radii_fast.size() != n ||
+        rest->group_offsets().size() != n + 1 || rest->group_reach_offsets().size() != n + 1) {
       return false;
     }
     if (joint_world.size() < set->joint_count()) return false;
@@ -433,6 +459,10 @@ internal::FastRefitArrays SharedArrays(const SphereSet& set, const RefitRestData
   a.influence_offsets = set.influence_offsets.data();
   a.influence_joints = set.influence_joints.data();
   a.radii_fast = rest.radii_fast().data();
+  a.group_offsets = rest.group_offsets().data();
+  a.group_radii = rest.group_radii().data();
+  a.group_reach = rest.group_reach().data();
+  a.group_reach_offsets = rest.group_reach_offsets().data();
   return a;
 }
 

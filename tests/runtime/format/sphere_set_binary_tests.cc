@@ -531,13 +531,18 @@ TEST(SphereSetBinaryTest, VersionOneFilesReadWithoutReachAndFastOnlyFilesKeepIt)
   EXPECT_EQ(Get32(v2, 16), 3u);
   const Bytes v1 = Downgrade(v2, 1);
   EXPECT_EQ(Get32(v1, 16), 1u);
-  EXPECT_EQ(Get32(v1, 32), Get32(v2, 32) - 3);
+  EXPECT_EQ(Get32(v1, 32), Get32(v2, 32) - 6);
   auto old = Read(v1);
   ASSERT_TRUE(old.ok()) << old.error().message;
   EXPECT_TRUE(old->influence_reach.empty());
   EXPECT_TRUE(old->has_mesh());
-  SphereSet expected = fitted;
+  SphereSet expected = fitted;  // what a version-1 file holds: no reach, no reference, no groups
   expected.influence_reach.clear();
+  expected.fast_reference_inverse.clear();
+  expected.fast_reference_spheres.clear();
+  expected.reach_group_offsets.clear();
+  expected.reach_group_radii.clear();
+  expected.reach_group_weights.clear();
   EXPECT_EQ(WriteSphereSetJson(*old), WriteSphereSetJson(expected));
   auto rest = RefitRestData::Create(*old);
   ASSERT_TRUE(rest.ok()) << rest.error().message;
@@ -638,7 +643,7 @@ TEST(SphereSetBinaryTest, FastReferenceRoundTripsInBothFormatsAndFastOnlyFilesKe
 
   // A version-2 file: no reference sections; it reads as the set without one.
   const Bytes v2 = Downgrade(full, 2);
-  EXPECT_EQ(Get32(v2, 32), Get32(full, 32) - 2);
+  EXPECT_EQ(Get32(v2, 32), Get32(full, 32) - 5);
   auto old = Read(v2);
   ASSERT_TRUE(old.ok()) << old.error().message;
   EXPECT_TRUE(old->fast_reference_inverse.empty() && old->fast_reference_spheres.empty());
@@ -668,6 +673,59 @@ TEST(SphereSetBinaryTest, FastReferenceRoundTripsInBothFormatsAndFastOnlyFilesKe
   ASSERT_FALSE(refused_json.ok());
   EXPECT_NE(refused_json.error().message.find("$.spheres[1].fast_reference is missing"), std::string::npos)
       << refused_json.error().message;
+}
+
+// Reach groups (sphere_set.h; binary layout version 3, sections 31-33; JSON "reach_groups"): the
+// fitted set has them; both formats round-trip them and a fast-only file keeps them; a sphere with
+// no group or five, a group row of the wrong length, and binary offsets that do not match the
+// radii are refused by name.
+TEST(SphereSetBinaryTest, ReachGroupsRoundTripAndFastOnlyFilesKeepThem) {
+  const SphereSet& fitted = Builtin();
+  ASSERT_EQ(fitted.reach_group_offsets.size(), fitted.size() + 1);
+  ASSERT_GT(fitted.reach_group_radii.size(), fitted.size()) << "some sphere has two groups or more";
+  const std::string json = WriteSphereSetJson(fitted);
+  auto from_json = ReadSphereSetJson(json, "set.json");
+  ASSERT_TRUE(from_json.ok()) << from_json.error().message;
+  EXPECT_EQ(from_json->reach_group_offsets, fitted.reach_group_offsets);
+  EXPECT_EQ(from_json->reach_group_radii, fitted.reach_group_radii);
+  EXPECT_EQ(from_json->reach_group_weights, fitted.reach_group_weights);
+  auto fast = Read(WriteSphereSetBinary(fitted, SphereSetBinaryContent::kFastOnly));
+  ASSERT_TRUE(fast.ok()) << fast.error().message;
+  EXPECT_EQ(fast->reach_group_offsets, fitted.reach_group_offsets);
+  EXPECT_EQ(fast->reach_group_radii, fitted.reach_group_radii);
+  EXPECT_EQ(fast->reach_group_weights, fitted.reach_group_weights);
+
+  auto refused_with = [&](const std::function<void(nlohmann::json&)>& edit) {
+    auto doc = nlohmann::json::parse(json);
+    edit(doc);
+    auto read = ReadSphereSetJson(doc.dump(), "set.json");
+    return read.ok() ? std::string("accepted") : read.error().message;
+  };
+  EXPECT_NE(refused_with([](nlohmann::json& d) {
+              d["spheres"][3]["reach_groups"] = nlohmann::json::array();
+            }).find("$.spheres[3].reach_groups has 0 groups (1 to 4)"),
+            std::string::npos);
+  EXPECT_NE(refused_with([](nlohmann::json& d) {
+              auto& g = d["spheres"][3]["reach_groups"];
+              while (g.size() < 5) g.push_back(g[0]);
+            }).find("$.spheres[3].reach_groups has 5 groups"),
+            std::string::npos);
+  EXPECT_NE(refused_with([](nlohmann::json& d) {
+              d["spheres"][3]["reach_groups"][0].push_back(0.5);
+            }).find("$.spheres[3].reach_groups[] has"),
+            std::string::npos);
+  EXPECT_NE(refused_with([](nlohmann::json& d) {
+              d["spheres"][3].erase("reach_groups");
+            }).find("$.spheres[3].reach_groups is missing"),
+            std::string::npos);
+
+  Bytes bad = WriteSphereSetBinary(fitted);
+  Put64(bad, EntryOf(bad, SphereSetSection::kReachGroupRadii) + 16,
+        Get64(bad, EntryOf(bad, SphereSetSection::kReachGroupRadii) + 16) - 1);
+  FixChecksum(bad);
+  auto refused = Read(bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("reach_group_offsets"), std::string::npos) << refused.error().message;
 }
 
 // The fit settings (params) become the JSON's "params" object when a binary set is converted:

@@ -120,7 +120,7 @@ TEST(RefitJobTest, FastModeReachAnalyticTwoJoints) {
   EXPECT_NEAR(out[0].w(), 0.5f + 6.25f, 1e-4f);
   EXPECT_NEAR(out[1].x(), 0.75f + 70.0f / 12.0f, 1e-5f);
   EXPECT_NEAR(out[1].w(), 0.5f + 70.0f / 12.0f, 1e-4f);
-  const auto old = ScalarFastRefit(set, *rest, world, nullptr);
+  const auto old = ScalarFastRefit(set, *rest, world, test::Bound::kWithoutReach);
   EXPECT_NEAR(old[0].w(), 0.5f + 7.5f, 1e-4f);
   EXPECT_LT(out[0].w(), old[0].w()) << "strictly tighter where the reach is below 1";
   EXPECT_EQ(out[1].w(), old[1].w()) << "the max where it is the smaller";
@@ -147,7 +147,7 @@ TEST(RefitJobTest, FastModeWithReachHoldsEveryVertexOnRandomPoses) {
     }
     RefitJob job{RefitMode::kFast, &set, &*rest, world, {}, out};
     ASSERT_TRUE(job.Run());
-    const auto old = ScalarFastRefit(set, *rest, world, nullptr);
+    const auto old = ScalarFastRefit(set, *rest, world, test::Bound::kWithoutReach);
     for (size_t s = 0; s < 2; ++s) {
       ASSERT_LE(out[s].w(), old[s].w()) << "pose " << p << " sphere " << s;
       tighter += out[s].w() < old[s].w();
@@ -229,7 +229,7 @@ TEST(RefitJobTest, ARestPoseAwayFromBindTakesTheBindPoseAsReference) {
       g = t.matrix();
     }
     ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, out}.Run()));
-    const auto scalar = ScalarFastRefit(set, *rest, world, rest->reach().data());
+    const auto scalar = ScalarFastRefit(set, *rest, world, test::Bound::kRestData);
     for (size_t s = 0; s < 2; ++s) {
       ASSERT_EQ(out[s], scalar[s]) << "pose " << p << " sphere " << s;
       for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
@@ -253,12 +253,17 @@ TEST(RefitJobTest, ARestPoseAwayFromBindTakesTheBindPoseAsReference) {
 TEST(RefitJobTest, WithoutReachOrMeshTheFastBoundIsTheOldOneBitForBit) {
   auto fc = test::LoadFitted("builtin");
   ASSERT_TRUE(fc);
-  SphereSet old_set = fc->set;
+  // Files of those versions hold no reach groups either (sphere_set.h).
+  SphereSet without_groups = fc->set;
+  without_groups.reach_group_offsets.clear();
+  without_groups.reach_group_radii.clear();
+  without_groups.reach_group_weights.clear();
+  SphereSet old_set = without_groups;
   old_set.influence_reach.clear();
   old_set.mesh = {};
   old_set.triangle_vertices.clear();
   ASSERT_FALSE(old_set.Validate().has_value()) << old_set.Validate()->message;
-  SphereSet ones = fc->set;
+  SphereSet ones = without_groups;
   ones.influence_reach.assign(ones.influence_joints.size(), 1.0f);
   std::mt19937 rng(5);
   for (const SphereSet* set : {&old_set, &ones}) {
@@ -266,7 +271,7 @@ TEST(RefitJobTest, WithoutReachOrMeshTheFastBoundIsTheOldOneBitForBit) {
     ASSERT_TRUE(rest.ok()) << rest.error().message;
     for (int p = 0; p < 40; ++p) {
       const Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 90.0f, 0.3f), "random");
-      const auto want = ScalarFastRefit(*set, *rest, pose.world, nullptr);
+      const auto want = ScalarFastRefit(*set, *rest, pose.world, test::Bound::kWithoutReach);
       std::vector<skinspheres::Vec4f> got(set->size());
       ASSERT_TRUE((RefitJob{RefitMode::kFast, set, &*rest, pose.world, {}, got}.Run()));
       for (size_t s = 0; s < set->size(); ++s) {

@@ -68,7 +68,7 @@ int CheckPose(const FittedCharacter& fc, const RefitRestData& rest, const Pose& 
   const SphereSet& set = fc.set;
   const Refits r = RunAll(set, rest, pose);
   // The same frame under the bound without reach (the formula as it was, in the scalar reference).
-  const std::vector<skinspheres::Vec4f> old = ScalarFastRefit(set, rest, pose.world, nullptr);
+  const std::vector<skinspheres::Vec4f> old = ScalarFastRefit(set, rest, pose.world, test::Bound::kWithoutReach);
   for (size_t s = 0; s < set.size(); ++s) {
     g_sum_exact += r.exact[s].w();
     g_sum_fast += r.fast[s].w();
@@ -248,7 +248,7 @@ void CheckFastBitsAtOneLevel(const std::string& name, int poses) {
   const std::vector<std::vector<skinspheres::Mat4f>> worlds = AnyAffinePoses(*fc, 11, poses);
   for (int p = 0; p < poses; ++p) {
     const std::vector<skinspheres::Mat4f>& world = worlds[p];
-    const auto want = ScalarFastRefit(fc->set, *rest, world, rest->reach().data());
+    const auto want = ScalarFastRefit(fc->set, *rest, world, test::Bound::kRestData);
     std::vector<skinspheres::Vec4f> got(fc->set.size()), split(fc->set.size());
     RefitJob job{RefitMode::kFast, &fc->set, &*rest, world, {}, got};
     ASSERT_TRUE(job.Run());
@@ -330,8 +330,8 @@ TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
     for (int p = 0; p < 50; ++p) {
       std::vector<skinspheres::Mat4f> world;
       for (int j = 0; j < kJoints; ++j) world.push_back(random_affine(0.5f));
-      const auto want = ScalarFastRefit(set, *rest, world, rest->reach().data());
-      sum_term_smaller += want[0].w() < ScalarFastRefit(set, *rest, world, nullptr)[0].w() ? 1 : 0;
+      const auto want = ScalarFastRefit(set, *rest, world, test::Bound::kRestData);
+      sum_term_smaller += want[0].w() < ScalarFastRefit(set, *rest, world, test::Bound::kWithoutReach)[0].w() ? 1 : 0;
       std::vector<skinspheres::Vec4f> got(2);
       ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, got}.Run()));
       for (size_t s = 0; s < 2; ++s) {
@@ -373,7 +373,7 @@ void CheckBatchLanes(internal::RefitSimd level, const SphereSet& set, const Refi
     if ((bad >> b) & 1u) continue;
     size_t first = b;
     while (first > 0 && worlds[first - 1] == worlds[b]) --first;
-    const auto want = ScalarFastRefit(set, rest, *worlds[b], rest.reach().data());
+    const auto want = ScalarFastRefit(set, rest, *worlds[b], test::Bound::kRestData);
     for (size_t s = 0; s < set.size(); ++s) {
       for (int c = 0; c < 4; ++c) {
         ASSERT_EQ(std::bit_cast<uint32_t>(outs[first][s][c]), std::bit_cast<uint32_t>(want[s][c]))
@@ -458,6 +458,99 @@ TEST_P(SharedCharacterRefit, FastModeBitIdenticalToScalarFormula) {
   CheckFastBits(GetParam(), 20);
 }
 
+// The reach groups (refit_job.h, "Reach groups"): the fitted set has them; on 30 random poses every
+// fast radius is at most the same set's without them (one group per sphere) and the sum is smaller
+// where spheres blend joints (printed); every vertex stays inside (IsCoveredInBothModes).
+TEST_P(SharedCharacterRefit, ReachGroupsNeverLoosenTheBound) {
+  SKINSPHERES_REQUIRE_ASSET(path, GetParam());
+  (void)path;
+  auto fc = test::LoadFitted(GetParam());
+  ASSERT_TRUE(fc);
+  ASSERT_EQ(fc->set.reach_group_offsets.size(), fc->set.size() + 1);
+  SphereSet one_group = fc->set;
+  one_group.reach_group_offsets.clear();
+  one_group.reach_group_radii.clear();
+  one_group.reach_group_weights.clear();
+  auto grouped = RefitRestData::Create(fc->set), single = RefitRestData::Create(one_group);
+  ASSERT_TRUE(grouped.ok() && single.ok());
+  std::mt19937 rng(4);
+  double sum_grouped = 0.0, sum_single = 0.0;
+  for (int p = 0; p < 30; ++p) {
+    const Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, 0.3f), "random");
+    std::vector<skinspheres::Vec4f> a(fc->set.size()), b(fc->set.size());
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &fc->set, &*grouped, pose.world, {}, a}.Run()));
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &one_group, &*single, pose.world, {}, b}.Run()));
+    for (size_t s = 0; s < a.size(); ++s) {
+      ASSERT_LE(a[s].w(), b[s].w()) << "pose " << p << " sphere " << s;
+      sum_grouped += a[s].w(), sum_single += b[s].w();
+    }
+  }
+  std::printf("%s: fast radii summed over 30 random poses, reach groups / one group = %.3f\n", GetParam().c_str(),
+              sum_grouped / sum_single);
+}
+
+// Validate() holds each group to its members: a sphere's groups replaced by one group holding all of
+// its source vertices (radius: the largest of their reference radii; reach: the largest weights)
+// is accepted; that radius one ulp smaller, or one reach one ulp smaller, is refused by name.
+TEST(RefitJobTest, AReachGroupThatMissesAVertexIsRefused) {
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  SphereSet set = fc->set;
+  auto vertices = FastBoundVerticesFromMesh(set);
+  ASSERT_TRUE(vertices.ok()) << vertices.error().message;
+  // The first sphere with two influences and two groups or more.
+  size_t s = 0;
+  while (s < set.size() && (set.influence_offsets[s + 1] - set.influence_offsets[s] < 2 ||
+                            set.reach_group_offsets[s + 1] - set.reach_group_offsets[s] < 2)) {
+    ++s;
+  }
+  ASSERT_LT(s, set.size()) << "no sphere blends two joints in two groups";
+  const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
+  float radius = 0.0f;
+  std::vector<float> reach(k_count, 0.0f);
+  for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
+    radius = std::max(radius, vertices->radius[i]);
+    for (uint32_t k = 0; k < k_count; ++k) {
+      reach[k] = std::max(reach[k],
+                          vertices->weights[vertices->weight_offsets[s] + (i - set.vertex_offsets[s]) * k_count + k]);
+    }
+  }
+  // Rebuild the arrays with sphere s's groups replaced by that one group.
+  auto with_one_group = [&](float r, const std::vector<float>& w) {
+    SphereSet out = set;
+    out.reach_group_offsets = {0};
+    out.reach_group_radii.clear();
+    out.reach_group_weights.clear();
+    size_t base = 0;
+    for (size_t t = 0; t < set.size(); ++t) {
+      const uint32_t kc = set.influence_offsets[t + 1] - set.influence_offsets[t];
+      const uint32_t g0 = set.reach_group_offsets[t], g1 = set.reach_group_offsets[t + 1];
+      if (t == s) {
+        out.reach_group_radii.push_back(r);
+        out.reach_group_weights.insert(out.reach_group_weights.end(), w.begin(), w.end());
+      } else {
+        out.reach_group_radii.insert(out.reach_group_radii.end(), set.reach_group_radii.begin() + g0,
+                                     set.reach_group_radii.begin() + g1);
+        out.reach_group_weights.insert(out.reach_group_weights.end(), set.reach_group_weights.begin() + base,
+                                       set.reach_group_weights.begin() + base + size_t{g1 - g0} * kc);
+      }
+      base += size_t{g1 - g0} * kc;
+      out.reach_group_offsets.push_back(static_cast<uint32_t>(out.reach_group_radii.size()));
+    }
+    return out;
+  };
+  EXPECT_FALSE(with_one_group(radius, reach).Validate().has_value());
+  const auto small_radius = with_one_group(std::nextafter(radius, 0.0f), reach).Validate();
+  ASSERT_TRUE(small_radius.has_value());
+  EXPECT_NE(small_radius->message.find("is in none of its reach groups"), std::string::npos) << small_radius->message;
+  for (uint32_t k = 0; k < k_count; ++k) {
+    if (reach[k] <= 0.0f) continue;
+    std::vector<float> lower = reach;
+    lower[k] = std::nextafter(lower[k], 0.0f);
+    EXPECT_TRUE(with_one_group(radius, lower).Validate().has_value()) << "reach " << k << " one ulp smaller";
+  }
+}
+
 // The fitter stores the bind pose as the fast refit's reference only where it bounds tighter
 // (refit_job.h, "Reference frame"): Soldier, whose rest pose is not its bind pose, has it; where a
 // set has it, the fast radii summed over 30 random poses are smaller than the same set's without it
@@ -472,17 +565,23 @@ TEST_P(SharedCharacterRefit, FastReferenceIsStoredOnlyWhereItBoundsTighter) {
     EXPECT_TRUE(stored) << "Soldier's rest pose is not its bind pose";
   }
   if (!stored) return;
-  SphereSet without = fc->set;
+  // The same set with the rest pose as its reference (no groups: they are measured in the reference
+  // frame), against the set's own reference without its groups.
+  SphereSet with = fc->set;
+  with.reach_group_offsets.clear();
+  with.reach_group_radii.clear();
+  with.reach_group_weights.clear();
+  SphereSet without = with;
   without.fast_reference_inverse.clear();
   without.fast_reference_spheres.clear();
-  auto with_rest = RefitRestData::Create(fc->set), without_rest = RefitRestData::Create(without);
+  auto with_rest = RefitRestData::Create(with), without_rest = RefitRestData::Create(without);
   ASSERT_TRUE(with_rest.ok() && without_rest.ok());
   std::mt19937 rng(3);
   double sum_with = 0.0, sum_without = 0.0;
   for (int p = 0; p < 30; ++p) {
     const Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, 0.3f), "random");
     std::vector<skinspheres::Vec4f> a(fc->set.size()), b(fc->set.size());
-    ASSERT_TRUE((RefitJob{RefitMode::kFast, &fc->set, &*with_rest, pose.world, {}, a}.Run()));
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &with, &*with_rest, pose.world, {}, a}.Run()));
     ASSERT_TRUE((RefitJob{RefitMode::kFast, &without, &*without_rest, pose.world, {}, b}.Run()));
     for (size_t s = 0; s < a.size(); ++s) sum_with += a[s].w(), sum_without += b[s].w();
   }

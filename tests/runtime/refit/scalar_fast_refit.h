@@ -19,12 +19,14 @@ using runtime::SphereSet;
 
 // The fast refit as the plain scalar formula of the header, one float operation after the other:
 // the bit-equality reference of every SIMD and portable copy, on every platform.
-// reach: W per influence entry (the rest data's when the caller passes rest.reach()); nullptr: the
-// bound without it, Kavan & Žára's r' = s_max · radius_fast + max_j |d_j| as written before reach
-// existed (no min), the oracle of "never above the old bound" and "a set without reach is the old
-// bound".
+// bound: kRestData, the bound the runtime computes, from the rest data: the largest over the
+// sphere's reach groups of s_max · r_g + min(max_j |d_j|, Σ_j W_gj |d_j|) (one group, the set's
+// radius_fast and reach, when the set has none: refit_job.h); kWithoutReach: Kavan & Žára's
+// r' = s_max · radius_fast + max_j |d_j| as written before reach existed (no min), the oracle of
+// "never above the old bound" and "a set without reach is the old bound".
+enum class Bound { kRestData, kWithoutReach };
 inline std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, const RefitRestData& rest,
-                                                       std::span<const skinspheres::Mat4f> world, const float* reach) {
+                                                       std::span<const skinspheres::Mat4f> world, Bound bound) {
   // Written out in plain floats in the order refit_job.h documents (every 3-term sum as
   // a0 + (a1 + a2)): Eigen's own evaluation order differs between targets (NEON has 2-float
   // packets), and the runtime must give these bits on every platform.
@@ -45,7 +47,10 @@ inline std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, con
       const Eigen::Vector3f p = apply(world[set.influence_joints[k]], q[k]);
       for (int m = 0; m < 3; ++m) c[m] = c[m] + w[k] * p[m];
     }
-    float spread2 = 0.0f, reached = 0.0f, s2 = 0.0f;
+    const uint32_t g0 = rest.group_offsets()[s], groups = rest.group_offsets()[s + 1] - g0;
+    const float* g_reach = rest.group_reach().data() + rest.group_reach_offsets()[s];
+    std::vector<float> reached(groups, 0.0f);
+    float spread2 = 0.0f, s2 = 0.0f;
     for (uint32_t k = k0; k < k1; ++k) {
       const uint16_t j = set.influence_joints[k];
       const Eigen::Vector3f d = apply(world[j], q[k]) - c;
@@ -65,11 +70,16 @@ inline std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, con
         row_max = std::max(row_max, std::fabs(ata[i][0]) + (std::fabs(ata[i][1]) + std::fabs(ata[i][2])));
       }
       spread2 = std::max(spread2, d2);
-      if (reach != nullptr) reached += reach[k] * std::sqrt(d2);
+      for (uint32_t g = 0; g < groups; ++g) reached[g] += g_reach[g * (k1 - k0) + (k - k0)] * std::sqrt(d2);
       s2 = std::max(s2, row_max);
     }
-    const float spread = reach != nullptr ? std::min(std::sqrt(spread2), reached) : std::sqrt(spread2);
-    const float r = std::sqrt(s2) * rest.radii_fast()[s] + spread;
+    float r = std::sqrt(s2) * rest.radii_fast()[s] + std::sqrt(spread2);
+    if (bound == Bound::kRestData) {
+      r = std::sqrt(s2) * rest.group_radii()[g0] + std::min(std::sqrt(spread2), reached[0]);
+      for (uint32_t g = 1; g < groups; ++g) {
+        r = std::max(r, std::sqrt(s2) * rest.group_radii()[g0 + g] + std::min(std::sqrt(spread2), reached[g]));
+      }
+    }
     const float largest = std::max(std::fabs(c.x()), std::max(std::fabs(c.y()), std::fabs(c.z())));
     const float radius = r + 16.0f * FLT_EPSILON * (largest + r);
     out[s] = skinspheres::Vec4f(c.x(), c.y(), c.z(), radius);

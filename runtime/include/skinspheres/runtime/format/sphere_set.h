@@ -39,6 +39,7 @@ namespace skinspheres::runtime {
 inline constexpr const char* kSphereSetFormat = "skinspheres.sphere_set";
 inline constexpr int kSphereSetVersion = 2;             // written when the set has a mesh
 inline constexpr int kSphereSetVersionWithoutMesh = 1;  // written when it has none; both are read
+inline constexpr uint32_t kMaxReachGroups = 4;          // per sphere (SphereSet::reach_group_offsets)
 
 enum class ExclusionReason : uint8_t {
   kSameJoint = 0,       // both spheres belong to the same joint
@@ -112,6 +113,23 @@ struct SphereSet {
   std::vector<Mat4f> fast_reference_inverse;
   std::vector<Vec4f> fast_reference_spheres;
 
+  // The fast bound's reach groups (refit/refit_job.h, "Reach groups"), or all three empty: one group
+  // per sphere, its radius the reference radius (radii_fast, or fast_reference_spheres[s].w()) and
+  // its reach influence_reach (or what stands in for it). Otherwise sphere s has groups
+  // [reach_group_offsets[s], reach_group_offsets[s+1]), 1 to kMaxReachGroups of them; group g has a
+  // radius reach_group_radii[g] and, per influence entry k of its sphere, a reach: K_s floats (K_s
+  // the sphere's influence count) at reach_group_weights[b_s + (g - reach_group_offsets[s]) * K_s],
+  // b_s the sum over the spheres before s of their groups times their influences. Every source
+  // vertex of the sphere is dominated by one of its groups: its reference radius (the radius around
+  // the reference centre holding its reference copies, FastBoundVerticesFromMesh) at most the
+  // group's radius, and its total weight on each entry's joint at most the group's reach there. The
+  // fast bound is the largest of the groups' bounds, each at most the one-group bound: the fitter
+  // writes them (CesiumMan: 1.24x to 1.17x the radius the skinned triangles need). With a mesh,
+  // Validate() checks that every source vertex is dominated; a fast-only binary file keeps them.
+  std::vector<uint32_t> reach_group_offsets;
+  std::vector<float> reach_group_radii;
+  std::vector<float> reach_group_weights;
+
   std::vector<ExcludedPair> excluded_pairs;  // sorted by (i, j), i < j, unique
 
   // The skinned mesh the set was fitted on (version 2; both empty in a version-1 set), indexed by
@@ -155,6 +173,25 @@ struct SphereSet {
 // not among its sphere's influences (no reach then bounds it). What the fitter stores and what
 // Validate() compares a stored reach with, bit for bit.
 Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set);
+
+// What the fast bound must hold for each source vertex of each sphere, in the set's reference
+// frame (the stored fast reference, else the rest pose), indexed like SphereSet::vertices (entry i
+// of vertex_offsets' CSR):
+//   radius[i]: the radius around the sphere's reference centre (fast_reference_spheres[s] or
+//     centers_rest[s]) that holds every reference copy R_j(b) · IBM_b · p_bind of the vertex, through
+//     each bind entry b it weighs, in double in a fixed order, rounded up to float;
+//   weights[weight_offsets[s] + (i - vertex_offsets[s]) * K_s + (k - influence_offsets[s])]: its total
+//     weight on the joint of influence entry k, summed over its bind entries in order in float, at
+//     most 1 (what InfluenceReachFromMesh takes the largest of).
+// Needs a mesh and otherwise well-formed lists. An error when a reference transform cannot be
+// inverted, a source vertex has no weight above 0, or one is weighted on a joint that is not among
+// its sphere's influences.
+struct FastBoundVertices {
+  std::vector<float> radius;
+  std::vector<uint32_t> weight_offsets;  // per sphere
+  std::vector<float> weights;
+};
+Result<FastBoundVertices> FastBoundVerticesFromMesh(const SphereSet& set);
 
 // Per sphere, the radius around fast_reference_spheres[s].head<3>() that holds every reference copy
 // R_j(b) · IBM_b · p_bind of its source vertices (R_j the inverse of fast_reference_inverse[j],

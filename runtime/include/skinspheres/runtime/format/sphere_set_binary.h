@@ -3,7 +3,7 @@
 // stays the interchange and debugging format; both hold the same set, and converting one into the
 // other and back is bit-exact (`skinspheres convert`).
 //
-// Layout, version 3 (version 2, the same without sections 29-30, and version 1, without 28-30, are
+// Layout, version 3 (version 2, the same without sections 29-33, and version 1, without 28-33, are
 // still read). Every integer and
 // float is little-endian; offsets count bytes from the start of the file (never pointers), so the
 // file works at any address.
@@ -68,12 +68,16 @@
 //   29  fast_reference_inverse  f32   16 J or 0        column-major 4x4 per joint } version 3, every
 //   30  fast_reference_spheres  f32   4 N or 0         (x, y, z, r) per sphere    } file; both 0: the
 //                                                       rest pose (sphere_set.h, refit_job.h)
+//   31  reach_group_offsets     u32   N + 1 or 0       CSR over 32            } version 3, every
+//   32  reach_group_radii       f32   o[N]             per group              } file; all 0: one
+//   33  reach_group_weights     f32   sum of groups    per group, one per     } group per sphere
+//                                     x influences     influence of 14           (sphere_set.h)
 // A file holds exactly the sections its flags and version call for. A change of layout bumps the
 // version. A version-1 file reads as a set without influence reach, a version-1 or 2 file as one
-// without a fast reference (the rest pose).
+// without a fast reference (the rest pose) or reach groups.
 //
 // Fast-only variant: sections 17-27 left out, i.e. everything fast refit never reads (Xbot: 16 KB
-// instead of 1.6 MB; its JSON takes 3.5 MB). It keeps sections 28-30, 28 filled from the mesh when the set
+// instead of 1.6 MB; its JSON takes 3.5 MB). It keeps sections 28-33, 28 filled from the mesh when the set
 // has a mesh and no reach of its own (a fast-only set has no mesh to compute it from later), so it
 // refits exactly as the whole set does. A set read from it has SphereSet::fast_only set; exact refit and
 // triangle tests refuse it with an error saying so.
@@ -147,8 +151,11 @@ enum class SphereSetSection : uint32_t {
   kInfluenceReach,
   kFastReferenceInverse,
   kFastReferenceSpheres,
+  kReachGroupOffsets,
+  kReachGroupRadii,
+  kReachGroupWeights,
 };
-inline constexpr uint32_t kSphereSetSectionCount = 30;  // ids 1..30
+inline constexpr uint32_t kSphereSetSectionCount = 33;  // ids 1..33
 
 enum class SphereSetBinaryContent : uint8_t {
   kFull,      // everything, mesh included: converts back to the same JSON
@@ -231,6 +238,9 @@ class SphereSetBinaryView {
   // Empty in a version-1 or 2 file and when the set has none.
   std::span<const float> fast_reference_inverse() const { return Get<float>(SphereSetSection::kFastReferenceInverse); }
   std::span<const float> fast_reference_spheres() const { return Get<float>(SphereSetSection::kFastReferenceSpheres); }
+  std::span<const uint32_t> reach_group_offsets() const { return Get<uint32_t>(SphereSetSection::kReachGroupOffsets); }
+  std::span<const float> reach_group_radii() const { return Get<float>(SphereSetSection::kReachGroupRadii); }
+  std::span<const float> reach_group_weights() const { return Get<float>(SphereSetSection::kReachGroupWeights); }
   uint32_t version() const { return version_; }
 
   // Copies into a SphereSet (loaded_from = source_name()) and validates it (errors name the source).

@@ -4,11 +4,13 @@
 //
 // {"format":"skinspheres.sphere_set","version":2,
 //  "source":{"file","vertices","triangles"}, "params":{...},
-//  "skeleton":{"joints":[{"name","parent","rest_world":[16 floats, column-major]}]},
+//  "skeleton":{"joints":[{"name","parent","rest_world":[16 floats, column-major],
+//                         "fast_reference_inverse":[16 floats, column-major]}]},
 //  "parts":[{"name","joints":[joint indices]}],
 //  "spheres":[{"id","part","joint","level","center":[x,y,z],"radius","radius_fast",
 //              "vertices":[...],"triangles":[...],"influences":[[joint,weight],...],
-//              "influence_reach":[one per influence]}],
+//              "influence_reach":[one per influence],"fast_reference":[x,y,z,r],
+//              "reach_groups":[[radius, one reach per influence], ...]}],
 //  "excluded_pairs":[[i,j,"same_joint"|"adjacent_joints"|"bind_overlap"],...],
 //  "mesh":{"triangles":[3 source vertex indices per source triangle],
 //          "positions_bind":[x,y,z per source vertex],
@@ -18,7 +20,11 @@
 // mesh; a set without a mesh is written as version 1. "influence_reach" (SphereSet::influence_reach)
 // is optional in either version: every sphere has it or none does, and a file without it (written
 // before it existed) reads as a set without reach, which fast refit computes from the mesh or
-// takes as 1 (sphere_set.h); it is written when the set has it.
+// takes as 1 (sphere_set.h); it is written when the set has it. "fast_reference_inverse" (on every
+// joint) with "fast_reference" (on every sphere), and "reach_groups" (on every sphere, 1 to 4
+// groups), are optional the same way: the fast refit's stored reference frame and reach groups
+// (SphereSet::fast_reference_inverse, reach_group_offsets); a file without them refits with the
+// rest pose and one group per sphere, and a reader that ignores them still refits soundly.
 // Everything in the rest pose, in the source file's world space. Sphere "id" is its index.
 // A reader refuses another format name, a newer version, a malformed or truncated file, or a set
 // that fails SphereSet::Validate(), with a message naming the file and the problem.
