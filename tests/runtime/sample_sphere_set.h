@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <vector>
 
 #include "skinspheres/runtime/format/sphere_set.h"
@@ -94,8 +95,10 @@ inline SphereSet TwoJointsWithMesh() {
 // fitter writes it: rest positions by skinning at rest, each sphere the box centre of its vertices,
 // radius_fast holding every rest copy. Each vertex's rest copies through its two joints lie apart:
 // the case the fast refit's bind-pose reference is for (refit_job.h, "Reference frame").
-inline SphereSet TwoJointsRestAwayFromBind() {
+// edit_mesh, when given, changes the mesh first (the rest data then follows from it).
+inline SphereSet TwoJointsRestAwayFromBind(const std::function<void(SphereSet&)>& edit_mesh = {}) {
   SphereSet set = TwoJointsWithMesh();
+  if (edit_mesh) edit_mesh(set);
   const Eigen::Affine3f turn(Eigen::Translation3f(0.3f, 0.1f, 0.0f));
   set.joint_rest_world[1] = turn.matrix();
   std::vector<Eigen::Vector3d> rest_positions(4, Eigen::Vector3d::Zero());
