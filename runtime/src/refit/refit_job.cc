@@ -101,8 +101,10 @@ bool StoreBindReference(SphereSet* set, std::span<const Mat4d> rest_inverse, std
   const skinning::SkinnedMesh& mesh = set->mesh;
   const size_t joints = set->joint_count();
   std::vector<int> first_bind(joints, -1);
-  for (size_t b = 0; b < mesh.binds.size(); ++b) {
-    if (first_bind[mesh.binds[b].joint] < 0) first_bind[mesh.binds[b].joint] = static_cast<int>(b);
+  for (size_t b = 0; b < mesh.binds.size(); ++b) {  // the first invertible entry (exporters write zeros)
+    if (first_bind[mesh.binds[b].joint] < 0 && AffineInverse(mesh.binds[b].inverse_bind.cast<double>())) {
+      first_bind[mesh.binds[b].joint] = static_cast<int>(b);
+    }
   }
   std::vector<Mat4d> inverse(rest_inverse.begin(), rest_inverse.end());
   set->fast_reference_inverse.resize(joints);

@@ -70,7 +70,8 @@
 // holds every copy. A set uses one of two (SphereSet::fast_reference_inverse / _spheres):
 //   - the rest pose, R_j = G_j(rest): c = centers_rest, radius_fast = SphereSet::radii_fast (every
 //     set without a stored reference, every file written before it);
-//   - the bind pose, R_j = IBM_first(j)^-1 (the inverse bind matrix of j's first bind entry): a
+//   - the bind pose, R_j = IBM_first(j)^-1 (the inverse bind matrix of j's first bind entry whose
+//     matrix can be inverted; the rest pose's for a joint with none): a
 //     vertex's copy through entry b is IBM_first(j)^-1 · IBM_b · p_bind, which is p_bind itself
 //     for j's first entry, so a vertex's copies coincide; c = the rest centre carried back by the
 //     sphere's blended rest-from-bind transform (Σ_j w_j G_j(rest) · IBM_first(j))^-1 · c_rest,
