@@ -10,6 +10,7 @@
 #include <cfloat>
 #include <cmath>
 #include <random>
+#include <span>
 
 #include "runtime/posed_characters.h"
 #include "runtime/refit/scalar_fast_refit.h"
@@ -169,6 +170,29 @@ TEST(RefitJobTest, FastModeWithReachHoldsEveryVertexOnRandomPoses) {
   std::printf("two joints: %d of 4000 fast spheres tighter with reach\n", tighter);
 }
 
+// Random joint transforms: a rigid motion each, times a non-uniform scale on odd poses p.
+void RandomWorld(std::mt19937& rng, int p, std::vector<skinspheres::Mat4f>* world) {
+  std::uniform_real_distribution<float> angle(-3.1f, 3.1f), move(-3.0f, 3.0f), scale(0.3f, 3.0f);
+  for (auto& g : *world) {
+    const Eigen::Vector3f axis = Eigen::Vector3f(move(rng), move(rng), move(rng)).normalized();
+    Eigen::Affine3f t = Eigen::Translation3f(move(rng), move(rng), move(rng)) * Eigen::AngleAxisf(angle(rng), axis);
+    if (p % 2) t = t * Eigen::Scaling(Eigen::Vector3f(scale(rng), scale(rng), scale(rng)));
+    g = t.matrix();
+  }
+}
+
+// Source vertex v of the set's mesh skinned in double (the oracle of "every vertex inside").
+Eigen::Vector3d SkinnedInDouble(const SphereSet& set, std::span<const skinspheres::Mat4f> world, uint32_t v) {
+  Eigen::Vector3d skinned = Eigen::Vector3d::Zero();
+  for (uint32_t q = set.mesh.influence_offsets[v]; q < set.mesh.influence_offsets[v + 1]; ++q) {
+    const skinning::BindEntry& b = set.mesh.binds[set.mesh.influence_binds[q]];
+    const Eigen::Matrix4d m = world[static_cast<size_t>(b.joint)].cast<double>() * b.inverse_bind.cast<double>();
+    skinned +=
+        double{set.mesh.influence_weights[q]} * (m * set.mesh.positions_bind[v].cast<double>().homogeneous()).head<3>();
+  }
+  return skinned;
+}
+
 // A rest pose away from the bind pose (joint b's rest transform moved by (0.3, 0.1, 0); the bind
 // pose is identity for both joints): each vertex's rest copies through its two joints lie apart,
 // so radius_fast around the rest centre must hold both, and ChooseFastReference stores the bind
@@ -220,28 +244,15 @@ TEST(RefitJobTest, ARestPoseAwayFromBindTakesTheBindPoseAsReference) {
   }
 
   std::mt19937 rng(5);
-  std::uniform_real_distribution<float> angle(-3.1f, 3.1f), move(-3.0f, 3.0f), scale(0.3f, 3.0f);
   for (int p = 0; p < 2000; ++p) {
-    for (auto& g : world) {
-      const Eigen::Vector3f axis = Eigen::Vector3f(move(rng), move(rng), move(rng)).normalized();
-      Eigen::Affine3f t = Eigen::Translation3f(move(rng), move(rng), move(rng)) * Eigen::AngleAxisf(angle(rng), axis);
-      if (p % 2) t = t * Eigen::Scaling(Eigen::Vector3f(scale(rng), scale(rng), scale(rng)));
-      g = t.matrix();
-    }
+    RandomWorld(rng, p, &world);
     ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, out}.Run()));
     const auto scalar = ScalarFastRefit(set, *rest, world, test::Bound::kRestData);
     for (size_t s = 0; s < 2; ++s) {
       ASSERT_EQ(out[s], scalar[s]) << "pose " << p << " sphere " << s;
       for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
         const uint32_t v = set.vertices[k];
-        Eigen::Vector3d skinned = Eigen::Vector3d::Zero();
-        for (uint32_t q = set.mesh.influence_offsets[v]; q < set.mesh.influence_offsets[v + 1]; ++q) {
-          const skinning::BindEntry& b = set.mesh.binds[set.mesh.influence_binds[q]];
-          const Eigen::Matrix4d m = world[static_cast<size_t>(b.joint)].cast<double>() * b.inverse_bind.cast<double>();
-          skinned += double{set.mesh.influence_weights[q]} *
-                     (m * set.mesh.positions_bind[v].cast<double>().homogeneous()).head<3>();
-        }
-        ASSERT_LE((skinned - out[s].head<3>().cast<double>()).norm(), out[s].w())
+        ASSERT_LE((SkinnedInDouble(set, world, v) - out[s].head<3>().cast<double>()).norm(), out[s].w())
             << "pose " << p << " sphere " << s << " vertex " << v;
       }
     }
@@ -292,16 +303,10 @@ TEST(RefitJobTest, TheBindReferenceHoldsWithInverseBindMatricesThatAreNotTheIden
   auto rest = RefitRestData::Create(set), rest_grouped = RefitRestData::Create(grouped);
   ASSERT_TRUE(rest.ok() && rest_grouped.ok());
   std::mt19937 rng(9);
-  std::uniform_real_distribution<float> angle(-3.1f, 3.1f), move(-3.0f, 3.0f), scale(0.3f, 3.0f);
   std::vector<skinspheres::Mat4f> world(2);
   std::vector<skinspheres::Vec4f> out(2), out_grouped(2);
   for (int p = 0; p < 2000; ++p) {
-    for (auto& g : world) {
-      const Eigen::Vector3f axis = Eigen::Vector3f(move(rng), move(rng), move(rng)).normalized();
-      Eigen::Affine3f t = Eigen::Translation3f(move(rng), move(rng), move(rng)) * Eigen::AngleAxisf(angle(rng), axis);
-      if (p % 2) t = t * Eigen::Scaling(Eigen::Vector3f(scale(rng), scale(rng), scale(rng)));
-      g = t.matrix();
-    }
+    RandomWorld(rng, p, &world);
     ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, out}.Run()));
     ASSERT_TRUE((RefitJob{RefitMode::kFast, &grouped, &*rest_grouped, world, {}, out_grouped}.Run()));
     const auto scalar = ScalarFastRefit(grouped, *rest_grouped, world, test::Bound::kRestData);
@@ -310,13 +315,7 @@ TEST(RefitJobTest, TheBindReferenceHoldsWithInverseBindMatricesThatAreNotTheIden
       ASSERT_LE(out_grouped[s].w(), out[s].w()) << "pose " << p << " sphere " << s;
       for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
         const uint32_t v = set.vertices[k];
-        Eigen::Vector3d skinned = Eigen::Vector3d::Zero();
-        for (uint32_t q = set.mesh.influence_offsets[v]; q < set.mesh.influence_offsets[v + 1]; ++q) {
-          const skinning::BindEntry& b = set.mesh.binds[set.mesh.influence_binds[q]];
-          const Eigen::Matrix4d m = world[static_cast<size_t>(b.joint)].cast<double>() * b.inverse_bind.cast<double>();
-          skinned += double{set.mesh.influence_weights[q]} *
-                     (m * set.mesh.positions_bind[v].cast<double>().homogeneous()).head<3>();
-        }
+        const Eigen::Vector3d skinned = SkinnedInDouble(set, world, v);
         for (const skinspheres::Vec4f& sphere : {out[s], out_grouped[s]}) {
           ASSERT_LE((skinned - sphere.head<3>().cast<double>()).norm(), sphere.w())
               << "pose " << p << " sphere " << s << " vertex " << v;
