@@ -256,7 +256,15 @@ Result<std::shared_ptr<const Playback>> Playback::Create(const LoadedCharacter& 
   p->mapping_ = std::move(*mapping);
   // The vertices the exact refit reads: every sphere's source vertices, skinned through the
   // prepared (SIMD) layout built once.
-  p->sources_.assign(set.vertices.begin(), set.vertices.end());
+  p->sources_.clear();  // a grid point of a cut triangle (docs/TRIANGLE_PIECES.md) needs its triangle's vertices
+  for (uint32_t point : set.vertices) {
+    if (point < set.source_vertex_count) {
+      p->sources_.push_back(point);
+      continue;
+    }
+    const uint32_t t = set.piece_points[point - set.source_vertex_count].triangle;
+    for (int c = 0; c < 3; ++c) p->sources_.push_back(set.triangle_vertices[3 * size_t{t} + c]);
+  }
   std::sort(p->sources_.begin(), p->sources_.end());
   p->sources_.erase(std::unique(p->sources_.begin(), p->sources_.end()), p->sources_.end());
   std::string why;
@@ -393,16 +401,33 @@ void ClipPlayer::Verify(int f, PlayResult* result) {
   for (size_t s = 0; s < set.size(); ++s) {
     const Eigen::Vector3d c = spheres[s].head<3>().cast<double>();
     const double r = spheres[s].w() * (1.0 + 1e-5);
-    double needed = 0.0;  // the radius around this centre that holds the sphere's triangles
-    for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
-      const auto& tri = ch.triangles[set.triangles[k]];
+    double needed = 0.0;  // the radius around this centre that holds the sphere's triangles and pieces
+    auto check = [&](const Eigen::Vector3f* corner) {
       bool out = false;
       for (int v = 0; v < 3; ++v) {
-        const double d = (skinned_[tri[v]].cast<double>() - c).norm();
+        const double d = (corner[v].cast<double>() - c).norm();
         needed = std::max(needed, d);
         out |= d > r;
       }
       outside += out ? 1 : 0;
+    };
+    for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
+      const auto& tri = ch.triangles[set.triangles[k]];
+      const Eigen::Vector3f corner[3] = {skinned_[tri[0]], skinned_[tri[1]], skinned_[tri[2]]};
+      check(corner);
+    }
+    for (uint32_t k = set.piece_offsets.empty() ? 0 : set.piece_offsets[s];
+         k < (set.piece_offsets.empty() ? 0 : set.piece_offsets[s + 1]); ++k) {  // each piece's corners
+      const runtime::TrianglePiece& piece = set.pieces[k];
+      const auto& tri = ch.triangles[piece.triangle];
+      uint8_t grid[3][2];
+      runtime::PieceCorners(piece.level, piece.index, grid);
+      Eigen::Vector3f corner[3];
+      for (int v = 0; v < 3; ++v) {
+        corner[v] = runtime::GridPoint(skinned_[tri[0]], skinned_[tri[1]], skinned_[tri[2]], piece.level, grid[v][0],
+                                       grid[v][1]);
+      }
+      check(corner);
     }
     if (needed > 0.0) {
       result->radius_ratio_sum += spheres[s].w() / needed;
@@ -430,6 +455,7 @@ Result<PlayResult> ClipPlayer::Play(size_t clip_index, const FrameSink& sink) {
   if (options_.verify) {  // every triangle of the mesh owned by a sphere (checked once)
     std::vector<bool> owned(ch.triangle_count(), false);
     for (uint32_t t : playback_->set().triangles) owned[t] = true;
+    for (const runtime::TrianglePiece& piece : playback_->set().pieces) owned[piece.triangle] = true;
     result.triangles_unowned = static_cast<size_t>(std::count(owned.begin(), owned.end(), false));
   }
   auto frames = FrameCount(clip);

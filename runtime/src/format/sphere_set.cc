@@ -29,9 +29,45 @@ std::optional<ExclusionReason> ExclusionReasonFromString(std::string_view text) 
   return std::nullopt;
 }
 
+bool PieceCorners(uint16_t level, uint16_t index, uint8_t corners[3][2]) {
+  if (level < 2 || level > kMaxPieceLevel || index >= uint32_t{level} * level) return false;
+  const uint32_t up = uint32_t{level} * (level + 1) / 2;
+  // Row j of the upward pieces holds level - j of them, row j of the downward ones level - 1 - j.
+  const bool upward = index < up;
+  uint32_t k = upward ? index : index - up;
+  uint32_t j = 0;
+  for (uint32_t row = upward ? level : level - 1u; k >= row; --row) {
+    k -= row;
+    ++j;
+  }
+  const auto i = static_cast<uint8_t>(k), jj = static_cast<uint8_t>(j);
+  const uint8_t up_corners[3][2] = {{i, jj}, {uint8_t(i + 1), jj}, {i, uint8_t(jj + 1)}};
+  const uint8_t down_corners[3][2] = {{uint8_t(i + 1), jj}, {uint8_t(i + 1), uint8_t(jj + 1)}, {i, uint8_t(jj + 1)}};
+  for (int c = 0; c < 3; ++c) {
+    for (int a = 0; a < 2; ++a) corners[c][a] = upward ? up_corners[c][a] : down_corners[c][a];
+  }
+  return true;
+}
+
 namespace {
 
 Error Invalid(const std::string& what) { return MakeError(ErrorCode::kInvalidData, what); }
+
+std::string PointName(const SphereSet& set, uint32_t k);  // "source vertex 7", "grid point (1, 0) of ..."
+
+// A grid point's key, ordered by triangle, level, i, j.
+uint64_t PointKey(uint32_t triangle, uint16_t level, uint8_t i, uint8_t j) {
+  return (uint64_t{triangle} << 32) | (uint64_t{level} << 16) | (uint64_t{i} << 8) | j;
+}
+
+// The source vertex at grid point (i, j) when it is one of the triangle's corners, else UINT32_MAX.
+uint32_t CornerVertex(const SphereSet& set, uint32_t triangle, uint16_t level, uint8_t i, uint8_t j) {
+  const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{triangle};
+  if (i == 0 && j == 0) return v[0];
+  if (i == level && j == 0) return v[1];
+  if (i == 0 && j == level) return v[2];
+  return UINT32_MAX;
+}
 
 // A float in as many digits as tell it from its neighbours (a reach one ulp too small must read so).
 std::string Digits(float x) {
@@ -107,10 +143,37 @@ std::optional<Error> ValidateMesh(const SphereSet& set) {
     return Invalid("mesh vertex " + std::to_string(v) + " has skin weights summing to " + Digits(float(sum)) +
                    ", not 1");
   }
-  std::vector<uint32_t> marked(vertices, UINT32_MAX);  // marked[v] == s: v is a source vertex of sphere s
+  // marked[k] == s: point k (a source vertex, or grid point k - vertices) is in sphere s's list.
+  std::vector<uint32_t> marked(vertices + set.piece_points.size(), UINT32_MAX);
+  // The grid points by key (unique: CheckPieces), to find a piece corner's point.
+  std::vector<std::pair<uint64_t, uint32_t>> point_of(set.piece_points.size());
+  for (size_t k = 0; k < set.piece_points.size(); ++k) {
+    const PiecePoint& g = set.piece_points[k];
+    point_of[k] = {PointKey(g.triangle, g.level, g.i, g.j), static_cast<uint32_t>(vertices + k)};
+  }
+  std::sort(point_of.begin(), point_of.end());
   for (size_t s = 0; s < set.size(); ++s) {
     for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k)
       marked[set.vertices[k]] = static_cast<uint32_t>(s);
+    for (uint32_t k = set.piece_offsets.empty() ? 0 : set.piece_offsets[s];
+         k < (set.piece_offsets.empty() ? 0 : set.piece_offsets[s + 1]); ++k) {
+      const TrianglePiece& p = set.pieces[k];
+      uint8_t corners[3][2];
+      PieceCorners(p.level, p.index, corners);  // in range: CheckPieces
+      for (const auto& c : corners) {
+        uint32_t point = CornerVertex(set, p.triangle, p.level, c[0], c[1]);
+        if (point == UINT32_MAX) {
+          const uint64_t key = PointKey(p.triangle, p.level, c[0], c[1]);
+          const auto it = std::lower_bound(point_of.begin(), point_of.end(), std::pair<uint64_t, uint32_t>{key, 0});
+          if (it != point_of.end() && it->first == key) point = it->second;
+        }
+        if (point == UINT32_MAX || marked[point] != s) {
+          return Invalid("sphere " + std::to_string(s) + " owns piece " + std::to_string(p.index) + " of triangle " +
+                         std::to_string(p.triangle) + " but not its grid point (" + std::to_string(c[0]) + ", " +
+                         std::to_string(c[1]) + ") of level " + std::to_string(p.level));
+        }
+      }
+    }
     for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
       const uint32_t t = set.triangles[k];
       for (int c = 0; c < 3; ++c) {
@@ -179,6 +242,8 @@ std::optional<Error> CheckSphereArrays(const SphereSet& set) {
   }
   if (!CsrOk(set.vertex_offsets, n, set.vertices.size())) return Invalid("sphere vertex lists are malformed");
   if (!CsrOk(set.triangle_offsets, n, set.triangles.size())) return Invalid("sphere triangle lists are malformed");
+  if (set.piece_offsets.empty() ? !set.pieces.empty() : !CsrOk(set.piece_offsets, n, set.pieces.size()))
+    return Invalid("sphere piece lists are malformed");
   if (!CsrOk(set.influence_offsets, n, set.influence_joints.size()) ||
       set.influence_weights.size() != set.influence_joints.size()) {
     return Invalid("sphere influence lists are malformed");
@@ -213,12 +278,77 @@ std::optional<Error> CheckSpheres(const SphereSet& set) {
   return std::nullopt;
 }
 
+// The pieces and grid points (TrianglePiece): levels and indices in range, grid points unique and
+// not triangle corners, and each cut triangle (not owned whole: owner[t] == UINT32_MAX on entry)
+// cut at one level with every piece owned once, by spheres of one part; marks them owned.
+std::optional<Error> CheckPieces(const SphereSet& set, std::vector<uint32_t>& owner) {
+  if (!set.has_pieces()) return std::nullopt;
+  if (set.fast_only || !set.has_mesh()) return Invalid("the set has triangle pieces but no mesh");
+  std::vector<uint64_t> keys(set.piece_points.size());
+  for (size_t k = 0; k < set.piece_points.size(); ++k) {
+    const PiecePoint& g = set.piece_points[k];
+    if (g.triangle >= set.source_triangle_count || g.level < 2 || g.level > kMaxPieceLevel ||
+        uint32_t{g.i} + g.j > g.level || (g.i == 0 && g.j == 0) || g.i == g.level || g.j == g.level) {
+      return Invalid("grid point " + std::to_string(k) + " (triangle " + std::to_string(g.triangle) + ", level " +
+                     std::to_string(g.level) + ", " + std::to_string(g.i) + ", " + std::to_string(g.j) +
+                     ") is out of range or a triangle corner");
+    }
+    keys[k] = PointKey(g.triangle, g.level, g.i, g.j);
+  }
+  std::sort(keys.begin(), keys.end());
+  if (std::adjacent_find(keys.begin(), keys.end()) != keys.end()) return Invalid("a grid point is listed twice");
+  // (triangle, index, sphere) of every piece, sorted.
+  struct Owned {
+    uint32_t triangle, index, sphere, level;
+  };
+  std::vector<Owned> owned;
+  owned.reserve(set.pieces.size());
+  for (size_t s = 0; s < set.size(); ++s) {
+    for (uint32_t k = set.piece_offsets[s]; k < set.piece_offsets[s + 1]; ++k) {
+      const TrianglePiece& p = set.pieces[k];
+      uint8_t corners[3][2];
+      if (p.triangle >= set.source_triangle_count || !PieceCorners(p.level, p.index, corners)) {
+        return Invalid("sphere " + std::to_string(s) + " names piece " + std::to_string(p.index) + " of level " +
+                       std::to_string(p.level) + " of triangle " + std::to_string(p.triangle) + " (out of range)");
+      }
+      owned.push_back({p.triangle, p.index, static_cast<uint32_t>(s), p.level});
+    }
+  }
+  std::sort(owned.begin(), owned.end(), [](const Owned& a, const Owned& b) {
+    return a.triangle != b.triangle ? a.triangle < b.triangle : a.index < b.index;
+  });
+  for (size_t begin = 0; begin < owned.size();) {
+    const uint32_t t = owned[begin].triangle, level = owned[begin].level;
+    size_t end = begin;
+    while (end < owned.size() && owned[end].triangle == t) ++end;
+    if (owner[t] != UINT32_MAX) {
+      return Invalid("triangle " + std::to_string(t) + " is owned whole by sphere " + std::to_string(owner[t]) +
+                     " and in pieces by sphere " + std::to_string(owned[begin].sphere));
+    }
+    for (size_t k = begin; k < end; ++k) {
+      if (owned[k].level != level || owned[k].index != k - begin || end - begin != size_t{level} * level) {
+        return Invalid("triangle " + std::to_string(t) + "'s pieces are not each of its " + std::to_string(level) +
+                       " x " + std::to_string(level) + " grid's pieces once, at one level");
+      }
+      if (set.sphere_part[owned[k].sphere] != set.sphere_part[owned[begin].sphere]) {
+        return Invalid("triangle " + std::to_string(t) + "'s pieces are owned by spheres " +
+                       std::to_string(owned[begin].sphere) + " and " + std::to_string(owned[k].sphere) +
+                       " of different parts");
+      }
+    }
+    owner[t] = owned[begin].sphere;
+    begin = end;
+  }
+  return std::nullopt;
+}
+
 // The vertices and triangles the spheres name, and each triangle owned once.
 std::optional<Error> CheckOwnership(const SphereSet& set) {
   [[maybe_unused]] const size_t n = set.size();
   [[maybe_unused]] const size_t joints = set.joint_count();
   for (uint32_t v : set.vertices) {
-    if (v >= set.source_vertex_count) return Invalid("a sphere names vertex " + std::to_string(v) + " out of range");
+    if (v >= set.source_vertex_count + set.piece_points.size())
+      return Invalid("a sphere names vertex " + std::to_string(v) + " out of range");
   }
   for (uint32_t t : set.triangles) {
     if (t >= set.source_triangle_count)
@@ -230,7 +360,9 @@ std::optional<Error> CheckOwnership(const SphereSet& set) {
   // comes from the file). A fast-only set (sphere_set_binary.h) has no lists to check: they were
   // checked when the whole set was written, and nothing that reads triangles accepts it.
   if (n == 0) return Invalid("the set has no spheres");
-  if (!set.fast_only && set.triangles.size() != set.source_triangle_count) {
+  if (!set.fast_only && (set.triangles.size() > set.source_triangle_count ||
+                         set.triangles.size() + set.pieces.size() < set.source_triangle_count ||
+                         (set.pieces.empty() && set.triangles.size() != set.source_triangle_count))) {
     return Invalid("the spheres own " + std::to_string(set.triangles.size()) + " triangle entries for " +
                    std::to_string(set.source_triangle_count) + " triangles (each must be owned by exactly one sphere)");
   }
@@ -244,6 +376,11 @@ std::optional<Error> CheckOwnership(const SphereSet& set) {
       }
       o = static_cast<uint32_t>(s);
     }
+  }
+  if (auto err = CheckPieces(set, owner)) return err;
+  if (set.fast_only) return std::nullopt;
+  for (size_t t = 0; t < owner.size(); ++t) {
+    if (owner[t] == UINT32_MAX) return Invalid("triangle " + std::to_string(t) + " is owned by no sphere");
   }
   return std::nullopt;
 }
@@ -428,8 +565,8 @@ std::optional<Error> CheckFastRadii(const SphereSet& set) {
     for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
       if (set.radii_fast[s] < vertices->radius[i] * (1.0f - 1e-4f)) {
         return Invalid("sphere " + std::to_string(s) + " has fast radius " + Digits(set.radii_fast[s]) +
-                       ", below the " + Digits(vertices->radius[i]) + " its source vertex " +
-                       std::to_string(set.vertices[i]) + "'s rest copies need");
+                       ", below the " + Digits(vertices->radius[i]) + " its " + PointName(set, set.vertices[i]) +
+                       "'s rest copies need");
       }
     }
   }
@@ -500,7 +637,7 @@ std::optional<Error> CheckReachGroups(const SphereSet& set) {
         for (uint32_t k = 0; k < k_count && dominated; ++k) dominated = group[k] >= w[k];
       }
       if (!dominated) {
-        return Invalid("sphere " + std::to_string(s) + "'s source vertex " + std::to_string(set.vertices[i]) +
+        return Invalid("sphere " + std::to_string(s) + "'s " + PointName(set, set.vertices[i]) +
                        " is in none of its reach groups (reference radius " + Digits(vertices->radius[i]) +
                        " or a weight above every group's)");
       }
@@ -520,6 +657,76 @@ std::optional<Error> SphereSet::Validate() const {
   return std::nullopt;
 }
 
+namespace {
+
+// One bind entry b of a point's skin: the point is Σ_b weight_b · G_joint(b) · IBM_b · q_b.
+struct PointEntry {
+  uint32_t bind;
+  float weight;  // rounded up from `exact` for a grid point
+  double exact;  // the weight in double (a source vertex's float weight)
+  double q[3];
+};
+
+// The skin of point k of the point lists (SphereSet::vertices) with weight above 0, in a fixed order.
+// A source vertex: its bind entries and its bind position. A grid point (i, j) of level L of the
+// triangle p0 p1 p2, with barycentric weights β = ((L-i-j)/L, i/L, j/L): skinning is linear, so the
+// point is Σ_v β_v Σ_b w_vb M_b p_v = Σ_b W_b M_b q_b over the union of the vertices' bind entries,
+// W_b = Σ_v β_v w_vb and q_b = Σ_v β_v w_vb p_v / W_b: a convex blend of copies like a vertex's, with
+// one position per entry (the fast bound's derivation holds as for a vertex, refit_job.h). W_b is
+// summed in double and rounded up to float (at most 1), q_b in double, vertices in triangle order.
+void PointEntries(const SphereSet& set, uint32_t k, std::vector<PointEntry>* out) {
+  const skinning::SkinnedMesh& mesh = set.mesh;
+  out->clear();
+  if (k < set.source_vertex_count) {
+    const Eigen::Vector3f& p = mesh.positions_bind[k];
+    for (uint32_t q = mesh.influence_offsets[k]; q < mesh.influence_offsets[k + 1]; ++q) {
+      if (!(mesh.influence_weights[q] > 0.0f)) continue;
+      out->push_back(
+          {mesh.influence_binds[q], mesh.influence_weights[q], mesh.influence_weights[q], {p.x(), p.y(), p.z()}});
+    }
+    return;
+  }
+  const PiecePoint& g = set.piece_points[k - set.source_vertex_count];
+  const uint32_t* tri = set.triangle_vertices.data() + 3 * size_t{g.triangle};
+  const double level = g.level;
+  const double beta[3] = {double(g.level - g.i - g.j) / level, double(g.i) / level, double(g.j) / level};
+  std::vector<double> sum;  // per entry of *out: W_b in double
+  for (int c = 0; c < 3; ++c) {
+    if (beta[c] == 0.0) continue;
+    const uint32_t v = tri[c];
+    const Eigen::Vector3f& p = mesh.positions_bind[v];
+    for (uint32_t q = mesh.influence_offsets[v]; q < mesh.influence_offsets[v + 1]; ++q) {
+      if (!(mesh.influence_weights[q] > 0.0f)) continue;
+      const double w = beta[c] * double(mesh.influence_weights[q]);
+      size_t e = 0;
+      while (e < out->size() && (*out)[e].bind != mesh.influence_binds[q]) ++e;
+      if (e == out->size()) {
+        out->push_back({mesh.influence_binds[q], 0.0f, 0.0, {0.0, 0.0, 0.0}});
+        sum.push_back(0.0);
+      }
+      sum[e] += w;
+      for (int a = 0; a < 3; ++a) (*out)[e].q[a] += w * double(p[a]);
+    }
+  }
+  for (size_t e = 0; e < out->size(); ++e) {
+    PointEntry& entry = (*out)[e];
+    for (int a = 0; a < 3; ++a) entry.q[a] /= sum[e];
+    entry.exact = sum[e];
+    float up = static_cast<float>(sum[e]);
+    if (double(up) < sum[e]) up = std::nextafter(up, std::numeric_limits<float>::infinity());
+    entry.weight = std::min(up, 1.0f);
+  }
+}
+
+std::string PointName(const SphereSet& set, uint32_t k) {
+  if (k < set.source_vertex_count) return "source vertex " + std::to_string(k);
+  const PiecePoint& g = set.piece_points[k - set.source_vertex_count];
+  return "grid point (" + std::to_string(g.i) + ", " + std::to_string(g.j) + ") of level " + std::to_string(g.level) +
+         " of triangle " + std::to_string(g.triangle);
+}
+
+}  // namespace
+
 Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set) {
   const skinning::SkinnedMesh& mesh = set.mesh;
   std::vector<float> reach(set.influence_joints.size(), 0.0f);
@@ -527,25 +734,23 @@ Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set) {
   // per entry of the current sphere, the current vertex's weight on its joint.
   std::vector<uint32_t> entry_of(set.joint_count(), UINT32_MAX);
   std::vector<float> total;
+  std::vector<PointEntry> entries;
   for (size_t s = 0; s < set.size(); ++s) {
     const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
     for (uint32_t k = k1; k-- > k0;) entry_of[set.influence_joints[k]] = k;
     total.assign(k1 - k0, 0.0f);
     for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
-      const uint32_t v = set.vertices[i];
-      const uint32_t q0 = mesh.influence_offsets[v], q1 = mesh.influence_offsets[v + 1];
-      for (uint32_t q = q0; q < q1; ++q) {
-        if (!(mesh.influence_weights[q] > 0.0f)) continue;
-        const int32_t j = mesh.binds[mesh.influence_binds[q]].joint;
+      PointEntries(set, set.vertices[i], &entries);
+      for (const PointEntry& e : entries) {
+        const int32_t j = mesh.binds[e.bind].joint;
         if (entry_of[j] == UINT32_MAX) {
-          return Invalid("sphere " + std::to_string(s) + ": its source vertex " + std::to_string(v) +
+          return Invalid("sphere " + std::to_string(s) + ": its " + PointName(set, set.vertices[i]) +
                          " is weighted on joint " + std::to_string(j) + ", which is not among the sphere's influences");
         }
-        total[entry_of[j] - k0] += mesh.influence_weights[q];
+        total[entry_of[j] - k0] += e.weight;
       }
-      for (uint32_t q = q0; q < q1; ++q) {  // each joint's total, once (a second entry finds 0)
-        const uint32_t k = entry_of[mesh.binds[mesh.influence_binds[q]].joint];
-        if (k == UINT32_MAX) continue;                                 // weight 0
+      for (const PointEntry& e : entries) {  // each joint's total, once (a second entry finds 0)
+        const uint32_t k = entry_of[mesh.binds[e.bind].joint];
         reach[k] = std::max(reach[k], std::min(total[k - k0], 1.0f));  // a float sum may pass 1 by an ulp
         total[k - k0] = 0.0f;
       }
@@ -583,6 +788,7 @@ Result<FastBoundVertices> FastBoundVerticesFromMesh(const SphereSet& set) {
   }
   out.weights.assign(weight_count, 0.0f);
   std::vector<uint32_t> entry_of(set.joint_count(), UINT32_MAX);  // the sphere's first entry per joint
+  std::vector<PointEntry> entries;
   for (size_t s = 0; s < set.size(); ++s) {
     const Vec4f& ref = stored ? set.fast_reference_spheres[s] : Vec4f::Zero();
     const Eigen::Vector3f& centre = stored ? Eigen::Vector3f(ref.head<3>()) : set.centers_rest[s];
@@ -591,34 +797,36 @@ Result<FastBoundVertices> FastBoundVerticesFromMesh(const SphereSet& set) {
     for (uint32_t k = k1; k-- > k0;) entry_of[set.influence_joints[k]] = k;
     for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
       const uint32_t v = set.vertices[i];
-      const double p[3] = {mesh.positions_bind[v].x(), mesh.positions_bind[v].y(), mesh.positions_bind[v].z()};
+      PointEntries(set, v, &entries);
       float* w = out.weights.data() + out.weight_offsets[s] + size_t{i - set.vertex_offsets[s]} * (k1 - k0);
-      double r2 = 0.0;
-      bool weighted = false;
-      for (uint32_t q = mesh.influence_offsets[v]; q < mesh.influence_offsets[v + 1]; ++q) {
-        if (!(mesh.influence_weights[q] > 0.0f)) continue;
-        weighted = true;
-        const int32_t j = mesh.binds[mesh.influence_binds[q]].joint;
+      // A source vertex needs its farthest copy; a grid point the weighted mean of its copies'
+      // distances, Σ_b W_b |p_b - c| (refit_job.h, "Triangle pieces").
+      const bool grid_point = v >= set.source_vertex_count;
+      double r2 = 0.0, mean = 0.0;
+      for (const PointEntry& e : entries) {
+        const int32_t j = mesh.binds[e.bind].joint;
         if (entry_of[j] == UINT32_MAX) {
-          return Invalid("sphere " + std::to_string(s) + ": its source vertex " + std::to_string(v) +
-                         " is weighted on joint " + std::to_string(j) + ", which is not among the sphere's influences");
+          return Invalid("sphere " + std::to_string(s) + ": its " + PointName(set, v) + " is weighted on joint " +
+                         std::to_string(j) + ", which is not among the sphere's influences");
         }
-        w[entry_of[j] - k0] += mesh.influence_weights[q];
-        const Affine34& m = copy_of[mesh.influence_binds[q]];
+        w[entry_of[j] - k0] += e.weight;
+        const Affine34& m = copy_of[e.bind];
+        const double* p = e.q;
         double d2 = 0.0;
         for (int r = 0; r < 3; ++r) {
           const double d = (((m[r][0] * p[0] + m[r][1] * p[1]) + m[r][2] * p[2]) + m[r][3]) - c[r];
           d2 += d * d;
         }
         r2 = std::max(r2, d2);
+        mean += e.exact * std::sqrt(d2);
       }
-      if (!weighted) {
-        return Invalid("sphere " + std::to_string(s) + ": its source vertex " + std::to_string(v) +
-                       " has no weight above 0");
+      if (entries.empty()) {
+        return Invalid("sphere " + std::to_string(s) + ": its " + PointName(set, v) + " has no weight above 0");
       }
       // Each joint's total (a float sum may pass 1 by an ulp), copied to its repeated entries.
       for (uint32_t k = k0; k < k1; ++k) w[k - k0] = std::min(w[entry_of[set.influence_joints[k]] - k0], 1.0f);
-      out.radius[i] = std::nextafter(static_cast<float>(std::sqrt(r2)), std::numeric_limits<float>::infinity());
+      out.radius[i] = std::nextafter(static_cast<float>(grid_point ? std::min(mean, std::sqrt(r2)) : std::sqrt(r2)),
+                                     std::numeric_limits<float>::infinity());
     }
     for (uint32_t k = k0; k < k1; ++k) entry_of[set.influence_joints[k]] = UINT32_MAX;
   }

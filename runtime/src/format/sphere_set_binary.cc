@@ -91,11 +91,18 @@ constexpr std::array<SectionInfo, kSphereSetSectionCount> kSections = {{
     {"reach_group_offsets", 4},
     {"reach_group_radii", 4},
     {"reach_group_weights", 4},
+    {"piece_points", 4},
+    {"piece_offsets", 4},
+    {"pieces", 4},
 }};
 
 // Which sections a file of this layout version with these flags holds (index id - 1).
 bool SectionPresent(size_t id, uint32_t flags, uint32_t version) {
-  if (id >= static_cast<size_t>(SphereSetSection::kFastReferenceInverse)) return version >= kSphereSetBinaryVersion;
+  if (id >= static_cast<size_t>(SphereSetSection::kPiecePoints)) {
+    return version >= kSphereSetBinaryVersion && (flags & kSphereSetBinaryFlagHasMesh) != 0;
+  }
+  if (id >= static_cast<size_t>(SphereSetSection::kFastReferenceInverse))
+    return version >= kSphereSetBinaryVersionWithoutPieces;
   if (id == static_cast<size_t>(SphereSetSection::kInfluenceReach))
     return version >= kSphereSetBinaryVersionWithoutReference;
   if (id >= kFirstMeshSection) return (flags & kSphereSetBinaryFlagHasMesh) != 0;
@@ -378,6 +385,16 @@ std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set, SphereSetBinar
     w.AddOwned(SphereSetSection::kBindInverse, std::move(bind_inverse));
     w.Add(SphereSetSection::kMeshInfluenceOffsets, m.influence_offsets);
     w.Add(SphereSetSection::kMeshInfluenceBinds, m.influence_binds);
+    std::vector<uint32_t> points, pieces;
+    points.reserve(2 * set.piece_points.size());
+    for (const PiecePoint& g : set.piece_points)
+      points.insert(points.end(), {g.triangle, uint32_t{g.level} << 16 | uint32_t{g.i} << 8 | g.j});
+    pieces.reserve(2 * set.pieces.size());
+    for (const TrianglePiece& p : set.pieces)
+      pieces.insert(pieces.end(), {p.triangle, uint32_t{p.level} << 16 | p.index});
+    w.AddOwned(SphereSetSection::kPiecePoints, std::move(points));
+    w.Add(SphereSetSection::kPieceOffsets, set.piece_offsets);
+    w.AddOwned(SphereSetSection::kPieces, std::move(pieces));
     w.Add(SphereSetSection::kMeshInfluenceWeights, m.influence_weights);
   }
   const uint32_t flags = (fast_only ? kSphereSetBinaryFlagFastOnly : 0u) | (mesh ? kSphereSetBinaryFlagHasMesh : 0u);
@@ -405,8 +422,7 @@ struct SphereSetBinaryReader {
     }
     const std::byte* base = bytes.data();
     const uint32_t version = Load32(base + kVersionAt);
-    if (version != kSphereSetBinaryVersion && version != kSphereSetBinaryVersionWithoutReference &&
-        version != kSphereSetBinaryVersionWithoutReach) {
+    if (version < kSphereSetBinaryVersionWithoutReach || version > kSphereSetBinaryVersion) {
       return Refuse(src,
                     "layout version " + std::to_string(version) + " is not supported (this build reads versions " +
                         std::to_string(kSphereSetBinaryVersionWithoutReach) + " to " +
@@ -558,6 +574,21 @@ struct SphereSetBinaryReader {
       }
     } else if ((err = csr(S::kReachGroupOffsets, n, {S::kReachGroupRadii}))) {
       return *err;
+    }
+    // Pieces: pairs of u32; offsets per sphere over them, or none with no pieces (their values are
+    // SphereSet::Validate()'s).
+    const size_t piece_offsets = v.sections_[static_cast<uint32_t>(S::kPieceOffsets) - 1].count;
+    const size_t pieces = v.sections_[static_cast<uint32_t>(S::kPieces) - 1].count;
+    if (v.sections_[static_cast<uint32_t>(S::kPiecePoints) - 1].count % 2 != 0 || pieces % 2 != 0) {
+      return Refuse(src, "section piece_points or pieces does not hold whole pairs");
+    }
+    if (piece_offsets == 0 ? pieces != 0 : piece_offsets != n + 1) {
+      return Refuse(src, "section piece_offsets has " + std::to_string(piece_offsets) + " elements, expected " +
+                             std::to_string(n + 1) + " (or 0 with no pieces)");
+    }
+    if (piece_offsets != 0 && !CsrOffsetsOk(v.piece_offsets(), pieces / 2)) {
+      return Refuse(src,
+                    "section piece_offsets does not start at 0, decreases, or does not end at the number of pieces");
     }
     if (v.sections_[static_cast<uint32_t>(S::kExcludedPairs) - 1].count % 3 != 0) {
       return Refuse(src, "section excluded_pairs does not hold whole (i, j, reason) triples");
@@ -717,6 +748,21 @@ Result<SphereSet> SphereSetBinaryView::ToSphereSet() const {
     CopyInto(m.influence_offsets, mesh_influence_offsets());
     CopyInto(m.influence_binds, mesh_influence_binds());
     CopyInto(m.influence_weights, mesh_influence_weights());
+    const auto points = piece_points();
+    set.piece_points.resize(points.size() / 2);
+    for (size_t k = 0; k < set.piece_points.size(); ++k) {
+      const uint32_t code = points[2 * k + 1];
+      if (code >> 24 != 0) return Refuse(source_name_, "grid point " + std::to_string(k) + " has a level beyond 255");
+      set.piece_points[k] = {points[2 * k], static_cast<uint16_t>(code >> 16), static_cast<uint8_t>(code >> 8),
+                             static_cast<uint8_t>(code)};
+    }
+    CopyInto(set.piece_offsets, piece_offsets());
+    const auto pieces_read = pieces();
+    set.pieces.resize(pieces_read.size() / 2);
+    for (size_t k = 0; k < set.pieces.size(); ++k) {
+      const uint32_t code = pieces_read[2 * k + 1];
+      set.pieces[k] = {pieces_read[2 * k], static_cast<uint16_t>(code >> 16), static_cast<uint16_t>(code)};
+    }
   }
   if (auto err = set.Validate()) return Refuse(source_name_, err->message);
   return set;

@@ -16,7 +16,9 @@ using nlohmann::json;
 std::string WriteSphereSetJson(const SphereSet& set) {
   json j;
   j["format"] = kSphereSetFormat;
-  j["version"] = set.has_mesh() ? kSphereSetVersion : kSphereSetVersionWithoutMesh;
+  j["version"] = set.has_pieces() ? kSphereSetVersionWithPieces
+                 : set.has_mesh() ? kSphereSetVersion
+                                  : kSphereSetVersionWithoutMesh;
   j["source"] = {
       {"file", set.source_file}, {"vertices", set.source_vertex_count}, {"triangles", set.source_triangle_count}};
   json params = json::parse(set.params_json, nullptr, /*allow_exceptions=*/false);
@@ -65,6 +67,13 @@ std::string WriteSphereSetJson(const SphereSet& set) {
       const Vec4f& r = set.fast_reference_spheres[s];
       spheres.back()["fast_reference"] = {r.x(), r.y(), r.z(), r.w()};
     }
+    if (set.piece_offsets.size() == set.size() + 1 && set.piece_offsets[s] < set.piece_offsets[s + 1]) {
+      std::vector<uint32_t> pieces;  // (triangle, level, index) per piece, flat
+      for (uint32_t k = set.piece_offsets[s]; k < set.piece_offsets[s + 1] && k < set.pieces.size(); ++k) {
+        pieces.insert(pieces.end(), {set.pieces[k].triangle, set.pieces[k].level, set.pieces[k].index});
+      }
+      spheres.back()["pieces"] = pieces;
+    }
     if (set.reach_group_offsets.size() == set.size() + 1) {  // [radius, reach per influence] per group
       const size_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
       json groups = json::array();
@@ -105,6 +114,11 @@ std::string WriteSphereSetJson(const SphereSet& set) {
                  {"influence_offsets", mesh.influence_offsets},
                  {"influence_binds", mesh.influence_binds},
                  {"influence_weights", mesh.influence_weights}};
+    if (set.has_pieces()) {
+      std::vector<uint32_t> points;  // (triangle, level, i, j) per grid point, flat
+      for (const PiecePoint& g : set.piece_points) points.insert(points.end(), {g.triangle, g.level, g.i, g.j});
+      j["mesh"]["piece_points"] = points;
+    }
   }
   // Names that are not valid UTF-8 (paths are bytes; FBX names may be Latin-1) are written with
   // U+FFFD instead of aborting; such a set then refuses to match its character by name.
@@ -171,6 +185,7 @@ struct StreamedMesh {
   std::vector<uint32_t> triangles, influence_offsets;
   std::vector<float> positions, influence_weights;
   std::vector<uint16_t> influence_binds;
+  std::vector<uint32_t> piece_points;
   std::vector<std::string> seen;
 };
 
@@ -184,6 +199,17 @@ void ReadMesh(const json& m, StreamedMesh&& streamed, SphereSet* set) {
     }
   }
   set->triangle_vertices = std::move(streamed.triangles);
+  // "piece_points" (version 3, optional): (triangle, level, i, j) per grid point, flat.
+  const std::vector<uint32_t>& points = streamed.piece_points;
+  if (points.size() % 4 != 0) throw ReadError{where + ".piece_points does not hold whole (triangle, level, i, j)"};
+  for (size_t k = 0; k < points.size(); k += 4) {
+    if (points[k + 1] > kMaxPieceLevel || points[k + 2] > kMaxPieceLevel || points[k + 3] > kMaxPieceLevel) {
+      throw ReadError{where + ".piece_points[" + std::to_string(k / 4) + "] has a level or coordinate above " +
+                      std::to_string(kMaxPieceLevel)};
+    }
+    set->piece_points.push_back({points[k], static_cast<uint16_t>(points[k + 1]), static_cast<uint8_t>(points[k + 2]),
+                                 static_cast<uint8_t>(points[k + 3])});
+  }
   const std::vector<float>& positions = streamed.positions;
   if (positions.size() % 3 != 0) throw ReadError{where + ".positions_bind does not hold whole xyz triples"};
   skinning::SkinnedMesh& mesh = set->mesh;
@@ -249,6 +275,17 @@ void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool
     }
   }
   set->influence_offsets.push_back(static_cast<uint32_t>(set->influence_joints.size()));
+  // "pieces" (version 3, optional per sphere): (triangle, level, index) per piece, flat.
+  if (const auto pieces = sp.find("pieces"); pieces != sp.end()) {
+    const json& list = Array(*pieces, where + ".pieces");
+    if (list.size() % 3 != 0) throw ReadError{where + ".pieces does not hold whole (triangle, level, index)"};
+    for (size_t k = 0; k < list.size(); k += 3) {
+      const auto level = Number<uint16_t>(list[k + 1], where + ".pieces"),
+                 index = Number<uint16_t>(list[k + 2], where + ".pieces");
+      set->pieces.push_back({Number<uint32_t>(list[k], where + ".pieces"), level, index});
+    }
+  }
+  set->piece_offsets.push_back(static_cast<uint32_t>(set->pieces.size()));
   // "fast_reference" (sphere_set.h): optional, all spheres or none, like "influence_reach".
   const auto reference = sp.find("fast_reference");
   if (s == 0) *has_reference = reference != sp.end();
@@ -316,6 +353,7 @@ class SetStream {
     set_.vertex_offsets = {0};
     set_.triangle_offsets = {0};
     set_.influence_offsets = {0};
+    set_.piece_offsets = {0};
   }
   bool operator()(int depth, json::parse_event_t event, json& parsed) {
     using E = json::parse_event_t;
@@ -359,6 +397,8 @@ class SetStream {
       mesh_.influence_binds = Numbers<uint16_t>(a, where);
     else if (key == "influence_weights")
       mesh_.influence_weights = Numbers<float>(a, where);
+    else if (key == "piece_points")
+      mesh_.piece_points = Numbers<uint32_t>(a, where);
     else
       return false;  // "binds" (small): read from the document
     mesh_.seen.push_back(key);
@@ -381,11 +421,16 @@ SphereSet Parse(const json& j, SetStream&& stream) {
     throw ReadError{std::string("not a sphere set (format is not \"") + kSphereSetFormat + "\")"};
   }
   const int version = Number<int>(Field(j, "version", "$"), "$.version");
-  if (version != kSphereSetVersion && version != kSphereSetVersionWithoutMesh) {
+  if (version < kSphereSetVersionWithoutMesh || version > kSphereSetVersionWithPieces) {
     throw ReadError{"version " + std::to_string(version) + " is not supported (this build reads versions " +
-                    std::to_string(kSphereSetVersionWithoutMesh) + " and " + std::to_string(kSphereSetVersion) + ")"};
+                    std::to_string(kSphereSetVersionWithoutMesh) + " to " +
+                    std::to_string(kSphereSetVersionWithPieces) + ")"};
   }
   SphereSet set = stream.TakeSet();
+  if (set.pieces.empty()) set.piece_offsets.clear();  // no sphere has pieces
+  if (version < kSphereSetVersionWithPieces && !set.pieces.empty()) {
+    throw ReadError{"$.spheres[].pieces is not part of version " + std::to_string(version)};
+  }
   const json& source = Field(j, "source", "$");
   const json& file = Field(source, "file", "$.source");
   if (!file.is_string()) throw ReadError{"$.source.file is not a string"};
@@ -444,6 +489,9 @@ SphereSet Parse(const json& j, SetStream&& stream) {
     return set;
   }
   ReadMesh(Field(j, "mesh", "$"), stream.TakeMesh(), &set);
+  if (version < kSphereSetVersionWithPieces && !set.piece_points.empty()) {
+    throw ReadError{"$.mesh.piece_points is not part of version " + std::to_string(version)};
+  }
   return set;
 }
 

@@ -37,7 +37,7 @@ namespace skinspheres::runtime::narrow_phase {
 
 struct Box {
   float lo[3], hi[3];
-  uint32_t id;  // triangle or cluster
+  uint32_t id;  // item (a whole triangle or a piece, NarrowPhaseData::Layout) or cluster
 };
 struct Hit {
   uint32_t i, j;  // sphere pair
@@ -65,8 +65,20 @@ struct NarrowPhaseData::Layout {
   NarrowPhaseSettings settings;
   size_t max_sphere_triangles = 0;
   size_t max_sphere_clusters = 0;
+  // Items: what clusters list and the exact test takes. Item id < triangle_count is that whole
+  // triangle; id >= triangle_count is piece_items[id - triangle_count], a piece of a cut triangle
+  // (sphere_set.h, TrianglePiece; docs/TRIANGLE_PIECES.md): pieces are tested, triangles reported.
+  struct PieceItem {
+    uint32_t triangle;
+    uint16_t level;
+    uint8_t corners[3][2];  // grid coordinates (i, j) of its corners (PieceCorners)
+  };
+  uint32_t triangle_count = 0;
+  std::vector<PieceItem> piece_items;
+  std::vector<uint32_t> sphere_item_offsets, sphere_items;  // per sphere: its whole triangles, then pieces
   // Clusters: sphere s has clusters [cluster_offsets[s], cluster_offsets[s + 1]); cluster c has
-  // triangles cluster_triangles[cluster_triangle_offsets[c] ..), and vertices likewise.
+  // items cluster_triangles[cluster_triangle_offsets[c] ..), and the vertices of their triangles
+  // likewise.
   std::vector<uint32_t> cluster_offsets;
   std::vector<uint32_t> cluster_triangle_offsets, cluster_triangles;
   std::vector<uint32_t> cluster_vertex_offsets, cluster_vertices;
@@ -145,10 +157,30 @@ inline const Eigen::Vector3f& Vertex(const Frame& f, uint32_t t, int k) {
 
 inline uint16_t Part(const SphereSet& set, uint32_t sphere) { return set.sphere_part[sphere]; }
 
+// The triangle of item `id` (NarrowPhaseData::Layout): itself, or the piece's.
+inline uint32_t ItemTriangle(const NarrowPhaseData::Layout& d, uint32_t id) {
+  return id < d.triangle_count ? id : d.piece_items[id - d.triangle_count].triangle;
+}
+
+// The corners of item `id` at positions `pos` (by source vertex): a triangle's vertices, or a
+// piece's grid points computed from them (GridPoint: the refits' arithmetic, bit for bit).
+inline void ItemCorners(const SphereSet& set, const NarrowPhaseData::Layout& d, const Eigen::Vector3f* pos, uint32_t id,
+                        Eigen::Vector3f out[3]) {
+  const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{ItemTriangle(d, id)};
+  if (id < d.triangle_count) {
+    for (int k = 0; k < 3; ++k) out[k] = pos[v[k]];
+    return;
+  }
+  const NarrowPhaseData::Layout::PieceItem& p = d.piece_items[id - d.triangle_count];
+  for (int k = 0; k < 3; ++k) {
+    out[k] = GridPoint(pos[v[0]], pos[v[1]], pos[v[2]], p.level, p.corners[k][0], p.corners[k][1]);
+  }
+}
+
 // ---- cull.cc: per sphere pair, boxes and clusters, then the exact test
 
-// Box of triangle t; false when a coordinate is not finite.
-bool TriangleBox(const Frame& f, uint32_t t, Box* box);
+// Box of item `id` (a triangle or a piece); false when a coordinate is not finite.
+bool TriangleBox(const Frame& f, uint32_t id, Box* box);
 
 // Does the box come within radius of the sphere's centre? (double: the sphere holds its
 // triangles exactly, so a tiny relative slack covers the arithmetic here)
@@ -161,7 +193,9 @@ bool SpheresMeet(const Vec4f& a, const Vec4f& b, float margin);
 // is the exact closed test).
 bool BoxesMeet(const Box& a, const Box& b, float slack);
 
-// Triangles t (of sphere i) and u (of sphere j) whose boxes meet: the rules, then the exact test.
+// Items a (of sphere i) and b (of sphere j) whose boxes meet: the rules on their triangles, the
+// exact test on the items; a hit names the triangles, with the whole triangles' geometry when an
+// item is a piece (so the report does not depend on which piece pair found it).
 void Test(const Frame& f, uint32_t i, uint32_t j, const Box& a, const Box& b, Chunk& chunk);
 
 // The box of the cluster's skinned vertices. False when one is not finite.
@@ -192,8 +226,8 @@ Eigen::Vector3d Normal(const Frame& f, uint32_t t);
 
 // ---- oracle.cc: every pair (the brute-force oracle, and rule 3 at set-up)
 
-// Every pair i < j the filter allows whose triangle boxes (grown by the margin) meet, every
-// triangle against every triangle. hits appended.
+// Every pair i < j the filter allows whose item boxes (grown by the margin) meet, every item
+// against every item. hits appended.
 bool AllPairs(const Frame& f, const PairFilter& filter, std::vector<Hit>* hits);
 
 // ---- setup.cc: NarrowPhaseData::Create's stages
@@ -201,7 +235,10 @@ bool AllPairs(const Frame& f, const PairFilter& filter, std::vector<Hit>* hits);
 // Rest positions: the mesh skinned with the rest transforms.
 bool RestPositions(const SphereSet& set, std::vector<Eigen::Vector3f>* out);
 
-// Cuts each sphere's triangles into clusters of at most settings.cluster_triangles by median
+// Each sphere's items (Layout::sphere_items): its whole triangles, then its pieces.
+void SphereItems(const SphereSet& set, NarrowPhaseData::Layout& d);
+
+// Cuts each sphere's items into clusters of at most settings.cluster_triangles by median
 // splits of their rest centroids along the longest axis; each cluster lists its vertices.
 void BuildClusters(const SphereSet& set, NarrowPhaseData* d);
 

@@ -20,15 +20,15 @@ void Normalise(const SphereSet& set, Hit& h) {
 
 void Merge(const SphereSet& set, std::vector<Hit>& hits, std::vector<uint64_t>& keys, FrameContacts* out) {
   for (Hit& h : hits) Normalise(set, h);
+  // A total order (sphere pairs last), so what is kept below does not depend on the order found.
   std::sort(hits.begin(), hits.end(), [&set](const Hit& p, const Hit& q) {
     const uint32_t kp = (uint32_t{Part(set, p.i)} << 16) | Part(set, p.j);
     const uint32_t kq = (uint32_t{Part(set, q.i)} << 16) | Part(set, q.j);
     if (kp != kq) return kp < kq;
-    return p.t != q.t ? p.t < q.t : p.u < q.u;
+    if (p.t != q.t) return p.t < q.t;
+    if (p.u != q.u) return p.u < q.u;
+    return p.i != q.i ? p.i < q.i : p.j < q.j;
   });
-  // A triangle owned twice (a malformed set) would show the same pair twice: keep one.
-  hits.erase(std::unique(hits.begin(), hits.end(), [](const Hit& p, const Hit& q) { return p.t == q.t && p.u == q.u; }),
-             hits.end());
   size_t begin = 0;
   while (begin < hits.size()) {
     const uint16_t pa = Part(set, hits[begin].i), pb = Part(set, hits[begin].j);
@@ -38,11 +38,14 @@ void Merge(const SphereSet& set, std::vector<Hit>& hits, std::vector<uint64_t>& 
     pc.part_a = pa;
     pc.part_b = pb;
     pc.first_triangle_pair = uint32_t(out->triangle_pairs.size());
-    pc.triangle_pair_count = uint32_t(end - begin);
     pc.min_distance = INFINITY;
     keys.clear();
     for (size_t k = begin; k < end; ++k) {
       const Hit& h = hits[k];
+      keys.push_back((uint64_t{std::min(h.i, h.j)} << 32) | std::max(h.i, h.j));
+      // A cut triangle (docs/TRIANGLE_PIECES.md) meets another through several piece pairs, each
+      // with the whole triangles' geometry: the pair is reported once, its sphere pairs all kept.
+      if (k > begin && h.t == hits[k - 1].t && h.u == hits[k - 1].u) continue;
       TriangleContact c;
       c.t = h.t;
       c.u = h.u;
@@ -61,10 +64,10 @@ void Merge(const SphereSet& set, std::vector<Hit>& hits, std::vector<uint64_t>& 
         pc.min_distance = h.distance;
         std::memcpy(pc.center, c.point, sizeof(pc.center));
       }
-      keys.push_back((uint64_t{std::min(h.i, h.j)} << 32) | std::max(h.i, h.j));
     }
     std::sort(keys.begin(), keys.end());
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    pc.triangle_pair_count = uint32_t(out->triangle_pairs.size() - pc.first_triangle_pair);
     pc.first_sphere_pair = uint32_t(out->sphere_pairs.size());
     pc.sphere_pair_count = uint32_t(keys.size());
     for (uint64_t key : keys) out->sphere_pairs.push_back({uint32_t(key >> 32), uint32_t(key & 0xffffffffu)});

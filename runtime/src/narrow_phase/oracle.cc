@@ -1,4 +1,4 @@
-// Every pair of spheres the filter allows, every triangle against every triangle: rule 3 at set-up
+// Every pair of spheres the filter allows, every item (triangle or piece) against every item: rule 3 at set-up
 // (setup.cc) and the brute-force oracle (FindContactsBruteForce, narrow_phase.h).
 #include <algorithm>
 #include <cmath>
@@ -18,9 +18,10 @@ bool AllPairs(const Frame& f, const PairFilter& filter, std::vector<Hit>* hits) 
   bool ok = true;
   for (size_t s = 0; s < n; ++s) {
     Box all{{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}, 0};
-    for (uint32_t k = f.set.triangle_offsets[s]; k < f.set.triangle_offsets[s + 1]; ++k) {
+    const NarrowPhaseData::Layout& layout = Of(f.data);
+    for (uint32_t k = layout.sphere_item_offsets[s]; k < layout.sphere_item_offsets[s + 1]; ++k) {
       Box box;
-      ok &= TriangleBox(f, f.set.triangles[k], &box);
+      ok &= TriangleBox(f, layout.sphere_items[k], &box);
       for (int d = 0; d < 3; ++d) {
         all.lo[d] = std::min(all.lo[d], box.lo[d]);
         all.hi[d] = std::max(all.hi[d], box.hi[d]);

@@ -34,12 +34,33 @@ bool RestPositions(const SphereSet& set, std::vector<Eigen::Vector3f>* out) {
   return mesh.vertex_count() == 0 || job.Run();
 }
 
+void SphereItems(const SphereSet& set, NarrowPhaseData::Layout& d) {
+  d.triangle_count = set.source_triangle_count;
+  d.piece_items.clear();
+  d.sphere_item_offsets.assign(1, 0);
+  d.sphere_items.clear();
+  for (size_t s = 0; s < set.size(); ++s) {
+    d.sphere_items.insert(d.sphere_items.end(), set.triangles.begin() + set.triangle_offsets[s],
+                          set.triangles.begin() + set.triangle_offsets[s + 1]);
+    if (!set.piece_offsets.empty()) {
+      for (uint32_t k = set.piece_offsets[s]; k < set.piece_offsets[s + 1]; ++k) {
+        const TrianglePiece& p = set.pieces[k];
+        NarrowPhaseData::Layout::PieceItem item{p.triangle, p.level, {}};
+        PieceCorners(p.level, p.index, item.corners);  // in range: Validate()
+        d.sphere_items.push_back(d.triangle_count + static_cast<uint32_t>(d.piece_items.size()));
+        d.piece_items.push_back(item);
+      }
+    }
+    d.sphere_item_offsets.push_back(static_cast<uint32_t>(d.sphere_items.size()));
+  }
+}
+
 void BuildClusters(const SphereSet& set, NarrowPhaseData* d) {
   const auto& rest = Of(*d).rest_positions;
-  auto centroid = [&](uint32_t t) {
-    return (rest[set.triangle_vertices[3 * size_t{t}]] + rest[set.triangle_vertices[3 * size_t{t} + 1]] +
-            rest[set.triangle_vertices[3 * size_t{t} + 2]]) /
-           3.0f;
+  auto centroid = [&](uint32_t id) {
+    Eigen::Vector3f c[3];
+    ItemCorners(set, Of(*d), rest.data(), id, c);
+    return Eigen::Vector3f((c[0] + c[1] + c[2]) / 3.0f);
   };
   Of(*d).cluster_offsets.assign(1, 0);
   Of(*d).cluster_triangle_offsets.assign(1, 0);
@@ -50,7 +71,8 @@ void BuildClusters(const SphereSet& set, NarrowPhaseData* d) {
   };
   std::vector<Range> stack;
   for (size_t s = 0; s < set.size(); ++s) {
-    tris.assign(set.triangles.begin() + set.triangle_offsets[s], set.triangles.begin() + set.triangle_offsets[s + 1]);
+    tris.assign(Of(*d).sphere_items.begin() + Of(*d).sphere_item_offsets[s],
+                Of(*d).sphere_items.begin() + Of(*d).sphere_item_offsets[s + 1]);
     stack.clear();
     if (!tris.empty()) stack.push_back({0, tris.size()});
     std::vector<Range> leaves;
@@ -78,7 +100,8 @@ void BuildClusters(const SphereSet& set, NarrowPhaseData* d) {
       verts.clear();
       for (size_t k = r.begin; k < r.end; ++k) {
         Of(*d).cluster_triangles.push_back(tris[k]);
-        for (int c = 0; c < 3; ++c) verts.push_back(set.triangle_vertices[3 * size_t{tris[k]} + c]);
+        const uint32_t t = ItemTriangle(Of(*d), tris[k]);  // a piece's box lies in its triangle's
+        for (int c = 0; c < 3; ++c) verts.push_back(set.triangle_vertices[3 * size_t{t} + c]);
       }
       std::sort(verts.begin(), verts.end());
       verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
@@ -181,6 +204,9 @@ std::optional<Error> CheckInputs(const SphereSet& set, const PairFilter& filter,
         who + " has no mesh (format version 1): the narrow phase needs a version-2 set; fit the character again");
   }
   if (auto err = set.Validate()) return MakeError(err->code, who + ": " + err->message);
+  if (uint64_t{set.source_triangle_count} + set.pieces.size() > UINT32_MAX) {  // item ids (internal.h)
+    return MakeError(ErrorCode::kInvalidData, who + ": more triangles and pieces than 32-bit ids can name");
+  }
   if (filter.size() != set.size()) {
     return MakeError(ErrorCode::kInvalidArgument, who + ": the pair filter has " + std::to_string(filter.size()) +
                                                       " spheres, the set " + std::to_string(set.size()));
@@ -254,21 +280,23 @@ std::vector<uint32_t> WeldVertices(const SphereSet& set, NarrowPhaseData::Layout
   return canonical;
 }
 
-// Stage 4: each sphere's triangle vertices, and its largest triangle list.
+// Stage 4: each sphere's items, the vertices of their triangles, and its largest item list.
 void SphereVertices(const SphereSet& set, NarrowPhaseData::Layout& d) {
+  SphereItems(set, d);
   d.sphere_vertex_offsets.assign(1, 0);
   std::vector<uint32_t> list;
   for (size_t s = 0; s < set.size(); ++s) {
     list.clear();
-    for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
-      for (int c = 0; c < 3; ++c) list.push_back(set.triangle_vertices[3 * size_t{set.triangles[k]} + c]);
+    for (uint32_t k = d.sphere_item_offsets[s]; k < d.sphere_item_offsets[s + 1]; ++k) {
+      const uint32_t t = ItemTriangle(d, d.sphere_items[k]);
+      for (int c = 0; c < 3; ++c) list.push_back(set.triangle_vertices[3 * size_t{t} + c]);
     }
     std::sort(list.begin(), list.end());
     list.erase(std::unique(list.begin(), list.end()), list.end());
     d.sphere_vertices.insert(d.sphere_vertices.end(), list.begin(), list.end());
     d.sphere_vertex_offsets.push_back(uint32_t(d.sphere_vertices.size()));
     d.max_sphere_triangles =
-        std::max<size_t>(d.max_sphere_triangles, set.triangle_offsets[s + 1] - set.triangle_offsets[s]);
+        std::max<size_t>(d.max_sphere_triangles, d.sphere_item_offsets[s + 1] - d.sphere_item_offsets[s]);
   }
 }
 

@@ -301,8 +301,8 @@ bool RefitJob::Validate() const {
   if (mode == RefitMode::kExact) {
     if (set->fast_only) return false;  // no vertex lists to bound
     if (positions.size() < set->source_vertex_count) return false;
-    // The set's vertex indices were checked against source_vertex_count when the rest data was
-    // built; without rest data check the CSR end at least (O(1)).
+    // The set's point indices (source vertices and grid points) were checked when the rest data
+    // was built; without rest data check the CSR end at least (O(1)).
     if (set->vertex_offsets[n] > set->vertices.size()) return false;
     if (rest != nullptr && rest->source_vertex_count() != set->source_vertex_count) return false;
   } else if (mode != RefitMode::kFast) {
@@ -408,9 +408,10 @@ inline void BlendedCentre(const RefitJob& job, size_t s, float c[3]) {
 inline void BoxCentre(const RefitJob& job, uint32_t v0, uint32_t v1, float c[3]) {
   const auto& set = *job.set;
   float lo[3], hi[3];
-  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = job.positions[set.vertices[v0]][a];
+  const Eigen::Vector3f first = set.PointAt(set.vertices[v0], job.positions.data());
+  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = first[a];
   for (uint32_t k = v0 + 1; k < v1; ++k) {
-    const Eigen::Vector3f& p = job.positions[set.vertices[k]];
+    const Eigen::Vector3f p = set.PointAt(set.vertices[k], job.positions.data());
     for (int a = 0; a < 3; ++a) {
       lo[a] = std::min(lo[a], p[a]);
       hi[a] = std::max(hi[a], p[a]);
@@ -436,7 +437,7 @@ bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
     float d2max = 0.0f;
     bool finite = std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2]);
     for (uint32_t k = v0; k < v1; ++k) {
-      const float d2 = SquaredDistance(job.positions[set.vertices[k]], c);
+      const float d2 = SquaredDistance(set.PointAt(set.vertices[k], job.positions.data()), c);
       finite &= d2 <= FLT_MAX;  // false for NaN and Inf (std::max would drop a NaN)
       d2max = std::max(d2max, d2);
     }

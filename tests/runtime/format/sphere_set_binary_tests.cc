@@ -91,8 +91,8 @@ size_t EntryOf(const Bytes& b, SphereSetSection id) {
 // The same file as a version-1 writer (before the influence reach) wrote it: section 28 dropped,
 // the others laid out again as the writer lays them out (table, then each section on the next
 // 16-byte boundary, zero padding), version 1, checksum.
-// The file as layout `version` (1 or 2) writes it: the sections that version lacks left out (28-30
-// for version 1, 29-30 for version 2).
+// The file as layout `version` (1, 2 or 3) writes it: the sections that version lacks left out (28-36
+// for version 1, 29-36 for version 2, 34-36 for version 3).
 Bytes Downgrade(const Bytes& v2, uint32_t version) {
   struct Entry {
     uint32_t id, element_size;
@@ -102,8 +102,9 @@ Bytes Downgrade(const Bytes& v2, uint32_t version) {
   for (uint32_t k = 0; k < Get32(v2, 32); ++k) {
     const size_t at = kSphereSetBinaryHeaderSize + k * kSphereSetBinarySectionEntrySize;
     const Entry e{Get32(v2, at), Get32(v2, at + 4), Get64(v2, at + 8), Get64(v2, at + 16)};
-    const uint32_t first_dropped = static_cast<uint32_t>(version == 1 ? SphereSetSection::kInfluenceReach
-                                                                      : SphereSetSection::kFastReferenceInverse);
+    const uint32_t first_dropped = static_cast<uint32_t>(version == 1   ? SphereSetSection::kInfluenceReach
+                                                         : version == 2 ? SphereSetSection::kFastReferenceInverse
+                                                                        : SphereSetSection::kPiecePoints);
     if (e.id < first_dropped) entries.push_back(e);
   }
   const auto align = [](size_t n) { return (n + 15) / 16 * 16; };
@@ -452,8 +453,10 @@ TEST(SphereSetBinaryTest, AbsurdHeadersAndTablesAreRefusedByName) {
   const std::vector<Case> cases = {
       {"magic", [](Bytes& b) { b[1] = std::byte{'X'}; }, ErrorCode::kFormatRejected, "wrong magic number"},
       {"json", [](Bytes& b) { b.assign(5, std::byte{'{'}); }, ErrorCode::kFormatRejected, "shorter than its magic"},
-      {"version", [](Bytes& b) { Put32(b, 16, 4); }, ErrorCode::kVersionMismatch,
-       "layout version 4 is not supported (this build reads versions 1 to 3)"},
+      {"version", [](Bytes& b) { Put32(b, 16, 5); }, ErrorCode::kVersionMismatch,
+       "layout version 5 is not supported (this build reads versions 1 to 4)"},
+      {"version 3 with piece sections", [](Bytes& b) { Put32(b, 16, 3); }, ErrorCode::kInvalidData,
+       "section piece_points is not expected with these flags in layout version 3"},
       {"version 1 with a reach section", [](Bytes& b) { Put32(b, 16, 1); }, ErrorCode::kInvalidData,
        "section influence_reach is not expected with these flags in layout version 1"},
       {"version 2 with reference sections", [](Bytes& b) { Put32(b, 16, 2); }, ErrorCode::kInvalidData,
@@ -528,10 +531,10 @@ TEST(SphereSetBinaryTest, VersionOneFilesReadWithoutReachAndFastOnlyFilesKeepIt)
   const SphereSet& fitted = Builtin();
   ASSERT_EQ(fitted.influence_reach.size(), fitted.influence_joints.size());
   const Bytes v2 = WriteSphereSetBinary(fitted);
-  EXPECT_EQ(Get32(v2, 16), 3u);
+  EXPECT_EQ(Get32(v2, 16), kSphereSetBinaryVersion);
   const Bytes v1 = Downgrade(v2, 1);
   EXPECT_EQ(Get32(v1, 16), 1u);
-  EXPECT_EQ(Get32(v1, 32), Get32(v2, 32) - 6);
+  EXPECT_EQ(Get32(v1, 32), Get32(v2, 32) - 9);  // sections 28-36
   auto old = Read(v1);
   ASSERT_TRUE(old.ok()) << old.error().message;
   EXPECT_TRUE(old->influence_reach.empty());
@@ -547,9 +550,9 @@ TEST(SphereSetBinaryTest, VersionOneFilesReadWithoutReachAndFastOnlyFilesKeepIt)
   auto rest = RefitRestData::Create(*old);
   ASSERT_TRUE(rest.ok()) << rest.error().message;
   EXPECT_TRUE(std::ranges::equal(rest->reach(), fitted.influence_reach)) << "the mesh's reach, as the fitter wrote it";
-  // Written again: version 3, an empty reach section, and back to the same set.
+  // Written again: the current version, an empty reach section, and back to the same set.
   const Bytes rewritten = WriteSphereSetBinary(*old);
-  EXPECT_EQ(Get32(rewritten, 16), 3u);
+  EXPECT_EQ(Get32(rewritten, 16), kSphereSetBinaryVersion);
   EXPECT_EQ(Get64(rewritten, EntryOf(rewritten, SphereSetSection::kInfluenceReach) + 16), 0u);
   EXPECT_TRUE(Read(rewritten)->influence_reach.empty());
 
@@ -605,7 +608,7 @@ TEST(SphereSetBinaryTest, FastReferenceRoundTripsInBothFormatsAndFastOnlyFilesKe
   EXPECT_EQ(from_json->fast_reference_inverse, set.fast_reference_inverse);
   EXPECT_EQ(WriteSphereSetJson(*from_json), json);
   const Bytes full = WriteSphereSetBinary(set);
-  EXPECT_EQ(Get32(full, 16), 3u);
+  EXPECT_EQ(Get32(full, 16), kSphereSetBinaryVersion);
   auto from_binary = Read(full);
   ASSERT_TRUE(from_binary.ok()) << from_binary.error().message;
   EXPECT_EQ(WriteSphereSetJson(*from_binary), json);
@@ -643,7 +646,7 @@ TEST(SphereSetBinaryTest, FastReferenceRoundTripsInBothFormatsAndFastOnlyFilesKe
 
   // A version-2 file: no reference sections; it reads as the set without one.
   const Bytes v2 = Downgrade(full, 2);
-  EXPECT_EQ(Get32(v2, 32), Get32(full, 32) - 5);
+  EXPECT_EQ(Get32(v2, 32), Get32(full, 32) - 8);  // sections 29-36
   auto old = Read(v2);
   ASSERT_TRUE(old.ok()) << old.error().message;
   EXPECT_TRUE(old->fast_reference_inverse.empty() && old->fast_reference_spheres.empty());
@@ -726,6 +729,79 @@ TEST(SphereSetBinaryTest, ReachGroupsRoundTripAndFastOnlyFilesKeepThem) {
   auto refused = Read(bad);
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.error().message.find("reach_group_offsets"), std::string::npos) << refused.error().message;
+}
+
+// Triangle pieces (sphere_set.h) round-trip through both formats: JSON version 3, binary layout 4
+// (sections 34-36), converting one into the other and back bit-exact; a fast-only file leaves them
+// out and still refits as the whole set does. A set without pieces still writes JSON version 2,
+// and its binary file read as layout 3 (sections 34-36 dropped) is the same set. Pieces in a
+// version-2 JSON document, grid points that do not hold whole quadruples, piece offsets that do not
+// fit and a piece that breaks the ownership rules are refused by name.
+TEST(SphereSetBinaryTest, TrianglePiecesRoundTripInBothFormats) {
+  const SphereSet set = TwoJointsWithPieces();
+  ASSERT_EQ(set.Validate(), std::nullopt);
+  const std::string json = WriteSphereSetJson(set);
+  EXPECT_EQ(nlohmann::json::parse(json)["version"], kSphereSetVersionWithPieces);
+  auto from_json = ReadSphereSetJson(json, "set.json");
+  ASSERT_TRUE(from_json.ok()) << from_json.error().message;
+  EXPECT_EQ(from_json->piece_points, set.piece_points);
+  EXPECT_EQ(from_json->piece_offsets, set.piece_offsets);
+  EXPECT_EQ(from_json->pieces, set.pieces);
+  const Bytes bytes = WriteSphereSetBinary(*from_json);
+  EXPECT_EQ(Get32(bytes, 16), kSphereSetBinaryVersion);
+  auto from_binary = Read(bytes);
+  ASSERT_TRUE(from_binary.ok()) << from_binary.error().message;
+  EXPECT_EQ(WriteSphereSetJson(*from_binary), json);
+  EXPECT_EQ(WriteSphereSetBinary(*from_binary), bytes);
+
+  auto fast = Read(WriteSphereSetBinary(set, SphereSetBinaryContent::kFastOnly));
+  ASSERT_TRUE(fast.ok()) << fast.error().message;
+  EXPECT_FALSE(fast->has_pieces());
+  auto rest = RefitRestData::Create(set);
+  auto fast_rest = RefitRestData::Create(*fast);
+  ASSERT_TRUE(rest.ok() && fast_rest.ok());
+  std::vector<skinspheres::Mat4f> world(set.joint_count(), skinspheres::Mat4f::Identity());
+  world[1](0, 3) = 0.4f;
+  std::vector<Vec4f> a(set.size()), b(set.size());
+  ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, a}.Run()));
+  ASSERT_TRUE((RefitJob{RefitMode::kFast, &*fast, &*fast_rest, world, {}, b}.Run()));
+  for (size_t s = 0; s < set.size(); ++s) EXPECT_EQ(a[s], b[s]) << "sphere " << s;
+
+  SphereSet whole = TwoJointsWithMesh();
+  EXPECT_EQ(nlohmann::json::parse(WriteSphereSetJson(whole))["version"], kSphereSetVersion);
+  auto as_v3 = Read(Downgrade(WriteSphereSetBinary(whole), 3));
+  ASSERT_TRUE(as_v3.ok()) << as_v3.error().message;
+  EXPECT_EQ(WriteSphereSetJson(*as_v3), WriteSphereSetJson(whole));
+  auto cut_as_v3 = Read(Downgrade(bytes, 3));
+  ASSERT_FALSE(cut_as_v3.ok()) << "a layout-3 file has no pieces: triangle 1 is owned by no sphere";
+
+  auto refused_with = [&](const std::function<void(nlohmann::json&)>& edit) {
+    auto doc = nlohmann::json::parse(json);
+    edit(doc);
+    auto read = ReadSphereSetJson(doc.dump(), "set.json");
+    return read.ok() ? std::string("accepted") : read.error().message;
+  };
+  EXPECT_NE(refused_with([](nlohmann::json& d) { d["version"] = 2; }).find("pieces is not part of version 2"),
+            std::string::npos);
+  EXPECT_NE(refused_with([](nlohmann::json& d) {
+              d["mesh"]["piece_points"].push_back(1);
+            }).find("$.mesh.piece_points does not hold whole"),
+            std::string::npos);
+  EXPECT_NE(refused_with([](nlohmann::json& d) {
+              d["spheres"][1]["pieces"].push_back(1);
+            }).find("$.spheres[1].pieces does not hold whole"),
+            std::string::npos);
+  EXPECT_NE(refused_with([](nlohmann::json& d) { d["spheres"][1]["pieces"][2] = 0; }).find("grid's pieces once"),
+            std::string::npos);
+  EXPECT_NE(refused_with([](nlohmann::json& d) { d["mesh"]["piece_points"][1] = 17; }).find("above 16"),
+            std::string::npos);
+
+  Bytes bad = bytes;
+  Put64(bad, EntryOf(bad, SphereSetSection::kPieceOffsets) + 16, 2);
+  FixChecksum(bad);
+  auto refused = Read(bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("piece_offsets"), std::string::npos) << refused.error().message;
 }
 
 // The fit settings (params) become the JSON's "params" object when a binary set is converted:

@@ -168,7 +168,8 @@ TEST(SphereSetIoTest, WrongContentIsRefusedWithItsPlace) {
   };
   const std::vector<Case> cases = {
       {"format", [](json& j) { j["format"] = "other"; }, ErrorCode::kInvalidData, "not a sphere set"},
-      {"version", [](json& j) { j["version"] = 3; }, ErrorCode::kVersionMismatch, "version 3"},
+      {"version", [](json& j) { j["version"] = 4; }, ErrorCode::kVersionMismatch, "version 4"},
+      {"version 0", [](json& j) { j["version"] = 0; }, ErrorCode::kVersionMismatch, "version 0"},
       {"version 2 without mesh", [](json& j) { j["version"] = 2; }, ErrorCode::kInvalidData, "$.mesh is missing"},
       {"missing spheres", [](json& j) { j.erase("spheres"); }, ErrorCode::kInvalidData, "$.spheres is missing"},
       {"center size",

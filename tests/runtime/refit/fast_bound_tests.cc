@@ -13,6 +13,7 @@
 #include <span>
 
 #include "runtime/posed_characters.h"
+#include "runtime/refit/random_poses.h"
 #include "runtime/refit/scalar_fast_refit.h"
 #include "runtime/sample_sphere_set.h"
 #include "skinspheres/runtime/refit/refit_job.h"
@@ -170,28 +171,8 @@ TEST(RefitJobTest, FastModeWithReachHoldsEveryVertexOnRandomPoses) {
   std::printf("two joints: %d of 4000 fast spheres tighter with reach\n", tighter);
 }
 
-// Random joint transforms: a rigid motion each, times a non-uniform scale on odd poses p.
-void RandomWorld(std::mt19937& rng, int p, std::vector<skinspheres::Mat4f>* world) {
-  std::uniform_real_distribution<float> angle(-3.1f, 3.1f), move(-3.0f, 3.0f), scale(0.3f, 3.0f);
-  for (auto& g : *world) {
-    const Eigen::Vector3f axis = Eigen::Vector3f(move(rng), move(rng), move(rng)).normalized();
-    Eigen::Affine3f t = Eigen::Translation3f(move(rng), move(rng), move(rng)) * Eigen::AngleAxisf(angle(rng), axis);
-    if (p % 2) t = t * Eigen::Scaling(Eigen::Vector3f(scale(rng), scale(rng), scale(rng)));
-    g = t.matrix();
-  }
-}
-
-// Source vertex v of the set's mesh skinned in double (the oracle of "every vertex inside").
-Eigen::Vector3d SkinnedInDouble(const SphereSet& set, std::span<const skinspheres::Mat4f> world, uint32_t v) {
-  Eigen::Vector3d skinned = Eigen::Vector3d::Zero();
-  for (uint32_t q = set.mesh.influence_offsets[v]; q < set.mesh.influence_offsets[v + 1]; ++q) {
-    const skinning::BindEntry& b = set.mesh.binds[set.mesh.influence_binds[q]];
-    const Eigen::Matrix4d m = world[static_cast<size_t>(b.joint)].cast<double>() * b.inverse_bind.cast<double>();
-    skinned +=
-        double{set.mesh.influence_weights[q]} * (m * set.mesh.positions_bind[v].cast<double>().homogeneous()).head<3>();
-  }
-  return skinned;
-}
+using test::RandomWorld;
+using test::SkinnedInDouble;
 
 // A rest pose away from the bind pose (joint b's rest transform moved by (0.3, 0.1, 0); the bind
 // pose is identity for both joints): each vertex's rest copies through its two joints lie apart,

@@ -37,8 +37,9 @@
 namespace skinspheres::runtime {
 
 inline constexpr const char* kSphereSetFormat = "skinspheres.sphere_set";
-inline constexpr int kSphereSetVersion = 2;             // written when the set has a mesh
-inline constexpr int kSphereSetVersionWithoutMesh = 1;  // written when it has none; both are read
+inline constexpr int kSphereSetVersionWithPieces = 3;   // written when the set has triangle pieces
+inline constexpr int kSphereSetVersion = 2;             // written when the set has a mesh and no pieces
+inline constexpr int kSphereSetVersionWithoutMesh = 1;  // written when it has none; all three are read
 inline constexpr uint32_t kMaxReachGroups = 4;          // per sphere (SphereSet::reach_group_offsets)
 
 enum class ExclusionReason : uint8_t {
@@ -54,6 +55,49 @@ struct ExcludedPair {
   uint32_t j = 0;
   ExclusionReason reason = ExclusionReason::kSameJoint;
 };
+
+// Triangle pieces (docs/TRIANGLE_PIECES.md). A source triangle is owned whole by one sphere, or cut
+// into the level² sub-triangles of its regular level-L grid (2 <= L <= kMaxPieceLevel), each owned
+// by one sphere. Grid point (i, j) of triangle t (i + j <= L) is the barycentric combination
+//   ((L - i - j) · p0 + i · p1 + j · p2) / L   of its vertices p0, p1, p2 (triangle_vertices[3t..]),
+// at every pose: linear blend skinning is linear in the vertices' skinned positions, so a grid
+// point of the skinned triangle is the same combination of its skinned vertices.
+inline constexpr uint16_t kMaxPieceLevel = 16;
+
+// A grid point that is not one of its triangle's vertices (those are source vertices).
+struct PiecePoint {
+  uint32_t triangle = 0;
+  uint16_t level = 0;
+  uint8_t i = 0, j = 0;  // weights i / level on p1, j / level on p2
+  friend bool operator==(const PiecePoint&, const PiecePoint&) = default;
+};
+
+// Sub-triangle `index` of its triangle's level-L grid, index < L²: the L(L+1)/2 upward ones first,
+// (i, j) (i+1, j) (i, j+1) for j = 0.. L-1, i = 0.. L-1-j in that order, then the L(L-1)/2 downward
+// ones, (i+1, j) (i+1, j+1) (i, j+1) for j = 0.. L-2, i = 0.. L-2-j: every piece wound as the
+// triangle is.
+struct TrianglePiece {
+  uint32_t triangle = 0;
+  uint16_t level = 0;
+  uint16_t index = 0;
+  friend bool operator==(const TrianglePiece&, const TrianglePiece&) = default;
+};
+
+// The grid coordinates (i, j) of the piece's three corners, in the order above; false when the level
+// or index is out of range.
+bool PieceCorners(uint16_t level, uint16_t index, uint8_t corners[3][2]);
+
+// Grid point (i, j) of level L of the triangle p0 p1 p2 in float, in a fixed order (the same bits on
+// every platform: the build turns off contraction into fused multiply-adds).
+inline Eigen::Vector3f GridPoint(const Eigen::Vector3f& p0, const Eigen::Vector3f& p1, const Eigen::Vector3f& p2,
+                                 uint16_t level, uint8_t i, uint8_t j) {
+  const float l = static_cast<float>(level);
+  const float w0 = static_cast<float>(level - i - j) / l, w1 = static_cast<float>(i) / l,
+              w2 = static_cast<float>(j) / l;
+  Eigen::Vector3f out;
+  for (int a = 0; a < 3; ++a) out[a] = (w0 * p0[a] + w1 * p1[a]) + w2 * p2[a];
+  return out;
+}
 
 struct SpherePart {
   std::string name;              // "torso", "head", "arm_l", "arm_r", "leg_l", "leg_r", or chain names
@@ -132,6 +176,18 @@ struct SphereSet {
 
   std::vector<ExcludedPair> excluded_pairs;  // sorted by (i, j), i < j, unique
 
+  // Triangle pieces (see TrianglePiece above), or all three empty: every triangle owned whole.
+  // Sphere s owns pieces[piece_offsets[s] .. piece_offsets[s+1]). Its point list (`vertices`) then
+  // names, besides source vertices v < source_vertex_count, grid points source_vertex_count + k
+  // (piece_points[k]): it holds every corner of its pieces (a corner at a triangle vertex is that
+  // source vertex) and every vertex of its whole triangles, and the refits bound exactly those
+  // points. A triangle is owned whole by one sphere or cut at one level with every piece owned
+  // once, all by spheres of one part. Pieces need the mesh (version 2 data); a fast-only set keeps
+  // none, and every grid point is listed once.
+  std::vector<PiecePoint> piece_points;
+  std::vector<uint32_t> piece_offsets;
+  std::vector<TrianglePiece> pieces;
+
   // The skinned mesh the set was fitted on (version 2; both empty in a version-1 set), indexed by
   // source vertex and source triangle like the lists above:
   //   triangle t has source vertices triangle_vertices[3t], [3t+1], [3t+2];
@@ -155,6 +211,16 @@ struct SphereSet {
 
   size_t size() const { return centers_rest.size(); }
   bool has_mesh() const { return !triangle_vertices.empty(); }
+  bool has_pieces() const { return !pieces.empty() || !piece_points.empty() || !piece_offsets.empty(); }
+  // Point k of the point lists (`vertices`) at the given skinned source-vertex positions: a source
+  // vertex, or a grid point computed from its triangle's vertices (GridPoint). Needs a valid set with
+  // a mesh when k names a grid point.
+  Eigen::Vector3f PointAt(uint32_t k, const Eigen::Vector3f* positions) const {
+    if (k < source_vertex_count) return positions[k];
+    const PiecePoint& g = piece_points[k - source_vertex_count];
+    const uint32_t* v = triangle_vertices.data() + 3 * size_t{g.triangle};
+    return GridPoint(positions[v[0]], positions[v[1]], positions[v[2]], g.level, g.i, g.j);
+  }
   size_t joint_count() const { return joint_names.size(); }
   // Every reason the set is inconsistent (no spheres, a radius <= 0, a triangle owned by no sphere
   // or by two, sizes, offsets, index ranges, NaNs, pair order, an influence reach outside [0, 1];
@@ -174,12 +240,14 @@ struct SphereSet {
 // Validate() compares a stored reach with, bit for bit.
 Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set);
 
-// What the fast bound must hold for each source vertex of each sphere, in the set's reference
-// frame (the stored fast reference, else the rest pose), indexed like SphereSet::vertices (entry i
-// of vertex_offsets' CSR):
+// What the fast bound must hold for each point (source vertex or grid point) of each sphere, in the
+// set's reference frame (the stored fast reference, else the rest pose), indexed like
+// SphereSet::vertices (entry i of vertex_offsets' CSR):
 //   radius[i]: the radius around the sphere's reference centre (fast_reference_spheres[s] or
 //     centers_rest[s]) that holds every reference copy R_j(b) · IBM_b · p_bind of the vertex, through
-//     each bind entry b it weighs, in double in a fixed order, rounded up to float;
+//     each bind entry b it weighs, in double in a fixed order, rounded up to float; for a grid point
+//     the weighted mean Σ_b W_b |copy_b - c| of its copies' distances (refit_job.h, "Triangle
+//     pieces");
 //   weights[weight_offsets[s] + (i - vertex_offsets[s]) * K_s + (k - influence_offsets[s])]: its total
 //     weight on the joint of influence entry k, summed over its bind entries in order in float, at
 //     most 1 (what InfluenceReachFromMesh takes the largest of).

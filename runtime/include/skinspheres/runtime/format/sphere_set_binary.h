@@ -3,8 +3,8 @@
 // stays the interchange and debugging format; both hold the same set, and converting one into the
 // other and back is bit-exact (`skinspheres convert`).
 //
-// Layout, version 3 (version 2, the same without sections 29-33, and version 1, without 28-33, are
-// still read). Every integer and
+// Layout, version 4 (version 3, the same without sections 34-36, version 2, without 29-36, and
+// version 1, without 28-36, are still read). Every integer and
 // float is little-endian; offsets count bytes from the start of the file (never pointers), so the
 // file works at any address.
 //
@@ -72,11 +72,16 @@
 //   32  reach_group_radii       f32   o[N]             per group              } file; all 0: one
 //   33  reach_group_weights     f32   sum of groups    per group, one per     } group per sphere
 //                                     x influences     influence of 14           (sphere_set.h)
+//   34  piece_points            u32   2 G              (triangle, level << 16 | i << 8 | j) per } version 4,
+//                                                       grid point (SphereSet::piece_points)   } with a mesh
+//   35  piece_offsets           u32   N + 1 or 0       CSR over 36; 0: no pieces              } (flag bit
+//   36  pieces                  u32   2 o[N]           (triangle, level << 16 | index) each   } 1) only
 // A file holds exactly the sections its flags and version call for. A change of layout bumps the
 // version. A version-1 file reads as a set without influence reach, a version-1 or 2 file as one
-// without a fast reference (the rest pose) or reach groups.
+// without a fast reference (the rest pose) or reach groups, a file before version 4 as one without
+// triangle pieces.
 //
-// Fast-only variant: sections 17-27 left out, i.e. everything fast refit never reads (Xbot: 16 KB
+// Fast-only variant: sections 17-27 and 34-36 left out, i.e. everything fast refit never reads (Xbot: 16 KB
 // instead of 1.6 MB; its JSON takes 3.5 MB). It keeps sections 28-33, 28 filled from the mesh when the set
 // has a mesh and no reach of its own (a fast-only set has no mesh to compute it from later), so it
 // refits exactly as the whole set does. A set read from it has SphereSet::fast_only set; exact refit and
@@ -111,9 +116,10 @@
 namespace skinspheres::runtime {
 
 inline constexpr unsigned char kSphereSetBinaryMagic[8] = {0x89, 'S', 'S', 'B', '\r', '\n', 0x1A, '\n'};
-inline constexpr uint32_t kSphereSetBinaryVersion = 3;                  // written
-inline constexpr uint32_t kSphereSetBinaryVersionWithoutReference = 2;  // read (no sections 29-30)
-inline constexpr uint32_t kSphereSetBinaryVersionWithoutReach = 1;      // read (no sections 28-30)
+inline constexpr uint32_t kSphereSetBinaryVersion = 4;                  // written
+inline constexpr uint32_t kSphereSetBinaryVersionWithoutPieces = 3;     // read (no sections 34-36)
+inline constexpr uint32_t kSphereSetBinaryVersionWithoutReference = 2;  // read (no sections 29-36)
+inline constexpr uint32_t kSphereSetBinaryVersionWithoutReach = 1;      // read (no sections 28-36)
 inline constexpr size_t kSphereSetBinaryHeaderSize = 64;
 inline constexpr size_t kSphereSetBinarySectionEntrySize = 24;
 inline constexpr size_t kSphereSetBinaryAlignment = 16;
@@ -154,8 +160,11 @@ enum class SphereSetSection : uint32_t {
   kReachGroupOffsets,
   kReachGroupRadii,
   kReachGroupWeights,
+  kPiecePoints,
+  kPieceOffsets,
+  kPieces,
 };
-inline constexpr uint32_t kSphereSetSectionCount = 33;  // ids 1..33
+inline constexpr uint32_t kSphereSetSectionCount = 36;  // ids 1..36
 
 enum class SphereSetBinaryContent : uint8_t {
   kFull,      // everything, mesh included: converts back to the same JSON
@@ -241,6 +250,9 @@ class SphereSetBinaryView {
   std::span<const uint32_t> reach_group_offsets() const { return Get<uint32_t>(SphereSetSection::kReachGroupOffsets); }
   std::span<const float> reach_group_radii() const { return Get<float>(SphereSetSection::kReachGroupRadii); }
   std::span<const float> reach_group_weights() const { return Get<float>(SphereSetSection::kReachGroupWeights); }
+  std::span<const uint32_t> piece_points() const { return Get<uint32_t>(SphereSetSection::kPiecePoints); }
+  std::span<const uint32_t> piece_offsets() const { return Get<uint32_t>(SphereSetSection::kPieceOffsets); }
+  std::span<const uint32_t> pieces() const { return Get<uint32_t>(SphereSetSection::kPieces); }
   uint32_t version() const { return version_; }
 
   // Copies into a SphereSet (loaded_from = source_name()) and validates it (errors name the source).

@@ -10,12 +10,14 @@
 //  "spheres":[{"id","part","joint","level","center":[x,y,z],"radius","radius_fast",
 //              "vertices":[...],"triangles":[...],"influences":[[joint,weight],...],
 //              "influence_reach":[one per influence],"fast_reference":[x,y,z,r],
-//              "reach_groups":[[radius, one reach per influence], ...]}],
+//              "reach_groups":[[radius, one reach per influence], ...],
+//              "pieces":[triangle, level, index, ...]}],
 //  "excluded_pairs":[[i,j,"same_joint"|"adjacent_joints"|"bind_overlap"],...],
 //  "mesh":{"triangles":[3 source vertex indices per source triangle],
 //          "positions_bind":[x,y,z per source vertex],
 //          "binds":[{"joint","inverse_bind":[16 floats, column-major]}],
-//          "influence_offsets":[vertices + 1],"influence_binds":[...],"influence_weights":[...]}}
+//          "influence_offsets":[vertices + 1],"influence_binds":[...],"influence_weights":[...],
+//          "piece_points":[triangle, level, i, j, ...]}}
 // "mesh" is version 2 (sphere_set.h); a version-1 file has none and is read as a set without a
 // mesh; a set without a mesh is written as version 1. "influence_reach" (SphereSet::influence_reach)
 // is optional in either version: every sphere has it or none does, and a file without it (written
@@ -25,6 +27,10 @@
 // groups), are optional the same way: the fast refit's stored reference frame and reach groups
 // (SphereSet::fast_reference_inverse, reach_group_offsets); a file without them refits with the
 // rest pose and one group per sphere, and a reader that ignores them still refits soundly.
+// "pieces" (on the spheres that own pieces of cut triangles) and "mesh.piece_points" are version 3
+// (triangle pieces, sphere_set.h; docs/TRIANGLE_PIECES.md), written only for a set that has them;
+// version 1 and 2 files read as sets without pieces, and a version-2 file that names pieces is
+// refused.
 // Everything in the rest pose, in the source file's world space. Sphere "id" is its index.
 // A reader refuses another format name, a newer version, a malformed or truncated file, or a set
 // that fails SphereSet::Validate(), with a message naming the file and the problem.

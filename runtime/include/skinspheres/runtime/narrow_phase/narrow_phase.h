@@ -18,9 +18,15 @@
 //     the settings; never per frame.
 // Rest pose = the mesh skinned with the skeleton's rest transforms (SphereSet::joint_rest_world):
 // the positions the spheres were fitted on.
+// Triangle pieces (SphereSet::pieces, docs/TRIANGLE_PIECES.md): a cut triangle's pieces are tested,
+// each under the sphere that owns it, and the triangle is reported. A pair (t, u) is reported when
+// some piece of t and some piece of u (a whole triangle is its own piece), owned by a sphere pair
+// rule 1 allows, intersect or lie within the margin; rules 2 and 3 stay on whole triangles. It is
+// reported once, with the whole triangles' geometry, and its sphere pairs are every pair that found
+// it.
 //
-// How it is found. Each triangle lies in the sphere that owns it, so an intersecting or near pair
-// of a sphere pair (i, j) lies in both spheres. Under each sphere its triangles are grouped at
+// How it is found. Each triangle (or piece) lies in the sphere that owns it, so an intersecting or
+// near pair of a sphere pair (i, j) lies in both spheres. Under each sphere its triangles are grouped at
 // set-up into CLUSTERS of neighbouring triangles (NarrowPhaseSettings::cluster_triangles at most).
 // Per frame every cluster of a sphere in a pair gets the box of its skinned vertices, and each such
 // sphere the union of its clusters' boxes (much tighter than a fast-refit sphere). Then, per

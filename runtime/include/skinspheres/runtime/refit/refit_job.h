@@ -109,6 +109,26 @@
 // The sums run per group in influence order, the same operations in the vector code and the tests'
 // scalar reference.
 //
+// Triangle pieces (SphereSet::pieces, docs/TRIANGLE_PIECES.md). A sphere that owns pieces of a
+// triangle bounds their corners, the grid points in its point list, in place of the triangle's
+// vertices. Exact mode computes each grid point from its triangle's skinned vertices (GridPoint,
+// sphere_set.h) and bounds it like a vertex; the piece is the convex hull of its corners, so the
+// sphere holds it. Fast mode bounds a grid point as a vertex with one position per bind entry:
+// with barycentric weights β_v over the triangle's vertices v,
+//     g' = Σ_v β_v Σ_b w_vb M_b(t) p_v = Σ_b W_b M_b(t) q_b,   W_b = Σ_v β_v w_vb,
+//     q_b = Σ_v β_v w_vb p_v / W_b,
+// over the union of the three vertices' bind entries: W_b >= 0 and Σ_b W_b = 1, so g' is a convex
+// blend of the copies T_j(b) p_b with p_b = R_j(b) · IBM_b · q_b, which is every step of the
+// derivation above. Its copies spread where the triangle's vertices weigh the joints differently
+// (q_b leans to the vertices that weigh b), but the first term of the derivation is bounded by the
+// triangle inequality before taking any maximum:
+//     |Σ_b W_b A_j(b) (p_b - c)| <= s_max Σ_b W_b |p_b - c|,
+// so the radius a grid point needs is the weighted mean of its copies' distances (at most the
+// farthest), and its per-joint totals Σ_b W_b the reach it needs (FastBoundVerticesFromMesh);
+// Validate() holds the stored radii, reaches and groups to them as for a vertex. The piece lies in
+// the sphere because its corners do. (The mean would hold for a source vertex too; a vertex keeps
+// its farthest copy, which every file written so far stores.)
+//
 // margin: both modes add 16·FLT_EPSILON·(max|c'_xyz| + r), a few ulps of the coordinates, so the
 // float evaluation (of the centre, the distances, and the caller's own skinning) cannot leave a
 // vertex outside by rounding. Exact-mode radii therefore equal the max distance to ~2e-6 relative.

@@ -1,0 +1,349 @@
+// Triangle pieces (sphere_set.h, TrianglePiece; refit_job.h, "Triangle pieces"): the grid tiles the
+// triangle, Validate() refuses every broken ownership, and both refits hold every piece at random
+// poses against skinning in double.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include "runtime/narrow_phase/same_contacts.h"
+#include "runtime/refit/random_poses.h"
+#include "runtime/sample_sphere_set.h"
+#include "skinspheres/runtime/broad_phase/pair_filter.h"
+#include "skinspheres/runtime/narrow_phase/narrow_phase.h"
+#include "skinspheres/runtime/narrow_phase/triangle_contact.h"
+#include "skinspheres/runtime/refit/refit_job.h"
+
+namespace skinspheres::runtime {
+namespace {
+
+using test::PointInDouble;
+using test::RandomWorld;
+using test::SkinnedInDouble;
+
+// Twice the signed area of the piece in grid coordinates (i, j).
+int TwiceArea(const uint8_t c[3][2]) {
+  return (c[1][0] - c[0][0]) * (c[2][1] - c[0][1]) - (c[2][0] - c[0][0]) * (c[1][1] - c[0][1]);
+}
+
+// Every level's L² pieces have the same orientation and area 1/L² of the triangle, their corners on
+// the grid, and every point of the triangle (random barycentric points, and the grid's own nodes
+// nudged inwards) lies in one of them: they tile it.
+TEST(TrianglePieces, ThePiecesOfEachLevelTileTheTriangle) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  uint8_t c[3][2];
+  for (uint16_t level = 2; level <= kMaxPieceLevel; ++level) {
+    for (uint32_t index = 0; index < uint32_t{level} * level; ++index) {
+      ASSERT_TRUE(PieceCorners(level, static_cast<uint16_t>(index), c)) << level << " " << index;
+      EXPECT_EQ(TwiceArea(c), 1) << "level " << level << " piece " << index;  // the triangle's is L²
+      for (const auto& corner : c) EXPECT_LE(corner[0] + corner[1], level);
+    }
+    EXPECT_FALSE(PieceCorners(level, static_cast<uint16_t>(level * level), c));
+    for (int trial = 0; trial < 2000; ++trial) {
+      double b1 = u(rng), b2 = u(rng);
+      if (b1 + b2 > 1.0) b1 = 1.0 - b1, b2 = 1.0 - b2;
+      const double x = b1 * level, y = b2 * level;
+      int inside = 0;
+      for (uint32_t index = 0; index < uint32_t{level} * level; ++index) {
+        PieceCorners(level, static_cast<uint16_t>(index), c);
+        bool in = true;
+        for (int e = 0; e < 3; ++e) {
+          const auto& a = c[e];
+          const auto& b = c[(e + 1) % 3];
+          in &= (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]) >= -1e-12;
+        }
+        inside += in;
+      }
+      ASSERT_GE(inside, 1) << "level " << level << " point (" << x << ", " << y << ") is in no piece";
+    }
+  }
+  EXPECT_FALSE(PieceCorners(1, 0, c));
+  EXPECT_FALSE(PieceCorners(kMaxPieceLevel + 1, 0, c));
+}
+
+TEST(TrianglePieces, ASetWithPiecesValidatesAndEachBrokenOwnershipIsRefused) {
+  const SphereSet good = TwoJointsWithPieces();
+  ASSERT_EQ(good.Validate(), std::nullopt) << good.Validate()->message;
+  auto refused = [&](const char* what, auto edit, const char* words) {
+    SphereSet set = good;
+    edit(set);
+    const auto err = set.Validate();
+    ASSERT_NE(err, std::nullopt) << what;
+    EXPECT_NE(err->message.find(words), std::string::npos) << what << ": " << err->message;
+  };
+  refused(
+      "a piece missing", [](SphereSet& s) { s.pieces.pop_back(), s.piece_offsets[2] = 3; }, "grid's pieces once");
+  refused(
+      "a piece twice", [](SphereSet& s) { s.pieces[3].index = 0; }, "grid's pieces once");
+  refused(
+      "two levels", [](SphereSet& s) { s.pieces[3].level = 3; }, "grid's pieces once");
+  refused(
+      "owned whole and in pieces",
+      [](SphereSet& s) {
+        s.triangles = {0, 1}, s.triangle_offsets = {0, 2, 2};
+      },
+      "owned whole");
+  refused(
+      "a triangle owned by no one",
+      [](SphereSet& s) {
+        s.pieces.clear(), s.piece_offsets = {0, 0, 0};
+      },
+      "triangle entries");
+  refused(
+      "an index beyond L²", [](SphereSet& s) { s.pieces[0].index = 4; }, "out of range");
+  refused(
+      "a level beyond the largest", [](SphereSet& s) { s.pieces[0].level = kMaxPieceLevel + 1; }, "out of range");
+  refused(
+      "a corner listed as a grid point",
+      [](SphereSet& s) {
+        s.piece_points[0] = {1, 2, 2, 0};
+      },
+      "triangle corner");
+  refused(
+      "a grid point twice", [](SphereSet& s) { s.piece_points[1] = s.piece_points[0]; }, "listed twice");
+  refused(
+      "a corner not in the sphere's list", [](SphereSet& s) { s.vertices[7] = 1; }, "not its grid point");
+  refused(
+      "a point out of range", [](SphereSet& s) { s.vertices[8] = 7; }, "out of range");
+  refused(
+      "pieces in two parts",
+      [](SphereSet& s) {
+        s.parts.push_back({"arm_l", {1}});
+        s.sphere_part[1] = 1;
+      },
+      "different parts");
+  refused(
+      "pieces without a mesh",
+      [](SphereSet& s) {
+        s.triangle_vertices.clear();
+        s.mesh = {};
+      },
+      "no mesh");
+  refused(
+      "a fast radius below a grid point's copies", [](SphereSet& s) { s.radii_fast[1] *= 0.9f; },
+      "grid point (1, 0) of level 2 of triangle 1");
+}
+
+// The set's spheres refitted in exact mode from positions skinned at random poses, and in fast
+// mode from the joints: every point of every sphere (a piece's corners; the piece is their hull)
+// lies inside, the grid points taken in double from the same skinned vertices (exact) or skinned in
+// double (fast). Sphere 1 holds only its corner piece of triangle 1: on rigid poses the radius
+// around its centre that holds the whole triangle is larger.
+TEST(TrianglePieces, BothRefitsHoldEveryPieceAtRandomPoses) {
+  const SphereSet set = TwoJointsWithPieces();
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::mt19937 rng(11);
+  std::vector<skinspheres::Mat4f> world(set.joint_count());
+  std::vector<Eigen::Vector3f> skinned(set.source_vertex_count);
+  std::vector<Vec4f> exact(set.size()), fast(set.size());
+  int smaller = 0;
+  const int poses = 1000;
+  for (int p = 0; p < poses; ++p) {
+    RandomWorld(rng, p, &world);
+    for (uint32_t v = 0; v < set.source_vertex_count; ++v) skinned[v] = SkinnedInDouble(set, world, v).cast<float>();
+    ASSERT_TRUE((RefitJob{RefitMode::kExact, &set, &*rest, world, skinned, exact}.Run()));
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, fast}.Run()));
+    for (size_t s = 0; s < set.size(); ++s) {
+      for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+        const uint32_t point = set.vertices[k];
+        Eigen::Vector3d from_skinned = Eigen::Vector3d::Zero();
+        if (point < set.source_vertex_count) {
+          from_skinned = skinned[point].cast<double>();
+        } else {
+          const PiecePoint& g = set.piece_points[point - set.source_vertex_count];
+          const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{g.triangle};
+          from_skinned = (double(g.level - g.i - g.j) * skinned[v[0]].cast<double>() +
+                          double(g.i) * skinned[v[1]].cast<double>() + double(g.j) * skinned[v[2]].cast<double>()) /
+                         double(g.level);
+        }
+        ASSERT_LE((from_skinned - exact[s].head<3>().cast<double>()).norm(), exact[s].w())
+            << "pose " << p << " sphere " << s << " point " << point << " (exact)";
+        ASSERT_LE((PointInDouble(set, world, point) - fast[s].head<3>().cast<double>()).norm(), fast[s].w())
+            << "pose " << p << " sphere " << s << " point " << point << " (fast)";
+      }
+    }
+    double whole = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t v = set.triangle_vertices[3 + c];
+      whole = std::max(whole, (skinned[v].cast<double>() - exact[1].head<3>().cast<double>()).norm());
+    }
+    smaller += exact[1].w() < whole;
+  }
+  // On every pose that moves the joints together (rigidly), sphere 1 holds less than triangle 1. On
+  // random poses the two joints pull the triangle apart, often leaving v3, which it holds, farthest
+  // from its centre (informational).
+  std::printf("sphere 1 smaller than triangle 1 needs on %d of %d random poses\n", smaller, poses);
+  for (int p = 0; p < 100; ++p) {
+    RandomWorld(rng, 2 * p, &world);
+    world[1] = world[0];
+    for (uint32_t v = 0; v < set.source_vertex_count; ++v) skinned[v] = SkinnedInDouble(set, world, v).cast<float>();
+    ASSERT_TRUE((RefitJob{RefitMode::kExact, &set, &*rest, world, skinned, exact}.Run()));
+    double whole = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      whole = std::max(whole, (skinned[set.triangle_vertices[3 + c]] - exact[1].head<3>()).cast<double>().norm());
+    }
+    ASSERT_LT(exact[1].w(), 0.9 * whole) << "rigid pose " << p;
+  }
+}
+
+// Two triangles on two joints: A = (0,0,0) (1,0,0) (0,1,0) on joint a, cut at level 3, its pieces
+// 0-4 owned by sphere 0 and 5-8 by sphere 1 (part "torso"); B, 0.4 above it, whole in sphere 2 on
+// joint b (part "arm_l"). Rest = bind = identity. `excluded`: the sphere pairs the set excludes.
+SphereSet CutTriangleAndAnother(std::vector<ExcludedPair> excluded) {
+  SphereSet set;
+  set.source_vertex_count = 6;
+  set.source_triangle_count = 2;
+  set.joint_names = {"a", "b"};
+  set.joint_parents = {-1, 0};
+  set.joint_rest_world = {skinspheres::Mat4f::Identity(), skinspheres::Mat4f::Identity()};
+  set.parts = {{"torso", {0}}, {"arm_l", {1}}};
+  set.triangle_vertices = {0, 1, 2, 3, 4, 5};
+  set.mesh.positions_bind = {{0, 0, 0},          {1, 0, 0},          {0, 1, 0},
+                             {0.2f, 0.2f, 0.4f}, {0.7f, 0.3f, 0.4f}, {0.3f, 0.6f, 0.4f}};
+  set.mesh.binds = {skinning::BindEntry{0, skinspheres::Mat4f::Identity()},
+                    skinning::BindEntry{1, skinspheres::Mat4f::Identity()}};
+  set.mesh.influence_offsets = {0, 1, 2, 3, 4, 5, 6};
+  set.mesh.influence_binds = {0, 0, 0, 1, 1, 1};
+  set.mesh.influence_weights = {1, 1, 1, 1, 1, 1};
+  const uint16_t level = 3;
+  std::vector<std::vector<uint32_t>> points(3);
+  set.piece_offsets = {0};
+  for (uint32_t s = 0; s < 2; ++s) {
+    for (uint16_t index = s == 0 ? 0 : 5; index < (s == 0 ? 5 : 9); ++index) {
+      set.pieces.push_back({0, level, index});
+      uint8_t c[3][2];
+      PieceCorners(level, index, c);
+      for (const auto& corner : c) {
+        const uint8_t i = corner[0], j = corner[1];
+        uint32_t point = i == 0 && j == 0 ? 0 : i == level ? 1 : j == level ? 2 : UINT32_MAX;
+        if (point == UINT32_MAX) {
+          const PiecePoint g{0, level, i, j};
+          auto it = std::find(set.piece_points.begin(), set.piece_points.end(), g);
+          if (it == set.piece_points.end()) it = set.piece_points.insert(it, g);
+          point = set.source_vertex_count + static_cast<uint32_t>(it - set.piece_points.begin());
+        }
+        points[s].push_back(point);
+      }
+    }
+    set.piece_offsets.push_back(static_cast<uint32_t>(set.pieces.size()));
+  }
+  set.piece_offsets.push_back(static_cast<uint32_t>(set.pieces.size()));
+  points[2] = {3, 4, 5};
+  set.vertex_offsets = {0};
+  for (auto& list : points) {
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+    set.vertices.insert(set.vertices.end(), list.begin(), list.end());
+    set.vertex_offsets.push_back(static_cast<uint32_t>(set.vertices.size()));
+  }
+  set.triangle_offsets = {0, 0, 0, 1};
+  set.triangles = {1};
+  set.influence_offsets = {0, 1, 2, 3};
+  set.influence_joints = {0, 0, 1};
+  set.influence_weights = {1, 1, 1};
+  set.sphere_part = {0, 0, 1};
+  set.sphere_joint = {0, 0, 1};
+  set.sphere_level = {0, 1, 0};
+  for (size_t s = 0; s < 3; ++s) {
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e30f), hi = -lo;
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+      const Eigen::Vector3f p = set.PointAt(set.vertices[k], set.mesh.positions_bind.data());
+      lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    }
+    set.centers_rest.push_back(0.5f * (lo + hi));
+    set.radii_rest.push_back(std::nextafter(0.5f * (hi - lo).norm(), 1e30f));
+  }
+  set.radii_fast = set.radii_rest;
+  set.excluded_pairs = std::move(excluded);
+  return set;
+}
+
+// The narrow phase on a cut triangle A against a whole triangle B that joint b carries through it
+// at random poses (exact spheres, every pair the filter allows given, as a broad phase without
+// culling would): equal to the brute-force oracle, bit for bit, and to an oracle that knows nothing
+// of pieces: with no pair excluded, (A, B) is reported exactly when the whole triangles meet, once,
+// under the part pair (torso, arm_l). With sphere pair (0, 2) excluded, it is reported exactly when
+// a piece of sphere 1 meets B (pieces computed here from PieceCorners), so the exclusion of one
+// piece's sphere holds where the contact lies in that piece, and only there.
+TEST(TrianglePieces, TheNarrowPhaseTestsPiecesAndReportsEachTrianglePairOnce) {
+  for (const bool exclude : {false, true}) {
+    SCOPED_TRACE(exclude ? "sphere pair (0, 2) excluded" : "no pair excluded");
+    const SphereSet set = CutTriangleAndAnother(
+        exclude ? std::vector<ExcludedPair>{{0, 2, ExclusionReason::kBindOverlap}} : std::vector<ExcludedPair>{});
+    ASSERT_EQ(set.Validate(), std::nullopt) << set.Validate()->message;
+    auto filter = PairFilter::FromSphereSet(set);
+    ASSERT_TRUE(filter.ok()) << filter.error().message;
+    auto data = NarrowPhaseData::Create(set, *filter);
+    ASSERT_TRUE(data.ok()) << data.error().message;
+    auto rest = RefitRestData::Create(set);
+    ASSERT_TRUE(rest.ok());
+    std::vector<SpherePair> pairs;
+    for (uint32_t i = 0; i < 3; ++i) {
+      for (uint32_t j = i + 1; j < 3; ++j) {
+        if (!filter->excluded(i, j)) pairs.push_back({i, j});
+      }
+    }
+    NarrowPhaseContext ctx;
+    ctx.Resize(*data, false);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> shift(-0.4f, 0.4f), drop(-0.55f, -0.25f), angle(-0.6f, 0.6f);
+    std::vector<skinspheres::Mat4f> world(2, skinspheres::Mat4f::Identity());
+    std::vector<Eigen::Vector3f> positions(6);
+    std::vector<Vec4f> spheres(3);
+    int reported = 0, whole_only = 0;
+    for (int pose = 0; pose < 600; ++pose) {
+      const Eigen::Affine3f b = Eigen::Translation3f(shift(rng), shift(rng), drop(rng)) *
+                                Eigen::AngleAxisf(angle(rng), Eigen::Vector3f(shift(rng), shift(rng), 1).normalized());
+      world[1] = b.matrix();
+      for (uint32_t v = 0; v < 6; ++v) positions[v] = SkinnedInDouble(set, world, v).cast<float>();
+      ASSERT_TRUE((RefitJob{RefitMode::kExact, &set, &*rest, world, positions, spheres}.Run()));
+      FrameContacts out, oracle;
+      ASSERT_TRUE((NarrowPhaseJob{&set, &*data, spheres, pairs, positions, {}, &ctx, &out}.Run()));
+      ASSERT_TRUE(FindContactsBruteForce(set, *data, *filter, positions, &oracle));
+      EXPECT_SAME_CONTACTS(out, oracle, "pose " + std::to_string(pose));
+
+      TriangleContactGeometry g;
+      const bool whole = TriangleContactOf(positions[0], positions[1], positions[2], positions[3], positions[4],
+                                           positions[5], 0.0f, &g);
+      bool expected = whole;
+      if (exclude) {
+        expected = false;
+        for (uint32_t k = set.piece_offsets[1]; k < set.piece_offsets[2]; ++k) {
+          uint8_t c[3][2];
+          PieceCorners(set.pieces[k].level, set.pieces[k].index, c);
+          Eigen::Vector3f q[3];
+          for (int e = 0; e < 3; ++e) {
+            q[e] = GridPoint(positions[0], positions[1], positions[2], 3, c[e][0], c[e][1]);
+          }
+          expected |= TriangleContactOf(q[0], q[1], q[2], positions[3], positions[4], positions[5], 0.0f, &g);
+        }
+      }
+      whole_only += whole && !expected;
+      ASSERT_EQ(out.triangle_pairs.size(), expected ? 1u : 0u) << "pose " << pose;
+      if (!expected) continue;
+      ++reported;
+      EXPECT_EQ(out.triangle_pairs[0].t, 0u);
+      EXPECT_EQ(out.triangle_pairs[0].u, 1u);
+      ASSERT_EQ(out.parts.size(), 1u);
+      EXPECT_EQ(out.parts[0].part_a, 0);
+      EXPECT_EQ(out.parts[0].part_b, 1);
+      EXPECT_EQ(out.parts[0].triangle_pair_count, 1u);
+    }
+    std::printf("%s: A and B reported on %d of 600 poses; meeting only in excluded pieces on %d\n",
+                exclude ? "(0, 2) excluded" : "no exclusion", reported, whole_only);
+    EXPECT_GT(reported, 20);
+    EXPECT_LT(reported, 580);
+    if (exclude) {
+      EXPECT_GT(whole_only, 5) << "the exclusion was never what decided";
+    }
+  }
+}
+
+}  // namespace
+}  // namespace skinspheres::runtime
