@@ -69,6 +69,10 @@ void FitOptions::AddTo(CLI::App& app) {
                  "the budget: at most this many spheres (the cheapest pairs of a part are merged down to it, "
                  "splitting stops at it; at least the character's body parts)")
       ->capture_default_str();
+  app.add_option("--piece-edge", settings.piece_edge,
+                 "cut triangles longer than this fraction of the body height into pieces that spheres own apart "
+                 "(docs/TRIANGLE_PIECES.md; 0: keep every triangle whole)")
+      ->capture_default_str();
   app.add_flag("--no-bind-overlap", no_bind_overlap, "keep pairs that already overlap in the rest pose");
 }
 

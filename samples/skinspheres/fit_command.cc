@@ -1,7 +1,7 @@
 // skinspheres fit INPUT -o OUT.json|OUT.ssb [--fast-only] [--rays N] [--per-level 1|2|4] [--method m1|m2|m1a]
 //   [--overlap PD] [--step delta] [--parts parts.json] [--hops H] [--no-bind-overlap]
 //   [--refine N] [--no-tighten] [--split-gain G] [--target-standoff F] [--max-spheres N]
-//   [--compare] [--metrics] [--html V.html]
+//   [--piece-edge F] [--compare] [--metrics] [--html V.html]
 #include <algorithm>
 #include <cstdio>
 #include <memory>
@@ -67,6 +67,8 @@ int PrintMetrics(const LoadedCharacter& loaded, const lib::FitResult& fit) {
   in.radii = set.radii_rest;
   in.owner_offsets = set.triangle_offsets;
   in.owned_triangles = set.triangles;
+  in.piece_offsets = set.piece_offsets;
+  in.pieces = set.pieces;
   auto m = lib::MeasureFit(in);
   if (!m.ok()) return Fail(m.error().message);
   // The naive reference: one sphere per joint around the vertices it dominates.

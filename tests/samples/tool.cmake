@@ -36,6 +36,17 @@ foreach(asset CesiumMan RobotExpressive Soldier Xbot)
       SKIP_REGULAR_EXPRESSION "file not found"
       TIMEOUT 600)
   endforeach()
+  # With triangle pieces (docs/TRIANGLE_PIECES.md): every piece inside its sphere on every frame,
+  # the narrow phase (pieces tested, triangles reported) equal to the oracle, in both modes.
+  foreach(mode exact fast)
+    add_test(NAME tool.verify.${asset}.pieces.${mode}
+      COMMAND ${tool} play ${file} --clip all --verify --mode ${mode} --fps 5 --piece-edge 0.03)
+    set_tests_properties(tool.verify.${asset}.pieces.${mode} PROPERTIES
+      PASS_REGULAR_EXPRESSION "verify: 0 triangle-frames outside their sphere over [0-9]+ clips. narrow phase differs from the oracle in 0 frames"
+      FAIL_REGULAR_EXPRESSION "[1-9][0-9]* triangles owned by no sphere;${radius_${mode}}"
+      SKIP_REGULAR_EXPRESSION "file not found"
+      TIMEOUT 600)
+  endforeach()
   add_test(NAME tool.fit.${asset} COMMAND ${tool} fit ${file} -o ${PROJECT_BINARY_DIR}/test_tmp/${asset}.spheres.json)
   set_tests_properties(tool.fit.${asset} PROPERTIES
     PASS_REGULAR_EXPRESSION "triangles covered: [0-9]+ of [0-9]+ [(]bind-pose check[)]"

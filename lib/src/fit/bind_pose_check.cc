@@ -13,8 +13,13 @@ int CountUncoveredTriangles(const RawCharacter& ch, const runtime::SphereSet& se
       if (set.triangles[k] < owner.size()) owner[set.triangles[k]] = static_cast<int32_t>(s);
     }
   }
+  constexpr int32_t kInPieces = -2;  // checked piece by piece below
+  for (const runtime::TrianglePiece& piece : set.pieces) {
+    if (piece.triangle < owner.size() && owner[piece.triangle] == -1) owner[piece.triangle] = kInPieces;
+  }
   int bad = 0;
   for (size_t t = 0; t < owner.size(); ++t) {
+    if (owner[t] == kInPieces) continue;
     bool inside = owner[t] >= 0;
     if (inside) {
       const Eigen::Vector3d c = set.centers_rest[owner[t]].cast<double>();
@@ -25,6 +30,29 @@ int CountUncoveredTriangles(const RawCharacter& ch, const runtime::SphereSet& se
     }
     if (!inside) {
       if (bad == 0 && first_bad) *first_bad = static_cast<int>(t);
+      ++bad;
+    }
+  }
+  // A cut triangle (docs/TRIANGLE_PIECES.md): each piece's corners inside its owner; the triangle
+  // counts once however many of its pieces fail (an uncut one owned by nobody failed above).
+  std::vector<char> failed(ch.triangle_count(), 0);
+  for (size_t s = 0; s < set.size() && !set.piece_offsets.empty(); ++s) {
+    const Eigen::Vector3d c = set.centers_rest[s].cast<double>();
+    const double r = set.radii_rest[s] * (1.0 + 1e-6);
+    for (uint32_t k = set.piece_offsets[s]; k < set.piece_offsets[s + 1]; ++k) {
+      const runtime::TrianglePiece& piece = set.pieces[k];
+      const Eigen::Vector3i& tri = ch.triangles[piece.triangle];
+      uint8_t corners[3][2];
+      bool inside = runtime::PieceCorners(piece.level, piece.index, corners);
+      for (int v = 0; v < 3 && inside; ++v) {
+        const Eigen::Vector3f p =
+            runtime::GridPoint(ch.positions_rest[tri[0]], ch.positions_rest[tri[1]], ch.positions_rest[tri[2]],
+                               piece.level, corners[v][0], corners[v][1]);
+        inside = (p.cast<double>() - c).norm() <= r;
+      }
+      if (inside || failed[piece.triangle]) continue;
+      failed[piece.triangle] = 1;
+      if (bad == 0 && first_bad) *first_bad = static_cast<int>(piece.triangle);
       ++bad;
     }
   }

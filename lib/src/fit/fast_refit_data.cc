@@ -27,18 +27,37 @@ void WriteFastRefitData(const RawCharacter& ch, std::span<const Mat4f> rest_worl
     // Joints influencing the source vertices (mean weights) and the radius holding every rest copy
     // M_b(rest)·p_bind of every source vertex for each of its entries, and the vertices themselves.
     double fast_sq = 0.0;
-    for (uint32_t v : vlist)
-      fast_sq = std::max(fast_sq, (ch.positions_rest[v].cast<double>() - c.cast<double>()).squaredNorm());
-    if (have_skin) {
-      for (uint32_t v : vlist) {
-        const Eigen::Vector4d pb(ch.skin.positions_bind[v].x(), ch.skin.positions_bind[v].y(),
-                                 ch.skin.positions_bind[v].z(), 1.0);
-        for (uint32_t k = ch.skin.influence_offsets[v]; k < ch.skin.influence_offsets[v + 1]; ++k) {
-          const uint16_t b = ch.skin.influence_binds[k];
-          joint_weight[ch.skin.binds[b].joint] += ch.skin.influence_weights[k];
-          const Eigen::Vector3d copy = (bind_rest[b] * pb).head<3>();
-          fast_sq = std::max(fast_sq, (copy - c.cast<double>()).squaredNorm());
+    const size_t source_vertices = ch.vertex_count();
+    for (uint32_t v : vlist) {
+      if (v >= source_vertices) {
+        // A grid point of a cut triangle (docs/TRIANGLE_PIECES.md): its rest position here, its
+        // joints through its triangle's vertices by their barycentric weights; its copies' radius
+        // is the runtime's own (HoldMeshCopies).
+        const runtime::PiecePoint& g = set->piece_points[v - source_vertices];
+        const Eigen::Vector3i& tri = ch.triangles[g.triangle];
+        const Eigen::Vector3f p = runtime::GridPoint(ch.positions_rest[tri[0]], ch.positions_rest[tri[1]],
+                                                     ch.positions_rest[tri[2]], g.level, g.i, g.j);
+        fast_sq = std::max(fast_sq, (p.cast<double>() - c.cast<double>()).squaredNorm());
+        if (!have_skin) continue;
+        const double beta[3] = {double(g.level - g.i - g.j) / g.level, double(g.i) / g.level, double(g.j) / g.level};
+        for (int corner = 0; corner < 3; ++corner) {
+          const auto u = static_cast<uint32_t>(tri[corner]);
+          for (uint32_t k = ch.skin.influence_offsets[u]; k < ch.skin.influence_offsets[u + 1]; ++k) {
+            joint_weight[ch.skin.binds[ch.skin.influence_binds[k]].joint] +=
+                beta[corner] * ch.skin.influence_weights[k];
+          }
         }
+        continue;
+      }
+      fast_sq = std::max(fast_sq, (ch.positions_rest[v].cast<double>() - c.cast<double>()).squaredNorm());
+      if (!have_skin) continue;
+      const Eigen::Vector4d pb(ch.skin.positions_bind[v].x(), ch.skin.positions_bind[v].y(),
+                               ch.skin.positions_bind[v].z(), 1.0);
+      for (uint32_t k = ch.skin.influence_offsets[v]; k < ch.skin.influence_offsets[v + 1]; ++k) {
+        const uint16_t b = ch.skin.influence_binds[k];
+        joint_weight[ch.skin.binds[b].joint] += ch.skin.influence_weights[k];
+        const Eigen::Vector3d copy = (bind_rest[b] * pb).head<3>();
+        fast_sq = std::max(fast_sq, (copy - c.cast<double>()).squaredNorm());
       }
     }
     double wsum = 0.0;

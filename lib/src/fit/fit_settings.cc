@@ -41,6 +41,9 @@ std::optional<Error> FitSettings::Validate() const {
   if (!(target_standoff >= 0.0f && target_standoff <= 1.0f)) {
     return refuse("target standoff must be in [0, 1] (got " + std::to_string(target_standoff) + ")");
   }
+  if (!(piece_edge >= 0.0f && piece_edge <= 1.0f)) {
+    return refuse("piece edge must be in [0, 1], a share of the body height (got " + std::to_string(piece_edge) + ")");
+  }
   if (max_spheres < 1 || max_spheres > 8192) {
     return refuse("max spheres must be in 1..8192 (got " + std::to_string(max_spheres) + ")");
   }
@@ -60,7 +63,8 @@ std::string FitSettings::ToJson() const {
                       {"tighten", tighten},
                       {"split_gain", split_gain},
                       {"max_spheres", max_spheres},
-                      {"target_standoff", target_standoff}};
+                      {"target_standoff", target_standoff},
+                      {"piece_edge", piece_edge}};
   return j.dump();
 }
 

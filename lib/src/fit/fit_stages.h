@@ -28,6 +28,7 @@
 #include "skinspheres/lib/fit/disk_traversal.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/geometry/enclosing_sphere.h"
+#include "skinspheres/runtime/format/sphere_set.h"
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/parallel_for.h"
 
@@ -85,12 +86,34 @@ std::vector<CandidateSphere> LevelSpheres(const DiskLevel& level, int rays, int 
 void SelectLevels(std::span<const DiskLevel> levels, int p, const FitSettings& settings, PartSpheres* out);
 
 // The spheres after ownership: per sphere its ball (centre: where it stands; radius: the radius its
-// growth is measured against), its part and the triangles it owns (ascending; empty: dropped).
+// growth is measured against), its part and the triangles it owns (ascending; empty: dropped), and,
+// once mapped back from a cut mesh (MapPiecesBack), the pieces of cut triangles it owns (pieces
+// empty, or one list per sphere).
 struct OwnedSpheres {
   std::vector<CandidateSphere> spheres;
   std::vector<uint16_t> part;
   std::vector<std::vector<uint32_t>> triangles;
+  std::vector<std::vector<runtime::TrianglePiece>> pieces;
 };
+
+// 0b. Triangle pieces (docs/TRIANGLE_PIECES.md): every triangle whose longest rest edge exceeds
+// max_edge (> 0) is cut at the smallest level L <= runtime::kMaxPieceLevel that brings its pieces'
+// edges to at most max_edge, into the L² pieces of its grid; stages 1-4 then fit the cut mesh, on
+// which a piece is a triangle and a grid point a vertex (its rest position runtime::GridPoint of the
+// triangle's, as the runtime computes it). The cut character has the skeleton, rest positions and
+// triangles only (no skin, no clips: stages 1-4 read nothing else); the parts are the same, each
+// piece in its triangle's part and with its dominant joint.
+struct CutMesh {
+  RawCharacter ch;
+  BodyParts parts;
+  uint32_t source_vertex_count = 0;
+  std::vector<runtime::TrianglePiece> origin;  // per cut triangle: source triangle, level (0: whole), index
+  std::vector<runtime::PiecePoint> points;     // per cut vertex from source_vertex_count on
+};
+CutMesh CutLongTriangles(const RawCharacter& ch, const BodyParts& parts, float max_edge);
+// The ownership of the cut mesh's triangles in source terms: a cut triangle whose pieces one sphere
+// owns is owned whole, else each sphere owns its pieces (owned->pieces).
+void MapPiecesBack(const CutMesh& cut, OwnedSpheres* owned);
 
 // 4. Ownership: each triangle goes to the sphere of its part whose centre is nearest its farthest
 // vertex; then `refine_iterations` rounds move each sphere to the minimum ball of the vertices it
@@ -111,10 +134,11 @@ void TightenOwnedSpheres(const RawCharacter& ch, const FitSettings& settings, Ow
 // skeleton (names, parents, rest world transforms) and the parts (names, joints).
 void WriteSetHeader(const RawCharacter& ch, const BodyParts& parts, const FitSettings& settings,
                     std::span<const Mat4f> rest_world, runtime::SphereSet* set);
-// The spheres that own triangles, in order: centre, holding radius (with the pad) of the vertices of
-// their triangles, those vertices (ascending), the triangles, the dominant joint (the joint owning
-// most of its triangles; ties: lowest index), level and part. Fills the report's body height and
-// growth figures, and counts the dropped spheres.
+// The spheres that own triangles or pieces, in order: centre, holding radius (with the pad) of their
+// points (the vertices of their whole triangles, the corners of their pieces: grid points listed in
+// set->piece_points once each), those points (ascending), the triangles and pieces, the dominant
+// joint (the joint owning most of its triangles and pieces; ties: lowest index), level and part.
+// Fills the report's body height and growth figures, and counts the dropped spheres.
 void WriteOwnedSpheres(const RawCharacter& ch, const BodyParts& parts, const OwnedSpheres& owned,
                        runtime::SphereSet* set, FitReport* report);
 // 5. Excluded pairs: same joint, joints within settings.adjacent_hops bones, and (optionally)

@@ -139,6 +139,19 @@ std::optional<Error> ValidateMetricsInput(const FitMetricsInput& in, const FitMe
     for (uint32_t t : in.owned_triangles)
       if (t >= in.triangles.size()) return Invalid("owned triangle " + std::to_string(t) + " is out of range");
   }
+  if (!in.piece_offsets.empty() || !in.pieces.empty()) {
+    if (in.piece_offsets.size() != in.centers.size() + 1 || in.piece_offsets.front() != 0 ||
+        in.piece_offsets.back() != in.pieces.size() ||
+        !std::is_sorted(in.piece_offsets.begin(), in.piece_offsets.end())) {
+      return Invalid("piece_offsets must have one entry per sphere and one more, rise from 0 to pieces.size()");
+    }
+    uint8_t corners[3][2];
+    for (const runtime::TrianglePiece& p : in.pieces) {
+      if (p.triangle >= in.triangles.size() || !runtime::PieceCorners(p.level, p.index, corners))
+        return Invalid("piece " + std::to_string(p.index) + " of triangle " + std::to_string(p.triangle) +
+                       " is out of range");
+    }
+  }
   return std::nullopt;
 }
 
@@ -245,15 +258,44 @@ void MeasureCoverage(const FitMetricsInput& in, const FitMetricsSettings& settin
       if ((in.positions[t[k]] - in.centers[s]).squaredNorm() > r2) return false;
     return true;
   };
+  // A piece's corners (grid points of its triangle, as the runtime computes them).
+  auto piece_corners = [&](const runtime::TrianglePiece& p, Eigen::Vector3f out[3]) {
+    const Eigen::Vector3i& tri = in.triangles[p.triangle];
+    uint8_t c[3][2];
+    runtime::PieceCorners(p.level, p.index, c);
+    for (int k = 0; k < 3; ++k) {
+      out[k] = runtime::GridPoint(in.positions[tri[0]], in.positions[tri[1]], in.positions[tri[2]], p.level, c[k][0],
+                                  c[k][1]);
+    }
+  };
+  auto holds_points = [&](uint32_t s, const Eigen::Vector3f* p) {
+    const float r = in.radii[s] + tol, r2 = r * r;
+    for (int k = 0; k < 3; ++k)
+      if ((p[k] - in.centers[s]).squaredNorm() > r2) return false;
+    return true;
+  };
   const SphereBins cover_bins = BinSpheres(lo, hi, in.centers, in.radii, double(tol));
+  std::vector<char> cut(in.pieces.empty() ? 0 : in.triangles.size(), 0), piece_missed(cut.size(), 0);
+  for (const runtime::TrianglePiece& p : in.pieces) {
+    cut[p.triangle] = 1;
+    Eigen::Vector3f corner[3];
+    piece_corners(p, corner);
+    bool covered = false;
+    for (uint32_t s : cover_bins.Candidates(corner[0])) covered = covered || holds_points(s, corner);
+    if (!covered) piece_missed[p.triangle] = 1;
+  }
   for (size_t t = 0; t < in.triangles.size(); ++t) {
     const Eigen::Vector3i& tri = in.triangles[t];
     bool covered = false;
-    for (uint32_t s : cover_bins.Candidates(in.positions[tri[0]]))
-      if (holds(s, tri)) {
-        covered = true;
-        break;
-      }
+    if (!cut.empty() && cut[t]) {
+      covered = !piece_missed[t];
+    } else {
+      for (uint32_t s : cover_bins.Candidates(in.positions[tri[0]]))
+        if (holds(s, tri)) {
+          covered = true;
+          break;
+        }
+    }
     if (!covered) {
       ++m->uncovered_triangles;
       if (m->uncovered_examples.size() < 16) m->uncovered_examples.push_back(uint32_t(t));
@@ -263,6 +305,14 @@ void MeasureCoverage(const FitMetricsInput& in, const FitMetricsSettings& settin
     for (size_t s = 0; s < in.centers.size(); ++s)
       for (uint32_t i = in.owner_offsets[s]; i < in.owner_offsets[s + 1]; ++i)
         if (!holds(uint32_t(s), in.triangles[in.owned_triangles[i]])) ++m->triangles_outside_owner;
+  }
+  if (!in.piece_offsets.empty()) {
+    for (size_t s = 0; s < in.centers.size(); ++s)
+      for (uint32_t i = in.piece_offsets[s]; i < in.piece_offsets[s + 1]; ++i) {
+        Eigen::Vector3f corner[3];
+        piece_corners(in.pieces[i], corner);
+        if (!holds_points(uint32_t(s), corner)) ++m->triangles_outside_owner;
+      }
   }
 }
 
@@ -307,6 +357,8 @@ Result<FitMetrics> MeasureFit(const RawCharacter& character, const runtime::Sphe
     in.owner_offsets = set.triangle_offsets;
     in.owned_triangles = set.triangles;
   }
+  in.piece_offsets = set.piece_offsets;
+  in.pieces = set.pieces;
   return MeasureFit(in, settings);
 }
 

@@ -88,6 +88,10 @@ struct FitSettings {
   float split_gain = 0.9f;
   int max_spheres = 200;
   float target_standoff = 0.0125f;
+  // Triangle pieces (docs/TRIANGLE_PIECES.md): a triangle whose longest edge at rest exceeds this
+  // share of the body height is cut into the pieces of a regular grid (at most 16 x 16), which
+  // spheres may own apart; 0: every triangle stays whole.
+  float piece_edge = 0.0f;
 
   // The first reason the settings are refused (kInvalidArgument; the message names the setting, its
   // range and the value given), or nullopt when they are fine.
@@ -136,8 +140,9 @@ struct FitResult {
 // triangle outside its sphere: a bug, reported rather than hidden).
 Result<FitResult> FitSpheres(const RawCharacter& character, const BodyParts& parts, const FitSettings& settings);
 
-// The bind-pose proof: every triangle's three vertices inside its owner sphere (in double, with a
-// relative tolerance of 1e-6 of the radius). Returns the number of triangles outside (0 = sound);
+// The bind-pose proof: every triangle's three vertices inside its owner sphere, and every piece's
+// three corners of a cut triangle inside the piece's owner (in double, with a relative tolerance of
+// 1e-6 of the radius). Returns the number of triangles outside (0 = sound);
 // `first_bad` gets the first offending triangle. Triangles owned by no sphere count as outside.
 int CountUncoveredTriangles(const RawCharacter& character, const runtime::SphereSet& spheres, int* first_bad = nullptr);
 

@@ -80,6 +80,12 @@ struct FitMetricsInput {
   // owned_triangles[owner_offsets[s] .. owner_offsets[s+1]). Empty: no owner check.
   std::span<const uint32_t> owner_offsets;    // empty or centers.size() + 1
   std::span<const uint32_t> owned_triangles;  // indices into triangles
+  // Optional triangle pieces (runtime/sphere_set.h, docs/TRIANGLE_PIECES.md), the SphereSet layout:
+  // sphere s owns pieces[piece_offsets[s] .. piece_offsets[s+1]) of cut triangles. A cut triangle
+  // counts as covered when each of its pieces lies inside some sphere; each piece must lie inside its
+  // owner. Empty: no pieces.
+  std::span<const uint32_t> piece_offsets;  // empty or centers.size() + 1
+  std::span<const runtime::TrianglePiece> pieces;
 };
 
 struct FitMetrics {
@@ -113,7 +119,7 @@ struct FitMetrics {
   std::vector<double> sphere_boundary_distance;
 
   // 3. Coverage.
-  size_t uncovered_triangles = 0;            // inside no single sphere
+  size_t uncovered_triangles = 0;            // inside no single sphere (cut: some piece inside none)
   size_t triangles_outside_owner = 0;        // owned entries not inside their owner sphere
   std::vector<uint32_t> uncovered_examples;  // first (up to 16) uncovered triangle indices
 };
