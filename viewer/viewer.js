@@ -8,13 +8,16 @@
 // contact colours are unlit and drawn over everything, so they are what the screen shows.
 //
 // For tests and links: URL hash parameters (see index.html), #ss-state's data-* attributes
-// (ready, clip, frame, frames, pairs, triangle-pairs, selected, errors) and window.skinspheresViewer.
+// (ready, clip, frame, frames, pairs, triangle-pairs, selected, pieces, errors) and
+// window.skinspheresViewer. A selected sphere's triangles are drawn on the surface, and its pieces of
+// cut triangles (docs/TRIANGLE_PIECES.md) as sub-triangles skinned on the CPU.
 (function () {
   'use strict';
 
   var CONTACT_COLOR = 0xff0000;   // sphere pairs in contact (markers: exactly this colour)
   var TRIANGLE_COLOR = 0xff00ff;  // intersecting triangles (exactly this colour)
   var OWNED_COLOR = 0x00d8ff;     // the selected sphere's triangles
+  var PIECE_COLOR = 0x00ff80;     // the selected sphere's pieces of cut triangles
   var LOOSE_COLOR = 0xff9f1c;
   // Timeline marks: triangle contacts, penetrating (deeper than the run's touch tolerance) and
   // touching; sphere-only overlaps (broad-phase candidates, mostly no contact) when asked for.
@@ -75,6 +78,12 @@
   for (var o = 0; o < S; ++o) {
     for (var q = ownedOffsets[o]; q < ownedOffsets[o + 1]; ++q) ownerOf[ownedTriangles[q]] = o;
   }
+  // Triangle pieces (docs/TRIANGLE_PIECES.md): sphere s owns pieces[3k..3k+2] = (triangle, level,
+  // index) for k in [pieceOffsets[s], pieceOffsets[s + 1]).
+  var pieceOffsets = sph.piece_offsets ? uintsOfBase64(sph.piece_offsets) : new Uint32Array(S + 1);
+  var pieces = sph.pieces ? uintsOfBase64(sph.pieces) : new Uint32Array(0);
+  var maxPieces = 0;
+  for (o = 0; o < S; ++o) maxPieces = Math.max(maxPieces, pieceOffsets[o + 1] - pieceOffsets[o]);
   var metrics = data.metrics;
   var share = metrics && metrics.share ? floatsOfBase64(metrics.share) : new Float32Array(S);
   var loosest = metrics ? metrics.loosest : [];
@@ -387,8 +396,83 @@
     });
   }
 
+  // The grid coordinates (i, j) of piece `index` of a level-L grid, in the runtime's order
+  // (sphere_set.h, PieceCorners): upward pieces row by row, then downward ones.
+  function pieceCorners(level, index) {
+    var up = level * (level + 1) / 2, upward = index < up, k = upward ? index : index - up, j = 0;
+    for (var row = upward ? level : level - 1; k >= row; --row) { k -= row; ++j; }
+    return upward ? [[k, j], [k + 1, j], [k, j + 1]] : [[k + 1, j], [k + 1, j + 1], [k, j + 1]];
+  }
+
+  // Vertex i of mesh object o, skinned on the CPU as three.js skins it on the GPU, in world space.
+  var skinTmp = { v: new THREE.Vector3(), t: new THREE.Vector3(), m: new THREE.Matrix4() };
+  function skinnedVertex(o, i, out) {
+    var g = o.geometry;
+    out.fromBufferAttribute(g.getAttribute('position'), i);
+    if (o.isSkinnedMesh) {
+      var si = g.getAttribute('skinIndex'), sw = g.getAttribute('skinWeight'), bones = o.skeleton.bones;
+      var bound = skinTmp.v.copy(out).applyMatrix4(o.bindMatrix);
+      out.set(0, 0, 0);
+      var index = [si.getX(i), si.getY(i), si.getZ(i), si.getW(i)], weight = [sw.getX(i), sw.getY(i), sw.getZ(i), sw.getW(i)];
+      for (var k = 0; k < 4; ++k) {
+        if (weight[k] === 0) continue;
+        skinTmp.m.multiplyMatrices(bones[index[k]].matrixWorld, o.skeleton.boneInverses[index[k]]);
+        out.add(skinTmp.t.copy(bound).applyMatrix4(skinTmp.m).multiplyScalar(weight[k]));
+      }
+      out.applyMatrix4(o.bindMatrixInverse);
+    }
+    return out.applyMatrix4(o.matrixWorld);
+  }
+
+  // The selected sphere's pieces, each a sub-triangle of its skinned triangle, drawn in world space.
+  var pieceMesh = null;
+  function showPieces() {
+    var first = ui.selected >= 0 && ui.mesh !== 'off' ? pieceOffsets[ui.selected] : 0;
+    var last = ui.selected >= 0 && ui.mesh !== 'off' ? pieceOffsets[ui.selected + 1] : 0;
+    if (!pieceMesh && maxPieces > 0) {
+      var g = new THREE.BufferGeometry();
+      g.setAttribute('position', new THREE.BufferAttribute(new Float32Array(9 * maxPieces), 3));
+      pieceMesh = new THREE.Mesh(g, new THREE.MeshBasicMaterial({ color: PIECE_COLOR, side: THREE.DoubleSide,
+        polygonOffset: true, polygonOffsetFactor: -1, polygonOffsetUnits: -4 }));
+      pieceMesh.frustumCulled = false;
+      pieceMesh.renderOrder = 1;
+      scene.add(pieceMesh);
+    }
+    var n = 0;
+    if (last > first) {
+      character.root.updateMatrixWorld(true);
+      var pos = pieceMesh.geometry.getAttribute('position'), ranges = data.character.meshes;
+      var p = [new THREE.Vector3(), new THREE.Vector3(), new THREE.Vector3()], c = new THREE.Vector3();
+      for (var k = first; k < last; ++k) {
+        var t = pieces[3 * k], level = pieces[3 * k + 1], index = pieces[3 * k + 2];
+        var entry = null;
+        for (var e = 0; e < character.meshes.length && !entry; ++e) {
+          var r = character.meshes[e].range;
+          if (r >= 0 && t >= ranges[r].first_triangle && t < ranges[r].first_triangle + ranges[r].triangle_count) entry = character.meshes[e];
+        }
+        if (!entry) continue;
+        var local = t - ranges[entry.range].first_triangle, src = entry.object.geometry.index;
+        for (var v = 0; v < 3; ++v) skinnedVertex(entry.object, src ? src.array[3 * local + v] : 3 * local + v, p[v]);
+        var corners = pieceCorners(level, index);
+        for (v = 0; v < 3; ++v) {
+          var i = corners[v][0], j = corners[v][1];
+          c.copy(p[0]).multiplyScalar((level - i - j) / level).addScaledVector(p[1], i / level).addScaledVector(p[2], j / level);
+          pos.setXYZ(3 * n + v, c.x, c.y, c.z);
+        }
+        ++n;
+      }
+      pos.needsUpdate = true;
+    }
+    if (pieceMesh) {
+      pieceMesh.geometry.setDrawRange(0, 3 * n);
+      pieceMesh.visible = n > 0;
+    }
+    setState('pieces', n);
+  }
+
   function updateTriangleHighlights() {
     if (!character) return;
+    showPieces();
     var pairs = ui.contacts ? currentTrianglePairs() : null;
     showTriangles('highlight', pairs || []);
     setState('triangle-pairs', pairs ? pairs.length / 2 : 0);
@@ -920,6 +1004,11 @@
     setFrame: setFrame,
     select: select,
     screenBox: screenBox,
+    // The drawn pieces' corners, world space, 9 floats per piece (tests compare them with the spheres).
+    pieceCorners: function () {
+      if (!pieceMesh || !pieceMesh.visible) return [];
+      return Array.from(pieceMesh.geometry.getAttribute('position').array.subarray(0, pieceMesh.geometry.drawRange.count * 3));
+    },
     render: function () { resize(); renderer.render(scene, camera); }
   };
 

@@ -129,6 +129,12 @@ json SpheresJson(const runtime::SphereSet& set) {
   }
   json parts = json::array();
   for (const auto& p : set.parts) parts.push_back(p.name);
+  // Triangle pieces (docs/TRIANGLE_PIECES.md), CSR: sphere s owns (triangle, level, index) triples
+  // pieces[3 offsets[s] .. 3 offsets[s+1]).
+  std::vector<uint32_t> pieces;
+  for (const runtime::TrianglePiece& p : set.pieces) pieces.insert(pieces.end(), {p.triangle, p.level, p.index});
+  const std::vector<uint32_t> piece_offsets =
+      set.piece_offsets.empty() ? std::vector<uint32_t>(set.size() + 1, 0) : set.piece_offsets;
   return {{"count", set.size()},
           {"parts", std::move(parts)},
           {"joint_names", set.joint_names},
@@ -141,6 +147,8 @@ json SpheresJson(const runtime::SphereSet& set) {
           // Owned triangles (source order), CSR: sphere s owns owned_triangles[offsets[s] .. offsets[s+1]).
           {"owned_offsets", Base64(set.triangle_offsets.data(), set.triangle_offsets.size() * sizeof(uint32_t))},
           {"owned_triangles", Base64(set.triangles.data(), set.triangles.size() * sizeof(uint32_t))},
+          {"piece_offsets", Base64(piece_offsets.data(), piece_offsets.size() * sizeof(uint32_t))},
+          {"pieces", Base64(pieces.data(), pieces.size() * sizeof(uint32_t))},
           {"excluded",
            {{"pairs", std::move(excluded)},
             {"reason", std::move(reasons)},

@@ -12,6 +12,7 @@
 //          loosest spheres are marked, the transport is disabled.
 //   clips  clips.html (clips from an animation-only FBX, joints "mixamorig:<name>"): the same
 //          contacts as the character's own clips, the contact and triangle colours on the chest.
+//   pieces pieces.html (triangle pieces): a selected sphere's pieces drawn, inside the sphere.
 // Pixel checks count exact colours: the contact markers and the intersecting triangles are unlit,
 // opaque and drawn over everything, so their colour reaches the screen unchanged; the screen
 // region comes from the page's own projection of the spheres (screenBox), checked at rest to
@@ -382,12 +383,47 @@ async function caseClips(browser) {
   await restAndChest(browser, file);
 }
 
+// The sphere owning the most pieces, selected at a frame of the touch clip: every one of its pieces
+// is drawn (state "pieces"), in its colour on screen, and each drawn corner (skinned on the CPU from
+// the GLB) lies inside that sphere as the runtime refitted it for the frame, to 0.5% of the height.
+async function casePieces(browser) {
+  const file = join(dir, 'pieces.html');
+  const { data } = pageData(file);
+  const offsets = typed(Uint32Array, data.spheres.piece_offsets);
+  let best = -1;
+  for (let s = 0; s < data.spheres.count; ++s) {
+    if (best < 0 || offsets[s + 1] - offsets[s] > offsets[best + 1] - offsets[best]) best = s;
+  }
+  const count = offsets[best + 1] - offsets[best];
+  check(count > 0, `sphere ${best} owns ${count} pieces`);
+  const clip = data.clips.findIndex((c) => c.name === 'touch');
+  const frame = 20;
+  await open(browser, file, `#clip=${clip}&frame=${frame}&sphere=${best}&mesh=solid&spheres=0&contacts=0&loosest=0`);
+  const st = await state(browser);
+  check(st.errors === '0' && !st.error, `page reports no error (errors=${st.errors}${st.error ? ', ' + st.error : ''})`);
+  check(st.pieces === String(count), `all ${count} pieces drawn (state pieces=${st.pieces})`);
+  const { image } = await browser.screenshot();
+  const green = await countOnView(browser, image, [0, 255, 128]);
+  check(green > 20, `the pieces' colour is on screen (${green} pixels)`);
+  const corners = await browser.evaluate('skinspheresViewer.pieceCorners()');
+  const xyzr = typed(Float32Array, data.clips[clip].spheres_xyzr);
+  const at = 4 * (data.spheres.count * frame + best);
+  const height = data.metrics ? data.metrics.body_height : 1.8;
+  let worst = -Infinity;
+  for (let k = 0; k + 2 < corners.length; k += 3) {
+    const d = Math.hypot(corners[k] - xyzr[at], corners[k + 1] - xyzr[at + 1], corners[k + 2] - xyzr[at + 2]) - xyzr[at + 3];
+    worst = Math.max(worst, d);
+  }
+  check(corners.length === 9 * count && worst <= 0.005 * height,
+    `the drawn corners (${corners.length / 3}) lie inside the sphere (farthest ${(worst / height).toExponential(1)} of the height beyond it)`);
+}
+
 const chromium = findChromium();
 if (!chromium) {
   console.log('SKIPPED: chromium not found (scripts/deps installs Debian\'s chromium; or set CHROMIUM)');
   process.exit(0);
 }
-const cases = { play: casePlay, fit: caseFit, clips: caseClips };
+const cases = { play: casePlay, fit: caseFit, clips: caseClips, pieces: casePieces };
 if (!cases[caseName] || !dir) {
   console.error(`usage: page_tests.mjs ${Object.keys(cases).join('|')} DIR`);
   process.exit(2);
