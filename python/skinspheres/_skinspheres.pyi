@@ -166,6 +166,7 @@ def fit(
     target_standoff: float = 0.0125,
     max_spheres: int = 200,
     exclude_bind_overlaps: bool = True,
+    piece_edge: float = 0.0,
 ) -> SphereSet:
     """Fits a character file (glTF, GLB, FBX, ...; None: the built-in character), as `skinspheres fit`."""
 

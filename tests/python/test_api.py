@@ -51,6 +51,21 @@ def test_fit_meets_the_sphere_budget_and_refuses_one_below_the_parts():
         raise AssertionError("a budget below the part count was accepted")
 
 
+def test_fit_with_piece_edge_writes_triangle_pieces(tmp_path):
+    # docs/TRIANGLE_PIECES.md: the built-in character's triangles longer than 2% of its height cut;
+    # the set is written as JSON version 3 with pieces, and reads back.
+    cut = ss.fit(piece_edge=0.02)
+    path = tmp_path / "cut.json"
+    cut.save(path)
+    doc = json.loads(path.read_text())
+    assert doc["version"] == 3
+    assert sum(len(s.get("pieces", [])) for s in doc["spheres"]) > 0
+    assert len(ss.load(path)) == len(cut)
+    whole = tmp_path / "whole.json"
+    ss.fit().save(whole)
+    assert json.loads(whole.read_text())["version"] == 2
+
+
 def test_the_stubs_name_what_the_module_has():
     stub = pathlib.Path(ss.__file__).with_name("_skinspheres.pyi")
     tree = ast.parse(stub.read_text())
