@@ -193,9 +193,7 @@ std::string ClipFrames(const FittedCharacter& c, const std::string& clip_name, d
   }
   if (clip == nullptr) return "no clip " + clip_name;
   const rt::SphereSet& set = c.asset->sphere_set();
-  std::vector<uint32_t> sources(set.vertices.begin(), set.vertices.end());
-  std::sort(sources.begin(), sources.end());
-  sources.erase(std::unique(sources.begin(), sources.end()), sources.end());
+  const std::vector<uint32_t> sources = rt::SourceVerticesOfPoints(set);
   const sk::SkinnedMesh& skin = c.ch.skin;
   sk::PreparedInfluences prepared;
   std::string why;

@@ -710,6 +710,9 @@ struct FclWorld {
 void CheckFcl(Character* c, Workload* w, FclWorld* world) {
   if (w->checked_fcl) return;
   w->checked_fcl = true;
+  // Whole triangles only: with pieces (docs/TRIANGLE_PIECES.md) the exclusions apply per piece, and
+  // the sets fitted here have none.
+  if (c->set.has_pieces()) return;
   const rt::NarrowPhaseData& data = *c->asset->narrow_phase();
   const rt::PairFilter& filter = c->asset->filter();
   std::vector<uint32_t> owner(c->set.source_triangle_count, UINT32_MAX);

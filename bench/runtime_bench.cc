@@ -225,9 +225,7 @@ void Load(Xbot* x, int variant) {
   if (!asset.ok()) return Fail(x, asset.error().message);
   x->asset = *asset;
 
-  x->sources.assign(x->set.vertices.begin(), x->set.vertices.end());
-  std::sort(x->sources.begin(), x->sources.end());
-  x->sources.erase(std::unique(x->sources.begin(), x->sources.end()), x->sources.end());
+  x->sources = rt::SourceVerticesOfPoints(x->set);
   const sk::SkinnedMesh& skin = x->ch.skin;
   std::string why;
   if (!x->prepared.Build(skin.vertex_count(), skin.influence_offsets, skin.influence_binds, skin.influence_weights,

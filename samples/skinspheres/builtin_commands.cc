@@ -149,6 +149,11 @@ void AddDemoCommand(CLI::App& app, int* exit_code) {
     std::vector<uint32_t> owner(set.source_triangle_count, UINT32_MAX);
     for (uint32_t s = 0; s < set.size(); ++s) {
       for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) owner[set.triangles[k]] = s;
+      // A cut triangle (docs/TRIANGLE_PIECES.md): the lowest sphere owning one of its pieces.
+      for (uint32_t k = set.piece_offsets.empty() ? 0 : set.piece_offsets[s];
+           k < (set.piece_offsets.empty() ? 0 : set.piece_offsets[s + 1]); ++k) {
+        owner[set.pieces[k].triangle] = std::min(owner[set.pieces[k].triangle], s);
+      }
     }
     auto is_hand = [&](uint32_t triangle) {
       const uint32_t s = owner[triangle];

@@ -256,17 +256,7 @@ Result<std::shared_ptr<const Playback>> Playback::Create(const LoadedCharacter& 
   p->mapping_ = std::move(*mapping);
   // The vertices the exact refit reads: every sphere's source vertices, skinned through the
   // prepared (SIMD) layout built once.
-  p->sources_.clear();  // a grid point of a cut triangle (docs/TRIANGLE_PIECES.md) needs its triangle's vertices
-  for (uint32_t point : set.vertices) {
-    if (point < set.source_vertex_count) {
-      p->sources_.push_back(point);
-      continue;
-    }
-    const uint32_t t = set.piece_points[point - set.source_vertex_count].triangle;
-    for (int c = 0; c < 3; ++c) p->sources_.push_back(set.triangle_vertices[3 * size_t{t} + c]);
-  }
-  std::sort(p->sources_.begin(), p->sources_.end());
-  p->sources_.erase(std::unique(p->sources_.begin(), p->sources_.end()), p->sources_.end());
+  p->sources_ = runtime::SourceVerticesOfPoints(set);  // a grid point needs its triangle's vertices
   std::string why;
   if (!p->prepared_.Build(ch.vertex_count(), ch.skin.influence_offsets, ch.skin.influence_binds,
                           ch.skin.influence_weights, p->sources_, &why)) {

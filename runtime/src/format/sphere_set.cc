@@ -49,6 +49,20 @@ bool PieceCorners(uint16_t level, uint16_t index, uint8_t corners[3][2]) {
   return true;
 }
 
+Eigen::Vector3f GridPoint(const Eigen::Vector3f& p0, const Eigen::Vector3f& p1, const Eigen::Vector3f& p2,
+                          uint16_t level, uint8_t i, uint8_t j) {
+  const float l = static_cast<float>(level);
+  const float w0 = static_cast<float>(level - i - j) / l, w1 = static_cast<float>(i) / l,
+              w2 = static_cast<float>(j) / l;
+  Eigen::Vector3f out;
+  for (int a = 0; a < 3; ++a) {
+    const float x = (w0 * p0[a] + w1 * p1[a]) + w2 * p2[a];
+    const float lo = std::min(std::min(p0[a], p1[a]), p2[a]), hi = std::max(std::max(p0[a], p1[a]), p2[a]);
+    out[a] = x < lo ? lo : (x > hi ? hi : x);  // (a NaN stays NaN: both comparisons are false)
+  }
+  return out;
+}
+
 namespace {
 
 Error Invalid(const std::string& what) { return MakeError(ErrorCode::kInvalidData, what); }
@@ -242,8 +256,10 @@ std::optional<Error> CheckSphereArrays(const SphereSet& set) {
   }
   if (!CsrOk(set.vertex_offsets, n, set.vertices.size())) return Invalid("sphere vertex lists are malformed");
   if (!CsrOk(set.triangle_offsets, n, set.triangles.size())) return Invalid("sphere triangle lists are malformed");
-  if (set.piece_offsets.empty() ? !set.pieces.empty() : !CsrOk(set.piece_offsets, n, set.pieces.size()))
-    return Invalid("sphere piece lists are malformed");
+  // Pieces: no lists at all, or a CSR over them; grid points only with pieces to use them.
+  if (set.piece_offsets.empty() ? (!set.pieces.empty() || !set.piece_points.empty())
+                                : !CsrOk(set.piece_offsets, n, set.pieces.size()))
+    return Invalid("sphere piece lists are malformed (grid points or pieces without per-sphere offsets)");
   if (!CsrOk(set.influence_offsets, n, set.influence_joints.size()) ||
       set.influence_weights.size() != set.influence_joints.size()) {
     return Invalid("sphere influence lists are malformed");
@@ -314,8 +330,10 @@ std::optional<Error> CheckPieces(const SphereSet& set, std::vector<uint32_t>& ow
       owned.push_back({p.triangle, p.index, static_cast<uint32_t>(s), p.level});
     }
   }
-  std::sort(owned.begin(), owned.end(), [](const Owned& a, const Owned& b) {
-    return a.triangle != b.triangle ? a.triangle < b.triangle : a.index < b.index;
+  std::sort(owned.begin(), owned.end(), [](const Owned& a, const Owned& b) {  // a total order
+    if (a.triangle != b.triangle) return a.triangle < b.triangle;
+    if (a.index != b.index) return a.index < b.index;
+    return a.level != b.level ? a.level < b.level : a.sphere < b.sphere;
   });
   for (size_t begin = 0; begin < owned.size();) {
     const uint32_t t = owned[begin].triangle, level = owned[begin].level;
@@ -727,6 +745,22 @@ std::string PointName(const SphereSet& set, uint32_t k) {
 
 }  // namespace
 
+std::vector<uint32_t> SourceVerticesOfPoints(const SphereSet& set) {
+  std::vector<uint32_t> out;
+  out.reserve(set.vertices.size());
+  for (uint32_t point : set.vertices) {
+    if (point < set.source_vertex_count) {
+      out.push_back(point);
+      continue;
+    }
+    const uint32_t t = set.piece_points[point - set.source_vertex_count].triangle;
+    for (int c = 0; c < 3; ++c) out.push_back(set.triangle_vertices[3 * size_t{t} + c]);
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
 Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set) {
   const skinning::SkinnedMesh& mesh = set.mesh;
   std::vector<float> reach(set.influence_joints.size(), 0.0f);
@@ -777,10 +811,22 @@ Result<FastBoundVertices> FastBoundVerticesFromMesh(const SphereSet& set) {
     }
     copy_of[b] = Compose(*to_reference, FromFloat(mesh.binds[b].inverse_bind));
   }
+  // One weight per (point, influence) of each sphere: a product of two counts a file gives, so it
+  // is bounded before anything is allocated (a real character needs a few million at most).
+  constexpr size_t kMaxWeights = size_t{1} << 28;
+  size_t weight_count = 0;
+  for (size_t s = 0; s < set.size(); ++s) {
+    weight_count += size_t{set.vertex_offsets[s + 1] - set.vertex_offsets[s]} *
+                    (set.influence_offsets[s + 1] - set.influence_offsets[s]);
+    if (weight_count > kMaxWeights) {
+      return Invalid("the spheres' points times their influences exceed " + std::to_string(kMaxWeights) + " (sphere " +
+                     std::to_string(s) + ")");
+    }
+  }
   FastBoundVertices out;
   out.radius.resize(set.vertices.size());
   out.weight_offsets.resize(set.size());
-  size_t weight_count = 0;
+  weight_count = 0;
   for (size_t s = 0; s < set.size(); ++s) {
     out.weight_offsets[s] = static_cast<uint32_t>(weight_count);
     weight_count += size_t{set.vertex_offsets[s + 1] - set.vertex_offsets[s]} *

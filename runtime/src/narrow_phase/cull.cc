@@ -15,10 +15,14 @@ namespace skinspheres::runtime::narrow_phase {
 
 bool TriangleBox(const Frame& f, uint32_t id, Box* box) {
   Eigen::Vector3f c[3];
-  ItemCorners(f.set, Of(f.data), f.pos, id, c);
+  const bool whole = id < Of(f.data).triangle_count;  // the usual case: read in place, no copy
+  if (!whole) ItemCorners(f.set, Of(f.data), f.pos, id, c);
+  const Eigen::Vector3f& a = whole ? Vertex(f, id, 0) : c[0];
+  const Eigen::Vector3f& b = whole ? Vertex(f, id, 1) : c[1];
+  const Eigen::Vector3f& d = whole ? Vertex(f, id, 2) : c[2];
   for (int k = 0; k < 3; ++k) {
-    box->lo[k] = std::min({c[0][k], c[1][k], c[2][k]});
-    box->hi[k] = std::max({c[0][k], c[1][k], c[2][k]});
+    box->lo[k] = std::min({a[k], b[k], d[k]});
+    box->hi[k] = std::max({a[k], b[k], d[k]});
   }
   box->id = id;
   return std::isfinite(box->lo[0] + box->lo[1] + box->lo[2] + box->hi[0] + box->hi[1] + box->hi[2]);
@@ -50,22 +54,30 @@ void Test(const Frame& f, uint32_t i, uint32_t j, const Box& a, const Box& b, Ch
   ++chunk.stats.box_tests;
   if (!BoxesMeet(a, b, Slack(f.margin))) return;
   const NarrowPhaseData::Layout& d = Of(f.data);
-  const uint32_t t = ItemTriangle(d, a.id), u = ItemTriangle(d, b.id);
+  const bool whole = a.id < d.triangle_count && b.id < d.triangle_count;
+  const uint32_t t = whole ? a.id : ItemTriangle(d, a.id), u = whole ? b.id : ItemTriangle(d, b.id);
   if (f.data.ShareVertex(t, u)) return;  // also two pieces of one triangle
   ++chunk.stats.triangle_tests;
-  Eigen::Vector3f p[3], q[3];
-  ItemCorners(f.set, d, f.pos, a.id, p);
-  ItemCorners(f.set, d, f.pos, b.id, q);
   TriangleContactGeometry g;
-  if (!TriangleContactOf(p[0], p[1], p[2], q[0], q[1], q[2], f.margin, &g)) return;
+  if (whole) {  // the usual case: the triangles' vertices read in place
+    if (!TriangleContactOf(Vertex(f, t, 0), Vertex(f, t, 1), Vertex(f, t, 2), Vertex(f, u, 0), Vertex(f, u, 1),
+                           Vertex(f, u, 2), f.margin, &g)) {
+      return;
+    }
+  } else {
+    Eigen::Vector3f p[3], q[3];
+    ItemCorners(f.set, d, f.pos, a.id, p);
+    ItemCorners(f.set, d, f.pos, b.id, q);
+    if (!TriangleContactOf(p[0], p[1], p[2], q[0], q[1], q[2], f.margin, &g)) return;
+  }
   if (f.rest_rule && f.data.RestExcluded(t, u)) return;
-  if (a.id >= d.triangle_count || b.id >= d.triangle_count) {
+  if (!whole) {
     // The whole triangles hold the pieces, so they meet too; their geometry is what is reported
     // (kept from the pieces in the rare case float rounding puts the wholes a hair beyond the margin).
-    TriangleContactGeometry whole;
+    TriangleContactGeometry of_wholes;
     if (TriangleContactOf(Vertex(f, t, 0), Vertex(f, t, 1), Vertex(f, t, 2), Vertex(f, u, 0), Vertex(f, u, 1),
-                          Vertex(f, u, 2), f.margin, &whole)) {
-      g = whole;
+                          Vertex(f, u, 2), f.margin, &of_wholes)) {
+      g = of_wholes;
     }
   }
   Hit h;
@@ -73,6 +85,8 @@ void Test(const Frame& f, uint32_t i, uint32_t j, const Box& a, const Box& b, Ch
   h.j = j;
   h.t = t;
   h.u = u;
+  h.a = a.id;
+  h.b = b.id;
   h.kind = g.intersecting ? TriangleContactKind::kIntersecting : TriangleContactKind::kWithinMargin;
   h.distance = g.distance;
   for (int k = 0; k < 3; ++k) {

@@ -42,6 +42,7 @@ struct Box {
 struct Hit {
   uint32_t i, j;  // sphere pair
   uint32_t t, u;  // t owned by i, u by j
+  uint32_t a, b;  // the items (triangles or pieces) that met: a of t, b of u
   TriangleContactKind kind;
   float distance;
   float on_t[3], on_u[3];
@@ -217,7 +218,8 @@ bool TestPair(const Frame& f, uint32_t i, uint32_t j, const Vec4f& si, const Vec
 // Puts t on part_a's side (the lower part; t < u within one part).
 void Normalise(const SphereSet& set, Hit& h);
 
-// hits -> out (parts, sphere pairs, triangle pairs; depth left at 0). keys: scratch.
+// hits -> out (parts, sphere pairs, triangle pairs; depth left at 0); hits is left with one hit per
+// triangle pair, in the order of out->triangle_pairs (what Depths reads). keys: scratch.
 void Merge(const SphereSet& set, std::vector<Hit>& hits, std::vector<uint64_t>& keys, FrameContacts* out);
 
 // ---- depth.h, depth.cc: the penetration depth

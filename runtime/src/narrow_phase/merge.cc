@@ -14,6 +14,7 @@ void Normalise(const SphereSet& set, Hit& h) {
   if (pa > pb || (pa == pb && h.t > h.u)) {
     std::swap(h.i, h.j);
     std::swap(h.t, h.u);
+    std::swap(h.a, h.b);
     for (int k = 0; k < 3; ++k) std::swap(h.on_t[k], h.on_u[k]);
   }
 }
@@ -27,9 +28,11 @@ void Merge(const SphereSet& set, std::vector<Hit>& hits, std::vector<uint64_t>& 
     if (kp != kq) return kp < kq;
     if (p.t != q.t) return p.t < q.t;
     if (p.u != q.u) return p.u < q.u;
-    return p.i != q.i ? p.i < q.i : p.j < q.j;
+    if (p.i != q.i) return p.i < q.i;
+    if (p.j != q.j) return p.j < q.j;
+    return p.a != q.a ? p.a < q.a : p.b < q.b;
   });
-  size_t begin = 0;
+  size_t begin = 0, kept = 0;
   while (begin < hits.size()) {
     const uint16_t pa = Part(set, hits[begin].i), pb = Part(set, hits[begin].j);
     size_t end = begin;
@@ -46,6 +49,7 @@ void Merge(const SphereSet& set, std::vector<Hit>& hits, std::vector<uint64_t>& 
       // A cut triangle (docs/TRIANGLE_PIECES.md) meets another through several piece pairs, each
       // with the whole triangles' geometry: the pair is reported once, its sphere pairs all kept.
       if (k > begin && h.t == hits[k - 1].t && h.u == hits[k - 1].u) continue;
+      hits[kept++] = h;  // k >= kept: h is not overwritten before it is read
       TriangleContact c;
       c.t = h.t;
       c.u = h.u;
@@ -75,6 +79,7 @@ void Merge(const SphereSet& set, std::vector<Hit>& hits, std::vector<uint64_t>& 
     out->parts.push_back(pc);
     begin = end;
   }
+  hits.resize(kept);
 }
 
 }  // namespace skinspheres::runtime::narrow_phase

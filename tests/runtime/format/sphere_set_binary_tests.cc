@@ -796,6 +796,20 @@ TEST(SphereSetBinaryTest, TrianglePiecesRoundTripInBothFormats) {
   EXPECT_NE(refused_with([](nlohmann::json& d) { d["mesh"]["piece_points"][1] = 17; }).find("above 16"),
             std::string::npos);
 
+  // Grid points with no pieces and no offsets (a file no fitter writes): refused by name, in both
+  // formats, never read out of range.
+  SphereSet orphan_points = set;
+  orphan_points.pieces.clear();
+  orphan_points.piece_offsets.clear();
+  auto orphan_binary = Read(WriteSphereSetBinary(orphan_points));
+  ASSERT_FALSE(orphan_binary.ok());
+  EXPECT_NE(orphan_binary.error().message.find("piece lists are malformed"), std::string::npos)
+      << orphan_binary.error().message;
+  auto orphan_json = ReadSphereSetJson(WriteSphereSetJson(orphan_points), "set.json");
+  ASSERT_FALSE(orphan_json.ok());
+  EXPECT_NE(orphan_json.error().message.find("piece lists are malformed"), std::string::npos)
+      << orphan_json.error().message;
+
   Bytes bad = bytes;
   Put64(bad, EntryOf(bad, SphereSetSection::kPieceOffsets) + 16, 2);
   FixChecksum(bad);

@@ -66,6 +66,41 @@ TEST(TrianglePieces, ThePiecesOfEachLevelTileTheTriangle) {
   EXPECT_FALSE(PieceCorners(kMaxPieceLevel + 1, 0, c));
 }
 
+// A grid point never leaves its triangle's box, even by an ulp: on an edge where the vertices share
+// a coordinate it is that coordinate exactly (the narrow phase's cluster boxes are the triangles'),
+// and a corner is its vertex exactly. Every level and grid point, on triangles with shared and
+// random coordinates.
+TEST(TrianglePieces, GridPointsStayInTheirTrianglesBox) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-10.0f, 10.0f);
+  int checked = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    Eigen::Vector3f p[3];
+    for (auto& q : p) q = Eigen::Vector3f(u(rng), u(rng), u(rng));
+    if (trial % 2 == 0) p[1].x() = p[2].x() = p[0].x() = 0.9f;  // an axis-aligned face
+    if (trial % 3 == 0) p[2].y() = p[1].y();                    // an axis-aligned edge
+    for (uint16_t level = 2; level <= kMaxPieceLevel; ++level) {
+      for (uint8_t i = 0; i <= level; ++i) {
+        for (uint8_t j = 0; i + j <= level; ++j) {
+          const Eigen::Vector3f g = GridPoint(p[0], p[1], p[2], level, i, j);
+          for (int a = 0; a < 3; ++a) {
+            ASSERT_GE(g[a], std::min({p[0][a], p[1][a], p[2][a]})) << level << " " << int(i) << " " << int(j);
+            ASSERT_LE(g[a], std::max({p[0][a], p[1][a], p[2][a]})) << level << " " << int(i) << " " << int(j);
+          }
+          if (trial % 2 == 0) {
+            ASSERT_EQ(g.x(), 0.9f);
+          }
+          ++checked;
+        }
+      }
+      ASSERT_EQ(GridPoint(p[0], p[1], p[2], level, 0, 0), p[0]);
+      ASSERT_EQ(GridPoint(p[0], p[1], p[2], level, uint8_t(level), 0), p[1]);
+      ASSERT_EQ(GridPoint(p[0], p[1], p[2], level, 0, uint8_t(level)), p[2]);
+    }
+  }
+  EXPECT_GT(checked, 100000);
+}
+
 TEST(TrianglePieces, ASetWithPiecesValidatesAndEachBrokenOwnershipIsRefused) {
   const SphereSet good = TwoJointsWithPieces();
   ASSERT_EQ(good.Validate(), std::nullopt) << good.Validate()->message;
@@ -117,6 +152,15 @@ TEST(TrianglePieces, ASetWithPiecesValidatesAndEachBrokenOwnershipIsRefused) {
         s.sphere_part[1] = 1;
       },
       "different parts");
+  refused(
+      "grid points without pieces",
+      [](SphereSet& s) {
+        s.pieces.clear();
+        s.piece_offsets.clear();
+      },
+      "piece lists are malformed");
+  refused(
+      "pieces without offsets", [](SphereSet& s) { s.piece_offsets.clear(); }, "piece lists are malformed");
   refused(
       "pieces without a mesh",
       [](SphereSet& s) {

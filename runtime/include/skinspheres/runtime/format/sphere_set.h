@@ -87,17 +87,12 @@ struct TrianglePiece {
 // or index is out of range.
 bool PieceCorners(uint16_t level, uint16_t index, uint8_t corners[3][2]);
 
-// Grid point (i, j) of level L of the triangle p0 p1 p2 in float, in a fixed order (the same bits on
-// every platform: the build turns off contraction into fused multiply-adds).
-inline Eigen::Vector3f GridPoint(const Eigen::Vector3f& p0, const Eigen::Vector3f& p1, const Eigen::Vector3f& p2,
-                                 uint16_t level, uint8_t i, uint8_t j) {
-  const float l = static_cast<float>(level);
-  const float w0 = static_cast<float>(level - i - j) / l, w1 = static_cast<float>(i) / l,
-              w2 = static_cast<float>(j) / l;
-  Eigen::Vector3f out;
-  for (int a = 0; a < 3; ++a) out[a] = (w0 * p0[a] + w1 * p1[a]) + w2 * p2[a];
-  return out;
-}
+// Grid point (i, j) of level L of the triangle p0 p1 p2 in float, in a fixed order, each coordinate
+// clamped to the triangle's own range (float rounding could put a point on an axis-aligned edge an
+// ulp outside the triangle's box, which the narrow phase's cluster boxes are built from). The same
+// bits on every platform: defined in the library, which builds without FMA contraction.
+Eigen::Vector3f GridPoint(const Eigen::Vector3f& p0, const Eigen::Vector3f& p1, const Eigen::Vector3f& p2,
+                          uint16_t level, uint8_t i, uint8_t j);
 
 struct SpherePart {
   std::string name;              // "torso", "head", "arm_l", "arm_r", "leg_l", "leg_r", or chain names
@@ -230,6 +225,11 @@ struct SphereSet {
   // std::nullopt when it is sound.
   std::optional<Error> Validate() const;
 };
+
+// The source vertices the set's point lists need skinned, ascending, each once: the source vertices
+// among them and the three vertices of each grid point's triangle (what exact refit reads through
+// SphereSet::PointAt). Needs a valid set.
+std::vector<uint32_t> SourceVerticesOfPoints(const SphereSet& set);
 
 // The reach of every influence entry as the set's mesh gives it (set.has_mesh() and the set's lists
 // and mesh well formed, i.e. Validate() passes apart from this): for entry k of sphere s, the
