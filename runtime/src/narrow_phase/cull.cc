@@ -13,19 +13,26 @@
 
 namespace skinspheres::runtime::narrow_phase {
 
-bool TriangleBox(const Frame& f, uint32_t id, Box* box) {
-  Eigen::Vector3f c[3];
-  const bool whole = id < Of(f.data).triangle_count;  // the usual case: read in place, no copy
-  if (!whole) ItemCorners(f.set, Of(f.data), f.pos, id, c);
-  const Eigen::Vector3f& a = whole ? Vertex(f, id, 0) : c[0];
-  const Eigen::Vector3f& b = whole ? Vertex(f, id, 1) : c[1];
-  const Eigen::Vector3f& d = whole ? Vertex(f, id, 2) : c[2];
+namespace {
+
+bool CornerBox(const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& d, uint32_t id, Box* box) {
   for (int k = 0; k < 3; ++k) {
     box->lo[k] = std::min({a[k], b[k], d[k]});
     box->hi[k] = std::max({a[k], b[k], d[k]});
   }
   box->id = id;
   return std::isfinite(box->lo[0] + box->lo[1] + box->lo[2] + box->hi[0] + box->hi[1] + box->hi[2]);
+}
+
+}  // namespace
+
+bool TriangleBox(const Frame& f, uint32_t id, Box* box) {
+  if (id < Of(f.data).triangle_count) {  // the usual case: a whole triangle, read in place
+    return CornerBox(Vertex(f, id, 0), Vertex(f, id, 1), Vertex(f, id, 2), id, box);
+  }
+  Eigen::Vector3f c[3];
+  ItemCorners(f.set, Of(f.data), f.pos, id, c);
+  return CornerBox(c[0], c[1], c[2], id, box);
 }
 
 bool BoxReachesSphere(const Box& box, const Vec4f& s, float margin) {
