@@ -137,6 +137,15 @@ std::optional<Error> ValidateMesh(const SphereSet& set) {
     if (!mesh.binds[b].inverse_bind.allFinite()) {
       return Invalid("mesh bind entry " + std::to_string(b) + " has a non-finite inverse bind matrix");
     }
+    // Affine, to float rounding (the importers' 4x4 inverse of a rigid mesh's joint transform ends in
+    // 0.99999994): skinning multiplies the whole 4x4 (SkinningMatricesJob), while the fast bound's
+    // checks and figures (FastBoundVerticesFromMesh) read its top three rows; a last row of, say,
+    // 0 0 0 2 would skin vertices outside the fast spheres those checks passed.
+    if (!((mesh.binds[b].inverse_bind.row(3) - Eigen::RowVector4f(0.0f, 0.0f, 0.0f, 1.0f)).cwiseAbs().maxCoeff() <=
+          FLT_EPSILON)) {
+      return Invalid("mesh bind entry " + std::to_string(b) +
+                     "'s inverse bind matrix is not affine (its last row is not 0 0 0 1)");
+    }
   }
   if (!CsrOk(mesh.influence_offsets, vertices, mesh.influence_binds.size()) ||
       mesh.influence_weights.size() != mesh.influence_binds.size()) {
@@ -556,6 +565,28 @@ std::optional<Error> CheckFastReference(const SphereSet& set) {
     if (!r.allFinite() || !(r.w() > 0.0f) || r.cwiseAbs().maxCoeff() > 1e18f) {
       return Invalid("sphere " + std::to_string(s) + "'s fast reference sphere is not finite, has a radius <= 0 or " +
                      "lies beyond 1e18 units");
+    }
+    // At the rest pose the fast refit carries the reference centre by G_j(rest) · R_j^-1 per
+    // influence and stretches the radius by that transform's scale: within the broad phase's 1e18,
+    // as the rest spheres are, and the products the refit forms that transform from in float within
+    // 1e24 (each bound above alone lets a 1e9 scale carry a centre at 1e18 to 1e27, and the
+    // refit's squared spread overflow to inf at every pose).
+    for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
+      const size_t j = set.influence_joints[k];
+      const Affine34 t = Compose(FromFloat(set.joint_rest_world[j]), FromFloat(set.fast_reference_inverse[j]));
+      double frobenius2 = 0.0, farthest = 0.0;
+      for (int row = 0; row < 3; ++row) {
+        for (int c = 0; c < 3; ++c) frobenius2 += t[row][c] * t[row][c];
+        farthest =
+            std::max(farthest, std::fabs(((t[row][0] * r.x() + t[row][1] * r.y()) + t[row][2] * r.z()) + t[row][3]));
+      }
+      const double stretch = std::sqrt(frobenius2);
+      const double products = double(set.joint_rest_world[j].topRows<3>().cwiseAbs().maxCoeff()) *
+                              double(set.fast_reference_inverse[j].topRows<3>().cwiseAbs().maxCoeff());
+      if (!(farthest <= 1e18) || !(stretch <= 1e10) || !(stretch * r.w() <= 1e18) || !(products <= 1e24)) {
+        return Invalid("sphere " + std::to_string(s) + "'s fast reference sphere, carried to the rest pose by joint " +
+                       std::to_string(j) + ", lies beyond 1e18 units or is stretched beyond 1e10 (or 1e18 units)");
+      }
     }
   }
   if (!set.has_mesh() || set.fast_only) return std::nullopt;

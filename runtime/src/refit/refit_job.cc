@@ -276,7 +276,20 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
   d.center_in_joint_.resize(set.influence_joints.size());
   for (size_t s = 0; s < set.size(); ++s) {
     for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
-      d.center_in_joint_[k] = (ref->inverse[set.influence_joints[k]] * ref->center[s]).head<3>().cast<float>();
+      const size_t j = set.influence_joints[k];
+      const Eigen::Vector3d q = (ref->inverse[j] * ref->center[s]).head<3>();
+      // The refit carries q by the joint's world transform in float: near the rest pose each product
+      // within 1e24, so that rounding leaves the centre near its 1e18 and the squared spread finite
+      // (a rest transform scaled by 1e-30 puts a centre at 1e10 at 1e40, inf in float, and every
+      // frame's radius at inf).
+      const double rest_scale = std::max(1.0, double(set.joint_rest_world[j].topRows<3>().cwiseAbs().maxCoeff()));
+      if (!(std::max(1.0, q.cwiseAbs().maxCoeff()) * rest_scale <= 1e24)) {
+        return MakeError(ErrorCode::kInvalidData,
+                         "RefitRestData: sphere set '" + set.source_file + "': sphere " + std::to_string(s) +
+                             "'s centre in the reference frame of joint " + std::to_string(j) +
+                             " is out of the refit's float range (beyond 1e24 with that joint's rest transform)");
+      }
+      d.center_in_joint_[k] = q.cast<float>();
     }
   }
   return d;

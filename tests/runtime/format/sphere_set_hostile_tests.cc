@@ -20,6 +20,7 @@
 #include "skinspheres/runtime/format/file_io.h"
 #include "skinspheres/runtime/format/sphere_set_binary.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
+#include "skinspheres/runtime/refit/refit_job.h"
 #include "test_support.h"
 
 namespace skinspheres::runtime {
@@ -240,6 +241,52 @@ TEST(SphereSetHostile, ControlCharactersInNamesNeverBreakAnErrorLine) {
   EXPECT_TRUE(std::none_of(line.begin(), line.end(), [](unsigned char c) { return c < 0x20 || c == 0x7f; })) << line;
   EXPECT_EQ(OneLine("a\tb\rc\x7f"), "a\\tb\\rc\\x7f");
   EXPECT_EQ(OneLine("plain: unchanged"), "plain: unchanged");
+}
+
+// A fast reference within each bound CheckFastReference had (an inverse scaled by 1e9, centres at
+// 1e18) carried the centres to 1e27 at the rest pose: the fast refit's squared spread overflowed
+// and every radius was inf, at every pose. Found by fuzzing (fuzz/fuzz_engine.h CheckFastRefit).
+TEST(SphereSetHostile, ValidateRefusesAFastReferenceBeyondRangeAtTheRestPose) {
+  SphereSet set = TwoSpheres();
+  set.fast_reference_inverse = {skinspheres::Mat4f::Identity()};
+  set.fast_reference_spheres = {skinspheres::Vec4f(0, 0, 0, 1), skinspheres::Vec4f(1, 0, 0, 1)};
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  set.fast_reference_inverse[0].topLeftCorner<3, 3>() *= 1e9f;
+  set.fast_reference_spheres[1].x() = 1e18f;
+  ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "far.json"), "far.json", ErrorCode::kInvalidData,
+                "sphere 1's fast reference sphere, carried to the rest pose by joint 0, lies beyond 1e18 units");
+}
+
+// A rest transform scaled by 1e-30 (finite, invertible) put sphere 1's centre at 1e30 in the
+// joint's frame: inf in float, and the fast refit's radius inf at the rest pose and every other.
+// Validate cannot tell (it inverts no rest transform); the rest data refuses it. Found by fuzzing
+// (fuzz/fuzz_engine.h CheckFastRefit).
+TEST(SphereSetHostile, RestDataRefusesCentresBeyondFloatRangeInTheirJointFrame) {
+  SphereSet set = TwoSpheres();
+  set.joint_rest_world[0].topLeftCorner<3, 3>() *= 1e-30f;
+  set.centers_rest[1].x() = 1e10f;
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  const auto rest = RefitRestData::Create(set);
+  ASSERT_FALSE(rest.ok());
+  EXPECT_NE(rest.error().message.find("sphere 1's centre in the reference frame of joint 0 is out of"),
+            std::string::npos)
+      << rest.error().message;
+}
+
+// An inverse bind matrix ending in 0 0 0 2: skinning (the whole 4x4) put vertices 0.36 to 0.5 units
+// outside the fast spheres that CheckFastRadii / CheckFastReference / CheckReachGroups (the top three
+// rows) had passed. The importers' own rounding (0.99999994) is still read. Found by fuzzing
+// (fuzz/fuzz_engine.h CheckFastRefit).
+TEST(SphereSetHostile, ValidateRefusesInverseBindMatricesThatAreNotAffine) {
+  SphereSet set = TwoSpheresWithMesh();
+  set.mesh.binds[0].inverse_bind(3, 3) = 0.99999994f;
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  set.mesh.binds[0].inverse_bind(3, 3) = 2.0f;
+  ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "ibm.json"), "ibm.json", ErrorCode::kInvalidData,
+                "mesh bind entry 0's inverse bind matrix is not affine");
+  set.mesh.binds[0].inverse_bind(3, 3) = 1.0f;
+  set.mesh.binds[0].inverse_bind(3, 0) = 0.5f;
+  EXPECT_TRUE(set.Validate().has_value());
 }
 
 }  // namespace
