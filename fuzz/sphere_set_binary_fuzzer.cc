@@ -111,6 +111,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     SKINSPHERES_FUZZ_CHECK(from_json.ok(), Message(from_json));
     SKINSPHERES_FUZZ_CHECK(runtime::WriteSphereSetBinary(*from_json) == encoded, "binary -> JSON -> binary differs");
   }
+  fuzz::CheckFastRefit(set, fuzz::PoseSeed(data, size));
   fuzz::DriveEngine(std::move(set));
   return 0;
 }

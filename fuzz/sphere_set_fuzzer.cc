@@ -27,6 +27,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   SKINSPHERES_FUZZ_CHECK(again.ok(), again.ok() ? "" : again.error().message);
   SKINSPHERES_FUZZ_CHECK(runtime::WriteSphereSetJson(*again) == text, "write, read, write differs");
 
+  fuzz::CheckFastRefit(set, fuzz::PoseSeed(data, size));
   fuzz::DriveEngine(std::move(set));
   return 0;
 }
