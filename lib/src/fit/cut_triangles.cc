@@ -18,7 +18,6 @@ CutMesh CutLongTriangles(const RawCharacter& ch, const BodyParts& parts, float m
   for (BodyPart& part : cut.parts.parts) part.triangles.clear();
   cut.parts.triangle_part.clear();
   cut.parts.triangle_joint.clear();
-  const uint32_t source_vertices = static_cast<uint32_t>(ch.vertex_count());
   auto add = [&](const Eigen::Vector3i& tri, uint32_t t, uint16_t level, uint16_t index) {
     const uint32_t id = static_cast<uint32_t>(cut.ch.triangles.size());
     cut.ch.triangles.push_back(tri);
@@ -42,9 +41,7 @@ CutMesh CutLongTriangles(const RawCharacter& ch, const BodyParts& parts, float m
     }
     vertex_at.clear();
     auto vertex = [&](uint8_t i, uint8_t j) -> int32_t {
-      if (i == 0 && j == 0) return tri[0];
-      if (i == level && j == 0) return tri[1];
-      if (i == 0 && j == level) return tri[2];
+      if (const int corner = runtime::GridCorner(level, i, j); corner >= 0) return tri[corner];
       auto [it, added] = vertex_at.emplace(std::make_pair(i, j), 0);
       if (added) {
         it->second = static_cast<int32_t>(cut.ch.positions_rest.size());
@@ -60,7 +57,6 @@ CutMesh CutLongTriangles(const RawCharacter& ch, const BodyParts& parts, float m
           index);
     }
   }
-  cut.source_vertex_count = source_vertices;
   return cut;
 }
 

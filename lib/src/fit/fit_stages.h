@@ -106,9 +106,8 @@ struct OwnedSpheres {
 struct CutMesh {
   RawCharacter ch;
   BodyParts parts;
-  uint32_t source_vertex_count = 0;
   std::vector<runtime::TrianglePiece> origin;  // per cut triangle: source triangle, level (0: whole), index
-  std::vector<runtime::PiecePoint> points;     // per cut vertex from source_vertex_count on
+  std::vector<runtime::PiecePoint> points;     // per cut vertex from the source's vertex count on
 };
 CutMesh CutLongTriangles(const RawCharacter& ch, const BodyParts& parts, float max_edge);
 // The ownership of the cut mesh's triangles in source terms: a cut triangle whose pieces one sphere

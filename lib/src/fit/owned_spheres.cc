@@ -48,12 +48,8 @@ void WriteOwnedSpheres(const RawCharacter& ch, const BodyParts& parts, const Own
       for (const auto& g : corners) {
         const uint8_t i = g[0], j = g[1];
         uint32_t point;
-        if (i == 0 && j == 0) {
-          point = static_cast<uint32_t>(tri[0]);
-        } else if (i == piece.level && j == 0) {
-          point = static_cast<uint32_t>(tri[1]);
-        } else if (i == 0 && j == piece.level) {
-          point = static_cast<uint32_t>(tri[2]);
+        if (const int corner = runtime::GridCorner(piece.level, i, j); corner >= 0) {
+          point = static_cast<uint32_t>(tri[corner]);
         } else {
           auto [it, added] = point_index.emplace(std::make_tuple(piece.triangle, piece.level, i, j),
                                                  source_vertices + static_cast<uint32_t>(set->piece_points.size()));

@@ -76,11 +76,8 @@ uint64_t PointKey(uint32_t triangle, uint16_t level, uint8_t i, uint8_t j) {
 
 // The source vertex at grid point (i, j) when it is one of the triangle's corners, else UINT32_MAX.
 uint32_t CornerVertex(const SphereSet& set, uint32_t triangle, uint16_t level, uint8_t i, uint8_t j) {
-  const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{triangle};
-  if (i == 0 && j == 0) return v[0];
-  if (i == level && j == 0) return v[1];
-  if (i == 0 && j == level) return v[2];
-  return UINT32_MAX;
+  const int corner = GridCorner(level, i, j);
+  return corner < 0 ? UINT32_MAX : set.triangle_vertices[3 * size_t{triangle} + static_cast<size_t>(corner)];
 }
 
 // A float in as many digits as tell it from its neighbours (a reach one ulp too small must read so).
@@ -313,7 +310,7 @@ std::optional<Error> CheckPieces(const SphereSet& set, std::vector<uint32_t>& ow
   for (size_t k = 0; k < set.piece_points.size(); ++k) {
     const PiecePoint& g = set.piece_points[k];
     if (g.triangle >= set.source_triangle_count || g.level < 2 || g.level > kMaxPieceLevel ||
-        uint32_t{g.i} + g.j > g.level || (g.i == 0 && g.j == 0) || g.i == g.level || g.j == g.level) {
+        uint32_t{g.i} + g.j > g.level || GridCorner(g.level, g.i, g.j) >= 0) {
       return Invalid("grid point " + std::to_string(k) + " (triangle " + std::to_string(g.triangle) + ", level " +
                      std::to_string(g.level) + ", " + std::to_string(g.i) + ", " + std::to_string(g.j) +
                      ") is out of range or a triangle corner");

@@ -265,7 +265,8 @@ SphereSet CutTriangleAndAnother(std::vector<ExcludedPair> excluded) {
       PieceCorners(level, index, c);
       for (const auto& corner : c) {
         const uint8_t i = corner[0], j = corner[1];
-        uint32_t point = i == 0 && j == 0 ? 0 : i == level ? 1 : j == level ? 2 : UINT32_MAX;
+        const int vertex = GridCorner(level, i, j);
+        uint32_t point = vertex < 0 ? UINT32_MAX : uint32_t(vertex);  // triangle A is vertices 0 1 2
         if (point == UINT32_MAX) {
           const PiecePoint g{0, level, i, j};
           auto it = std::find(set.piece_points.begin(), set.piece_points.end(), g);

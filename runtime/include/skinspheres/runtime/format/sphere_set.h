@@ -87,6 +87,13 @@ struct TrianglePiece {
 // or index is out of range.
 bool PieceCorners(uint16_t level, uint16_t index, uint8_t corners[3][2]);
 
+// Which of its triangle's vertices grid point (i, j) of level L is: 0, 1 or 2 at the corners (the
+// point is that source vertex), -1 anywhere else.
+inline int GridCorner(uint16_t level, uint8_t i, uint8_t j) {
+  if (j == 0 && (i == 0 || i == level)) return i == 0 ? 0 : 1;
+  return i == 0 && j == level ? 2 : -1;
+}
+
 // Grid point (i, j) of level L of the triangle p0 p1 p2 in float, in a fixed order, each coordinate
 // clamped to the triangle's own range (float rounding could put a point on an axis-aligned edge an
 // ulp outside the triangle's box, which the narrow phase's cluster boxes are built from). The same
