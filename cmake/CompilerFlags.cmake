@@ -4,6 +4,7 @@
 #
 # skinspheres_warnings(<target>)       the project's warnings, as errors with SKINSPHERES_WERROR
 # skinspheres_simd_avx2(<target>)      compile the whole target for AVX2 (SKINSPHERES_AVX2=ON)
+# skinspheres_test_program(<target>)   a test program's own code: quicker to compile (below)
 # skinspheres_hide_static_libs(<lib>)  a shared library exports none of its static dependencies'
 #                                      symbols and has no undefined symbol left (ELF)
 #
@@ -46,6 +47,27 @@ function(skinspheres_warnings target)
   endif()
   if(SKINSPHERES_WERROR)
     target_compile_options(${target} PRIVATE -Werror)
+  endif()
+endfunction()
+
+# skinspheres_test_program(<target>): a test program's own code (the assertions, oracles and
+# fixtures around the code it checks) is compiled for build time, not speed. The libraries it calls
+# keep their own flags, so what runs per frame is tested as shipped.
+#  - Release: -O1 instead of -O3, about 30% less compile time per file (GCC 12, aarch64 and x86-64).
+#    -ffp-contract=off holds at every level, so the oracles' floating-point results do not change.
+#  - UBSan builds: without the alignment, null and pointer-overflow checks in the test's own code.
+#    On gtest-heavy files they double GCC's compile time (fast_bound_tests 42 s -> 21 s,
+#    sphere_set_binary_tests 54 s -> 29 s). The runtime, the readers, the fitter, the tool, the C API
+#    and the Python module keep every check.
+function(skinspheres_test_program target)
+  if(SKINSPHERES_COMPILER_MSVC)
+    return()
+  endif()
+  if(CMAKE_BUILD_TYPE STREQUAL "Release" AND NOT SKINSPHERES_SANITIZE AND NOT SKINSPHERES_FUZZ)
+    target_compile_options(${target} PRIVATE -O1)
+  endif()
+  if(SKINSPHERES_SANITIZE MATCHES "undefined")
+    target_compile_options(${target} PRIVATE -fno-sanitize=alignment,null,pointer-overflow)
   endif()
 endfunction()
 
