@@ -150,10 +150,7 @@ void AddDemoCommand(CLI::App& app, int* exit_code) {
     for (uint32_t s = 0; s < set.size(); ++s) {
       for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) owner[set.triangles[k]] = s;
       // A cut triangle (docs/TRIANGLE_PIECES.md): the lowest sphere owning one of its pieces.
-      for (uint32_t k = set.piece_offsets.empty() ? 0 : set.piece_offsets[s];
-           k < (set.piece_offsets.empty() ? 0 : set.piece_offsets[s + 1]); ++k) {
-        owner[set.pieces[k].triangle] = std::min(owner[set.pieces[k].triangle], s);
-      }
+      for (const runtime::TrianglePiece& p : set.PiecesOf(s)) owner[p.triangle] = std::min(owner[p.triangle], s);
     }
     auto is_hand = [&](uint32_t triangle) {
       const uint32_t s = owner[triangle];

@@ -406,9 +406,7 @@ void ClipPlayer::Verify(int f, PlayResult* result) {
       const Eigen::Vector3f corner[3] = {skinned_[tri[0]], skinned_[tri[1]], skinned_[tri[2]]};
       check(corner);
     }
-    for (uint32_t k = set.piece_offsets.empty() ? 0 : set.piece_offsets[s];
-         k < (set.piece_offsets.empty() ? 0 : set.piece_offsets[s + 1]); ++k) {  // each piece's corners
-      const runtime::TrianglePiece& piece = set.pieces[k];
+    for (const runtime::TrianglePiece& piece : set.PiecesOf(s)) {  // each piece's corners
       const auto& tri = ch.triangles[piece.triangle];
       uint8_t grid[3][2];
       runtime::PieceCorners(piece.level, piece.index, grid);

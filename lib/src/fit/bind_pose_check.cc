@@ -36,11 +36,10 @@ int CountUncoveredTriangles(const RawCharacter& ch, const runtime::SphereSet& se
   // A cut triangle (docs/TRIANGLE_PIECES.md): each piece's corners inside its owner; the triangle
   // counts once however many of its pieces fail (an uncut one owned by nobody failed above).
   std::vector<char> failed(ch.triangle_count(), 0);
-  for (size_t s = 0; s < set.size() && !set.piece_offsets.empty(); ++s) {
+  for (size_t s = 0; s < set.size(); ++s) {
     const Eigen::Vector3d c = set.centers_rest[s].cast<double>();
     const double r = set.radii_rest[s] * (1.0 + 1e-6);
-    for (uint32_t k = set.piece_offsets[s]; k < set.piece_offsets[s + 1]; ++k) {
-      const runtime::TrianglePiece& piece = set.pieces[k];
+    for (const runtime::TrianglePiece& piece : set.PiecesOf(s)) {
       const Eigen::Vector3i& tri = ch.triangles[piece.triangle];
       uint8_t corners[3][2];
       bool inside = runtime::PieceCorners(piece.level, piece.index, corners);

@@ -175,9 +175,7 @@ std::optional<Error> ValidateMesh(const SphereSet& set) {
   for (size_t s = 0; s < set.size(); ++s) {
     for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k)
       marked[set.vertices[k]] = static_cast<uint32_t>(s);
-    for (uint32_t k = set.piece_offsets.empty() ? 0 : set.piece_offsets[s];
-         k < (set.piece_offsets.empty() ? 0 : set.piece_offsets[s + 1]); ++k) {
-      const TrianglePiece& p = set.pieces[k];
+    for (const TrianglePiece& p : set.PiecesOf(s)) {
       uint8_t corners[3][2];
       PieceCorners(p.level, p.index, corners);  // in range: CheckPieces
       for (const auto& c : corners) {

@@ -42,14 +42,11 @@ void SphereItems(const SphereSet& set, NarrowPhaseData::Layout& d) {
   for (size_t s = 0; s < set.size(); ++s) {
     d.sphere_items.insert(d.sphere_items.end(), set.triangles.begin() + set.triangle_offsets[s],
                           set.triangles.begin() + set.triangle_offsets[s + 1]);
-    if (!set.piece_offsets.empty()) {
-      for (uint32_t k = set.piece_offsets[s]; k < set.piece_offsets[s + 1]; ++k) {
-        const TrianglePiece& p = set.pieces[k];
-        NarrowPhaseData::Layout::PieceItem item{p.triangle, p.level, {}};
-        PieceCorners(p.level, p.index, item.corners);  // in range: Validate()
-        d.sphere_items.push_back(d.triangle_count + static_cast<uint32_t>(d.piece_items.size()));
-        d.piece_items.push_back(item);
-      }
+    for (const TrianglePiece& p : set.PiecesOf(s)) {
+      NarrowPhaseData::Layout::PieceItem item{p.triangle, p.level, {}};
+      PieceCorners(p.level, p.index, item.corners);  // in range: Validate()
+      d.sphere_items.push_back(d.triangle_count + static_cast<uint32_t>(d.piece_items.size()));
+      d.piece_items.push_back(item);
     }
     d.sphere_item_offsets.push_back(static_cast<uint32_t>(d.sphere_items.size()));
   }

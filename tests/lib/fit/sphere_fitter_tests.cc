@@ -2,6 +2,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdio>
 #include <limits>
 #include <string>
@@ -21,9 +22,8 @@ namespace {
 void ExpectEveryTriangleCovered(const RawCharacter& ch, const runtime::SphereSet& set) {
   std::vector<int> owners(ch.triangle_count(), 0);
   std::vector<std::vector<int>> piece_owners(ch.triangle_count());
-  for (size_t s = 0; s < set.size() && !set.piece_offsets.empty(); ++s) {
-    for (uint32_t k = set.piece_offsets[s]; k < set.piece_offsets[s + 1]; ++k) {
-      const runtime::TrianglePiece& p = set.pieces[k];
+  for (size_t s = 0; s < set.size(); ++s) {
+    for (const runtime::TrianglePiece& p : set.PiecesOf(s)) {
       auto& seen = piece_owners[p.triangle];
       seen.resize(size_t{p.level} * p.level, 0);
       ++seen[p.index];
@@ -293,7 +293,7 @@ TEST(SphereFitterTest, TighteningKeepsCoverageAndTheSphereBudget) {
 // every sphere holding one is at least half the tube long. Cut into pieces (piece_edge), the spheres
 // hold pieces of them: each piece inside its owner (the independent oracle above), the set valid,
 // its spheres' summed volume (r³) and the tightening pass's standoff estimate far below the whole
-// fit's, and the same set with 1 and 2 threads.
+// fit's, the same set with 1 and 2 threads, and the report's triangle counts those of the input.
 TEST(SphereFitterTest, TrianglePiecesLetSpheresHoldPartsOfLongTriangles) {
   RawCharacter ch = test::EllipticPrism(0.2f, 0.2f, 0.0f, 2.0f, 2, 8);
   BodyParts parts = test::MakeSinglePart(ch, 0.0f, 2.0f, PartKind::kChain);
@@ -325,6 +325,12 @@ TEST(SphereFitterTest, TrianglePiecesLetSpheresHoldPartsOfLongTriangles) {
               cut.report.standoff_after);
   EXPECT_LT(v_cut, 0.5 * v_whole);
   EXPECT_LT(cut.report.standoff_after, whole.report.standoff_after);
+  // The per-part report counts the character's triangles (a cut one once), not the cut mesh's.
+  for (const FitResult* fit : std::array<const FitResult*, 2>{&whole, &cut}) {
+    int reported = 0;
+    for (const PartFitReport& part : fit->report.parts) reported += part.triangles;
+    EXPECT_EQ(reported, static_cast<int>(ch.triangle_count()));
+  }
 }
 
 }  // namespace

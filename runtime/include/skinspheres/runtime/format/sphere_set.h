@@ -27,6 +27,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -214,6 +215,12 @@ struct SphereSet {
   size_t size() const { return centers_rest.size(); }
   bool has_mesh() const { return !triangle_vertices.empty(); }
   bool has_pieces() const { return !pieces.empty() || !piece_points.empty() || !piece_offsets.empty(); }
+  // The pieces sphere s owns: pieces[piece_offsets[s], piece_offsets[s + 1]), none when the set has no
+  // piece offsets (a set without pieces). Needs s < size() and offsets that Validate() accepted.
+  std::span<const TrianglePiece> PiecesOf(size_t s) const {
+    if (piece_offsets.empty()) return {};
+    return {pieces.data() + piece_offsets[s], pieces.data() + piece_offsets[s + 1]};
+  }
   // Point k of the point lists (`vertices`) at the given skinned source-vertex positions: a source
   // vertex, or a grid point computed from its triangle's vertices (GridPoint). Needs a valid set with
   // a mesh when k names a grid point.
