@@ -163,6 +163,7 @@ def fit(
     refine: int = 2,
     tighten: bool = True,
     split_gain: float = 0.9,
+    split_rounds: int = 8,
     target_standoff: float = 0.0125,
     max_spheres: int = 200,
     exclude_bind_overlaps: bool = True,

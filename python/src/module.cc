@@ -1012,7 +1012,7 @@ PYBIND11_MODULE(_skinspheres, m) {
       "fit",
       [](const std::optional<PathText>& path, const std::string& parts, int rays, int per_level,
          const std::string& method, float overlap, float step, int hops, int refine, bool tighten, float split_gain,
-         float target_standoff, int max_spheres, bool exclude_bind_overlaps, float piece_edge) {
+         int split_rounds, float target_standoff, int max_spheres, bool exclude_bind_overlaps, float piece_edge) {
         NoNul(parts, "parts");
         tool::FitOptions o;  // what the tool's options of the same names set
         o.parts_file = parts;
@@ -1025,6 +1025,7 @@ PYBIND11_MODULE(_skinspheres, m) {
         o.settings.refine_iterations = refine;
         o.no_tighten = !tighten;
         o.settings.split_gain = split_gain;
+        o.settings.split_rounds = split_rounds;
         o.settings.target_standoff = target_standoff;
         o.settings.max_spheres = max_spheres;
         o.no_bind_overlap = !exclude_bind_overlaps;
@@ -1034,7 +1035,7 @@ PYBIND11_MODULE(_skinspheres, m) {
       "path"_a = py::none(), py::kw_only(), "parts"_a = d.parts_file, "rays"_a = d.settings.rays,
       "per_level"_a = d.settings.per_level, "method"_a = d.method, "overlap"_a = d.settings.overlap,
       "step"_a = d.settings.step, "hops"_a = d.hops, "refine"_a = d.settings.refine_iterations,
-      "tighten"_a = !d.no_tighten, "split_gain"_a = d.settings.split_gain,
+      "tighten"_a = !d.no_tighten, "split_gain"_a = d.settings.split_gain, "split_rounds"_a = d.settings.split_rounds,
       "target_standoff"_a = d.settings.target_standoff, "max_spheres"_a = d.settings.max_spheres,
       "exclude_bind_overlaps"_a = !d.no_bind_overlap, "piece_edge"_a = d.settings.piece_edge);
   m.def("load", &Load, "path"_a);

@@ -61,6 +61,10 @@ void FitOptions::AddTo(CLI::App& app) {
          "--split-gain", settings.split_gain,
          "tightening: split a sphere when its halves expose at most this fraction of what it exposes (0: never)")
       ->capture_default_str();
+  app.add_option("--split-rounds", settings.split_rounds,
+                 "tightening: after a round of splitting that did not reach the target standoff, search, hand over, "
+                 "merge and split again, at most this many rounds (1..64; 1: one greedy loop)")
+      ->capture_default_str();
   app.add_option("--target-standoff", settings.target_standoff,
                  "tightening: stop splitting once the union stands off the body by this fraction of its height on "
                  "average (0: split while it pays)")
@@ -117,9 +121,9 @@ void PrintFitSummary(const lib::FitResult& fit, double import_seconds) {
   if (r.standoff_before > 0.0f) {
     std::printf(
         "tightening: mean standoff %.2f%% -> %.2f%% of body height (estimated); %d spheres added by splits, "
-        "%d merged, %d triangles handed over to a sphere that already held them\n",
-        100.0 * r.standoff_before, 100.0 * r.standoff_after, r.spheres_split, r.spheres_merged,
-        r.triangles_handed_over);
+        "%d merged, %d triangles handed over to a sphere that already held them; %d split round%s\n",
+        100.0 * r.standoff_before, 100.0 * r.standoff_after, r.spheres_split, r.spheres_merged, r.triangles_handed_over,
+        r.split_rounds, r.split_rounds == 1 ? "" : "s");
   }
   if (!set.fast_reference_spheres.empty()) {
     std::printf("fast refit: the bind pose is its reference (the rest pose is not the bind pose, and bounds looser)\n");

@@ -38,6 +38,9 @@ std::optional<Error> FitSettings::Validate() const {
   if (!(split_gain >= 0.0f && split_gain <= 1.0f)) {
     return refuse("split gain must be in [0, 1] (got " + std::to_string(split_gain) + ")");
   }
+  if (split_rounds < 1 || split_rounds > 64) {
+    return refuse("split rounds must be in 1..64 (got " + std::to_string(split_rounds) + ")");
+  }
   if (!(target_standoff >= 0.0f && target_standoff <= 1.0f)) {
     return refuse("target standoff must be in [0, 1] (got " + std::to_string(target_standoff) + ")");
   }
@@ -62,6 +65,7 @@ std::string FitSettings::ToJson() const {
                       {"refine_iterations", refine_iterations},
                       {"tighten", tighten},
                       {"split_gain", split_gain},
+                      {"split_rounds", split_rounds},
                       {"max_spheres", max_spheres},
                       {"target_standoff", target_standoff},
                       {"piece_edge", piece_edge}};

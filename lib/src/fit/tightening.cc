@@ -40,6 +40,7 @@ void TightenOwnedSpheres(const RawCharacter& ch, const FitSettings& settings, Ow
   TightenSettings ts;
   ts.max_spheres = settings.max_spheres;
   ts.split_gain = settings.split_gain;
+  ts.split_rounds = settings.split_rounds;
   ts.target_standoff = settings.target_standoff;
   ts.budget_only = !settings.tighten;
   const TightenReport tr = TightenSpheres(ch, ts, &tight);
@@ -59,6 +60,7 @@ void TightenOwnedSpheres(const RawCharacter& ch, const FitSettings& settings, Ow
 
   report->spheres_dropped = dropped + tr.dropped;
   report->spheres_split = tr.splits;
+  report->split_rounds = tr.split_rounds;
   report->triangles_handed_over = tr.triangles_handed_over;
   report->spheres_merged = tr.merges;
   report->spheres_merged_for_budget = tr.budget_merges;

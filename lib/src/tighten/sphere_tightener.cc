@@ -29,13 +29,20 @@ TightenReport TightenSpheres(const RawCharacter& character, const TightenSetting
   // 3b. The budget.
   rep.budget_merges = t.MergeToBudget(static_cast<size_t>(std::max(1, settings.max_spheres)));
   rep.dropped += t.DropEmpty();
-  // 4. Splitting.
-  rep.splits = t.SplitLoop();
-  // 5. Centre search, hand-over and merge again.
-  for (int round = 0; round < settings.search_rounds; ++round) t.SearchAll();
-  rep.triangles_handed_over += t.HandOver();
-  rep.merges += t.MergeStacked();
-  rep.dropped += t.DropEmpty();
+  // 4. Splitting, 5. centre search, hand-over and merge again. Repeated while a round split
+  // something and did not reach the target standoff: the spheres have moved and merged since, so
+  // splits that did not pay may pay now, and merges may have freed some of the budget.
+  for (int round = 0; round < std::max(1, settings.split_rounds); ++round) {
+    bool reached_target = false;
+    const int splits = t.SplitLoop(&reached_target);
+    rep.splits += splits;
+    ++rep.split_rounds;
+    for (int search = 0; search < settings.search_rounds; ++search) t.SearchAll();
+    rep.triangles_handed_over += t.HandOver();
+    rep.merges += t.MergeStacked();
+    rep.dropped += t.DropEmpty();
+    if (splits == 0 || reached_target) break;
+  }
   t.Finish();
   std::tie(rep.exposure_after, rep.standoff_after) = t.TotalExposure();
   return rep;

@@ -10,7 +10,8 @@
 
 namespace skinspheres::lib {
 
-int Tightener::SplitLoop() {
+int Tightener::SplitLoop(bool* reached_target) {
+  *reached_target = false;
   if (!(st_.split_gain > 0.0f)) return 0;
   int splits = 0;
   std::vector<uint8_t> tried(sp_.size(), 0);
@@ -26,7 +27,10 @@ int Tightener::SplitLoop() {
   const double target = static_cast<double>(st_.target_standoff) * height_;
   while (sp_.size() < static_cast<size_t>(std::max(0, st_.max_spheres))) {
     // Σ E / Σ exposed area: the mean distance from the union's boundary to the mesh.
-    if (target > 0.0 && sum_a > 0.0 && sum_e <= target * sum_a) break;
+    if (target > 0.0 && sum_a > 0.0 && sum_e <= target * sum_a) {
+      *reached_target = true;
+      break;
+    }
     size_t best = sp_.size();
     for (size_t s = 0; s < sp_.size(); ++s) {
       if (tried[s] || sp_[s].triangles.size() < 2 || !(exposure[s] > 0.0)) continue;

@@ -54,8 +54,9 @@ class Tightener {
   int MergeToBudget(size_t budget);
   // Removes spheres that own nothing. Returns how many.
   int DropEmpty();
-  // Step 4. Returns the number of spheres added by splits (split.cc).
-  int SplitLoop();
+  // Step 4. Returns the number of spheres added by splits (split.cc); *reached_target tells whether
+  // it stopped at the target standoff (rather than at the budget or because no split paid).
+  int SplitLoop(bool* reached_target);
   // Sorts every sphere's triangles (the output contract).
   void Finish();
 

@@ -84,8 +84,12 @@ struct FitSettings {
   // stands off the body by target_standoff of the body height on average (as the pass estimates it; 0: split while it
   // pays): tight enough for a mean standoff of 1.5% of the height (the target tests/lib/metrics/tightness_tests.cc
   // holds the fit to) with margin, without spending spheres (and run time) where they buy little.
+  // Splitting runs in rounds (sphere_tightener.h): after a round that split something without
+  // reaching target_standoff, the spheres are searched, handed triangles and merged, and splitting is
+  // tried again, at most split_rounds rounds (1..64; 1: one greedy loop, as before 2026-12-06).
   bool tighten = true;
   float split_gain = 0.9f;
+  int split_rounds = 8;
   int max_spheres = 200;
   float target_standoff = 0.0125f;
   // Triangle pieces (docs/TRIANGLE_PIECES.md): a triangle whose longest edge at rest exceeds this
@@ -119,6 +123,7 @@ struct FitReport {
   int spheres_shrunk = 0;
   int spheres_dropped = 0;        // owned no triangle
   int spheres_split = 0;          // splits taken by the tightening pass
+  int split_rounds = 0;           // its rounds of splitting (FitSettings::split_rounds)
   int triangles_handed_over = 0;  // triangles it moved to another sphere that already held them
   int spheres_merged = 0;
   int spheres_merged_for_budget = 0;  // pairs merged to meet max_spheres

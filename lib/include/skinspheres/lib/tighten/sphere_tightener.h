@@ -39,6 +39,10 @@
 //     once the union's mean standoff Σ E / Σ exposed area is at most `target_standoff` of the body
 //     height (extent along +Y), or when nothing pays.
 //  5. Centre search, hand-over and merge again.
+//  Steps 4 and 5 are repeated, at most `split_rounds` times, while a round split something and did
+//  not reach the target standoff: moved, merged and handed over, the spheres offer splits that did
+//  not pay before, and merges free some of the budget. Each round is greedy; together they spend the
+//  budget where one greedy loop stops early (docs/FIT_REPORT.md, "Split rounds").
 // Guarantees: every input triangle ends up owned by exactly one sphere of its own part, and inside
 // it (radius = max distance from the float centre to its vertices, computed in double and rounded
 // up to float); at most max(max_spheres, parts with triangles) spheres are left; the result is a pure
@@ -73,6 +77,7 @@ struct TightenSettings {
   float target_standoff = 0.0125f;
   float split_gain = 0.9f;    // take a split when the halves expose <= this x the sphere; 0: never
   int search_rounds = 1;      // centre-search rounds before and after splitting (0: no search)
+  int split_rounds = 8;       // rounds of steps 4-5 at most (1: one greedy split loop)
   int passes = 5;             // pattern-search passes per centre search
   int split_passes = 3;       // the same for the halves of a tentative split
   int searched_cuts = 2;      // of the 3 median cuts, how many (least exposed first) are searched
@@ -82,6 +87,7 @@ struct TightenSettings {
 
 struct TightenReport {
   int splits = 0;         // spheres added by splitting
+  int split_rounds = 0;   // rounds of steps 4-5 run
   int merges = 0;         // stacked pairs merged (steps 3 and 5)
   int budget_merges = 0;  // pairs merged to meet max_spheres (step 3b)
   int triangles_handed_over = 0;
