@@ -51,6 +51,19 @@ def test_fit_meets_the_sphere_budget_and_refuses_one_below_the_parts():
         raise AssertionError("a budget below the part count was accepted")
 
 
+def test_fit_takes_split_rounds_and_refuses_them_out_of_range():
+    # docs/FIT_REPORT.md, "Split rounds": with no standoff target the rounds spend more of the budget.
+    one = ss.fit(target_standoff=0.0, split_rounds=1)
+    rounds = ss.fit(target_standoff=0.0, split_rounds=8)
+    assert len(one) < len(rounds) <= 200
+    try:
+        ss.fit(split_rounds=0)
+    except ss.InvalidArgument as e:
+        assert "split rounds must be in 1..64 (got 0)" in str(e)
+    else:
+        raise AssertionError("0 split rounds were accepted")
+
+
 def test_fit_with_piece_edge_writes_triangle_pieces(tmp_path):
     # docs/TRIANGLE_PIECES.md: the built-in character's triangles longer than 2% of its height cut;
     # the set is written as JSON version 3 with pieces, and reads back.

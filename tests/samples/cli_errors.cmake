@@ -9,6 +9,9 @@ set(cli_cases
   "unknown_flag|play|@GLB@|--no-such-flag|--no-such-flag"
   "no_subcommand||subcommand"
   "missing_input|fit|input"
+  # Fit settings out of range, named with the range.
+  "split_rounds_zero|fit|@GLB@|--split-rounds|0|split rounds must be in 1..64 (got 0)"
+  "split_rounds_too_many|fit|@GLB@|--split-rounds|65|split rounds must be in 1..64 (got 65)"
   # A margin that is a search radius, not a contact distance (it asked for gigabytes at set-up).
   "margin_too_large|play|@GLB@|--frames|3|--margin|1e30|is more than 0.05 of the character's rest size"
   # Failed writes, including at the close (/dev/full fails the flush).

@@ -212,6 +212,13 @@ TEST(SphereFitterTest, BadSettingsAreRefused) {
   s = FitSettings{};
   s.split_gain = std::numeric_limits<float>::quiet_NaN();
   EXPECT_FALSE(FitSpheres(ch, parts, s).ok());
+  for (int rounds : {0, -1, 65}) {
+    s = FitSettings{};
+    s.split_rounds = rounds;
+    auto fit = FitSpheres(ch, parts, s);
+    ASSERT_FALSE(fit.ok());
+    EXPECT_NE(fit.error().message.find("split rounds must be in 1..64"), std::string::npos) << fit.error().message;
+  }
 }
 
 TEST(SphereFitterTest, HugeOrNonFinitePositionsAreRefusedByName) {
