@@ -216,6 +216,7 @@ void Load(Xbot* x, int variant) {
     settings.target_standoff = 0.0f;
     settings.split_gain = variant == 4 ? 0.999f : 0.99f;
     settings.max_spheres = variant == 2 ? 160 : variant == 3 ? 256 : 512;
+    settings.split_rounds = 1;  // the sets docs/PERFORMANCE.md measured (one greedy round, before 2026-12-06)
   }
   auto fit = lib::FitSpheres(x->ch, x->parts, settings);
   x->fit_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

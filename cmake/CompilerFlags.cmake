@@ -50,15 +50,19 @@ function(skinspheres_warnings target)
   endif()
 endfunction()
 
-# skinspheres_test_program(<target>): a test program's own code (the assertions, oracles and
-# fixtures around the code it checks) is compiled for build time, not speed. The libraries it calls
-# keep their own flags, so what runs per frame is tested as shipped.
+# skinspheres_test_program(<target>): a test program's own file (the assertions, oracles and
+# fixtures around the code it checks) is compiled for build time, not speed. The libraries' own files
+# keep their flags.
 #  - Release: -O1 instead of -O3, about 30% less compile time per file (GCC 12, aarch64 and x86-64).
-#    -ffp-contract=off holds at every level, so the oracles' floating-point results do not change.
-#  - UBSan builds: without the alignment, null and pointer-overflow checks in the test's own code.
+#    -ffp-contract=off holds at every level and nothing uses fast-math, so results do not change.
+#  - UBSan builds: without the alignment, null and pointer-overflow checks in the test's own file.
 #    On gtest-heavy files they double GCC's compile time (fast_bound_tests 42 s -> 21 s,
-#    sphere_set_binary_tests 54 s -> 29 s). The runtime, the readers, the fitter, the tool, the C API
-#    and the Python module keep every check.
+#    sphere_set_binary_tests 54 s -> 29 s).
+# The limit of both: code a test file and a library both instantiate (header-inline functions,
+# templates such as std::vector's, destructors) is linked once, and the linker keeps the copy it
+# meets first, the test file's. So a library call into such code may run the -O1 copy, or in the
+# UBSan tree the copy without those three checks. Code defined in the libraries' own .cc files
+# always runs as compiled there, with every check.
 function(skinspheres_test_program target)
   if(SKINSPHERES_COMPILER_MSVC)
     return()

@@ -63,7 +63,8 @@ void FitOptions::AddTo(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--split-rounds", settings.split_rounds,
                  "tightening: after a round of splitting that did not reach the target standoff, search, hand over, "
-                 "merge and split again, at most this many rounds (1..64; 1: one greedy loop)")
+                 "merge and split again (kept when it lowers the estimated standoff by 1%), at most this many rounds "
+                 "(1..64; 1: one greedy loop)")
       ->capture_default_str();
   app.add_option("--target-standoff", settings.target_standoff,
                  "tightening: stop splitting once the union stands off the body by this fraction of its height on "

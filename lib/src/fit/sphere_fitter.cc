@@ -51,10 +51,10 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   HoldMeshCopies(&out.spheres);
   WriteFastReference(&out.spheres);
   WriteReachGroups(&out.spheres);
-  SummarisePartReports(*paper, out.spheres, &out.report);
 
   // The self-check: a consistent set, every triangle inside its owner in the bind pose.
   if (auto error = CheckFittedSet(ch, out.spheres)) return *error;
+  SummarisePartReports(*paper, out.spheres, &out.report);  // reads the pieces: after Validate()
   out.report.triangles_covered = static_cast<int>(ch.triangle_count());
   out.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;

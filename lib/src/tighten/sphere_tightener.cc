@@ -29,19 +29,44 @@ TightenReport TightenSpheres(const RawCharacter& character, const TightenSetting
   // 3b. The budget.
   rep.budget_merges = t.MergeToBudget(static_cast<size_t>(std::max(1, settings.max_spheres)));
   rep.dropped += t.DropEmpty();
-  // 4. Splitting, 5. centre search, hand-over and merge again. Repeated while a round split
-  // something and did not reach the target standoff: the spheres have moved and merged since, so
-  // splits that did not pay may pay now, and merges may have freed some of the budget.
-  for (int round = 0; round < std::max(1, settings.split_rounds); ++round) {
-    bool reached_target = false;
-    const int splits = t.SplitLoop(&reached_target);
-    rep.splits += splits;
-    ++rep.split_rounds;
+  // 4. Splitting, 5. centre search, hand-over and merge again (one round).
+  auto step5 = [&](TightenReport* r) {
     for (int search = 0; search < settings.search_rounds; ++search) t.SearchAll();
-    rep.triangles_handed_over += t.HandOver();
-    rep.merges += t.MergeStacked();
-    rep.dropped += t.DropEmpty();
-    if (splits == 0 || reached_target) break;
+    r->triangles_handed_over += t.HandOver();
+    r->merges += t.MergeStacked();
+    r->dropped += t.DropEmpty();
+  };
+  bool reached_target = false;
+  int splits = t.SplitLoop(&reached_target);
+  rep.splits += splits;
+  rep.split_rounds = 1;
+  step5(&rep);
+  // Further rounds, while the last one split something without reaching the target: the spheres
+  // have moved and merged since, so splits that did not pay may pay now. A round is kept only when
+  // it lowers the estimated mean standoff by kRoundGain; otherwise it is undone and the rounds stop.
+  double standoff = 0.0;
+  if (splits > 0 && !reached_target && settings.split_rounds > 1) standoff = t.TotalExposure().second;
+  for (int round = 1; round < settings.split_rounds && splits > 0 && !reached_target; ++round) {
+    Tightener::Snapshot before = t.Save();
+    TightenReport r;
+    splits = t.SplitLoop(&reached_target);
+    if (splits == 0) {
+      t.Restore(std::move(before));
+      break;
+    }
+    r.splits = splits;
+    step5(&r);
+    const double after = t.TotalExposure().second;
+    if (!(after <= (1.0 - kRoundGain) * standoff)) {
+      t.Restore(std::move(before));
+      break;
+    }
+    standoff = after;
+    rep.splits += r.splits;
+    rep.triangles_handed_over += r.triangles_handed_over;
+    rep.merges += r.merges;
+    rep.dropped += r.dropped;
+    ++rep.split_rounds;
   }
   t.Finish();
   std::tie(rep.exposure_after, rep.standoff_after) = t.TotalExposure();

@@ -29,6 +29,7 @@ namespace skinspheres::lib {
 inline constexpr float kRimFraction = 0.9f;  // hand-over looks at triangles beyond this share of the radius
 inline constexpr float kMergeSlack = 1.05f;  // merge two spheres of a part whose joint ball is this close
 inline constexpr int kPatches = 6;           // a shell that a cut in two does not help is cut into this many
+inline constexpr double kRoundGain = 0.01;   // a split round after the first must lower the standoff this much
 
 // One ball (nearly) inside the other: such a pair hides each other's surface, so their exposure
 // under-counts what the union stands off; the pass neither makes nor keeps such pairs.
@@ -59,6 +60,16 @@ class Tightener {
   int SplitLoop(bool* reached_target);
   // Sorts every sphere's triangles (the output contract).
   void Finish();
+  // The spheres and their vertices, to try a round of changes and take it back.
+  struct Snapshot {
+    std::vector<TightSphere> spheres;
+    std::vector<std::vector<Eigen::Vector3f>> points;
+  };
+  Snapshot Save() const { return {sp_, pts_}; }
+  void Restore(Snapshot&& s) {
+    sp_ = std::move(s.spheres);
+    pts_ = std::move(s.points);
+  }
 
  private:
   // Spheres (other than skip_a / skip_b) whose surface a ball within `reach` of c can meet, as

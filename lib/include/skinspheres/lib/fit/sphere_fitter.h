@@ -86,7 +86,8 @@ struct FitSettings {
   // holds the fit to) with margin, without spending spheres (and run time) where they buy little.
   // Splitting runs in rounds (sphere_tightener.h): after a round that split something without
   // reaching target_standoff, the spheres are searched, handed triangles and merged, and splitting is
-  // tried again, at most split_rounds rounds (1..64; 1: one greedy loop, as before 2026-12-06).
+  // tried again; such a round is kept only when it lowers the estimated standoff by 1%. At most
+  // split_rounds rounds in all (1..64; 1: one greedy loop, as before 2026-12-06).
   bool tighten = true;
   float split_gain = 0.9f;
   int split_rounds = 8;
@@ -122,8 +123,8 @@ struct FitReport {
   float growth_mean = 0.0f;   // mean growth over the grown spheres, relative to body height
   int spheres_shrunk = 0;
   int spheres_dropped = 0;        // owned no triangle
-  int spheres_split = 0;          // splits taken by the tightening pass
-  int split_rounds = 0;           // its rounds of splitting (FitSettings::split_rounds)
+  int spheres_split = 0;          // splits taken by the tightening pass, over its rounds (merges may undo some)
+  int split_rounds = 0;           // its rounds of splitting kept (FitSettings::split_rounds)
   int triangles_handed_over = 0;  // triangles it moved to another sphere that already held them
   int spheres_merged = 0;
   int spheres_merged_for_budget = 0;  // pairs merged to meet max_spheres

@@ -39,10 +39,12 @@
 //     once the union's mean standoff Σ E / Σ exposed area is at most `target_standoff` of the body
 //     height (extent along +Y), or when nothing pays.
 //  5. Centre search, hand-over and merge again.
-//  Steps 4 and 5 are repeated, at most `split_rounds` times, while a round split something and did
-//  not reach the target standoff: moved, merged and handed over, the spheres offer splits that did
-//  not pay before, and merges free some of the budget. Each round is greedy; together they spend the
-//  budget where one greedy loop stops early (docs/FIT_REPORT.md, "Split rounds").
+//  Steps 4 and 5 are repeated, at most `split_rounds` times in all, while the last round split
+//  something and did not reach the target standoff: moved, merged and handed over, the spheres offer
+//  splits that did not pay before, and merges free some of the budget. A further round is kept only
+//  when it lowers the estimated mean standoff (Σ E / Σ exposed area) by 1%; otherwise it is undone
+//  and the rounds stop. Each round is greedy; together they spend the budget where one greedy loop
+//  stops early (docs/FIT_REPORT.md, "Split rounds").
 // Guarantees: every input triangle ends up owned by exactly one sphere of its own part, and inside
 // it (radius = max distance from the float centre to its vertices, computed in double and rounded
 // up to float); at most max(max_spheres, parts with triangles) spheres are left; the result is a pure
@@ -86,9 +88,9 @@ struct TightenSettings {
 };
 
 struct TightenReport {
-  int splits = 0;         // spheres added by splitting
-  int split_rounds = 0;   // rounds of steps 4-5 run
-  int merges = 0;         // stacked pairs merged (steps 3 and 5)
+  int splits = 0;         // spheres added by splitting, over the rounds kept (a later merge may undo some)
+  int split_rounds = 0;   // rounds of steps 4-5 kept
+  int merges = 0;         // stacked pairs merged (steps 3 and 5, over the rounds kept)
   int budget_merges = 0;  // pairs merged to meet max_spheres (step 3b)
   int triangles_handed_over = 0;
   int dropped = 0;               // spheres removed for owning nothing (after hand-over or merge)
