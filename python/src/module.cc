@@ -470,6 +470,8 @@ PySphereSet Fit(const std::optional<PathText>& path, const tool::FitOptions& fit
   report["body_height"] = fit.report.body_height;
   report["standoff_before"] = fit.report.standoff_before;
   report["standoff_after"] = fit.report.standoff_after;
+  report["spheres_split"] = fit.report.spheres_split;
+  report["split_rounds"] = fit.report.split_rounds;
   report["triangles_covered"] = fit.report.triangles_covered;
   return {std::make_shared<const runtime::SphereSet>(std::move(fit.spheres)), report};
 }

@@ -56,6 +56,9 @@ def test_fit_takes_split_rounds_and_refuses_them_out_of_range():
     one = ss.fit(target_standoff=0.0, split_rounds=1)
     rounds = ss.fit(target_standoff=0.0, split_rounds=8)
     assert len(one) < len(rounds) <= 200
+    assert one.fit_report["split_rounds"] == 1
+    assert 1 < rounds.fit_report["split_rounds"] <= 8
+    assert rounds.fit_report["standoff_after"] < one.fit_report["standoff_after"]
     try:
         ss.fit(split_rounds=0)
     except ss.InvalidArgument as e:
