@@ -2,7 +2,8 @@
 // frames, and beside the other stages of a frame.
 //
 // Characters: the built-in one and the shared ones (SKINSPHERES_ASSET_DIR; a row whose file is
-// absent skips with a message), fitted with the default FitSettings. Workloads (range `work`):
+// absent skips with a message), fitted with the default FitSettings; char 5 and 6 are CesiumMan and
+// RobotExpressive fitted with triangle pieces (piece_edge kPieceEdge). Workloads (range `work`):
 //   0 "clips":  every clip of the file at 30 fps (at most kMaxFrames frames, evenly spaced);
 //   1 "random": kRandomFrames poses with every joint turned by up to 35 degrees about a random
 //               axis (seed 7): limbs folded into each other, many contacts, the peer's best case.
@@ -83,8 +84,17 @@ using skinspheres::Vec4f;
 
 constexpr int kMaxFrames = 240;
 constexpr int kRandomFrames = 48;
-const char* const kNames[] = {"builtin", "CesiumMan.glb", "Soldier.glb", "RobotExpressive.glb", "Xbot.glb"};
-constexpr int kCharacters = 5;
+// 5 and 6 are CesiumMan and RobotExpressive fitted with triangle pieces (FitSettings::piece_edge =
+// kPieceEdge, docs/TRIANGLE_PIECES.md): what refit and narrow phase cost when spheres own pieces.
+const char* const kNames[] = {"builtin",
+                              "CesiumMan.glb",
+                              "Soldier.glb",
+                              "RobotExpressive.glb",
+                              "Xbot.glb",
+                              "CesiumMan.glb pieces",
+                              "RobotExpressive.glb pieces"};
+constexpr int kCharacters = 7;
+constexpr float kPieceEdge = 0.03f;
 
 std::span<const float> Floats(const std::vector<Eigen::Vector3f>& v) {
   return {reinterpret_cast<const float*>(v.data()), v.size() * 3};
@@ -159,7 +169,9 @@ bool MakeFrame(const Character& c, const std::vector<sk::Transform>& locals, rt:
 }
 
 void Load(Character* c, int index) {
-  const std::string name = kNames[index];
+  std::string name = kNames[index];
+  const bool pieces = name.ends_with(" pieces");
+  if (pieces) name.resize(name.size() - 7);
   if (name == "builtin") {
     c->ch = lib::MakeBuiltinCharacter();
   } else {
@@ -174,9 +186,12 @@ void Load(Character* c, int index) {
   }
   auto parts = lib::SplitBodyParts(c->ch);
   if (!parts.ok()) return void(c->error = parts.error().message);
-  auto fit = lib::FitSpheres(c->ch, *parts, lib::FitSettings{});
+  lib::FitSettings settings;
+  if (pieces) settings.piece_edge = kPieceEdge;
+  auto fit = lib::FitSpheres(c->ch, *parts, settings);
   if (!fit.ok()) return void(c->error = fit.error().message);
   c->set = std::move(fit->spheres);
+  if (pieces && !c->set.has_pieces()) return void(c->error = name + ": the fit cut no triangle into pieces");
   auto asset = rt::CharacterAsset::Create(c->set);
   if (!asset.ok()) return void(c->error = asset.error().message);
   c->asset = *asset;
@@ -250,6 +265,8 @@ void Counters(benchmark::State& state, const Character& c, size_t frames, size_t
   const double n = frames ? double(frames) : 1.0;
   state.counters["sphere_pairs"] = double(pairs) / n;
   state.counters["triangle_tests"] = double(s.triangle_tests) / n;
+  state.counters["cluster_pairs"] = double(s.cluster_pairs) / n;
+  state.counters["box_tests"] = double(s.box_tests) / n;
   state.counters["contacts"] = double(contacts) / n;
   state.counters["skinned"] = double(s.skinned_vertices) / n;
   state.counters["vertices"] = double(c.ch.vertex_count());
@@ -258,6 +275,8 @@ void Counters(benchmark::State& state, const Character& c, size_t frames, size_t
 
 void AddStats(rt::NarrowPhaseContext::Stats* sum, const rt::NarrowPhaseContext::Stats& s) {
   sum->triangle_tests += s.triangle_tests;
+  sum->cluster_pairs += s.cluster_pairs;
+  sum->box_tests += s.box_tests;
   sum->skinned_vertices += s.skinned_vertices;
 }
 
@@ -353,7 +372,7 @@ void BM_Narrow(benchmark::State& state) {
   Counters(state, *c, frame, pairs, stats, contacts);
 }
 BENCHMARK(BM_Narrow)
-    ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}, {0, 1, 2}})
+    ->ArgsProduct({{0, 1, 2, 3, 4, 5, 6}, {0, 1}, {0, 1, 2}})
     ->ArgNames({"char", "work", "mode"})
     ->Unit(benchmark::kMicrosecond);
 
@@ -456,7 +475,7 @@ void BM_Stage(benchmark::State& state) {
                  (w.held_pose ? " (held pose)" : ""));
 }
 BENCHMARK(BM_Stage)
-    ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}, {0, 1, 2, 3, 4}})
+    ->ArgsProduct({{0, 1, 2, 3, 4, 5, 6}, {0, 1}, {0, 1, 2, 3, 4}})
     ->ArgNames({"char", "work", "stage"})
     ->Unit(benchmark::kMicrosecond);
 

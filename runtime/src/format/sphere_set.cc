@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "format/grid_point.h"
+
 namespace skinspheres::runtime {
 
 const char* ToString(ExclusionReason reason) {
@@ -51,16 +53,7 @@ bool PieceCorners(uint16_t level, uint16_t index, uint8_t corners[3][2]) {
 
 Eigen::Vector3f GridPoint(const Eigen::Vector3f& p0, const Eigen::Vector3f& p1, const Eigen::Vector3f& p2,
                           uint16_t level, uint8_t i, uint8_t j) {
-  const float l = static_cast<float>(level);
-  const float w0 = static_cast<float>(level - i - j) / l, w1 = static_cast<float>(i) / l,
-              w2 = static_cast<float>(j) / l;
-  Eigen::Vector3f out;
-  for (int a = 0; a < 3; ++a) {
-    const float x = (w0 * p0[a] + w1 * p1[a]) + w2 * p2[a];
-    const float lo = std::min(std::min(p0[a], p1[a]), p2[a]), hi = std::max(std::max(p0[a], p1[a]), p2[a]);
-    out[a] = x < lo ? lo : (x > hi ? hi : x);  // (a NaN stays NaN: both comparisons are false)
-  }
-  return out;
+  return internal::GridPointInline(p0, p1, p2, level, i, j);
 }
 
 namespace {

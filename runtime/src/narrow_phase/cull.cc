@@ -103,7 +103,7 @@ void Test(const Frame& f, uint32_t i, uint32_t j, const Box& a, const Box& b, Ch
   chunk.hits.push_back(h);
 }
 
-bool PositionBox(const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t c, Box* box) {
+bool PositionBox(const SphereSet& set, const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t c, Box* box) {
   const uint32_t* vertex = Of(d).cluster_vertices.data() + Of(d).cluster_vertex_offsets[c];
   const uint32_t* const end = Of(d).cluster_vertices.data() + Of(d).cluster_vertex_offsets[c + 1];
   // One vertex per Float4 (x, y, z, 0; simd/float4.h: SSE on x86-64, portable elsewhere, the same
@@ -114,6 +114,16 @@ bool PositionBox(const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t 
   F::Float4 lo = F::Set1(INFINITY), hi = F::Set1(-INFINITY), zero = F::Zero();
   for (; vertex != end; ++vertex) {
     const F::Float4 p = F::Load3(pos[*vertex].data());
+    zero = F::Add(zero, F::Sub(p, p));
+    lo = F::Min(lo, p);
+    hi = F::Max(hi, p);
+  }
+  // Pieces' corners inside their triangles, computed as TriangleBox computes them (the same bits).
+  for (uint32_t k = Of(d).cluster_grid_offsets[c]; k < Of(d).cluster_grid_offsets[c + 1]; ++k) {
+    const PiecePoint& g = Of(d).cluster_grid[k];
+    const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{g.triangle};
+    const Eigen::Vector3f q = runtime::internal::GridPointInline(pos[v[0]], pos[v[1]], pos[v[2]], g.level, g.i, g.j);
+    const F::Float4 p = F::Load3(q.data());
     zero = F::Add(zero, F::Sub(p, p));
     lo = F::Min(lo, p);
     hi = F::Max(hi, p);

@@ -27,6 +27,7 @@
 #include <utility>
 #include <vector>
 
+#include "format/grid_point.h"
 #include "skinspheres/runtime/format/sphere_set.h"
 #include "skinspheres/runtime/narrow_phase/narrow_phase.h"
 #include "skinspheres/skinning/math_types.h"
@@ -78,11 +79,16 @@ struct NarrowPhaseData::Layout {
   std::vector<PieceItem> piece_items;
   std::vector<uint32_t> sphere_item_offsets, sphere_items;  // per sphere: its whole triangles, then pieces
   // Clusters: sphere s has clusters [cluster_offsets[s], cluster_offsets[s + 1]); cluster c has
-  // items cluster_triangles[cluster_triangle_offsets[c] ..), and the vertices of their triangles
-  // likewise.
+  // items cluster_triangles[cluster_triangle_offsets[c] ..), and their corners likewise: the source
+  // vertices among them (a whole triangle's three, a piece's corners at its triangle's vertices) in
+  // cluster_vertices, a piece's other corners (grid points, each once) in cluster_grid. A frame's
+  // cluster box is the box of those points (PositionBox): the box of its items' boxes, not of the
+  // large triangles its pieces were cut from.
   std::vector<uint32_t> cluster_offsets;
   std::vector<uint32_t> cluster_triangle_offsets, cluster_triangles;
   std::vector<uint32_t> cluster_vertex_offsets, cluster_vertices;
+  std::vector<uint32_t> cluster_grid_offsets;
+  std::vector<PiecePoint> cluster_grid;
   // Mode (b): see the accessors.
   skinning::PreparedInfluences lazy_influences;
   std::vector<uint32_t> run_begin, group_run_offsets, group_runs, group_sizes;
@@ -164,7 +170,7 @@ inline uint32_t ItemTriangle(const NarrowPhaseData::Layout& d, uint32_t id) {
 }
 
 // The corners of item `id` at positions `pos` (by source vertex): a triangle's vertices, or a
-// piece's grid points computed from them (GridPoint: the refits' arithmetic, bit for bit).
+// piece's grid points computed from them (GridPointInline: the refits' arithmetic, bit for bit).
 inline void ItemCorners(const SphereSet& set, const NarrowPhaseData::Layout& d, const Eigen::Vector3f* pos, uint32_t id,
                         Eigen::Vector3f out[3]) {
   const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{ItemTriangle(d, id)};
@@ -174,7 +180,8 @@ inline void ItemCorners(const SphereSet& set, const NarrowPhaseData::Layout& d, 
   }
   const NarrowPhaseData::Layout::PieceItem& p = d.piece_items[id - d.triangle_count];
   for (int k = 0; k < 3; ++k) {
-    out[k] = GridPoint(pos[v[0]], pos[v[1]], pos[v[2]], p.level, p.corners[k][0], p.corners[k][1]);
+    out[k] =
+        runtime::internal::GridPointInline(pos[v[0]], pos[v[1]], pos[v[2]], p.level, p.corners[k][0], p.corners[k][1]);
   }
 }
 
@@ -199,8 +206,9 @@ bool BoxesMeet(const Box& a, const Box& b, float slack);
 // item is a piece (so the report does not depend on which piece pair found it).
 void Test(const Frame& f, uint32_t i, uint32_t j, const Box& a, const Box& b, Chunk& chunk);
 
-// The box of the cluster's skinned vertices. False when one is not finite.
-bool PositionBox(const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t c, Box* box);
+// The box of the cluster's skinned corners: its source vertices and its pieces' grid points. False
+// when one is not finite.
+bool PositionBox(const SphereSet& set, const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t c, Box* box);
 
 // The clusters of sphere s whose box reaches into sphere `other` (grown by the margin).
 size_t Reaching(const Frame& f, uint32_t s, const Vec4f& other, uint32_t* out);

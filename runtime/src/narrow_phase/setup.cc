@@ -9,6 +9,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <unordered_map>
 #include <vector>
 
@@ -62,7 +63,10 @@ void BuildClusters(const SphereSet& set, NarrowPhaseData* d) {
   Of(*d).cluster_offsets.assign(1, 0);
   Of(*d).cluster_triangle_offsets.assign(1, 0);
   Of(*d).cluster_vertex_offsets.assign(1, 0);
+  Of(*d).cluster_grid_offsets.assign(1, 0);
   std::vector<uint32_t> tris, verts;
+  std::vector<PiecePoint> grid;
+  auto key = [](const PiecePoint& g) { return std::tuple(g.triangle, g.level, g.i, g.j); };
   struct Range {
     size_t begin, end;
   };
@@ -95,16 +99,35 @@ void BuildClusters(const SphereSet& set, NarrowPhaseData* d) {
     std::sort(leaves.begin(), leaves.end(), [](const Range& a, const Range& b) { return a.begin < b.begin; });
     for (const Range& r : leaves) {
       verts.clear();
+      grid.clear();
       for (size_t k = r.begin; k < r.end; ++k) {
-        Of(*d).cluster_triangles.push_back(tris[k]);
-        const uint32_t t = ItemTriangle(Of(*d), tris[k]);  // a piece's box lies in its triangle's
-        for (int c = 0; c < 3; ++c) verts.push_back(set.triangle_vertices[3 * size_t{t} + c]);
+        const uint32_t id = tris[k];
+        Of(*d).cluster_triangles.push_back(id);
+        const uint32_t t = ItemTriangle(Of(*d), id);
+        const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{t};
+        if (id < Of(*d).triangle_count) {
+          verts.insert(verts.end(), v, v + 3);
+          continue;
+        }
+        const NarrowPhaseData::Layout::PieceItem& p = Of(*d).piece_items[id - Of(*d).triangle_count];
+        for (const auto& ij : p.corners) {
+          const int corner = GridCorner(p.level, ij[0], ij[1]);
+          if (corner >= 0) {
+            verts.push_back(v[corner]);
+          } else {
+            grid.push_back(PiecePoint{t, p.level, ij[0], ij[1]});
+          }
+        }
       }
       std::sort(verts.begin(), verts.end());
       verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+      std::sort(grid.begin(), grid.end(), [&](const PiecePoint& a, const PiecePoint& b) { return key(a) < key(b); });
+      grid.erase(std::unique(grid.begin(), grid.end()), grid.end());
       Of(*d).cluster_vertices.insert(Of(*d).cluster_vertices.end(), verts.begin(), verts.end());
+      Of(*d).cluster_grid.insert(Of(*d).cluster_grid.end(), grid.begin(), grid.end());
       Of(*d).cluster_triangle_offsets.push_back(uint32_t(Of(*d).cluster_triangles.size()));
       Of(*d).cluster_vertex_offsets.push_back(uint32_t(Of(*d).cluster_vertices.size()));
+      Of(*d).cluster_grid_offsets.push_back(uint32_t(Of(*d).cluster_grid.size()));
     }
     Of(*d).cluster_offsets.push_back(uint32_t(Of(*d).cluster_vertex_offsets.size() - 1));
   }

@@ -14,6 +14,7 @@
 #include <type_traits>
 
 #include "format/affine_inverse.h"
+#include "format/grid_point.h"
 #include "refit/refit_internal.h"
 #include "skinspheres/skinning/platform.h"
 
@@ -421,10 +422,10 @@ inline void BlendedCentre(const RefitJob& job, size_t s, float c[3]) {
 inline void BoxCentre(const RefitJob& job, uint32_t v0, uint32_t v1, float c[3]) {
   const auto& set = *job.set;
   float lo[3], hi[3];
-  const Eigen::Vector3f first = set.PointAt(set.vertices[v0], job.positions.data());
+  const Eigen::Vector3f first = internal::PointAt(set, set.vertices[v0], job.positions.data());
   for (int a = 0; a < 3; ++a) lo[a] = hi[a] = first[a];
   for (uint32_t k = v0 + 1; k < v1; ++k) {
-    const Eigen::Vector3f p = set.PointAt(set.vertices[k], job.positions.data());
+    const Eigen::Vector3f p = internal::PointAt(set, set.vertices[k], job.positions.data());
     for (int a = 0; a < 3; ++a) {
       lo[a] = std::min(lo[a], p[a]);
       hi[a] = std::max(hi[a], p[a]);
@@ -450,7 +451,7 @@ bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
     float d2max = 0.0f;
     bool finite = std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2]);
     for (uint32_t k = v0; k < v1; ++k) {
-      const float d2 = SquaredDistance(set.PointAt(set.vertices[k], job.positions.data()), c);
+      const float d2 = SquaredDistance(internal::PointAt(set, set.vertices[k], job.positions.data()), c);
       finite &= d2 <= FLT_MAX;  // false for NaN and Inf (std::max would drop a NaN)
       d2max = std::max(d2max, d2);
     }

@@ -5,11 +5,13 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <random>
 #include <vector>
 
+#include "format/grid_point.h"  // runtime/src: the inline grid points of the refit and narrow phase
 #include "runtime/narrow_phase/same_contacts.h"
 #include "runtime/refit/random_poses.h"
 #include "runtime/sample_sphere_set.h"
@@ -70,6 +72,44 @@ TEST(TrianglePieces, ThePiecesOfEachLevelTileTheTriangle) {
 // a coordinate it is that coordinate exactly (the narrow phase's cluster boxes are the triangles'),
 // and a corner is its vertex exactly. Every level and grid point, on triangles with shared and
 // random coordinates.
+// The refit and the narrow phase compute grid points with GridPointInline (runtime/src), whose
+// weights come from a table built at compile time: each entry must be the bits of the division at
+// run time (volatile operands, so the compiler cannot fold it), and the points those of the
+// formula written out here with run-time divisions, at every level and grid point.
+TEST(TrianglePieces, GridPointWeightsAreTheRunTimeDivisions) {
+  for (int level = 1; level <= kMaxPieceLevel; ++level) {
+    for (int n = 0; n <= level; ++n) {
+      volatile float num = static_cast<float>(n), den = static_cast<float>(level);
+      const float quotient = num / den;
+      ASSERT_EQ(std::bit_cast<uint32_t>(internal::kGridWeights.w[level][n]), std::bit_cast<uint32_t>(quotient))
+          << n << " / " << level;
+    }
+  }
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-10.0f, 10.0f);
+  for (int trial = 0; trial < 50; ++trial) {
+    Eigen::Vector3f p[3];
+    for (auto& q : p) q = Eigen::Vector3f(u(rng), u(rng), u(rng));
+    for (uint16_t level = 2; level <= kMaxPieceLevel; ++level) {
+      volatile float den = static_cast<float>(level);
+      for (uint8_t i = 0; i <= level; ++i) {
+        for (uint8_t j = 0; i + j <= level; ++j) {
+          const float w0 = static_cast<float>(level - i - j) / den, w1 = static_cast<float>(i) / den,
+                      w2 = static_cast<float>(j) / den;
+          const Eigen::Vector3f g = internal::GridPointInline(p[0], p[1], p[2], level, i, j);
+          ASSERT_EQ(g, GridPoint(p[0], p[1], p[2], level, i, j));
+          for (int a = 0; a < 3; ++a) {
+            const float x = (w0 * p[0][a] + w1 * p[1][a]) + w2 * p[2][a];
+            const float lo = std::min({p[0][a], p[1][a], p[2][a]}), hi = std::max({p[0][a], p[1][a], p[2][a]});
+            ASSERT_EQ(std::bit_cast<uint32_t>(g[a]), std::bit_cast<uint32_t>(std::clamp(x, lo, hi)))
+                << level << " " << int(i) << " " << int(j);
+          }
+        }
+      }
+    }
+  }
+}
+
 TEST(TrianglePieces, GridPointsStayInTheirTrianglesBox) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(-10.0f, 10.0f);
