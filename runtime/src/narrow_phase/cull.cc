@@ -31,7 +31,7 @@ bool TriangleBox(const Frame& f, uint32_t id, Box* box) {
     return CornerBox(Vertex(f, id, 0), Vertex(f, id, 1), Vertex(f, id, 2), id, box);
   }
   Eigen::Vector3f c[3];
-  ItemCorners(f.set, Of(f.data), f.pos, id, c);
+  ItemCorners(f.set, Of(f.data), f.pos, f.grid_pos, id, c);
   return CornerBox(c[0], c[1], c[2], id, box);
 }
 
@@ -73,8 +73,8 @@ void Test(const Frame& f, uint32_t i, uint32_t j, const Box& a, const Box& b, Ch
     }
   } else {
     Eigen::Vector3f p[3], q[3];
-    ItemCorners(f.set, d, f.pos, a.id, p);
-    ItemCorners(f.set, d, f.pos, b.id, q);
+    ItemCorners(f.set, d, f.pos, f.grid_pos, a.id, p);
+    ItemCorners(f.set, d, f.pos, f.grid_pos, b.id, q);
     if (!TriangleContactOf(p[0], p[1], p[2], q[0], q[1], q[2], f.margin, &g)) return;
   }
   if (f.rest_rule && f.data.RestExcluded(t, u)) return;
@@ -103,7 +103,8 @@ void Test(const Frame& f, uint32_t i, uint32_t j, const Box& a, const Box& b, Ch
   chunk.hits.push_back(h);
 }
 
-bool PositionBox(const SphereSet& set, const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t c, Box* box) {
+bool PositionBox(const SphereSet& set, const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t c, Box* box,
+                 Eigen::Vector3f* grid_out) {
   const uint32_t* vertex = Of(d).cluster_vertices.data() + Of(d).cluster_vertex_offsets[c];
   const uint32_t* const end = Of(d).cluster_vertices.data() + Of(d).cluster_vertex_offsets[c + 1];
   // One vertex per Float4 (x, y, z, 0; simd/float4.h: SSE on x86-64, portable elsewhere, the same
@@ -122,7 +123,8 @@ bool PositionBox(const SphereSet& set, const NarrowPhaseData& d, const Eigen::Ve
   for (uint32_t k = Of(d).cluster_grid_offsets[c]; k < Of(d).cluster_grid_offsets[c + 1]; ++k) {
     const PiecePoint& g = Of(d).cluster_grid[k];
     const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{g.triangle};
-    const Eigen::Vector3f q = runtime::internal::GridPointInline(pos[v[0]], pos[v[1]], pos[v[2]], g.level, g.i, g.j);
+    const Eigen::Vector3f& q = grid_out[k] =
+        runtime::internal::GridPointInline(pos[v[0]], pos[v[1]], pos[v[2]], g.level, g.i, g.j);
     const F::Float4 p = F::Load3(q.data());
     zero = F::Add(zero, F::Sub(p, p));
     lo = F::Min(lo, p);

@@ -30,7 +30,7 @@ bool PrepareClusters(const Frame& f, NarrowPhaseContext& ctx, const ParallelFor&
     for (size_t k = begin; k < end; ++k) {
       const uint32_t s = Of(ctx).involved[k];
       for (uint32_t c = Of(d).cluster_offsets[s]; c < Of(d).cluster_offsets[s + 1]; ++c) {
-        good &= PositionBox(f.set, d, f.pos, c, &Of(ctx).cluster_box[c]);
+        good &= PositionBox(f.set, d, f.pos, c, &Of(ctx).cluster_box[c], Of(ctx).grid_pos.data());
       }
       UniteClusters(d, s, ctx);
     }

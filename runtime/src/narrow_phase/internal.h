@@ -21,6 +21,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -89,6 +90,10 @@ struct NarrowPhaseData::Layout {
   std::vector<uint32_t> cluster_vertex_offsets, cluster_vertices;
   std::vector<uint32_t> cluster_grid_offsets;
   std::vector<PiecePoint> cluster_grid;
+  // Per piece item (id - triangle_count), each corner: its source vertex, or kGridRef | its index in
+  // cluster_grid (within its cluster's range), where a frame's PositionBox left the point.
+  static constexpr uint32_t kGridRef = uint32_t{1} << 31;
+  std::vector<std::array<uint32_t, 3>> piece_corner_refs;
   // Mode (b): see the accessors.
   skinning::PreparedInfluences lazy_influences;
   std::vector<uint32_t> run_begin, group_run_offsets, group_runs, group_sizes;
@@ -116,6 +121,7 @@ struct NarrowPhaseContext::State {
   std::vector<uint32_t> involved;              // the spheres in this frame's pairs
   std::vector<narrow_phase::Box> cluster_box;  // per cluster: this frame's box
   std::vector<narrow_phase::Box> sphere_box;   // per sphere: the union of its clusters' boxes
+  std::vector<Eigen::Vector3f> grid_pos;       // per cluster_grid entry: this frame's point (Frame::grid_pos)
   uint32_t frame_stamp = 0;
   // Mode (b).
   std::vector<Eigen::Vector3f> skinned;              // per vertex
@@ -154,6 +160,9 @@ struct Frame {
   bool rest_rule;                    // apply rule 3 (false while rule 3 itself is being computed)
   const Box* cluster_box = nullptr;  // this frame's cluster boxes (set for the spheres in pairs)
   const Box* sphere_box = nullptr;   // and the unions of each sphere's cluster boxes
+  // This frame's grid points by cluster_grid index, computed with the cluster boxes (the spheres
+  // in pairs); null: a piece's corners are computed where they are read.
+  const Eigen::Vector3f* grid_pos = nullptr;
 };
 
 inline float Slack(float margin) { return margin * (1.0f + 1e-5f); }
@@ -170,12 +179,19 @@ inline uint32_t ItemTriangle(const NarrowPhaseData::Layout& d, uint32_t id) {
 }
 
 // The corners of item `id` at positions `pos` (by source vertex): a triangle's vertices, or a
-// piece's grid points computed from them (GridPointInline: the refits' arithmetic, bit for bit).
-inline void ItemCorners(const SphereSet& set, const NarrowPhaseData::Layout& d, const Eigen::Vector3f* pos, uint32_t id,
-                        Eigen::Vector3f out[3]) {
+// piece's grid points computed from them (GridPointInline: the refits' arithmetic, bit for bit),
+// read from `grid_pos` (Frame::grid_pos) when given.
+inline void ItemCorners(const SphereSet& set, const NarrowPhaseData::Layout& d, const Eigen::Vector3f* pos,
+                        const Eigen::Vector3f* grid_pos, uint32_t id, Eigen::Vector3f out[3]) {
   const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{ItemTriangle(d, id)};
   if (id < d.triangle_count) {
     for (int k = 0; k < 3; ++k) out[k] = pos[v[k]];
+    return;
+  }
+  if (grid_pos != nullptr) {
+    const auto& refs = d.piece_corner_refs[id - d.triangle_count];
+    constexpr uint32_t kGrid = NarrowPhaseData::Layout::kGridRef;
+    for (int k = 0; k < 3; ++k) out[k] = (refs[k] & kGrid) != 0 ? grid_pos[refs[k] & ~kGrid] : pos[refs[k]];
     return;
   }
   const NarrowPhaseData::Layout::PieceItem& p = d.piece_items[id - d.triangle_count];
@@ -208,7 +224,9 @@ void Test(const Frame& f, uint32_t i, uint32_t j, const Box& a, const Box& b, Ch
 
 // The box of the cluster's skinned corners: its source vertices and its pieces' grid points. False
 // when one is not finite.
-bool PositionBox(const SphereSet& set, const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t c, Box* box);
+// The grid points are also written to grid_out[k] for the cluster's range of cluster_grid.
+bool PositionBox(const SphereSet& set, const NarrowPhaseData& d, const Eigen::Vector3f* pos, uint32_t c, Box* box,
+                 Eigen::Vector3f* grid_out);
 
 // The clusters of sphere s whose box reaches into sphere `other` (grown by the margin).
 size_t Reaching(const Frame& f, uint32_t s, const Vec4f& other, uint32_t* out);

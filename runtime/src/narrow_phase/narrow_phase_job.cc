@@ -140,6 +140,7 @@ void NarrowPhaseContext::Resize(const NarrowPhaseData& data, bool lazy_skinning)
   st.involved.reserve(data.sphere_count());
   st.cluster_box.assign(data.cluster_count(), narrow_phase::Box{});
   st.sphere_box.assign(data.sphere_count(), narrow_phase::Box{});
+  st.grid_pos.assign(narrow_phase::Access::Of(data).cluster_grid.size(), Eigen::Vector3f::Zero());
   st.frame_stamp = 0;
   if (lazy_skinning) {
     st.skinned.assign(data.vertex_count(), Eigen::Vector3f::Zero());
@@ -195,7 +196,8 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
               data->margin(),
               /*rest_rule=*/true,
               Of(ctx).cluster_box.data(),
-              Of(ctx).sphere_box.data()};
+              Of(ctx).sphere_box.data(),
+              Of(ctx).grid_pos.data()};
   // Positions: the caller's (mode a), or skinned here, the involved spheres' vertices only (mode b).
   std::optional<LazySkinner> skinner;
   if (lazy) {

@@ -57,13 +57,14 @@ void BuildClusters(const SphereSet& set, NarrowPhaseData* d) {
   const auto& rest = Of(*d).rest_positions;
   auto centroid = [&](uint32_t id) {
     Eigen::Vector3f c[3];
-    ItemCorners(set, Of(*d), rest.data(), id, c);
+    ItemCorners(set, Of(*d), rest.data(), nullptr, id, c);
     return Eigen::Vector3f((c[0] + c[1] + c[2]) / 3.0f);
   };
   Of(*d).cluster_offsets.assign(1, 0);
   Of(*d).cluster_triangle_offsets.assign(1, 0);
   Of(*d).cluster_vertex_offsets.assign(1, 0);
   Of(*d).cluster_grid_offsets.assign(1, 0);
+  Of(*d).piece_corner_refs.assign(Of(*d).piece_items.size(), {});
   std::vector<uint32_t> tris, verts;
   std::vector<PiecePoint> grid;
   auto key = [](const PiecePoint& g) { return std::tuple(g.triangle, g.level, g.i, g.j); };
@@ -123,6 +124,26 @@ void BuildClusters(const SphereSet& set, NarrowPhaseData* d) {
       verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
       std::sort(grid.begin(), grid.end(), [&](const PiecePoint& a, const PiecePoint& b) { return key(a) < key(b); });
       grid.erase(std::unique(grid.begin(), grid.end()), grid.end());
+      // Each piece's corners: a vertex, or where its grid point sits in this cluster's range.
+      const uint32_t grid_base = uint32_t(Of(*d).cluster_grid.size());
+      for (size_t k = r.begin; k < r.end; ++k) {
+        const uint32_t id = tris[k];
+        if (id < Of(*d).triangle_count) continue;
+        const NarrowPhaseData::Layout::PieceItem& p = Of(*d).piece_items[id - Of(*d).triangle_count];
+        const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{p.triangle};
+        auto& refs = Of(*d).piece_corner_refs[id - Of(*d).triangle_count];
+        for (int c = 0; c < 3; ++c) {
+          const PiecePoint g{p.triangle, p.level, p.corners[c][0], p.corners[c][1]};
+          const int corner = GridCorner(g.level, g.i, g.j);
+          if (corner >= 0) {
+            refs[c] = v[corner];
+            continue;
+          }
+          const auto at = std::lower_bound(grid.begin(), grid.end(), g,
+                                           [&](const PiecePoint& a, const PiecePoint& b) { return key(a) < key(b); });
+          refs[c] = NarrowPhaseData::Layout::kGridRef | (grid_base + uint32_t(at - grid.begin()));
+        }
+      }
       Of(*d).cluster_vertices.insert(Of(*d).cluster_vertices.end(), verts.begin(), verts.end());
       Of(*d).cluster_grid.insert(Of(*d).cluster_grid.end(), grid.begin(), grid.end());
       Of(*d).cluster_triangle_offsets.push_back(uint32_t(Of(*d).cluster_triangles.size()));
