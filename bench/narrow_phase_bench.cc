@@ -470,6 +470,11 @@ void BM_Stage(benchmark::State& state) {
       benchmark::ClobberMemory();
     }
   }
+  if (stage == 1) {  // the points exact mode bounds: the set's lists, and the rest data's (pieces)
+    state.counters["points"] = double(c->set.vertices.size());
+    const auto reduced = c->asset->rest().exact_points();
+    state.counters["exact_points"] = double(reduced.empty() ? c->set.vertices.size() : reduced.size());
+  }
   static const char* const kStages[] = {"skin whole mesh", "refit exact", "query exact", "refit fast", "query fast"};
   state.SetLabel(std::string(kNames[state.range(0)]) + (work ? " random: " : " clips: ") + kStages[stage] +
                  (w.held_pose ? " (held pose)" : ""));

@@ -90,6 +90,28 @@ inline SphereSet TwoJointsWithMesh() {
   return set;
 }
 
+// Each sphere of a set whose rest pose is its bind pose: the box centre of its points (SphereSet::
+// vertices, grid points included) at rest, the radius holding them rounded up, radius_fast from the
+// mesh (FastReferenceRadiiFromMesh: a grid point's copies spread where its triangle's vertices weigh
+// the joints differently).
+inline void FitSpheresToPointsAtBind(SphereSet& set) {
+  const Eigen::Vector3f* bind = set.mesh.positions_bind.data();
+  for (size_t s = 0; s < set.size(); ++s) {
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e30f), hi = -lo;
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+      lo = lo.cwiseMin(set.PointAt(set.vertices[k], bind)), hi = hi.cwiseMax(set.PointAt(set.vertices[k], bind));
+    }
+    set.centers_rest[s] = 0.5f * (lo + hi);
+    double r = 0.0;
+    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+      r = std::max(r, (set.PointAt(set.vertices[k], bind) - set.centers_rest[s]).cast<double>().norm());
+    }
+    set.radii_rest[s] = set.radii_fast[s] = std::nextafter(static_cast<float>(r), 1e30f);
+  }
+  const auto fast = FastReferenceRadiiFromMesh(set);
+  for (size_t s = 0; s < set.size() && fast.ok(); ++s) set.radii_fast[s] = std::max(set.radii_rest[s], (*fast)[s]);
+}
+
 // TwoJointsWithMesh with triangle 1 (v1 v3 v2) cut at level 2 (sphere_set.h, TrianglePiece): its
 // grid points (1, 0) (mid v1-v3), (0, 1) (mid v1-v2) and (1, 1) (mid v3-v2) are points 4, 5, 6.
 // Sphere 0 owns triangle 0 whole and pieces 0, 2, 3 of triangle 1; sphere 1 owns piece 1, the
@@ -105,21 +127,7 @@ inline SphereSet TwoJointsWithPieces() {
   set.triangles = {0};
   set.piece_offsets = {0, 3, 4};
   set.pieces = {{1, 2, 0}, {1, 2, 2}, {1, 2, 3}, {1, 2, 1}};
-  const Eigen::Vector3f* bind = set.mesh.positions_bind.data();  // rest = bind = identity
-  for (size_t s = 0; s < 2; ++s) {
-    Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e30f), hi = -lo;
-    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
-      lo = lo.cwiseMin(set.PointAt(set.vertices[k], bind)), hi = hi.cwiseMax(set.PointAt(set.vertices[k], bind));
-    }
-    set.centers_rest[s] = 0.5f * (lo + hi);
-    double r = 0.0;
-    for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
-      r = std::max(r, (set.PointAt(set.vertices[k], bind) - set.centers_rest[s]).cast<double>().norm());
-    }
-    set.radii_rest[s] = set.radii_fast[s] = std::nextafter(static_cast<float>(r), 1e30f);
-  }
-  const auto fast = FastReferenceRadiiFromMesh(set);
-  for (size_t s = 0; s < 2 && fast.ok(); ++s) set.radii_fast[s] = std::max(set.radii_rest[s], (*fast)[s]);
+  FitSpheresToPointsAtBind(set);
   return set;
 }
 

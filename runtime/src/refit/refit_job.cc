@@ -5,13 +5,17 @@
 
 #include <Eigen/LU>
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cfloat>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <type_traits>
+#include <vector>
 
 #include "format/affine_inverse.h"
 #include "format/grid_point.h"
@@ -207,6 +211,108 @@ Result<bool> ChooseFastReference(SphereSet* set) {
   return false;
 }
 
+namespace {
+
+// 2D cross product of (b - a) and (c - a) in grid coordinates.
+int64_t Cross(const std::array<int, 2>& a, const std::array<int, 2>& b, const std::array<int, 2>& c) {
+  return int64_t{b[0] - a[0]} * (c[1] - a[1]) - int64_t{b[1] - a[1]} * (c[0] - a[0]);
+}
+
+// RefitRestData::exact_points(): per sphere, its source vertices and, per cut triangle, the grid
+// points at the corners of the convex hull of what it lists on that triangle (Andrew's monotone
+// chain on integer grid coordinates; points on a hull edge are not corners).
+void ExactPoints(const SphereSet& set, std::vector<uint32_t>* offsets, std::vector<uint32_t>* points) {
+  const uint32_t svc = set.source_vertex_count;
+  offsets->assign(1, 0);
+  struct Listed {
+    uint32_t triangle;
+    std::array<int, 2> ij;
+    uint32_t point;  // the set's numbering; a triangle's vertex when < svc
+  };
+  std::vector<Listed> listed;
+  std::vector<uint32_t> sources, cut;
+  std::vector<size_t> order, chain;
+  std::vector<uint8_t> keep;
+  const auto by_key = [](const Listed& a, const Listed& b) {
+    return std::tie(a.triangle, a.ij, a.point) < std::tie(b.triangle, b.ij, b.point);
+  };
+  for (size_t s = 0; s < set.size(); ++s) {
+    const uint32_t v0 = set.vertex_offsets[s], v1 = set.vertex_offsets[s + 1];
+    sources.clear();
+    listed.clear();
+    for (uint32_t k = v0; k < v1; ++k) {
+      const uint32_t p = set.vertices[k];
+      if (p < svc) {
+        sources.push_back(p);
+        continue;
+      }
+      const PiecePoint& g = set.piece_points[p - svc];
+      listed.push_back({g.triangle, {g.i, g.j}, p});
+    }
+    std::sort(sources.begin(), sources.end());
+    // Each cut triangle's listed vertices join its grid points as hull candidates.
+    cut.clear();
+    for (const Listed& l : listed) cut.push_back(l.triangle);
+    std::sort(cut.begin(), cut.end());
+    cut.erase(std::unique(cut.begin(), cut.end()), cut.end());
+    for (uint32_t t : cut) {
+      const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{t};
+      const auto first = std::find_if(listed.begin(), listed.end(), [&](const Listed& l) { return l.triangle == t; });
+      const int level = set.piece_points[first->point - svc].level;
+      const std::array<int, 2> corner_ij[3] = {{0, 0}, {level, 0}, {0, level}};
+      for (int c = 0; c < 3; ++c) {
+        if (std::binary_search(sources.begin(), sources.end(), v[c])) listed.push_back({t, corner_ij[c], v[c]});
+      }
+    }
+    std::sort(listed.begin(), listed.end(), by_key);
+    keep.assign(listed.size(), 0);
+    for (size_t b = 0; b < listed.size();) {
+      size_t e = b;
+      while (e < listed.size() && listed[e].triangle == listed[b].triangle) ++e;
+      // [b, e): one triangle's candidates, sorted by (i, j): the lower and the upper chain.
+      chain.clear();
+      auto build = [&](auto begin, auto end) {
+        const size_t base = chain.size();
+        for (auto it = begin; it != end; ++it) {
+          const size_t q = *it;
+          while (chain.size() >= base + 2 &&
+                 Cross(listed[chain[chain.size() - 2]].ij, listed[chain.back()].ij, listed[q].ij) <= 0) {
+            chain.pop_back();
+          }
+          chain.push_back(q);
+        }
+      };
+      order.clear();
+      for (size_t q = b; q < e; ++q) {
+        if (order.empty() || listed[order.back()].ij != listed[q].ij) order.push_back(q);
+      }
+      if (order.size() <= 2) {
+        for (size_t q : order) keep[q] = 1;
+      } else {
+        build(order.begin(), order.end());
+        build(order.rbegin(), order.rend());
+        for (size_t q : chain) keep[q] = 1;
+      }
+      b = e;
+    }
+    // The sphere's list order, without the grid points left out.
+    for (uint32_t k = v0; k < v1; ++k) {
+      const uint32_t p = set.vertices[k];
+      bool kept = p < svc;
+      if (!kept) {
+        const PiecePoint& g = set.piece_points[p - svc];
+        const Listed probe{g.triangle, {g.i, g.j}, p};
+        const auto at = std::lower_bound(listed.begin(), listed.end(), probe, by_key);
+        kept = keep[size_t(at - listed.begin())] != 0;
+      }
+      if (kept) points->push_back(p);
+    }
+    offsets->push_back(static_cast<uint32_t>(points->size()));
+  }
+}
+
+}  // namespace
+
 Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
   if (auto err = set.Validate()) {
     return MakeError(err->code, "RefitRestData: sphere set '" + set.source_file + "': " + err->message);
@@ -293,6 +399,8 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
       d.center_in_joint_[k] = q.cast<float>();
     }
   }
+  d.point_count_ = set.source_vertex_count + set.piece_points.size();
+  if (set.has_pieces()) ExactPoints(set, &d.exact_point_offsets_, &d.exact_points_);
   return d;
 }
 
@@ -318,7 +426,11 @@ bool RefitJob::Validate() const {
     // The set's point indices (source vertices and grid points) were checked when the rest data
     // was built; without rest data check the CSR end at least (O(1)).
     if (set->vertex_offsets[n] > set->vertices.size()) return false;
-    if (rest != nullptr && rest->source_vertex_count() != set->source_vertex_count) return false;
+    if (rest != nullptr && (rest->source_vertex_count() != set->source_vertex_count ||
+                            rest->point_count() != set->source_vertex_count + set->piece_points.size() ||
+                            (!rest->exact_point_offsets().empty() && rest->exact_point_offsets().size() != n + 1))) {
+      return false;
+    }
   } else if (mode != RefitMode::kFast) {
     return false;
   }
@@ -418,14 +530,14 @@ inline void BlendedCentre(const RefitJob& job, size_t s, float c[3]) {
   }
 }
 
-// The centre of the box of the sphere's vertices [v0, v1) (v0 < v1).
-inline void BoxCentre(const RefitJob& job, uint32_t v0, uint32_t v1, float c[3]) {
+// The centre of the box of the points list[v0, v1) (v0 < v1).
+inline void BoxCentre(const RefitJob& job, const uint32_t* list, uint32_t v0, uint32_t v1, float c[3]) {
   const auto& set = *job.set;
   float lo[3], hi[3];
-  const Eigen::Vector3f first = internal::PointAt(set, set.vertices[v0], job.positions.data());
+  const Eigen::Vector3f first = internal::PointAt(set, list[v0], job.positions.data());
   for (int a = 0; a < 3; ++a) lo[a] = hi[a] = first[a];
   for (uint32_t k = v0 + 1; k < v1; ++k) {
-    const Eigen::Vector3f p = internal::PointAt(set, set.vertices[k], job.positions.data());
+    const Eigen::Vector3f p = internal::PointAt(set, list[k], job.positions.data());
     for (int a = 0; a < 3; ++a) {
       lo[a] = std::min(lo[a], p[a]);
       hi[a] = std::max(hi[a], p[a]);
@@ -437,21 +549,26 @@ inline void BoxCentre(const RefitJob& job, uint32_t v0, uint32_t v1, float c[3])
 bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
   const auto& set = *job.set;
   const bool joints = !job.joint_world.empty();
+  // The points to bound: the set's lists, or the rest data's, without the grid points no centre
+  // can have farthest (RefitRestData::exact_points).
+  const bool reduced = job.rest != nullptr && !job.rest->exact_point_offsets().empty();
+  const uint32_t* offsets = reduced ? job.rest->exact_point_offsets().data() : set.vertex_offsets.data();
+  const uint32_t* list = reduced ? job.rest->exact_points().data() : set.vertices.data();
   bool ok = true;
   for (size_t s = begin; s < end; ++s) {
-    const uint32_t v0 = set.vertex_offsets[s], v1 = set.vertex_offsets[s + 1];
+    const uint32_t v0 = offsets[s], v1 = offsets[s + 1];
     float c[3];
     if (joints) {
       BlendedCentre(job, s, c);
     } else if (v0 == v1) {
       for (int a = 0; a < 3; ++a) c[a] = set.centers_rest[s][a];
     } else {
-      BoxCentre(job, v0, v1, c);
+      BoxCentre(job, list, v0, v1, c);
     }
     float d2max = 0.0f;
     bool finite = std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2]);
     for (uint32_t k = v0; k < v1; ++k) {
-      const float d2 = SquaredDistance(internal::PointAt(set, set.vertices[k], job.positions.data()), c);
+      const float d2 = SquaredDistance(internal::PointAt(set, list[k], job.positions.data()), c);
       finite &= d2 <= FLT_MAX;  // false for NaN and Inf (std::max would drop a NaN)
       d2max = std::max(d2max, d2);
     }

@@ -218,6 +218,17 @@ TEST(TrianglePieces, ASetWithPiecesValidatesAndEachBrokenOwnershipIsRefused) {
 // lies inside, the grid points taken in double from the same skinned vertices (exact) or skinned in
 // double (fast). Sphere 1 holds only its corner piece of triangle 1: on rigid poses the radius
 // around its centre that holds the whole triangle is larger.
+// Point `point` of the set's lists from the skinned source vertices, in double: a vertex, or a
+// grid point by its barycentric formula over its triangle's vertices.
+Eigen::Vector3d PointFromSkinned(const SphereSet& set, const std::vector<Eigen::Vector3f>& skinned, uint32_t point) {
+  if (point < set.source_vertex_count) return skinned[point].cast<double>();
+  const PiecePoint& g = set.piece_points[point - set.source_vertex_count];
+  const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{g.triangle};
+  return (double(g.level - g.i - g.j) * skinned[v[0]].cast<double>() + double(g.i) * skinned[v[1]].cast<double>() +
+          double(g.j) * skinned[v[2]].cast<double>()) /
+         double(g.level);
+}
+
 TEST(TrianglePieces, BothRefitsHoldEveryPieceAtRandomPoses) {
   const SphereSet set = TwoJointsWithPieces();
   auto rest = RefitRestData::Create(set);
@@ -236,16 +247,7 @@ TEST(TrianglePieces, BothRefitsHoldEveryPieceAtRandomPoses) {
     for (size_t s = 0; s < set.size(); ++s) {
       for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
         const uint32_t point = set.vertices[k];
-        Eigen::Vector3d from_skinned = Eigen::Vector3d::Zero();
-        if (point < set.source_vertex_count) {
-          from_skinned = skinned[point].cast<double>();
-        } else {
-          const PiecePoint& g = set.piece_points[point - set.source_vertex_count];
-          const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{g.triangle};
-          from_skinned = (double(g.level - g.i - g.j) * skinned[v[0]].cast<double>() +
-                          double(g.i) * skinned[v[1]].cast<double>() + double(g.j) * skinned[v[2]].cast<double>()) /
-                         double(g.level);
-        }
+        const Eigen::Vector3d from_skinned = PointFromSkinned(set, skinned, point);
         ASSERT_LE((from_skinned - exact[s].head<3>().cast<double>()).norm(), exact[s].w())
             << "pose " << p << " sphere " << s << " point " << point << " (exact)";
         ASSERT_LE((PointInDouble(set, world, point) - fast[s].head<3>().cast<double>()).norm(), fast[s].w())
@@ -273,6 +275,91 @@ TEST(TrianglePieces, BothRefitsHoldEveryPieceAtRandomPoses) {
       whole = std::max(whole, (skinned[set.triangle_vertices[3 + c]] - exact[1].head<3>()).cast<double>().norm());
     }
     ASSERT_LT(exact[1].w(), 0.9 * whole) << "rigid pose " << p;
+  }
+}
+
+// TwoJointsWithMesh with triangle 1 (v1 v3 v2) cut at `level`: sphere 1 owns the pieces of
+// triangle 1 whose corners all lie in grid rows j <= rows (a trapezoid: v1, v3 and the grid points
+// (level - rows, rows), (0, rows)), sphere 0 triangle 0 whole and the other pieces (the triangle
+// above). Each sphere lists every corner of what it owns; box centre and holding radius at rest
+// (rest = bind), radius_fast from the mesh. Most grid points lie inside those regions.
+SphereSet TwoJointsCutAtLevel(uint16_t level, int rows) {
+  SphereSet set = TwoJointsWithMesh();
+  const uint32_t svc = set.source_vertex_count;
+  std::vector<std::pair<int, int>> grid;  // (i, j) of every grid point that is not a corner, key order
+  for (int i = 0; i <= level; ++i) {
+    for (int j = 0; i + j <= level; ++j) {
+      if (GridCorner(level, uint8_t(i), uint8_t(j)) < 0) grid.push_back({i, j});
+    }
+  }
+  set.piece_points.clear();
+  for (const auto& [i, j] : grid) set.piece_points.push_back({1, level, uint8_t(i), uint8_t(j)});
+  auto point = [&](uint8_t i, uint8_t j) {
+    const int corner = GridCorner(level, i, j);
+    if (corner >= 0) return set.triangle_vertices[3 + corner];
+    const auto at = std::lower_bound(grid.begin(), grid.end(), std::pair<int, int>(i, j));
+    return svc + uint32_t(at - grid.begin());
+  };
+  std::vector<TrianglePiece> mine[2];
+  std::vector<uint32_t> points[2] = {{0, 1, 2}, {}};
+  for (uint16_t index = 0; index < level * level; ++index) {
+    uint8_t c[3][2];
+    EXPECT_TRUE(PieceCorners(level, index, c));
+    const int s = std::max({c[0][1], c[1][1], c[2][1]}) <= rows ? 1 : 0;
+    mine[s].push_back({1, level, index});
+    for (const auto& ij : c) points[s].push_back(point(ij[0], ij[1]));
+  }
+  set.vertex_offsets = {0};
+  set.vertices.clear();
+  set.piece_offsets = {0};
+  set.pieces.clear();
+  for (int s = 0; s < 2; ++s) {
+    std::sort(points[s].begin(), points[s].end());
+    points[s].erase(std::unique(points[s].begin(), points[s].end()), points[s].end());
+    set.vertices.insert(set.vertices.end(), points[s].begin(), points[s].end());
+    set.vertex_offsets.push_back(uint32_t(set.vertices.size()));
+    set.pieces.insert(set.pieces.end(), mine[s].begin(), mine[s].end());
+    set.piece_offsets.push_back(uint32_t(set.pieces.size()));
+  }
+  set.triangle_offsets = {0, 1, 1};
+  set.triangles = {0};
+  FitSpheresToPointsAtBind(set);
+  return set;
+}
+
+// Exact mode bounds only the corners of each sphere's hull on a cut triangle
+// (RefitRestData::exact_points): the grid points inside are left out, yet at random poses the
+// refitted sphere holds every point the set lists, each computed in double from the skinned
+// vertices.
+TEST(TrianglePieces, ExactRefitBoundsTheHullCornersAndHoldsEveryPoint) {
+  for (const auto& [level, rows] : {std::pair<uint16_t, int>{8, 3}, {16, 5}, {5, 1}}) {
+    const SphereSet set = TwoJointsCutAtLevel(level, rows);
+    ASSERT_EQ(set.Validate(), std::nullopt) << set.Validate()->message;
+    auto rest = RefitRestData::Create(set);
+    ASSERT_TRUE(rest.ok()) << rest.error().message;
+    ASSERT_EQ(rest->exact_point_offsets().size(), set.size() + 1);
+    // Sphere 0 lists v0-v2 and, on triangle 1, v1, v2 and the grid points of its region: the hull
+    // there is v1, (level - rows, rows), v2, so it keeps four points. Sphere 1 keeps its trapezoid's
+    // four corners. Every other grid point is left out.
+    ASSERT_EQ(rest->exact_point_offsets()[1], 4u) << "level " << level;
+    ASSERT_EQ(rest->exact_points().size() - rest->exact_point_offsets()[1], 4u) << "level " << level;
+    std::mt19937 rng(29);
+    std::vector<skinspheres::Mat4f> world(set.joint_count());
+    std::vector<Eigen::Vector3f> skinned(set.source_vertex_count);
+    std::vector<Vec4f> reduced(set.size());
+    for (int p = 0; p < 300; ++p) {
+      RandomWorld(rng, p, &world);
+      for (uint32_t v = 0; v < set.source_vertex_count; ++v) skinned[v] = SkinnedInDouble(set, world, v).cast<float>();
+      ASSERT_TRUE((RefitJob{RefitMode::kExact, &set, &*rest, world, skinned, reduced}.Run()));
+      for (size_t s = 0; s < set.size(); ++s) {
+        double need = 0.0;
+        for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+          const Eigen::Vector3d q = PointFromSkinned(set, skinned, set.vertices[k]);
+          need = std::max(need, (q - reduced[s].head<3>().cast<double>()).norm());
+        }
+        ASSERT_LE(need, reduced[s].w()) << "level " << level << " pose " << p << " sphere " << s;
+      }
+    }
   }
 }
 

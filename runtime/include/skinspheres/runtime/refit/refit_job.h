@@ -113,8 +113,10 @@
 // triangle bounds their corners, the grid points in its point list, in place of the triangle's
 // vertices. Exact mode computes each grid point from its triangle's skinned vertices (GridPoint,
 // sphere_set.h) and bounds it like a vertex; the piece is the convex hull of its corners, so the
-// sphere holds it. Fast mode bounds a grid point as a vertex with one position per bind entry:
-// with barycentric weights β_v over the triangle's vertices v,
+// sphere holds it. With rest data it bounds only the grid points at the corners of the hull of what
+// the sphere lists on each cut triangle (RefitRestData::exact_points): the others lie inside that
+// hull at every pose, so no centre has them farthest. Fast mode bounds a grid point as a vertex with one position per
+// bind entry: with barycentric weights β_v over the triangle's vertices v,
 //     g' = Σ_v β_v Σ_b w_vb M_b(t) p_v = Σ_b W_b M_b(t) q_b,   W_b = Σ_v β_v w_vb,
 //     q_b = Σ_v β_v w_vb p_v / W_b,
 // over the union of the three vertices' bind entries: W_b >= 0 and Σ_b W_b = 1, so g' is a convex
@@ -211,6 +213,18 @@ class RefitRestData {
   // The same matrices by rows for the vector code: 12 floats per joint, rows 0..2 of
   // rest_linear_inverse()[j] at 12 j, 12 j + 4, 12 j + 8, each padded with a 0.
   std::span<const float> rest_inverse_rows() const { return rest_inverse_rows_; }
+  // Exact mode's points, per sphere s [exact_point_offsets()[s], [s + 1]) of exact_points(): the
+  // set's point list (SphereSet::vertices, same numbering) without the grid points that cannot be
+  // farthest from any centre. Of the points a sphere lists on one cut triangle (its grid points and
+  // the triangle's vertices it lists), only the corners of their convex hull in grid coordinates
+  // are kept: skinning moves a triangle's grid points by one affine map, so at every pose the hull
+  // holds the dropped points and its farthest point from any centre is a corner (the refit's
+  // margin covers float rounding). Both empty when the set has no pieces (exact mode then reads
+  // SphereSet::vertices).
+  std::span<const uint32_t> exact_point_offsets() const { return exact_point_offsets_; }
+  std::span<const uint32_t> exact_points() const { return exact_points_; }
+  // Points the set names (source vertices and grid points); a set of another size is refused.
+  size_t point_count() const { return point_count_; }
 
  private:
   size_t sphere_count_ = 0;
@@ -224,6 +238,8 @@ class RefitRestData {
   std::vector<float> group_radii_, group_reach_;
   std::vector<Eigen::Matrix3f> rest_linear_inverse_;
   std::vector<float> rest_inverse_rows_;
+  std::vector<uint32_t> exact_point_offsets_, exact_points_;
+  size_t point_count_ = 0;
 };
 
 struct RefitJob {
