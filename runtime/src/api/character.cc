@@ -235,11 +235,20 @@ FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> ski
     narrow_context_.Resize(*data, /*lazy_skinning=*/skinned_positions.empty());
     contacts_.Reserve(std::max<size_t>(64, 4 * asset_->size()));
   }
+  std::span<const SpherePair> pairs = sphere_pairs_;
+  if (data->margin() > 0.0f) {
+    if (!FindMarginPairs(data->margin())) {
+      contacts_.clear();
+      status_ = {ErrorCode::kInvalidData, "broad phase refused the spheres grown by the margin"};
+      return status_;
+    }
+    pairs = margin_pairs_;
+  }
   NarrowPhaseJob job;
   job.set = &asset_->sphere_set();
   job.data = data;
   job.spheres = spheres_;
-  job.pairs = sphere_pairs_;
+  job.pairs = pairs;
   job.positions = skinned_positions;
   job.joint_world = skinned_positions.empty() ? std::span<const Mat4f>(joint_world_) : std::span<const Mat4f>();
   job.context = &narrow_context_;
@@ -253,6 +262,29 @@ FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> ski
   return status_;
 }
 
+bool CharacterInstance::FindMarginPairs(float margin) {
+  SizeMarginQuery(std::max(sphere_pairs_.capacity(), 4 * asset_->size()));  // first call: warm-up allocation
+  for (size_t s = 0; s < spheres_.size(); ++s) {
+    grown_[s] = spheres_[s];
+    grown_[s].w() = std::nextafter((spheres_[s].w() + 0.5f * margin) * (1.0f + 1e-6f), INFINITY);
+  }
+  margin_pairs_.clear();
+  SelfCollisionJob job;
+  job.spheres = std::span<const Vec4f>(grown_.data(), spheres_.size());
+  job.filter = &asset_->filter();
+  job.context = &margin_context_;
+  job.out = &margin_pairs_;
+  return job.Run();
+}
+
+void CharacterInstance::SizeMarginQuery(size_t pairs) {
+  if (margin_context_.max_spheres() < asset_->size()) {
+    margin_context_.Resize(asset_->size());
+    grown_.resize(asset_->size());
+  }
+  if (margin_pairs_.capacity() < pairs) margin_pairs_.reserve(pairs);
+}
+
 void CharacterInstance::SizeQueryContext() {
   if (context_.max_candidates() == 0 || context_.max_spheres() < asset_->size()) context_.Resize(asset_->size());
 }
@@ -263,6 +295,9 @@ void CharacterInstance::ReserveContacts(size_t count) {
   contacts_.Reserve(count);
   if (const NarrowPhaseData* data = asset_->narrow_phase(); data != nullptr && !narrow_context_.sized_for(*data)) {
     narrow_context_.Resize(*data, /*lazy_skinning=*/false);
+  }
+  if (const NarrowPhaseData* data = asset_->narrow_phase(); data != nullptr && data->margin() > 0.0f) {
+    SizeMarginQuery(count);
   }
 }
 

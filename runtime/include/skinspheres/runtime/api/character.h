@@ -21,8 +21,9 @@
 // (broad_phase.h) + the narrow phase (narrow_phase.h). Allocation, in full in docs/EMBEDDING.md:
 // Create allocates; per frame, a list grows the first time a frame needs more room than any before
 // (ReserveContacts pins them at set-up), the first FindSpherePairs sizes the single query's cache
-// and the first FindContacts the narrow phase's scratch unless ReserveSpherePairs or ReserveContacts
-// did, and the first FindContacts without positions its skinned-position buffer; nothing else. Per-frame calls never
+// and the first FindContacts the narrow phase's scratch (with a margin, also the margin query's)
+// unless ReserveSpherePairs or ReserveContacts did, and the first FindContacts without positions its
+// skinned-position buffer; nothing else. Per-frame calls never
 // throw; they return a FrameStatus whose message is a static string (no allocation). A failed update (non-finite input,
 // short spans) marks the instance's spheres invalid, so FindSpherePairs() then returns no contacts and status() says
 // why; other instances are untouched. Not thread-safe per instance; distinct instances may run concurrently.
@@ -149,6 +150,9 @@ class CharacterInstance {
   // Refused (kVersionMismatch) when the asset has no mesh. parallel_for spreads the sphere pairs
   // over threads (same output); the default runs on the calling thread. Results: contacts(),
   // empty after a failure.
+  // With a margin (NarrowPhaseSettings::margin > 0), spheres that do not overlap can hold
+  // triangles nearer than it: the narrow phase then tests the pairs of the spheres grown by half
+  // the margin (a second broad-phase query, with its own cache), not sphere_pairs().
   FrameStatus FindContacts(std::span<const Eigen::Vector3f> skinned_positions = {},
                            const ParallelFor& parallel_for = SerialFor());
   const FrameContacts& contacts() const { return contacts_; }
@@ -189,10 +193,18 @@ class CharacterInstance {
   FrameStatus FinishUpdate(bool refit_ok, std::span<const Mat4f> joint_world, bool keep_joints);
   // Sizes context_ for the asset unless it is already.
   void SizeQueryContext();
+  // FindContacts with a margin: margin_pairs_, the pairs of the spheres grown by half of it (and a
+  // relative 1e-6 more, for the broad phase's float arithmetic). False when the query refuses.
+  bool FindMarginPairs(float margin);
+  // Sizes the margin query (its cache, grown_, room for `pairs` pairs) unless it is already.
+  void SizeMarginQuery(size_t pairs);
   std::shared_ptr<const CharacterAsset> asset_;
   std::vector<Vec4f> spheres_;
   BroadPhaseContext context_;
   std::vector<SpherePair> sphere_pairs_;
+  std::vector<Vec4f> grown_;  // FindMarginPairs
+  BroadPhaseContext margin_context_;
+  std::vector<SpherePair> margin_pairs_;
   // Engine joint order (a JointMapping): per set joint read per frame, the engine joint; the
   // matrices are gathered into joint_world_ (set order, sized at Create) before the refit. It also
   // keeps the last update's G_j(t) in set order for FindContacts mode (b).
