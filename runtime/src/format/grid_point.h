@@ -15,7 +15,7 @@ namespace skinspheres::runtime::internal {
 
 // kGridWeights.w[L][n] = float(n) / float(L) for 1 <= L <= kMaxPieceLevel, 0 <= n <= L: the
 // correctly rounded quotient, as the division at run time gives it (IEEE division is exact then
-// rounded, at compile time as at run time; GridWeightsAreTheDivisions checks it on every platform
+// rounded, at compile time as at run time; GridPointWeightsAreTheRunTimeDivisions checks it on every platform
 // the tests run on).
 struct GridWeightTable {
   float w[kMaxPieceLevel + 1][kMaxPieceLevel + 1];

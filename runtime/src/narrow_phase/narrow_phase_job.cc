@@ -209,7 +209,8 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
     std::fill(Of(ctx).run_done.begin(), Of(ctx).run_done.end(), uint64_t{0});
     skinner.emplace(LazySkinner{*set, *data, ctx, Of(ctx).bind_matrices});
     for (uint32_t s : Of(ctx).involved) skinner->Collect(s);
-    // Non-finite positions are caught by PrepareClusters, which boxes every vertex skinned here.
+    // Non-finite positions are caught by PrepareClusters, which boxes every vertex skinned here
+    // (directly, or through the grid points computed from it).
     if (!skinner->Skin(parallel_for)) return false;
     frame.pos = Of(ctx).skinned.data();
   }

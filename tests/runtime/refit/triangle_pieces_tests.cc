@@ -68,10 +68,6 @@ TEST(TrianglePieces, ThePiecesOfEachLevelTileTheTriangle) {
   EXPECT_FALSE(PieceCorners(kMaxPieceLevel + 1, 0, c));
 }
 
-// A grid point never leaves its triangle's box, even by an ulp: on an edge where the vertices share
-// a coordinate it is that coordinate exactly (the narrow phase's cluster boxes are the triangles'),
-// and a corner is its vertex exactly. Every level and grid point, on triangles with shared and
-// random coordinates.
 // The refit and the narrow phase compute grid points with GridPointInline (runtime/src), whose
 // weights come from a table built at compile time: each entry must be the bits of the division at
 // run time (volatile operands, so the compiler cannot fold it), and the points those of the
@@ -110,6 +106,10 @@ TEST(TrianglePieces, GridPointWeightsAreTheRunTimeDivisions) {
   }
 }
 
+// A grid point never leaves its triangle's box, even by an ulp: on an edge where the vertices share
+// a coordinate it is that coordinate exactly (a piece's box lies in its triangle's), and a corner
+// is its vertex exactly. Every level and grid point, on triangles with shared and random
+// coordinates.
 TEST(TrianglePieces, GridPointsStayInTheirTrianglesBox) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(-10.0f, 10.0f);

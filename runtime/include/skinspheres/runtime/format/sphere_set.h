@@ -97,7 +97,7 @@ inline int GridCorner(uint16_t level, uint8_t i, uint8_t j) {
 
 // Grid point (i, j) of level L of the triangle p0 p1 p2 in float, in a fixed order, each coordinate
 // clamped to the triangle's own range (float rounding could put a point on an axis-aligned edge an
-// ulp outside the triangle's box, which the narrow phase's cluster boxes are built from). The same
+// ulp outside the triangle's box, so that a piece's box would not lie in its triangle's). The same
 // bits on every platform: defined in the library, which builds without FMA contraction.
 Eigen::Vector3f GridPoint(const Eigen::Vector3f& p0, const Eigen::Vector3f& p1, const Eigen::Vector3f& p2,
                           uint16_t level, uint8_t i, uint8_t j);
