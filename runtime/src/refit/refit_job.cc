@@ -15,6 +15,7 @@
 #include <string>
 #include <tuple>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "format/affine_inverse.h"
@@ -220,21 +221,25 @@ int64_t Cross(const std::array<int, 2>& a, const std::array<int, 2>& b, const st
 
 // RefitRestData::exact_points(): per sphere, its source vertices and, per cut triangle, the grid
 // points at the corners of the convex hull of what it lists on that triangle (Andrew's monotone
-// chain on integer grid coordinates; points on a hull edge are not corners).
+// chain on integer grid coordinates; points on a hull edge are not corners). The hull is taken per
+// (triangle, level): grid coordinates of two levels are not comparable, and Validate() does not
+// require a listed grid point to be at its triangle's cut level.
 void ExactPoints(const SphereSet& set, std::vector<uint32_t>* offsets, std::vector<uint32_t>* points) {
   const uint32_t svc = set.source_vertex_count;
   offsets->assign(1, 0);
   struct Listed {
     uint32_t triangle;
+    int level;
     std::array<int, 2> ij;
     uint32_t point;  // the set's numbering; a triangle's vertex when < svc
   };
   std::vector<Listed> listed;
-  std::vector<uint32_t> sources, cut;
+  std::vector<uint32_t> sources;
+  std::vector<std::pair<uint32_t, int>> cut;  // (triangle, level)
   std::vector<size_t> order, chain;
   std::vector<uint8_t> keep;
   const auto by_key = [](const Listed& a, const Listed& b) {
-    return std::tie(a.triangle, a.ij, a.point) < std::tie(b.triangle, b.ij, b.point);
+    return std::tie(a.triangle, a.level, a.ij, a.point) < std::tie(b.triangle, b.level, b.ij, b.point);
   };
   for (size_t s = 0; s < set.size(); ++s) {
     const uint32_t v0 = set.vertex_offsets[s], v1 = set.vertex_offsets[s + 1];
@@ -247,29 +252,27 @@ void ExactPoints(const SphereSet& set, std::vector<uint32_t>* offsets, std::vect
         continue;
       }
       const PiecePoint& g = set.piece_points[p - svc];
-      listed.push_back({g.triangle, {g.i, g.j}, p});
+      listed.push_back({g.triangle, g.level, {g.i, g.j}, p});
     }
     std::sort(sources.begin(), sources.end());
-    // Each cut triangle's listed vertices join its grid points as hull candidates.
+    // Each cut triangle's listed vertices join its grid points of each level as hull candidates.
     cut.clear();
-    for (const Listed& l : listed) cut.push_back(l.triangle);
+    for (const Listed& l : listed) cut.push_back({l.triangle, l.level});
     std::sort(cut.begin(), cut.end());
     cut.erase(std::unique(cut.begin(), cut.end()), cut.end());
-    for (uint32_t t : cut) {
+    for (const auto& [t, level] : cut) {
       const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{t};
-      const auto first = std::find_if(listed.begin(), listed.end(), [&](const Listed& l) { return l.triangle == t; });
-      const int level = set.piece_points[first->point - svc].level;
       const std::array<int, 2> corner_ij[3] = {{0, 0}, {level, 0}, {0, level}};
       for (int c = 0; c < 3; ++c) {
-        if (std::binary_search(sources.begin(), sources.end(), v[c])) listed.push_back({t, corner_ij[c], v[c]});
+        if (std::binary_search(sources.begin(), sources.end(), v[c])) listed.push_back({t, level, corner_ij[c], v[c]});
       }
     }
     std::sort(listed.begin(), listed.end(), by_key);
     keep.assign(listed.size(), 0);
     for (size_t b = 0; b < listed.size();) {
       size_t e = b;
-      while (e < listed.size() && listed[e].triangle == listed[b].triangle) ++e;
-      // [b, e): one triangle's candidates, sorted by (i, j): the lower and the upper chain.
+      while (e < listed.size() && listed[e].triangle == listed[b].triangle && listed[e].level == listed[b].level) ++e;
+      // [b, e): one triangle's candidates at one level, sorted by (i, j): the lower and the upper chain.
       chain.clear();
       auto build = [&](auto begin, auto end) {
         const size_t base = chain.size();
@@ -301,7 +304,7 @@ void ExactPoints(const SphereSet& set, std::vector<uint32_t>* offsets, std::vect
       bool kept = p < svc;
       if (!kept) {
         const PiecePoint& g = set.piece_points[p - svc];
-        const Listed probe{g.triangle, {g.i, g.j}, p};
+        const Listed probe{g.triangle, g.level, {g.i, g.j}, p};
         const auto at = std::lower_bound(listed.begin(), listed.end(), probe, by_key);
         kept = keep[size_t(at - listed.begin())] != 0;
       }

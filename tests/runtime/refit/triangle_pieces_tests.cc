@@ -8,6 +8,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <random>
 #include <vector>
 
@@ -283,7 +284,15 @@ TEST(TrianglePieces, BothRefitsHoldEveryPieceAtRandomPoses) {
 // (level - rows, rows), (0, rows)), sphere 0 triangle 0 whole and the other pieces (the triangle
 // above). Each sphere lists every corner of what it owns; box centre and holding radius at rest
 // (rest = bind), radius_fast from the mesh. Most grid points lie inside those regions.
+SphereSet TwoJointsCutAtLevel(uint16_t level, const std::function<int(const uint8_t (&)[3][2])>& sphere_of);
 SphereSet TwoJointsCutAtLevel(uint16_t level, int rows) {
+  return TwoJointsCutAtLevel(level, [rows](const uint8_t(&c)[3][2]) {
+    return std::max({c[0][1], c[1][1], c[2][1]}) <= rows ? 1 : 0;
+  });
+}
+
+// The same with sphere_of(corners) choosing the sphere (0 or 1) of each piece of triangle 1.
+SphereSet TwoJointsCutAtLevel(uint16_t level, const std::function<int(const uint8_t (&)[3][2])>& sphere_of) {
   SphereSet set = TwoJointsWithMesh();
   const uint32_t svc = set.source_vertex_count;
   std::vector<std::pair<int, int>> grid;  // (i, j) of every grid point that is not a corner, key order
@@ -305,7 +314,7 @@ SphereSet TwoJointsCutAtLevel(uint16_t level, int rows) {
   for (uint16_t index = 0; index < level * level; ++index) {
     uint8_t c[3][2];
     EXPECT_TRUE(PieceCorners(level, index, c));
-    const int s = std::max({c[0][1], c[1][1], c[2][1]}) <= rows ? 1 : 0;
+    const int s = sphere_of(c);
     mine[s].push_back({1, level, index});
     for (const auto& ij : c) points[s].push_back(point(ij[0], ij[1]));
   }
@@ -358,6 +367,44 @@ TEST(TrianglePieces, ExactRefitBoundsTheHullCornersAndHoldsEveryPoint) {
           need = std::max(need, (q - reduced[s].head<3>().cast<double>()).norm());
         }
         ASSERT_LE(need, reduced[s].w()) << "level " << level << " pose " << p << " sphere " << s;
+      }
+    }
+  }
+}
+
+// A set may list a grid point of another level than its triangle's cut (Validate() accepts it):
+// the hull is taken per level, so such a point is never compared in the wrong grid's coordinates,
+// and every listed point stays inside the refitted sphere at random poses.
+TEST(TrianglePieces, ExactRefitKeepsTheHullOfEachLevelApart) {
+  // Sphere 1 owns one piece of the level-4 cut, corners (1, 1) (2, 1) (1, 2), and also lists the
+  // level-2 grid point (1, 0), the midpoint of v1 v3, at level-4 coordinates (2, 0). Mixed with
+  // level-4 coordinates it would read as (1, 0), and (1, 1) would seem to lie on the edge from it
+  // to (1, 2); in truth (1, 1) is a corner of the four points' hull.
+  SphereSet set = TwoJointsCutAtLevel(4, [](const uint8_t(&c)[3][2]) {
+    return c[0][0] == 1 && c[0][1] == 1 && c[1][0] == 2 && c[1][1] == 1 && c[2][0] == 1 && c[2][1] == 2 ? 1 : 0;
+  });
+  const uint32_t stray = set.source_vertex_count + uint32_t(set.piece_points.size());
+  set.piece_points.push_back({1, 2, 1, 0});
+  set.vertices.push_back(stray);  // sphere 1 is the last
+  ++set.vertex_offsets.back();
+  FitSpheresToPointsAtBind(set);
+  ASSERT_EQ(set.Validate(), std::nullopt) << set.Validate()->message;
+  ASSERT_EQ(set.vertex_offsets[2] - set.vertex_offsets[1], 4u);
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::mt19937 rng(31);
+  std::vector<skinspheres::Mat4f> world(set.joint_count());
+  std::vector<Eigen::Vector3f> skinned(set.source_vertex_count);
+  std::vector<Vec4f> spheres(set.size());
+  for (int p = 0; p < 300; ++p) {
+    RandomWorld(rng, p, &world);
+    for (uint32_t v = 0; v < set.source_vertex_count; ++v) skinned[v] = SkinnedInDouble(set, world, v).cast<float>();
+    ASSERT_TRUE((RefitJob{RefitMode::kExact, &set, &*rest, world, skinned, spheres}.Run()));
+    for (size_t s = 0; s < set.size(); ++s) {
+      for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+        const Eigen::Vector3d q = PointFromSkinned(set, skinned, set.vertices[k]);
+        ASSERT_LE((q - spheres[s].head<3>().cast<double>()).norm(), spheres[s].w())
+            << "pose " << p << " sphere " << s << " point " << set.vertices[k];
       }
     }
   }
