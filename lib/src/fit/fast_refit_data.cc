@@ -24,8 +24,9 @@ void WriteFastRefitData(const RawCharacter& ch, std::span<const Mat4f> rest_worl
     const Eigen::Vector3f c = set->centers_rest[s];
     const std::span<const uint32_t> vlist =
         std::span(set->vertices).subspan(set->vertex_offsets[s], set->vertex_offsets[s + 1] - set->vertex_offsets[s]);
-    // Joints influencing the source vertices (mean weights) and the radius holding every rest copy
-    // M_b(rest)·p_bind of every source vertex for each of its entries, and the vertices themselves.
+    // Joints influencing the source vertices (mean weights) and the radius holding the vertices
+    // themselves and, for each source vertex, the weighted mean distance of its rest copies
+    // M_b(rest)·p_bind through its entries (refit_job.h, "Fast mode"; at most the farthest copy's).
     double fast_sq = 0.0;
     const size_t source_vertices = ch.vertex_count();
     for (uint32_t v : vlist) {
@@ -53,12 +54,17 @@ void WriteFastRefitData(const RawCharacter& ch, std::span<const Mat4f> rest_worl
       if (!have_skin) continue;
       const Eigen::Vector4d pb(ch.skin.positions_bind[v].x(), ch.skin.positions_bind[v].y(),
                                ch.skin.positions_bind[v].z(), 1.0);
+      double mean = 0.0, farthest = 0.0;
       for (uint32_t k = ch.skin.influence_offsets[v]; k < ch.skin.influence_offsets[v + 1]; ++k) {
         const uint16_t b = ch.skin.influence_binds[k];
         joint_weight[ch.skin.binds[b].joint] += ch.skin.influence_weights[k];
         const Eigen::Vector3d copy = (bind_rest[b] * pb).head<3>();
-        fast_sq = std::max(fast_sq, (copy - c.cast<double>()).squaredNorm());
+        const double d = (copy - c.cast<double>()).norm();
+        farthest = std::max(farthest, d);
+        if (ch.skin.influence_weights[k] > 0.0f) mean += double(ch.skin.influence_weights[k]) * d;
       }
+      const double need = std::min(mean, farthest);
+      fast_sq = std::max(fast_sq, need * need);
     }
     double wsum = 0.0;
     for (size_t j = 0; j < joints; ++j) wsum += joint_weight[j];

@@ -864,9 +864,10 @@ Result<FastBoundVertices> FastBoundVerticesFromMesh(const SphereSet& set) {
       const uint32_t v = set.vertices[i];
       PointEntries(set, v, &entries);
       float* w = out.weights.data() + out.weight_offsets[s] + size_t{i - set.vertex_offsets[s]} * (k1 - k0);
-      // A source vertex needs its farthest copy; a grid point the weighted mean of its copies'
-      // distances, Σ_b W_b |p_b - c| (refit_job.h, "Triangle pieces").
-      const bool grid_point = v >= set.source_vertex_count;
+      // A point (source vertex or grid point) needs the weighted mean of its copies' distances,
+      // Σ_b w_b |p_b - c| (refit_job.h, "Fast mode"). Mathematically at most the farthest copy's;
+      // where float weights summing to 1 + ulps put it above, the farthest is taken (the refit's
+      // margin covers those ulps, as it did when every vertex took the farthest).
       double r2 = 0.0, mean = 0.0;
       for (const PointEntry& e : entries) {
         const int32_t j = mesh.binds[e.bind].joint;
@@ -890,8 +891,8 @@ Result<FastBoundVertices> FastBoundVerticesFromMesh(const SphereSet& set) {
       }
       // Each joint's total (a float sum may pass 1 by an ulp), copied to its repeated entries.
       for (uint32_t k = k0; k < k1; ++k) w[k - k0] = std::min(w[entry_of[set.influence_joints[k]] - k0], 1.0f);
-      out.radius[i] = std::nextafter(static_cast<float>(grid_point ? std::min(mean, std::sqrt(r2)) : std::sqrt(r2)),
-                                     std::numeric_limits<float>::infinity());
+      out.radius[i] =
+          std::nextafter(static_cast<float>(std::min(mean, std::sqrt(r2))), std::numeric_limits<float>::infinity());
     }
     for (uint32_t k = k0; k < k1; ++k) entry_of[set.influence_joints[k]] = UINT32_MAX;
   }
@@ -899,8 +900,7 @@ Result<FastBoundVertices> FastBoundVerticesFromMesh(const SphereSet& set) {
 }
 
 Result<std::vector<float>> FastReferenceRadiiFromMesh(const SphereSet& set) {
-  // The largest of the vertices' radii: rounding up is monotone, so this is the radius of the
-  // farthest copy rounded up.
+  // The largest of the points' radii (each already rounded up).
   auto vertices = FastBoundVerticesFromMesh(set);
   if (!vertices.ok()) return vertices.error();
   std::vector<float> radii(set.size(), std::nextafter(0.0f, 1.0f));

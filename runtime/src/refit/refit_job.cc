@@ -20,6 +20,7 @@
 
 #include "format/affine_inverse.h"
 #include "format/grid_point.h"
+#include "refit/fast_reference.h"
 #include "refit/refit_internal.h"
 #include "skinspheres/skinning/platform.h"
 
@@ -179,6 +180,20 @@ double BoundSum(const SphereSet& set, const Reference& ref, std::span<const Mat4
 constexpr double kBindReferenceGain = 1e-3;
 
 }  // namespace
+
+Result<bool> internal::StoreBindFastReference(SphereSet* set) {
+  set->fast_reference_inverse.clear();
+  set->fast_reference_spheres.clear();
+  set->reach_group_offsets.clear();
+  set->reach_group_radii.clear();
+  set->reach_group_weights.clear();
+  if (!set->has_mesh() || set->fast_only) return false;
+  auto data = RefitRestData::Create(*set);
+  if (!data.ok()) return data.error();
+  auto rest = StoredReference(*set);
+  if (!rest.ok()) return rest.error();
+  return StoreBindReference(set, rest->inverse, data->weights());
+}
 
 Result<bool> ChooseFastReference(SphereSet* set) {
   set->fast_reference_inverse.clear();

@@ -240,6 +240,117 @@ TEST(RefitJobTest, ARestPoseAwayFromBindTakesTheBindPoseAsReference) {
   }
 }
 
+// The fast radius needs each vertex's weighted mean copy distance Σ_b w_b |p_b - c|, not its
+// farthest copy (refit_job.h, "Fast mode"). TwoJointsRestAwayFromBind with the rest pose as the
+// reference (none stored): vertices 1 and 2 weigh both joints, whose rest copies lie 0.32 apart.
+// Checked against figures computed here in double: FastBoundVerticesFromMesh gives each vertex of
+// sphere 0 its mean, below its farthest copy for those two; a radius_fast 0.1% below the largest
+// mean (vertex 2's) is refused, and the farthest copy (what files written before store) is not. Then the pose that
+// attains the bound: each joint turned about the sphere's centre c so that the vertex's copies point the same way (c' =
+// c, every d_j = 0, s_max = 1), where the vertex, skinned in double, lies at its mean distance from c: inside the fast
+// sphere, and at least the stored radius minus the refit's rounding margin away, so no smaller radius would be sound.
+// On 2000 random poses every vertex, skinned in double, stays inside.
+TEST(RefitJobTest, TheFastRadiusIsTheLargestMeanCopyDistance) {
+  SphereSet set = TwoJointsRestAwayFromBind();
+  ASSERT_TRUE(set.fast_reference_spheres.empty());
+  auto vertices = FastBoundVerticesFromMesh(set);
+  ASSERT_TRUE(vertices.ok()) << vertices.error().message;
+  // Per point i of sphere s: its copies, mean and farthest distance from the rest centre.
+  auto copies_of = [&](uint32_t v) {
+    struct Copy {
+      double weight;
+      size_t joint;
+      Eigen::Vector3d p;
+    };
+    std::vector<Copy> out;
+    for (uint32_t q = set.mesh.influence_offsets[v]; q < set.mesh.influence_offsets[v + 1]; ++q) {
+      const skinning::BindEntry& b = set.mesh.binds[set.mesh.influence_binds[q]];
+      out.push_back({double{set.mesh.influence_weights[q]}, static_cast<size_t>(b.joint),
+                     (set.joint_rest_world[static_cast<size_t>(b.joint)].cast<double>() *
+                      b.inverse_bind.cast<double>() * set.mesh.positions_bind[v].cast<double>().homogeneous())
+                         .head<3>()});
+    }
+    return out;
+  };
+  const size_t s = 0;
+  const Eigen::Vector3d c = set.centers_rest[s].cast<double>();
+  double largest_mean = 0.0;
+  uint32_t widest = 0, widest_point = 0;
+  for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
+    double mean = 0.0, farthest = 0.0;
+    for (const auto& copy : copies_of(set.vertices[i])) {
+      mean += copy.weight * (copy.p - c).norm();
+      farthest = std::max(farthest, (copy.p - c).norm());
+    }
+    EXPECT_NEAR(vertices->radius[i], mean, 1e-6 * mean) << "point " << i;
+    EXPECT_GE(vertices->radius[i], float(mean)) << "point " << i << ": rounded up";
+    if (set.vertices[i] != 0) {
+      EXPECT_LT(mean, 0.97 * farthest) << "vertex " << set.vertices[i] << "'s copies spread";
+    }
+    if (mean > largest_mean) largest_mean = mean, widest = set.vertices[i], widest_point = i;
+  }
+  ASSERT_EQ(widest, 2u) << "vertex 2 has the largest mean";
+  set.radii_fast[s] = std::max(set.radii_rest[s], vertices->radius[widest_point]);
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  // Validate() allows 1e-4 of float rounding (CheckFastRadii); 1e-3 below is refused, by name.
+  SphereSet too_small = set;
+  too_small.radii_fast[s] = vertices->radius[widest_point] * 0.999f;
+  const auto refused = too_small.Validate();
+  ASSERT_TRUE(refused.has_value());
+  EXPECT_NE(refused->message.find("source vertex 2's rest copies need"), std::string::npos) << refused->message;
+
+  SphereSet older = set;
+  older.radii_fast = TwoJointsRestAwayFromBind().radii_fast;  // the farthest copies
+  EXPECT_GT(older.radii_fast[s], 1.02f * set.radii_fast[s]);
+  EXPECT_FALSE(older.Validate().has_value());
+
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  std::vector<skinspheres::Mat4f> world(2);
+  std::vector<skinspheres::Vec4f> out(2);
+  // The attaining pose: T_j x = c + R_j (x - c), R_j turning vertex 2's copy through joint j to +Z
+  // (its two entries on joint b have the same copy: both inverse bind matrices are the identity).
+  const auto copies = copies_of(widest);
+  double farthest = 0.0;
+  for (size_t j = 0; j < 2; ++j) {
+    const auto copy = std::find_if(copies.begin(), copies.end(), [&](const auto& e) { return e.joint == j; });
+    ASSERT_NE(copy, copies.end());
+    for (const auto& e : copies) {
+      if (e.joint == j) {
+        ASSERT_LT((e.p - copy->p).norm(), 1e-12);
+      }
+    }
+    farthest = std::max(farthest, (copy->p - c).norm());
+    const Eigen::Matrix3d r =
+        Eigen::Quaterniond::FromTwoVectors(copy->p - c, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    Eigen::Affine3d t = Eigen::Translation3d(c) * Eigen::Affine3d(r) * Eigen::Translation3d(-c);
+    world[j] = (t.matrix() * set.joint_rest_world[j].cast<double>()).cast<float>();
+  }
+  ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, out}.Run()));
+  const Eigen::Vector3d skinned = SkinnedInDouble(set, world, widest);
+  const double reach = (skinned - out[s].head<3>().cast<double>()).norm();
+  EXPECT_NEAR(reach, largest_mean, 1e-5 * largest_mean);
+  EXPECT_LE(reach, double(out[s].w()));
+  const double margin = 16.0 * FLT_EPSILON * (out[s].head<3>().cast<double>().cwiseAbs().maxCoeff() + out[s].w());
+  EXPECT_GE(reach, double(out[s].w()) - margin - 1e-5 * largest_mean)
+      << "the bound is attained: no smaller radius holds";
+  std::printf("vertex 2: mean copy distance %.6f, farthest copy %.6f, fast radius at the attaining pose %.6f\n",
+              largest_mean, farthest, double(out[s].w()));
+
+  std::mt19937 rng(17);
+  for (int p = 0; p < 2000; ++p) {
+    RandomWorld(rng, p, &world);
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, out}.Run()));
+    for (size_t t = 0; t < 2; ++t) {
+      for (uint32_t k = set.vertex_offsets[t]; k < set.vertex_offsets[t + 1]; ++k) {
+        const uint32_t v = set.vertices[k];
+        ASSERT_LE((SkinnedInDouble(set, world, v) - out[t].head<3>().cast<double>()).norm(), out[t].w())
+            << "pose " << p << " sphere " << t << " vertex " << v;
+      }
+    }
+  }
+}
+
 // The same with inverse bind matrices that are not the identity: the bind space moved by a rigid
 // motion and a scale X (IBM_b <- IBM_b X^-1, p_bind <- X p_bind: the same skin), and the second of
 // joint b's two bind entries shifted by (0.05, 0.02, 0), so vertex 2's copies through its two

@@ -9,9 +9,10 @@
 // and primitive by primitive in file order, so an engine can pass its own skinned buffer.
 //
 // Fast refit (no vertex skinning) reads, per sphere, the joints that influence its vertices with
-// their blend weights, and radius_fast: the radius around center_rest that holds every copy of
-// every source vertex carried rigidly by each of its joints at rest (equal to the plain radius when
-// the file's rest pose is its bind pose), and per influence its reach: the largest weight any of the
+// their blend weights, and radius_fast: the radius around center_rest that holds, for every source
+// vertex, the weighted mean distance of its copies carried rigidly by each of its joints at rest
+// (equal to the plain radius when the file's rest pose is its bind pose; files written before
+// 2026-12-06 hold the farthest copy, which is sound too), and per influence its reach: the largest weight any of the
 // sphere's source vertices gives that joint, which tightens the fast bound (refit_job.h).
 //
 // Version 2 adds the skinned mesh itself (`mesh`, `triangle_vertices`): what a triangle-level test
@@ -154,8 +155,9 @@ struct SphereSet {
   // it refits as the whole set does.
   //   fast_reference_inverse[j]: R_j^-1 (column-major 4x4, affine), per joint;
   //   fast_reference_spheres[s]: (c, r): the sphere's centre in reference space and the radius around
-  //   it holding every reference copy R_j(b) · IBM_b · p_bind of every source vertex, through each
-  //   bind entry b the vertex weighs (FastReferenceRadiiFromMesh); the fast bound's premise. With a
+  //   it holding, for every source vertex, the weighted mean distance of its reference copies
+  //   R_j(b) · IBM_b · p_bind through each bind entry b the vertex weighs
+  //   (FastReferenceRadiiFromMesh); the fast bound's premise. With a
   //   mesh, Validate() refuses a radius below it; without one (fast-only) nothing can check it.
   std::vector<Mat4f> fast_reference_inverse;
   std::vector<Vec4f> fast_reference_spheres;
@@ -257,11 +259,12 @@ Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set);
 // What the fast bound must hold for each point (source vertex or grid point) of each sphere, in the
 // set's reference frame (the stored fast reference, else the rest pose), indexed like
 // SphereSet::vertices (entry i of vertex_offsets' CSR):
-//   radius[i]: the radius around the sphere's reference centre (fast_reference_spheres[s] or
-//     centers_rest[s]) that holds every reference copy R_j(b) · IBM_b · p_bind of the vertex, through
-//     each bind entry b it weighs, in double in a fixed order, rounded up to float; for a grid point
-//     the weighted mean Σ_b W_b |copy_b - c| of its copies' distances (refit_job.h, "Triangle
-//     pieces");
+//   radius[i]: around the sphere's reference centre c (fast_reference_spheres[s] or
+//     centers_rest[s]), the weighted mean Σ_b w_b |copy_b - c| of the distances of the point's
+//     reference copies R_j(b) · IBM_b · p_bind through each bind entry b it weighs (a grid point's
+//     entries and weights W_b: refit_job.h, "Triangle pieces"), or the farthest copy's distance
+//     where float rounding of the weights puts that lower; in double in a fixed order, rounded up to
+//     float (refit_job.h, "Fast mode");
 //   weights[weight_offsets[s] + (i - vertex_offsets[s]) * K_s + (k - influence_offsets[s])]: its total
 //     weight on the joint of influence entry k, summed over its bind entries in order in float, at
 //     most 1 (what InfluenceReachFromMesh takes the largest of).
@@ -275,9 +278,10 @@ struct FastBoundVertices {
 };
 Result<FastBoundVertices> FastBoundVerticesFromMesh(const SphereSet& set);
 
-// Per sphere, the radius around fast_reference_spheres[s].head<3>() that holds every reference copy
-// R_j(b) · IBM_b · p_bind of its source vertices (R_j the inverse of fast_reference_inverse[j],
-// inverted in double), computed in double and rounded up to float: the smallest sound
+// Per sphere, the largest of its points' FastBoundVertices::radius around
+// fast_reference_spheres[s].head<3>() (the weighted mean distance of each point's reference copies
+// R_j(b) · IBM_b · p_bind, R_j the inverse of fast_reference_inverse[j], inverted in double),
+// computed in double and rounded up to float: the smallest sound
 // fast_reference_spheres[s].w(). Needs a mesh, a reference (both arrays sized) and lists that are
 // otherwise well formed. An error when a reference transform cannot be inverted or a source vertex
 // has no weight above 0.

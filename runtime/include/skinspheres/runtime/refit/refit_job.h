@@ -40,9 +40,16 @@
 //     v' = Σ_b w_b T_j(b) p_b
 //     v' - c' = Σ_b w_b T_j(b)(p_b - c)  +  (Σ_b w_b T_j(b) c - c')
 //   T_j is affine, T_j(p_b) - T_j(c) = A_j (p_b - c), so the first term has norm
-//     <= Σ_b w_b |A_j(b)| |p_b - c| <= s_max · radius_fast
-//   since radius_fast holds every rest copy p_b of every source vertex (sphere_set.h) and s_max
-//   bounds the largest singular value of every A_j of the sphere's influence joints. The second
+//     <= Σ_b w_b |A_j(b)| |p_b - c| <= s_max · Σ_b w_b |p_b - c| <= s_max · radius_fast
+//   since radius_fast is at least every source vertex's weighted mean distance of its rest copies,
+//   Σ_b w_b |p_b - c| (FastBoundVerticesFromMesh; sphere_set.h), and s_max bounds the largest
+//   singular value of every A_j of the sphere's influence joints. The mean is at most the farthest
+//   copy's distance, which files written before 2026-12-06 store: they stay sound. Where a vertex's
+//   copies spread (rest pose not the bind pose, below) the mean is the much smaller figure: a copy
+//   far off through an entry of weight 0.03 counts at 3%. Measured (play --verify --mode fast,
+//   every clip): the fast radii over the radius the skinned triangles need go from 1.276 to 1.030
+//   on RobotExpressive and from 1.202 to 1.074 on Soldier, and the sphere pairs per frame from 315.7
+//   to 35.3 and from 397.8 to 150.5; the other characters' copies coincide (no change). The second
 //   term, with w_vj the vertex's total weight on joint j (Σ_j w_vj = 1; the joints of a vertex are
 //   among the sphere's influence joints, which SphereSet::Validate checks against the mesh), is
 //     Σ_j w_vj (T_j c - c') = Σ_j w_vj d_j,
@@ -60,14 +67,15 @@
 //     s_max = max_j sqrt(max_i Σ_k |(A_jᵀ A_j)_ik|),
 //   exact for rotations and uniform scales (AᵀA = s²I), an over-estimate under non-uniform scale.
 //   Where the file's rest pose is not its bind pose (Soldier, RobotExpressive: G_j(rest)·IBM_j
-//   differs per joint) the copies p_b of one vertex differ, and radius_fast, which covers every
-//   copy, can exceed radius_rest; where rest = bind it equals radius_rest.
+//   differs per joint) the copies p_b of one vertex differ, and radius_fast, which covers their
+//   weighted mean distance, can exceed radius_rest; where rest = bind it equals radius_rest.
 //
 // Reference frame. Nothing above needs the rest pose itself. Take any invertible reference
 // transform R_j per joint in place of G_j(rest): T_j = G_j(t) · R_j^-1, a vertex's copy through
 // entry b p_b = R_j(b) · IBM_b · p_bind (so M_b(t) p_bind = T_j(b) p_b), c any point of the
 // reference space. The derivation holds word for word, with radius_fast the radius around c that
-// holds every copy. A set uses one of two (SphereSet::fast_reference_inverse / _spheres):
+// holds every vertex's weighted mean copy distance. A set uses one of two (SphereSet::fast_reference_inverse /
+// _spheres):
 //   - the rest pose, R_j = G_j(rest): c = centers_rest, radius_fast = SphereSet::radii_fast (every
 //     set without a stored reference, every file written before it);
 //   - the bind pose, R_j = IBM_first(j)^-1 (the inverse bind matrix of j's first bind entry whose
@@ -75,19 +83,22 @@
 //     vertex's copy through entry b is IBM_first(j)^-1 · IBM_b · p_bind, which is p_bind itself
 //     for j's first entry, so a vertex's copies coincide; c = the rest centre carried back by the
 //     sphere's blended rest-from-bind transform (Σ_j w_j G_j(rest) · IBM_first(j))^-1 · c_rest,
-//     rounded to float; radius_fast = the largest distance from c to a copy, in double, rounded up
-//     (FastReferenceRadiiFromMesh, which Validate() holds a stored radius to).
+//     rounded to float; radius_fast = the largest weighted mean distance from c to a vertex's
+//     copies, in double, rounded up (FastReferenceRadiiFromMesh, which Validate() holds a stored
+//     radius to).
 //   The fitter stores the bind pose (ChooseFastReference) when the set has a mesh, its rest pose is
 //   not its bind pose (some G_j(rest) · IBM_b differs from I by more than 1e-6), and the bound
 //   summed over the spheres at the rest pose plus at the bind pose, in double, is smaller with it
 //   by more than 0.1% (less is float rounding, or bind entries no vertex weighs).
 //   The choice is stored, never made at load, so a set and its fast-only file refit alike.
-//   Measured (play --verify --mode fast, every clip): Soldier takes it, its fast radii over the
-//   radius the skinned vertices need go from 1.64 to 1.30 and its sphere pairs per frame from 1518
-//   to 806; RobotExpressive keeps the rest pose (its sum is 7x larger with the bind pose);
-//   CesiumMan and Xbot gain 2e-6 of the sum (float rounding; CesiumMan's rest pose differs from
-//   its bind pose only on bind entries no vertex weighs) and keep it too; the built-in character
-//   has rest = bind. The exact refit with joint
+//   Measured (play --verify --mode fast, every clip) when radius_fast held the farthest copy (until
+//   2026-12-06): Soldier took it, its fast radii over the radius the skinned vertices need going
+//   from 1.64 to 1.30 and its sphere pairs per frame from 1518 to 806; RobotExpressive kept the
+//   rest pose (its sum 7x larger with the bind pose). With the weighted mean the rest pose's copies
+//   cost little, and none of the five characters here takes the bind pose any more (Soldier's sum
+//   of fast radii over rest radii is 1.015 at rest); CesiumMan and Xbot gain 2e-6 of the sum
+//   (float rounding; CesiumMan's rest pose differs from its bind pose only on bind entries no
+//   vertex weighs); the built-in character has rest = bind. The exact refit with joint
 //   transforms uses the same centre, so its spheres move with the reference too (their radii stay
 //   the exact ones).
 //
@@ -125,11 +136,10 @@
 // (q_b leans to the vertices that weigh b), but the first term of the derivation is bounded by the
 // triangle inequality before taking any maximum:
 //     |Σ_b W_b A_j(b) (p_b - c)| <= s_max Σ_b W_b |p_b - c|,
-// so the radius a grid point needs is the weighted mean of its copies' distances (at most the
-// farthest), and its per-joint totals Σ_b W_b the reach it needs (FastBoundVerticesFromMesh);
-// Validate() holds the stored radii, reaches and groups to them as for a vertex. The piece lies in
-// the sphere because its corners do. (The mean would hold for a source vertex too; a vertex keeps
-// its farthest copy, which every file written so far stores.)
+// so the radius a grid point needs is the weighted mean of its copies' distances, as a vertex's is,
+// and its per-joint totals Σ_b W_b the reach it needs (FastBoundVerticesFromMesh); Validate() holds
+// the stored radii, reaches and groups to them as for a vertex. The piece lies in the sphere
+// because its corners do.
 //
 // margin: both modes add 16·FLT_EPSILON·(max|c'_xyz| + r), a few ulps of the coordinates, so the
 // float evaluation (of the centre, the distances, and the caller's own skinning) cannot leave a
