@@ -50,7 +50,7 @@ inline SphereSet TwoSpheresWithMesh() {
   set.mesh.influence_offsets = {0, 1, 2, 3, 4};
   set.mesh.influence_binds = {0, 0, 0, 0};
   set.mesh.influence_weights = {1.0f, 1.0f, 1.0f, 1.0f};
-  // The fast radius holds every rest copy of the sphere's vertices (SphereSet::Validate checks it
+  // The fast radius holds every vertex's rest copies (one each here; SphereSet::Validate checks it
   // against the mesh): vertex 2's copy (0, 0.25, 0) lies 1.031 from sphere 1's centre.
   set.radii_fast = {1.1f, 1.1f};
   return set;
@@ -134,7 +134,9 @@ inline SphereSet TwoJointsWithPieces() {
 // TwoJointsWithMesh with joint b's rest transform moved by (0.3, 0.1, 0) from its bind pose (a bone
 // length that differs; the bind pose is identity for both joints), and the rest-pose data as the
 // fitter writes it: rest positions by skinning at rest, each sphere the box centre of its vertices,
-// radius_fast holding every rest copy. Each vertex's rest copies through its two joints lie apart:
+// radius_fast holding every rest copy (as files written before 2026-12-06 store it; the mean copy
+// distance the fitter now stores is smaller, and TheFastRadiusIsTheLargestMeanCopyDistance sets
+// it). Each vertex's rest copies through its two joints lie apart:
 // the case the fast refit's bind-pose reference is for (refit_job.h, "Reference frame").
 // edit_mesh, when given, changes the mesh first (the rest data then follows from it).
 inline SphereSet TwoJointsRestAwayFromBind(const std::function<void(SphereSet&)>& edit_mesh = {}) {

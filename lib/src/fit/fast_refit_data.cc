@@ -54,16 +54,19 @@ void WriteFastRefitData(const RawCharacter& ch, std::span<const Mat4f> rest_worl
       if (!have_skin) continue;
       const Eigen::Vector4d pb(ch.skin.positions_bind[v].x(), ch.skin.positions_bind[v].y(),
                                ch.skin.positions_bind[v].z(), 1.0);
-      double mean = 0.0, farthest = 0.0;
+      double mean = 0.0, weight = 0.0, farthest = 0.0;
       for (uint32_t k = ch.skin.influence_offsets[v]; k < ch.skin.influence_offsets[v + 1]; ++k) {
         const uint16_t b = ch.skin.influence_binds[k];
         joint_weight[ch.skin.binds[b].joint] += ch.skin.influence_weights[k];
         const Eigen::Vector3d copy = (bind_rest[b] * pb).head<3>();
         const double d = (copy - c.cast<double>()).norm();
         farthest = std::max(farthest, d);
-        if (ch.skin.influence_weights[k] > 0.0f) mean += double(ch.skin.influence_weights[k]) * d;
+        if (ch.skin.influence_weights[k] > 0.0f) {
+          mean += double(ch.skin.influence_weights[k]) * d;
+          weight += double(ch.skin.influence_weights[k]);
+        }
       }
-      const double need = std::min(mean, farthest);
+      const double need = weight > 0.0 ? std::min(mean / weight, farthest) : farthest;
       fast_sq = std::max(fast_sq, need * need);
     }
     double wsum = 0.0;
@@ -173,9 +176,7 @@ std::vector<uint32_t> GroupByWeights(const float* w, size_t vertex_count, size_t
 }  // namespace
 
 void WriteReachGroups(runtime::SphereSet* set) {
-  set->reach_group_offsets.clear();
-  set->reach_group_radii.clear();
-  set->reach_group_weights.clear();
+  set->ClearReachGroups();
   if (!set->has_mesh()) return;  // nothing to group: one group per sphere (runtime/sphere_set.h)
   // The runtime's own per-vertex figures (in the set's reference frame), so that Validate()'s
   // domination check holds bit for bit. An unsound set is left without groups: the self-check
@@ -183,7 +184,7 @@ void WriteReachGroups(runtime::SphereSet* set) {
   auto vertices = runtime::FastBoundVerticesFromMesh(*set);
   if (!vertices.ok()) return;
   std::vector<uint32_t> offsets = {0};
-  std::vector<float> radii, weights;
+  std::vector<float> radii, weights, blends, deviations;
   for (size_t s = 0; s < set->size(); ++s) {
     const uint32_t v0 = set->vertex_offsets[s], v1 = set->vertex_offsets[s + 1];
     const size_t k_count = set->influence_offsets[s + 1] - set->influence_offsets[s];
@@ -194,28 +195,63 @@ void WriteReachGroups(runtime::SphereSet* set) {
         k_count < 2 || n < 2 ? std::vector<uint32_t>(n, 0) : GroupByWeights(w, n, k_count);
     const uint32_t groups = n == 0 ? 1 : *std::max_element(group.begin(), group.end()) + 1;
     std::vector<float> radius(groups, 0.0f), reach(groups * k_count, 0.0f);
+    std::vector<float> lowest(groups * k_count, 1.0f);  // the members' least weight per entry
     std::vector<bool> used(groups, false);
     for (size_t i = 0; i < n; ++i) {
       const uint32_t g = group[i];
       used[g] = true;
       radius[g] = std::max(radius[g], vertices->radius[v0 + i]);
-      for (size_t k = 0; k < k_count; ++k)
+      for (size_t k = 0; k < k_count; ++k) {
         reach[g * k_count + k] = std::max(reach[g * k_count + k], w[i * k_count + k]);
+        lowest[g * k_count + k] = std::min(lowest[g * k_count + k], w[i * k_count + k]);
+      }
+    }
+    // The blend (refit_job.h, "Group blends"): per entry the midpoint of the members' weights and
+    // the largest distance from it, rounded up (Validate() compares |w - m| <= e in float); 0 and 0
+    // on an entry that repeats an earlier entry's joint (the fitter writes none: kept for safety).
+    const uint32_t i0 = set->influence_offsets[s];
+    std::vector<bool> repeated(k_count, false);
+    for (size_t k = 0; k < k_count; ++k) {
+      for (size_t q = 0; q < k; ++q)
+        repeated[k] = repeated[k] || set->influence_joints[i0 + q] == set->influence_joints[i0 + k];
+    }
+    std::vector<float> blend(groups * k_count, 0.0f), deviation(groups * k_count, 0.0f);
+    for (size_t i = 0; i < n; ++i) {
+      for (size_t k = 0; k < k_count; ++k) {
+        if (repeated[k]) continue;
+        const size_t at = group[i] * k_count + k;
+        blend[at] = 0.5f * (lowest[at] + reach[at]);
+      }
+    }
+    for (size_t i = 0; i < n; ++i) {
+      for (size_t k = 0; k < k_count; ++k) {
+        if (repeated[k]) continue;
+        const size_t at = group[i] * k_count + k;
+        deviation[at] = std::max(deviation[at], std::fabs(w[i * k_count + k] - blend[at]));
+      }
+    }
+    for (float& e : deviation) {
+      if (e > 0.0f) e = std::min(std::nextafter(e, 2.0f), 1.0f);
     }
     for (uint32_t g = 0; g < groups; ++g) {
       if (!used[g] && n > 0) continue;
-      // Never above the reference radius, which holds every member's copies from the same figures
+      // Never above the reference radius, which holds every member's mean copy distance from the same figures
       // (HoldMeshCopies; the stored reference's): no group's bound exceeds the one-group bound.
       const float reference_radius =
           set->fast_reference_spheres.empty() ? set->radii_fast[s] : set->fast_reference_spheres[s].w();
       radii.push_back(n == 0 ? reference_radius : radius[g]);
       for (size_t k = 0; k < k_count; ++k) weights.push_back(n == 0 ? 1.0f : reach[g * k_count + k]);
+      // A sphere without points: blend 0, deviation 1 (the reach's own bound).
+      for (size_t k = 0; k < k_count; ++k) blends.push_back(n == 0 ? 0.0f : blend[g * k_count + k]);
+      for (size_t k = 0; k < k_count; ++k) deviations.push_back(n == 0 ? 1.0f : deviation[g * k_count + k]);
     }
     offsets.push_back(static_cast<uint32_t>(radii.size()));
   }
   set->reach_group_offsets = std::move(offsets);
   set->reach_group_radii = std::move(radii);
   set->reach_group_weights = std::move(weights);
+  set->reach_group_blend = std::move(blends);
+  set->reach_group_deviation = std::move(deviations);
 }
 
 }  // namespace skinspheres::lib

@@ -144,8 +144,8 @@ void WriteOwnedSpheres(const RawCharacter& ch, const BodyParts& parts, const Own
 // spheres that overlap in the rest pose.
 void WriteExcludedPairs(const skinning::Skeleton& skeleton, const FitSettings& settings, runtime::SphereSet* set);
 // 6. Fast-refit data: per sphere, the joints influencing its source vertices with their mean
-// weights, and radius_fast holding every rest copy of every source vertex carried rigidly by each
-// of its bind entries (at least the sphere's radius).
+// weights, and radius_fast holding, for every source vertex, the weighted mean distance of its rest
+// copies carried rigidly by each of its bind entries (at least the sphere's radius; refit_job.h).
 void WriteFastRefitData(const RawCharacter& ch, std::span<const Mat4f> rest_world, runtime::SphereSet* set);
 // 7. The mesh (sphere-set version 2): the skin as imported and the triangles in file order, when
 // the character has a skin and triangles.
@@ -155,8 +155,8 @@ void WriteSetMesh(const RawCharacter& ch, runtime::SphereSet* set);
 // refit bound; none without a mesh.
 void WriteInfluenceReach(runtime::SphereSet* set);
 
-// 7b'. radius_fast raised, where it falls short, to hold every rest copy as the runtime computes it
-// from the set's mesh (runtime::FastBoundVerticesFromMesh): a rigid mesh's bind entry holds a float
+// 7b'. radius_fast raised, where it falls short, to each vertex's mean copy distance as the runtime
+// computes it from the set's mesh (runtime::FastBoundVerticesFromMesh): a rigid mesh's bind entry holds a float
 // inverse of its rest transform, whose rounding can put a copy a few ulps past the radius.
 void HoldMeshCopies(runtime::SphereSet* set);
 

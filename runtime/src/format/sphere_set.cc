@@ -617,6 +617,9 @@ std::optional<Error> CheckFastRadii(const SphereSet& set) {
 std::optional<Error> CheckReachGroups(const SphereSet& set) {
   const size_t n = set.size();
   if (set.reach_group_offsets.empty() && set.reach_group_radii.empty() && set.reach_group_weights.empty()) {
+    if (!set.reach_group_blend.empty() || !set.reach_group_deviation.empty()) {
+      return Invalid("the reach groups' blends are given without the groups");
+    }
     return std::nullopt;
   }
   if (!CsrOk(set.reach_group_offsets, n, set.reach_group_radii.size())) {
@@ -658,25 +661,68 @@ std::optional<Error> CheckReachGroups(const SphereSet& set) {
       }
     }
   }
+  // The groups' blends: both arrays empty, or each as long as the reaches, within [0, 1], and 0 on
+  // an entry that repeats an earlier entry's joint.
+  const bool blends = !set.reach_group_blend.empty() || !set.reach_group_deviation.empty();
+  if (blends && (set.reach_group_blend.size() != weights || set.reach_group_deviation.size() != weights)) {
+    return Invalid("the reach groups have " + std::to_string(set.reach_group_blend.size()) + " blend and " +
+                   std::to_string(set.reach_group_deviation.size()) + " deviation entries for " +
+                   std::to_string(weights) + " (one each per group and influence, or none)");
+  }
+  std::vector<uint8_t> repeated;  // per entry of the sphere: its joint appeared at an earlier entry
+  const auto mark_repeated = [&](size_t s) {
+    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
+    repeated.assign(k1 - k0, 0);
+    for (uint32_t k = k0; k < k1; ++k) {
+      for (uint32_t q = k0; q < k && !repeated[k - k0]; ++q)
+        repeated[k - k0] = set.influence_joints[q] == set.influence_joints[k];
+    }
+  };
+  if (blends) {
+    for (size_t s = 0, base = 0; s < n; ++s) {
+      mark_repeated(s);
+      const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
+      for (uint32_t g = set.reach_group_offsets[s]; g < set.reach_group_offsets[s + 1]; ++g, base += k_count) {
+        for (uint32_t k = 0; k < k_count; ++k) {
+          const float m = set.reach_group_blend[base + k], e = set.reach_group_deviation[base + k];
+          if (!(m >= 0.0f && m <= 1.0f) || !(e >= 0.0f && e <= 1.0f)) {
+            return Invalid("sphere " + std::to_string(s) + "'s reach group " + std::to_string(g) + " has blend " +
+                           Digits(m) + " and deviation " + Digits(e) + " (each must be within [0, 1])");
+          }
+          if (repeated[k] && (m != 0.0f || e != 0.0f)) {
+            return Invalid("sphere " + std::to_string(s) + "'s reach group " + std::to_string(g) +
+                           " blends influence entry " + std::to_string(k) +
+                           ", which repeats an earlier entry's joint (its blend and deviation must be 0)");
+          }
+        }
+      }
+    }
+  }
   if (!set.has_mesh() || set.fast_only) return std::nullopt;
   auto vertices = FastBoundVerticesFromMesh(set);
   if (!vertices.ok()) return vertices.error();
   for (size_t s = 0, base = 0; s < n; ++s) {
     const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
     const uint32_t g0 = set.reach_group_offsets[s], g1 = set.reach_group_offsets[s + 1];
+    if (blends) mark_repeated(s);
     for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
       const float* w =
           vertices->weights.data() + vertices->weight_offsets[s] + size_t{i - set.vertex_offsets[s]} * k_count;
       bool dominated = false;
       for (uint32_t g = g0; g < g1 && !dominated; ++g) {
-        const float* group = set.reach_group_weights.data() + base + size_t{g - g0} * k_count;
+        const size_t at = base + size_t{g - g0} * k_count;
+        const float* group = set.reach_group_weights.data() + at;
         dominated = set.reach_group_radii[g] >= vertices->radius[i];
         for (uint32_t k = 0; k < k_count && dominated; ++k) dominated = group[k] >= w[k];
+        for (uint32_t k = 0; k < k_count && dominated && blends; ++k) {
+          dominated =
+              repeated[k] || std::fabs(w[k] - set.reach_group_blend[at + k]) <= set.reach_group_deviation[at + k];
+        }
       }
       if (!dominated) {
         return Invalid("sphere " + std::to_string(s) + "'s " + PointName(set, set.vertices[i]) +
                        " is in none of its reach groups (reference radius " + Digits(vertices->radius[i]) +
-                       " or a weight above every group's)");
+                       ", a weight above every group's reach, or outside every group's blend and deviation)");
       }
     }
     base += size_t{g1 - g0} * k_count;
@@ -865,10 +911,12 @@ Result<FastBoundVertices> FastBoundVerticesFromMesh(const SphereSet& set) {
       PointEntries(set, v, &entries);
       float* w = out.weights.data() + out.weight_offsets[s] + size_t{i - set.vertex_offsets[s]} * (k1 - k0);
       // A point (source vertex or grid point) needs the weighted mean of its copies' distances,
-      // Σ_b w_b |p_b - c| (refit_job.h, "Fast mode"). Mathematically at most the farthest copy's;
-      // where float weights summing to 1 + ulps put it above, the farthest is taken (the refit's
-      // margin covers those ulps, as it did when every vertex took the farthest).
-      double r2 = 0.0, mean = 0.0;
+      // Σ_b w_b |p_b - c| (refit_job.h, "Fast mode"), taken over Σ_b w_b (1 up to float rounding of
+      // the weights): where a point's copies coincide it is their distance, the farthest copy's, as
+      // files written before store it, and it is never below the sum where the weights fall short
+      // of 1 (where they pass 1 by ulps the refit's margin covers the difference, as it did when
+      // every vertex took the farthest copy). The farthest copy's where rounding puts the mean above.
+      double r2 = 0.0, mean = 0.0, weight = 0.0;
       for (const PointEntry& e : entries) {
         const int32_t j = mesh.binds[e.bind].joint;
         if (entry_of[j] == UINT32_MAX) {
@@ -885,14 +933,15 @@ Result<FastBoundVertices> FastBoundVerticesFromMesh(const SphereSet& set) {
         }
         r2 = std::max(r2, d2);
         mean += e.exact * std::sqrt(d2);
+        weight += e.exact;
       }
       if (entries.empty()) {
         return Invalid("sphere " + std::to_string(s) + ": its " + PointName(set, v) + " has no weight above 0");
       }
       // Each joint's total (a float sum may pass 1 by an ulp), copied to its repeated entries.
       for (uint32_t k = k0; k < k1; ++k) w[k - k0] = std::min(w[entry_of[set.influence_joints[k]] - k0], 1.0f);
-      out.radius[i] =
-          std::nextafter(static_cast<float>(std::min(mean, std::sqrt(r2))), std::numeric_limits<float>::infinity());
+      out.radius[i] = std::nextafter(static_cast<float>(std::min(mean / weight, std::sqrt(r2))),
+                                     std::numeric_limits<float>::infinity());
     }
     for (uint32_t k = k0; k < k1; ++k) entry_of[set.influence_joints[k]] = UINT32_MAX;
   }

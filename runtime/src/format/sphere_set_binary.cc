@@ -94,12 +94,15 @@ constexpr std::array<SectionInfo, kSphereSetSectionCount> kSections = {{
     {"piece_points", 4},
     {"piece_offsets", 4},
     {"pieces", 4},
+    {"reach_group_blend", 4},
+    {"reach_group_deviation", 4},
 }};
 
 // Which sections a file of this layout version with these flags holds (index id - 1).
 bool SectionPresent(size_t id, uint32_t flags, uint32_t version) {
+  if (id >= static_cast<size_t>(SphereSetSection::kReachGroupBlend)) return version >= kSphereSetBinaryVersion;
   if (id >= static_cast<size_t>(SphereSetSection::kPiecePoints)) {
-    return version >= kSphereSetBinaryVersion && (flags & kSphereSetBinaryFlagHasMesh) != 0;
+    return version >= kSphereSetBinaryVersionWithoutBlends && (flags & kSphereSetBinaryFlagHasMesh) != 0;
   }
   if (id >= static_cast<size_t>(SphereSetSection::kFastReferenceInverse))
     return version >= kSphereSetBinaryVersionWithoutPieces;
@@ -368,6 +371,8 @@ std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set, SphereSetBinar
   w.Add(SphereSetSection::kReachGroupOffsets, set.reach_group_offsets);
   w.Add(SphereSetSection::kReachGroupRadii, set.reach_group_radii);
   w.Add(SphereSetSection::kReachGroupWeights, set.reach_group_weights);
+  w.Add(SphereSetSection::kReachGroupBlend, set.reach_group_blend);
+  w.Add(SphereSetSection::kReachGroupDeviation, set.reach_group_deviation);
   if (mesh) {
     const skinning::SkinnedMesh& m = set.mesh;
     std::vector<int32_t> bind_joints;
@@ -575,6 +580,15 @@ struct SphereSetBinaryReader {
     } else if ((err = csr(S::kReachGroupOffsets, n, {S::kReachGroupRadii}))) {
       return *err;
     }
+    // The groups' blends: both as long as the reaches (SphereSet::Validate()), or both empty.
+    const size_t blends = v.sections_[static_cast<uint32_t>(S::kReachGroupBlend) - 1].count;
+    const size_t deviations = v.sections_[static_cast<uint32_t>(S::kReachGroupDeviation) - 1].count;
+    const size_t reaches = v.sections_[static_cast<uint32_t>(S::kReachGroupWeights) - 1].count;
+    if (!(blends == 0 && deviations == 0) && !(blends == reaches && deviations == reaches)) {
+      return Refuse(src, "sections reach_group_blend and reach_group_deviation have " + std::to_string(blends) +
+                             " and " + std::to_string(deviations) + " elements, expected " + std::to_string(reaches) +
+                             " (one per group and influence, as reach_group_weights) or both 0");
+    }
     // Pieces: pairs of u32; offsets per sphere over them, or none with no pieces (their values are
     // SphereSet::Validate()'s).
     const size_t piece_offsets = v.sections_[static_cast<uint32_t>(S::kPieceOffsets) - 1].count;
@@ -714,6 +728,8 @@ Result<SphereSet> SphereSetBinaryView::ToSphereSet() const {
   CopyInto(set.reach_group_offsets, reach_group_offsets());
   CopyInto(set.reach_group_radii, reach_group_radii());
   CopyInto(set.reach_group_weights, reach_group_weights());
+  CopyInto(set.reach_group_blend, reach_group_blend());
+  CopyInto(set.reach_group_deviation, reach_group_deviation());
   const auto pairs = excluded_pairs();
   set.excluded_pairs.resize(pairs.size() / 3);
   for (size_t k = 0; k < set.excluded_pairs.size(); ++k) {

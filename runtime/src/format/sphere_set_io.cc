@@ -74,13 +74,18 @@ std::string WriteSphereSetJson(const SphereSet& set) {
       }
       spheres.back()["pieces"] = pieces;
     }
-    if (set.reach_group_offsets.size() == set.size() + 1) {  // [radius, reach per influence] per group
+    if (set.reach_group_offsets.size() == set.size() + 1) {  // [radius, reach, blend, deviation per influence]
       const size_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
       json groups = json::array();
       for (uint32_t g = set.reach_group_offsets[s]; g < set.reach_group_offsets[s + 1]; ++g, group_base += k_count) {
         std::vector<float> row = {set.reach_group_radii[g]};
         for (size_t k = 0; k < k_count && group_base + k < set.reach_group_weights.size(); ++k) {
           row.push_back(set.reach_group_weights[group_base + k]);
+        }
+        // With blends (sphere_set.h): the blend weights, then the deviations, after the reaches.
+        for (const std::vector<float>* extra : {&set.reach_group_blend, &set.reach_group_deviation}) {
+          for (size_t k = 0; k < k_count && group_base + k < extra->size(); ++k)
+            row.push_back((*extra)[group_base + k]);
         }
         groups.push_back(row);
       }
@@ -233,7 +238,8 @@ void ReadMesh(const json& m, StreamedMesh&& streamed, SphereSet* set) {
 
 // One element of "spheres", appended to the set's per-sphere arrays and CSR lists. "influence_reach"
 // is optional, but all spheres have it or none does (the first sphere decides: *has_reach).
-void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool* has_reference, bool* has_groups) {
+void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool* has_reference, bool* has_groups,
+                 int* group_row) {
   const std::string where = "$.spheres[" + std::to_string(s) + "]";
   if (Number<uint32_t>(Field(sp, "id", where), where + ".id") != s) throw ReadError{where + ".id is not its index"};
   set->sphere_part.push_back(Number<uint16_t>(Field(sp, "part", where), where + ".part"));
@@ -294,7 +300,8 @@ void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool
                                             : ".fast_reference is given but the first sphere has none")};
   }
   // "reach_groups" (sphere_set.h): optional, all spheres or none; per group [radius, reach per
-  // influence].
+  // influence] or, with blends (every group of the file or none), [radius, reach, blend and deviation
+  // per influence]: 1 + K or 1 + 3 K numbers. *group_row: 0 not known yet, 1 or 3.
   const auto groups = sp.find("reach_groups");
   if (s == 0) {
     *has_groups = groups != sp.end();
@@ -312,14 +319,25 @@ void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool
                       std::to_string(kMaxReachGroups) + ")"};
     }
     for (const json& g : list) {
-      const json& row = Array(g, where + ".reach_groups[]", 1 + k_count);
-      if (row.size() != 1 + k_count) {
-        throw ReadError{where + ".reach_groups[] has " + std::to_string(row.size()) + " entries, expected " +
-                        std::to_string(1 + k_count)};
+      const json& row = Array(g, where + ".reach_groups[]");
+      if (*group_row == 0 && (row.size() == 1 + k_count || row.size() == 1 + 3 * k_count)) {
+        *group_row = row.size() == 1 + k_count ? 1 : 3;
+      }
+      const size_t expected = 1 + size_t(std::max(*group_row, 1)) * k_count;
+      if (row.size() != expected) {
+        throw ReadError{
+            where + ".reach_groups[] has " + std::to_string(row.size()) + " entries, expected " +
+            std::to_string(expected) +
+            (*group_row == 0 ? " or " + std::to_string(1 + 3 * k_count) + " (with blends)" : std::string())};
       }
       set->reach_group_radii.push_back(Number<float>(row[0], where + ".reach_groups[][0]"));
       for (size_t k = 0; k < k_count; ++k) {
         set->reach_group_weights.push_back(Number<float>(row[1 + k], where + ".reach_groups[][]"));
+      }
+      for (size_t k = 0; k < k_count && *group_row == 3; ++k) {
+        set->reach_group_blend.push_back(Number<float>(row[1 + k_count + k], where + ".reach_groups[][] (blend)"));
+        set->reach_group_deviation.push_back(
+            Number<float>(row[1 + 2 * k_count + k], where + ".reach_groups[][] (deviation)"));
       }
     }
     set->reach_group_offsets.push_back(static_cast<uint32_t>(set->reach_group_radii.size()));
@@ -365,7 +383,7 @@ class SetStream {
       case E::array_start: array_[d] = event == E::array_start; return true;
       case E::object_end:
         if (d == 2 && array_[1] && key_[1] == "spheres") {
-          ParseSphere(parsed, set_.size(), &set_, &has_reach_, &has_reference_, &has_groups_);
+          ParseSphere(parsed, set_.size(), &set_, &has_reach_, &has_reference_, &has_groups_, &group_row_);
           return false;
         }
         return true;
@@ -408,6 +426,7 @@ class SetStream {
   bool has_reach_ = false;
   bool has_reference_ = false;
   bool has_groups_ = false;
+  int group_row_ = 0;  // ParseSphere's group_row
   StreamedMesh mesh_;
   std::string key_[3];
   bool array_[3] = {false, false, false};

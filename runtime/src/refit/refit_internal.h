@@ -44,6 +44,10 @@ struct FastRefitArrays {
   const float* group_radii = nullptr;
   const float* group_reach = nullptr;
   const uint32_t* group_reach_offsets = nullptr;
+  // The groups' blends and deviations (refit_job.h, "Group blends"), laid out as group_reach; both
+  // null when the set has none: the kernels then skip that term (the same bits as with m = 0, e = W).
+  const float* group_blend = nullptr;
+  const float* group_deviation = nullptr;
   float* out = nullptr;  // 4 floats per sphere: centre, radius
 };
 

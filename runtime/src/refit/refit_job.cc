@@ -45,8 +45,8 @@ namespace {
 using internal::AffineInverse;
 
 // A frame of reference of the fast refit (refit_job.h, "Reference frame"): per joint the inverse of
-// its reference transform, per sphere its centre in reference space and the radius there holding
-// every reference copy of its source vertices.
+// its reference transform, per sphere its centre in reference space and its radius there (each
+// source vertex's weighted mean reference copy distance, FastReferenceRadiiFromMesh).
 struct Reference {
   std::vector<Mat4d> inverse;  // per joint: G_j(rest)^-1, or the stored R_j^-1
   std::vector<Vec4d> center;   // per sphere, homogeneous
@@ -184,9 +184,7 @@ constexpr double kBindReferenceGain = 1e-3;
 Result<bool> internal::StoreBindFastReference(SphereSet* set) {
   set->fast_reference_inverse.clear();
   set->fast_reference_spheres.clear();
-  set->reach_group_offsets.clear();
-  set->reach_group_radii.clear();
-  set->reach_group_weights.clear();
+  set->ClearReachGroups();
   if (!set->has_mesh() || set->fast_only) return false;
   auto data = RefitRestData::Create(*set);
   if (!data.ok()) return data.error();
@@ -199,9 +197,7 @@ Result<bool> ChooseFastReference(SphereSet* set) {
   set->fast_reference_inverse.clear();
   set->fast_reference_spheres.clear();
   // Reach groups are measured in the reference frame: they go with it (the fitter writes them after).
-  set->reach_group_offsets.clear();
-  set->reach_group_radii.clear();
-  set->reach_group_weights.clear();
+  set->ClearReachGroups();
   if (!set->has_mesh() || set->fast_only || RestIsBind(*set)) return false;
   auto data = RefitRestData::Create(*set);  // the rest reference, its weights and reach
   if (!data.ok()) return data.error();
@@ -378,6 +374,8 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
     d.group_offsets_ = set.reach_group_offsets;
     d.group_radii_ = set.reach_group_radii;
     d.group_reach_ = set.reach_group_weights;
+    d.group_blend_ = set.reach_group_blend;
+    d.group_deviation_ = set.reach_group_deviation;
   } else {
     d.group_offsets_.resize(set.size() + 1);
     for (size_t s = 0; s <= set.size(); ++s) d.group_offsets_[s] = static_cast<uint32_t>(s);
@@ -615,6 +613,10 @@ internal::FastRefitArrays SharedArrays(const SphereSet& set, const RefitRestData
   a.group_radii = rest.group_radii().data();
   a.group_reach = rest.group_reach().data();
   a.group_reach_offsets = rest.group_reach_offsets().data();
+  if (!rest.group_blend().empty()) {
+    a.group_blend = rest.group_blend().data();
+    a.group_deviation = rest.group_deviation().data();
+  }
   return a;
 }
 

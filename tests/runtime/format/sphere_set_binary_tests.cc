@@ -91,8 +91,8 @@ size_t EntryOf(const Bytes& b, SphereSetSection id) {
 // The same file as a version-1 writer (before the influence reach) wrote it: section 28 dropped,
 // the others laid out again as the writer lays them out (table, then each section on the next
 // 16-byte boundary, zero padding), version 1, checksum.
-// The file as layout `version` (1, 2 or 3) writes it: the sections that version lacks left out (28-36
-// for version 1, 29-36 for version 2, 34-36 for version 3).
+// The file as layout `version` (1 to 4) writes it: the sections that version lacks left out (28-38
+// for version 1, 29-38 for version 2, 34-38 for version 3, 37-38 for version 4).
 Bytes Downgrade(const Bytes& v2, uint32_t version) {
   struct Entry {
     uint32_t id, element_size;
@@ -104,7 +104,8 @@ Bytes Downgrade(const Bytes& v2, uint32_t version) {
     const Entry e{Get32(v2, at), Get32(v2, at + 4), Get64(v2, at + 8), Get64(v2, at + 16)};
     const uint32_t first_dropped = static_cast<uint32_t>(version == 1   ? SphereSetSection::kInfluenceReach
                                                          : version == 2 ? SphereSetSection::kFastReferenceInverse
-                                                                        : SphereSetSection::kPiecePoints);
+                                                         : version == 3 ? SphereSetSection::kPiecePoints
+                                                                        : SphereSetSection::kReachGroupBlend);
     if (e.id < first_dropped) entries.push_back(e);
   }
   const auto align = [](size_t n) { return (n + 15) / 16 * 16; };
@@ -453,8 +454,8 @@ TEST(SphereSetBinaryTest, AbsurdHeadersAndTablesAreRefusedByName) {
   const std::vector<Case> cases = {
       {"magic", [](Bytes& b) { b[1] = std::byte{'X'}; }, ErrorCode::kFormatRejected, "wrong magic number"},
       {"json", [](Bytes& b) { b.assign(5, std::byte{'{'}); }, ErrorCode::kFormatRejected, "shorter than its magic"},
-      {"version", [](Bytes& b) { Put32(b, 16, 5); }, ErrorCode::kVersionMismatch,
-       "layout version 5 is not supported (this build reads versions 1 to 4)"},
+      {"version", [](Bytes& b) { Put32(b, 16, 6); }, ErrorCode::kVersionMismatch,
+       "layout version 6 is not supported (this build reads versions 1 to 5)"},
       {"version 3 with piece sections", [](Bytes& b) { Put32(b, 16, 3); }, ErrorCode::kInvalidData,
        "section piece_points is not expected with these flags in layout version 3"},
       {"version 1 with a reach section", [](Bytes& b) { Put32(b, 16, 1); }, ErrorCode::kInvalidData,
@@ -534,7 +535,7 @@ TEST(SphereSetBinaryTest, VersionOneFilesReadWithoutReachAndFastOnlyFilesKeepIt)
   EXPECT_EQ(Get32(v2, 16), kSphereSetBinaryVersion);
   const Bytes v1 = Downgrade(v2, 1);
   EXPECT_EQ(Get32(v1, 16), 1u);
-  EXPECT_EQ(Get32(v1, 32), Get32(v2, 32) - 9);  // sections 28-36
+  EXPECT_EQ(Get32(v1, 32), Get32(v2, 32) - 11);  // sections 28-38
   auto old = Read(v1);
   ASSERT_TRUE(old.ok()) << old.error().message;
   EXPECT_TRUE(old->influence_reach.empty());
@@ -543,9 +544,7 @@ TEST(SphereSetBinaryTest, VersionOneFilesReadWithoutReachAndFastOnlyFilesKeepIt)
   expected.influence_reach.clear();
   expected.fast_reference_inverse.clear();
   expected.fast_reference_spheres.clear();
-  expected.reach_group_offsets.clear();
-  expected.reach_group_radii.clear();
-  expected.reach_group_weights.clear();
+  expected.ClearReachGroups();
   EXPECT_EQ(WriteSphereSetJson(*old), WriteSphereSetJson(expected));
   auto rest = RefitRestData::Create(*old);
   ASSERT_TRUE(rest.ok()) << rest.error().message;
@@ -646,7 +645,7 @@ TEST(SphereSetBinaryTest, FastReferenceRoundTripsInBothFormatsAndFastOnlyFilesKe
 
   // A version-2 file: no reference sections; it reads as the set without one.
   const Bytes v2 = Downgrade(full, 2);
-  EXPECT_EQ(Get32(v2, 32), Get32(full, 32) - 8);  // sections 29-36
+  EXPECT_EQ(Get32(v2, 32), Get32(full, 32) - 10);  // sections 29-38
   auto old = Read(v2);
   ASSERT_TRUE(old.ok()) << old.error().message;
   EXPECT_TRUE(old->fast_reference_inverse.empty() && old->fast_reference_spheres.empty());
@@ -729,6 +728,77 @@ TEST(SphereSetBinaryTest, ReachGroupsRoundTripAndFastOnlyFilesKeepThem) {
   auto refused = Read(bad);
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.error().message.find("reach_group_offsets"), std::string::npos) << refused.error().message;
+}
+
+// The groups' blends (sphere_set.h; binary layout version 5, sections 37-38; JSON: each group row
+// [radius, reaches, blends, deviations]): the fitted set has them; both formats and a fast-only file
+// keep them, and the fast-only file refits as the whole set, bit for bit; a layout-4 file (and a JSON
+// file with rows of 1 + K) reads as the set without them, which refits no tighter on any sphere;
+// rows of a third length, and blend sections of another length than the reaches', are refused.
+TEST(SphereSetBinaryTest, GroupBlendsRoundTripAndOlderFilesReadWithoutThem) {
+  const SphereSet& fitted = Builtin();
+  ASSERT_EQ(fitted.reach_group_blend.size(), fitted.reach_group_weights.size());
+  ASSERT_EQ(fitted.reach_group_deviation.size(), fitted.reach_group_weights.size());
+  const std::string json = WriteSphereSetJson(fitted);
+  auto from_json = ReadSphereSetJson(json, "set.json");
+  ASSERT_TRUE(from_json.ok()) << from_json.error().message;
+  EXPECT_EQ(from_json->reach_group_blend, fitted.reach_group_blend);
+  EXPECT_EQ(from_json->reach_group_deviation, fitted.reach_group_deviation);
+  const Bytes full = WriteSphereSetBinary(fitted);
+  auto fast = Read(WriteSphereSetBinary(fitted, SphereSetBinaryContent::kFastOnly));
+  ASSERT_TRUE(fast.ok()) << fast.error().message;
+  EXPECT_EQ(fast->reach_group_blend, fitted.reach_group_blend);
+  EXPECT_EQ(fast->reach_group_deviation, fitted.reach_group_deviation);
+
+  auto v4 = Read(Downgrade(full, 4));
+  ASSERT_TRUE(v4.ok()) << v4.error().message;
+  EXPECT_TRUE(v4->reach_group_blend.empty() && v4->reach_group_deviation.empty());
+  EXPECT_EQ(v4->reach_group_weights, fitted.reach_group_weights);
+  auto doc = nlohmann::json::parse(json);
+  for (auto& sphere : doc["spheres"]) {
+    const size_t k_count = sphere["influences"].size();
+    for (auto& row : sphere["reach_groups"]) row.erase(row.begin() + static_cast<ptrdiff_t>(1 + k_count), row.end());
+  }
+  auto old_json = ReadSphereSetJson(doc.dump(), "old.json");
+  ASSERT_TRUE(old_json.ok()) << old_json.error().message;
+  EXPECT_EQ(WriteSphereSetJson(*old_json), WriteSphereSetJson(*v4));
+
+  auto rest = RefitRestData::Create(fitted), rest_fast = RefitRestData::Create(*fast),
+       rest_v4 = RefitRestData::Create(*v4);
+  ASSERT_TRUE(rest.ok() && rest_fast.ok() && rest_v4.ok());
+  auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  std::mt19937 rng(29);
+  int tighter = 0;
+  for (int p = 0; p < 20; ++p) {
+    const test::Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, 0.0f), "random");
+    std::vector<skinspheres::Vec4f> a(fitted.size()), b(fitted.size()), c(fitted.size());
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &fitted, &*rest, pose.world, {}, a}.Run()));
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &*fast, &*rest_fast, pose.world, {}, b}.Run()));
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &*v4, &*rest_v4, pose.world, {}, c}.Run()));
+    for (size_t s = 0; s < a.size(); ++s) {
+      ASSERT_EQ(std::memcmp(a[s].data(), b[s].data(), sizeof(float) * 4), 0) << "pose " << p << " sphere " << s;
+      ASSERT_LE(a[s].w(), c[s].w()) << "pose " << p << " sphere " << s;
+      tighter += a[s].w() < c[s].w();
+    }
+  }
+  EXPECT_GT(tighter, 0);
+
+  auto doc3 = nlohmann::json::parse(json);
+  doc3["spheres"][3]["reach_groups"][0].push_back(0.5);
+  auto bad_row = ReadSphereSetJson(doc3.dump(), "set.json");
+  ASSERT_FALSE(bad_row.ok());
+  EXPECT_NE(bad_row.error().message.find("$.spheres[3].reach_groups[] has"), std::string::npos)
+      << bad_row.error().message;
+  Bytes bad = full;
+  Put64(bad, EntryOf(bad, SphereSetSection::kReachGroupDeviation) + 16,
+        Get64(bad, EntryOf(bad, SphereSetSection::kReachGroupDeviation) + 16) - 1);
+  FixChecksum(bad);
+  auto refused = Read(bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("sections reach_group_blend and reach_group_deviation have"),
+            std::string::npos)
+      << refused.error().message;
 }
 
 // Triangle pieces (sphere_set.h) round-trip through both formats: JSON version 3, binary layout 4

@@ -459,35 +459,55 @@ TEST_P(SharedCharacterRefit, FastModeBitIdenticalToScalarFormula) {
   CheckFastBits(GetParam(), 20);
 }
 
-// The reach groups (refit_job.h, "Reach groups"): the fitted set has them; on 30 random poses every
-// fast radius is at most the same set's without them (one group per sphere) and the sum is smaller
-// where spheres blend joints (printed); every vertex stays inside (IsCoveredInBothModes).
+// The first source vertex of sphere s (skinned by the pose, in float) farther from the sphere's
+// centre than its radius, in double; UINT32_MAX when none. Grid points are skipped.
+uint32_t SourceVertexOutside(const SphereSet& set, const Pose& pose, size_t s, const skinspheres::Vec4f& sphere) {
+  for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+    if (set.vertices[k] >= set.source_vertex_count) continue;
+    const Eigen::Vector3f& v = pose.positions[set.vertices[k]];
+    if ((v.cast<double>() - sphere.head<3>().cast<double>()).norm() > double(sphere.w())) return set.vertices[k];
+  }
+  return UINT32_MAX;
+}
+
+// The reach groups (refit_job.h, "Reach groups") and their blends ("Group blends"): the fitted set
+// has both; on 30 random poses every fast radius is at most the same set's without the blends, which
+// is at most the set's without groups (one group per sphere); the sums are smaller where spheres
+// blend joints (printed); every vertex stays inside (IsCoveredInBothModes, and here every source
+// vertex of the blended spheres, skinned in float by the pose, is checked in double).
 TEST_P(SharedCharacterRefit, ReachGroupsNeverLoosenTheBound) {
   SKINSPHERES_REQUIRE_ASSET(path, GetParam());
   (void)path;
   auto fc = test::LoadFitted(GetParam());
   ASSERT_TRUE(fc);
   ASSERT_EQ(fc->set.reach_group_offsets.size(), fc->set.size() + 1);
+  ASSERT_EQ(fc->set.reach_group_blend.size(), fc->set.reach_group_weights.size());
+  SphereSet unblended = fc->set;
+  unblended.reach_group_blend.clear();
+  unblended.reach_group_deviation.clear();
+  ASSERT_FALSE(unblended.Validate().has_value());
   SphereSet one_group = fc->set;
-  one_group.reach_group_offsets.clear();
-  one_group.reach_group_radii.clear();
-  one_group.reach_group_weights.clear();
-  auto grouped = RefitRestData::Create(fc->set), single = RefitRestData::Create(one_group);
-  ASSERT_TRUE(grouped.ok() && single.ok());
+  one_group.ClearReachGroups();
+  auto blended = RefitRestData::Create(fc->set), grouped = RefitRestData::Create(unblended),
+       single = RefitRestData::Create(one_group);
+  ASSERT_TRUE(blended.ok() && grouped.ok() && single.ok());
   std::mt19937 rng(4);
-  double sum_grouped = 0.0, sum_single = 0.0;
+  double sum_blended = 0.0, sum_grouped = 0.0, sum_single = 0.0;
   for (int p = 0; p < 30; ++p) {
     const Pose pose = test::MakePose(fc->character, test::RandomLocal(fc->character, rng, 60.0f, 0.3f), "random");
-    std::vector<skinspheres::Vec4f> a(fc->set.size()), b(fc->set.size());
-    ASSERT_TRUE((RefitJob{RefitMode::kFast, &fc->set, &*grouped, pose.world, {}, a}.Run()));
-    ASSERT_TRUE((RefitJob{RefitMode::kFast, &one_group, &*single, pose.world, {}, b}.Run()));
+    std::vector<skinspheres::Vec4f> a(fc->set.size()), b(fc->set.size()), c(fc->set.size());
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &fc->set, &*blended, pose.world, {}, a}.Run()));
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &unblended, &*grouped, pose.world, {}, b}.Run()));
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &one_group, &*single, pose.world, {}, c}.Run()));
     for (size_t s = 0; s < a.size(); ++s) {
       ASSERT_LE(a[s].w(), b[s].w()) << "pose " << p << " sphere " << s;
-      sum_grouped += a[s].w(), sum_single += b[s].w();
+      ASSERT_LE(b[s].w(), c[s].w()) << "pose " << p << " sphere " << s;
+      sum_blended += a[s].w(), sum_grouped += b[s].w(), sum_single += c[s].w();
+      ASSERT_EQ(SourceVertexOutside(fc->set, pose, s, a[s]), UINT32_MAX) << "sphere " << s << " pose " << p;
     }
   }
-  std::printf("%s: fast radii summed over 30 random poses, reach groups / one group = %.3f\n", GetParam().c_str(),
-              sum_grouped / sum_single);
+  std::printf("%s: fast radii summed over 30 random poses, reach groups / one group = %.3f, with blends %.3f\n",
+              GetParam().c_str(), sum_grouped / sum_single, sum_blended / sum_single);
 }
 
 // Validate() holds each group to its members: a sphere's groups replaced by one group holding all of
@@ -519,9 +539,8 @@ TEST(RefitJobTest, AReachGroupThatMissesAVertexIsRefused) {
   // Rebuild the arrays with sphere s's groups replaced by that one group.
   auto with_one_group = [&](float r, const std::vector<float>& w) {
     SphereSet out = set;
+    out.ClearReachGroups();  // the blends too: this test is about the radius and the reach
     out.reach_group_offsets = {0};
-    out.reach_group_radii.clear();
-    out.reach_group_weights.clear();
     size_t base = 0;
     for (size_t t = 0; t < set.size(); ++t) {
       const uint32_t kc = set.influence_offsets[t + 1] - set.influence_offsets[t];
@@ -557,8 +576,9 @@ TEST(RefitJobTest, AReachGroupThatMissesAVertexIsRefused) {
 // measured in the reference frame) is refitted on 30 random poses: where the fitter stored the bind
 // pose, its fast radii sum to less than 99% of the rest pose's; where it did not, the bind pose
 // would not have saved 1% (RobotExpressive and Soldier, whose rest poses are not their bind poses,
-// have both). Every vertex stays inside with either (IsCoveredInBothModes, and the loop below
-// checks the bind reference's).
+// have both). Since the fast radius takes each vertex's mean copy distance no shared character
+// stores it (ARestPoseAwayFromBindTakesTheBindPoseAsReference covers a set that does). Every vertex stays inside with
+// either (IsCoveredInBothModes, and the loop below checks the bind reference's).
 TEST_P(SharedCharacterRefit, FastReferenceIsStoredOnlyWhereItBoundsTighter) {
   SKINSPHERES_REQUIRE_ASSET(path, GetParam());
   (void)path;
@@ -568,9 +588,7 @@ TEST_P(SharedCharacterRefit, FastReferenceIsStoredOnlyWhereItBoundsTighter) {
   SphereSet rest_set = fc->set;
   rest_set.fast_reference_inverse.clear();
   rest_set.fast_reference_spheres.clear();
-  rest_set.reach_group_offsets.clear();
-  rest_set.reach_group_radii.clear();
-  rest_set.reach_group_weights.clear();
+  rest_set.ClearReachGroups();
   SphereSet bind_set = rest_set;
   auto built = internal::StoreBindFastReference(&bind_set);
   ASSERT_TRUE(built.ok()) << built.error().message;
@@ -587,11 +605,7 @@ TEST_P(SharedCharacterRefit, FastReferenceIsStoredOnlyWhereItBoundsTighter) {
     ASSERT_TRUE((RefitJob{RefitMode::kFast, &rest_set, &*rest_rest, pose.world, {}, b}.Run()));
     for (size_t s = 0; s < a.size(); ++s) {
       sum_bind += a[s].w(), sum_rest += b[s].w();
-      for (uint32_t k = fc->set.vertex_offsets[s]; k < fc->set.vertex_offsets[s + 1]; ++k) {
-        const Eigen::Vector3f& v = pose.positions[fc->set.vertices[k]];
-        ASSERT_LE((v.cast<double>() - a[s].head<3>().cast<double>()).norm(), double(a[s].w()))
-            << "sphere " << s << " pose " << p;
-      }
+      ASSERT_EQ(SourceVertexOutside(fc->set, pose, s, a[s]), UINT32_MAX) << "sphere " << s << " pose " << p;
     }
   }
   std::printf("%s: fast radii summed over 30 random poses, bind reference / rest reference = %.3f (%s)\n",

@@ -21,7 +21,8 @@ using runtime::SphereSet;
 // the bit-equality reference of every SIMD and portable copy, on every platform.
 // bound: kRestData, the bound the runtime computes, from the rest data: the largest over the
 // sphere's reach groups of s_max · r_g + min(max_j |d_j|, Σ_j W_gj |d_j|) (one group, the set's
-// radius_fast and reach, when the set has none: refit_job.h); kWithoutReach: Kavan & Žára's
+// radius_fast and reach, when the set has none: refit_job.h), that min also taken with
+// |Σ_k m_gk d_k| + Σ_k e_gk |d_k| when the set has group blends ("Group blends"); kWithoutReach: Kavan & Žára's
 // r' = s_max · radius_fast + max_j |d_j| as written before reach existed (no min), the oracle of
 // "never above the old bound" and "a set without reach is the old bound".
 enum class Bound { kRestData, kWithoutReach };
@@ -49,7 +50,9 @@ inline std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, con
     }
     const uint32_t g0 = rest.group_offsets()[s], groups = rest.group_offsets()[s + 1] - g0;
     const float* g_reach = rest.group_reach().data() + rest.group_reach_offsets()[s];
-    std::vector<float> reached(groups, 0.0f);
+    std::vector<float> reached(groups, 0.0f), deviated(groups, 0.0f);
+    std::vector<Eigen::Vector3f> blended(groups, Eigen::Vector3f::Zero());
+    const bool blends = !rest.group_blend().empty();
     float spread2 = 0.0f, s2 = 0.0f;
     for (uint32_t k = k0; k < k1; ++k) {
       const uint16_t j = set.influence_joints[k];
@@ -71,14 +74,21 @@ inline std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, con
       }
       spread2 = std::max(spread2, d2);
       for (uint32_t g = 0; g < groups; ++g) reached[g] += g_reach[g * (k1 - k0) + (k - k0)] * std::sqrt(d2);
+      for (uint32_t g = 0; g < groups && blends; ++g) {
+        const size_t at = rest.group_reach_offsets()[s] + g * (k1 - k0) + (k - k0);
+        for (int m = 0; m < 3; ++m) blended[g][m] = blended[g][m] + rest.group_blend()[at] * d[m];
+        deviated[g] = deviated[g] + rest.group_deviation()[at] * std::sqrt(d2);
+      }
       s2 = std::max(s2, row_max);
     }
     float r = std::sqrt(s2) * rest.radii_fast()[s] + std::sqrt(spread2);
     if (bound == Bound::kRestData) {
-      r = std::sqrt(s2) * rest.group_radii()[g0] + std::min(std::sqrt(spread2), reached[0]);
-      for (uint32_t g = 1; g < groups; ++g) {
-        r = std::max(r, std::sqrt(s2) * rest.group_radii()[g0 + g] + std::min(std::sqrt(spread2), reached[g]));
-      }
+      const auto term = [&](uint32_t g) {
+        const float t = std::min(std::sqrt(spread2), reached[g]);
+        return blends ? std::min(t, std::sqrt(norm2(blended[g])) + deviated[g]) : t;
+      };
+      r = std::sqrt(s2) * rest.group_radii()[g0] + term(0);
+      for (uint32_t g = 1; g < groups; ++g) r = std::max(r, std::sqrt(s2) * rest.group_radii()[g0 + g] + term(g));
     }
     const float largest = std::max(std::fabs(c.x()), std::max(std::fabs(c.y()), std::fabs(c.z())));
     const float radius = r + 16.0f * FLT_EPSILON * (largest + r);

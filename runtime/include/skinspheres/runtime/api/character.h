@@ -142,9 +142,9 @@ class CharacterInstance {
   // has not since the last update). Positions:
   //  - skinned_positions given: mode (a), the positions the spheres were refitted from (UpdateExact's
   //    buffer), or the LBS of the same joint matrices after UpdateFast, with the asset's own skin
-  //    weights: the fast spheres bound exactly those (refit_job.h; their bound uses the largest
-  //    weight each joint has in each sphere, SphereSet::influence_reach), so positions skinned with
-  //    weights an engine pruned or re-normalised may lie outside them and their contacts be missed;
+  //    weights: the fast spheres bound exactly those (refit_job.h; their radius, reach and group
+  //    blends all come from the file's weights), so positions skinned with weights an engine pruned
+  //    or re-normalised may lie outside them and their contacts be missed;
   //  - empty: mode (b), the instance skins only the vertices of the spheres it tests, from the
   //    joint matrices of the last update (kInvalidArgument when that update had none).
   // Refused (kVersionMismatch) when the asset has no mesh. parallel_for spreads the sphere pairs

@@ -143,14 +143,16 @@ struct SphereSet {
   // writes it; files written before it have none, and an empty array means: computed from the mesh
   // when the set has one, else 1 for every entry (the bound without it, exactly). A fast-only
   // binary file keeps it (it has no mesh to compute it from). It holds for the skin weights in the
-  // mesh: an engine that re-quantises or prunes them must not rely on a reach below 1.
+  // mesh, as radius_fast (each vertex's copies weighted by them) and the groups' blends do: an
+  // engine that re-quantises or prunes the weights must fit with the weights it skins with.
   std::vector<float> influence_reach;
 
   // The fast refit's reference frame (refit/refit_job.h, "Reference frame"), or both empty: the
   // rest pose, i.e. R_j = joint_rest_world[j], the centre centers_rest[s] and the radius
   // radii_fast[s]. The fitter fills them (ChooseFastReference, refit_job.h) when the file's rest pose
-  // is not its bind pose and the bind pose bounds the spheres tighter (Soldier: 1.64x to 1.30x of the
-  // radius the skinned vertices need); its centres and radii above stay the rest pose's, which a
+  // is not its bind pose and the bind pose bounds the spheres tighter (Soldier, until the fast radius
+  // took each vertex's mean copy distance: 1.64x to 1.30x of the radius the skinned vertices need;
+  // no shared character since); its centres and radii above stay the rest pose's, which a
   // reader that ignores these still refits soundly with. A fast-only binary file keeps them, so
   // it refits as the whole set does.
   //   fast_reference_inverse[j]: R_j^-1 (column-major 4x4, affine), per joint;
@@ -178,6 +180,18 @@ struct SphereSet {
   std::vector<uint32_t> reach_group_offsets;
   std::vector<float> reach_group_radii;
   std::vector<float> reach_group_weights;
+  // Each reach group's blend (refit/refit_job.h, "Group blends"), or both empty: none (the bound
+  // without it, bit for bit). Laid out as reach_group_weights, one float per group and influence
+  // entry: a blend weight m_gk in [0, 1] and a deviation e_gk in [0, 1] such that every source vertex
+  // the group dominates has, on the joint of every entry k that is its joint's first entry in the
+  // sphere, a total weight w within e_gk of m_gk (|w - m_gk| <= e_gk, in float). An entry that repeats
+  // an earlier entry's joint has m = e = 0 (the joint is counted once). The fast bound then also
+  // takes |Σ_k m_gk d_k| + Σ_k e_gk |d_k| for the group's spread. The fitter writes them with the
+  // groups: m the midpoint of the members' weights, e the largest distance from it, rounded up.
+  // Needs the groups (reach_group_offsets not empty). With a mesh, Validate() checks every
+  // vertex's domination including these; a fast-only binary file keeps them.
+  std::vector<float> reach_group_blend;
+  std::vector<float> reach_group_deviation;
 
   std::vector<ExcludedPair> excluded_pairs;  // sorted by (i, j), i < j, unique
 
@@ -216,6 +230,14 @@ struct SphereSet {
 
   size_t size() const { return centers_rest.size(); }
   bool has_mesh() const { return !triangle_vertices.empty(); }
+  // Drops the reach groups and their blends (all five arrays): one group per sphere again.
+  void ClearReachGroups() {
+    reach_group_offsets.clear();
+    reach_group_radii.clear();
+    reach_group_weights.clear();
+    reach_group_blend.clear();
+    reach_group_deviation.clear();
+  }
   bool has_pieces() const { return !pieces.empty() || !piece_points.empty() || !piece_offsets.empty(); }
   // The pieces sphere s owns: pieces[piece_offsets[s], piece_offsets[s + 1]), none when the set has no
   // piece offsets (a set without pieces). Needs s < size() and offsets that Validate() accepted.

@@ -13,7 +13,7 @@
 //                catch 7-bit and text-mode transfers)
 //     8     8    u64 checksum: XXH64, seed 0 (Xxh64 below; xxhsum -H1 computes the same), of the
 //                bytes [16, file_size)
-//    16     4    u32 layout version (kSphereSetBinaryVersion; the two before it read too)
+//    16     4    u32 layout version (kSphereSetBinaryVersion; every version before it reads too)
 //    20     4    u32 flags: bit 0 fast-only, bit 1 has a mesh (never both); other bits 0
 //    24     8    u64 file_size: the file's exact length
 //    32     4    u32 section_count
@@ -76,13 +76,16 @@
 //                                                       grid point (SphereSet::piece_points)   } with a mesh
 //   35  piece_offsets           u32   N + 1 or 0       CSR over 36; 0: no pieces              } (flag bit
 //   36  pieces                  u32   2 o[N]           (triangle, level << 16 | index) each   } 1) only
+//   37  reach_group_blend       f32   as 33 or 0       per group and influence } version 5, every
+//   38  reach_group_deviation   f32   as 33 or 0       per group and influence } file; both 0: none
+//                                                       (sphere_set.h, refit_job.h "Group blends")
 // A file holds exactly the sections its flags and version call for. A change of layout bumps the
 // version. A version-1 file reads as a set without influence reach, a version-1 or 2 file as one
 // without a fast reference (the rest pose) or reach groups, a file before version 4 as one without
-// triangle pieces.
+// triangle pieces, a file before version 5 as one without the groups' blends.
 //
 // Fast-only variant: sections 17-27 and 34-36 left out, i.e. everything fast refit never reads (Xbot: 16 KB
-// instead of 1.6 MB; its JSON takes 3.5 MB). It keeps sections 28-33, 28 filled from the mesh when the set
+// instead of 1.6 MB; its JSON takes 3.5 MB). It keeps sections 28-33 and 37-38, 28 filled from the mesh when the set
 // has a mesh and no reach of its own (a fast-only set has no mesh to compute it from later), so it
 // refits exactly as the whole set does. A set read from it has SphereSet::fast_only set; exact refit and
 // triangle tests refuse it with an error saying so.
@@ -116,10 +119,11 @@
 namespace skinspheres::runtime {
 
 inline constexpr unsigned char kSphereSetBinaryMagic[8] = {0x89, 'S', 'S', 'B', '\r', '\n', 0x1A, '\n'};
-inline constexpr uint32_t kSphereSetBinaryVersion = 4;                  // written
-inline constexpr uint32_t kSphereSetBinaryVersionWithoutPieces = 3;     // read (no sections 34-36)
-inline constexpr uint32_t kSphereSetBinaryVersionWithoutReference = 2;  // read (no sections 29-36)
-inline constexpr uint32_t kSphereSetBinaryVersionWithoutReach = 1;      // read (no sections 28-36)
+inline constexpr uint32_t kSphereSetBinaryVersion = 5;                  // written
+inline constexpr uint32_t kSphereSetBinaryVersionWithoutBlends = 4;     // read (no sections 37-38)
+inline constexpr uint32_t kSphereSetBinaryVersionWithoutPieces = 3;     // read (no sections 34-38)
+inline constexpr uint32_t kSphereSetBinaryVersionWithoutReference = 2;  // read (no sections 29-38)
+inline constexpr uint32_t kSphereSetBinaryVersionWithoutReach = 1;      // read (no sections 28-38)
 inline constexpr size_t kSphereSetBinaryHeaderSize = 64;
 inline constexpr size_t kSphereSetBinarySectionEntrySize = 24;
 inline constexpr size_t kSphereSetBinaryAlignment = 16;
@@ -163,8 +167,10 @@ enum class SphereSetSection : uint32_t {
   kPiecePoints,
   kPieceOffsets,
   kPieces,
+  kReachGroupBlend,
+  kReachGroupDeviation,
 };
-inline constexpr uint32_t kSphereSetSectionCount = 36;  // ids 1..36
+inline constexpr uint32_t kSphereSetSectionCount = 38;  // ids 1..38
 
 enum class SphereSetBinaryContent : uint8_t {
   kFull,      // everything, mesh included: converts back to the same JSON
@@ -253,6 +259,8 @@ class SphereSetBinaryView {
   std::span<const uint32_t> piece_points() const { return Get<uint32_t>(SphereSetSection::kPiecePoints); }
   std::span<const uint32_t> piece_offsets() const { return Get<uint32_t>(SphereSetSection::kPieceOffsets); }
   std::span<const uint32_t> pieces() const { return Get<uint32_t>(SphereSetSection::kPieces); }
+  std::span<const float> reach_group_blend() const { return Get<float>(SphereSetSection::kReachGroupBlend); }
+  std::span<const float> reach_group_deviation() const { return Get<float>(SphereSetSection::kReachGroupDeviation); }
   uint32_t version() const { return version_; }
 
   // Copies into a SphereSet (loaded_from = source_name()) and validates it (errors name the source).

@@ -102,10 +102,11 @@
 //   transforms uses the same centre, so its spheres move with the reference too (their radii stay
 //   the exact ones).
 //
-// Reach groups. The derivation bounds each source vertex v by s_max · |p_b - c| over its own copies
-// plus min(max_j |d_j|, Σ_j w_vj |d_j|) with its own weights, and the formula above replaces both by
-// the sphere's largest (radius_fast, W_j). A sphere whose vertices fall into groups g, each with a
-// radius r_g >= |p_b - c| for every copy of its members and a reach W_gj >= w_vj of its members,
+// Reach groups. The derivation bounds each source vertex v by s_max · Σ_b w_b |p_b - c| over its own
+// copies plus min(max_j |d_j|, Σ_j w_vj |d_j|) with its own weights, and the formula above replaces
+// both by the sphere's largest (radius_fast, W_j). A sphere whose vertices fall into groups g, each
+// with a radius r_g at least the weighted mean copy distance of each of its members and a reach
+// W_gj >= w_vj of its members,
 // is bounded the same way group by group:
 //     r' = max_g (s_max · r_g + min(max_j |d_j|, Σ_j W_gj |d_j|)) + margin
 // Every vertex is in some group and |v' - c'| is at most its group's term. Each group's figures are
@@ -115,10 +116,32 @@
 // most kMaxReachGroups; SphereSet::reach_group_offsets), which separates the vertices that lean on
 // one joint from those that blend: measured (play --verify --mode fast, every clip), the fast radii
 // over the radius the skinned triangles need go from 1.239 to 1.172 on CesiumMan and 1.297 to 1.224
-// on Soldier, and the sphere pairs per frame from 385 to 257 and 806 to 592. Validate() checks with
-// the mesh that every source vertex is dominated by a group of its sphere (FastBoundVerticesFromMesh).
-// The sums run per group in influence order, the same operations in the vector code and the tests'
-// scalar reference.
+// on Soldier (then with the bind reference), and the sphere pairs per frame from 385 to 257 and 806
+// to 592. Validate() checks with the mesh that every source vertex is dominated by a group of its
+// sphere (FastBoundVerticesFromMesh). The sums run per group in influence order, the same
+// operations in the vector code and the tests' scalar reference.
+//
+// Group blends (SphereSet::reach_group_blend / reach_group_deviation). A vertex's spread term is
+// Σ_j w_vj d_j, a vector, which the reach bounds by the sum of lengths. For any weights m_gj,
+//     Σ_j w_vj d_j = Σ_j m_gj d_j + Σ_j (w_vj - m_gj) d_j,
+// so with |w_vj - m_gj| <= e_gj for every member v of group g,
+//     |Σ_j w_vj d_j| <= |Σ_j m_gj d_j| + Σ_j e_gj |d_j|,
+// and the group's term becomes min(max_j |d_j|, Σ_j W_gj |d_j|, |Σ_j m_gj d_j| + Σ_j e_gj |d_j|).
+// The first part is a vector sum, evaluated each frame: where the members' weights are alike (e
+// small) the bound follows where the blend actually carries them instead of adding the joints'
+// motions up. m and e are per (group, influence entry); an entry that repeats an earlier entry's
+// joint has m = e = 0, so each joint counts once. The fitter takes m the midpoint of the members'
+// weights and e the largest distance from it, rounded up; Validate() checks with the mesh that every
+// vertex lies within e of m in the group that dominates it. Without blends (every file before
+// binary layout 5) the kernels skip the term: the same bits as before; with m = 0 and e = W it
+// would give the same bits too. Measured (play --verify --mode fast, every clip, default fit): the
+// fast radii over the radius the skinned triangles need go from 1.172 to 1.073 on CesiumMan, 1.074
+// to 1.052 on Soldier, 1.080 to 1.078 on Xbot (with Soldier's clips), 1.030 to 1.028 on
+// RobotExpressive and 1.038 to 1.025 on the built-in character, and the sphere pairs per frame
+// from 256.5 to 147.1, 150.5 to 114.3, 30.1 to 29.3, 35.3 to 33.6 and 11.5 to 11.1; 0
+// triangle-frames outside, the narrow phase equal to the oracle in every frame. The vector sum
+// runs per group in influence order, lane by lane (x, y, z), the same operations in every copy of
+// the kernel and the tests' scalar reference.
 //
 // Triangle pieces (SphereSet::pieces, docs/TRIANGLE_PIECES.md). A sphere that owns pieces of a
 // triangle bounds their corners, the grid points in its point list, in place of the triangle's
@@ -217,6 +240,10 @@ class RefitRestData {
   std::span<const float> group_radii() const { return group_radii_; }
   std::span<const float> group_reach() const { return group_reach_; }
   std::span<const uint32_t> group_reach_offsets() const { return group_reach_offsets_; }
+  // The groups' blends and deviations (the header comment, "Group blends"), laid out as
+  // group_reach(); both empty when the set has none (the bound without them, bit for bit).
+  std::span<const float> group_blend() const { return group_blend_; }
+  std::span<const float> group_deviation() const { return group_deviation_; }
   // Per joint: the 3x3 linear part of the inverse of its reference transform, G_j(rest)^-1 or the
   // inverse bind matrix (A_j = linear(G_j(t)) · this).
   std::span<const Eigen::Matrix3f> rest_linear_inverse() const { return rest_linear_inverse_; }
@@ -245,7 +272,7 @@ class RefitRestData {
   std::vector<float> radii_fast_;
   bool bind_reference_ = false;
   std::vector<uint32_t> group_offsets_, group_reach_offsets_;
-  std::vector<float> group_radii_, group_reach_;
+  std::vector<float> group_radii_, group_reach_, group_blend_, group_deviation_;
   std::vector<Eigen::Matrix3f> rest_linear_inverse_;
   std::vector<float> rest_inverse_rows_;
   std::vector<uint32_t> exact_point_offsets_, exact_points_;
