@@ -695,6 +695,19 @@ std::optional<Error> CheckReachGroups(const SphereSet& set) {
                            ", which repeats an earlier entry's joint (its blend and deviation must be 0)");
           }
         }
+        // Some weights summing to 1 lie within e of m (checked without a mesh too, as the reach's sum).
+        double highest = 0.0, lowest = 0.0;
+        for (uint32_t k = 0; k < k_count; ++k) {
+          if (repeated[k]) continue;
+          const double m = set.reach_group_blend[base + k], e = set.reach_group_deviation[base + k];
+          highest += std::min(m + e, 1.0);
+          lowest += std::max(m - e, 0.0);
+        }
+        if (!(highest >= 1.0 - kWeightSumTolerance) || !(lowest <= 1.0 + kWeightSumTolerance)) {
+          return Invalid("sphere " + std::to_string(s) + "'s reach group " + std::to_string(g) +
+                         " has blends and deviations that no weights summing to 1 fit (from " + Digits(float(lowest)) +
+                         " to " + Digits(float(highest)) + ")");
+        }
       }
     }
   }

@@ -24,6 +24,9 @@ namespace skinspheres::runtime::internal {
 // The most reach groups a sphere has (SphereSet's kMaxReachGroups; refit_job.cc checks they agree):
 // the kernels keep one sum per group on the stack.
 inline constexpr uint32_t kKernelReachGroups = 4;
+// The group blends' rounding allowance (refit_job.h, "Group blends"): kBlendRounding ·
+// (Σ_k |T_j c - c'| + Σ_k m_gk · max|c'_xyz|) added to |Σ_k m_gk d_k| + Σ_k e_gk |d_k|.
+inline constexpr float kBlendRounding = 32.0f * 1.1920928955078125e-7f;  // 32 FLT_EPSILON
 
 // What the fast refit of one range reads and writes, as plain arrays (no Eigen types in the code
 // compiled for AVX2: an inline Eigen function instantiated there could be the copy the linker keeps

@@ -434,6 +434,77 @@ TEST(RefitJobTest, GroupBlendsHoldEveryVertexAndNeverLoosenTheBound) {
   std::printf("two joints: %d of 4000 fast spheres tighter with blends\n", tighter);
 }
 
+// The blend term's rounding allowance (refit_job.h, "Group blends", ρ): four vertices weighed
+// exactly 0.5 / 0.5 on joints a and b, one group per sphere with m = 0.5 / 0.5 and e = 0 (the review's
+// case). Joint a translated by L·u and joint b by -L·u leave the vertices in place while each
+// T_j c lies L away: the vector sum cancels, and without ρ the float rounding of T_j c - c' put up to
+// 646 of 1200 vertices outside at L = 1e6 (45% of the radius). With ρ, for L from 10 to 1e6 and 200
+// random directions and offsets each, every vertex skinned in double is inside, and the vector
+// refit equals the scalar formula bit for bit. A group whose blends no weights summing to 1 fit is
+// refused.
+TEST(RefitJobTest, GroupBlendsHoldWhenJointsMoveFarApart) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  int checked = 0;
+  for (float length : {10.0f, 100.0f, 1e3f, 1e4f, 1e5f, 1e6f}) {
+    for (int trial = 0; trial < 200; ++trial) {
+      const float ox = 0.3f * u(rng);
+      SphereSet set = TwoJointsWithMesh();
+      set.mesh.positions_bind = {Eigen::Vector3f(ox, 0, 0), Eigen::Vector3f(ox + 0.1f, 0, 0),
+                                 Eigen::Vector3f(ox, 0.1f, 0), Eigen::Vector3f(ox + 0.1f, 0.1f, 0)};
+      set.mesh.binds = {skinning::BindEntry{0, skinspheres::Mat4f::Identity()},
+                        skinning::BindEntry{1, skinspheres::Mat4f::Identity()}};
+      set.mesh.influence_offsets = {0, 2, 4, 6, 8};
+      set.mesh.influence_binds = {0, 1, 0, 1, 0, 1, 0, 1};
+      set.mesh.influence_weights.assign(8, 0.5f);
+      set.influence_weights.assign(4, 0.5f);
+      set.centers_rest = {Eigen::Vector3f(ox + 0.05f, 0.05f, 0), Eigen::Vector3f(ox + 0.05f, 0.05f, 0)};
+      set.vertices = {0, 1, 2, 1, 2, 3};
+      set.influence_reach.clear();
+      set.radii_rest = set.radii_fast = {0.08f, 0.08f};  // replaced by the mesh's figure below
+      auto vertices = FastBoundVerticesFromMesh(set);
+      ASSERT_TRUE(vertices.ok()) << vertices.error().message;
+      const float r = *std::max_element(vertices->radius.begin(), vertices->radius.end());
+      set.radii_rest = set.radii_fast = {r, r};
+      set.reach_group_offsets = {0, 1, 2};
+      set.reach_group_radii = {r, r};
+      set.reach_group_weights.assign(4, 0.5f);
+      set.reach_group_blend.assign(4, 0.5f);
+      set.reach_group_deviation.assign(4, 0.0f);
+      ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+      auto rest = RefitRestData::Create(set);
+      ASSERT_TRUE(rest.ok()) << rest.error().message;
+      const Eigen::Vector3f dir = Eigen::Vector3f(u(rng), u(rng), u(rng)).normalized();
+      std::vector<skinspheres::Mat4f> world = {Eigen::Affine3f(Eigen::Translation3f(length * dir)).matrix(),
+                                               Eigen::Affine3f(Eigen::Translation3f(-length * dir)).matrix()};
+      std::vector<skinspheres::Vec4f> out(2);
+      ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, out}.Run()));
+      const auto scalar = ScalarFastRefit(set, *rest, world, test::Bound::kRestData);
+      for (size_t s = 0; s < 2; ++s) {
+        ASSERT_EQ(out[s], scalar[s]) << "L " << length << " trial " << trial << " sphere " << s;
+        for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+          ASSERT_LE((SkinnedInDouble(set, world, set.vertices[k]) - out[s].head<3>().cast<double>()).norm(), out[s].w())
+              << "L " << length << " trial " << trial << " sphere " << s << " vertex " << set.vertices[k];
+          ++checked;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(checked, 6 * 200 * 6);
+  SphereSet set = TwoJointsWithMesh();
+  set.reach_group_offsets = {0, 1, 2};
+  set.reach_group_radii = {1.0f, 1.0f};
+  set.reach_group_weights.assign(4, 1.0f);
+  set.reach_group_blend = {0.2f, 0.2f, 0.5f, 0.5f};
+  set.reach_group_deviation = {0.1f, 0.1f, 0.5f, 0.5f};  // sphere 0: weights within 0.3 + 0.3 < 1
+  const auto refused = set.Validate();
+  ASSERT_TRUE(refused.has_value());
+  EXPECT_NE(
+      refused->message.find("sphere 0's reach group 0 has blends and deviations that no weights summing to 1 fit"),
+      std::string::npos)
+      << refused->message;
+}
+
 // The same with inverse bind matrices that are not the identity: the bind space moved by a rigid
 // motion and a scale X (IBM_b <- IBM_b X^-1, p_bind <- X p_bind: the same skin), and the second of
 // joint b's two bind entries shifted by (0.05, 0.02, 0), so vertex 2's copies through its two

@@ -52,6 +52,8 @@ inline std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, con
     const float* g_reach = rest.group_reach().data() + rest.group_reach_offsets()[s];
     std::vector<float> reached(groups, 0.0f), deviated(groups, 0.0f);
     std::vector<Eigen::Vector3f> blended(groups, Eigen::Vector3f::Zero());
+    std::vector<float> blend_sum(groups, 0.0f);
+    float moved_sum = 0.0f;
     const bool blends = !rest.group_blend().empty();
     float spread2 = 0.0f, s2 = 0.0f;
     for (uint32_t k = k0; k < k1; ++k) {
@@ -78,14 +80,18 @@ inline std::vector<skinspheres::Vec4f> ScalarFastRefit(const SphereSet& set, con
         const size_t at = rest.group_reach_offsets()[s] + g * (k1 - k0) + (k - k0);
         for (int m = 0; m < 3; ++m) blended[g][m] = blended[g][m] + rest.group_blend()[at] * d[m];
         deviated[g] = deviated[g] + rest.group_deviation()[at] * std::sqrt(d2);
+        blend_sum[g] = blend_sum[g] + rest.group_blend()[at];
       }
+      if (blends) moved_sum = moved_sum + std::sqrt(d2);
       s2 = std::max(s2, row_max);
     }
     float r = std::sqrt(s2) * rest.radii_fast()[s] + std::sqrt(spread2);
     if (bound == Bound::kRestData) {
+      const float largest = std::max(std::fabs(c.x()), std::max(std::fabs(c.y()), std::fabs(c.z())));
       const auto term = [&](uint32_t g) {
         const float t = std::min(std::sqrt(spread2), reached[g]);
-        return blends ? std::min(t, std::sqrt(norm2(blended[g])) + deviated[g]) : t;
+        const float rounding = 32.0f * FLT_EPSILON * (moved_sum + blend_sum[g] * largest);
+        return blends ? std::min(t, (std::sqrt(norm2(blended[g])) + deviated[g]) + rounding) : t;
       };
       r = std::sqrt(s2) * rest.group_radii()[g0] + term(0);
       for (uint32_t g = 1; g < groups; ++g) r = std::max(r, std::sqrt(s2) * rest.group_radii()[g0 + g] + term(g));

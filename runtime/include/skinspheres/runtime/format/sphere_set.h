@@ -182,14 +182,15 @@ struct SphereSet {
   std::vector<float> reach_group_weights;
   // Each reach group's blend (refit/refit_job.h, "Group blends"), or both empty: none (the bound
   // without it, bit for bit). Laid out as reach_group_weights, one float per group and influence
-  // entry: a blend weight m_gk in [0, 1] and a deviation e_gk in [0, 1] such that every source vertex
-  // the group dominates has, on the joint of every entry k that is its joint's first entry in the
-  // sphere, a total weight w within e_gk of m_gk (|w - m_gk| <= e_gk, in float). An entry that repeats
+  // entry: a blend weight m_gk in [0, 1] and a deviation e_gk in [0, 1]. Every source vertex is
+  // dominated by a group that, besides radius and reach, has on the joint of every entry k that is
+  // its joint's first entry in the sphere the vertex's total weight w within e_gk of m_gk
+  // (|w - m_gk| <= e_gk, in float). An entry that repeats
   // an earlier entry's joint has m = e = 0 (the joint is counted once). The fast bound then also
-  // takes |Σ_k m_gk d_k| + Σ_k e_gk |d_k| for the group's spread. The fitter writes them with the
-  // groups: m the midpoint of the members' weights, e the largest distance from it, rounded up.
-  // Needs the groups (reach_group_offsets not empty). With a mesh, Validate() checks every
-  // vertex's domination including these; a fast-only binary file keeps them.
+  // takes |Σ_k m_gk d_k| + Σ_k e_gk |d_k| (plus a rounding allowance) for the group's spread. The fitter writes them
+  // with the groups: m the midpoint of the members' weights, e the largest distance from it, rounded up. Needs the
+  // groups (reach_group_offsets not empty). With a mesh, Validate() checks every vertex's domination including these; a
+  // fast-only binary file keeps them.
   std::vector<float> reach_group_blend;
   std::vector<float> reach_group_deviation;
 

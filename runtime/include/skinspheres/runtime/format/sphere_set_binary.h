@@ -3,8 +3,8 @@
 // stays the interchange and debugging format; both hold the same set, and converting one into the
 // other and back is bit-exact (`skinspheres convert`).
 //
-// Layout, version 4 (version 3, the same without sections 34-36, version 2, without 29-36, and
-// version 1, without 28-36, are still read). Every integer and
+// Layout, version 5 (version 4, the same without sections 37-38, version 3, without 34-38, version
+// 2, without 29-38, and version 1, without 28-38, are still read). Every integer and
 // float is little-endian; offsets count bytes from the start of the file (never pointers), so the
 // file works at any address.
 //

@@ -10,7 +10,8 @@
 //  "spheres":[{"id","part","joint","level","center":[x,y,z],"radius","radius_fast",
 //              "vertices":[...],"triangles":[...],"influences":[[joint,weight],...],
 //              "influence_reach":[one per influence],"fast_reference":[x,y,z,r],
-//              "reach_groups":[[radius, one reach per influence], ...],
+//              "reach_groups":[[radius, one reach per influence(, one blend per influence,
+//                               one deviation per influence)], ...],
 //              "pieces":[triangle, level, index, ...]}],
 //  "excluded_pairs":[[i,j,"same_joint"|"adjacent_joints"|"bind_overlap"],...],
 //  "mesh":{"triangles":[3 source vertex indices per source triangle],
@@ -26,7 +27,10 @@
 // joint) with "fast_reference" (on every sphere), and "reach_groups" (on every sphere, 1 to 4
 // groups), are optional the same way: the fast refit's stored reference frame and reach groups
 // (SphereSet::fast_reference_inverse, reach_group_offsets); a file without them refits with the
-// rest pose and one group per sphere, and a reader that ignores them still refits soundly.
+// rest pose and one group per sphere, and a reader that ignores them still refits soundly. A group
+// row holds 1 + K numbers, or 1 + 3K with the groups' blends (SphereSet::reach_group_blend and
+// reach_group_deviation), the same length in every row of a file; rows of 1 + K (files written
+// before blends) read as a set without them. A reader older than blends refuses rows of 1 + 3K.
 // "pieces" (on the spheres that own pieces of cut triangles) and "mesh.piece_points" are version 3
 // (triangle pieces, sphere_set.h; docs/TRIANGLE_PIECES.md), written only for a set that has them;
 // version 1 and 2 files read as sets without pieces, and a version-2 file that names pieces is

@@ -126,13 +126,18 @@
 //     Σ_j w_vj d_j = Σ_j m_gj d_j + Σ_j (w_vj - m_gj) d_j,
 // so with |w_vj - m_gj| <= e_gj for every member v of group g,
 //     |Σ_j w_vj d_j| <= |Σ_j m_gj d_j| + Σ_j e_gj |d_j|,
-// and the group's term becomes min(max_j |d_j|, Σ_j W_gj |d_j|, |Σ_j m_gj d_j| + Σ_j e_gj |d_j|).
-// The first part is a vector sum, evaluated each frame: where the members' weights are alike (e
-// small) the bound follows where the blend actually carries them instead of adding the joints'
+// and the group's term becomes min(max_j |d_j|, Σ_j W_gj |d_j|, |Σ_j m_gj d_j| + Σ_j e_gj |d_j| + ρ_g),
+// ρ_g = 32·FLT_EPSILON·(Σ_j |d_j| + Σ_j m_gj · max|c'_xyz|) a rounding allowance: the vector sum can
+// cancel to nearly 0 while each T_j c is far out (two joints translated far in opposite directions,
+// the vertices staying put), and the margin below scales with c' alone, so ρ covers the rounding of
+// each T_j c - c' (a few ulps of |d_j| + |c'|), of the sum and its norm, and of the vertices' float
+// weight totals (a few ulps each, against e). The first part is a vector sum, evaluated each frame: where the members'
+// weights are alike (e small) the bound follows where the blend actually carries them instead of adding the joints'
 // motions up. m and e are per (group, influence entry); an entry that repeats an earlier entry's
 // joint has m = e = 0, so each joint counts once. The fitter takes m the midpoint of the members'
 // weights and e the largest distance from it, rounded up; Validate() checks with the mesh that every
-// vertex lies within e of m in the group that dominates it. Without blends (every file before
+// vertex lies within e of m in a group that also holds it by radius and reach, and without a mesh
+// that some weights summing to 1 fit within e of m. Without blends (every file before
 // binary layout 5) the kernels skip the term: the same bits as before; with m = 0 and e = W it
 // would give the same bits too. Measured (play --verify --mode fast, every clip, default fit): the
 // fast radii over the radius the skinned triangles need go from 1.172 to 1.073 on CesiumMan, 1.074
