@@ -35,6 +35,7 @@ struct FitOptions {
   std::string parts_file;
   int hops = 1;
   bool no_bind_overlap = false;
+  bool no_group_blends = false;
   bool no_tighten = false;
   void AddTo(CLI::App& app);
   std::optional<std::string> Resolve();  // fills settings; an error message when refused

@@ -79,6 +79,9 @@ void FitOptions::AddTo(CLI::App& app) {
                  "(docs/TRIANGLE_PIECES.md; 0: keep every triangle whole)")
       ->capture_default_str();
   app.add_flag("--no-bind-overlap", no_bind_overlap, "keep pairs that already overlap in the rest pose");
+  app.add_flag("--no-group-blends", no_group_blends,
+               "store no reach-group blends (by default they are stored where they make the fast spheres "
+               "0.75% tighter or more): a faster fast refit, looser fast spheres (docs/FIT_REPORT.md)");
 }
 
 std::optional<std::string> FitOptions::Resolve() {
@@ -93,6 +96,7 @@ std::optional<std::string> FitOptions::Resolve() {
   }
   settings.adjacent_hops = hops;
   settings.exclude_bind_overlaps = !no_bind_overlap;
+  settings.group_blends = !no_group_blends;
   settings.tighten = !no_tighten;
   if (auto refused = settings.Validate()) return refused->message;
   return std::nullopt;

@@ -68,7 +68,8 @@ std::string FitSettings::ToJson() const {
                       {"split_rounds", split_rounds},
                       {"max_spheres", max_spheres},
                       {"target_standoff", target_standoff},
-                      {"piece_edge", piece_edge}};
+                      {"piece_edge", piece_edge},
+                      {"group_blends", group_blends}};
   return j.dump();
 }
 

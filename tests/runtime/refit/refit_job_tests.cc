@@ -471,7 +471,7 @@ uint32_t SourceVertexOutside(const SphereSet& set, const Pose& pose, size_t s, c
 }
 
 // The reach groups (refit_job.h, "Reach groups") and their blends ("Group blends"): the fitted set
-// has both; on 30 random poses every fast radius is at most the same set's without the blends, which
+// has both (Xbot no blends); on 30 random poses every fast radius is at most the same set's without the blends, which
 // is at most the set's without groups (one group per sphere); the sums are smaller where spheres
 // blend joints (printed); every vertex stays inside (IsCoveredInBothModes, and here every source
 // vertex of the blended spheres, skinned in float by the pose, is checked in double).
@@ -481,7 +481,13 @@ TEST_P(SharedCharacterRefit, ReachGroupsNeverLoosenTheBound) {
   auto fc = test::LoadFitted(GetParam());
   ASSERT_TRUE(fc);
   ASSERT_EQ(fc->set.reach_group_offsets.size(), fc->set.size() + 1);
-  ASSERT_EQ(fc->set.reach_group_blend.size(), fc->set.reach_group_weights.size());
+  // The fitter stores blends where they pay (sphere_fitter.h, FitSettings::group_blends): on every
+  // shared character but Xbot, whose fast radii they would shrink by 0.6% over its eight poses.
+  if (GetParam() == "Xbot.glb") {
+    EXPECT_TRUE(fc->set.reach_group_blend.empty());
+  } else {
+    ASSERT_EQ(fc->set.reach_group_blend.size(), fc->set.reach_group_weights.size());
+  }
   SphereSet unblended = fc->set;
   unblended.reach_group_blend.clear();
   unblended.reach_group_deviation.clear();

@@ -97,6 +97,13 @@ struct FitSettings {
   // share of the body height is cut into the pieces of a regular grid (at most 16 x 16), which
   // spheres may own apart; 0: every triangle stays whole.
   float piece_edge = 0.0f;
+  // The reach groups' blends (runtime refit_job.h, "Group blends"): tighter fast spheres where a
+  // sphere's vertices blend joints (fast sphere pairs per frame: CesiumMan -43%, Soldier -24%), for
+  // a fast refit about 50-75% slower (about +1 µs for Xbot's 77 spheres; a 10,000-Xbot crowd
+  // 10-20% more CPU, docs/PERFORMANCE.md). true: stored where they pay, i.e. where they make the
+  // fast radii summed over eight fixed poses at least 0.75% smaller (CesiumMan, Soldier,
+  // RobotExpressive, the built-in character; not Xbot); false: never.
+  bool group_blends = true;
 
   // The first reason the settings are refused (kInvalidArgument; the message names the setting, its
   // range and the value given), or nullopt when they are fine.

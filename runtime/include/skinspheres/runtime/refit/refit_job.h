@@ -141,9 +141,10 @@
 // binary layout 5) the kernels skip the term: the same bits as before; with m = 0 and e = W it
 // would give the same bits too. Measured (play --verify --mode fast, every clip, default fit): the
 // fast radii over the radius the skinned triangles need go from 1.172 to 1.073 on CesiumMan, 1.074
-// to 1.052 on Soldier, 1.080 to 1.078 on Xbot (with Soldier's clips), 1.030 to 1.028 on
-// RobotExpressive and 1.038 to 1.025 on the built-in character, and the sphere pairs per frame
-// from 256.5 to 147.1, 150.5 to 114.3, 30.1 to 29.3, 35.3 to 33.6 and 11.5 to 11.1; 0
+// to 1.052 on Soldier, 1.080 to 1.078 on Xbot (with Soldier's clips; the fitter does not store them
+// for Xbot, lib FitSettings::group_blends), 1.030 to 1.028 on RobotExpressive and 1.038 to 1.025 on
+// the built-in character, and the sphere pairs per frame from 256.5 to 147.1, 150.5 to 114.3, 30.1
+// to 29.3, 35.3 to 33.6 and 11.5 to 11.1; the fast refit costs 50-75% more; 0
 // triangle-frames outside, the narrow phase equal to the oracle in every frame. The vector sum
 // runs per group in influence order, lane by lane (x, y, z), the same operations in every copy of
 // the kernel and the tests' scalar reference.
