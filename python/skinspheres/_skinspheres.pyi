@@ -168,6 +168,7 @@ def fit(
     max_spheres: int = 200,
     exclude_bind_overlaps: bool = True,
     piece_edge: float = 0.0,
+    group_blends: bool = True,
 ) -> SphereSet:
     """Fits a character file (glTF, GLB, FBX, ...; None: the built-in character), as `skinspheres fit`."""
 

@@ -1014,7 +1014,8 @@ PYBIND11_MODULE(_skinspheres, m) {
       "fit",
       [](const std::optional<PathText>& path, const std::string& parts, int rays, int per_level,
          const std::string& method, float overlap, float step, int hops, int refine, bool tighten, float split_gain,
-         int split_rounds, float target_standoff, int max_spheres, bool exclude_bind_overlaps, float piece_edge) {
+         int split_rounds, float target_standoff, int max_spheres, bool exclude_bind_overlaps, float piece_edge,
+         bool group_blends) {
         NoNul(parts, "parts");
         tool::FitOptions o;  // what the tool's options of the same names set
         o.parts_file = parts;
@@ -1032,6 +1033,7 @@ PYBIND11_MODULE(_skinspheres, m) {
         o.settings.max_spheres = max_spheres;
         o.no_bind_overlap = !exclude_bind_overlaps;
         o.settings.piece_edge = piece_edge;
+        o.no_group_blends = !group_blends;
         return Fit(path, o);
       },
       "path"_a = py::none(), py::kw_only(), "parts"_a = d.parts_file, "rays"_a = d.settings.rays,
@@ -1039,7 +1041,8 @@ PYBIND11_MODULE(_skinspheres, m) {
       "step"_a = d.settings.step, "hops"_a = d.hops, "refine"_a = d.settings.refine_iterations,
       "tighten"_a = !d.no_tighten, "split_gain"_a = d.settings.split_gain, "split_rounds"_a = d.settings.split_rounds,
       "target_standoff"_a = d.settings.target_standoff, "max_spheres"_a = d.settings.max_spheres,
-      "exclude_bind_overlaps"_a = !d.no_bind_overlap, "piece_edge"_a = d.settings.piece_edge);
+      "exclude_bind_overlaps"_a = !d.no_bind_overlap, "piece_edge"_a = d.settings.piece_edge,
+      "group_blends"_a = !d.no_group_blends);
   m.def("load", &Load, "path"_a);
   m.def(
       "clip_names", [](const PathText& path) { return Texts(ClipNames(path)); }, "path"_a);

@@ -82,6 +82,27 @@ def test_fit_with_piece_edge_writes_triangle_pieces(tmp_path):
     assert json.loads(whole.read_text())["version"] == 2
 
 
+def test_fit_group_blends_can_be_turned_off(tmp_path):
+    # docs/FIT_REPORT.md (fast mode): the built-in character keeps its reach groups' blends by
+    # default (JSON group rows [radius, reaches, blends, deviations]: 1 + 3K numbers for K
+    # influences); group_blends=False, as `fit --no-group-blends`, stores rows of 1 + K.
+    def row_lengths(sphere_set, name):
+        path = tmp_path / name
+        sphere_set.save(path)
+        doc = json.loads(path.read_text())
+        return [
+            (len(row), len(s["influences"]))
+            for s in doc["spheres"]
+            for row in s.get("reach_groups", [])
+        ]
+
+    with_blends = row_lengths(ss.fit(), "with.json")
+    without = row_lengths(ss.fit(group_blends=False), "without.json")
+    assert with_blends and without
+    assert all(n == 1 + 3 * k for n, k in with_blends)
+    assert all(n == 1 + k for n, k in without)
+
+
 def test_the_stubs_name_what_the_module_has():
     stub = pathlib.Path(ss.__file__).with_name("_skinspheres.pyi")
     tree = ast.parse(stub.read_text())
