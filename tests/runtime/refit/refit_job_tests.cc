@@ -14,6 +14,7 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <tuple>
 
 #include "refit/fast_reference.h"
 #include "refit/refit_internal.h"  // runtime/src: pins the instruction set of the fast refit
@@ -313,38 +314,79 @@ struct ManyInfluences {
     for (int k = 0; k < influences; ++k) set.influence_reach.push_back(base + 0.01f * static_cast<float>(k % 3));
     set.influence_reach.push_back(1.0f);
   }
+  // Reach groups with blends (refit_job.h, "Reach groups", "Group blends"): three on sphere 0 (radii
+  // 0.7, 0.85 and 1 of its fast radius, reaches growing with the group, blend weights rising with the
+  // entry and summing to 1, deviations 0.01 to 0.05), one on sphere 1. The kernels' group loops then
+  // run over more entries than they keep moved points for.
+  void AddBlendedGroups() {
+    const size_t k_count = set.influence_offsets[1];
+    set.reach_group_offsets = {0, 3, 4};
+    double total = 0.0;
+    for (size_t k = 0; k < k_count; ++k) total += static_cast<double>(k + 1);
+    for (int g = 0; g < 3; ++g) {
+      set.reach_group_radii.push_back(set.radii_fast[0] * (0.7f + 0.15f * static_cast<float>(g)));
+      for (size_t k = 0; k < k_count; ++k) {
+        set.reach_group_weights.push_back(
+            std::min(1.0f, set.influence_reach[k] * (1.0f + 0.25f * static_cast<float>(g))));
+        set.reach_group_blend.push_back(static_cast<float>(static_cast<double>(k + 1) / total));
+        set.reach_group_deviation.push_back(0.01f + 0.02f * static_cast<float>(g));
+      }
+    }
+    set.reach_group_radii.push_back(set.radii_fast[1]);
+    set.reach_group_weights.push_back(1.0f);
+    set.reach_group_blend.push_back(1.0f);
+    set.reach_group_deviation.push_back(0.0f);
+  }
 };
 
 // The paths the characters do not take: a sphere of more influences than the loop keeps moved
 // points for (16), and more joints than a call keeps stretches for on the stack (256). 300 joints
 // in a chain, sphere 0 on 20 of them, sphere 1 on the last; random affine joint matrices.
+// The second round repeats it with reach groups carrying blends (ManyInfluences::AddBlendedGroups),
+// and checks that the blend term decides some of sphere 0's radii.
 TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
-  constexpr int kJoints = 300;
-  ManyInfluences many(kJoints);
-  const SphereSet& set = many.set;
-  const auto random_affine = [&](float scale) { return many.RandomAffine(scale); };
-  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
-  auto rest = RefitRestData::Create(set);
-  ASSERT_TRUE(rest.ok()) << rest.error().message;
-  int sum_term_smaller = 0;
-  AtEveryRefitLevel("20 influences, 300 joints", [&] {
-    for (int p = 0; p < 50; ++p) {
-      std::vector<skinspheres::Mat4f> world;
-      for (int j = 0; j < kJoints; ++j) world.push_back(random_affine(0.5f));
-      const auto want = ScalarFastRefit(set, *rest, world, test::Bound::kRestData);
-      sum_term_smaller += want[0].w() < ScalarFastRefit(set, *rest, world, test::Bound::kWithoutReach)[0].w() ? 1 : 0;
-      std::vector<skinspheres::Vec4f> got(2);
-      ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, got}.Run()));
-      for (size_t s = 0; s < 2; ++s) {
-        for (int c = 0; c < 4; ++c) {
-          ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c]))
-              << "pose " << p << " sphere " << s;
+  for (const bool groups : {false, true}) {
+    constexpr int kJoints = 300;
+    ManyInfluences many(kJoints);
+    if (groups) many.AddBlendedGroups();
+    const SphereSet& set = many.set;
+    const auto random_affine = [&](float scale) { return many.RandomAffine(scale); };
+    ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+    auto rest = RefitRestData::Create(set);
+    ASSERT_TRUE(rest.ok()) << rest.error().message;
+    SphereSet unblended = set;
+    unblended.reach_group_blend.clear();
+    unblended.reach_group_deviation.clear();
+    auto rest_unblended = RefitRestData::Create(unblended);
+    ASSERT_TRUE(rest_unblended.ok()) << rest_unblended.error().message;
+    int sum_term_smaller = 0, blend_smaller = 0;
+    AtEveryRefitLevel(groups ? "20 influences, 300 joints, blended groups" : "20 influences, 300 joints", [&] {
+      for (int p = 0; p < 50; ++p) {
+        std::vector<skinspheres::Mat4f> world;
+        for (int j = 0; j < kJoints; ++j) world.push_back(random_affine(0.5f));
+        const auto want = ScalarFastRefit(set, *rest, world, test::Bound::kRestData);
+        sum_term_smaller += want[0].w() < ScalarFastRefit(set, *rest, world, test::Bound::kWithoutReach)[0].w() ? 1 : 0;
+        if (groups) {
+          blend_smaller +=
+              want[0].w() < ScalarFastRefit(unblended, *rest_unblended, world, test::Bound::kRestData)[0].w() ? 1 : 0;
+        }
+        std::vector<skinspheres::Vec4f> got(2);
+        ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, got}.Run()));
+        for (size_t s = 0; s < 2; ++s) {
+          for (int c = 0; c < 4; ++c) {
+            ASSERT_EQ(std::bit_cast<uint32_t>(got[s][c]), std::bit_cast<uint32_t>(want[s][c]))
+                << "pose " << p << " sphere " << s;
+          }
         }
       }
+    });
+    EXPECT_GT(sum_term_smaller, 10) << "the sum term decided too few of the big sphere's radii";
+    if (groups) {
+      EXPECT_GT(blend_smaller, 10) << "the blend term decided too few of the big sphere's radii";
     }
-  });
-  EXPECT_GT(sum_term_smaller, 10) << "the sum term decided too few of the big sphere's radii";
-  std::printf("sum term smaller on %d of the poses checked\n", sum_term_smaller);
+    std::printf("%s: sum term smaller on %d of the poses checked, blend term on %d\n", groups ? "groups" : "no groups",
+                sum_term_smaller, blend_smaller);
+  }
 }
 
 // The crowd's batch (internal::RefitFastBatch: W instances of one set at once, one per lane, W =
@@ -419,13 +461,16 @@ TEST_P(CrowdBatchLevel, GivesEachInstanceTheScalarBits) {
 
 // The batch on a sphere of more influences than it keeps moved points for (20 > 8), and on one of 6
 // whose joints all share one slot of its stretch table (every 16th joint: each stretch evicts the
-// last, so the second pass computes them again), on a set of 300 joints.
+// last, so the second pass computes them again), on a set of 300 joints; each without and with
+// reach groups carrying blends.
 TEST_P(CrowdBatchLevel, ManyInfluencesAndJoints) {
   const PinnedRefit pin(GetParam());
   if (!pin.ok()) GTEST_SKIP() << "the CPU lacks " << internal::ToString(GetParam());
   constexpr int kJoints = 300;
-  for (const auto& [influences, stride] : {std::pair{20, 15}, std::pair{6, 16}}) {
+  for (const auto& [influences, stride, groups] :
+       {std::tuple{20, 15, false}, std::tuple{6, 16, false}, std::tuple{20, 15, true}, std::tuple{6, 16, true}}) {
     ManyInfluences many(kJoints, influences, stride);
+    if (groups) many.AddBlendedGroups();
     ASSERT_FALSE(many.set.Validate().has_value()) << many.set.Validate()->message;
     auto rest = RefitRestData::Create(many.set);
     ASSERT_TRUE(rest.ok()) << rest.error().message;
@@ -438,7 +483,8 @@ TEST_P(CrowdBatchLevel, ManyInfluencesAndJoints) {
         lanes.push_back(&w);
       }
       CheckBatchLanes(GetParam(), many.set, *rest, lanes, 0,
-                      std::to_string(influences) + " influences, 300 joints, batch " + std::to_string(batch));
+                      std::to_string(influences) + " influences, 300 joints" + (groups ? ", blended groups" : "") +
+                          ", batch " + std::to_string(batch));
     }
   }
 }
