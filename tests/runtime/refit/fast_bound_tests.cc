@@ -292,12 +292,18 @@ TEST(RefitJobTest, TheFastRadiusIsTheLargestMeanCopyDistance) {
   ASSERT_EQ(widest, 2u) << "vertex 2 has the largest mean";
   set.radii_fast[s] = std::max(set.radii_rest[s], vertices->radius[widest_point]);
   ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
-  // Validate() allows 1e-4 of float rounding (CheckFastRadii); 1e-3 below is refused, by name.
-  SphereSet too_small = set;
-  too_small.radii_fast[s] = vertices->radius[widest_point] * 0.999f;
-  const auto refused = too_small.Validate();
-  ASSERT_TRUE(refused.has_value());
-  EXPECT_NE(refused->message.find("source vertex 2's rest copies need"), std::string::npos) << refused->message;
+  // Validate() allows 2 ulps of float rounding (CheckFastRadii): one ulp below passes; 1e-3 and
+  // 1e-5 below are refused, by name (1e-5 passed the 1e-4 allowed before 2026-12-06).
+  SphereSet within_rounding = set;
+  within_rounding.radii_fast[s] = std::nextafter(vertices->radius[widest_point], 0.0f);
+  EXPECT_FALSE(within_rounding.Validate().has_value()) << within_rounding.Validate()->message;
+  for (const float shrink : {0.999f, 0.99999f}) {
+    SphereSet too_small = set;
+    too_small.radii_fast[s] = vertices->radius[widest_point] * shrink;
+    const auto refused = too_small.Validate();
+    ASSERT_TRUE(refused.has_value()) << shrink;
+    EXPECT_NE(refused->message.find("source vertex 2's rest copies need"), std::string::npos) << refused->message;
+  }
 
   SphereSet older = set;
   older.radii_fast = TwoJointsRestAwayFromBind().radii_fast;  // the farthest copies
