@@ -51,6 +51,8 @@ struct FastRefitArrays {
   // null when the set has none: the kernels then skip that term (the same bits as with m = 0, e = W).
   const float* group_blend = nullptr;
   const float* group_deviation = nullptr;
+  // Per group (laid out as group_radii): Σ_k m_gk (RefitRestData::group_blend_sum); null with them.
+  const float* group_blend_sum = nullptr;
   float* out = nullptr;  // 4 floats per sphere: centre, radius
 };
 

@@ -388,6 +388,20 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
             (set.influence_offsets[s + 1] - set.influence_offsets[s]);
     d.group_reach_offsets_[s + 1] = static_cast<uint32_t>(base);
   }
+  // Σ_k m_gk per group, summed in float with k ascending: the sum the kernels formed every frame
+  // before it was kept here, so the same bits.
+  if (!d.group_blend_.empty()) {
+    d.group_blend_sum_.assign(d.group_radii_.size(), 0.0f);
+    for (size_t s = 0; s < set.size(); ++s) {
+      const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
+      for (uint32_t g = d.group_offsets_[s]; g < d.group_offsets_[s + 1]; ++g) {
+        const float* m = d.group_blend_.data() + d.group_reach_offsets_[s] + size_t{g - d.group_offsets_[s]} * k_count;
+        float sum = 0.0f;
+        for (uint32_t k = 0; k < k_count; ++k) sum += m[k];
+        d.group_blend_sum_[g] = sum;
+      }
+    }
+  }
   d.rest_linear_inverse_.resize(joints);
   d.rest_inverse_rows_.assign(12 * joints, 0.0f);
   for (size_t j = 0; j < joints; ++j) {
@@ -616,6 +630,7 @@ internal::FastRefitArrays SharedArrays(const SphereSet& set, const RefitRestData
   if (!rest.group_blend().empty()) {
     a.group_blend = rest.group_blend().data();
     a.group_deviation = rest.group_deviation().data();
+    a.group_blend_sum = rest.group_blend_sum().data();
   }
   return a;
 }

@@ -147,7 +147,8 @@
 // to 29.3, 35.3 to 33.6 and 11.5 to 11.1; the fast refit costs 50-75% more; 0
 // triangle-frames outside, the narrow phase equal to the oracle in every frame. The vector sum
 // runs per group in influence order, lane by lane (x, y, z), the same operations in every copy of
-// the kernel and the tests' scalar reference.
+// the kernel and the tests' scalar reference. Σ_j m_gj is fixed per set: RefitRestData sums it once
+// (group_blend_sum(), in float, k ascending), the order in which the scalar reference sums it.
 //
 // Triangle pieces (SphereSet::pieces, docs/TRIANGLE_PIECES.md). A sphere that owns pieces of a
 // triangle bounds their corners, the grid points in its point list, in place of the triangle's
@@ -250,6 +251,9 @@ class RefitRestData {
   // group_reach(); both empty when the set has none (the bound without them, bit for bit).
   std::span<const float> group_blend() const { return group_blend_; }
   std::span<const float> group_deviation() const { return group_deviation_; }
+  // Per group, laid out as group_radii(): Σ_k m_gk, its blends summed in float with k ascending (the
+  // rounding allowance's factor, fixed per set); empty when group_blend() is.
+  std::span<const float> group_blend_sum() const { return group_blend_sum_; }
   // Per joint: the 3x3 linear part of the inverse of its reference transform, G_j(rest)^-1 or the
   // inverse bind matrix (A_j = linear(G_j(t)) · this).
   std::span<const Eigen::Matrix3f> rest_linear_inverse() const { return rest_linear_inverse_; }
@@ -278,7 +282,7 @@ class RefitRestData {
   std::vector<float> radii_fast_;
   bool bind_reference_ = false;
   std::vector<uint32_t> group_offsets_, group_reach_offsets_;
-  std::vector<float> group_radii_, group_reach_, group_blend_, group_deviation_;
+  std::vector<float> group_radii_, group_reach_, group_blend_, group_deviation_, group_blend_sum_;
   std::vector<Eigen::Matrix3f> rest_linear_inverse_;
   std::vector<float> rest_inverse_rows_;
   std::vector<uint32_t> exact_point_offsets_, exact_points_;
