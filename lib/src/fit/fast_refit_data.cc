@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "fit_stages.h"
+#include "skinspheres/runtime/format/sphere_set.h"
 #include "skinspheres/runtime/refit/refit_job.h"
 
 namespace skinspheres::lib {
@@ -208,13 +209,10 @@ void WriteReachGroups(runtime::SphereSet* set) {
     }
     // The blend (refit_job.h, "Group blends"): per entry the midpoint of the members' weights and
     // the largest distance from it, rounded up (Validate() compares |w - m| <= e in float); 0 and 0
-    // on an entry that repeats an earlier entry's joint (the fitter writes none: kept for safety).
-    const uint32_t i0 = set->influence_offsets[s];
-    std::vector<bool> repeated(k_count, false);
-    for (size_t k = 0; k < k_count; ++k) {
-      for (size_t q = 0; q < k; ++q)
-        repeated[k] = repeated[k] || set->influence_joints[i0 + q] == set->influence_joints[i0 + k];
-    }
+    // on an entry that repeats an earlier entry's joint (runtime::RepeatedInfluenceEntries, the
+    // entries Validate() requires it of; the fitter writes none: kept for safety).
+    std::vector<uint8_t> repeated;
+    runtime::RepeatedInfluenceEntries(*set, s, &repeated);
     std::vector<float> blend(groups * k_count, 0.0f), deviation(groups * k_count, 0.0f);
     for (size_t i = 0; i < n; ++i) {
       for (size_t k = 0; k < k_count; ++k) {

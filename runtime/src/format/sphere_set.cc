@@ -674,17 +674,9 @@ std::optional<Error> CheckReachGroups(const SphereSet& set) {
                    std::to_string(weights) + " (one each per group and influence, or none)");
   }
   std::vector<uint8_t> repeated;  // per entry of the sphere: its joint appeared at an earlier entry
-  const auto mark_repeated = [&](size_t s) {
-    const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
-    repeated.assign(k1 - k0, 0);
-    for (uint32_t k = k0; k < k1; ++k) {
-      for (uint32_t q = k0; q < k && !repeated[k - k0]; ++q)
-        repeated[k - k0] = set.influence_joints[q] == set.influence_joints[k];
-    }
-  };
   if (blends) {
     for (size_t s = 0, base = 0; s < n; ++s) {
-      mark_repeated(s);
+      RepeatedInfluenceEntries(set, s, &repeated);
       const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
       for (uint32_t g = set.reach_group_offsets[s]; g < set.reach_group_offsets[s + 1]; ++g, base += k_count) {
         for (uint32_t k = 0; k < k_count; ++k) {
@@ -721,7 +713,7 @@ std::optional<Error> CheckReachGroups(const SphereSet& set) {
   for (size_t s = 0, base = 0; s < n; ++s) {
     const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
     const uint32_t g0 = set.reach_group_offsets[s], g1 = set.reach_group_offsets[s + 1];
-    if (blends) mark_repeated(s);
+    if (blends) RepeatedInfluenceEntries(set, s, &repeated);
     for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
       const float* w =
           vertices->weights.data() + vertices->weight_offsets[s] + size_t{i - set.vertex_offsets[s]} * k_count;
@@ -826,6 +818,16 @@ std::string PointName(const SphereSet& set, uint32_t k) {
 }
 
 }  // namespace
+
+void RepeatedInfluenceEntries(const SphereSet& set, size_t s, std::vector<uint8_t>* repeated) {
+  const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
+  repeated->assign(k1 - k0, 0);
+  for (uint32_t k = k0; k < k1; ++k) {
+    for (uint32_t q = k0; q < k && !(*repeated)[k - k0]; ++q) {
+      (*repeated)[k - k0] = set.influence_joints[q] == set.influence_joints[k];
+    }
+  }
+}
 
 std::vector<uint32_t> SourceVerticesOfPoints(const SphereSet& set) {
   std::vector<uint32_t> out;

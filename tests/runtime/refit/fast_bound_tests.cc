@@ -174,6 +174,27 @@ TEST(RefitJobTest, FastModeWithReachHoldsEveryVertexOnRandomPoses) {
 using test::RandomWorld;
 using test::SkinnedInDouble;
 
+// On `poses` random poses (RandomWorld, from `seed`): the fast refit gives the scalar formula's
+// bits and holds every source vertex of every sphere, skinned in double.
+void CheckRandomPosesAgainstScalarFormula(const SphereSet& set, const RefitRestData& rest, unsigned seed, int poses) {
+  std::mt19937 rng(seed);
+  std::vector<skinspheres::Mat4f> world(set.joint_count());
+  std::vector<skinspheres::Vec4f> out(set.size());
+  for (int p = 0; p < poses; ++p) {
+    RandomWorld(rng, p, &world);
+    ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &rest, world, {}, out}.Run()));
+    const auto scalar = ScalarFastRefit(set, rest, world, test::Bound::kRestData);
+    for (size_t s = 0; s < set.size(); ++s) {
+      ASSERT_EQ(out[s], scalar[s]) << "pose " << p << " sphere " << s;
+      for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
+        const uint32_t v = set.vertices[k];
+        ASSERT_LE((SkinnedInDouble(set, world, v) - out[s].head<3>().cast<double>()).norm(), out[s].w())
+            << "pose " << p << " sphere " << s << " vertex " << v;
+      }
+    }
+  }
+}
+
 // A rest pose away from the bind pose (joint b's rest transform moved by (0.3, 0.1, 0); the bind
 // pose is identity for both joints): each vertex's rest copies through its two joints lie apart,
 // so radius_fast around the rest centre must hold both, and ChooseFastReference stores the bind
@@ -224,20 +245,7 @@ TEST(RefitJobTest, ARestPoseAwayFromBindTakesTheBindPoseAsReference) {
     EXPECT_LT(out[s].w(), out_rest[s].w()) << "sphere " << s;
   }
 
-  std::mt19937 rng(5);
-  for (int p = 0; p < 2000; ++p) {
-    RandomWorld(rng, p, &world);
-    ASSERT_TRUE((RefitJob{RefitMode::kFast, &set, &*rest, world, {}, out}.Run()));
-    const auto scalar = ScalarFastRefit(set, *rest, world, test::Bound::kRestData);
-    for (size_t s = 0; s < 2; ++s) {
-      ASSERT_EQ(out[s], scalar[s]) << "pose " << p << " sphere " << s;
-      for (uint32_t k = set.vertex_offsets[s]; k < set.vertex_offsets[s + 1]; ++k) {
-        const uint32_t v = set.vertices[k];
-        ASSERT_LE((SkinnedInDouble(set, world, v) - out[s].head<3>().cast<double>()).norm(), out[s].w())
-            << "pose " << p << " sphere " << s << " vertex " << v;
-      }
-    }
-  }
+  CheckRandomPosesAgainstScalarFormula(set, *rest, 5, 2000);
 }
 
 // The fast radius needs each vertex's weighted mean copy distance Σ_b w_b |p_b - c|, not its
@@ -357,6 +365,37 @@ TEST(RefitJobTest, TheFastRadiusIsTheLargestMeanCopyDistance) {
   }
 }
 
+// One reach group per sphere, by hand from the mesh's figures (FastBoundVerticesFromMesh): the
+// radius holding its points and, per influence entry, the reach (the largest of the points'
+// weights), the midpoint m of the weights and e the largest distance from it, rounded up; m = e = 0
+// on an entry that repeats an earlier entry's joint (RepeatedInfluenceEntries).
+void OneBlendedGroupPerSphere(SphereSet* set) {
+  auto vertices = FastBoundVerticesFromMesh(*set);
+  ASSERT_TRUE(vertices.ok()) << vertices.error().message;
+  set->reach_group_offsets = {0};
+  std::vector<uint8_t> repeated;
+  for (size_t s = 0; s < set->size(); ++s) {
+    const uint32_t k_count = set->influence_offsets[s + 1] - set->influence_offsets[s];
+    RepeatedInfluenceEntries(*set, s, &repeated);
+    std::vector<float> lo(k_count, 1.0f), hi(k_count, 0.0f);
+    float radius = 0.0f;
+    for (uint32_t i = set->vertex_offsets[s]; i < set->vertex_offsets[s + 1]; ++i) {
+      radius = std::max(radius, vertices->radius[i]);
+      for (uint32_t k = 0; k < k_count; ++k) {
+        const float w = vertices->weights[vertices->weight_offsets[s] + (i - set->vertex_offsets[s]) * k_count + k];
+        lo[k] = std::min(lo[k], w), hi[k] = std::max(hi[k], w);
+      }
+    }
+    set->reach_group_radii.push_back(radius);
+    set->reach_group_offsets.push_back(static_cast<uint32_t>(set->reach_group_radii.size()));
+    for (uint32_t k = 0; k < k_count; ++k) {
+      set->reach_group_weights.push_back(hi[k]);
+      set->reach_group_blend.push_back(repeated[k] ? 0.0f : 0.5f * (lo[k] + hi[k]));
+      set->reach_group_deviation.push_back(repeated[k] ? 0.0f : std::nextafter(0.5f * (hi[k] - lo[k]), 1.0f));
+    }
+  }
+}
+
 // The groups' blends (refit_job.h, "Group blends"): TwoJointsWithMesh, one group per sphere with
 // the reach of its vertices, and by hand per entry the midpoint m of the vertices' weights and
 // e = the largest distance from it. Sphere 0's vertices weigh joint a 1, 0.75 and 0.5: m = 0.75,
@@ -367,28 +406,7 @@ TEST(RefitJobTest, TheFastRadiusIsTheLargestMeanCopyDistance) {
 // smaller.
 TEST(RefitJobTest, GroupBlendsHoldEveryVertexAndNeverLoosenTheBound) {
   SphereSet set = TwoJointsWithMesh();
-  auto vertices = FastBoundVerticesFromMesh(set);
-  ASSERT_TRUE(vertices.ok()) << vertices.error().message;
-  set.reach_group_offsets = {0};
-  for (size_t s = 0; s < 2; ++s) {
-    const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
-    std::vector<float> lo(k_count, 1.0f), hi(k_count, 0.0f);
-    float radius = 0.0f;
-    for (uint32_t i = set.vertex_offsets[s]; i < set.vertex_offsets[s + 1]; ++i) {
-      radius = std::max(radius, vertices->radius[i]);
-      for (uint32_t k = 0; k < k_count; ++k) {
-        const float w = vertices->weights[vertices->weight_offsets[s] + (i - set.vertex_offsets[s]) * k_count + k];
-        lo[k] = std::min(lo[k], w), hi[k] = std::max(hi[k], w);
-      }
-    }
-    set.reach_group_radii.push_back(radius);
-    set.reach_group_offsets.push_back(static_cast<uint32_t>(set.reach_group_radii.size()));
-    for (uint32_t k = 0; k < k_count; ++k) {
-      set.reach_group_weights.push_back(hi[k]);
-      set.reach_group_blend.push_back(0.5f * (lo[k] + hi[k]));
-      set.reach_group_deviation.push_back(std::nextafter(0.5f * (hi[k] - lo[k]), 1.0f));
-    }
-  }
+  ASSERT_NO_FATAL_FAILURE(OneBlendedGroupPerSphere(&set));
   ASSERT_EQ(set.reach_group_blend[0], 0.75f);
   ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
   {
@@ -509,6 +527,44 @@ TEST(RefitJobTest, GroupBlendsHoldWhenJointsMoveFarApart) {
       refused->message.find("sphere 0's reach group 0 has blends and deviations that no weights summing to 1 fit"),
       std::string::npos)
       << refused->message;
+}
+
+// An influence entry that repeats an earlier entry's joint counts that joint once: its group blend
+// and deviation must be 0 ("Group blends"). TwoJointsWithMesh with sphere 0's influences a, b, b
+// (b's weight split over two entries) and its groups built by hand (OneBlendedGroupPerSphere, the
+// repeated entry with m = e = 0): RepeatedInfluenceEntries marks entry 2 alone, Validate() accepts
+// the set, and on 200 random poses the vector refit equals the scalar formula bit for bit with
+// every vertex inside; a nonzero blend, or a nonzero deviation, on the repeated entry is refused,
+// naming the sphere, the group and the entry.
+TEST(RefitJobTest, GroupBlendsOnARepeatedJointAreRefused) {
+  SphereSet set = TwoJointsWithMesh();
+  set.influence_offsets = {0, 3, 5};
+  set.influence_joints = {0, 1, 1, 0, 1};
+  set.influence_weights = {0.75f, 0.125f, 0.125f, 5.0f / 12.0f, 7.0f / 12.0f};
+  std::vector<uint8_t> repeated;
+  RepeatedInfluenceEntries(set, 0, &repeated);
+  EXPECT_EQ(repeated, (std::vector<uint8_t>{0, 0, 1}));
+  RepeatedInfluenceEntries(set, 1, &repeated);
+  EXPECT_EQ(repeated, (std::vector<uint8_t>{0, 0}));
+  ASSERT_NO_FATAL_FAILURE(OneBlendedGroupPerSphere(&set));
+  // The repeated entry: b's total weight as reach, as entry 1's; no blend, no deviation.
+  ASSERT_EQ(set.reach_group_weights[2], 0.5f);
+  ASSERT_EQ(set.reach_group_blend[2], 0.0f);
+  ASSERT_EQ(set.reach_group_deviation[2], 0.0f);
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  auto rest = RefitRestData::Create(set);
+  ASSERT_TRUE(rest.ok()) << rest.error().message;
+  ASSERT_NO_FATAL_FAILURE(CheckRandomPosesAgainstScalarFormula(set, *rest, 29, 200));
+  for (const bool blend : {true, false}) {
+    SphereSet refused_set = set;
+    (blend ? refused_set.reach_group_blend : refused_set.reach_group_deviation)[2] = 0.125f;
+    const auto refused = refused_set.Validate();
+    ASSERT_TRUE(refused.has_value()) << (blend ? "blend" : "deviation");
+    EXPECT_NE(refused->message.find("sphere 0's reach group 0 blends influence entry 2, which repeats an earlier "
+                                    "entry's joint (its blend and deviation must be 0)"),
+              std::string::npos)
+        << refused->message;
+  }
 }
 
 // The same with inverse bind matrices that are not the identity: the bind space moved by a rigid

@@ -270,6 +270,13 @@ struct SphereSet {
 // SphereSet::PointAt). Needs a valid set.
 std::vector<uint32_t> SourceVerticesOfPoints(const SphereSet& set);
 
+// Which influence entries of sphere s repeat an earlier entry's joint: (*repeated)[k - influence_offsets[s]] is 1
+// where influence_joints[k] is also the joint of an entry of the sphere before k, else 0 (*repeated is resized to the
+// sphere's influence count). Such an entry has group blend and deviation 0, so that its joint counts once
+// (refit/refit_job.h, "Group blends"): what Validate() requires and what the fitter writes. Needs s < set.size() and
+// well-formed influence offsets.
+void RepeatedInfluenceEntries(const SphereSet& set, size_t s, std::vector<uint8_t>* repeated);
+
 // The reach of every influence entry as the set's mesh gives it (set.has_mesh() and the set's lists
 // and mesh well formed, i.e. Validate() passes apart from this): for entry k of sphere s, the
 // largest over the sphere's source vertices of the vertex's total weight on joint
