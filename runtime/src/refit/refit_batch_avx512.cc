@@ -8,6 +8,7 @@
 #include <cfloat>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
 #include "simd/target_begin_avx512.inc"
 

@@ -4,6 +4,7 @@
 #include <cfloat>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
 #include "refit/refit_internal.h"
 #include "simd/float4.h"
