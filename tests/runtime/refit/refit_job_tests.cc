@@ -14,7 +14,7 @@
 #include <limits>
 #include <random>
 #include <string>
-#include <tuple>
+#include <utility>
 
 #include "refit/fast_reference.h"
 #include "refit/refit_internal.h"  // runtime/src: pins the instruction set of the fast refit
@@ -336,19 +336,29 @@ struct ManyInfluences {
     set.reach_group_weights.push_back(1.0f);
     set.reach_group_blend.push_back(1.0f);
     set.reach_group_deviation.push_back(0.0f);
+  }  // The groups of AddBlendedGroups: with their blends (kBlended), or without (kGroups: the kernels'
+  // copy without blends, the crowd's usual case, with several groups per sphere).
+  enum Groups { kOne, kGroups, kBlended };
+  void AddGroups(Groups groups) {
+    if (groups == kOne) return;
+    AddBlendedGroups();
+    if (groups == kGroups) set.reach_group_blend.clear(), set.reach_group_deviation.clear();
+  }
+  static const char* Name(Groups groups) {
+    return groups == kOne ? "one group" : groups == kGroups ? "groups" : "blended groups";
   }
 };
 
 // The paths the characters do not take: a sphere of more influences than the loop keeps moved
 // points for (16), and more joints than a call keeps stretches for on the stack (256). 300 joints
 // in a chain, sphere 0 on 20 of them, sphere 1 on the last; random affine joint matrices.
-// The second round repeats it with reach groups carrying blends (ManyInfluences::AddBlendedGroups),
-// and checks that the blend term decides some of sphere 0's radii.
+// Then again with reach groups without blends and with them (ManyInfluences::AddGroups), checking
+// that the blend term decides some of sphere 0's radii.
 TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
-  for (const bool groups : {false, true}) {
+  for (const auto groups : {ManyInfluences::kOne, ManyInfluences::kGroups, ManyInfluences::kBlended}) {
     constexpr int kJoints = 300;
     ManyInfluences many(kJoints);
-    if (groups) many.AddBlendedGroups();
+    many.AddGroups(groups);
     const SphereSet& set = many.set;
     const auto random_affine = [&](float scale) { return many.RandomAffine(scale); };
     ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
@@ -360,13 +370,13 @@ TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
     auto rest_unblended = RefitRestData::Create(unblended);
     ASSERT_TRUE(rest_unblended.ok()) << rest_unblended.error().message;
     int sum_term_smaller = 0, blend_smaller = 0;
-    AtEveryRefitLevel(groups ? "20 influences, 300 joints, blended groups" : "20 influences, 300 joints", [&] {
+    AtEveryRefitLevel(std::string("20 influences, 300 joints, ") + ManyInfluences::Name(groups), [&] {
       for (int p = 0; p < 50; ++p) {
         std::vector<skinspheres::Mat4f> world;
         for (int j = 0; j < kJoints; ++j) world.push_back(random_affine(0.5f));
         const auto want = ScalarFastRefit(set, *rest, world, test::Bound::kRestData);
         sum_term_smaller += want[0].w() < ScalarFastRefit(set, *rest, world, test::Bound::kWithoutReach)[0].w() ? 1 : 0;
-        if (groups) {
+        if (groups == ManyInfluences::kBlended) {
           blend_smaller +=
               want[0].w() < ScalarFastRefit(unblended, *rest_unblended, world, test::Bound::kRestData)[0].w() ? 1 : 0;
         }
@@ -381,10 +391,10 @@ TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
       }
     });
     EXPECT_GT(sum_term_smaller, 10) << "the sum term decided too few of the big sphere's radii";
-    if (groups) {
+    if (groups == ManyInfluences::kBlended) {
       EXPECT_GT(blend_smaller, 10) << "the blend term decided too few of the big sphere's radii";
     }
-    std::printf("%s: sum term smaller on %d of the poses checked, blend term on %d\n", groups ? "groups" : "no groups",
+    std::printf("%s: sum term smaller on %d of the poses checked, blend term on %d\n", ManyInfluences::Name(groups),
                 sum_term_smaller, blend_smaller);
   }
 }
@@ -461,30 +471,31 @@ TEST_P(CrowdBatchLevel, GivesEachInstanceTheScalarBits) {
 
 // The batch on a sphere of more influences than it keeps moved points for (20 > 8), and on one of 6
 // whose joints all share one slot of its stretch table (every 16th joint: each stretch evicts the
-// last, so the second pass computes them again), on a set of 300 joints; each without and with
-// reach groups carrying blends.
+// last, so the second pass computes them again), on a set of 300 joints; each with one group, with
+// reach groups without blends (the batch's copy without blends) and with blends.
 TEST_P(CrowdBatchLevel, ManyInfluencesAndJoints) {
   const PinnedRefit pin(GetParam());
   if (!pin.ok()) GTEST_SKIP() << "the CPU lacks " << internal::ToString(GetParam());
   constexpr int kJoints = 300;
-  for (const auto& [influences, stride, groups] :
-       {std::tuple{20, 15, false}, std::tuple{6, 16, false}, std::tuple{20, 15, true}, std::tuple{6, 16, true}}) {
-    ManyInfluences many(kJoints, influences, stride);
-    if (groups) many.AddBlendedGroups();
-    ASSERT_FALSE(many.set.Validate().has_value()) << many.set.Validate()->message;
-    auto rest = RefitRestData::Create(many.set);
-    ASSERT_TRUE(rest.ok()) << rest.error().message;
-    ASSERT_TRUE(internal::RefitBatchUsable());
-    for (int batch = 0; batch < 8; ++batch) {
-      std::vector<std::vector<skinspheres::Mat4f>> worlds(internal::RefitBatchLanes());
-      std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
-      for (auto& w : worlds) {
-        for (int j = 0; j < kJoints; ++j) w.push_back(many.RandomAffine(0.5f));
-        lanes.push_back(&w);
+  for (const auto& [influences, stride] : {std::pair{20, 15}, std::pair{6, 16}}) {
+    for (const auto groups : {ManyInfluences::kOne, ManyInfluences::kGroups, ManyInfluences::kBlended}) {
+      ManyInfluences many(kJoints, influences, stride);
+      many.AddGroups(groups);
+      ASSERT_FALSE(many.set.Validate().has_value()) << many.set.Validate()->message;
+      auto rest = RefitRestData::Create(many.set);
+      ASSERT_TRUE(rest.ok()) << rest.error().message;
+      ASSERT_TRUE(internal::RefitBatchUsable());
+      for (int batch = 0; batch < 8; ++batch) {
+        std::vector<std::vector<skinspheres::Mat4f>> worlds(internal::RefitBatchLanes());
+        std::vector<const std::vector<skinspheres::Mat4f>*> lanes;
+        for (auto& w : worlds) {
+          for (int j = 0; j < kJoints; ++j) w.push_back(many.RandomAffine(0.5f));
+          lanes.push_back(&w);
+        }
+        CheckBatchLanes(GetParam(), many.set, *rest, lanes, 0,
+                        std::to_string(influences) + " influences, 300 joints, " + ManyInfluences::Name(groups) +
+                            ", batch " + std::to_string(batch));
       }
-      CheckBatchLanes(GetParam(), many.set, *rest, lanes, 0,
-                      std::to_string(influences) + " influences, 300 joints" + (groups ? ", blended groups" : "") +
-                          ", batch " + std::to_string(batch));
     }
   }
 }
