@@ -2,7 +2,7 @@
 """Where the union of a fit stands off the body: the mean boundary distance split by body part.
 
     PYTHONPATH=build/python python3 bench/python/standoff_by_part.py \
-        builtin ../shared/assets/{CesiumMan,Soldier,RobotExpressive}.glb --piece-edge 0 0.02 0.01 0.005
+        builtin ../shared/assets/{CesiumMan,Soldier,RobotExpressive,Xbot}.glb --piece-edge 0 0.02 0.01 0.005
 
 Each character is fitted through the Python module (`skinspheres.fit`, `--target-standoff 0` and
 the budget, as docs/FIT_REPORT.md's curve), once per piece edge. The figures are computed here,
@@ -16,9 +16,10 @@ apart from the fitter and its evaluator (lib/src/metrics/):
 The mean boundary distance is the area-weighted mean over the kept points, relative to the body
 height (the set's rest extent along +Y, as the fitter reports it). Per part (the part of the sphere
 a point lies on): spheres, share of the boundary area, share of the distance summed over it, and
-its own mean. With --spheres PART, each sphere of that part too, from the top down: its centre's
-height, its radius, its depth (the distance from its centre to the nearest triangle) and the mean
-distance of its exposed surface, all relative to the body height. A minute or so per fit on
+its own mean ("n/a" where it has no exposed boundary). With --spheres PART, each sphere of that part
+too, from the top down, on standard error: its centre's height, its radius, its depth (the distance
+from its centre to the nearest triangle) and the mean distance of its exposed surface, all relative
+to the body height. A minute or so per fit on
 characters of 10,000 triangles; Xbot's 49,112 take several.
 """
 import argparse
@@ -57,8 +58,8 @@ def distance_to_triangles(points, a, b, c):
     their edges."""
     normal = np.cross(b - a, c - a)
     nn = (normal ** 2).sum(-1)
-    flat = nn > 0
-    unit = np.where(flat[:, None], normal / np.sqrt(np.where(flat, nn, 1.0))[:, None], 0.0)
+    has_area = nn > 0
+    unit = np.where(has_area[:, None], normal / np.sqrt(np.where(has_area, nn, 1.0))[:, None], 0.0)
     edges = [(a, b - a), (b, c - b), (c, a - c)]
     out = np.empty(len(points))
     step = max(1, 400_000 // len(a))
@@ -70,7 +71,7 @@ def distance_to_triangles(points, a, b, c):
             t = np.clip(((p - start) * along).sum(-1) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
             best = np.minimum(best, (((p - start) - t[..., None] * along) ** 2).sum(-1))
         # Inside when the point lies on the inner side of all three edges, seen along the normal.
-        inside = flat[None].repeat(len(p), 0)
+        inside = has_area[None].repeat(len(p), 0)
         for start, along in edges:
             inside &= (np.cross(along, p - start) * normal).sum(-1) >= 0
         plane = ((p - a) * unit).sum(-1) ** 2
@@ -102,17 +103,17 @@ def measure(sphere_set, height, list_part=None):
     for p, name in enumerate(sphere_set.part_names):
         k = part[owner] == p
         a, e = area[k].sum(), (area[k] * dist[k]).sum()
-        rows.append((name, int((part == p).sum()), a / total_a, e / total_e, e / a / height if a > 0 else 0.0))
-    if list_part in sphere_set.part_names:
+        rows.append((name, int((part == p).sum()), a / total_a, e / total_e, e / a / height if a > 0 else None))
+    if list_part is not None:
         p = sphere_set.part_names.index(list_part)
         mine = np.flatnonzero(part == p)
         depth = distance_to_triangles(centers[mine], x[t[:, 0]], x[t[:, 1]], x[t[:, 2]])
-        print(f"{list_part}: centre y · radius · depth · exposed mean, relative to the height")
+        print(f"{list_part}: centre y · radius · depth · exposed mean, relative to the height", file=sys.stderr)
         for s, d in sorted(zip(mine, depth), key=lambda sd: -centers[sd[0], 1]):
             k = owner == s
-            exposed = (area[k] * dist[k]).sum() / area[k].sum() / height if k.any() else 0.0
+            exposed = f"{100 * (area[k] * dist[k]).sum() / area[k].sum() / height:.2f}%" if k.any() else "n/a"
             print(f"  sphere {s}: {centers[s, 1] / height:.3f} · {100 * radii[s] / height:.2f}% · "
-                  f"{100 * d / height:.2f}% · {100 * exposed:.2f}%")
+                  f"{100 * d / height:.2f}% · {exposed}", file=sys.stderr)
     return total_e / total_a / height, rows
 
 
@@ -130,9 +131,13 @@ def main():
         for edge in args.piece_edge:
             fitted = skinspheres.fit(None if path == "builtin" else path, target_standoff=args.target_standoff,
                                      max_spheres=args.max_spheres, piece_edge=edge)
+            if args.spheres is not None and args.spheres not in fitted.part_names:
+                print(f"{path}: no part '{args.spheres}' (parts: {', '.join(fitted.part_names)})", file=sys.stderr)
+                return 2
             height = fitted.fit_report["body_height"]
             mean, rows = measure(fitted, height, args.spheres)
-            parts = "; ".join(f"{n} {s} · {100 * a:.0f}% · {100 * e:.0f}% · {100 * m:.2f}%" for n, s, a, e, m in rows)
+            parts = "; ".join(f"{n} {s} · {100 * a:.0f}% · {100 * e:.0f}% · " + ("n/a" if m is None else f"{100 * m:.2f}%")
+                              for n, s, a, e, m in rows)
             name = path.rsplit("/", 1)[-1]
             print(f"| {name} | {edge:g} | {len(fitted)} | {100 * mean:.2f}% | {parts} |", flush=True)
 
