@@ -7,7 +7,8 @@
 Each character is fitted through the Python module (`skinspheres.fit`, `--target-standoff 0` and
 the budget, as docs/FIT_REPORT.md's curve), once per piece edge. The figures are computed here,
 apart from the fitter and its evaluator (lib/src/metrics/):
-- the rest pose: the mesh skinned with the set's rest transforms, in double;
+- the rest pose: the mesh skinned with the set's rest transforms in double, by the Python tests'
+  skin() (tests/python/gltf_sampler.py);
 - the union's boundary: 256 Fibonacci directions on every sphere, kept where the point lies inside
   no other sphere, each standing for 4 pi r^2 / 256 of area;
 - its distance to the surface: the exact distance to the nearest triangle, by brute force over
@@ -19,14 +20,19 @@ a point lies on): spheres, share of the boundary area, share of the distance sum
 its own mean ("n/a" where it has no exposed boundary). With --spheres PART, each sphere of that part
 too, from the top down, on standard error: its centre's height, its radius, its depth (the distance
 from its centre to the nearest triangle) and the mean distance of its exposed surface, all relative
-to the body height. A minute or so per fit on
-characters of 10,000 triangles; Xbot's 49,112 take several.
+to the body height. A minute or so per fit on characters of 10,000 triangles; Xbot's 49,112 take
+several.
 """
 import argparse
+import pathlib
 import sys
 
 import numpy as np
 import skinspheres
+
+# The Python tests' skinning in float64 (tests/python/gltf_sampler.py), sharing no code with the library.
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "tests" / "python"))
+from gltf_sampler import skin  # noqa: E402
 
 DIRECTIONS = 256
 
@@ -36,19 +42,6 @@ def fibonacci(n):
     phi = np.arccos(1 - 2 * i / n)
     theta = np.pi * (1 + 5 ** 0.5) * i
     return np.c_[np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)]
-
-
-def rest_positions(sphere_set):
-    mesh = sphere_set.mesh
-    world = sphere_set.joint_rest_world.astype(np.float64)
-    skin = world[mesh["bind_joints"]] @ mesh["inverse_binds"].astype(np.float64)
-    p = np.c_[mesh["positions_bind"].astype(np.float64), np.ones(len(mesh["positions_bind"]))]
-    offsets = mesh["influence_offsets"].astype(np.int64)
-    vertex = np.repeat(np.arange(len(p)), np.diff(offsets))
-    moved = np.einsum("eij,ej->ei", skin[mesh["influence_binds"].astype(np.int64)], p[vertex])[:, :3]
-    out = np.zeros((len(p), 3))
-    np.add.at(out, vertex, mesh["influence_weights"].astype(np.float64)[:, None] * moved)
-    return out
 
 
 def distance_to_triangles(points, a, b, c):
@@ -81,7 +74,7 @@ def distance_to_triangles(points, a, b, c):
 
 
 def measure(sphere_set, height, list_part=None):
-    x = rest_positions(sphere_set)
+    x = skin(sphere_set.mesh, sphere_set.joint_rest_world.astype(np.float64))
     t = sphere_set.triangles.astype(np.int64)
     centers = sphere_set.centers.astype(np.float64)
     radii = sphere_set.radii.astype(np.float64)
