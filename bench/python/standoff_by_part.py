@@ -129,8 +129,8 @@ def main():
                 return 2
             height = fitted.fit_report["body_height"]
             mean, rows = measure(fitted, height, args.spheres)
-            parts = "; ".join(f"{n} {s} · {100 * a:.0f}% · {100 * e:.0f}% · " + ("n/a" if m is None else f"{100 * m:.2f}%")
-                              for n, s, a, e, m in rows)
+            parts = "; ".join(f"{n} {s} · {100 * a:.0f}% · {100 * e:.0f}% · "
+                              + ("n/a" if m is None else f"{100 * m:.2f}%") for n, s, a, e, m in rows)
             name = path.rsplit("/", 1)[-1]
             print(f"| {name} | {edge:g} | {len(fitted)} | {100 * mean:.2f}% | {parts} |", flush=True)
 
