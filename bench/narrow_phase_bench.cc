@@ -266,7 +266,11 @@ void Counters(benchmark::State& state, const Character& c, size_t frames, size_t
   state.counters["sphere_pairs"] = double(pairs) / n;
   state.counters["triangle_tests"] = double(s.triangle_tests) / n;
   state.counters["cluster_pairs"] = double(s.cluster_pairs) / n;
+  state.counters["patch_pairs"] = double(s.patch_pairs) / n;
+  state.counters["still"] = double(s.still_patch_pairs) / n;
+  state.counters["clusters_bounded"] = double(s.clusters_bounded) / n;
   state.counters["box_tests"] = double(s.box_tests) / n;
+  state.counters["culled_triangles"] = double(s.culled_triangles) / n;
   state.counters["contacts"] = double(contacts) / n;
   state.counters["skinned"] = double(s.skinned_vertices) / n;
   state.counters["vertices"] = double(c.ch.vertex_count());
@@ -276,7 +280,11 @@ void Counters(benchmark::State& state, const Character& c, size_t frames, size_t
 void AddStats(rt::NarrowPhaseContext::Stats* sum, const rt::NarrowPhaseContext::Stats& s) {
   sum->triangle_tests += s.triangle_tests;
   sum->cluster_pairs += s.cluster_pairs;
+  sum->patch_pairs += s.patch_pairs;
+  sum->still_patch_pairs += s.still_patch_pairs;
+  sum->clusters_bounded += s.clusters_bounded;
   sum->box_tests += s.box_tests;
+  sum->culled_triangles += s.culled_triangles;
   sum->skinned_vertices += s.skinned_vertices;
 }
 
@@ -323,12 +331,12 @@ struct NarrowRunner {
       job.spheres = f.spheres_exact;
       job.pairs = f.pairs_exact;
       job.positions = f.positions;
+      job.joint_world = f.joint_world;  // the motion since rest bound (as CharacterInstance passes them)
     } else {
       job.spheres = f.spheres_fast;
       job.pairs = f.pairs_fast;
-      if (mode == 1) {
-        job.joint_world = f.joint_world;
-      } else {
+      job.joint_world = f.joint_world;
+      if (mode == 2) {
         if (!whole.Skin(f)) return false;
         job.positions = whole.skinned;
       }

@@ -96,7 +96,7 @@ lib::RawCharacter Decode(Bytes& in, lib::FitSettings* settings) {
   settings->refine_iterations = in.Next() % 3;
   settings->tighten = in.Next() % 2 == 0;
   settings->max_spheres = 1 + in.Next() % 24;
-  settings->adjacent_hops = in.Next() % 3;
+  settings->contact_hops = int(in.Next() % 3);
   return c;
 }
 

@@ -74,9 +74,24 @@ class SphereSet:
     @property
     def joint_rest_world(self) -> npt.NDArray[np.float32]: ...  # (J, 4, 4)
     @property
-    def excluded_pairs(self) -> npt.NDArray[np.uint32]: ...  # (E, 2): pairs never reported
+    def contact_rules(self) -> str:
+        """Which triangle pairs are contacts ("triangles"; "sphere_pairs" for a set written before them).
+
+        On triangles, two triangles that intersect (or come within the margin) are a contact unless
+        they share a vertex (by rest position), their joints (each triangle's joint: the one its three
+        vertices weigh most in sum) are at most contact_hops bones apart in the skin's joint tree, or
+        they intersect or lie closer than rest_gap (model units) in the rest pose. The same pairs
+        whatever the fit. On sphere pairs (older files), the pairs excluded_pairs names are never
+        tested (overlapping at rest among them): what such a set reports depends on its fit.
+        runtime/narrow_phase/contact_rules.h states the rules for C++; skinspheres.h for C."""
     @property
-    def excluded_reasons(self) -> list[str]: ...  # "same_joint", "adjacent_joints", "bind_overlap"
+    def contact_hops(self) -> int: ...  # rule 2: 0, 1 (default) or 2 bones; 0 with rules on sphere pairs
+    @property
+    def rest_gap(self) -> float: ...  # rule 3, model units (fit's rest_gap times the rest height); 0 on sphere pairs
+    @property
+    def excluded_pairs(self) -> npt.NDArray[np.uint32]: ...  # (E, 2): sphere pairs never reported (rule 2 whole)
+    @property
+    def excluded_reasons(self) -> list[str]: ...  # "same_joint", "adjacent_joints" ("bind_overlap": older sets)
     @property
     def vertex_count(self) -> int: ...
     @property
@@ -166,7 +181,7 @@ def fit(
     split_rounds: int = 8,
     target_standoff: float = 0.0125,
     max_spheres: int = 200,
-    exclude_bind_overlaps: bool = True,
+    rest_gap: float = 0.01,  # rule 3 (contact_rules): a share of the rest height, at most 0.05
     piece_edge: float = 0.0,
     group_blends: bool = True,
 ) -> SphereSet:

@@ -920,6 +920,9 @@ PYBIND11_MODULE(_skinspheres, m) {
                                for (const auto& e : s.set->excluded_pairs) reasons.emplace_back(ToString(e.reason));
                                return reasons;
                              })
+      .def_property_readonly("contact_rules", [](const PySphereSet& s) { return ToString(s.set->contact_rules); })
+      .def_property_readonly("contact_hops", [](const PySphereSet& s) { return s.set->contact_hops; })
+      .def_property_readonly("rest_gap", [](const PySphereSet& s) { return s.set->rest_gap; })
       .def_property_readonly("vertex_count", [](const PySphereSet& s) { return s.set->source_vertex_count; })
       .def_property_readonly("triangle_count", [](const PySphereSet& s) { return s.set->source_triangle_count; })
       .def_property_readonly("has_mesh", [](const PySphereSet& s) { return s.set->has_mesh(); })
@@ -1014,7 +1017,7 @@ PYBIND11_MODULE(_skinspheres, m) {
       "fit",
       [](const std::optional<PathText>& path, const std::string& parts, int rays, int per_level,
          const std::string& method, float overlap, float step, int hops, int refine, bool tighten, float split_gain,
-         int split_rounds, float target_standoff, int max_spheres, bool exclude_bind_overlaps, float piece_edge,
+         int split_rounds, float target_standoff, int max_spheres, float rest_gap, float piece_edge,
          bool group_blends) {
         NoNul(parts, "parts");
         tool::FitOptions o;  // what the tool's options of the same names set
@@ -1024,24 +1027,24 @@ PYBIND11_MODULE(_skinspheres, m) {
         o.method = method;
         o.settings.overlap = overlap;
         o.settings.step = step;
-        o.hops = hops;
+        o.settings.contact_hops = hops;
         o.settings.refine_iterations = refine;
         o.no_tighten = !tighten;
         o.settings.split_gain = split_gain;
         o.settings.split_rounds = split_rounds;
         o.settings.target_standoff = target_standoff;
         o.settings.max_spheres = max_spheres;
-        o.no_bind_overlap = !exclude_bind_overlaps;
+        o.settings.rest_gap = rest_gap;
         o.settings.piece_edge = piece_edge;
         o.no_group_blends = !group_blends;
         return Fit(path, o);
       },
       "path"_a = py::none(), py::kw_only(), "parts"_a = d.parts_file, "rays"_a = d.settings.rays,
       "per_level"_a = d.settings.per_level, "method"_a = d.method, "overlap"_a = d.settings.overlap,
-      "step"_a = d.settings.step, "hops"_a = d.hops, "refine"_a = d.settings.refine_iterations,
+      "step"_a = d.settings.step, "hops"_a = d.settings.contact_hops, "refine"_a = d.settings.refine_iterations,
       "tighten"_a = !d.no_tighten, "split_gain"_a = d.settings.split_gain, "split_rounds"_a = d.settings.split_rounds,
       "target_standoff"_a = d.settings.target_standoff, "max_spheres"_a = d.settings.max_spheres,
-      "exclude_bind_overlaps"_a = !d.no_bind_overlap, "piece_edge"_a = d.settings.piece_edge,
+      "rest_gap"_a = d.settings.rest_gap, "piece_edge"_a = d.settings.piece_edge,
       "group_blends"_a = !d.no_group_blends);
   m.def("load", &Load, "path"_a);
   m.def(

@@ -232,6 +232,7 @@ nlohmann::json ReportJson(const std::vector<Checked>& checked,
           {"body_height", height},
           {"max_depth", a.max_depth},
           {"touch_tolerance", a.touch_tolerance},
+          {"contact_rules", ContactRulesJson(set)},
           {"fps", a.fps},
           {"mode", a.mode},
           {"clips", std::move(clips)},
@@ -486,6 +487,9 @@ CheckOutcome RunCheckCommand(CheckArgs& a, bool quiet) {
   auto playback = Playback::Create(*loaded, *set, NarrowSettings(options));
   if (!playback.ok()) return fail(playback.error().message, playback.error().code);
   const float height = (*playback)->body_height();
+  if (set->contact_rules == runtime::ContactRules::kSpherePairs) {
+    say("%s: %s\n", a.spheres.c_str(), ContactRulesSummary(*set).c_str());
+  }
 
   std::vector<Checked> checked(entries.size());
   for (size_t k = 0; k < entries.size(); ++k) checked[k].entry = entries[k];

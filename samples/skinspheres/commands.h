@@ -4,6 +4,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 
@@ -33,13 +34,18 @@ struct FitOptions {
   lib::FitSettings settings;
   std::string method = "m1a";
   std::string parts_file;
-  int hops = 1;
-  bool no_bind_overlap = false;
   bool no_group_blends = false;
   bool no_tighten = false;
   void AddTo(CLI::App& app);
   std::optional<std::string> Resolve();  // fills settings; an error message when refused
 };
+
+// One line of what the set's contact rules are (narrow_phase/contact_rules.h): on triangles, their
+// hops, rest gap (and its share of the rest height) and rest-near pairs, and the sphere pairs they
+// exclude; or, for a set written before them, that its rules are on sphere pairs and depend on the fit.
+std::string ContactRulesSummary(const runtime::SphereSet& set);
+// The same for the reports: {"on": "triangles" | "sphere_pairs", "hops", "rest_gap"} (model units).
+nlohmann::json ContactRulesJson(const runtime::SphereSet& set);
 
 // Prints the fit summary (parts, spheres per part, triangles covered, growth, F, time).
 void PrintFitSummary(const lib::FitResult& fit, double import_seconds);

@@ -7,6 +7,7 @@
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/narrow_phase/contact_rules.h"
 
 namespace skinspheres::tool {
 
@@ -50,7 +51,13 @@ void FitOptions::AddTo(CLI::App& app) {
   app.add_option("--step", settings.step, "disk step delta, as a fraction of each part's length")
       ->capture_default_str();
   app.add_option("--parts", parts_file, "JSON file mapping joint names to part names (overrides)");
-  app.add_option("--hops", hops, "exclude pairs whose joints are at most this many bones apart: 0, 1, 2")
+  app.add_option(
+         "--hops", settings.contact_hops,
+         "contact rule 2: triangles whose joints are at most this many bones apart are never a contact: 0, 1, 2")
+      ->capture_default_str();
+  app.add_option("--rest-gap", settings.rest_gap,
+                 "contact rule 3: triangles closer than this fraction of the rest height at rest are never a contact "
+                 "(creases, layers), at most 0.05")
       ->capture_default_str();
   app.add_option("--refine", settings.refine_iterations,
                  "minimum-ball rounds after ownership (0: keep the paper's centres)")
@@ -78,7 +85,6 @@ void FitOptions::AddTo(CLI::App& app) {
                  "cut triangles longer than this fraction of the body height into pieces that spheres own apart "
                  "(docs/TRIANGLE_PIECES.md; 0: keep every triangle whole)")
       ->capture_default_str();
-  app.add_flag("--no-bind-overlap", no_bind_overlap, "keep pairs that already overlap in the rest pose");
   app.add_flag("--no-group-blends", no_group_blends,
                "store no reach-group blends (by default they are stored where they make the fast spheres "
                "0.75% tighter or more): a faster fast refit, looser fast spheres (docs/FIT_REPORT.md)");
@@ -94,12 +100,45 @@ std::optional<std::string> FitOptions::Resolve() {
   } else {
     return "--method must be m1, m2 or m1a (got " + method + ")";
   }
-  settings.adjacent_hops = hops;
-  settings.exclude_bind_overlaps = !no_bind_overlap;
   settings.group_blends = !no_group_blends;
   settings.tighten = !no_tighten;
   if (auto refused = settings.Validate()) return refused->message;
   return std::nullopt;
+}
+
+std::string ContactRulesSummary(const runtime::SphereSet& set) {
+  const size_t pairs = set.size() * (set.size() - (set.size() > 0)) / 2;
+  size_t excluded[3] = {0, 0, 0};
+  for (const auto& p : set.excluded_pairs) ++excluded[static_cast<int>(p.reason)];
+  char text[400];
+  if (set.contact_rules == runtime::ContactRules::kSpherePairs) {
+    std::snprintf(text, sizeof text,
+                  "contact rules on sphere pairs (written before the rules on triangles: what it reports depends on "
+                  "its fit; fit the character again): %zu of %zu sphere pairs excluded (same joint %zu, adjacent "
+                  "joints %zu, overlapping at rest %zu)",
+                  set.excluded_pairs.size(), pairs, excluded[0], excluded[1], excluded[2]);
+    return text;
+  }
+  std::string share;
+  std::vector<Eigen::Vector3f> rest;
+  if (set.has_mesh() && runtime::RestPositions(set, &rest)) {
+    const float height = runtime::RestHeight(rest);
+    if (height > 0.0f) {
+      char s[48];
+      std::snprintf(s, sizeof s, " (%.2f%% of the rest height)", 100.0 * set.rest_gap / height);
+      share = s;
+    }
+  }
+  std::snprintf(text, sizeof text,
+                "contact rules on triangles: not joints %u bone%s apart or nearer, nor closer than %.4g at rest%s; "
+                "%zu of %zu sphere pairs excluded (every joint pair within the hops)",
+                set.contact_hops, set.contact_hops == 1 ? "" : "s", double(set.rest_gap), share.c_str(),
+                set.excluded_pairs.size(), pairs);
+  return text;
+}
+
+nlohmann::json ContactRulesJson(const runtime::SphereSet& set) {
+  return {{"on", runtime::ToString(set.contact_rules)}, {"hops", set.contact_hops}, {"rest_gap", set.rest_gap}};
 }
 
 void PrintFitSummary(const lib::FitResult& fit, double import_seconds) {
@@ -111,10 +150,7 @@ void PrintFitSummary(const lib::FitResult& fit, double import_seconds) {
     std::printf("  %-10s %8d %8d %7d %9.5f %9.5f\n", p.name.c_str(), p.triangles, p.spheres, p.levels_kept, p.f_mean,
                 p.f_max);
   }
-  size_t excluded[3] = {0, 0, 0};
-  for (const auto& p : set.excluded_pairs) ++excluded[static_cast<int>(p.reason)];
-  std::printf("spheres: %zu   excluded pairs: %zu (same joint %zu, adjacent joints %zu, rest overlap %zu)\n",
-              set.size(), set.excluded_pairs.size(), excluded[0], excluded[1], excluded[2]);
+  std::printf("spheres: %zu   %s\n", set.size(), ContactRulesSummary(set).c_str());
   std::printf("triangles covered: %d of %u (bind-pose check)\n", r.triangles_covered, set.source_triangle_count);
   std::printf(
       "growth: %d spheres grew to hold their triangles, by %.4f of body height on average, %.4f at most; %d shrank; %d "

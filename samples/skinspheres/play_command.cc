@@ -108,6 +108,9 @@ int RunPlay(PlayArgs& a) {
       std::printf("%s: format version 1 (no mesh): the triangle tests use %s's mesh\n", a.spheres.c_str(),
                   loaded->character.source_file.c_str());
     }
+    if (set.contact_rules == runtime::ContactRules::kSpherePairs) {
+      std::printf("%s: %s\n", a.spheres.c_str(), ContactRulesSummary(set).c_str());
+    }
   } else {
     auto fit = lib::FitSpheres(loaded->character, loaded->parts, a.fit.settings);
     if (!fit.ok()) return Fail(fit.error().message);
@@ -239,6 +242,7 @@ int RunPlay(PlayArgs& a) {
                                  {"mode", a.mode},
                                  {"margin", a.margin},
                                  {"touch_tolerance", played->touch_tolerance},
+                                 {"contact_rules", ContactRulesJson(set)},
                                  {"body_height", played->body_height},
                                  {"spheres", set.size()},
                                  {"triangles_outside", played->triangles_outside},

@@ -69,17 +69,41 @@ def test_fit_takes_split_rounds_and_refuses_them_out_of_range():
 
 def test_fit_with_piece_edge_writes_triangle_pieces(tmp_path):
     # docs/TRIANGLE_PIECES.md: the built-in character's triangles longer than 2% of its height cut;
-    # the set is written as JSON version 3 with pieces, and reads back.
+    # the set is written as JSON version 4 (rules on triangles) with pieces, and reads back.
     cut = ss.fit(piece_edge=0.02)
     path = tmp_path / "cut.json"
     cut.save(path)
     doc = json.loads(path.read_text())
-    assert doc["version"] == 3
+    assert doc["version"] == 4
     assert sum(len(s.get("pieces", [])) for s in doc["spheres"]) > 0
     assert len(ss.load(path)) == len(cut)
     whole = tmp_path / "whole.json"
     ss.fit().save(whole)
-    assert json.loads(whole.read_text())["version"] == 2
+    assert json.loads(whole.read_text())["version"] == 4
+    assert "pieces" not in json.dumps(json.loads(whole.read_text())["spheres"])
+
+
+def test_fit_states_its_contact_rules(tmp_path):
+    # contact_rules.h: rules on triangles, hops and the rest gap as fitted (a share of the rest
+    # height, stored in model units), kept through a file; out-of-range values are refused.
+    default = ss.fit()
+    assert default.contact_rules == "triangles"
+    assert default.contact_hops == 1
+    wide = ss.fit(hops=2, rest_gap=0.02)
+    assert wide.contact_hops == 2
+    assert abs(wide.rest_gap - 2 * default.rest_gap) <= 1e-6 * wide.rest_gap
+    path = tmp_path / "wide.ssb"
+    wide.save(path)
+    back = ss.load(path)
+    assert (back.contact_rules, back.contact_hops, back.rest_gap) == ("triangles", 2, wide.rest_gap)
+    assert set(default.excluded_reasons) <= {"same_joint", "adjacent_joints"}
+    for bad in ({"hops": 3}, {"rest_gap": 0.06}, {"rest_gap": -0.01}):
+        try:
+            ss.fit(**bad)
+        except ss.InvalidArgument:
+            pass
+        else:
+            raise AssertionError(f"{bad} was accepted")
 
 
 def test_fit_group_blends_can_be_turned_off(tmp_path):

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "skinspheres/lib/fit/sphere_fitter.h"
+#include "skinspheres/runtime/narrow_phase/contact_rules.h"
 
 namespace skinspheres::lib {
 
@@ -29,8 +30,12 @@ std::optional<Error> FitSettings::Validate() const {
   if (!(step >= 1e-4f && step <= 1.0f)) {
     return refuse("step must be in [0.0001, 1], a fraction of each part's length (got " + std::to_string(step) + ")");
   }
-  if (adjacent_hops < 0 || adjacent_hops > 2) {
-    return refuse("adjacent hops must be 0, 1 or 2 (got " + std::to_string(adjacent_hops) + ")");
+  if (contact_hops < 0 || contact_hops > int(runtime::kMaxContactHops)) {
+    return refuse("contact hops must be 0, 1 or 2 (got " + std::to_string(contact_hops) + ")");
+  }
+  if (!(rest_gap >= 0.0f && rest_gap <= runtime::kMaxRestGapShare)) {
+    return refuse("the rest gap must be in [0, " + std::to_string(runtime::kMaxRestGapShare) +
+                  "], a share of the rest height (got " + std::to_string(rest_gap) + ")");
   }
   if (refine_iterations < 0 || refine_iterations > 16) {
     return refuse("refine iterations must be in 0..16 (got " + std::to_string(refine_iterations) + ")");
@@ -60,8 +65,8 @@ std::string FitSettings::ToJson() const {
                       {"method", ToString(method)},
                       {"overlap", overlap},
                       {"step", step},
-                      {"adjacent_hops", adjacent_hops},
-                      {"exclude_bind_overlaps", exclude_bind_overlaps},
+                      {"contact_hops", contact_hops},
+                      {"rest_gap", rest_gap},
                       {"refine_iterations", refine_iterations},
                       {"tighten", tighten},
                       {"split_gain", split_gain},

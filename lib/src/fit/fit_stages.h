@@ -140,9 +140,6 @@ void WriteSetHeader(const RawCharacter& ch, const BodyParts& parts, const FitSet
 // Fills the report's body height and growth figures, and counts the dropped spheres.
 void WriteOwnedSpheres(const RawCharacter& ch, const BodyParts& parts, const OwnedSpheres& owned,
                        runtime::SphereSet* set, FitReport* report);
-// 5. Excluded pairs: same joint, joints within settings.adjacent_hops bones, and (optionally)
-// spheres that overlap in the rest pose.
-void WriteExcludedPairs(const skinning::Skeleton& skeleton, const FitSettings& settings, runtime::SphereSet* set);
 // 6. Fast-refit data: per sphere, the joints influencing its source vertices with their mean
 // weights, and radius_fast holding, for every source vertex, the weighted mean distance of its rest
 // copies carried rigidly by each of its bind entries (at least the sphere's radius; refit_job.h).
@@ -168,6 +165,12 @@ void WriteFastReference(runtime::SphereSet* set);
 // source vertices in up to four k-means groups by their weights, each group's reference radius and
 // reach the largest of its members'; one group otherwise. Never looser than one group.
 void WriteReachGroups(runtime::SphereSet* set);
+
+// 8. The contact rules (runtime::WriteContactRules, narrow_phase/contact_rules.h): rule 2 at
+// settings.contact_hops, rule 3 with a rest gap of settings.rest_gap of the rest height and its
+// rest-near pairs, and the excluded sphere pairs (those rule 2 excludes whole). After the mesh: they
+// are stated on its triangles. kInvalidData when the mesh cannot be skinned at rest.
+std::optional<Error> WriteContactRules(const FitSettings& settings, runtime::SphereSet* set);
 
 // The per-part reports with their final sphere counts, and the paper's F over all parts (weighted
 // by the contact points).

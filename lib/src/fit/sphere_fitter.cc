@@ -89,11 +89,10 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   }
   if (cut) MapPiecesBack(*cut, &*owned);
 
-  // The set: what it describes and its spheres, 5. excluded pairs, 6. fast-refit data, 7. the mesh
-  // (and the influences' reach and the fast refit's reference frame, which need it).
+  // The set: what it describes and its spheres, 6. fast-refit data, 7. the mesh (and the
+  // influences' reach and the fast refit's reference frame, which need it), 8. the contact rules.
   WriteSetHeader(ch, parts, settings, rest_world, &out.spheres);
   WriteOwnedSpheres(ch, parts, *owned, &out.spheres, &out.report);
-  WriteExcludedPairs(ch.skeleton, settings, &out.spheres);
   WriteFastRefitData(ch, rest_world, &out.spheres);
   WriteSetMesh(ch, &out.spheres);
   WriteInfluenceReach(&out.spheres);
@@ -104,6 +103,8 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
     out.spheres.reach_group_blend.clear();
     out.spheres.reach_group_deviation.clear();
   }
+  // 8. The contact rules, on the mesh's triangles.
+  if (auto error = WriteContactRules(settings, &out.spheres)) return *error;
 
   // The self-check: a consistent set, every triangle inside its owner in the bind pose.
   if (auto error = CheckFittedSet(ch, out.spheres)) return *error;

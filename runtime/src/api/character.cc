@@ -250,7 +250,8 @@ FrameStatus CharacterInstance::FindContacts(std::span<const Eigen::Vector3f> ski
   job.spheres = spheres_;
   job.pairs = pairs;
   job.positions = skinned_positions;
-  job.joint_world = skinned_positions.empty() ? std::span<const Mat4f>(joint_world_) : std::span<const Mat4f>();
+  // Mode (b) skins from them; mode (a) bounds the motion since rest with them (narrow_phase.h).
+  job.joint_world = has_joints_ ? std::span<const Mat4f>(joint_world_) : std::span<const Mat4f>();
   job.context = &narrow_context_;
   job.out = &contacts_;
   if (!job.RunParallel(parallel_for)) {
@@ -296,6 +297,7 @@ void CharacterInstance::ReserveContacts(size_t count) {
   if (const NarrowPhaseData* data = asset_->narrow_phase(); data != nullptr && !narrow_context_.sized_for(*data)) {
     narrow_context_.Resize(*data, /*lazy_skinning=*/false);
   }
+  narrow_context_.Reserve(count);
   if (const NarrowPhaseData* data = asset_->narrow_phase(); data != nullptr && data->margin() > 0.0f) {
     SizeMarginQuery(count);
   }

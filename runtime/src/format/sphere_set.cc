@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "format/grid_point.h"
+#include "skinspheres/runtime/narrow_phase/contact_rules.h"
 
 namespace skinspheres::runtime {
 
@@ -742,8 +743,9 @@ std::optional<Error> CheckReachGroups(const SphereSet& set) {
 }  // namespace
 
 std::optional<Error> SphereSet::Validate() const {
-  for (const auto check : {CheckSkeleton, CheckParts, CheckSphereArrays, CheckSpheres, CheckOwnership, CheckInfluences,
-                           CheckExclusions, CheckMesh, CheckFastRadii, CheckFastReference, CheckReachGroups}) {
+  for (const auto check :
+       {CheckSkeleton, CheckParts, CheckSphereArrays, CheckSpheres, CheckOwnership, CheckInfluences, CheckExclusions,
+        CheckMesh, CheckFastRadii, CheckFastReference, CheckReachGroups, CheckContactRules}) {
     if (auto err = check(*this)) return err;
   }
   return std::nullopt;

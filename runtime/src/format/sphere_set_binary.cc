@@ -96,11 +96,15 @@ constexpr std::array<SectionInfo, kSphereSetSectionCount> kSections = {{
     {"pieces", 4},
     {"reach_group_blend", 4},
     {"reach_group_deviation", 4},
+    {"contact_rules", 4},
+    {"rest_gap", 4},
 }};
 
 // Which sections a file of this layout version with these flags holds (index id - 1).
 bool SectionPresent(size_t id, uint32_t flags, uint32_t version) {
-  if (id >= static_cast<size_t>(SphereSetSection::kReachGroupBlend)) return version >= kSphereSetBinaryVersion;
+  if (id >= static_cast<size_t>(SphereSetSection::kContactRules)) return version >= kSphereSetBinaryVersion;
+  if (id >= static_cast<size_t>(SphereSetSection::kReachGroupBlend))
+    return version >= kSphereSetBinaryVersionWithoutRules;
   if (id >= static_cast<size_t>(SphereSetSection::kPiecePoints)) {
     return version >= kSphereSetBinaryVersionWithoutBlends && (flags & kSphereSetBinaryFlagHasMesh) != 0;
   }
@@ -373,6 +377,9 @@ std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set, SphereSetBinar
   w.Add(SphereSetSection::kReachGroupWeights, set.reach_group_weights);
   w.Add(SphereSetSection::kReachGroupBlend, set.reach_group_blend);
   w.Add(SphereSetSection::kReachGroupDeviation, set.reach_group_deviation);
+  w.AddOwned(SphereSetSection::kContactRules,
+             std::vector<uint32_t>{static_cast<uint32_t>(set.contact_rules), set.contact_hops});
+  w.AddOwned(SphereSetSection::kRestGap, std::vector<float>{set.rest_gap});
   if (mesh) {
     const skinning::SkinnedMesh& m = set.mesh;
     std::vector<int32_t> bind_joints;
@@ -589,6 +596,10 @@ struct SphereSetBinaryReader {
                              " and " + std::to_string(deviations) + " elements, expected " + std::to_string(reaches) +
                              " (one per group and influence, as reach_group_weights) or both 0");
     }
+    // The contact rules: (rules, hops) and the gap, in a file that has them.
+    if (v.version_ >= kSphereSetBinaryVersion) {
+      if ((err = count_is(S::kContactRules, 2)) || (err = count_is(S::kRestGap, 1))) return *err;
+    }
     // Pieces: pairs of u32; offsets per sphere over them, or none with no pieces (their values are
     // SphereSet::Validate()'s).
     const size_t piece_offsets = v.sections_[static_cast<uint32_t>(S::kPieceOffsets) - 1].count;
@@ -730,6 +741,19 @@ Result<SphereSet> SphereSetBinaryView::ToSphereSet() const {
   CopyInto(set.reach_group_weights, reach_group_weights());
   CopyInto(set.reach_group_blend, reach_group_blend());
   CopyInto(set.reach_group_deviation, reach_group_deviation());
+  // The contact rules (version 6); a file before them states its rules on sphere pairs.
+  set.contact_rules = ContactRules::kSpherePairs;
+  set.contact_hops = 0;
+  set.rest_gap = 0.0f;
+  if (version_ >= kSphereSetBinaryVersion) {
+    const auto rules = contact_rules();
+    if (rules[0] > static_cast<uint32_t>(ContactRules::kTriangles)) {
+      return Refuse(source_name_, "unknown contact rules " + std::to_string(rules[0]));
+    }
+    set.contact_rules = static_cast<ContactRules>(rules[0]);
+    set.contact_hops = rules[1];
+    set.rest_gap = rest_gap()[0];
+  }
   const auto pairs = excluded_pairs();
   set.excluded_pairs.resize(pairs.size() / 3);
   for (size_t k = 0; k < set.excluded_pairs.size(); ++k) {

@@ -16,9 +16,11 @@ using nlohmann::json;
 std::string WriteSphereSetJson(const SphereSet& set) {
   json j;
   j["format"] = kSphereSetFormat;
-  j["version"] = set.has_pieces() ? kSphereSetVersionWithPieces
-                 : set.has_mesh() ? kSphereSetVersion
-                                  : kSphereSetVersionWithoutMesh;
+  const bool triangle_rules = set.contact_rules == ContactRules::kTriangles;
+  j["version"] = triangle_rules     ? kSphereSetVersionWithRules
+                 : set.has_pieces() ? kSphereSetVersionWithPieces
+                 : set.has_mesh()   ? kSphereSetVersion
+                                    : kSphereSetVersionWithoutMesh;
   j["source"] = {
       {"file", set.source_file}, {"vertices", set.source_vertex_count}, {"triangles", set.source_triangle_count}};
   json params = json::parse(set.params_json, nullptr, /*allow_exceptions=*/false);
@@ -102,6 +104,9 @@ std::string WriteSphereSetJson(const SphereSet& set) {
   json pairs = json::array();
   for (const auto& p : set.excluded_pairs) pairs.push_back(json::array({p.i, p.j, ToString(p.reason)}));
   j["excluded_pairs"] = pairs;
+  if (triangle_rules) {
+    j["contact_rules"] = {{"on", ToString(set.contact_rules)}, {"hops", set.contact_hops}, {"rest_gap", set.rest_gap}};
+  }
 
   if (set.has_mesh()) {
     const skinning::SkinnedMesh& mesh = set.mesh;
@@ -417,6 +422,7 @@ class SetStream {
       mesh_.influence_weights = Numbers<float>(a, where);
     else if (key == "piece_points")
       mesh_.piece_points = Numbers<uint32_t>(a, where);
+
     else
       return false;  // "binds" (small): read from the document
     mesh_.seen.push_back(key);
@@ -432,6 +438,27 @@ class SetStream {
   bool array_[3] = {false, false, false};
 };
 
+// "contact_rules" (version 4: required; before it: absent, the rules on sphere pairs as fitted).
+void ReadContactRules(const json& j, int version, SphereSet* set) {
+  const auto rules = j.find("contact_rules");
+  if (version < kSphereSetVersionWithRules) {
+    if (rules != j.end()) throw ReadError{"$.contact_rules is not part of version " + std::to_string(version)};
+    set->contact_rules = ContactRules::kSpherePairs;
+    set->contact_hops = 0;
+    set->rest_gap = 0.0f;
+    return;
+  }
+  if (rules == j.end()) throw ReadError{"$.contact_rules is missing"};
+  const std::string where = "$.contact_rules";
+  if (!rules->is_object()) throw ReadError{where + " is not an object"};
+  const json& on = Field(*rules, "on", where);
+  const auto kind = on.is_string() ? ContactRulesFromString(on.get<std::string>()) : std::nullopt;
+  if (!kind) throw ReadError{where + ".on is not \"triangles\" or \"sphere_pairs\""};
+  set->contact_rules = *kind;
+  set->contact_hops = Number<uint32_t>(Field(*rules, "hops", where), where + ".hops");
+  set->rest_gap = Number<float>(Field(*rules, "rest_gap", where), where + ".rest_gap");
+}
+
 // The rest of the document, once SetStream has taken the spheres, pairs and mesh arrays.
 SphereSet Parse(const json& j, SetStream&& stream) {
   if (!j.is_object()) throw ReadError{"the top level is not an object"};
@@ -440,10 +467,10 @@ SphereSet Parse(const json& j, SetStream&& stream) {
     throw ReadError{std::string("not a sphere set (format is not \"") + kSphereSetFormat + "\")"};
   }
   const int version = Number<int>(Field(j, "version", "$"), "$.version");
-  if (version < kSphereSetVersionWithoutMesh || version > kSphereSetVersionWithPieces) {
+  if (version < kSphereSetVersionWithoutMesh || version > kSphereSetVersionWithRules) {
     throw ReadError{"version " + std::to_string(version) + " is not supported (this build reads versions " +
-                    std::to_string(kSphereSetVersionWithoutMesh) + " to " +
-                    std::to_string(kSphereSetVersionWithPieces) + ")"};
+                    std::to_string(kSphereSetVersionWithoutMesh) + " to " + std::to_string(kSphereSetVersionWithRules) +
+                    ")"};
   }
   SphereSet set = stream.TakeSet();
   if (set.pieces.empty()) set.piece_offsets.clear();  // no sphere has pieces
@@ -502,8 +529,10 @@ SphereSet Parse(const json& j, SetStream&& stream) {
 
   Array(Field(j, "spheres", "$"), "$.spheres");                // its elements went to SetStream
   Array(Field(j, "excluded_pairs", "$"), "$.excluded_pairs");  // so did these
+  ReadContactRules(j, version, &set);
 
-  if (version == kSphereSetVersionWithoutMesh) {
+  // Version 1 has no mesh, 2 and 3 have one, 4 may.
+  if (version == kSphereSetVersionWithoutMesh || (version == kSphereSetVersionWithRules && !j.contains("mesh"))) {
     if (j.contains("mesh")) throw ReadError{"$.mesh is not part of version 1"};
     return set;
   }

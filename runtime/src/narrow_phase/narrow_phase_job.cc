@@ -47,9 +47,9 @@ bool NarrowPhaseData::ShareVertex(uint32_t t, uint32_t u) const {
 }
 
 bool NarrowPhaseData::RestExcluded(uint32_t t, uint32_t u) const {
-  if (t > u) std::swap(t, u);
-  const uint64_t key = (uint64_t{t} << 32) | u;
-  return std::binary_search(layout_->rest_excluded.begin(), layout_->rest_excluded.end(), key);
+  // The welded corners have the rest positions of the triangles' own.
+  return NearAtRest(layout_->rest_positions.data(), &layout_->welded[3 * size_t{t}], &layout_->welded[3 * size_t{u}],
+                    layout_->rest_distance);
 }
 
 // The internals shared by set-up, the job and the oracle.
@@ -79,7 +79,9 @@ size_t NarrowPhaseData::vertex_count() const { return layout_->rest_positions.si
 size_t NarrowPhaseData::max_sphere_triangles() const { return layout_->max_sphere_triangles; }
 size_t NarrowPhaseData::max_sphere_clusters() const { return layout_->max_sphere_clusters; }
 std::span<const uint32_t> NarrowPhaseData::welded_triangle_vertices() const { return layout_->welded; }
-std::span<const uint64_t> NarrowPhaseData::rest_excluded_pairs() const { return layout_->rest_excluded; }
+ContactRules NarrowPhaseData::rules() const { return layout_->rules; }
+float NarrowPhaseData::rest_distance() const { return layout_->rest_distance; }
+std::span<const uint32_t> NarrowPhaseData::self_spheres() const { return layout_->self_spheres; }
 std::span<const uint32_t> NarrowPhaseData::sphere_vertex_offsets() const { return layout_->sphere_vertex_offsets; }
 std::span<const uint32_t> NarrowPhaseData::sphere_vertices() const { return layout_->sphere_vertices; }
 std::span<const uint32_t> NarrowPhaseData::neighbour_offsets() const { return layout_->neighbour_offsets; }
@@ -118,6 +120,8 @@ bool NarrowPhaseContext::sized_for(const NarrowPhaseData& data) const { return s
 bool NarrowPhaseContext::has_lazy_skinning() const { return !state_->run_done.empty() || state_->skinned.size() > 0; }
 const NarrowPhaseContext::Stats& NarrowPhaseContext::last_stats() const { return state_->stats; }
 std::span<const Eigen::Vector3f> NarrowPhaseContext::lazy_positions() const { return state_->skinned; }
+std::span<const uint32_t> NarrowPhaseContext::tested_spheres() const { return state_->involved; }
+void NarrowPhaseContext::Reserve(size_t sphere_pairs) { state_->active_pairs.reserve(sphere_pairs); }
 
 // ------------------------------------------------------------------------------- set-up
 
@@ -127,8 +131,14 @@ void NarrowPhaseContext::Resize(const NarrowPhaseData& data, bool lazy_skinning)
   for (narrow_phase::Chunk& c : st.chunks) {
     c.a.assign(data.settings().cluster_triangles, narrow_phase::Box{});
     c.b.assign(data.settings().cluster_triangles, narrow_phase::Box{});
+    c.plane_a.assign(data.settings().cluster_triangles, narrow_phase::Plane{});
+    c.plane_b.assign(data.settings().cluster_triangles, narrow_phase::Plane{});
     c.ka.assign(data.max_sphere_clusters(), 0);
     c.kb.assign(data.max_sphere_clusters(), 0);
+    c.xa.assign(data.max_sphere_clusters(), 0);
+    c.xb.assign(data.max_sphere_clusters(), 0);
+    c.pa.assign(narrow_phase::Access::Of(data).max_sphere_patches + 1, 0);
+    c.pb.assign(narrow_phase::Access::Of(data).max_sphere_patches + 1, 0);
     c.hits.reserve(256);
   }
   st.merged.reserve(256 * kChunks);
@@ -140,6 +150,15 @@ void NarrowPhaseContext::Resize(const NarrowPhaseData& data, bool lazy_skinning)
   st.involved.reserve(data.sphere_count());
   st.cluster_box.assign(data.cluster_count(), narrow_phase::Box{});
   st.sphere_box.assign(data.sphere_count(), narrow_phase::Box{});
+  const narrow_phase::Box no_box{{0, 0, 0}, {0, 0, 0}, 0};
+  st.patch_box.assign(narrow_phase::Access::Of(data).patch_joint.size(), no_box);
+  st.joint_motion.assign(narrow_phase::Access::Of(data).rest_inverse.size(), narrow_phase::JointMotion{});
+  st.patch_deviation.assign(narrow_phase::Access::Of(data).patch_joint.size(), INFINITY);
+  st.patch_mark.assign(narrow_phase::Access::Of(data).patch_joint.size(), 0);
+  st.marked_patches.reserve(narrow_phase::Access::Of(data).patch_joint.size());
+  st.patch_stamp = 0;
+  st.active_pairs.reserve(4 * data.sphere_count());
+  st.active_self.reserve(data.sphere_count());
   st.grid_pos.assign(narrow_phase::Access::Of(data).cluster_grid.size(), Eigen::Vector3f::Zero());
   st.frame_stamp = 0;
   if (lazy_skinning) {
@@ -170,8 +189,9 @@ bool NarrowPhaseJob::Validate() const {
     return false;
   }
   if (spheres.size() != set->size() || !context->sized_for(*data)) return false;
+  if (!joint_world.empty() && joint_world.size() < set->joint_count()) return false;
   if (!positions.empty()) return positions.size() >= set->source_vertex_count;
-  return joint_world.size() >= set->joint_count() && !joint_world.empty();
+  return !joint_world.empty();
 }
 
 bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
@@ -189,15 +209,20 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
     std::fill(Of(ctx).sphere_seen.begin(), Of(ctx).sphere_seen.end(), 0u);
     Of(ctx).frame_stamp = 1;
   }
-  Involved(pairs, ctx);
+  PrepareMotion(*data, joint_world, ctx);
   Frame frame{*set,
               *data,
               positions.data(),
               data->margin(),
-              /*rest_rule=*/true,
               Of(ctx).cluster_box.data(),
               Of(ctx).sphere_box.data(),
+              Of(ctx).patch_box.data(),
+              Of(ctx).has_motion ? Of(ctx).joint_motion.data() : nullptr,
+              Of(ctx).patch_deviation.data(),
+              Of(ctx).motion_slack,
               Of(ctx).grid_pos.data()};
+  SelectWork(frame, pairs, lazy, ctx);
+  Involved(pairs, ctx);
   // Positions: the caller's (mode a), or skinned here, the involved spheres' vertices only (mode b).
   std::optional<LazySkinner> skinner;
   if (lazy) {
@@ -215,19 +240,29 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
     frame.pos = Of(ctx).skinned.data();
   }
   if (!PrepareClusters(frame, ctx, parallel_for)) return false;
-  const size_t chunks = std::min(pairs.size(), NarrowPhaseContext::kChunks);
+  if (!lazy && frame.joint_motion != nullptr) MeasureDeviations(frame, pairs, ctx, parallel_for);
+  // The work: the sphere pairs, then the spheres tested against themselves.
+  const std::span<const uint32_t> active = Of(ctx).active_pairs, self = Of(ctx).active_self;
+  const bool all = Of(ctx).all_pairs;
+  const size_t tested = all ? pairs.size() : active.size(), work = tested + self.size();
+  const size_t chunks = std::min(work, NarrowPhaseContext::kChunks);
   for (size_t c = 0; c < chunks; ++c) {
     Of(ctx).chunks[c].hits.clear();
+    Of(ctx).chunks[c].last_tested = UINT64_MAX;
     Of(ctx).chunks[c].stats = {};
     Of(ctx).chunks[c].ok = true;
   }
   parallel_for(chunks, 1, [&](size_t begin, size_t end) {
     for (size_t c = begin; c < end; ++c) {
       Chunk& chunk = Of(ctx).chunks[c];
-      const size_t first = c * pairs.size() / chunks, last = (c + 1) * pairs.size() / chunks;
+      const size_t first = c * work / chunks, last = (c + 1) * work / chunks;
       for (size_t k = first; k < last; ++k) {
-        const SpherePair& p = pairs[k];
-        chunk.ok &= TestPair(frame, p.i, p.j, spheres[p.i], spheres[p.j], chunk);
+        if (k < tested) {
+          const SpherePair& p = pairs[all ? k : active[k]];
+          chunk.ok &= TestPair(frame, p.i, p.j, spheres[p.i], spheres[p.j], chunk);
+        } else {
+          chunk.ok &= TestSelf(frame, self[k - tested], chunk);
+        }
       }
     }
   });
@@ -238,6 +273,8 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
     ok &= chunk.ok;
     Of(ctx).merged.insert(Of(ctx).merged.end(), chunk.hits.begin(), chunk.hits.end());
     Of(ctx).stats.sphere_pairs += chunk.stats.sphere_pairs;
+    Of(ctx).stats.patch_pairs += chunk.stats.patch_pairs;
+    Of(ctx).stats.still_patch_pairs += chunk.stats.still_patch_pairs;
     Of(ctx).stats.cluster_pairs += chunk.stats.cluster_pairs;
     Of(ctx).stats.culled_triangles += chunk.stats.culled_triangles;
     Of(ctx).stats.box_tests += chunk.stats.box_tests;
@@ -247,7 +284,7 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
     out->clear();
     return false;
   }
-  Merge(*set, Of(ctx).merged, Of(ctx).keys, out);
+  Merge(frame, Of(ctx).merged, Of(ctx).keys, out);
   DepthScratch scratch{Of(ctx).sphere_mark, Of(ctx).queue, Of(ctx).sphere_stamp};
   if (lazy) {
     Depths(frame, Of(ctx).merged, *skinner, scratch, out);
@@ -273,11 +310,11 @@ bool FindContactsBruteForce(const SphereSet& set, const NarrowPhaseData& data, c
       positions.size() < set.source_vertex_count) {
     return false;
   }
-  const Frame frame{set, data, positions.data(), data.margin(), /*rest_rule=*/true};
+  const Frame frame{set, data, positions.data(), data.margin()};
   std::vector<Hit> hits;
   if (!AllPairs(frame, filter, &hits)) return false;
   std::vector<uint64_t> keys;
-  Merge(set, hits, keys, out);
+  Merge(frame, hits, keys, out);
   std::vector<uint32_t> marks(set.size(), 0), queue(set.size(), 0);
   uint32_t stamp = 0;
   DepthScratch scratch{marks, queue, stamp};

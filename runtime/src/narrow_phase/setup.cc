@@ -14,26 +14,11 @@
 #include <vector>
 
 #include "narrow_phase/internal.h"
+#include "skinspheres/runtime/narrow_phase/triangle_contact.h"
 #include "skinspheres/skinning/skinning_job.h"
 #include "skinspheres/skinning/skinning_matrices_job.h"
 
 namespace skinspheres::runtime::narrow_phase {
-
-bool RestPositions(const SphereSet& set, std::vector<Eigen::Vector3f>* out) {
-  const skinning::SkinnedMesh& mesh = set.mesh;
-  std::vector<Mat4f> matrices(mesh.binds.size());
-  if (!skinning::SkinningMatricesJob{mesh.binds, set.joint_rest_world, matrices}.Run()) return false;
-  out->assign(mesh.vertex_count(), Eigen::Vector3f::Zero());
-  skinning::SkinningJob job;
-  job.joint_matrices = matrices;
-  job.vertex_count = mesh.vertex_count();
-  job.in_positions = {reinterpret_cast<const float*>(mesh.positions_bind.data()), 3 * mesh.vertex_count()};
-  job.out_positions = {reinterpret_cast<float*>(out->data()), 3 * out->size()};
-  job.influence_offsets = mesh.influence_offsets;
-  job.influence_binds = mesh.influence_binds;
-  job.influence_weights = mesh.influence_weights;
-  return mesh.vertex_count() == 0 || job.Run();
-}
 
 void SphereItems(const SphereSet& set, NarrowPhaseData::Layout& d) {
   d.triangle_count = set.source_triangle_count;
@@ -72,11 +57,22 @@ void BuildClusters(const SphereSet& set, NarrowPhaseData* d) {
     size_t begin, end;
   };
   std::vector<Range> stack;
+  const bool by_joint = Of(*d).rules == ContactRules::kTriangles;
+  auto joint = [&](uint32_t id) { return by_joint ? Of(*d).triangle_joint[ItemTriangle(Of(*d), id)] : uint16_t{0}; };
+  Of(*d).cluster_joint.clear();
   for (size_t s = 0; s < set.size(); ++s) {
     tris.assign(Of(*d).sphere_items.begin() + Of(*d).sphere_item_offsets[s],
                 Of(*d).sphere_items.begin() + Of(*d).sphere_item_offsets[s + 1]);
+    // One run of items per joint (rule 2 is then a cluster pair's), in joint order, stable.
+    std::stable_sort(tris.begin(), tris.end(), [&](uint32_t a, uint32_t b) { return joint(a) < joint(b); });
     stack.clear();
-    if (!tris.empty()) stack.push_back({0, tris.size()});
+    for (size_t begin = 0; begin < tris.size();) {
+      size_t end = begin + 1;
+      while (end < tris.size() && joint(tris[end]) == joint(tris[begin])) ++end;
+      stack.push_back({begin, end});
+      begin = end;
+    }
+    std::reverse(stack.begin(), stack.end());
     std::vector<Range> leaves;
     while (!stack.empty()) {
       const Range r = stack.back();
@@ -144,6 +140,7 @@ void BuildClusters(const SphereSet& set, NarrowPhaseData* d) {
           refs[c] = NarrowPhaseData::Layout::kGridRef | (grid_base + uint32_t(at - grid.begin()));
         }
       }
+      Of(*d).cluster_joint.push_back(joint(tris[r.begin]));
       Of(*d).cluster_vertices.insert(Of(*d).cluster_vertices.end(), verts.begin(), verts.end());
       Of(*d).cluster_grid.insert(Of(*d).cluster_grid.end(), grid.begin(), grid.end());
       Of(*d).cluster_triangle_offsets.push_back(uint32_t(Of(*d).cluster_triangles.size()));
@@ -283,7 +280,8 @@ std::optional<Error> RestMesh(const SphereSet& set, const NarrowPhaseSettings& s
     high = high.cwiseMax(p);
   }
   const float size = d.rest_positions.empty() ? 0.0f : (high - low).maxCoeff();
-  d.rest_height = d.rest_positions.empty() ? 0.0f : high.y() - low.y();
+  d.rest_height = RestHeight(d.rest_positions);
+  d.rest_size = size;
   if (settings.margin > kMaxMarginShareOfSize * size) {
     char text[200];
     std::snprintf(text, sizeof text,
@@ -295,33 +293,52 @@ std::optional<Error> RestMesh(const SphereSet& set, const NarrowPhaseSettings& s
   return std::nullopt;
 }
 
-// Stage 3, rule 2: vertices with bit-identical rest positions (-0 and +0 alike) welded; returns
-// each vertex's canonical id (the first with its position) and writes the welded triangles.
+// Stage 3, rule 1: vertices with bit-identical rest positions welded; returns each vertex's
+// canonical id and writes the welded triangles.
 std::vector<uint32_t> WeldVertices(const SphereSet& set, NarrowPhaseData::Layout& d) {
-  const size_t vertices = set.source_vertex_count;
-  std::vector<uint32_t> canonical(vertices);
-  struct KeyHash {
-    size_t operator()(const std::array<uint32_t, 3>& k) const {
-      return (size_t{k[0]} * 0x9E3779B97F4A7C15ull) ^ (size_t{k[1]} * 0xC2B2AE3D27D4EB4Full) ^
-             (size_t{k[2]} * 0x165667B19E3779F9ull);
-    }
-  };
-  std::unordered_map<std::array<uint32_t, 3>, uint32_t, KeyHash> first;
-  first.reserve(vertices);
-  for (uint32_t v = 0; v < vertices; ++v) {
-    std::array<uint32_t, 3> key;
-    for (int k = 0; k < 3; ++k) {
-      const float x = d.rest_positions[v][k] + 0.0f;  // -0 -> +0
-      std::memcpy(&key[k], &x, sizeof(float));
-    }
-    canonical[v] = first.emplace(key, v).first->second;
-  }
+  std::vector<uint32_t> canonical = WeldedVertices(d.rest_positions);
   d.welded.resize(set.triangle_vertices.size());
   for (size_t k = 0; k < set.triangle_vertices.size(); ++k) d.welded[k] = canonical[set.triangle_vertices[k]];
   return canonical;
 }
 
-// Stage 4: each sphere's items, the vertices of their triangles, and its largest item list.
+// Stage 4: each triangle's rule-2 joint (with rules on triangles), its part and owner(s).
+void TriangleRules(const SphereSet& set, NarrowPhaseData::Layout& d) {
+  d.rules = set.contact_rules;
+  if (d.rules == ContactRules::kTriangles) {
+    d.near = NearJoints(set, set.contact_hops);
+    d.triangle_joint = TriangleJoints(set);
+  }
+  d.triangle_part.assign(set.source_triangle_count, 0);
+  d.triangle_owner.assign(set.source_triangle_count, 0);
+  for (uint32_t s = 0; s < set.size(); ++s) {
+    for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) {
+      d.triangle_owner[set.triangles[k]] = s;
+      d.triangle_part[set.triangles[k]] = set.sphere_part[s];
+    }
+  }
+  // Cut triangles: per triangle, its level and one owner per piece index (every piece owned once,
+  // all in one part: Validate()).
+  d.piece_level.clear();
+  d.piece_owner_offsets.assign(1, 0);
+  d.piece_owner.clear();
+  for (uint32_t s = 0; s < set.size(); ++s) {
+    for (const TrianglePiece& p : set.PiecesOf(s)) {
+      uint32_t& owner = d.triangle_owner[p.triangle];  // 0 until its first piece: owned whole by none
+      if ((owner & NarrowPhaseData::Layout::kCut) == 0) {
+        owner = NarrowPhaseData::Layout::kCut | uint32_t(d.piece_level.size());
+        d.piece_level.push_back(p.level);
+        d.piece_owner.resize(d.piece_owner.size() + size_t{p.level} * p.level, 0);
+        d.piece_owner_offsets.push_back(uint32_t(d.piece_owner.size()));
+      }
+      const uint32_t k = owner & ~NarrowPhaseData::Layout::kCut;
+      d.piece_owner[d.piece_owner_offsets[k] + p.index] = s;
+      d.triangle_part[p.triangle] = set.sphere_part[s];
+    }
+  }
+}
+
+// Stage 5: each sphere's items, the vertices of their triangles, and its largest item list.
 void SphereVertices(const SphereSet& set, NarrowPhaseData::Layout& d) {
   SphereItems(set, d);
   d.sphere_vertex_offsets.assign(1, 0);
@@ -341,7 +358,7 @@ void SphereVertices(const SphereSet& set, NarrowPhaseData::Layout& d) {
   }
 }
 
-// Stage 7: neighbours for the depth estimate: same part, and overlapping at rest or sharing a
+// Stage 9: neighbours for the depth estimate: same part, and overlapping at rest or sharing a
 // (welded) vertex.
 void Neighbours(const SphereSet& set, const std::vector<uint32_t>& canonical, NarrowPhaseData::Layout& d) {
   const size_t n = set.size();
@@ -381,17 +398,163 @@ void Neighbours(const SphereSet& set, const std::vector<uint32_t>& canonical, Na
   }
 }
 
-// Stage 8, rule 3: every pair the runtime could test that intersects or lies within the margin at
-// rest (the oracle's all pairs, with the rule itself off).
-void RestExclusions(const SphereSet& set, const PairFilter& filter, NarrowPhaseData& data) {
-  NarrowPhaseData::Layout& d = Of(data);
-  const Frame rest{set, data, d.rest_positions.data(), d.settings.margin, /*rest_rule=*/false};
-  std::vector<Hit> hits;
-  AllPairs(rest, filter, &hits);
-  d.rest_excluded.reserve(hits.size());
-  for (const auto& h : hits) d.rest_excluded.push_back((uint64_t{std::min(h.t, h.u)} << 32) | std::max(h.t, h.u));
-  std::sort(d.rest_excluded.begin(), d.rest_excluded.end());
-  d.rest_excluded.erase(std::unique(d.rest_excluded.begin(), d.rest_excluded.end()), d.rest_excluded.end());
+// Stage 7: with rules on triangles, the spheres holding triangles of joints more than the hops apart
+// (tested against themselves each frame).
+void SelfSpheres(const SphereSet& set, NarrowPhaseData::Layout& d) {
+  d.self_spheres.clear();
+  if (d.rules != ContactRules::kTriangles) return;
+  for (uint32_t s = 0; s < set.size(); ++s) {
+    bool apart = false;
+    for (uint32_t a = d.cluster_offsets[s]; a < d.cluster_offsets[s + 1] && !apart; ++a) {
+      for (uint32_t b = a + 1; b < d.cluster_offsets[s + 1] && !apart; ++b) {
+        apart = !d.near(d.cluster_joint[a], d.cluster_joint[b]);
+      }
+    }
+    if (apart) d.self_spheres.push_back(s);
+  }
+}
+
+// The smallest box's centre and the radius around it holding the points (rounded up a hair).
+std::array<double, 4> BallOf(const std::vector<Eigen::Vector3d>& points) {
+  if (points.empty()) return {0.0, 0.0, 0.0, 0.0};
+  Eigen::Vector3d lo = points[0], hi = points[0];
+  for (const auto& p : points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Eigen::Vector3d c = 0.5 * (lo + hi);
+  double r2 = 0.0;
+  for (const auto& p : points) r2 = std::max(r2, (p - c).squaredNorm());
+  return {c.x(), c.y(), c.z(), std::sqrt(r2) * (1.0 + 1e-12)};
+}
+
+// Stage 10: the patches (a sphere's clusters of one joint, contiguous since BuildClusters sorts them
+// by joint), each with the ball of its points' rest positions and, per joint its points are skinned
+// by, the ball of their rest copies through it and the largest weight; the clusters' far vertices;
+// the joints whose motion bounds them; rule 3's distance.
+bool Patches(const SphereSet& set, NarrowPhaseData::Layout& d) {
+  const bool triangles = d.rules == ContactRules::kTriangles;
+  d.rest_distance = triangles ? std::max(set.rest_gap, d.settings.margin) : d.settings.margin;
+  // Far vertices: the vertices of a cluster's pieces' triangles not among its corners.
+  d.cluster_far_offsets.assign(1, 0);
+  d.cluster_far_vertices.clear();
+  std::vector<uint32_t> far;
+  for (size_t c = 0; c + 1 < d.cluster_vertex_offsets.size(); ++c) {
+    far.clear();
+    for (uint32_t k = d.cluster_triangle_offsets[c]; k < d.cluster_triangle_offsets[c + 1]; ++k) {
+      const uint32_t id = d.cluster_triangles[k];
+      if (id < d.triangle_count) continue;
+      const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{ItemTriangle(d, id)};
+      far.insert(far.end(), v, v + 3);
+    }
+    std::sort(far.begin(), far.end());
+    far.erase(std::unique(far.begin(), far.end()), far.end());
+    std::erase_if(far, [&](uint32_t v) {
+      return std::binary_search(d.cluster_vertices.begin() + d.cluster_vertex_offsets[c],
+                                d.cluster_vertices.begin() + d.cluster_vertex_offsets[c + 1], v);
+    });
+    d.cluster_far_vertices.insert(d.cluster_far_vertices.end(), far.begin(), far.end());
+    d.cluster_far_offsets.push_back(uint32_t(d.cluster_far_vertices.size()));
+  }
+  // A triangle degenerate at rest lay at no distance rule 3 knows: its patch is never skipped.
+  std::vector<uint8_t> degenerate(set.source_triangle_count, 0);
+  for (uint32_t t = 0; t < set.source_triangle_count; ++t) {
+    const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{t};
+    degenerate[t] = TriangleIsDegenerate(d.rest_positions[v[0]], d.rest_positions[v[1]], d.rest_positions[v[2]]);
+  }
+  // The skinning matrices at rest, M_b = G_joint(b)(rest) · IBM_b, for the vertices' rest copies.
+  const skinning::SkinnedMesh& mesh = set.mesh;
+  std::vector<Mat4f> rest_matrices(mesh.binds.size());
+  if (!skinning::SkinningMatricesJob{mesh.binds, set.joint_rest_world, rest_matrices}.Run()) return false;
+  d.cluster_ids.resize(d.cluster_joint.size());
+  for (uint32_t c = 0; c < d.cluster_ids.size(); ++c) d.cluster_ids[c] = c;
+  d.patch_offsets.assign(1, 0);
+  d.patch_cluster_offsets.assign(1, 0);
+  d.patch_copy_offsets.assign(1, 0);
+  d.patch_joint.clear();
+  d.patch_still_ok.clear();
+  d.patch_rest_ball.clear();
+  d.patch_copy_joint.clear();
+  d.patch_copy_ball.clear();
+  d.patch_copy_reach.clear();
+  std::vector<uint8_t> used(set.joint_count(), 0);
+  std::vector<Eigen::Vector3d> rest;
+  std::vector<std::pair<uint16_t, std::vector<Eigen::Vector3d>>> copies;  // per joint
+  std::vector<double> reach;
+  for (size_t s = 0; s < set.size(); ++s) {
+    for (uint32_t c = d.cluster_offsets[s]; c < d.cluster_offsets[s + 1];) {
+      uint32_t end = c + 1;
+      while (triangles && end < d.cluster_offsets[s + 1] && d.cluster_joint[end] == d.cluster_joint[c]) ++end;
+      if (!triangles) end = d.cluster_offsets[s + 1];
+      const uint16_t joint = triangles ? d.cluster_joint[c] : kNoTriangleJoint;
+      bool still_ok = triangles && joint != kNoTriangleJoint;
+      rest.clear();
+      copies.clear();
+      reach.clear();
+      auto add = [&](uint32_t v) {
+        rest.push_back(d.rest_positions[v].cast<double>());
+        double total[64] = {};  // per entry of `copies` this vertex adds to (a vertex has few joints)
+        for (uint32_t k = mesh.influence_offsets[v]; k < mesh.influence_offsets[v + 1]; ++k) {
+          const auto j = uint16_t(mesh.binds[mesh.influence_binds[k]].joint);
+          const Mat4f& m = rest_matrices[mesh.influence_binds[k]];
+          const Eigen::Vector3d copy = m.cast<double>().topLeftCorner<3, 3>() * mesh.positions_bind[v].cast<double>() +
+                                       m.cast<double>().topRightCorner<3, 1>();
+          size_t e = 0;
+          while (e < copies.size() && copies[e].first != j) ++e;
+          if (e == copies.size()) {
+            copies.emplace_back(j, std::vector<Eigen::Vector3d>{});
+            reach.push_back(0.0);
+          }
+          copies[e].second.push_back(copy);
+          if (e < 64) total[e] += double(mesh.influence_weights[k]);
+          still_ok &= e < 64;
+        }
+        for (size_t e = 0; e < copies.size() && e < 64; ++e) reach[e] = std::max(reach[e], total[e]);
+      };
+      for (uint32_t k = c; k < end; ++k) {
+        for (uint32_t e = d.cluster_vertex_offsets[k]; e < d.cluster_vertex_offsets[k + 1]; ++e)
+          add(d.cluster_vertices[e]);
+        for (uint32_t e = d.cluster_far_offsets[k]; e < d.cluster_far_offsets[k + 1]; ++e)
+          add(d.cluster_far_vertices[e]);
+        for (uint32_t e = d.cluster_triangle_offsets[k]; e < d.cluster_triangle_offsets[k + 1]; ++e)
+          still_ok &= !degenerate[ItemTriangle(d, d.cluster_triangles[e])];
+      }
+      d.patch_rest_ball.push_back(BallOf(rest));
+      for (size_t e = 0; e < copies.size(); ++e) {
+        d.patch_copy_joint.push_back(copies[e].first);
+        d.patch_copy_ball.push_back(BallOf(copies[e].second));
+        d.patch_copy_reach.push_back(std::min(reach[e] * (1.0 + 1e-9), 1.0));
+        if (copies[e].first < set.joint_count()) used[copies[e].first] = 1;
+      }
+      d.patch_copy_offsets.push_back(uint32_t(d.patch_copy_joint.size()));
+      d.patch_joint.push_back(joint);
+      d.patch_still_ok.push_back(still_ok ? 1 : 0);
+      d.patch_cluster_offsets.push_back(end);
+      if (joint != kNoTriangleJoint && joint < set.joint_count()) used[joint] = 1;
+      c = end;
+    }
+    d.patch_offsets.push_back(uint32_t(d.patch_joint.size()));
+  }
+  // The joints whose motion the bound reads, each with G_j(rest)^-1; a patch naming one that has none
+  // (a singular rest transform) is never skipped.
+  d.motion_joints.clear();
+  d.rest_inverse.assign(set.joint_count(), internal::Mat4d::Identity());
+  std::vector<uint8_t> invertible(set.joint_count(), 0);
+  for (uint16_t j = 0; j < set.joint_count(); ++j) {
+    if (!used[j]) continue;
+    const auto inverse = internal::AffineInverse(set.joint_rest_world[j].cast<double>());
+    if (!inverse) continue;
+    d.rest_inverse[j] = *inverse;
+    invertible[j] = 1;
+    d.motion_joints.push_back(j);
+  }
+  for (size_t p = 0; p < d.patch_joint.size(); ++p) {
+    if (d.patch_joint[p] >= set.joint_count() || !invertible[d.patch_joint[p]]) d.patch_still_ok[p] = 0;
+    for (uint32_t e = d.patch_copy_offsets[p]; e < d.patch_copy_offsets[p + 1]; ++e) {
+      if (d.patch_copy_joint[e] >= set.joint_count() || !invertible[d.patch_copy_joint[e]]) d.patch_still_ok[p] = 0;
+    }
+  }
+  return true;
 }
 
 }  // namespace
@@ -409,8 +572,10 @@ Result<NarrowPhaseData> NarrowPhaseData::Create(const SphereSet& set, const Pair
   d.settings = settings;
   if (auto err = RestMesh(set, settings, who, d)) return *err;
   const std::vector<uint32_t> canonical = WeldVertices(set, d);
+  TriangleRules(set, d);
   SphereVertices(set, d);
   BuildClusters(set, &data);
+  SelfSpheres(set, d);
   if (!BuildVertexGroups(set, &data)) {
     return MakeError(ErrorCode::kInvalidData, who + ": the mesh's influences do not fit its bind entries");
   }
@@ -418,7 +583,13 @@ Result<NarrowPhaseData> NarrowPhaseData::Create(const SphereSet& set, const Pair
     d.max_sphere_clusters = std::max<size_t>(d.max_sphere_clusters, d.cluster_offsets[s + 1] - d.cluster_offsets[s]);
   }
   Neighbours(set, canonical, d);
-  RestExclusions(set, filter, data);
+  if (!Patches(set, d)) {
+    return MakeError(ErrorCode::kInvalidData,
+                     who + ": the mesh cannot be skinned at rest (bind entries and skeleton disagree)");
+  }
+  for (size_t s = 0; s < set.size(); ++s) {
+    d.max_sphere_patches = std::max<size_t>(d.max_sphere_patches, d.patch_offsets[s + 1] - d.patch_offsets[s]);
+  }
   return data;
 }
 

@@ -250,10 +250,10 @@ TEST(SphereFitterTest, PartsThatDoNotPartitionTheMeshAreRefused) {
 TEST(SphereFitterTest, ExclusionsFollowTheSkeleton) {
   RawCharacter ch = test::EllipticPrism(0.1f, 0.1f, 0.0f, 1.0f);
   BodyParts parts = test::MakeSinglePart(ch, 0.0f, 1.0f, PartKind::kChain);
-  FitSettings settings;
-  settings.exclude_bind_overlaps = false;
-  const FitResult fit = Fit(ch, parts, settings);
-  // One joint owns everything: every pair is a same-joint pair.
+  const FitResult fit = Fit(ch, parts, FitSettings{});
+  // One joint owns every triangle: every pair is a same-joint pair, and the rules are on triangles.
+  EXPECT_EQ(fit.spheres.contact_rules, runtime::ContactRules::kTriangles);
+  EXPECT_EQ(fit.spheres.contact_hops, 1u);
   const size_t n = fit.spheres.size();
   ASSERT_EQ(fit.spheres.excluded_pairs.size(), n * (n - 1) / 2);
   for (const auto& p : fit.spheres.excluded_pairs) EXPECT_EQ(p.reason, runtime::ExclusionReason::kSameJoint);

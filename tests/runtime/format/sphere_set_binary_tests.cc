@@ -27,6 +27,8 @@
 #include <string>
 
 #include "allocation_counter.h"
+#include "runtime/format/binary_edit.h"
+#include "runtime/format/contact_rules_sets.h"
 #include "runtime/posed_characters.h"
 #include "runtime/sample_sphere_set.h"
 #include "skinspheres/runtime/api/character.h"
@@ -38,7 +40,7 @@
 namespace skinspheres::runtime {
 namespace {
 
-using Bytes = std::vector<std::byte>;
+using namespace test_binary;  // binary_edit.h: Bytes, Get32, Put32, FixChecksum, EntryOf
 
 std::span<const std::byte> AsBytes(std::string_view s) {
   return {reinterpret_cast<const std::byte*>(s.data()), s.size()};
@@ -63,36 +65,11 @@ SphereSet Small() {
   return set;
 }
 
-uint32_t Get32(const Bytes& b, size_t at) {
-  uint32_t v;
-  std::memcpy(&v, b.data() + at, 4);
-  return v;
-}
-uint64_t Get64(const Bytes& b, size_t at) {
-  uint64_t v;
-  std::memcpy(&v, b.data() + at, 8);
-  return v;
-}
-void Put32(Bytes& b, size_t at, uint32_t v) { std::memcpy(b.data() + at, &v, 4); }
-void Put64(Bytes& b, size_t at, uint64_t v) { std::memcpy(b.data() + at, &v, 8); }
-void FixChecksum(Bytes& b) { Put64(b, 8, Xxh64(std::span<const std::byte>(b).subspan(16))); }
-
-// Byte offset of section `id`'s table entry (the section must be present).
-size_t EntryOf(const Bytes& b, SphereSetSection id) {
-  const uint32_t count = Get32(b, 32);
-  for (uint32_t k = 0; k < count; ++k) {
-    const size_t at = kSphereSetBinaryHeaderSize + k * kSphereSetBinarySectionEntrySize;
-    if (Get32(b, at) == static_cast<uint32_t>(id)) return at;
-  }
-  ADD_FAILURE() << "no section " << static_cast<uint32_t>(id);
-  return 0;
-}
-
-// The same file as a version-1 writer (before the influence reach) wrote it: section 28 dropped,
-// the others laid out again as the writer lays them out (table, then each section on the next
-// 16-byte boundary, zero padding), version 1, checksum.
-// The file as layout `version` (1 to 4) writes it: the sections that version lacks left out (28-38
-// for version 1, 29-38 for version 2, 34-38 for version 3, 37-38 for version 4).
+// The file as a writer of layout `version` (1 to 5) wrote it: the sections that version lacks left
+// out (28-40 for version 1, 29-40 for version 2, 34-40 for version 3, 37-40 for version 4, 39-40 for
+// version 5), the others laid out again as the writer lays them out (table, then each section on the
+// next 16-byte boundary, zero padding), the version, the checksum. A file before layout 6 states its
+// contact rules on sphere pairs: it reads as WithRulesOnSpherePairs of the set written.
 Bytes Downgrade(const Bytes& v2, uint32_t version) {
   struct Entry {
     uint32_t id, element_size;
@@ -105,7 +82,8 @@ Bytes Downgrade(const Bytes& v2, uint32_t version) {
     const uint32_t first_dropped = static_cast<uint32_t>(version == 1   ? SphereSetSection::kInfluenceReach
                                                          : version == 2 ? SphereSetSection::kFastReferenceInverse
                                                          : version == 3 ? SphereSetSection::kPiecePoints
-                                                                        : SphereSetSection::kReachGroupBlend);
+                                                         : version == 4 ? SphereSetSection::kReachGroupBlend
+                                                                        : SphereSetSection::kContactRules);
     if (e.id < first_dropped) entries.push_back(e);
   }
   const auto align = [](size_t n) { return (n + 15) / 16 * 16; };
@@ -160,9 +138,21 @@ TEST(Xxh64Test, MatchesTheReferenceImplementation) {
   EXPECT_EQ(h("abc", 12345), 0x01700e64f6f23509ull);
 }
 
+// Every set both ways, whatever its contact rules: on triangles (the fitted set and hand-made ones,
+// at hops 0, 1 and 2, with and without a rest gap) and on sphere pairs (as read from files before
+// them, JSON versions 1 to 3).
 TEST(SphereSetBinaryTest, LosslessBothWaysWithTheJson) {
   ASSERT_GT(Builtin().size(), 10u);
-  const std::vector<SphereSet> sets = {Builtin(), Small(), TwoSpheres()};
+  ASSERT_EQ(Builtin().contact_rules, ContactRules::kTriangles);
+  const std::vector<SphereSet> sets = {Builtin(),
+                                       Small(),
+                                       TwoSpheres(),
+                                       WithRulesOnTriangles(TwoJointsWithMesh(), 0, 0.05f),
+                                       WithRulesOnTriangles(TwoJointsWithPieces(), 2, 0.0123f),
+                                       WithRulesOnSpherePairs(Builtin()),
+                                       WithRulesOnSpherePairs(Small()),
+                                       WithRulesOnSpherePairs(TwoSpheres()),
+                                       WithRulesOnSpherePairs(TwoJointsWithPieces())};
   for (const SphereSet& set_ref : sets) {
     const SphereSet* set = &set_ref;
     const std::string json = WriteSphereSetJson(*set);
@@ -176,6 +166,7 @@ TEST(SphereSetBinaryTest, LosslessBothWaysWithTheJson) {
     EXPECT_FALSE(from_binary->fast_only);
     EXPECT_EQ(from_binary->has_mesh(), set->has_mesh());
     EXPECT_EQ(from_binary->loaded_from, "in.ssb");
+    ExpectSameRules(*from_binary, *set);
     // JSON -> binary -> JSON: the same text; binary -> JSON -> binary: the same bytes.
     EXPECT_EQ(WriteSphereSetJson(*from_binary), json);
     EXPECT_EQ(WriteSphereSetBinary(*from_binary), binary);
@@ -358,6 +349,11 @@ TEST(SphereSetBinaryTest, AMemoryMappedFileIsReadInPlace) {
   EXPECT_TRUE(std::equal(set.influence_joints.begin(), set.influence_joints.end(), view->influence_joints().begin(),
                          view->influence_joints().end()));
   EXPECT_EQ(view->centers_rest()[3 * 5 + 1], set.centers_rest[5].y());
+  ASSERT_EQ(view->contact_rules().size(), 2u);
+  EXPECT_EQ(view->contact_rules()[0], static_cast<uint32_t>(ContactRules::kTriangles));
+  EXPECT_EQ(view->contact_rules()[1], set.contact_hops);
+  ASSERT_EQ(view->rest_gap().size(), 1u);
+  EXPECT_EQ(Bits(view->rest_gap()[0]), Bits(set.rest_gap));
   auto copied = view->ToSphereSet();
   ASSERT_TRUE(copied.ok()) << copied.error().message;
   EXPECT_EQ(WriteSphereSetJson(*copied), WriteSphereSetJson(set));
@@ -454,8 +450,12 @@ TEST(SphereSetBinaryTest, AbsurdHeadersAndTablesAreRefusedByName) {
   const std::vector<Case> cases = {
       {"magic", [](Bytes& b) { b[1] = std::byte{'X'}; }, ErrorCode::kFormatRejected, "wrong magic number"},
       {"json", [](Bytes& b) { b.assign(5, std::byte{'{'}); }, ErrorCode::kFormatRejected, "shorter than its magic"},
-      {"version", [](Bytes& b) { Put32(b, 16, 6); }, ErrorCode::kVersionMismatch,
-       "layout version 6 is not supported (this build reads versions 1 to 5)"},
+      {"version", [](Bytes& b) { Put32(b, 16, 7); }, ErrorCode::kVersionMismatch,
+       "layout version 7 is not supported (this build reads versions 1 to 6)"},
+      {"version 5 with contact rule sections", [](Bytes& b) { Put32(b, 16, 5); }, ErrorCode::kInvalidData,
+       "section contact_rules is not expected with these flags in layout version 5"},
+      {"version 4 with blend sections", [](Bytes& b) { Put32(b, 16, 4); }, ErrorCode::kInvalidData,
+       "section reach_group_blend is not expected with these flags in layout version 4"},
       {"version 3 with piece sections", [](Bytes& b) { Put32(b, 16, 3); }, ErrorCode::kInvalidData,
        "section piece_points is not expected with these flags in layout version 3"},
       {"version 1 with a reach section", [](Bytes& b) { Put32(b, 16, 1); }, ErrorCode::kInvalidData,
@@ -535,12 +535,13 @@ TEST(SphereSetBinaryTest, VersionOneFilesReadWithoutReachAndFastOnlyFilesKeepIt)
   EXPECT_EQ(Get32(v2, 16), kSphereSetBinaryVersion);
   const Bytes v1 = Downgrade(v2, 1);
   EXPECT_EQ(Get32(v1, 16), 1u);
-  EXPECT_EQ(Get32(v1, 32), Get32(v2, 32) - 11);  // sections 28-38
+  EXPECT_EQ(Get32(v1, 32), Get32(v2, 32) - 13);  // sections 28-40
   auto old = Read(v1);
   ASSERT_TRUE(old.ok()) << old.error().message;
   EXPECT_TRUE(old->influence_reach.empty());
   EXPECT_TRUE(old->has_mesh());
-  SphereSet expected = fitted;  // what a version-1 file holds: no reach, no reference, no groups
+  // What a version-1 file holds: no reach, no reference, no groups, the rules on sphere pairs.
+  SphereSet expected = WithRulesOnSpherePairs(fitted);
   expected.influence_reach.clear();
   expected.fast_reference_inverse.clear();
   expected.fast_reference_spheres.clear();
@@ -645,11 +646,11 @@ TEST(SphereSetBinaryTest, FastReferenceRoundTripsInBothFormatsAndFastOnlyFilesKe
 
   // A version-2 file: no reference sections; it reads as the set without one.
   const Bytes v2 = Downgrade(full, 2);
-  EXPECT_EQ(Get32(v2, 32), Get32(full, 32) - 10);  // sections 29-38
+  EXPECT_EQ(Get32(v2, 32), Get32(full, 32) - 12);  // sections 29-40
   auto old = Read(v2);
   ASSERT_TRUE(old.ok()) << old.error().message;
   EXPECT_TRUE(old->fast_reference_inverse.empty() && old->fast_reference_spheres.empty());
-  EXPECT_EQ(WriteSphereSetJson(*old), WriteSphereSetJson(without));
+  EXPECT_EQ(WriteSphereSetJson(*old), WriteSphereSetJson(WithRulesOnSpherePairs(without)));
 
   // Sections of the wrong length.
   Bytes bad = full;
@@ -754,7 +755,11 @@ TEST(SphereSetBinaryTest, GroupBlendsRoundTripAndOlderFilesReadWithoutThem) {
   ASSERT_TRUE(v4.ok()) << v4.error().message;
   EXPECT_TRUE(v4->reach_group_blend.empty() && v4->reach_group_deviation.empty());
   EXPECT_EQ(v4->reach_group_weights, fitted.reach_group_weights);
+  ExpectSameRules(*v4, WithRulesOnSpherePairs(fitted));
+  // The JSON as written before blends (and before the rules on triangles: version 2 or 3).
   auto doc = nlohmann::json::parse(json);
+  doc.erase("contact_rules");
+  doc["version"] = fitted.has_pieces() ? kSphereSetVersionWithPieces : kSphereSetVersion;
   for (auto& sphere : doc["spheres"]) {
     const size_t k_count = sphere["influences"].size();
     for (auto& row : sphere["reach_groups"]) row.erase(row.begin() + static_cast<ptrdiff_t>(1 + k_count), row.end());
@@ -801,28 +806,38 @@ TEST(SphereSetBinaryTest, GroupBlendsRoundTripAndOlderFilesReadWithoutThem) {
       << refused.error().message;
 }
 
-// Triangle pieces (sphere_set.h) round-trip through both formats: JSON version 3, binary layout 4
-// (sections 34-36), converting one into the other and back bit-exact; a fast-only file leaves them
-// out and still refits as the whole set does. A set without pieces still writes JSON version 2,
-// and its binary file read as layout 3 (sections 34-36 dropped) is the same set. Pieces in a
-// version-2 JSON document, grid points that do not hold whole quadruples, piece offsets that do not
-// fit and a piece that breaks the ownership rules are refused by name.
+// Triangle pieces (sphere_set.h) round-trip through both formats: JSON version 4 (version 3 for a
+// set with its contact rules on sphere pairs), binary layout 4 and later (sections 34-36),
+// converting one into the other and back bit-exact; a fast-only file leaves them out and still
+// refits as the whole set does. A set without pieces whose rules are on sphere pairs still writes
+// JSON version 2, and its binary file read as layout 3 (sections 34-36 dropped) is the same set.
+// Pieces in a version-2 JSON document, grid points that do not hold whole quadruples, piece offsets
+// that do not fit and a piece that breaks the ownership rules are refused by name.
 TEST(SphereSetBinaryTest, TrianglePiecesRoundTripInBothFormats) {
   const SphereSet set = TwoJointsWithPieces();
   ASSERT_EQ(set.Validate(), std::nullopt);
-  const std::string json = WriteSphereSetJson(set);
-  EXPECT_EQ(nlohmann::json::parse(json)["version"], kSphereSetVersionWithPieces);
-  auto from_json = ReadSphereSetJson(json, "set.json");
-  ASSERT_TRUE(from_json.ok()) << from_json.error().message;
-  EXPECT_EQ(from_json->piece_points, set.piece_points);
-  EXPECT_EQ(from_json->piece_offsets, set.piece_offsets);
-  EXPECT_EQ(from_json->pieces, set.pieces);
-  const Bytes bytes = WriteSphereSetBinary(*from_json);
-  EXPECT_EQ(Get32(bytes, 16), kSphereSetBinaryVersion);
-  auto from_binary = Read(bytes);
-  ASSERT_TRUE(from_binary.ok()) << from_binary.error().message;
-  EXPECT_EQ(WriteSphereSetJson(*from_binary), json);
-  EXPECT_EQ(WriteSphereSetBinary(*from_binary), bytes);
+  std::string json, json3;  // versions 4 and 3
+  Bytes bytes;
+  for (const SphereSet& with_rules : {set, WithRulesOnSpherePairs(set)}) {
+    const bool on_triangles = with_rules.contact_rules == ContactRules::kTriangles;
+    const std::string text = WriteSphereSetJson(with_rules);
+    EXPECT_EQ(nlohmann::json::parse(text)["version"],
+              on_triangles ? kSphereSetVersionWithRules : kSphereSetVersionWithPieces);
+    auto from_json = ReadSphereSetJson(text, "set.json");
+    ASSERT_TRUE(from_json.ok()) << from_json.error().message;
+    EXPECT_EQ(from_json->piece_points, set.piece_points);
+    EXPECT_EQ(from_json->piece_offsets, set.piece_offsets);
+    EXPECT_EQ(from_json->pieces, set.pieces);
+    ExpectSameRules(*from_json, with_rules);
+    const Bytes binary = WriteSphereSetBinary(*from_json);
+    EXPECT_EQ(Get32(binary, 16), kSphereSetBinaryVersion);
+    auto from_binary = Read(binary);
+    ASSERT_TRUE(from_binary.ok()) << from_binary.error().message;
+    EXPECT_EQ(WriteSphereSetJson(*from_binary), text);
+    EXPECT_EQ(WriteSphereSetBinary(*from_binary), binary);
+    (on_triangles ? json : json3) = text;
+    if (on_triangles) bytes = binary;
+  }
 
   auto fast = Read(WriteSphereSetBinary(set, SphereSetBinaryContent::kFastOnly));
   ASSERT_TRUE(fast.ok()) << fast.error().message;
@@ -838,21 +853,25 @@ TEST(SphereSetBinaryTest, TrianglePiecesRoundTripInBothFormats) {
   for (size_t s = 0; s < set.size(); ++s) EXPECT_EQ(a[s], b[s]) << "sphere " << s;
 
   SphereSet whole = TwoJointsWithMesh();
-  EXPECT_EQ(nlohmann::json::parse(WriteSphereSetJson(whole))["version"], kSphereSetVersion);
+  EXPECT_EQ(nlohmann::json::parse(WriteSphereSetJson(whole))["version"], kSphereSetVersionWithRules);
+  EXPECT_EQ(nlohmann::json::parse(WriteSphereSetJson(WithRulesOnSpherePairs(whole)))["version"], kSphereSetVersion);
   auto as_v3 = Read(Downgrade(WriteSphereSetBinary(whole), 3));
   ASSERT_TRUE(as_v3.ok()) << as_v3.error().message;
-  EXPECT_EQ(WriteSphereSetJson(*as_v3), WriteSphereSetJson(whole));
+  EXPECT_EQ(WriteSphereSetJson(*as_v3), WriteSphereSetJson(WithRulesOnSpherePairs(whole)));
   auto cut_as_v3 = Read(Downgrade(bytes, 3));
   ASSERT_FALSE(cut_as_v3.ok()) << "a layout-3 file has no pieces: triangle 1 is owned by no sphere";
 
+  auto version2 = nlohmann::json::parse(json3);  // what a version-2 writer never wrote
+  version2["version"] = kSphereSetVersion;
+  auto read2 = ReadSphereSetJson(version2.dump(), "set.json");
+  ASSERT_FALSE(read2.ok());
+  EXPECT_NE(read2.error().message.find("pieces is not part of version 2"), std::string::npos) << read2.error().message;
   auto refused_with = [&](const std::function<void(nlohmann::json&)>& edit) {
     auto doc = nlohmann::json::parse(json);
     edit(doc);
     auto read = ReadSphereSetJson(doc.dump(), "set.json");
     return read.ok() ? std::string("accepted") : read.error().message;
   };
-  EXPECT_NE(refused_with([](nlohmann::json& d) { d["version"] = 2; }).find("pieces is not part of version 2"),
-            std::string::npos);
   EXPECT_NE(refused_with([](nlohmann::json& d) {
               d["mesh"]["piece_points"].push_back(1);
             }).find("$.mesh.piece_points does not hold whole"),
@@ -886,6 +905,147 @@ TEST(SphereSetBinaryTest, TrianglePiecesRoundTripInBothFormats) {
   auto refused = Read(bad);
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.error().message.find("piece_offsets"), std::string::npos) << refused.error().message;
+}
+
+// The contact rules (sphere_set.h; binary layout 6, sections 39-40; JSON version 4, "contact_rules"):
+// the fitted set states them on triangles. For it, a hand-made set at 2 hops with a rest gap, and a
+// set with its rules on sphere pairs read from a version-3 JSON file (a bind_overlap pair included):
+// the JSON and the binary give rules, hops and gap back bit for bit, each converts into the other and
+// back unchanged (what `skinspheres convert` does), and every layout-6 file holds both sections, as
+// (rules, hops) and the gap, the fast-only one too, which keeps them.
+TEST(SphereSetBinaryTest, ContactRulesRoundTripInBothFormatsAndFastOnlyFilesKeepThem) {
+  const SphereSet& fitted = Builtin();
+  ASSERT_EQ(fitted.contact_rules, ContactRules::kTriangles);
+  EXPECT_EQ(fitted.contact_hops, kDefaultContactHops);
+  EXPECT_GT(fitted.rest_gap, 0.0f);
+  for (const ExcludedPair& p : fitted.excluded_pairs) EXPECT_NE(p.reason, ExclusionReason::kBindOverlap);
+  const SphereSet hand = WithRulesOnTriangles(TwoJointsWithPieces(), 2, 0.0375f);
+  ASSERT_EQ(hand.contact_hops, 2u);
+  ASSERT_GT(hand.rest_gap, 0.0f);
+  SphereSet old = WithRulesOnSpherePairs(TwoJointsWithPieces());
+  old.excluded_pairs = {{0, 1, ExclusionReason::kBindOverlap}};
+  auto read3 = ReadSphereSetJson(WriteSphereSetJson(old), "v3.json");
+  ASSERT_TRUE(read3.ok()) << read3.error().message;
+  ExpectSameRules(*read3, old);
+
+  const SphereSet& from_version3 = *read3;
+  for (const SphereSet* set : {&fitted, &hand, &from_version3}) {
+    const bool on_triangles = set->contact_rules == ContactRules::kTriangles;
+    const std::string json = WriteSphereSetJson(*set);
+    const nlohmann::json doc = nlohmann::json::parse(json);
+    if (on_triangles) {
+      EXPECT_EQ(doc["version"], kSphereSetVersionWithRules);
+      EXPECT_EQ(doc["contact_rules"], nlohmann::json({{"on", "triangles"},
+                                                      {"hops", set->contact_hops},
+                                                      {"rest_gap", static_cast<double>(set->rest_gap)}}));
+    } else {
+      EXPECT_EQ(doc["version"], kSphereSetVersionWithPieces);
+      EXPECT_FALSE(doc.contains("contact_rules"));
+    }
+    auto from_json = ReadSphereSetJson(json, "set.json");
+    ASSERT_TRUE(from_json.ok()) << from_json.error().message;
+    ExpectSameRules(*from_json, *set);
+    for (const auto content : {SphereSetBinaryContent::kFull, SphereSetBinaryContent::kFastOnly}) {
+      const Bytes bytes = WriteSphereSetBinary(*from_json, content);
+      EXPECT_EQ(Get32(bytes, 16), kSphereSetBinaryVersion);
+      const size_t rules = EntryOf(bytes, SphereSetSection::kContactRules);
+      const size_t gap = EntryOf(bytes, SphereSetSection::kRestGap);
+      ASSERT_EQ(Get64(bytes, rules + 16), 2u);
+      ASSERT_EQ(Get64(bytes, gap + 16), 1u);
+      EXPECT_EQ(Get32(bytes, Get64(bytes, rules + 8)), static_cast<uint32_t>(set->contact_rules));
+      EXPECT_EQ(Get32(bytes, Get64(bytes, rules + 8) + 4), set->contact_hops);
+      EXPECT_EQ(Get32(bytes, Get64(bytes, gap + 8)), Bits(set->rest_gap));
+      auto from_binary = Read(bytes);
+      ASSERT_TRUE(from_binary.ok()) << from_binary.error().message;
+      EXPECT_EQ(from_binary->fast_only, content == SphereSetBinaryContent::kFastOnly);
+      ExpectSameRules(*from_binary, *set);
+      EXPECT_EQ(WriteSphereSetBinary(*from_binary, content), bytes);
+      if (content == SphereSetBinaryContent::kFull) {
+        EXPECT_EQ(WriteSphereSetJson(*from_binary), json);  // JSON -> binary -> JSON
+        auto back = ReadSphereSetJson(WriteSphereSetJson(*from_binary), "back.json");
+        ASSERT_TRUE(back.ok()) << back.error().message;
+        EXPECT_EQ(WriteSphereSetBinary(*back), bytes);  // binary -> JSON -> binary
+      }
+    }
+  }
+}
+
+// Files written before the contact rules on triangles (JSON versions 1 to 3, binary layouts 1 to 5)
+// read as sets with their rules on sphere pairs, hops 0 and rest gap 0, every excluded pair kept with
+// its reason, bind_overlap included (which only such sets give). A JSON file writes back as the same
+// text, through the binary too; a layout-5 file writes back as layout 6 with sections 39-40 (0, 0)
+// and 0, the same set. A set with its rules on triangles written as an older layout reads the same
+// way: the older file has no place for them.
+TEST(SphereSetBinaryTest, FilesBeforeTheRulesReadWithTheirRulesOnSpherePairs) {
+  // The fitted set as a fitter before the rules wrote it: its pairs, and every other pair of spheres
+  // that overlap at rest as bind_overlap.
+  SphereSet legacy = WithRulesOnSpherePairs(Builtin());
+  size_t bind_overlaps = 0;
+  for (uint32_t i = 0; i < legacy.size(); ++i) {
+    for (uint32_t j = i + 1; j < legacy.size(); ++j) {
+      const bool listed =
+          std::ranges::any_of(legacy.excluded_pairs, [&](const auto& p) { return p.i == i && p.j == j; });
+      if (listed ||
+          (legacy.centers_rest[i] - legacy.centers_rest[j]).norm() >= legacy.radii_rest[i] + legacy.radii_rest[j]) {
+        continue;
+      }
+      legacy.excluded_pairs.push_back({i, j, ExclusionReason::kBindOverlap});
+      ++bind_overlaps;
+    }
+  }
+  std::ranges::sort(legacy.excluded_pairs,
+                    [](const auto& a, const auto& b) { return std::pair(a.i, a.j) < std::pair(b.i, b.j); });
+  ASSERT_GT(bind_overlaps, 0u);
+  ASSERT_FALSE(legacy.Validate().has_value()) << legacy.Validate()->message;
+  SphereSet on_triangles = legacy;  // refused: bind_overlap is not a reason of the rules on triangles
+  on_triangles.contact_rules = ContactRules::kTriangles;
+  EXPECT_TRUE(on_triangles.Validate().has_value());
+
+  ASSERT_FALSE(legacy.has_pieces());
+  const std::string json = WriteSphereSetJson(legacy);
+  EXPECT_EQ(nlohmann::json::parse(json)["version"], kSphereSetVersion);
+  for (uint32_t version = 1; version < kSphereSetBinaryVersion; ++version) {
+    for (const auto content : {SphereSetBinaryContent::kFull, SphereSetBinaryContent::kFastOnly}) {
+      auto read = Read(Downgrade(WriteSphereSetBinary(legacy, content), version));
+      ASSERT_TRUE(read.ok()) << "layout " << version << ": " << read.error().message;
+      EXPECT_EQ(read->fast_only, content == SphereSetBinaryContent::kFastOnly);
+      ExpectSameRules(*read, legacy);
+    }
+  }
+  const Bytes v6 = WriteSphereSetBinary(legacy);
+  EXPECT_EQ(Get32(v6, Get64(v6, EntryOf(v6, SphereSetSection::kContactRules) + 8)), 0u);
+  EXPECT_EQ(Get32(v6, Get64(v6, EntryOf(v6, SphereSetSection::kContactRules) + 8) + 4), 0u);
+  EXPECT_EQ(Get32(v6, Get64(v6, EntryOf(v6, SphereSetSection::kRestGap) + 8)), 0u);
+  auto v5 = Read(Downgrade(v6, 5));
+  ASSERT_TRUE(v5.ok()) << v5.error().message;
+  EXPECT_EQ(WriteSphereSetJson(*v5), json);
+  EXPECT_EQ(WriteSphereSetBinary(*v5), v6);
+
+  // The fitted set (rules on triangles) as a layout-5 file: its pairs, on sphere pairs.
+  auto fitted_v5 = Read(Downgrade(WriteSphereSetBinary(Builtin()), 5));
+  ASSERT_TRUE(fitted_v5.ok()) << fitted_v5.error().message;
+  ExpectSameRules(*fitted_v5, WithRulesOnSpherePairs(Builtin()));
+  EXPECT_EQ(WriteSphereSetJson(*fitted_v5), WriteSphereSetJson(WithRulesOnSpherePairs(Builtin())));
+
+  // JSON versions 1 to 3: the set without its mesh, with it, and a set with pieces.
+  SphereSet no_mesh = legacy;
+  no_mesh.mesh = {};
+  no_mesh.triangle_vertices.clear();
+  SphereSet pieces = WithRulesOnSpherePairs(TwoJointsWithPieces());
+  pieces.excluded_pairs = {{0, 1, ExclusionReason::kBindOverlap}};
+  int version = kSphereSetVersionWithoutMesh;
+  for (const SphereSet* set : {&no_mesh, &legacy, &pieces}) {
+    const std::string text = WriteSphereSetJson(*set);
+    EXPECT_EQ(nlohmann::json::parse(text)["version"], version++);
+    auto read = ReadSphereSetJson(text, "old.json");
+    ASSERT_TRUE(read.ok()) << read.error().message;
+    ExpectSameRules(*read, *set);
+    EXPECT_EQ(WriteSphereSetJson(*read), text);
+    auto through = Read(WriteSphereSetBinary(*read));
+    ASSERT_TRUE(through.ok()) << through.error().message;
+    ExpectSameRules(*through, *set);
+    EXPECT_EQ(WriteSphereSetJson(*through), text);
+  }
 }
 
 // The fit settings (params) become the JSON's "params" object when a binary set is converted:

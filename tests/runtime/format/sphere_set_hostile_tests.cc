@@ -9,12 +9,18 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <fstream>
+#include <functional>
 #include <future>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <thread>
 
+#include "runtime/format/binary_edit.h"
+#include "runtime/format/contact_rules_sets.h"
+#include "runtime/posed_characters.h"
 #include "runtime/sample_sphere_set.h"
 #include "skinspheres/runtime/api/joint_mapping.h"
 #include "skinspheres/runtime/format/file_io.h"
@@ -33,6 +39,8 @@ void ExpectRefused(const Result<SphereSet>& r, const std::string& name, ErrorCod
   EXPECT_EQ(r.error().message.find('\n'), std::string::npos) << r.error().message;
   EXPECT_NE(r.error().message.find(needle), std::string::npos) << r.error().message;
 }
+
+using namespace test_binary;  // binary_edit.h
 
 // Loads on another thread and fails after a minute (a FIFO read used to block forever).
 Result<SphereSet> LoadWithin60s(const std::filesystem::path& path) {
@@ -287,6 +295,213 @@ TEST(SphereSetHostile, ValidateRefusesInverseBindMatricesThatAreNotAffine) {
   set.mesh.binds[0].inverse_bind(3, 3) = 1.0f;
   set.mesh.binds[0].inverse_bind(3, 0) = 0.5f;
   EXPECT_TRUE(set.Validate().has_value());
+}
+
+// The contact rules (narrow_phase/contact_rules.h, CheckContactRules), on TwoJointsWithMesh: rest
+// height 0.5 (a rest gap up to 0.025), sphere 0's triangle on joint a, sphere 1's on joint b, one bone
+// apart. Rules out of range, a reason only sets with their rules on sphere pairs give, and a pair
+// that rule 2 does not exclude whole (which would hide the contacts of its triangles) are refused by
+// SphereSet::Validate and by both readers, naming the problem. The JSON writer cannot write a NaN or
+// infinite gap, nor hops, a gap or unknown rules for a set whose rules are not on triangles:
+// ContactRulesInJsonAreRefusedByName edits such documents by hand.
+TEST(SphereSetHostile, BrokenContactRulesAreRefusedByValidateAndBothReaders) {
+  const SphereSet good = WithRulesOnTriangles(TwoJointsWithMesh(), 1, 0.01f);
+  ASSERT_FALSE(good.Validate().has_value()) << good.Validate()->message;
+  ASSERT_EQ(good.excluded_pairs.size(), 1u);
+  struct Case {
+    const char* what;
+    std::function<void(SphereSet&)> edit;
+    std::string needle;
+    bool json;
+  };
+  const std::string gap_range = "the rest gap is not finite and >= 0";
+  const std::string on_pairs = "a set with its contact rules on sphere pairs has contact hops or a rest gap";
+  const std::vector<Case> cases = {
+      {"hops 3", [](SphereSet& s) { s.contact_hops = 3; }, "contact hops 3 above 2", true},
+      {"negative rest gap", [](SphereSet& s) { s.rest_gap = -0.001f; }, gap_range, true},
+      {"NaN rest gap", [](SphereSet& s) { s.rest_gap = std::numeric_limits<float>::quiet_NaN(); }, gap_range, false},
+      {"infinite rest gap", [](SphereSet& s) { s.rest_gap = std::numeric_limits<float>::infinity(); }, gap_range,
+       false},
+      {"rest gap above its share", [](SphereSet& s) { s.rest_gap = 0.03f; },
+       "the rest gap 0.030000 is more than 0.050000 of the rest height", true},
+      {"bind_overlap on triangles", [](SphereSet& s) { s.excluded_pairs[0].reason = ExclusionReason::kBindOverlap; },
+       "excluded pair (0, 1) overlaps at rest: a reason only sets with their contact rules on sphere pairs give", true},
+      {"a pair rule 2 does not exclude", [](SphereSet& s) { s.contact_hops = 0; },
+       "excluded pair (0, 1) holds triangles whose joints are more than 0 bones apart: it would hide their contacts",
+       true},
+      {"unknown rules", [](SphereSet& s) { s.contact_rules = static_cast<ContactRules>(2); }, "unknown contact rules",
+       false},
+      {"hops on sphere pairs", [](SphereSet& s) { s.contact_rules = ContactRules::kSpherePairs; }, on_pairs, false},
+      {"rest gap on sphere pairs",
+       [](SphereSet& s) {
+         s = WithRulesOnSpherePairs(s);
+         s.rest_gap = 0.001f;
+       },
+       on_pairs, false},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    SphereSet set = good;
+    c.edit(set);
+    const auto err = set.Validate();
+    ASSERT_TRUE(err.has_value());
+    EXPECT_EQ(err->code, ErrorCode::kInvalidData);
+    EXPECT_NE(err->message.find(c.needle), std::string::npos) << err->message;
+    ExpectRefused(ReadSphereSetBinary(WriteSphereSetBinary(set), "rules.ssb"), "rules.ssb", ErrorCode::kInvalidData,
+                  c.needle);
+    if (c.json) {
+      ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "rules.json"), "rules.json", ErrorCode::kInvalidData,
+                    c.needle);
+    }
+  }
+  SphereSet unknown = good;
+  unknown.contact_rules = static_cast<ContactRules>(2);
+  ExpectRefused(ReadSphereSetBinary(WriteSphereSetBinary(unknown), "rules.ssb"), "rules.ssb", ErrorCode::kInvalidData,
+                "unknown contact rules 2");
+}
+
+// A version-4 document's "contact_rules": required, an object with "on" ("triangles" or
+// "sphere_pairs"), "hops" and "rest_gap" in range; refused before version 4, where the rules are on
+// sphere pairs as fitted. Each refusal names the place or the rule.
+TEST(SphereSetHostile, ContactRulesInJsonAreRefusedByName) {
+  using nlohmann::json;
+  const json good = json::parse(WriteSphereSetJson(WithRulesOnTriangles(TwoJointsWithMesh(), 1, 0.01f)));
+  ASSERT_EQ(good["version"], kSphereSetVersionWithRules);
+  ASSERT_TRUE(ReadSphereSetJson(good.dump(), "rules.json").ok());
+  struct Case {
+    const char* what;
+    std::function<void(json&)> edit;
+    std::string needle;
+  };
+  const std::string on = "$.contact_rules.on is not \"triangles\" or \"sphere_pairs\"";
+  const std::vector<Case> cases = {
+      {"missing in version 4", [](json& j) { j.erase("contact_rules"); }, "$.contact_rules is missing"},
+      {"in version 3", [](json& j) { j["version"] = 3; }, "$.contact_rules is not part of version 3"},
+      {"in version 2", [](json& j) { j["version"] = 2; }, "$.contact_rules is not part of version 2"},
+      {"not an object", [](json& j) { j["contact_rules"] = "triangles"; }, "$.contact_rules is not an object"},
+      {"on missing", [](json& j) { j["contact_rules"].erase("on"); }, "$.contact_rules.on is missing"},
+      {"on unknown", [](json& j) { j["contact_rules"]["on"] = "spheres"; }, on},
+      {"on not a string", [](json& j) { j["contact_rules"]["on"] = 1; }, on},
+      {"hops missing", [](json& j) { j["contact_rules"].erase("hops"); }, "$.contact_rules.hops is missing"},
+      {"hops 3", [](json& j) { j["contact_rules"]["hops"] = 3; }, "contact hops 3 above 2"},
+      {"hops negative", [](json& j) { j["contact_rules"]["hops"] = -1; }, "$.contact_rules.hops is out of range"},
+      {"hops fractional", [](json& j) { j["contact_rules"]["hops"] = 1.5; }, "$.contact_rules.hops is not an integer"},
+      {"rest gap missing", [](json& j) { j["contact_rules"].erase("rest_gap"); },
+       "$.contact_rules.rest_gap is missing"},
+      {"rest gap negative", [](json& j) { j["contact_rules"]["rest_gap"] = -0.5; },
+       "the rest gap is not finite and >= 0"},
+      // The JSON writer writes a NaN as null.
+      {"rest gap NaN", [](json& j) { j["contact_rules"]["rest_gap"] = std::numeric_limits<double>::quiet_NaN(); },
+       "$.contact_rules.rest_gap is not a number"},
+      {"rest gap as text", [](json& j) { j["contact_rules"]["rest_gap"] = "NaN"; },
+       "$.contact_rules.rest_gap is not a number"},
+      {"rest gap beyond float", [](json& j) { j["contact_rules"]["rest_gap"] = 1e39; },
+       "$.contact_rules.rest_gap is out of range"},
+      {"rest gap above its share", [](json& j) { j["contact_rules"]["rest_gap"] = 0.03; },
+       "is more than 0.050000 of the rest height"},
+      {"sphere pairs with hops", [](json& j) { j["contact_rules"]["on"] = "sphere_pairs"; },
+       "a set with its contact rules on sphere pairs has contact hops or a rest gap"},
+      {"bind_overlap on triangles", [](json& j) { j["excluded_pairs"][0][2] = "bind_overlap"; },
+       "excluded pair (0, 1) overlaps at rest"},
+      {"a pair rule 2 does not exclude", [](json& j) { j["contact_rules"]["hops"] = 0; },
+       "excluded pair (0, 1) holds triangles whose joints are more than 0 bones apart"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    json j = good;
+    c.edit(j);
+    ExpectRefused(ReadSphereSetJson(j.dump(), "rules.json"), "rules.json", ErrorCode::kInvalidData, c.needle);
+  }
+}
+
+// Sections 39-40 of a layout-6 file (sphere_set_binary.h): exactly (rules, hops) and one gap, and a
+// rules value the reader knows; refused by name behind a valid checksum.
+TEST(SphereSetHostile, ContactRuleSectionsInBinaryAreRefusedByName) {
+  const Bytes good = WriteSphereSetBinary(WithRulesOnTriangles(TwoJointsWithMesh(), 1, 0.01f));
+  ASSERT_TRUE(ReadSphereSetBinary(good, "rules.ssb").ok());
+  const size_t rules = FindEntry(good, SphereSetSection::kContactRules);
+  const size_t gap = FindEntry(good, SphereSetSection::kRestGap);
+  ASSERT_TRUE(rules != 0 && gap != 0);
+  struct Case {
+    const char* what;
+    std::function<void(Bytes&)> edit;
+    std::string needle;
+  };
+  const std::vector<Case> cases = {
+      {"rules count 3", [&](Bytes& b) { Put64(b, rules + 16, 3); }, "section contact_rules has 3 elements, expected 2"},
+      {"rules count 1", [&](Bytes& b) { Put64(b, rules + 16, 1); }, "section contact_rules has 1 elements, expected 2"},
+      {"gap count 0", [&](Bytes& b) { Put64(b, gap + 16, 0); }, "section rest_gap has 0 elements, expected 1"},
+      {"gap count 2", [&](Bytes& b) { Put64(b, gap + 16, 2); }, "section rest_gap has 2 elements, expected 1"},
+      {"rules 2", [&](Bytes& b) { Put32(b, Get64(b, rules + 8), 2); }, "unknown contact rules 2"},
+      {"rules 2^32 - 1", [&](Bytes& b) { Put32(b, Get64(b, rules + 8), 0xFFFFFFFFu); },
+       "unknown contact rules 4294967295"},
+      {"hops 3", [&](Bytes& b) { Put32(b, Get64(b, rules + 8) + 4, 3); }, "contact hops 3 above 2"},
+      {"gap NaN", [&](Bytes& b) { Put32(b, Get64(b, gap + 8), 0x7FC00000u); }, "the rest gap is not finite and >= 0"},
+      {"gap -inf", [&](Bytes& b) { Put32(b, Get64(b, gap + 8), 0xFF800000u); }, "the rest gap is not finite and >= 0"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    Bytes bad = good;
+    c.edit(bad);
+    FixChecksum(bad);
+    ExpectRefused(ReadSphereSetBinary(bad, "rules.ssb"), "rules.ssb", ErrorCode::kInvalidData, c.needle);
+  }
+}
+
+// The fitted set lists only sphere pairs rule 2 excludes whole. One more, between the two spheres
+// whose joints lie furthest apart in the skeleton (found by walking the parents), would hide every
+// contact of their triangles: refused, by Validate and both readers.
+TEST(SphereSetHostile, AFittedSetListingAPairRuleTwoDoesNotExcludeIsRefused) {
+  const auto fc = test::LoadFitted("builtin");
+  ASSERT_TRUE(fc);
+  SphereSet set = fc->set;
+  ASSERT_EQ(set.contact_rules, ContactRules::kTriangles);
+  ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+  const auto depth = [&](int32_t j) {
+    int d = 0;
+    for (; set.joint_parents[j] >= 0; j = set.joint_parents[j]) ++d;
+    return d;
+  };
+  const auto bones_apart = [&](int32_t a, int32_t b) {
+    int d = 0;
+    while (a != b) {
+      if (depth(a) >= depth(b)) {
+        a = set.joint_parents[a];
+      } else {
+        b = set.joint_parents[b];
+      }
+      ++d;
+      if (a < 0 || b < 0) return 1 << 20;  // different roots
+    }
+    return d;
+  };
+  uint32_t far_i = 0, far_j = 0;
+  int farthest = -1;
+  for (uint32_t i = 0; i < set.size(); ++i) {
+    for (uint32_t j = i + 1; j < set.size(); ++j) {
+      const int d = bones_apart(set.sphere_joint[i], set.sphere_joint[j]);
+      if (d > farthest) farthest = d, far_i = i, far_j = j;
+    }
+  }
+  ASSERT_GT(farthest, int(set.contact_hops));
+  ASSERT_TRUE(std::none_of(set.excluded_pairs.begin(), set.excluded_pairs.end(),
+                           [&](const ExcludedPair& p) { return p.i == far_i && p.j == far_j; }));
+  const ExcludedPair added{far_i, far_j, ExclusionReason::kAdjacentJoints};
+  set.excluded_pairs.insert(std::upper_bound(set.excluded_pairs.begin(), set.excluded_pairs.end(), added,
+                                             [](const ExcludedPair& a, const ExcludedPair& b) {
+                                               return std::pair(a.i, a.j) < std::pair(b.i, b.j);
+                                             }),
+                            added);
+  const std::string needle = "excluded pair (" + std::to_string(far_i) + ", " + std::to_string(far_j) +
+                             ") holds triangles whose joints are more than " + std::to_string(set.contact_hops) +
+                             " bones apart";
+  const auto err = set.Validate();
+  ASSERT_TRUE(err.has_value());
+  EXPECT_NE(err->message.find(needle), std::string::npos) << err->message;
+  ExpectRefused(ReadSphereSetBinary(WriteSphereSetBinary(set), "fitted.ssb"), "fitted.ssb", ErrorCode::kInvalidData,
+                needle);
+  ExpectRefused(ReadSphereSetJson(WriteSphereSetJson(set), "fitted.json"), "fitted.json", ErrorCode::kInvalidData,
+                needle);
 }
 
 }  // namespace

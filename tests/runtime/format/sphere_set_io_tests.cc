@@ -1,9 +1,11 @@
 #include <gtest/gtest.h>
 
 #include <cfloat>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "runtime/format/contact_rules_sets.h"
 #include "runtime/sample_sphere_set.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
 #include "test_support.h"
@@ -49,12 +51,7 @@ void ExpectSame(const SphereSet& a, const SphereSet& b) {
   EXPECT_EQ(a.mesh.influence_offsets, b.mesh.influence_offsets);
   EXPECT_EQ(a.mesh.influence_binds, b.mesh.influence_binds);
   EXPECT_EQ(a.mesh.influence_weights, b.mesh.influence_weights);
-  ASSERT_EQ(a.excluded_pairs.size(), b.excluded_pairs.size());
-  for (size_t k = 0; k < a.excluded_pairs.size(); ++k) {
-    EXPECT_EQ(a.excluded_pairs[k].i, b.excluded_pairs[k].i);
-    EXPECT_EQ(a.excluded_pairs[k].j, b.excluded_pairs[k].j);
-    EXPECT_EQ(a.excluded_pairs[k].reason, b.excluded_pairs[k].reason);
-  }
+  ExpectSameRules(a, b);  // rules, hops, rest gap (bits) and excluded pairs with their reasons
 }
 
 TEST(SphereSetIoTest, RoundTripIsExact) {
@@ -70,31 +67,116 @@ TEST(SphereSetIoTest, RoundTripIsExact) {
   ExpectSame(set, *read);
 }
 
-TEST(SphereSetIoTest, MeshRoundTripIsExactAndWrittenAsVersion2) {
+// A set with its contact rules on triangles (the default of a set made in memory) is written as
+// version 4 with "contact_rules" and its mesh; the same set with its rules on sphere pairs (as read
+// from an older file) as version 2, without "contact_rules", as version-2 writers did. Both read back
+// exactly.
+TEST(SphereSetIoTest, MeshRoundTripIsExactInVersion4AndVersion2) {
   const SphereSet set = TwoSpheresWithMesh();
+  ASSERT_EQ(set.contact_rules, ContactRules::kTriangles);
   const std::string text = WriteSphereSetJson(set);
-  EXPECT_EQ(nlohmann::json::parse(text)["version"], 2);
+  const nlohmann::json j = nlohmann::json::parse(text);
+  EXPECT_EQ(j["version"], kSphereSetVersionWithRules);
+  EXPECT_TRUE(j.contains("mesh"));
+  EXPECT_EQ(j["contact_rules"], nlohmann::json::parse(R"({"on":"triangles","hops":1,"rest_gap":0.0})"));
   auto read = ReadSphereSetJson(text, "mem");
   ASSERT_TRUE(read.ok()) << read.error().message;
   EXPECT_TRUE(read->has_mesh());
   ExpectSame(set, *read);
+  EXPECT_EQ(WriteSphereSetJson(*read), text);
+
+  const SphereSet old = WithRulesOnSpherePairs(TwoSpheresWithMesh());
+  const std::string old_text = WriteSphereSetJson(old);
+  const nlohmann::json old_j = nlohmann::json::parse(old_text);
+  EXPECT_EQ(old_j["version"], kSphereSetVersion);
+  EXPECT_FALSE(old_j.contains("contact_rules"));
+  auto old_read = ReadSphereSetJson(old_text, "v2.json");
+  ASSERT_TRUE(old_read.ok()) << old_read.error().message;
+  EXPECT_TRUE(old_read->has_mesh());
+  ExpectSame(old, *old_read);
+  EXPECT_EQ(WriteSphereSetJson(*old_read), old_text);
 }
 
 TEST(SphereSetIoTest, VersionOneFilesLoadWithoutAMesh) {
-  // A set without a mesh is written as version 1, exactly as version-1 writers did, and read back
-  // as a set without a mesh; a version-1 file carrying a mesh is not version 1.
-  const std::string text = WriteSphereSetJson(TwoSpheres());
+  // A set without a mesh and its rules on sphere pairs is written as version 1, exactly as version-1
+  // writers did, and read back as a set without a mesh; a version-1 file carrying a mesh is not
+  // version 1.
+  const SphereSet old = WithRulesOnSpherePairs(TwoSpheres());
+  const std::string text = WriteSphereSetJson(old);
   nlohmann::json j = nlohmann::json::parse(text);
   EXPECT_EQ(j["version"], 1);
   EXPECT_FALSE(j.contains("mesh"));
+  EXPECT_FALSE(j.contains("contact_rules"));
   auto read = ReadSphereSetJson(text, "v1.json");
   ASSERT_TRUE(read.ok()) << read.error().message;
   EXPECT_FALSE(read->has_mesh());
-  ExpectSame(TwoSpheres(), *read);
+  ExpectSame(old, *read);
+  EXPECT_EQ(WriteSphereSetJson(*read), text);
   j["mesh"] = nlohmann::json::parse(WriteSphereSetJson(TwoSpheresWithMesh()))["mesh"];
   auto mixed = ReadSphereSetJson(j.dump(), "v1.json");
   ASSERT_FALSE(mixed.ok());
   EXPECT_NE(mixed.error().message.find("$.mesh is not part of version 1"), std::string::npos) << mixed.error().message;
+  // With its rules on triangles the same set is version 4, which may have no mesh either.
+  const std::string v4 = WriteSphereSetJson(TwoSpheres());
+  const nlohmann::json j4 = nlohmann::json::parse(v4);
+  EXPECT_EQ(j4["version"], kSphereSetVersionWithRules);
+  EXPECT_FALSE(j4.contains("mesh"));
+  auto read4 = ReadSphereSetJson(v4, "v4.json");
+  ASSERT_TRUE(read4.ok()) << read4.error().message;
+  EXPECT_FALSE(read4->has_mesh());
+  ExpectSame(TwoSpheres(), *read4);
+  EXPECT_EQ(WriteSphereSetJson(*read4), v4);
+}
+
+// "contact_rules" (version 4): the rules, hops and rest gap read back bit for bit, for every hops
+// value and gaps that need all of a float's digits (kMaxRestGapShare of the rest height, one ulp
+// below it, the smallest denormal, -0); a set whose rules are on sphere pairs (read from a
+// version-3 file, pieces and a bind_overlap pair included) reads with hops and gap 0 and writes the
+// same version-3 text back. A version-4 file may state its rules on sphere pairs: it reads as such
+// a set, which is written as the version its content calls for.
+TEST(SphereSetIoTest, ContactRulesRoundTripExactly) {
+  const SphereSet base = TwoJointsWithMesh();  // rest height 0.5: gaps up to 0.025
+  const float largest = kMaxRestGapShare * 0.5f;
+  for (uint32_t hops = 0; hops <= kMaxContactHops; ++hops) {
+    for (const float gap : {0.0f, -0.0f, 1e-45f, std::nextafter(largest, 0.0f), largest, 0.0123456789f}) {
+      SphereSet set = WithRulesOnTriangles(base, hops, 0.0f);
+      set.rest_gap = gap;
+      ASSERT_FALSE(set.Validate().has_value()) << set.Validate()->message;
+      const std::string text = WriteSphereSetJson(set);
+      const nlohmann::json j = nlohmann::json::parse(text);
+      EXPECT_EQ(j["version"], kSphereSetVersionWithRules);
+      EXPECT_EQ(j["contact_rules"]["on"], "triangles");
+      EXPECT_EQ(j["contact_rules"]["hops"], hops);
+      auto read = ReadSphereSetJson(text, "rules.json");
+      ASSERT_TRUE(read.ok()) << read.error().message;
+      ExpectSame(set, *read);
+      EXPECT_EQ(WriteSphereSetJson(*read), text) << "hops " << hops << ", gap " << gap;
+    }
+  }
+  // Hops 0 leaves joints a and b apart: rule 2 excludes no pair; at 1 it excludes (0, 1).
+  EXPECT_TRUE(WithRulesOnTriangles(base, 0, 0.0f).excluded_pairs.empty());
+  ASSERT_EQ(WithRulesOnTriangles(base, 1, 0.0f).excluded_pairs.size(), 1u);
+
+  SphereSet old = WithRulesOnSpherePairs(TwoJointsWithPieces());
+  old.excluded_pairs = {{0, 1, ExclusionReason::kBindOverlap}};
+  const std::string v3 = WriteSphereSetJson(old);
+  EXPECT_EQ(nlohmann::json::parse(v3)["version"], kSphereSetVersionWithPieces);
+  EXPECT_FALSE(nlohmann::json::parse(v3).contains("contact_rules"));
+  auto read3 = ReadSphereSetJson(v3, "v3.json");
+  ASSERT_TRUE(read3.ok()) << read3.error().message;
+  EXPECT_EQ(read3->contact_rules, ContactRules::kSpherePairs);
+  EXPECT_EQ(read3->contact_hops, 0u);
+  EXPECT_EQ(Bits(read3->rest_gap), 0u);
+  ExpectSame(old, *read3);
+  EXPECT_EQ(WriteSphereSetJson(*read3), v3);
+
+  nlohmann::json stated = nlohmann::json::parse(v3);
+  stated["version"] = kSphereSetVersionWithRules;
+  stated["contact_rules"] = {{"on", "sphere_pairs"}, {"hops", 0}, {"rest_gap", 0}};
+  auto read4 = ReadSphereSetJson(stated.dump(), "v4.json");
+  ASSERT_TRUE(read4.ok()) << read4.error().message;
+  ExpectSame(old, *read4);
+  EXPECT_EQ(WriteSphereSetJson(*read4), v3);
 }
 
 // "influence_reach" (sphere_set.h): written per sphere when the set has it, read back bit for bit;
@@ -117,8 +199,9 @@ TEST(SphereSetIoTest, InfluenceReachIsOptionalAndExact) {
   EXPECT_EQ(WriteSphereSetJson(*without), j.dump()) << "a set without reach is written without it";
   EXPECT_FALSE(nlohmann::json::parse(WriteSphereSetJson(TwoSpheres()))["spheres"][0].contains("influence_reach"));
   // A version-1 file with it (a set without a mesh that has a reach, e.g. from a fast-only one).
-  SphereSet v1 = TwoSpheres();
+  SphereSet v1 = WithRulesOnSpherePairs(TwoSpheres());
   v1.influence_reach = {1.0f, 1.0f - 2 * FLT_EPSILON};  // one joint per sphere: every vertex weighs it fully
+  ASSERT_EQ(nlohmann::json::parse(WriteSphereSetJson(v1))["version"], 1);
   auto v1_read = ReadSphereSetJson(WriteSphereSetJson(v1), "v1.json");
   ASSERT_TRUE(v1_read.ok()) << v1_read.error().message;
   EXPECT_EQ(v1_read->influence_reach, v1.influence_reach);
@@ -159,7 +242,9 @@ TEST(SphereSetIoTest, EveryTruncationIsAClearError) {
 
 TEST(SphereSetIoTest, WrongContentIsRefusedWithItsPlace) {
   using nlohmann::json;
-  const json good = json::parse(WriteSphereSetJson(TwoSpheres()));
+  // A version-1 document (no mesh, no contact rules); the contact rules' refusals are
+  // sphere_set_hostile_tests.cc's.
+  const json good = json::parse(WriteSphereSetJson(WithRulesOnSpherePairs(TwoSpheres())));
   struct Case {
     const char* what;
     std::function<void(json&)> edit;
@@ -168,7 +253,8 @@ TEST(SphereSetIoTest, WrongContentIsRefusedWithItsPlace) {
   };
   const std::vector<Case> cases = {
       {"format", [](json& j) { j["format"] = "other"; }, ErrorCode::kInvalidData, "not a sphere set"},
-      {"version", [](json& j) { j["version"] = 4; }, ErrorCode::kVersionMismatch, "version 4"},
+      {"version", [](json& j) { j["version"] = 5; }, ErrorCode::kVersionMismatch,
+       "version 5 is not supported (this build reads versions 1 to 4)"},
       {"version 0", [](json& j) { j["version"] = 0; }, ErrorCode::kVersionMismatch, "version 0"},
       {"version 2 without mesh", [](json& j) { j["version"] = 2; }, ErrorCode::kInvalidData, "$.mesh is missing"},
       {"missing spheres", [](json& j) { j.erase("spheres"); }, ErrorCode::kInvalidData, "$.spheres is missing"},

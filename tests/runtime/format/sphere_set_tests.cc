@@ -5,6 +5,7 @@
 #include <limits>
 #include <string>
 
+#include "runtime/format/contact_rules_sets.h"
 #include "runtime/sample_sphere_set.h"
 #include "skinspheres/runtime/format/sphere_set.h"
 
@@ -133,6 +134,34 @@ TEST(SphereSetTest, ReasonNamesRoundTrip) {
     EXPECT_EQ(ExclusionReasonFromString(ToString(r)), r);
   }
   EXPECT_FALSE(ExclusionReasonFromString("nope").has_value());
+}
+
+TEST(SphereSetTest, ContactRuleNamesRoundTrip) {
+  EXPECT_STREQ(ToString(ContactRules::kSpherePairs), "sphere_pairs");
+  EXPECT_STREQ(ToString(ContactRules::kTriangles), "triangles");
+  for (auto r : {ContactRules::kSpherePairs, ContactRules::kTriangles}) {
+    EXPECT_EQ(ContactRulesFromString(ToString(r)), r);
+  }
+  for (const char* other : {"", "Triangles", "spheres", "sphere_pairs "}) {
+    EXPECT_FALSE(ContactRulesFromString(other).has_value()) << other;
+  }
+}
+
+// A set made in memory states its rules on triangles (rule 2 at the default hops, no rest gap); a
+// set whose rules are on sphere pairs (as files before them read) may give bind_overlap as a pair's
+// reason, which rules on triangles refuse. The messages are sphere_set_hostile_tests.cc's.
+TEST(SphereSetTest, ContactRulesDefaultToTrianglesAndOnlySpherePairsGiveBindOverlap) {
+  const SphereSet made;
+  EXPECT_EQ(made.contact_rules, ContactRules::kTriangles);
+  EXPECT_EQ(made.contact_hops, kDefaultContactHops);
+  EXPECT_EQ(Bits(made.rest_gap), 0u);
+  for (SphereSet s : {TwoSpheres(), TwoSpheresWithMesh()}) {
+    EXPECT_FALSE(s.Validate().has_value()) << s.Validate()->message;
+    EXPECT_FALSE(WithRulesOnSpherePairs(s).Validate().has_value());
+    s.excluded_pairs[0].reason = ExclusionReason::kBindOverlap;
+    EXPECT_TRUE(s.Validate().has_value()) << "bind_overlap under rules on triangles";
+    EXPECT_FALSE(WithRulesOnSpherePairs(s).Validate().has_value());
+  }
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // The narrow phase (narrow_phase.h) on hand-made sets of closed sphere meshes, against analytic
-// answers: the exclusion rules (shared vertex by index and by rest position, rest-pose contacts)
+// answers: the contact rules (contact_rules.h: shared vertex by index and by rest position, joints
+// within the hops, near at rest within the rest gap), the same contacts from one sphere as from two,
 // and the depth estimate on two meshes overlapping by known depths.
 #include <gtest/gtest.h>
 
@@ -19,8 +20,10 @@ namespace {
 
 using Eigen::Vector3f;
 
-// A hand-made set: one root joint, part "a" and part "b", one sphere per closed mesh, no excluded
-// pairs; positions are given directly (mode a), so the rest pose and the tested pose can differ.
+// A hand-made set: joints root, a and b (a and b children of root: two bones apart), part "a" and
+// part "b", one sphere per closed mesh, each mesh skinned wholly by its part's joint, no excluded
+// pairs, the contact rules on triangles with a rest gap of 0; positions are given directly (mode a),
+// so the rest pose and the tested pose can differ.
 struct TwoMeshes {
   SphereSet set;
   std::vector<Vector3f> rest;  // = positions_bind (identity skin)
@@ -68,28 +71,28 @@ TwoMeshes MakeTwoSphereMeshes(float ra, float rb, float rest_distance, const Vec
   s.source_file = "two_spheres";
   s.source_vertex_count = uint32_t(pos.size());
   s.source_triangle_count = uint32_t(tris.size() / 3);
-  s.joint_names = {"root"};
-  s.joint_parents = {-1};
-  s.joint_rest_world = {Mat4f::Identity()};
-  s.parts = {{"a", {0}}, {"b", {0}}};
+  s.joint_names = {"root", "a", "b"};
+  s.joint_parents = {-1, 0, 0};
+  s.joint_rest_world = {Mat4f::Identity(), Mat4f::Identity(), Mat4f::Identity()};
+  s.parts = {{"a", {1}}, {"b", {2}}};
   s.centers_rest = {Vector3f::Zero(), Vector3f(rest_distance, 0, 0)};
   s.radii_rest = {ra * 1.001f, rb * 1.001f};
   s.radii_fast = s.radii_rest;
   s.sphere_part = {0, 1};
-  s.sphere_joint = {0, 0};
+  s.sphere_joint = {1, 2};
   s.sphere_level = {0, 0};
   s.vertex_offsets = {0, split_v, uint32_t(pos.size())};
   for (uint32_t v = 0; v < pos.size(); ++v) s.vertices.push_back(v);
   s.triangle_offsets = {0, split_t, uint32_t(tris.size() / 3)};
   for (uint32_t t = 0; t < tris.size() / 3; ++t) s.triangles.push_back(t);
   s.influence_offsets = {0, 1, 2};
-  s.influence_joints = {0, 0};
+  s.influence_joints = {1, 2};
   s.influence_weights = {1.0f, 1.0f};
   s.triangle_vertices = tris;
   s.mesh.positions_bind = pos;
-  s.mesh.binds = {skinning::BindEntry{0, Mat4f::Identity()}};
+  s.mesh.binds = {skinning::BindEntry{1, Mat4f::Identity()}, skinning::BindEntry{2, Mat4f::Identity()}};
   for (uint32_t v = 0; v <= pos.size(); ++v) s.mesh.influence_offsets.push_back(v);
-  s.mesh.influence_binds.assign(pos.size(), 0);
+  for (uint32_t v = 0; v < pos.size(); ++v) s.mesh.influence_binds.push_back(v < split_v ? 0 : 1);
   s.mesh.influence_weights.assign(pos.size(), 1.0f);
   m.rest = pos;
   return m;
@@ -128,7 +131,6 @@ TEST(NarrowPhaseDepth, TwoSphereMeshesOverlappingByAKnownDepth) {
     ASSERT_TRUE(filter.ok());
     auto data = NarrowPhaseData::Create(m.set, *filter);
     ASSERT_TRUE(data.ok()) << data.error().message;
-    EXPECT_TRUE(data->rest_excluded_pairs().empty()) << "apart at rest";
     for (float fraction : {0.05f, 0.2f, 0.5f}) {
       const float depth = fraction * std::min(c.ra, c.rb);
       const float distance = c.ra + c.rb - depth;
@@ -214,7 +216,20 @@ TEST(NarrowPhaseRules, RestContactsAndSharedVerticesAreNeverReported) {
   ASSERT_TRUE(filter.ok());
   auto data = NarrowPhaseData::Create(m.set, *filter);
   ASSERT_TRUE(data.ok());
-  EXPECT_GT(data->rest_excluded_pairs().size(), 20u);
+  // Rule 3 holds exactly the pairs that intersect at rest (a rest gap of 0, no margin).
+  size_t crossing_at_rest = 0;
+  const uint32_t split = m.set.triangle_offsets[1];
+  for (uint32_t t = 0; t < split; ++t) {
+    for (uint32_t u = split; u < m.set.source_triangle_count; ++u) {
+      const uint32_t* a = &m.set.triangle_vertices[3 * t];
+      const uint32_t* b = &m.set.triangle_vertices[3 * u];
+      const bool crossing =
+          TrianglesIntersect(m.rest[a[0]], m.rest[a[1]], m.rest[a[2]], m.rest[b[0]], m.rest[b[1]], m.rest[b[2]]);
+      crossing_at_rest += crossing;
+      ASSERT_EQ(data->RestExcluded(t, u), crossing) << t << " " << u;
+    }
+  }
+  EXPECT_GT(crossing_at_rest, 20u);
   EXPECT_TRUE(RunShifted(m, *data, Vector3f::Zero(), 1.0f, 1.0f).empty()) << "the rest pose reports nothing";
   const FrameContacts deeper = RunShifted(m, *data, Vector3f(-0.2f, 0, 0), 1.0f, 1.0f);
   ASSERT_EQ(deeper.parts.size(), 1u);
@@ -241,30 +256,30 @@ TEST(NarrowPhaseRules, VerticesWeldedByRestPosition) {
   s.source_file = "weld";
   s.source_vertex_count = 6;
   s.source_triangle_count = 2;
-  s.joint_names = {"root"};
-  s.joint_parents = {-1};
-  s.joint_rest_world = {Mat4f::Identity()};
-  s.parts = {{"a", {0}}, {"b", {0}}};
+  s.joint_names = {"root", "a", "b"};
+  s.joint_parents = {-1, 0, 0};
+  s.joint_rest_world = {Mat4f::Identity(), Mat4f::Identity(), Mat4f::Identity()};
+  s.parts = {{"a", {1}}, {"b", {2}}};
   s.centers_rest = {Vector3f(0.5f, 0.3f, 0), Vector3f(0.5f, 0.3f, 0)};
   s.radii_rest = {2, 2};
   s.radii_fast = {2, 2};
   s.sphere_part = {0, 1};
-  s.sphere_joint = {0, 0};
+  s.sphere_joint = {1, 2};
   s.sphere_level = {0, 0};
   s.vertex_offsets = {0, 3, 6};
   s.vertices = {0, 1, 2, 3, 4, 5};
   s.triangle_offsets = {0, 1, 2};
   s.triangles = {0, 1};
   s.influence_offsets = {0, 1, 2};
-  s.influence_joints = {0, 0};
+  s.influence_joints = {1, 2};
   s.influence_weights = {1, 1};
   s.triangle_vertices = {0, 1, 2, 3, 4, 5};
   // Triangle 0 in z = 0; triangle 1 stands up through it and has its corner 3 at vertex 2's spot.
   s.mesh.positions_bind = {Vector3f(0, 0, 0), Vector3f(1, 0, 0),       Vector3f(0, 1, 0),
                            Vector3f(0, 1, 0), Vector3f(0.3f, 0.2f, 1), Vector3f(0.3f, 0.2f, -1)};
-  s.mesh.binds = {skinning::BindEntry{0, Mat4f::Identity()}};
+  s.mesh.binds = {skinning::BindEntry{1, Mat4f::Identity()}, skinning::BindEntry{2, Mat4f::Identity()}};
   s.mesh.influence_offsets = {0, 1, 2, 3, 4, 5, 6};
-  s.mesh.influence_binds.assign(6, 0);
+  s.mesh.influence_binds = {0, 0, 0, 1, 1, 1};
   s.mesh.influence_weights.assign(6, 1.0f);
   ASSERT_FALSE(s.Validate().has_value()) << s.Validate()->message;
   auto filter = PairFilter::FromSphereSet(s);
@@ -272,7 +287,6 @@ TEST(NarrowPhaseRules, VerticesWeldedByRestPosition) {
   auto data = NarrowPhaseData::Create(s, *filter);
   ASSERT_TRUE(data.ok()) << data.error().message;
   EXPECT_TRUE(data->ShareVertex(0, 1));
-  EXPECT_TRUE(data->rest_excluded_pairs().empty()) << "shared-vertex pairs need no rest rule";
   std::vector<Vector3f> pos = s.mesh.positions_bind;
   FrameContacts out;
   ASSERT_TRUE(FindContactsBruteForce(s, *data, *filter, pos, &out));
@@ -285,7 +299,131 @@ TEST(NarrowPhaseRules, VerticesWeldedByRestPosition) {
   EXPECT_FALSE(data2->ShareVertex(0, 1));
   ASSERT_TRUE(FindContactsBruteForce(apart, *data2, *filter, apart.mesh.positions_bind, &out));
   EXPECT_TRUE(out.empty()) << "they cross at rest: rule 3";
-  EXPECT_EQ(data2->rest_excluded_pairs().size(), 1u);
+  EXPECT_TRUE(data2->RestExcluded(0, 1));
+}
+
+}  // namespace
+}  // namespace skinspheres::runtime
+
+namespace skinspheres::runtime {
+namespace {
+
+// The triangle pairs of a frame, as (t, u) with t < u.
+std::vector<std::pair<uint32_t, uint32_t>> TrianglePairs(const FrameContacts& out) {
+  std::vector<std::pair<uint32_t, uint32_t>> pairs;
+  for (const TriangleContact& c : out.triangle_pairs) pairs.push_back({std::min(c.t, c.u), std::max(c.t, c.u)});
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
+}
+
+// Rule 2: with b hung under a (one bone apart) the two meshes are never in contact at hops 1, and are
+// at hops 0; siblings (two bones apart) are at hops 1 and not at hops 2.
+TEST(NarrowPhaseRules, JointsWithinTheHopsAreNeverContacts) {
+  struct Case {
+    int32_t parent_of_b;
+    uint32_t hops;
+    bool contacts;
+  };
+  for (const Case c : {Case{1, 1, false}, Case{1, 0, true}, Case{0, 1, true}, Case{0, 2, false}}) {
+    TwoMeshes m = MakeTwoSphereMeshes(1.0f, 1.0f, 2.5f, Vector3f::UnitY(), Vector3f::UnitY(), 16, 32);
+    m.set.joint_parents[2] = c.parent_of_b;
+    // The root a bind entry too (weighing nothing), so that siblings meet in the skin's joint tree.
+    m.set.mesh.binds.push_back(skinning::BindEntry{0, Mat4f::Identity()});
+    ASSERT_EQ(WriteContactRules(&m.set, c.hops, 0.0f), std::nullopt);
+    EXPECT_EQ(m.set.excluded_pairs.size(), c.contacts ? 0u : 1u) << "the sphere pair goes whole with its joints";
+    auto filter = PairFilter::FromSphereSet(m.set);
+    ASSERT_TRUE(filter.ok());
+    auto data = NarrowPhaseData::Create(m.set, *filter);
+    ASSERT_TRUE(data.ok()) << data.error().message;
+    const FrameContacts out = RunShifted(m, *data, Vector3f(-0.8f, 0, 0), 1.0f, 1.0f);
+    EXPECT_EQ(out.empty(), !c.contacts) << "b under " << c.parent_of_b << ", hops " << c.hops;
+    std::vector<Vector3f> pos = m.rest;
+    for (uint32_t v = m.set.vertex_offsets[1]; v < m.set.vertex_offsets[2]; ++v) pos[v].x() -= 0.8f;
+    FrameContacts oracle;
+    ASSERT_TRUE(FindContactsBruteForce(m.set, *data, *filter, pos, &oracle));
+    EXPECT_SAME_CONTACTS(out, oracle, "hops " << c.hops);
+  }
+}
+
+// Rule 3: two meshes 0.05 apart at rest, pushed 0.12 into each other. With a rest gap of 0.1 (5% of
+// the rest height, the most a set may state) the pairs that lay within it at rest (around the facing
+// caps) are never contacts; every pair reported lay at least 0.1 apart, and they are the pairs a gap
+// of 0 reports less those.
+TEST(NarrowPhaseRules, PairsNearerThanTheRestGapAtRestAreNeverContacts) {
+  TwoMeshes m = MakeTwoSphereMeshes(1.0f, 1.0f, 2.05f, Vector3f::UnitY(), Vector3f::UnitY(), 24, 48);
+  std::vector<std::pair<uint32_t, uint32_t>> all, gapped;
+  for (const float gap : {0.0f, 0.1f}) {
+    m.set.rest_gap = gap;
+    ASSERT_EQ(m.set.Validate(), std::nullopt);
+    auto filter = PairFilter::FromSphereSet(m.set);
+    ASSERT_TRUE(filter.ok());
+    auto data = NarrowPhaseData::Create(m.set, *filter);
+    ASSERT_TRUE(data.ok()) << data.error().message;
+    EXPECT_EQ(data->rest_distance(), gap);
+    (gap == 0.0f ? all : gapped) = TrianglePairs(RunShifted(m, *data, Vector3f(-0.12f, 0, 0), 1.0f, 1.0f));
+  }
+  std::printf("[rest gap] %zu pairs with a gap of 0, %zu with 0.1\n", all.size(), gapped.size());
+  ASSERT_GT(gapped.size(), 10u);
+  size_t left_out = 0;
+  for (const auto& [t, u] : all) {
+    const uint32_t* a = &m.set.triangle_vertices[3 * t];
+    const uint32_t* b = &m.set.triangle_vertices[3 * u];
+    const float rest =
+        TriangleDistance(m.rest[a[0]], m.rest[a[1]], m.rest[a[2]], m.rest[b[0]], m.rest[b[1]], m.rest[b[2]]);
+    const bool kept = std::binary_search(gapped.begin(), gapped.end(), std::pair{t, u});
+    EXPECT_EQ(kept, rest >= 0.1f) << t << " " << u << " lay " << rest << " apart at rest";
+    left_out += !kept;
+  }
+  EXPECT_GT(left_out, 10u);
+  EXPECT_EQ(all.size(), gapped.size() + left_out);
+}
+
+// The rules do not know the spheres: one sphere owning both meshes (tested against itself) reports the
+// same triangle pairs as a sphere per mesh, and both equal the oracle.
+TEST(NarrowPhaseRules, OneSphereReportsWhatTwoDo) {
+  const TwoMeshes two = MakeTwoSphereMeshes(1.0f, 1.0f, 2.5f, Vector3f::UnitX(), Vector3f(0.2f, 1, 0), 16, 32);
+  TwoMeshes one = two;
+  SphereSet& s = one.set;
+  s.centers_rest = {Vector3f(1.25f, 0, 0)};
+  s.radii_rest = {2.3f};
+  s.radii_fast = s.radii_rest;
+  s.sphere_part = {0};
+  s.sphere_joint = {1};
+  s.sphere_level = {0};
+  s.vertex_offsets = {0, s.source_vertex_count};
+  s.triangle_offsets = {0, s.source_triangle_count};
+  s.influence_offsets = {0, 2};
+  s.influence_joints = {1, 2};
+  s.influence_weights = {0.5f, 0.5f};
+  ASSERT_EQ(WriteContactRules(&s, 1, 0.0f), std::nullopt);
+  ASSERT_EQ(s.Validate(), std::nullopt) << s.Validate()->message;
+  for (const float push : {0.7f, 1.1f}) {
+    std::vector<Vector3f> pos = two.rest;
+    for (uint32_t v = two.set.vertex_offsets[1]; v < two.set.vertex_offsets[2]; ++v) pos[v].x() -= push;
+    FrameContacts from_two, from_one, oracle;
+    {
+      auto filter = PairFilter::FromSphereSet(two.set);
+      auto data = NarrowPhaseData::Create(two.set, *filter);
+      ASSERT_TRUE(data.ok());
+      from_two = RunShifted(two, *data, Vector3f(-push, 0, 0), 1.0f, 1.0f);
+    }
+    auto filter = PairFilter::FromSphereSet(s);
+    auto data = NarrowPhaseData::Create(s, *filter);
+    ASSERT_TRUE(data.ok()) << data.error().message;
+    EXPECT_EQ(data->self_spheres().size(), 1u);
+    NarrowPhaseContext ctx;
+    ctx.Resize(*data, false);
+    const std::vector<Vec4f> spheres = {Vec4f(1.25f - 0.5f * push, 0, 0, 2.3f)};
+    NarrowPhaseJob job{&s, &*data, spheres, {}, pos, {}, &ctx, &from_one};
+    ASSERT_TRUE(job.Run());
+    ASSERT_TRUE(FindContactsBruteForce(s, *data, *filter, pos, &oracle));
+    EXPECT_SAME_CONTACTS(from_one, oracle, "one sphere, push " << push);
+    EXPECT_FALSE(from_one.empty());
+    EXPECT_EQ(TrianglePairs(from_one), TrianglePairs(from_two)) << "push " << push;
+    ASSERT_EQ(from_one.sphere_pairs.size(), 1u);
+    EXPECT_EQ(from_one.sphere_pairs[0].i, 0u);
+    EXPECT_EQ(from_one.sphere_pairs[0].j, 0u);
+  }
 }
 
 }  // namespace

@@ -479,15 +479,25 @@ SphereSet CutTriangleAndAnother(std::vector<ExcludedPair> excluded) {
 // The narrow phase on a cut triangle A against a whole triangle B that joint b carries through it
 // at random poses (exact spheres, every pair the filter allows given, as a broad phase without
 // culling would): equal to the brute-force oracle, bit for bit, and to an oracle that knows nothing
-// of pieces: with no pair excluded, (A, B) is reported exactly when the whole triangles meet, once,
-// under the part pair (torso, arm_l). With sphere pair (0, 2) excluded, it is reported exactly when
-// a piece of sphere 1 meets B (pieces computed here from PieceCorners), so the exclusion of one
-// piece's sphere holds where the contact lies in that piece, and only there.
+// of pieces or spheres. Rules on triangles with hops 0 (joints a and b apart enough): (A, B) is
+// reported exactly when the whole triangles meet, once, under the part pair (torso, arm_l), whichever
+// sphere owns the piece where they meet. With hops 1 (a is b's parent) rule 2 excludes them, and with
+// it every sphere pair. A set with its rules on sphere pairs that excludes (0, 2) and (1, 2) reports
+// nothing either.
 TEST(TrianglePieces, TheNarrowPhaseTestsPiecesAndReportsEachTrianglePairOnce) {
-  for (const bool exclude : {false, true}) {
-    SCOPED_TRACE(exclude ? "sphere pair (0, 2) excluded" : "no pair excluded");
-    const SphereSet set = CutTriangleAndAnother(
-        exclude ? std::vector<ExcludedPair>{{0, 2, ExclusionReason::kBindOverlap}} : std::vector<ExcludedPair>{});
+  enum class Rules { kHopsZero, kHopsOne, kSpherePairs };
+  for (const Rules rules : {Rules::kHopsZero, Rules::kHopsOne, Rules::kSpherePairs}) {
+    SCOPED_TRACE(rules == Rules::kHopsZero ? "hops 0" : rules == Rules::kHopsOne ? "hops 1" : "sphere pairs");
+    SphereSet set = CutTriangleAndAnother({});
+    if (rules == Rules::kSpherePairs) {
+      set.contact_rules = ContactRules::kSpherePairs;
+      set.contact_hops = 0;
+      set.excluded_pairs = {{0, 2, ExclusionReason::kBindOverlap}, {1, 2, ExclusionReason::kBindOverlap}};
+    } else {
+      ASSERT_EQ(WriteContactRules(&set, rules == Rules::kHopsZero ? 0 : 1, 0.0f), std::nullopt);
+      // Rule 2 at hops 1 excludes every pair of spheres of joints a and b; at hops 0 only (0, 1).
+      EXPECT_EQ(set.excluded_pairs.size(), rules == Rules::kHopsZero ? 1u : 3u);
+    }
     ASSERT_EQ(set.Validate(), std::nullopt) << set.Validate()->message;
     auto filter = PairFilter::FromSphereSet(set);
     ASSERT_TRUE(filter.ok()) << filter.error().message;
@@ -508,7 +518,7 @@ TEST(TrianglePieces, TheNarrowPhaseTestsPiecesAndReportsEachTrianglePairOnce) {
     std::vector<skinspheres::Mat4f> world(2, skinspheres::Mat4f::Identity());
     std::vector<Eigen::Vector3f> positions(6);
     std::vector<Vec4f> spheres(3);
-    int reported = 0, whole_only = 0;
+    int reported = 0, by_sphere[3] = {0, 0, 0};
     for (int pose = 0; pose < 600; ++pose) {
       const Eigen::Affine3f b = Eigen::Translation3f(shift(rng), shift(rng), drop(rng)) *
                                 Eigen::AngleAxisf(angle(rng), Eigen::Vector3f(shift(rng), shift(rng), 1).normalized());
@@ -516,27 +526,14 @@ TEST(TrianglePieces, TheNarrowPhaseTestsPiecesAndReportsEachTrianglePairOnce) {
       for (uint32_t v = 0; v < 6; ++v) positions[v] = SkinnedInDouble(set, world, v).cast<float>();
       ASSERT_TRUE((RefitJob{RefitMode::kExact, &set, &*rest, world, positions, spheres}.Run()));
       FrameContacts out, oracle;
-      ASSERT_TRUE((NarrowPhaseJob{&set, &*data, spheres, pairs, positions, {}, &ctx, &out}.Run()));
+      ASSERT_TRUE((NarrowPhaseJob{&set, &*data, spheres, pairs, positions, world, &ctx, &out}.Run()));
       ASSERT_TRUE(FindContactsBruteForce(set, *data, *filter, positions, &oracle));
       EXPECT_SAME_CONTACTS(out, oracle, "pose " + std::to_string(pose));
 
       TriangleContactGeometry g;
       const bool whole = TriangleContactOf(positions[0], positions[1], positions[2], positions[3], positions[4],
                                            positions[5], 0.0f, &g);
-      bool expected = whole;
-      if (exclude) {
-        expected = false;
-        for (uint32_t k = set.piece_offsets[1]; k < set.piece_offsets[2]; ++k) {
-          uint8_t c[3][2];
-          PieceCorners(set.pieces[k].level, set.pieces[k].index, c);
-          Eigen::Vector3f q[3];
-          for (int e = 0; e < 3; ++e) {
-            q[e] = GridPoint(positions[0], positions[1], positions[2], 3, c[e][0], c[e][1]);
-          }
-          expected |= TriangleContactOf(q[0], q[1], q[2], positions[3], positions[4], positions[5], 0.0f, &g);
-        }
-      }
-      whole_only += whole && !expected;
+      const bool expected = whole && rules == Rules::kHopsZero;
       ASSERT_EQ(out.triangle_pairs.size(), expected ? 1u : 0u) << "pose " << pose;
       if (!expected) continue;
       ++reported;
@@ -546,13 +543,22 @@ TEST(TrianglePieces, TheNarrowPhaseTestsPiecesAndReportsEachTrianglePairOnce) {
       EXPECT_EQ(out.parts[0].part_a, 0);
       EXPECT_EQ(out.parts[0].part_b, 1);
       EXPECT_EQ(out.parts[0].triangle_pair_count, 1u);
+      // One sphere pair: the piece's owner where the segment's midpoint lies, and B's.
+      ASSERT_EQ(out.parts[0].sphere_pair_count, 1u);
+      const SpherePairId owners = out.sphere_pairs[out.parts[0].first_sphere_pair];
+      EXPECT_EQ(owners.j, 2u);
+      ++by_sphere[owners.i];
     }
-    std::printf("%s: A and B reported on %d of 600 poses; meeting only in excluded pieces on %d\n",
-                exclude ? "(0, 2) excluded" : "no exclusion", reported, whole_only);
-    EXPECT_GT(reported, 20);
-    EXPECT_LT(reported, 580);
-    if (exclude) {
-      EXPECT_GT(whole_only, 5) << "the exclusion was never what decided";
+    std::printf("%s: A and B reported on %d of 600 poses (the contact in sphere 0's pieces %d times, 1's %d)\n",
+                rules == Rules::kHopsZero  ? "hops 0"
+                : rules == Rules::kHopsOne ? "hops 1"
+                                           : "sphere pairs",
+                reported, by_sphere[0], by_sphere[1]);
+    if (rules == Rules::kHopsZero) {
+      EXPECT_GT(reported, 20);
+      EXPECT_LT(reported, 580);
+      EXPECT_GT(by_sphere[0], 0);
+      EXPECT_GT(by_sphere[1], 0);
     }
   }
 }

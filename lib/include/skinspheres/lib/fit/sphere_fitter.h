@@ -35,8 +35,6 @@
 //     (geometry/enclosing_sphere.h) of the vertices of its triangles: growing where the paper's
 //     sphere left part of its patch outside (Figure 23), shrinking where it was larger than its
 //     patch. Its source vertices are those vertices.
-//  5. Excluded pairs: same joint, joints within `adjacent_hops` of each other in the skeleton, and
-//     (optionally) pairs that already overlap in the rest pose.
 //  6. Fast-refit data: per sphere, the joints influencing its source vertices with their mean
 //     weights, and radius_fast covering every rest copy of every source vertex carried rigidly by
 //     each of its bind entries (see runtime/sphere_set.h).
@@ -44,6 +42,9 @@
 //     so the runtime can test triangles and skin single vertices (sphere-set version 2); and from
 //     it each sphere influence's reach, the largest weight a source vertex gives that joint, which
 //     tightens the fast refit (runtime/sphere_set.h, influence_reach).
+//  8. The contact rules (runtime narrow_phase/contact_rules.h), stated on the mesh's triangles: rule 2
+//     at `contact_hops`, rule 3's rest gap of `rest_gap` of the rest height and its rest-near pairs,
+//     and the sphere pairs rule 2 excludes whole (the only pairs the broad phase never reports).
 // Finally a self-check proves, in double precision, every triangle inside its owner in the bind
 // pose. The result does not depend on the thread count.
 #pragma once
@@ -67,10 +68,13 @@ struct FitSettings {
   int per_level = 2;                 // p for the torso (non-tubular): 1, 2 or 4
   bool per_level_all_parts = false;  // also use p for limbs and head (the paper's comparison)
   SphereMethod method = SphereMethod::kM1A;
-  float overlap = 0.3f;   // PD in [0, 1)
-  float step = 0.02f;     // δ as a fraction of each part's path length, (0, 1]
-  int adjacent_hops = 1;  // exclude pairs whose joints are <= this many bones apart (0..2)
-  bool exclude_bind_overlaps = true;
+  float overlap = 0.3f;  // PD in [0, 1)
+  float step = 0.02f;    // δ as a fraction of each part's path length, (0, 1]
+  // The contact rules (runtime narrow_phase/contact_rules.h): triangles whose joints are at most
+  // contact_hops bones apart (0..2) are never a contact, nor triangles closer than rest_gap of the
+  // rest height at rest ([0, runtime::kMaxRestGapShare]).
+  int contact_hops = 1;
+  float rest_gap = 0.01f;
   // Refinement after ownership: rounds of "each sphere becomes the minimum ball of the vertices it
   // owns, then ownership is redone" (0 keeps the paper's centres and only grows/shrinks radii).
   int refine_iterations = 2;

@@ -19,8 +19,11 @@
 // behind the spheres needs, and what lets fast mode skin only the vertices it tests. A set read
 // from a version-1 file has no mesh (has_mesh() false) and works for everything else.
 //
-// On disk: JSON, {"format":"skinspheres.sphere_set","version":2,...} (sphere_set_io.h); version 1
-// files (no mesh) still load, and a set without a mesh is written as version 1. Binary
+// Version 4 states the contact rules on triangles (contact_rules below); a set read from an older
+// file keeps the rules it was fitted with, stated on sphere pairs.
+//
+// On disk: JSON, {"format":"skinspheres.sphere_set","version":4,...} (sphere_set_io.h); files of
+// versions 1 to 3 still load (and such a set is written back as the version it came in). Binary
 // (sphere_set_binary.h): the same set, memory-mappable, loaded ~100x faster; its fast-only variant
 // leaves out what only exact mode and triangle tests read (fast_only below).
 #pragma once
@@ -39,18 +42,31 @@
 namespace skinspheres::runtime {
 
 inline constexpr const char* kSphereSetFormat = "skinspheres.sphere_set";
-inline constexpr int kSphereSetVersionWithPieces = 3;   // written when the set has triangle pieces
-inline constexpr int kSphereSetVersion = 2;             // written when the set has a mesh and no pieces
-inline constexpr int kSphereSetVersionWithoutMesh = 1;  // written when it has none; all three are read
+inline constexpr int kSphereSetVersionWithRules = 4;    // written when the contact rules are on triangles
+inline constexpr int kSphereSetVersionWithPieces = 3;   // written for sets before them with triangle pieces
+inline constexpr int kSphereSetVersion = 2;             // for sets before them with a mesh and no pieces
+inline constexpr int kSphereSetVersionWithoutMesh = 1;  // for sets before them without a mesh; all four are read
 inline constexpr uint32_t kMaxReachGroups = 4;          // per sphere (SphereSet::reach_group_offsets)
 
+// Why a sphere pair is excluded. Under ContactRules::kTriangles (narrow_phase/contact_rules.h): every
+// triangle of both spheres has one joint (kSameJoint), or every joint of one sphere's triangles is
+// within contact_hops of every joint of the other's (kAdjacentJoints). Sets written before those rules
+// (kSpherePairs) state them on the spheres' own joints, and kBindOverlap: the spheres overlap at rest.
 enum class ExclusionReason : uint8_t {
-  kSameJoint = 0,       // both spheres belong to the same joint
-  kAdjacentJoints = 1,  // their joints are within the configured number of hops in the skeleton
-  kBindOverlap = 2,     // they already overlap in the rest pose
+  kSameJoint = 0,
+  kAdjacentJoints = 1,
+  kBindOverlap = 2,  // only in sets with ContactRules::kSpherePairs
 };
 const char* ToString(ExclusionReason reason);
 std::optional<ExclusionReason> ExclusionReasonFromString(std::string_view text);
+
+// How a set states which triangle pairs are not contacts (narrow_phase/contact_rules.h).
+enum class ContactRules : uint8_t {
+  kSpherePairs = 0,  // sets written before the rules on triangles: on sphere pairs, as fitted
+  kTriangles = 1,    // on triangles: the same contacts whatever the fit
+};
+const char* ToString(ContactRules rules);  // "sphere_pairs", "triangles"
+std::optional<ContactRules> ContactRulesFromString(std::string_view text);
 
 struct ExcludedPair {
   uint32_t i = 0;  // i < j
@@ -195,6 +211,15 @@ struct SphereSet {
   std::vector<float> reach_group_deviation;
 
   std::vector<ExcludedPair> excluded_pairs;  // sorted by (i, j), i < j, unique
+
+  // The contact rules (narrow_phase/contact_rules.h). kTriangles: rule 2 at contact_hops (at most
+  // kMaxContactHops), rule 3 with rest_gap (model units, >= 0, at most kMaxRestGapShare of the rest
+  // height); excluded_pairs then holds only sphere pairs rule 2 excludes whole. kSpherePairs (read
+  // from a file written before the rules on triangles): excluded_pairs as fitted, contact_hops and
+  // rest_gap 0. WriteContactRules (contact_rules.h) fills all four for a set made by hand.
+  ContactRules contact_rules = ContactRules::kTriangles;
+  uint32_t contact_hops = 1;
+  float rest_gap = 0.0f;
 
   // Triangle pieces (see TrianglePiece above), or all three empty: every triangle owned whole.
   // Sphere s owns pieces[piece_offsets[s] .. piece_offsets[s+1]). Its point list (`vertices`) then

@@ -3,8 +3,8 @@
 // stays the interchange and debugging format; both hold the same set, and converting one into the
 // other and back is bit-exact (`skinspheres convert`).
 //
-// Layout, version 5 (version 4, the same without sections 37-38, version 3, without 34-38, version
-// 2, without 29-38, and version 1, without 28-38, are still read). Every integer and
+// Layout, version 6 (version 5, the same without sections 39-40, version 4, without 37-40, version 3,
+// without 34-40, version 2, without 29-40, and version 1, without 28-40, are still read). Every integer and
 // float is little-endian; offsets count bytes from the start of the file (never pointers), so the
 // file works at any address.
 //
@@ -79,13 +79,16 @@
 //   37  reach_group_blend       f32   as 33 or 0       per group and influence } version 5, every
 //   38  reach_group_deviation   f32   as 33 or 0       per group and influence } file; both 0: none
 //                                                       (sphere_set.h, refit_job.h "Group blends")
+//   39  contact_rules           u32   2                (rules: 0 sphere pairs, 1 triangles; hops) } version 6,
+//   40  rest_gap                f32   1                model units (contact_rules.h, rule 3)   } every file
 // A file holds exactly the sections its flags and version call for. A change of layout bumps the
 // version. A version-1 file reads as a set without influence reach, a version-1 or 2 file as one
 // without a fast reference (the rest pose) or reach groups, a file before version 4 as one without
-// triangle pieces, a file before version 5 as one without the groups' blends.
+// triangle pieces, a file before version 5 as one without the groups' blends, a file before version 6
+// as one whose contact rules are on sphere pairs (ContactRules::kSpherePairs).
 //
 // Fast-only variant: sections 17-27 and 34-36 left out, i.e. everything fast refit never reads (Xbot: 16 KB
-// instead of 1.6 MB; its JSON takes 3.5 MB). It keeps sections 28-33 and 37-38, 28 filled from the mesh when the set
+// instead of 1.6 MB; its JSON takes 3.5 MB). It keeps sections 28-33 and 37-40, 28 filled from the mesh when the set
 // has a mesh and no reach of its own (a fast-only set has no mesh to compute it from later), so it
 // refits exactly as the whole set does. A set read from it has SphereSet::fast_only set; exact refit and
 // triangle tests refuse it with an error saying so.
@@ -119,8 +122,9 @@
 namespace skinspheres::runtime {
 
 inline constexpr unsigned char kSphereSetBinaryMagic[8] = {0x89, 'S', 'S', 'B', '\r', '\n', 0x1A, '\n'};
-inline constexpr uint32_t kSphereSetBinaryVersion = 5;                  // written
-inline constexpr uint32_t kSphereSetBinaryVersionWithoutBlends = 4;     // read (no sections 37-38)
+inline constexpr uint32_t kSphereSetBinaryVersion = 6;                  // written
+inline constexpr uint32_t kSphereSetBinaryVersionWithoutRules = 5;      // read (no sections 39-40)
+inline constexpr uint32_t kSphereSetBinaryVersionWithoutBlends = 4;     // read (no sections 37-40)
 inline constexpr uint32_t kSphereSetBinaryVersionWithoutPieces = 3;     // read (no sections 34-38)
 inline constexpr uint32_t kSphereSetBinaryVersionWithoutReference = 2;  // read (no sections 29-38)
 inline constexpr uint32_t kSphereSetBinaryVersionWithoutReach = 1;      // read (no sections 28-38)
@@ -169,8 +173,10 @@ enum class SphereSetSection : uint32_t {
   kPieces,
   kReachGroupBlend,
   kReachGroupDeviation,
+  kContactRules,
+  kRestGap,
 };
-inline constexpr uint32_t kSphereSetSectionCount = 38;  // ids 1..38
+inline constexpr uint32_t kSphereSetSectionCount = 40;  // ids 1..40
 
 enum class SphereSetBinaryContent : uint8_t {
   kFull,      // everything, mesh included: converts back to the same JSON
@@ -261,6 +267,9 @@ class SphereSetBinaryView {
   std::span<const uint32_t> pieces() const { return Get<uint32_t>(SphereSetSection::kPieces); }
   std::span<const float> reach_group_blend() const { return Get<float>(SphereSetSection::kReachGroupBlend); }
   std::span<const float> reach_group_deviation() const { return Get<float>(SphereSetSection::kReachGroupDeviation); }
+  // (rules, hops) and the rest gap: empty in a file before version 6.
+  std::span<const uint32_t> contact_rules() const { return Get<uint32_t>(SphereSetSection::kContactRules); }
+  std::span<const float> rest_gap() const { return Get<float>(SphereSetSection::kRestGap); }
   uint32_t version() const { return version_; }
 
   // Copies into a SphereSet (loaded_from = source_name()) and validates it (errors name the source).

@@ -1,42 +1,37 @@
-// Narrow phase: behind every sphere pair the broad phase reports (broad_phase.h), the triangles the
-// two spheres own are tested against each other, and what really touches is reported, grouped by
-// body-part pair.
+// Narrow phase: the triangle pairs of a character that really touch in a frame, grouped by
+// body-part pair. Which pairs count is stated once, on the mesh, in contact_rules.h; the spheres
+// (broad_phase.h) only filter the search.
 //
-// What is reported, per frame:
-//  - INTERSECTING triangle pairs: the two closed triangles share a point (triangle_contact.h: exact
-//    test; touching counts; degenerate triangles never count);
-//  - WITHIN MARGIN pairs (only when NarrowPhaseSettings::margin > 0): not intersecting, and their
-//    closest points are nearer than the margin (distance computed in double).
-// What is never reported (the exclusion rules):
-//  1. pairs of triangles owned by spheres the PairFilter excludes (same joint, adjacent joints,
-//     overlapping at rest, ...): the broad phase never reports those sphere pairs; and pairs of
-//     triangles owned by one sphere (a sphere is never paired with itself);
-//  2. pairs that share a vertex, by index or by rest position: vertices with bit-identical rest
-//     positions (glTF splits vertices along UV and normal seams) count as one;
-//  3. pairs that intersect, or lie within the margin, in the rest pose (the model's own creases and
-//     layered pieces). They are found once, at set-up (NarrowPhaseData::Create), for the margin of
-//     the settings; never per frame.
+// What is reported, per frame: the CONTACTS of contact_rules.h, each
+//  - INTERSECTING: the two closed triangles share a point (triangle_contact.h: exact test; touching
+//    counts; degenerate triangles never count), or
+//  - WITHIN MARGIN (only when NarrowPhaseSettings::margin > 0): not intersecting, and their closest
+//    points nearer than the margin (distance computed in double).
+// A set whose rules are on triangles (SphereSet::contact_rules, kTriangles) reports the same pairs
+// whatever its fit: another --max-spheres, triangle pieces or none. A set written before them
+// (kSpherePairs) reports what its excluded sphere pairs leave (contact_rules.h says which).
+// Rule 3 at set-up: the set's precomputed rest-near pairs, or, for a margin above the set's rest gap
+// (or a set with rules on sphere pairs), the pairs near at rest found anew (NarrowPhaseData::Create).
 // Rest pose = the mesh skinned with the skeleton's rest transforms (SphereSet::joint_rest_world):
 // the positions the spheres were fitted on.
-// Triangle pieces (SphereSet::pieces, docs/TRIANGLE_PIECES.md): a cut triangle's pieces are tested,
-// each under the sphere that owns it, and the triangle is reported. A pair (t, u) is reported when
-// some piece of t and some piece of u (a whole triangle is its own piece), owned by a sphere pair
-// rule 1 allows, intersect or lie within the margin; rules 2 and 3 stay on whole triangles. It is
-// reported once, with the whole triangles' geometry, and its sphere pairs are every pair that found
-// it.
+// Triangle pieces (SphereSet::pieces, docs/TRIANGLE_PIECES.md): a cut triangle's pieces lead the
+// search (each under the sphere that owns it, its box grown by their corners' rounding), and the
+// whole triangles are tested and reported.
 //
 // How it is found. Each triangle (or piece) lies in the sphere that owns it, so an intersecting or
-// near pair of a sphere pair (i, j) lies in both spheres. Under each sphere its triangles are grouped at
-// set-up into CLUSTERS of neighbouring triangles (NarrowPhaseSettings::cluster_triangles at most).
+// near pair of a sphere pair (i, j) lies in both spheres (or in one sphere i, tested against itself
+// when it holds triangles of joints rule 2 leaves). Under each sphere its triangles are grouped at
+// set-up into CLUSTERS of neighbouring triangles of one joint (NarrowPhaseSettings::cluster_triangles
+// at most).
 // Per frame every cluster of a sphere in a pair gets the box of its skinned corners (its vertices
 // and its pieces' grid points), and each such
 // sphere the union of its clusters' boxes (much tighter than a fast-refit sphere). Then, per
 // sphere pair:
 //   the two spheres' boxes must meet (grown by the margin);
 //   clusters of i whose box reaches into sphere j, clusters of j whose box reaches into sphere i;
-//   pairs of those clusters whose boxes meet;
+//   pairs of those clusters whose joints rule 2 leaves and whose boxes meet;
 //   in each such cluster pair, the triangles whose box meets the other cluster's box, paired by box;
-//   the exclusion rules, then the exact triangle test.
+//   rules 1 and 3, then the exact triangle test.
 // Every step only drops what cannot meet, so nothing is lost with exact or fast spheres, provided
 // the pairs hold every sphere pair within the margin: with a margin, spheres that do not overlap
 // can hold triangles nearer than it, so the pairs must come from spheres grown by half the margin
@@ -57,13 +52,15 @@
 //      with SkinningJob.
 // Both need the mesh of a version-2 sphere set (SphereSet::has_mesh()): triangle indices, rest
 // positions and influences. A version-1 set (no mesh) is refused by NarrowPhaseData::Create with
-// kVersionMismatch, in both modes: its exclusions cannot be computed without the rest mesh.
+// kVersionMismatch, in both modes: its rules cannot be applied without the rest mesh.
 // Re-fit the character (`skinspheres fit`) to get a version-2 set.
 //
 // Output (FrameContacts), plain structs of indices and floats in flat arrays:
 //  - parts: one PartContact per body-part pair with contacts, sorted by (part_a, part_b),
 //    part_a <= part_b; each names its ranges in the two arrays below;
-//  - sphere_pairs: per part pair, the sphere pairs (i < j) that own its triangle pairs, sorted;
+//  - sphere_pairs: per part pair, the sphere pairs (i <= j) that own its triangle pairs' points, sorted:
+//    per triangle pair, the spheres owning each triangle where the contact is (the midpoint of the
+//    intersection segment, or each closest point; for a cut triangle, the owner of the piece there);
 //  - triangle_pairs: per part pair, sorted by (t, u): t is a source triangle of part_a, u of part_b
 //    (same part: t < u), in the SphereSet's source triangle numbering (file order).
 // Penetration depth (PartContact::depth, per part pair with at least one intersecting pair) —
@@ -110,6 +107,7 @@
 #include "skinspheres/runtime/broad_phase/pair_filter.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/runtime/format/sphere_set.h"
+#include "skinspheres/runtime/narrow_phase/contact_rules.h"
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/parallel_for.h"
 #include "skinspheres/skinning/prepared_influences.h"
@@ -162,7 +160,7 @@ struct TriangleContact {
 
 // A sphere pair by its indices alone (broad_phase.h's SpherePair also carries the depth and parts).
 struct SpherePairId {
-  uint32_t i = 0;  // i < j, sphere indices
+  uint32_t i = 0;  // i <= j, sphere indices (i == j: two triangles of one sphere)
   uint32_t j = 0;
   friend bool operator==(const SpherePairId&, const SpherePairId&) = default;
 };
@@ -201,8 +199,8 @@ struct FrameContacts {
 };
 
 // What the narrow phase derives once from a sphere set (allocates; immutable afterwards, shared by
-// every instance and thread): welded vertex ids, each sphere's triangle vertices, the rest-pose
-// exclusions, the spheres' neighbours for the depth estimate.
+// every instance and thread): welded vertex ids, each triangle's joint, part and owner, each sphere's
+// clusters and triangle vertices, rule 3's pairs, the spheres' neighbours for the depth estimate.
 class NarrowPhaseData {
  public:
   NarrowPhaseData();  // empty: usable with no set
@@ -229,13 +227,18 @@ class NarrowPhaseData {
   size_t max_sphere_triangles() const;
   size_t max_sphere_clusters() const;
 
-  // Rule 2: canonical vertex ids (the first vertex with the same rest position), 3 per triangle.
+  // The set's rules (contact_rules.h).
+  ContactRules rules() const;
+  // Rule 1: canonical vertex ids (the first vertex with the same rest position), 3 per triangle.
   std::span<const uint32_t> welded_triangle_vertices() const;
   bool ShareVertex(uint32_t t, uint32_t u) const;
-  // Rule 3: sorted (t << 32 | u) keys, t < u, of the triangle pairs that intersect or lie within the
-  // margin at rest (among sphere pairs the filter does not exclude).
-  std::span<const uint64_t> rest_excluded_pairs() const;
+  // Rule 3 (contact_rules.h, NearAtRest): the distance at rest within which a pair is excluded (the
+  // larger of the set's rest gap and the margin; the margin for rules on sphere pairs), and the test.
+  float rest_distance() const;
   bool RestExcluded(uint32_t t, uint32_t u) const;
+  // The spheres tested against themselves every frame (rules on triangles: they hold triangles of
+  // joints further apart than the hops), ascending.
+  std::span<const uint32_t> self_spheres() const;
   // Per sphere, the distinct vertices of the triangles it owns (CSR: offsets has sphere_count + 1).
   std::span<const uint32_t> sphere_vertex_offsets() const;
   std::span<const uint32_t> sphere_vertices() const;
@@ -290,24 +293,32 @@ class NarrowPhaseContext {
   NarrowPhaseContext& operator=(NarrowPhaseContext&&) noexcept;
   // Set-up only (allocates). lazy_skinning: also the mode-(b) buffers (skinned positions, marks).
   void Resize(const NarrowPhaseData& data, bool lazy_skinning);
+  // Set-up only (allocates): room for frames of this many sphere pairs without growing a list (mode
+  // (b) lists the pairs it tests; Resize makes room for 4 per sphere).
+  void Reserve(size_t sphere_pairs);
   bool sized_for(const NarrowPhaseData& data) const;
   bool has_lazy_skinning() const;
 
   struct Stats {
-    size_t sphere_pairs = 0;      // pairs examined
-    size_t clusters_bounded = 0;  // clusters of the spheres in pairs, boxed this frame
-    size_t cluster_pairs = 0;     // cluster pairs compared (clusters that reached into the other sphere)
-    size_t culled_triangles = 0;  // triangles that reached the other cluster's box (both sides)
-    size_t box_tests = 0;         // triangle box pairs compared
-    size_t triangle_tests = 0;    // exact triangle-triangle tests run
-    size_t skinned_vertices = 0;  // mode (b): vertices skinned this frame
-    size_t depth_vertices = 0;    // vertices examined by the depth estimate
+    size_t sphere_pairs = 0;       // pairs examined
+    size_t clusters_bounded = 0;   // clusters of the spheres in pairs (and self-tested), boxed this frame
+    size_t patch_pairs = 0;        // pairs of patches (a sphere's clusters of one joint) rule 2 leaves
+    size_t still_patch_pairs = 0;  // of those whose boxes met, the ones their motion since rest skipped
+    size_t cluster_pairs = 0;      // cluster pairs compared (clusters that reached into the other sphere)
+    size_t culled_triangles = 0;   // triangles that reached the other cluster's box (both sides)
+    size_t box_tests = 0;          // triangle box pairs compared
+    size_t triangle_tests = 0;     // exact triangle-triangle tests run
+    size_t skinned_vertices = 0;   // mode (b): vertices skinned this frame
+    size_t depth_vertices = 0;     // vertices examined by the depth estimate
   };
   const Stats& last_stats() const;
   // Mode (b), diagnostics: the positions the last run skinned, by source vertex (empty before the
   // first mode-(b) run). Current only for the vertices of the spheres it skinned: those in its pairs
   // and those the depth estimate visited; the others hold earlier frames' values.
   std::span<const Eigen::Vector3f> lazy_positions() const;
+  // Diagnostics: the spheres the last run tested (boxed and, in mode (b), skinned): those of the pairs
+  // it did not skip whole (narrow_phase.h, "Motion") and the self-tested ones.
+  std::span<const uint32_t> tested_spheres() const;
 
   // Opaque: defined in runtime/src/narrow_phase/internal.h.
   struct State;
@@ -340,10 +351,13 @@ struct NarrowPhaseJob {
   bool RunParallel(const ParallelFor& parallel_for = DefaultParallelFor()) const;
 };
 
-// The oracle: every pair of spheres (i < j) the filter does not exclude, every triangle of i against
-// every triangle of j, the same rules (skipping only sphere pairs whose triangles' bounding boxes,
-// grown by the margin, are apart); positions of every source vertex. Same output format, depth
-// included. For tests, `play --verify` and benchmarks; O(triangles^2) in the worst case.
+// The oracle. Rules on triangles: no sphere; every pair of the mesh's triangles whose boxes, grown by
+// the margin, meet (a uniform grid finds them), the rules of contact_rules.h with rule 3 measured at
+// rest here (the set's precomputed pairs are not read), the exact test. Rules on sphere pairs: every
+// pair of spheres (i < j) the filter does not exclude, every triangle of i against every triangle of
+// j. Positions of every source vertex. Same output format, sphere pairs and depth included (both
+// derived from the triangle pairs as the job derives them). For tests, `play --verify` and
+// benchmarks; about the pairs of triangles whose boxes meet.
 bool FindContactsBruteForce(const SphereSet& set, const NarrowPhaseData& data, const PairFilter& filter,
                             std::span<const Eigen::Vector3f> positions, FrameContacts* out);
 
