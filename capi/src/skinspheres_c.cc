@@ -437,6 +437,18 @@ float skinspheres_asset_narrow_margin(const skinspheres_asset* asset) {
   return narrow ? narrow->margin() : 0.0f;
 }
 
+int skinspheres_asset_contact_rules(const skinspheres_asset* asset) {
+  return asset ? static_cast<int>(asset->asset->sphere_set().contact_rules) : SKINSPHERES_RULES_SPHERE_PAIRS;
+}
+
+uint32_t skinspheres_asset_contact_hops(const skinspheres_asset* asset) {
+  return asset ? asset->asset->sphere_set().contact_hops : 0u;
+}
+
+float skinspheres_asset_rest_gap(const skinspheres_asset* asset) {
+  return asset ? asset->asset->sphere_set().rest_gap : 0.0f;
+}
+
 float skinspheres_asset_touch_tolerance(const skinspheres_asset* asset) {
   const rt::NarrowPhaseData* narrow = asset ? asset->asset->narrow_phase() : nullptr;
   return narrow ? narrow->touch_tolerance() : 0.0f;

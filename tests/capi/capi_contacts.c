@@ -397,6 +397,21 @@ int main(int argc, char** argv) {
             skinspheres_asset_sphere_count(binary) > 10,
         "sphere counts", 0);
   check(skinspheres_asset_is_fast_only(fast_only) && !skinspheres_asset_is_fast_only(binary), "fast-only flags", 0);
+  /* The contact rules, on triangles as the fitter states them, the same from every file (the fast-only
+     file keeps them); the rest gap is a share of the rest height, as the touch tolerance is. */
+  check(skinspheres_asset_contact_rules(binary) == SKINSPHERES_RULES_TRIANGLES &&
+            skinspheres_asset_contact_rules(json) == SKINSPHERES_RULES_TRIANGLES &&
+            skinspheres_asset_contact_rules(fast_only) == SKINSPHERES_RULES_TRIANGLES &&
+            skinspheres_asset_contact_rules(NULL) == SKINSPHERES_RULES_SPHERE_PAIRS,
+        "contact rules on triangles", 0);
+  check(skinspheres_asset_contact_hops(binary) == 1 && skinspheres_asset_contact_hops(fast_only) == 1 &&
+            skinspheres_asset_contact_hops(NULL) == 0,
+        "contact hops 1", 0);
+  check(skinspheres_asset_rest_gap(binary) > touch_tolerance && skinspheres_asset_rest_gap(binary) < 3 * touch_tolerance &&
+            skinspheres_asset_rest_gap(json) == skinspheres_asset_rest_gap(binary) &&
+            skinspheres_asset_rest_gap(fast_only) == skinspheres_asset_rest_gap(binary) &&
+            skinspheres_asset_rest_gap(NULL) == 0.0f,
+        "rest gap: 1% of the rest height, twice the default touch tolerance", 0);
   check(skinspheres_asset_has_triangle_contacts(binary) && skinspheres_asset_has_triangle_contacts(json) &&
             !skinspheres_asset_has_triangle_contacts(fast_only),
         "triangle contacts with the mesh only", 0);

@@ -152,8 +152,8 @@ typedef struct skinspheres_asset_options {
   size_t struct_size;
   /* The narrow phase's margin (set units, >= 0, finite): triangle pairs apart but nearer than this
      are reported as SKINSPHERES_TRIANGLES_WITHIN_MARGIN with their distance and closest points.
-     0: intersections only. Pairs within the margin at rest are never reported, so it is fixed
-     when the asset is loaded. */
+     0: intersections only. Pairs within the margin (or the set's rest gap) at rest are never
+     reported (rule 3, below), so it is fixed when the asset is loaded. */
   float narrow_margin;
   /* Part pairs intersecting deeper than this share of the character's rest height are
      SKINSPHERES_PARTS_PENETRATING, the others touching; in [0, 1). 0 gives the default, 0.005
@@ -341,8 +341,32 @@ SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_sphere_pairs(s
    grouped by body-part pair. Needs a set with its mesh (a set fitted by this version, as JSON or a
    full binary file); a fast-only binary set or an older set without a mesh is refused
    (SKINSPHERES_VERSION_MISMATCH). Same pattern as the sphere pairs: find gives the counts, the
-   get calls copy into the caller's buffers. What is reported and what never is (triangles sharing a
-   vertex, pairs already touching at rest, ...): runtime/include/skinspheres/runtime/narrow_phase/narrow_phase.h. */
+   get calls copy into the caller's buffers.
+
+   The contact rules (SKINSPHERES_RULES_TRIANGLES; runtime/include/skinspheres/runtime/narrow_phase/
+   contact_rules.h states them for C++). Two triangles that intersect (or come within the margin) are
+   a contact unless
+     1. they share a vertex (by rest position);
+     2. their joints are at most skinspheres_asset_contact_hops bones apart in the skin's joint tree
+        (a triangle's joint: the joint its three vertices weigh most in sum; nodes that are not
+        joints are skipped);
+     3. they intersect, or lie closer than skinspheres_asset_rest_gap (or the margin), in the rest pose.
+   The same pairs whatever the fit: the spheres only filter (a sphere pair is never reported only when
+   rule 2 excludes every triangle pair it could hold). A set written before these rules
+   (SKINSPHERES_RULES_SPHERE_PAIRS: JSON before version 4, binary before layout 6) keeps the rules it
+   was fitted with, stated on sphere pairs, overlapping at rest among them: what it reports depends on
+   its fit; fit the character again for the rules on triangles. */
+
+typedef enum skinspheres_contact_rules {
+  SKINSPHERES_RULES_SPHERE_PAIRS = 0, /* a set written before the rules on triangles */
+  SKINSPHERES_RULES_TRIANGLES = 1     /* the rules above */
+} skinspheres_contact_rules;
+
+/* The asset's rules (skinspheres_contact_rules; SKINSPHERES_RULES_SPHERE_PAIRS for NULL), rule 2's
+   hops (0, 1 or 2; 0 with rules on sphere pairs or NULL) and rule 3's rest gap in set units (0 likewise). */
+SKINSPHERES_C_API int skinspheres_asset_contact_rules(const skinspheres_asset* asset);
+SKINSPHERES_C_API uint32_t skinspheres_asset_contact_hops(const skinspheres_asset* asset);
+SKINSPHERES_C_API float skinspheres_asset_rest_gap(const skinspheres_asset* asset);
 
 typedef enum skinspheres_triangle_contact_kind {
   SKINSPHERES_TRIANGLES_INTERSECTING = 0, /* the two closed triangles share a point */
@@ -367,7 +391,7 @@ typedef struct skinspheres_part_contact {
   uint32_t first_triangle_pair;
   uint32_t triangle_pair_count;
   uint32_t intersecting_count; /* how many of those are SKINSPHERES_TRIANGLES_INTERSECTING */
-  uint32_t sphere_pair_count;  /* sphere pairs (broad phase) that hold those triangle pairs */
+  uint32_t sphere_pair_count;  /* sphere pairs that own those triangle pairs where they touch (i <= j) */
   float depth;                 /* penetration depth estimate (set units); 0 without intersections */
   float min_distance;          /* 0 with intersections, else the smallest within-margin distance */
   float normal[3];             /* contact normal, from part_b towards part_a (0 without intersections) */
