@@ -122,6 +122,22 @@ void CrowdBatch::AppendHits(void* context, const internal::BatchHits& hits) {
   }
 }
 
+// The groups come row by row (i ascending), each row's parts one after another, j ascending in each:
+// sorting each row by j (an insertion sort: a row is a few runs of a few pairs) gives (i, j) order.
+void CrowdBatch::SortRows(std::vector<SpherePair>& found) {
+  for (size_t begin = 0; begin < found.size();) {
+    size_t end = begin + 1;
+    while (end < found.size() && found[end].i == found[begin].i) ++end;
+    for (size_t k = begin + 1; k < end; ++k) {
+      const SpherePair p = found[k];
+      size_t at = k;
+      for (; at > begin && found[at - 1].j > p.j; --at) found[at] = found[at - 1];
+      found[at] = p;
+    }
+    begin = end;
+  }
+}
+
 // FindSpherePairs of the instances in `lanes` at once: what FindSpherePairs() gives each, from soa. Lanes whose
 // spheres the broad phase would refuse (beyond kMaxMagnitude) are left out of the returned mask,
 // for their own FindSpherePairs() to report.
@@ -153,10 +169,7 @@ uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, internal::RefitSimd
                         internal::BatchSink{&hits, &AppendHits, &target});
     AppendHits(&target, hits);
     if (!asset.crowd_pairs_sorted_) {  // each instance's pairs in the order of its own query: by (i, j)
-      for (uint32_t m = lanes; m != 0; m &= m - 1) {
-        auto& found = inst[std::countr_zero(m)]->sphere_pairs_;
-        std::sort(found.begin(), found.end(), broad_phase::ByPair);
-      }
+      for (uint32_t m = lanes; m != 0; m &= m - 1) SortRows(inst[std::countr_zero(m)]->sphere_pairs_);
     }
   }
   for (uint32_t m = lanes; m != 0; m &= m - 1) {

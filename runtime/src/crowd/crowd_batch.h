@@ -49,6 +49,8 @@ struct CrowdBatch {
     const PairFilter* filter;
     CharacterInstance* const* inst;
   };
+  // Each instance's pairs from the grouped query into (i, j) order (rows already ascending).
+  static void SortRows(std::vector<SpherePair>& found);
   static void AppendHits(void* context, const internal::BatchHits& hits);
   // Instances [begin, end) with their inputs; true when all succeeded. In fast mode, consecutive
   // instances of one asset are refitted together, RefitBatchLanes() at a time; the others one by one
