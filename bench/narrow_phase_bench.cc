@@ -122,6 +122,7 @@ struct Character {
   lib::RawCharacter ch;
   rt::SphereSet set;
   std::shared_ptr<const rt::CharacterAsset> asset;
+  std::shared_ptr<const rt::CharacterAsset> old_rules;  // the same fit with the rules before (OldRules)
   sk::PreparedInfluences prepared_all;
   Workload work[2];
 };
@@ -136,6 +137,44 @@ std::vector<sk::Transform> RandomLocals(const lib::RawCharacter& c, std::mt19937
     t.rotation = (t.rotation * skinspheres::Quatf(Eigen::AngleAxisf(angle, axis.normalized()))).normalized();
   }
   return local;
+}
+
+// The fit as a set written before the rules on triangles states its rules (contact_rules.h,
+// ContactRules::kSpherePairs): sphere pairs of the same joint, of joints one bone apart in the whole
+// skeleton, or overlapping at rest excluded; no sphere tested against itself; rule 3 at the margin.
+rt::SphereSet OldRules(rt::SphereSet set) {
+  const size_t joints = set.joint_count();
+  std::vector<std::vector<int>> hops(joints, std::vector<int>(joints, 1 << 20));
+  for (size_t s = 0; s < joints; ++s) {
+    hops[s][s] = 0;
+    for (bool changed = true; changed;) {  // relax along parent links (joints are few)
+      changed = false;
+      for (size_t j = 0; j < joints; ++j) {
+        const int p = set.joint_parents[j];
+        if (p < 0) continue;
+        if (hops[s][j] + 1 < hops[s][p]) hops[s][p] = hops[s][j] + 1, changed = true;
+        if (hops[s][p] + 1 < hops[s][j]) hops[s][j] = hops[s][p] + 1, changed = true;
+      }
+    }
+  }
+  set.contact_rules = rt::ContactRules::kSpherePairs;
+  set.contact_hops = 0;
+  set.rest_gap = 0.0f;
+  set.excluded_pairs.clear();
+  for (uint32_t i = 0; i < set.size(); ++i) {
+    for (uint32_t j = i + 1; j < set.size(); ++j) {
+      const int a = set.sphere_joint[i], b = set.sphere_joint[j];
+      const bool overlap = (set.centers_rest[i] - set.centers_rest[j]).norm() < set.radii_rest[i] + set.radii_rest[j];
+      if (a == b) {
+        set.excluded_pairs.push_back({i, j, rt::ExclusionReason::kSameJoint});
+      } else if (hops[a][b] <= 1) {
+        set.excluded_pairs.push_back({i, j, rt::ExclusionReason::kAdjacentJoints});
+      } else if (overlap) {
+        set.excluded_pairs.push_back({i, j, rt::ExclusionReason::kBindOverlap});
+      }
+    }
+  }
+  return set;
 }
 
 // Poses a frame from joint-local transforms: G_j, the skinned mesh, both refits and their pairs.
@@ -195,6 +234,9 @@ void Load(Character* c, int index) {
   auto asset = rt::CharacterAsset::Create(c->set);
   if (!asset.ok()) return void(c->error = asset.error().message);
   c->asset = *asset;
+  auto old = rt::CharacterAsset::Create(OldRules(c->set));
+  if (!old.ok()) return void(c->error = old.error().message);
+  c->old_rules = *old;
   std::string why;
   const auto& skin = c->ch.skin;
   if (!c->prepared_all.Build(skin.vertex_count(), skin.influence_offsets, skin.influence_binds, skin.influence_weights,
@@ -382,6 +424,49 @@ void BM_Narrow(benchmark::State& state) {
 BENCHMARK(BM_Narrow)
     ->ArgsProduct({{0, 1, 2, 3, 4, 5, 6}, {0, 1}, {0, 1, 2}})
     ->ArgNames({"char", "work", "mode"})
+    ->Unit(benchmark::kMicrosecond);
+
+// What an engine pays per character and frame for its contacts, under the rules before (rules 0: the
+// same fit as a set written before the rules on triangles states them, OldRules) and now (rules 1),
+// in the same run: the update and the contacts, through CharacterInstance as an engine calls it.
+//   mode 0 exact: UpdateExact(the frame's skinned positions, G_j) + FindContacts(positions);
+//   mode 1 fast:  UpdateFast(G_j) + FindContacts() (it skins what it tests).
+// The skinning an engine does anyway (exact mode) is not timed. Counters: triangle pairs and sphere
+// pairs per frame, and the share of the broad phase's pairs that own a contact.
+void BM_Frame(benchmark::State& state) {
+  const int work = int(state.range(1)), rules = int(state.range(2)), mode = int(state.range(3));
+  Character* c = Get(state, int(state.range(0)), work);
+  if (!c) return;
+  const Workload& w = c->work[work];
+  auto inst = rt::CharacterInstance::Create(rules == 0 ? c->old_rules : c->asset);
+  if (!inst.ok()) return state.SkipWithError(inst.error().message.c_str());
+  inst->ReserveContacts(4096);
+  size_t frames = 0, contacts = 0, pairs = 0;
+  auto run = [&](const Frame& f) {
+    const bool ok = mode == 0
+                        ? inst->UpdateExact(f.positions, f.joint_world).ok() && inst->FindContacts(f.positions).ok()
+                        : inst->UpdateFast(f.joint_world).ok() && inst->FindContacts().ok();
+    return ok;
+  };
+  for (const Frame& f : w.frames) {  // warm-up: every buffer at the workload's largest frame
+    if (!run(f)) return state.SkipWithError("a frame was refused");
+  }
+  while (state.KeepRunningBatch(benchmark::IterationCount(w.frames.size()))) {
+    for (const Frame& f : w.frames) {
+      if (!run(f)) return state.SkipWithError("a frame was refused");
+      contacts += inst->contacts().triangle_pairs.size();
+      pairs += inst->sphere_pairs().size();
+      ++frames;
+    }
+  }
+  state.counters["contacts"] = double(contacts) / double(std::max<size_t>(frames, 1));
+  state.counters["sphere_pairs"] = double(pairs) / double(std::max<size_t>(frames, 1));
+  state.SetLabel(std::string(kNames[state.range(0)]) + (work ? " random" : " clips") +
+                 (rules ? " rules now" : " rules before") + (mode ? " fast" : " exact"));
+}
+BENCHMARK(BM_Frame)
+    ->ArgsProduct({{0, 1, 2, 3, 4, 5, 6}, {0, 1}, {0, 1}, {0, 1}})
+    ->ArgNames({"char", "work", "rules", "mode"})
     ->Unit(benchmark::kMicrosecond);
 
 // BM_Narrow's modes 1 and 2 paired: each iteration runs the next frame in both, fast + lazy

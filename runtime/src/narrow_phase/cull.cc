@@ -201,17 +201,27 @@ void WeightDeviations(const Frame& f, uint32_t s, double* patch_deviation) {
   }
 }
 
-bool Still(const Frame& f, uint32_t a, uint32_t b) {
+namespace {
+
+// Still's test once the patches' deviations sum to `deviations`.
+bool StillWith(const Frame& f, uint32_t a, uint32_t b, double deviations) {
   const NarrowPhaseData::Layout& d = Of(f.data);
   if (f.joint_motion == nullptr || !d.patch_still_ok[a] || !d.patch_still_ok[b]) return false;
   const JointMotion& ma = f.joint_motion[d.patch_joint[a]];
-  const double e = f.patch_deviation[a] + f.patch_deviation[b] +
-                   Apart(f.joint_motion[d.patch_joint[b]].h, ma.h, d.patch_rest_ball[b]);
+  const double e = deviations + Apart(f.joint_motion[d.patch_joint[b]].h, ma.h, d.patch_rest_ball[b]);
   const double moved = ma.inv_norm * e;  // in a's frame, both patches together
   if (!(moved < INFINITY)) return false;
   const double left = double(d.rest_distance) * (1.0 - 1e-6) - moved - f.motion_slack;
   return f.margin > 0.0f ? left > double(f.margin) * ma.inv_norm : left > 0.0;
 }
+
+}  // namespace
+
+bool Still(const Frame& f, uint32_t a, uint32_t b) {
+  return StillWith(f, a, b, f.patch_deviation[a] + f.patch_deviation[b]);
+}
+
+bool CouldBeStill(const Frame& f, uint32_t a, uint32_t b) { return StillWith(f, a, b, 0.0); }
 
 // Whether rule 2 leaves the triangles of patches a and b (their joints more than the hops apart).
 bool JointsApart(const Frame& f, uint32_t a, uint32_t b) {

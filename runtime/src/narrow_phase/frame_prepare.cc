@@ -116,7 +116,8 @@ bool PrepareClusters(const Frame& f, NarrowPhaseContext& ctx, const ParallelFor&
 void MeasureDeviations(const Frame& f, std::span<const SpherePair> pairs, NarrowPhaseContext& ctx,
                        const ParallelFor& parallel_for) {
   const NarrowPhaseData::Layout& d = Of(f.data);
-  // The patches Still will be asked of: in a pair rule 2 leaves, whose boxes meet.
+  // The patches Still will be asked of and may say yes to: in a pair rule 2 leaves, whose boxes meet,
+  // and whose joints' motions alone leave them still (CouldBeStill).
   auto& marked = Of(ctx).marked_patches;
   marked.clear();
   ++Of(ctx).patch_stamp;
@@ -132,7 +133,7 @@ void MeasureDeviations(const Frame& f, std::span<const SpherePair> pairs, Narrow
   const float slack = Slack(f.margin);
   auto consider = [&](uint32_t a, uint32_t b) {
     if (d.near(d.patch_joint[a], d.patch_joint[b]) || !d.patch_still_ok[a] || !d.patch_still_ok[b]) return;
-    if (!BoxesMeet(f.patch_box[a], f.patch_box[b], slack)) return;
+    if (!BoxesMeet(f.patch_box[a], f.patch_box[b], slack) || !CouldBeStill(f, a, b)) return;
     mark(a);
     mark(b);
   };

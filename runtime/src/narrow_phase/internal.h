@@ -335,6 +335,9 @@ bool RestNear(const Frame& f, uint32_t t, uint32_t u);
 double MeasuredDeviation(const Frame& f, uint32_t c, const JointMotion& motion);
 void WeightDeviations(const Frame& f, uint32_t s, double* patch_deviation);
 bool Still(const Frame& f, uint32_t a, uint32_t b);
+// Whether Still could hold with no deviation at all: when not, the joints' motions alone move the
+// patches apart by more than rule 3's distance, and nothing need be measured for them.
+bool CouldBeStill(const Frame& f, uint32_t a, uint32_t b);
 
 // Does the box come within radius of the sphere's centre? (double: the sphere holds its
 // triangles exactly, so a tiny relative slack covers the arithmetic here)
