@@ -1,6 +1,6 @@
 // Private: the pairs of boxes (one per triangle of a whole mesh) that come within a slack of each
-// other, through a uniform grid: what the sphere-free oracle and rule 3's rest-near pairs
-// (contact_rules.h) start from. Each box lists the cells its box grown by the slack covers; a pair is
+// other, through a uniform grid: what the sphere-free oracle (narrow_phase.h,
+// FindContactsBruteForce) starts from. Each box lists the cells its box grown by the slack covers; a pair is
 // found in every cell both cover and reported only in the lowest of them, so once. A box covering more
 // than kMaxCellsPerBox cells (a triangle much larger than the usual one) is tested against every
 // other box instead. The cost is about the number of boxes plus the pairs sharing a cell.

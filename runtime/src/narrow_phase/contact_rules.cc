@@ -1,5 +1,5 @@
 // The contact rules of contact_rules.h: the rest pose, welded vertices, triangle joints, the joint
-// tree's neighbourhoods, the sphere pairs rule 2 excludes, rule 3's rest-near pairs, and their checks.
+// tree's neighbourhoods, the sphere pairs rule 2 excludes, rule 3's test at rest, and their checks.
 #include "skinspheres/runtime/narrow_phase/contact_rules.h"
 
 #include <algorithm>

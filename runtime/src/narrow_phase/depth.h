@@ -14,8 +14,9 @@
 
 namespace skinspheres::runtime::narrow_phase {
 
+// Per triangle: its visit stamp and room in the queue.
 struct DepthScratch {
-  std::vector<uint32_t>& sphere_mark;
+  std::vector<uint32_t>& triangle_mark;
   std::vector<uint32_t>& queue;
   uint32_t& stamp;
   size_t vertices = 0;
@@ -34,54 +35,60 @@ struct Contour {
 };
 
 // How far the vertices of one side of `hits` (one part pair's) reach past the contour
-// (narrow_phase.h); `ensure(s)` makes the positions of sphere s's vertices available. side_t: part_a,
+// (narrow_phase.h): the side's triangles in the hits, then, triangle by triangle, the triangles of the
+// same part sharing a (welded) vertex with a visited triangle that has a vertex past the contour and
+// inside its cylinder: the connected penetrating cap, on the mesh alone. `ensure(s)` makes the
+// positions of sphere s's vertices available (each triangle's are its owner's). side_t: part_a,
 // measured as (C - v) . n; otherwise part_b, (v - C) . n.
 template <class Ensure>
 inline double Flood(const Frame& f, std::span<const Hit> hits, bool side_t, const Contour& contour, Ensure&& ensure,
                     DepthScratch& s) {
+  const NarrowPhaseData::Layout& d = Of(f.data);
   const Eigen::Vector3d& c = contour.c;
   const Eigen::Vector3d& n = contour.n;
   const double r2 = contour.r2;
   if (++s.stamp == 0) {
-    std::fill(s.sphere_mark.begin(), s.sphere_mark.end(), 0u);
+    std::fill(s.triangle_mark.begin(), s.triangle_mark.end(), 0u);
     s.stamp = 1;
   }
   size_t queued = 0;
   for (const Hit& hit : hits) {
-    const uint32_t sphere = side_t ? hit.i : hit.j;
-    if (s.sphere_mark[sphere] != s.stamp) {
-      s.sphere_mark[sphere] = s.stamp;
-      s.queue[queued++] = sphere;
+    const uint32_t t = side_t ? hit.t : hit.u;
+    if (s.triangle_mark[t] != s.stamp) {
+      s.triangle_mark[t] = s.stamp;
+      s.queue[queued++] = t;
     }
   }
+  if (queued == 0) return 0.0;
+  const uint16_t part = d.triangle_part[s.queue[0]];
   const double sign = side_t ? -1.0 : 1.0;
   const double r2_slack = r2 * (1.0 + 1e-9);
-  const auto offsets = f.data.sphere_vertex_offsets();
-  const auto vertices = f.data.sphere_vertices();
-  const auto nb_offsets = f.data.neighbour_offsets();
-  const auto nbs = f.data.neighbours();
+  const uint32_t* tv = f.set.triangle_vertices.data();
   double h = 0.0;
   for (size_t q = 0; q < queued; ++q) {
-    const uint32_t sphere = s.queue[q];
-    ensure(sphere);
+    const uint32_t t = s.queue[q];
+    ensure(OwnerSphere(d, t));
     bool inside = false;
-    for (uint32_t k = offsets[sphere]; k < offsets[sphere + 1]; ++k) {
-      const Eigen::Vector3d d = f.pos[vertices[k]].cast<double>() - c;
-      const double along = d.dot(n);
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d v = f.pos[tv[3 * size_t{t} + k]].cast<double>() - c;
+      const double along = v.dot(n);
       const double axial = sign * along;
-      const double radial2 = d.squaredNorm() - along * along;
+      const double radial2 = v.squaredNorm() - along * along;
       if (axial > 0.0 && radial2 <= r2_slack) {
         inside = true;
         h = std::max(h, axial);
       }
     }
-    s.vertices += offsets[sphere + 1] - offsets[sphere];
+    s.vertices += 3;
     if (!inside) continue;
-    for (uint32_t k = nb_offsets[sphere]; k < nb_offsets[sphere + 1]; ++k) {
-      const uint32_t next = nbs[k];
-      if (s.sphere_mark[next] != s.stamp) {
-        s.sphere_mark[next] = s.stamp;
-        s.queue[queued++] = next;
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t w = d.welded[3 * size_t{t} + k];
+      for (uint32_t e = d.vertex_triangle_offsets[w]; e < d.vertex_triangle_offsets[w + 1]; ++e) {
+        const uint32_t next = d.vertex_triangles[e];
+        if (s.triangle_mark[next] != s.stamp && d.triangle_part[next] == part) {
+          s.triangle_mark[next] = s.stamp;
+          s.queue[queued++] = next;
+        }
       }
     }
   }

@@ -11,7 +11,7 @@
 //   6. BuildClusters: each sphere's triangles cut into clusters (by joint, then median splits);
 //   7. SelfSpheres: the spheres tested against themselves (triangles of joints rule 2 leaves);
 //   8. BuildVertexGroups: mode (b)'s vertex groups, runs and prepared influences;
-//   9. Neighbours: same part and overlapping or sharing a vertex at rest, for the depth estimate;
+//   9. VertexTriangles: per welded vertex, the triangles using it, for the depth estimate;
 //  10. Patches: each sphere's clusters of one joint, their rest balls; rule 3's distance.
 // A frame (narrow_phase_job.cc, NarrowPhaseJob::RunParallel), in order:
 //   1. Involved (frame_prepare.cc): the spheres in this frame's pairs and the self-tested ones;
@@ -163,7 +163,9 @@ struct NarrowPhaseData::Layout {
   std::vector<uint64_t> sphere_run_bits;
   std::vector<uint32_t> welded;
   std::vector<uint32_t> sphere_vertex_offsets, sphere_vertices;
-  std::vector<uint32_t> neighbour_offsets, neighbours;
+  // Per welded vertex id (the first vertex of each rest position), the triangles using it, CSR: the
+  // depth estimate's flood over the mesh.
+  std::vector<uint32_t> vertex_triangle_offsets, vertex_triangles;
   std::vector<Eigen::Vector3f> rest_positions;
   float rest_height = 0.0f;  // rest_positions' extent along +Y
 };
@@ -173,10 +175,12 @@ struct NarrowPhaseContext::State {
   const NarrowPhaseData* sized_for = nullptr;
   narrow_phase::Chunk chunks[kChunks];
   std::vector<narrow_phase::Hit> merged;
-  std::vector<uint64_t> keys;         // scratch for sorting sphere pairs
-  std::vector<uint32_t> sphere_mark;  // per sphere: the depth estimate's visits
-  std::vector<uint32_t> queue;        // per sphere
+  std::vector<uint64_t> keys;           // scratch for sorting sphere pairs
+  std::vector<uint32_t> sphere_mark;    // per sphere: SelectWork's visits
+  std::vector<uint32_t> triangle_mark;  // per triangle: the depth estimate's visits
+  std::vector<uint32_t> queue;          // per triangle
   uint32_t sphere_stamp = 0;
+  uint32_t triangle_stamp = 0;
   std::vector<uint32_t> sphere_seen;           // per sphere: frame stamp when listed in involved or skinned on demand
   std::vector<uint32_t> involved;              // the spheres in this frame's pairs
   std::vector<narrow_phase::Box> cluster_box;  // per cluster: this frame's box
@@ -282,6 +286,13 @@ inline void ItemCorners(const SphereSet& set, const NarrowPhaseData::Layout& d, 
     out[k] =
         runtime::internal::GridPointInline(pos[v[0]], pos[v[1]], pos[v[2]], p.level, p.corners[k][0], p.corners[k][1]);
   }
+}
+
+// A sphere whose point list holds triangle t's three vertices: its owner, or a piece's.
+inline uint32_t OwnerSphere(const NarrowPhaseData::Layout& d, uint32_t t) {
+  const uint32_t owner = d.triangle_owner[t];
+  if ((owner & NarrowPhaseData::Layout::kCut) == 0) return owner;
+  return d.piece_owner[d.piece_owner_offsets[owner & ~NarrowPhaseData::Layout::kCut]];
 }
 
 // The sphere owning the point p (on the frame's triangle t): t's owner, or, for a cut triangle, the

@@ -84,8 +84,6 @@ float NarrowPhaseData::rest_distance() const { return layout_->rest_distance; }
 std::span<const uint32_t> NarrowPhaseData::self_spheres() const { return layout_->self_spheres; }
 std::span<const uint32_t> NarrowPhaseData::sphere_vertex_offsets() const { return layout_->sphere_vertex_offsets; }
 std::span<const uint32_t> NarrowPhaseData::sphere_vertices() const { return layout_->sphere_vertices; }
-std::span<const uint32_t> NarrowPhaseData::neighbour_offsets() const { return layout_->neighbour_offsets; }
-std::span<const uint32_t> NarrowPhaseData::neighbours() const { return layout_->neighbours; }
 std::span<const Eigen::Vector3f> NarrowPhaseData::rest_positions() const { return layout_->rest_positions; }
 size_t NarrowPhaseData::cluster_count() const {
   return layout_->cluster_vertex_offsets.empty() ? 0 : layout_->cluster_vertex_offsets.size() - 1;
@@ -144,7 +142,8 @@ void NarrowPhaseContext::Resize(const NarrowPhaseData& data, bool lazy_skinning)
   st.merged.reserve(256 * kChunks);
   st.keys.reserve(256);
   st.sphere_mark.assign(data.sphere_count(), 0);
-  st.queue.assign(data.sphere_count(), 0);
+  st.triangle_mark.assign(data.triangle_count(), 0);
+  st.queue.assign(data.triangle_count(), 0);
   st.sphere_stamp = 0;
   st.sphere_seen.assign(data.sphere_count(), 0);
   st.involved.reserve(data.sphere_count());
@@ -285,7 +284,7 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
     return false;
   }
   Merge(frame, Of(ctx).merged, Of(ctx).keys, out);
-  DepthScratch scratch{Of(ctx).sphere_mark, Of(ctx).queue, Of(ctx).sphere_stamp};
+  DepthScratch scratch{Of(ctx).triangle_mark, Of(ctx).queue, Of(ctx).triangle_stamp};
   if (lazy) {
     Depths(frame, Of(ctx).merged, *skinner, scratch, out);
     if (!skinner->ok) {
@@ -315,7 +314,7 @@ bool FindContactsBruteForce(const SphereSet& set, const NarrowPhaseData& data, c
   if (!AllPairs(frame, filter, &hits)) return false;
   std::vector<uint64_t> keys;
   Merge(frame, hits, keys, out);
-  std::vector<uint32_t> marks(set.size(), 0), queue(set.size(), 0);
+  std::vector<uint32_t> marks(set.source_triangle_count, 0), queue(set.source_triangle_count, 0);
   uint32_t stamp = 0;
   DepthScratch scratch{marks, queue, stamp};
   Depths(frame, hits, NoSkinning{}, scratch, out);

@@ -1,8 +1,7 @@
 // The brute-force oracle (FindContactsBruteForce, narrow_phase.h). Rules on triangles: every pair of
 // the mesh's triangles whose boxes meet (box_grid.h), rules 1-3 as contact_rules.h states them, rule 3
-// measured at rest here rather than read from the set's precomputed pairs, then the exact test: no
-// sphere anywhere. Rules on sphere pairs (older sets): every pair of spheres the filter allows, every
-// item against every item.
+// measured at rest here, then the exact test: no sphere anywhere. Rules on sphere pairs (older sets): every pair of
+// spheres the filter allows, every item against every item.
 #include <algorithm>
 #include <cmath>
 #include <cstring>

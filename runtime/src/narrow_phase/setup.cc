@@ -263,10 +263,10 @@ std::optional<Error> CheckInputs(const SphereSet& set, const PairFilter& filter,
 }
 
 // Stage 2: the mesh at rest, finite, its height (for the touch tolerance), and the margin against
-// its size. A margin is a contact distance, not a search radius: the rest-pose exclusions (and a
-// frame's contacts) grow with the square of the triangle count within it. Xbot (1.8 units tall) at a margin of 0.1
-// peaked at 290 MB, at 0.18 at 2.7 GB and 100 s of set-up, at 1e30 past 4 GB. Refused beyond the limit, with the size,
-// so the caller can choose.
+// its size. A margin is a contact distance, not a search radius: a frame's contacts, and the pairs
+// rule 3 must measure at rest, grow with the square of the triangle count within it (a margin of a
+// tenth of the height makes every triangle of a limb a candidate of every other). Refused beyond the
+// limit, with the size, so the caller can choose.
 std::optional<Error> RestMesh(const SphereSet& set, const NarrowPhaseSettings& settings, const std::string& who,
                               NarrowPhaseData::Layout& d) {
   if (!RestPositions(set, &d.rest_positions)) {
@@ -358,44 +358,15 @@ void SphereVertices(const SphereSet& set, NarrowPhaseData::Layout& d) {
   }
 }
 
-// Stage 9: neighbours for the depth estimate: same part, and overlapping at rest or sharing a
-// (welded) vertex.
-void Neighbours(const SphereSet& set, const std::vector<uint32_t>& canonical, NarrowPhaseData::Layout& d) {
-  const size_t n = set.size();
-  std::vector<std::vector<uint32_t>> spheres_of(set.source_vertex_count);
-  for (uint32_t s = 0; s < n; ++s) {
-    for (uint32_t k = d.sphere_vertex_offsets[s]; k < d.sphere_vertex_offsets[s + 1]; ++k) {
-      auto& owners = spheres_of[canonical[d.sphere_vertices[k]]];
-      if (owners.empty() || owners.back() != s) owners.push_back(s);
-    }
-  }
-  std::vector<std::vector<uint32_t>> adjacent(n);
-  for (const auto& owners : spheres_of) {
-    for (size_t x = 0; x < owners.size(); ++x) {
-      for (size_t y = x + 1; y < owners.size(); ++y) {
-        if (set.sphere_part[owners[x]] != set.sphere_part[owners[y]]) continue;
-        adjacent[owners[x]].push_back(owners[y]);
-        adjacent[owners[y]].push_back(owners[x]);
-      }
-    }
-  }
-  for (uint32_t i = 0; i < n; ++i) {
-    for (uint32_t j = i + 1; j < n; ++j) {
-      if (set.sphere_part[i] != set.sphere_part[j]) continue;
-      const float reach = set.radii_rest[i] + set.radii_rest[j];
-      if ((set.centers_rest[i] - set.centers_rest[j]).squaredNorm() <= reach * reach) {
-        adjacent[i].push_back(j);
-        adjacent[j].push_back(i);
-      }
-    }
-  }
-  d.neighbour_offsets.assign(1, 0);
-  for (auto& a : adjacent) {
-    std::sort(a.begin(), a.end());
-    a.erase(std::unique(a.begin(), a.end()), a.end());
-    d.neighbours.insert(d.neighbours.end(), a.begin(), a.end());
-    d.neighbour_offsets.push_back(uint32_t(d.neighbours.size()));
-  }
+// Stage 9: per welded vertex, the triangles using it (the depth estimate floods the mesh through them).
+void VertexTriangles(const SphereSet& set, NarrowPhaseData::Layout& d) {
+  const size_t vertices = set.source_vertex_count;
+  d.vertex_triangle_offsets.assign(vertices + 1, 0);
+  for (uint32_t w : d.welded) ++d.vertex_triangle_offsets[w + 1];
+  for (size_t v = 0; v < vertices; ++v) d.vertex_triangle_offsets[v + 1] += d.vertex_triangle_offsets[v];
+  d.vertex_triangles.assign(d.welded.size(), 0);
+  std::vector<uint32_t> fill(d.vertex_triangle_offsets.begin(), d.vertex_triangle_offsets.end() - 1);
+  for (size_t k = 0; k < d.welded.size(); ++k) d.vertex_triangles[fill[d.welded[k]]++] = uint32_t(k / 3);
 }
 
 // Stage 7: with rules on triangles, the spheres holding triangles of joints more than the hops apart
@@ -582,7 +553,7 @@ Result<NarrowPhaseData> NarrowPhaseData::Create(const SphereSet& set, const Pair
   for (size_t s = 0; s < set.size(); ++s) {
     d.max_sphere_clusters = std::max<size_t>(d.max_sphere_clusters, d.cluster_offsets[s + 1] - d.cluster_offsets[s]);
   }
-  Neighbours(set, canonical, d);
+  VertexTriangles(set, d);
   if (!Patches(set, d)) {
     return MakeError(ErrorCode::kInvalidData,
                      who + ": the mesh cannot be skinned at rest (bind entries and skeleton disagree)");

@@ -10,8 +10,10 @@
 // A set whose rules are on triangles (SphereSet::contact_rules, kTriangles) reports the same pairs
 // whatever its fit: another --max-spheres, triangle pieces or none. A set written before them
 // (kSpherePairs) reports what its excluded sphere pairs leave (contact_rules.h says which).
-// Rule 3 at set-up: the set's precomputed rest-near pairs, or, for a margin above the set's rest gap
-// (or a set with rules on sphere pairs), the pairs near at rest found anew (NarrowPhaseData::Create).
+// Rule 3 is decided per frame for the triangle pairs that meet, on the rest positions (NearAtRest,
+// at the larger of the set's rest gap and the margin); no list of the pairs near at rest is stored
+// (there are millions). Patches of neighbouring triangles whose joints' motion alone keeps them as
+// they lay at rest are skipped whole (NarrowPhaseData::Create measures their deviation at set-up).
 // Rest pose = the mesh skinned with the skeleton's rest transforms (SphereSet::joint_rest_world):
 // the positions the spheres were fitted on.
 // Triangle pieces (SphereSet::pieces, docs/TRIANGLE_PIECES.md): a cut triangle's pieces lead the
@@ -72,12 +74,13 @@
 //    distance of a segment end from C across n (the contour's radius);
 //  - h_a = max over vertices v of part_a with |(v - C) across n| <= R of (C - v) . n (how far part_a
 //    reaches past the contour into part_b), h_b = max of (v - C) . n over part_b likewise, both
-//    >= 0; depth = h_a + h_b. The vertices examined are those of the spheres owning the t
-//    triangles, then, sphere by sphere, the neighbours (same part, overlapping or sharing a vertex
-//    at rest) of every examined sphere with a vertex past the contour: the whole penetrating cap.
+//    >= 0; depth = h_a + h_b. The vertices examined are those of the t triangles, then, triangle by
+//    triangle, those of every triangle of part_a sharing a (welded) vertex with an examined triangle
+//    that has a vertex past the contour: the connected penetrating cap, found on the mesh alone.
 //  For two spheres overlapping by d this is d (the lens between their caps); for a palm pressed
-//  into a flat chest it is how deep the palm sinks. It depends only on positions, so exact and fast
-//  mode give the same value. Part pairs with only within-margin pairs have depth 0.
+//  into a flat chest it is how deep the palm sinks. It depends only on positions and the mesh, so
+//  exact and fast mode, and every fit, give the same value. Part pairs with only within-margin pairs
+//  have depth 0.
 // Touching or penetrating (PartContact::kind): a part pair is PENETRATING when it has intersecting
 // pairs and its depth is above NarrowPhaseData::touch_tolerance() (NarrowPhaseSettings::
 // touch_tolerance_share of the rest pose's height), else TOUCHING: surfaces within the margin, or
@@ -200,7 +203,7 @@ struct FrameContacts {
 
 // What the narrow phase derives once from a sphere set (allocates; immutable afterwards, shared by
 // every instance and thread): welded vertex ids, each triangle's joint, part and owner, each sphere's
-// clusters and triangle vertices, rule 3's pairs, the spheres' neighbours for the depth estimate.
+// clusters, patches and triangle vertices, each vertex's triangles for the depth estimate.
 class NarrowPhaseData {
  public:
   NarrowPhaseData();  // empty: usable with no set
@@ -242,9 +245,6 @@ class NarrowPhaseData {
   // Per sphere, the distinct vertices of the triangles it owns (CSR: offsets has sphere_count + 1).
   std::span<const uint32_t> sphere_vertex_offsets() const;
   std::span<const uint32_t> sphere_vertices() const;
-  // Per sphere, its neighbours of the same part (overlapping or sharing a vertex at rest), CSR.
-  std::span<const uint32_t> neighbour_offsets() const;
-  std::span<const uint32_t> neighbours() const;
   // The rest-pose positions (mesh skinned with the rest transforms), per source vertex.
   std::span<const Eigen::Vector3f> rest_positions() const;
   size_t cluster_count() const;
@@ -317,7 +317,7 @@ class NarrowPhaseContext {
   // and those the depth estimate visited; the others hold earlier frames' values.
   std::span<const Eigen::Vector3f> lazy_positions() const;
   // Diagnostics: the spheres the last run tested (boxed and, in mode (b), skinned): those of the pairs
-  // it did not skip whole (narrow_phase.h, "Motion") and the self-tested ones.
+  // it did not skip whole (as still as at rest, see the top of this file) and the self-tested ones.
   std::span<const uint32_t> tested_spheres() const;
 
   // Opaque: defined in runtime/src/narrow_phase/internal.h.
@@ -336,6 +336,8 @@ struct NarrowPhaseJob {
                                           // margin, of the spheres grown by half of it (above)
   // (a) skinned positions by source vertex (>= set->source_vertex_count), or, when empty,
   // (b) G_j(t) per skeleton joint (>= set->joint_count()): the job skins what it tests.
+  // In mode (a) joint_world is optional: given (the matrices the positions were skinned with),
+  // patches as still as at rest are skipped whole; empty, every patch is tested. Same output.
   std::span<const Eigen::Vector3f> positions;
   std::span<const Mat4f> joint_world;
   NarrowPhaseContext* context = nullptr;  // Resize(*data, ...) done
@@ -353,7 +355,7 @@ struct NarrowPhaseJob {
 
 // The oracle. Rules on triangles: no sphere; every pair of the mesh's triangles whose boxes, grown by
 // the margin, meet (a uniform grid finds them), the rules of contact_rules.h with rule 3 measured at
-// rest here (the set's precomputed pairs are not read), the exact test. Rules on sphere pairs: every
+// rest here, the exact test. Rules on sphere pairs: every
 // pair of spheres (i < j) the filter does not exclude, every triangle of i against every triangle of
 // j. Positions of every source vertex. Same output format, sphere pairs and depth included (both
 // derived from the triangle pairs as the job derives them). For tests, `play --verify` and
