@@ -3,9 +3,10 @@
 // with three.js (THREE, THREE.GLTFLoader, THREE.OrbitControls from the scripts before this one).
 //
 // Per frame it draws the spheres where the runtime put them, the character posed at the clip time
-// the runtime sampled, the sphere pairs in contact (red spheres, and a red dot at the middle of
-// each overlap), and, where the data has them, the intersecting triangles (magenta). Both
-// contact colours are unlit and drawn over everything, so they are what the screen shows.
+// the runtime sampled, the sphere pairs owning the frame's triangle contacts (red spheres, and a
+// red dot at the middle of each overlap), and, where the data has them, the intersecting
+// triangles (magenta). Both contact colours are unlit and drawn over everything, so they are what
+// the screen shows.
 //
 // For tests and links: URL hash parameters (see index.html), #ss-state's data-* attributes
 // (ready, clip, frame, frames, pairs, triangle-pairs, selected, pieces, errors) and
@@ -195,9 +196,11 @@
   selectedMesh.visible = false;
   scene.add(selectedMesh);
 
-  // Contact markers: one dot per sphere pair in contact, at the middle of the overlap.
+  // Contact markers: one dot per sphere pair owning a contact, at the middle of the overlap.
   var maxPairs = 1;
-  clips.forEach(function (c) { c.info.pairs.forEach(function (p) { maxPairs = Math.max(maxPairs, p.length / 2); }); });
+  clips.forEach(function (c) {
+    (c.info.contact_pairs || c.info.pairs).forEach(function (p) { maxPairs = Math.max(maxPairs, p.length / 2); });
+  });
   var markerGeometry = new THREE.BufferGeometry();
   markerGeometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(3 * maxPairs), 3));
   markerGeometry.setDrawRange(0, 0);
@@ -259,7 +262,15 @@
     var c = clips[ui.clip];
     return c.xyzr.subarray(4 * S * ui.frame, 4 * S * (ui.frame + 1));
   }
+  // The broad phase's sphere pairs (candidates), and the pairs owning the frame's triangle contacts
+  // (i <= j; i == j: two triangles of one sphere). Pages from before the contact rules on triangles
+  // have no contact_pairs: their candidates stand in.
   function currentPairs() { return ui.clip < 0 ? [] : clips[ui.clip].info.pairs[ui.frame]; }
+  function currentContactPairs() {
+    if (ui.clip < 0) return [];
+    var info = clips[ui.clip].info;
+    return info.contact_pairs ? info.contact_pairs[ui.frame] : info.pairs[ui.frame];
+  }
   // The current frame's part pairs with triangle contacts: flat [part_a, part_b, kind, depth, ...],
   // kind 1 penetrating, 0 touching (null in pages from before the classification).
   function currentPartContacts() {
@@ -484,7 +495,7 @@
 
   function updateFrame() {
     var xyzr = currentXyzr();
-    var pairs = ui.contacts ? currentPairs() : [];
+    var pairs = ui.contacts ? currentContactPairs() : [];
     var inContact = new Uint8Array(S);
     for (var i = 0; i + 1 < pairs.length; i += 2) { inContact[pairs[i]] = 1; inContact[pairs[i + 1]] = 1; }
     for (var s2 = 0; s2 < S; ++s2) {
@@ -526,7 +537,7 @@
     }
     poseCharacter();
     updateTriangleHighlights();
-    updateFrameUi(pairs);
+    updateFrameUi(ui.contacts ? currentPairs() : []);
     setState('clip', ui.clip >= 0 ? clips[ui.clip].info.name : '');
     setState('frame', ui.frame);
     setState('pairs', pairs.length / 2);
@@ -617,10 +628,10 @@
     var s3 = ui.selected;
     var xyzr = currentXyzr();
     var partners = [];
-    var pairs = ui.clip >= 0 ? currentPairs() : [];
+    var pairs = currentContactPairs();
     for (var i = 0; i + 1 < pairs.length; i += 2) {
-      if (pairs[i] === s3) partners.push(pairs[i + 1]);
-      if (pairs[i + 1] === s3) partners.push(pairs[i]);
+      if (pairs[i] === s3 && pairs[i + 1] !== s3) partners.push(pairs[i + 1]);
+      if (pairs[i + 1] === s3 && pairs[i] !== s3) partners.push(pairs[i]);
     }
     var rows = [
       ['id', s3],

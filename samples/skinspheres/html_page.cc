@@ -194,6 +194,7 @@ Result<json> ClipJson(const ViewClip& vc, const lib::RawCharacter& ch, size_t sp
   std::vector<float> xyzr;
   xyzr.reserve(frames.size() * spheres * 4);
   json time = json::array(), clip_time = json::array(), pairs = json::array(), depths = json::array();
+  json contact_pairs = json::array();
   json triangles = json::array(), part_contacts = json::array();
   for (const FrameRecord& f : frames) {
     if (f.spheres.size() != spheres) {
@@ -211,6 +212,9 @@ Result<json> ClipJson(const ViewClip& vc, const lib::RawCharacter& ch, size_t sp
     }
     pairs.push_back(std::move(p));
     depths.push_back(std::move(d));
+    json owners = json::array();
+    for (const auto& c : f.contact_sphere_pairs) owners.insert(owners.end(), {c.i, c.j});
+    contact_pairs.push_back(std::move(owners));
     json flat = json::array();
     for (const auto& tp : f.triangle_pairs) {
       if (tp[0] >= ch.triangle_count() || tp[1] >= ch.triangle_count()) {
@@ -237,6 +241,7 @@ Result<json> ClipJson(const ViewClip& vc, const lib::RawCharacter& ch, size_t sp
               {"spheres_xyzr", Base64Floats(xyzr)},
               {"pairs", std::move(pairs)},
               {"depths", std::move(depths)},
+              {"contact_pairs", std::move(contact_pairs)},
               {"triangle_pairs", std::move(triangles)},
               {"part_contacts", std::move(part_contacts)},
               {"touch_tolerance", r.touch_tolerance},

@@ -94,11 +94,8 @@ FrameSink RecordFrames(std::vector<FrameRecord>* out, FrameSink next) {
     r.time_s = fr.time_s;
     r.clip_time_s = fr.clip_time_s;
     r.spheres.assign(fr.spheres.begin(), fr.spheres.end());
-    for (const runtime::SpherePairId& p : fr.contacts->sphere_pairs) {
-      const skinspheres::Vec4f &a = fr.spheres[p.i], &b = fr.spheres[p.j];
-      const float overlap = a.w() + b.w() - (a.head<3>() - b.head<3>()).norm();
-      r.sphere_pairs.push_back({p.i, p.j, p.i == p.j ? a.w() : overlap});
-    }
+    r.sphere_pairs.assign(fr.sphere_pairs.begin(), fr.sphere_pairs.end());
+    r.contact_sphere_pairs.assign(fr.contacts->sphere_pairs.begin(), fr.contacts->sphere_pairs.end());
     for (const runtime::TriangleContact& c : fr.contacts->triangle_pairs) {
       if (c.kind == runtime::TriangleContactKind::kIntersecting) r.triangle_pairs.push_back({c.t, c.u});
     }

@@ -84,10 +84,9 @@ struct FrameRecord {
   float time_s = 0.0f;
   float clip_time_s = 0.0f;
   std::vector<skinspheres::Vec4f> spheres;
-  // The sphere pairs that own the frame's triangle contacts (the narrow phase's, i <= j), each with
-  // its spheres' overlap (radii less the centres' distance; the broad phase's candidates that own no
-  // contact are not recorded: under the contact rules they are only a filter).
-  std::vector<runtime::SpherePair> sphere_pairs;
+  std::vector<runtime::SpherePair> sphere_pairs;  // the broad phase's: candidates, most owning no contact
+  // The sphere pairs that own the frame's triangle contacts (the narrow phase's, i <= j).
+  std::vector<runtime::SpherePairId> contact_sphere_pairs;
   std::vector<std::array<uint32_t, 2>> triangle_pairs;
   struct Part {
     uint16_t part_a = 0, part_b = 0;
