@@ -32,7 +32,7 @@ int main() {
   // --- Run time: load once, share the asset between instances.
   auto set = runtime::LoadSphereSet(path);
   if (!set.ok()) return std::fprintf(stderr, "%s\n", set.error().message.c_str()), 2;
-  // The narrow phase's exclusions (triangles touching at rest) are found here, once.
+  // The narrow phase's tables (the contact rules on the mesh's triangles) are built here, once.
   auto asset = runtime::CharacterAsset::Create(std::move(set).value(), runtime::NarrowPhaseSettings{});
   if (!asset.ok()) return std::fprintf(stderr, "%s\n", asset.error().message.c_str()), 2;
   auto instance = runtime::CharacterInstance::Create(*asset);

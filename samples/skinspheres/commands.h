@@ -41,7 +41,7 @@ struct FitOptions {
 };
 
 // One line of what the set's contact rules are (narrow_phase/contact_rules.h): on triangles, their
-// hops, rest gap (and its share of the rest height) and rest-near pairs, and the sphere pairs they
+// hops, rest gap (and its share of the rest height), and the sphere pairs they
 // exclude; or, for a set written before them, that its rules are on sphere pairs and depend on the fit.
 std::string ContactRulesSummary(const runtime::SphereSet& set);
 // The same for the reports: {"on": "triangles" | "sphere_pairs", "hops", "rest_gap"} (model units).

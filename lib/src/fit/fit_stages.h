@@ -8,9 +8,8 @@
 //      TightenOwnedSpheres              tightening.cc (the pass itself: tighten/sphere_tightener.h)
 //   the set: WriteSetHeader             set_header.cc
 //            WriteOwnedSpheres          owned_spheres.cc (holding radii, source vertices)
-//   5. WriteExcludedPairs               exclusions.cc
-//   6. WriteFastRefitData               fast_refit_data.cc
-//   7. WriteSetMesh                     set_mesh.cc
+//   5. WriteFastRefitData               fast_refit_data.cc
+//   6. WriteSetMesh                     set_mesh.cc
 //      WriteInfluenceReach              fast_refit_data.cc
 //      HoldMeshCopies                   fast_refit_data.cc
 //      WriteFastReference               fast_refit_data.cc
@@ -140,11 +139,11 @@ void WriteSetHeader(const RawCharacter& ch, const BodyParts& parts, const FitSet
 // Fills the report's body height and growth figures, and counts the dropped spheres.
 void WriteOwnedSpheres(const RawCharacter& ch, const BodyParts& parts, const OwnedSpheres& owned,
                        runtime::SphereSet* set, FitReport* report);
-// 6. Fast-refit data: per sphere, the joints influencing its source vertices with their mean
+// 5. Fast-refit data: per sphere, the joints influencing its source vertices with their mean
 // weights, and radius_fast holding, for every source vertex, the weighted mean distance of its rest
 // copies carried rigidly by each of its bind entries (at least the sphere's radius; refit_job.h).
 void WriteFastRefitData(const RawCharacter& ch, std::span<const Mat4f> rest_world, runtime::SphereSet* set);
-// 7. The mesh (sphere-set version 2): the skin as imported and the triangles in file order, when
+// 6. The mesh (sphere-set version 2): the skin as imported and the triangles in file order, when
 // the character has a skin and triangles.
 void WriteSetMesh(const RawCharacter& ch, runtime::SphereSet* set);
 // 7b. Per sphere influence, its reach from the mesh just written (runtime::InfluenceReachFromMesh:
@@ -166,9 +165,9 @@ void WriteFastReference(runtime::SphereSet* set);
 // reach the largest of its members'; one group otherwise. Never looser than one group.
 void WriteReachGroups(runtime::SphereSet* set);
 
-// 8. The contact rules (runtime::WriteContactRules, narrow_phase/contact_rules.h): rule 2 at
-// settings.contact_hops, rule 3 with a rest gap of settings.rest_gap of the rest height and its
-// rest-near pairs, and the excluded sphere pairs (those rule 2 excludes whole). After the mesh: they
+// 7. The contact rules (runtime::WriteContactRules, narrow_phase/contact_rules.h): rule 2 at
+// settings.contact_hops, rule 3 with a rest gap of settings.rest_gap of the rest height, and the
+// excluded sphere pairs (those rule 2 excludes whole). After the mesh: they
 // are stated on its triangles. kInvalidData when the mesh cannot be skinned at rest.
 std::optional<Error> WriteContactRules(const FitSettings& settings, runtime::SphereSet* set);
 

@@ -89,8 +89,8 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
   }
   if (cut) MapPiecesBack(*cut, &*owned);
 
-  // The set: what it describes and its spheres, 6. fast-refit data, 7. the mesh (and the
-  // influences' reach and the fast refit's reference frame, which need it), 8. the contact rules.
+  // The set: what it describes and its spheres, 5. fast-refit data, 6. the mesh (and the
+  // influences' reach and the fast refit's reference frame, which need it), 7. the contact rules.
   WriteSetHeader(ch, parts, settings, rest_world, &out.spheres);
   WriteOwnedSpheres(ch, parts, *owned, &out.spheres, &out.report);
   WriteFastRefitData(ch, rest_world, &out.spheres);
@@ -103,7 +103,7 @@ Result<FitResult> FitSpheres(const RawCharacter& ch, const BodyParts& parts, con
     out.spheres.reach_group_blend.clear();
     out.spheres.reach_group_deviation.clear();
   }
-  // 8. The contact rules, on the mesh's triangles.
+  // 7. The contact rules, on the mesh's triangles.
   if (auto error = WriteContactRules(settings, &out.spheres)) return *error;
 
   // The self-check: a consistent set, every triangle inside its owner in the bind pose.

@@ -35,16 +35,16 @@
 //     (geometry/enclosing_sphere.h) of the vertices of its triangles: growing where the paper's
 //     sphere left part of its patch outside (Figure 23), shrinking where it was larger than its
 //     patch. Its source vertices are those vertices.
-//  6. Fast-refit data: per sphere, the joints influencing its source vertices with their mean
+//  5. Fast-refit data: per sphere, the joints influencing its source vertices with their mean
 //     weights, and radius_fast covering every rest copy of every source vertex carried rigidly by
 //     each of its bind entries (see runtime/sphere_set.h).
-//  7. The mesh: the character's skin (bind positions, bind entries, influences) and its triangles,
+//  6. The mesh: the character's skin (bind positions, bind entries, influences) and its triangles,
 //     so the runtime can test triangles and skin single vertices (sphere-set version 2); and from
 //     it each sphere influence's reach, the largest weight a source vertex gives that joint, which
 //     tightens the fast refit (runtime/sphere_set.h, influence_reach).
-//  8. The contact rules (runtime narrow_phase/contact_rules.h), stated on the mesh's triangles: rule 2
-//     at `contact_hops`, rule 3's rest gap of `rest_gap` of the rest height and its rest-near pairs,
-//     and the sphere pairs rule 2 excludes whole (the only pairs the broad phase never reports).
+//  7. The contact rules (runtime narrow_phase/contact_rules.h), stated on the mesh's triangles: rule 2
+//     at `contact_hops`, rule 3's rest gap of `rest_gap` of the rest height, and the sphere pairs rule 2 excludes whole
+//     (the only pairs the broad phase never reports).
 // Finally a self-check proves, in double precision, every triangle inside its owner in the bind
 // pose. The result does not depend on the thread count.
 #pragma once

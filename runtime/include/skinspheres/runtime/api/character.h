@@ -13,9 +13,9 @@
 //
 // CharacterAsset holds the SphereSet, the refit's rest data (RefitRestData: G_j(rest)^-1 applied to
 // the centres), the broad phase's PairFilter and, for a set with a mesh (format version 2), the
-// narrow phase's data (narrow_phase.h: exclusions found at set-up for the margin of its
-// NarrowPhaseSettings); immutable after Create, so any number of instances on any threads share
-// it through a shared_ptr.
+// narrow phase's data (narrow_phase.h: the contact rules' tables, clusters and patches built at
+// set-up for the margin of its NarrowPhaseSettings); immutable after Create, so any number of instances on any threads
+// share it through a shared_ptr.
 //
 // CharacterInstance: refitted spheres (refit_job.h) + the self-collision broad phase
 // (broad_phase.h) + the narrow phase (narrow_phase.h). Allocation, in full in docs/EMBEDDING.md:

@@ -87,7 +87,7 @@
 // triangle pieces, a file before version 5 as one without the groups' blends, a file before version 6
 // as one whose contact rules are on sphere pairs (ContactRules::kSpherePairs).
 //
-// Fast-only variant: sections 17-27 and 34-36 left out, i.e. everything fast refit never reads (Xbot: 16 KB
+// Fast-only variant: sections 17-27 and 34-36 left out, i.e. everything fast refit never reads (Xbot: 18 KB
 // instead of 1.6 MB; its JSON takes 3.5 MB). It keeps sections 28-33 and 37-40, 28 filled from the mesh when the set
 // has a mesh and no reach of its own (a fast-only set has no mesh to compute it from later), so it
 // refits exactly as the whole set does. A set read from it has SphereSet::fast_only set; exact refit and
