@@ -351,6 +351,8 @@ SKINSPHERES_C_API skinspheres_status skinspheres_instance_reserve_sphere_pairs(s
         (a triangle's joint: the joint its three vertices weigh most in sum; nodes that are not
         joints are skipped);
      3. they intersect, or lie closer than skinspheres_asset_rest_gap (or the margin), in the rest pose.
+   A triangle with no area in the frame (two corners equal, or all three on a line) is never a
+   contact: its edges belong to the triangles beside it, which are tested.
    The same pairs whatever the fit: the spheres only filter (a sphere pair is never reported only when
    rule 2 excludes every triangle pair it could hold). A set written before these rules
    (SKINSPHERES_RULES_SPHERE_PAIRS: JSON before version 4, binary before layout 6) keeps the rules it

@@ -17,6 +17,9 @@
 //     or, with a margin, closer than the margin: creases, layered pieces, fingers side by side
 //     (NearAtRest). The rest pose is the mesh skinned with the skeleton's rest transforms
 //     (RestPositions).
+// A triangle DEGENERATE in the frame (two corners equal or all three collinear in its float
+// positions; a repeated vertex index among them) has no area and is never a contact
+// (triangle_contact.h): its edges are those of the triangles beside it, which are tested.
 // Everything else that intersects is reported, in exact and fast mode, on every platform, for one
 // character and in crowds. Rule 3 is decided for the pairs that meet in a frame, from the rest
 // positions (no list of pairs is stored: a dense hand's fingers lie side by side by the million).
