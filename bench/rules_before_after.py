@@ -1,24 +1,24 @@
 #!/usr/bin/env python3
-"""What the sphere-level exclusions hide: intersecting triangle pairs that one fit of a character
-reports and its default fit does not.
+"""What the rules on triangles report against the rules on sphere pairs before them, per character.
 
-    bench/hidden_contacts.py build/samples/skinspheres builtin.glb \
-        ../shared/assets/{CesiumMan,Soldier,RobotExpressive}.glb
+    bench/rules_before_after.py --before OLD/skinspheres --after build/samples/skinspheres \
+        builtin.glb ../shared/assets/{CesiumMan,Soldier,RobotExpressive,Xbot}.glb
 
-For each character, four fits (`skinspheres fit`): the default; `--no-bind-overlap`; `--piece-edge
-0.03`; and both. Each plays every clip of the file (`play --clip NAME --dump`, exact refit, 30 fps),
-and each reports only what its narrow phase finds behind sphere pairs its exclusions allow
-(runtime/narrow_phase.h, rule 1: same joint, adjacent joints, overlapping at rest, all stated on
-sphere pairs). `play --verify` shows each of those answers equal to the brute-force oracle under
-the same exclusions, so every pair listed is a real intersection of the skinned mesh.
+Each tool fits the character with its default settings and plays every clip of the file at 30 fps
+(`play --clip NAME --dump`, exact refit); Xbot also plays Soldier's clips and Soldier Xbot's
+(`--clips`), where their rigs match by name. `--before` is a build of the commit before the rules on
+triangles (d579da9: exclusions on sphere pairs: same joint, adjacent joints, overlapping at rest);
+`--after` this tree's. Each answer equals its own brute-force oracle (`play --verify`), so every pair
+either reports is a real intersection of the skinned mesh.
 
-A triangle's joint is the one its three vertices weigh most in sum (ties: the lower index). A
-pair is FAR when the two triangles' joints are more than the fit's adjacent_hops (1) bones apart,
-which rule 1 means to report. The script counts, per character over every clip, the far
-triangle-frame pairs any of the four fits reports, how many of those the default fit reports, and
-those it hides by how far apart the two triangles were in the rest pose (relative to the body
-height; the default's rule 3 already drops pairs that intersect at rest), with the part and joint
-pairs hiding most at 5% or more. Python's standard library only; a few minutes per character.
+Counted over every clip, in triangle-frames (a pair of triangles in one frame): what the rules before
+report, what the rules now report, what now reports that before hid (by how far apart the two
+triangles lay at rest, as a share of the body height: 1-5% and 5% or more; nearer than the rest gap
+of 1% is never a contact now, and is counted as a check), and what before reported that now is not
+a contact (their joints within one bone of each other, or nearer than 1% at rest: rules 2 and 3).
+Per part pair, the frames in which `play` calls it penetrating, before and now. A triangle's joint
+is the one its three vertices weigh most in sum (ties: the lower index), as contact_rules.h says.
+Python's standard library only; a few seconds per character.
 """
 import argparse
 import collections
@@ -30,9 +30,8 @@ import subprocess
 import sys
 import tempfile
 
-VARIANTS = {"default": [], "no bind overlap": ["--no-bind-overlap"], "pieces": ["--piece-edge", "0.03"],
-            "both": ["--no-bind-overlap", "--piece-edge", "0.03"]}
 REST_BINS = [0.01, 0.05, math.inf]  # rest distance / height: < 1%, 1-5%, >= 5%
+CROSS = {"Xbot": "Soldier", "Soldier": "Xbot"}  # rigs whose clips drive each other by name
 
 
 def run(args):
@@ -129,8 +128,16 @@ class Character:
         self.triangles = [t[i:i + 3] for i in range(0, len(t), 3)]
         joints = d["skeleton"]["joints"]
         self.joint_names = [j["name"] for j in joints]
-        self.parent = [j["parent"] for j in joints]
-        self.hops_limit = d["params"].get("adjacent_hops", 1)
+        # The skin's joint tree (contact_rules.h): the joints bind entries name, each under its nearest
+        # ancestor among them.
+        named = {b["joint"] for b in d["mesh"]["binds"]}
+        self.parent = []
+        for j in joints:
+            p = j["parent"]
+            while p >= 0 and p not in named:
+                p = joints[p]["parent"]
+            self.parent.append(p)
+        self.hops_limit = d["params"].get("contact_hops", d["params"].get("adjacent_hops", 1))
 
         def mat(x):  # column-major
             return [[x[c * 4 + r] for c in range(4)] for r in range(4)]
@@ -177,9 +184,9 @@ class Character:
             up[x] = n
             x, n = self.parent[x], n + 1
         x, n = b, 0
-        while x not in up:
+        while x >= 0 and x not in up:
             x, n = self.parent[x], n + 1
-        return up[x] + n
+        return up[x] + n if x >= 0 else math.inf  # two trees: never near
 
     def far(self, t, u):
         return self.hops(self.joint[t], self.joint[u]) > self.hops_limit
@@ -189,59 +196,81 @@ class Character:
                                  [self.rest[v] for v in self.triangles[u]]) / self.height
 
 
-def clip_names(tool, character, spheres):
-    out = run([tool, "play", character, "--spheres", spheres, "--clip", "all"])
+def clip_names(tool, character, spheres, extra):
+    out = run([tool, "play", character, "--spheres", spheres, "--clip", "all", "--frames", "1"] + extra)
     return re.findall(r'^clip "(.*)": \d+ frames', out, re.M)
+
+
+PENETRATING = re.compile(r"^  (\S+ - \S+): penetrating, frames .*?\((\d+) frames", re.M)
+
+
+def play_all(tool, character, tmp, extra):
+    """Fits with the tool's defaults; per clip the triangle-frames (clip, frame, t, u) and penetrating
+    frames per part pair, summed over the clips."""
+    spheres = str(pathlib.Path(tmp) / "set.json")
+    run([tool, "fit", character, "-o", spheres])
+    pairs, penetrating, frames = set(), collections.Counter(), 0
+    clips = clip_names(tool, character, spheres, extra)
+    for c, clip in enumerate(clips):
+        dump = pathlib.Path(tmp) / "dump.jsonl"
+        out = run([tool, "play", character, "--spheres", spheres, "--clip", clip, "--dump", str(dump)] + extra)
+        for part_pair, n in PENETRATING.findall(out):
+            penetrating[part_pair] += int(n)
+        for line in dump.read_text().splitlines():
+            f = json.loads(line)
+            frames += 1
+            for contact in f["contacts"]:
+                for t, u in contact["triangles"]:
+                    pairs.add((c, f["frame"], min(t, u), max(t, u)))
+    return spheres, clips, frames, pairs, penetrating
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("tool")
+    ap.add_argument("--before", required=True, help="the tool built from the commit before the rules on triangles")
+    ap.add_argument("--after", required=True, help="this tree's tool")
     ap.add_argument("characters", nargs="+")
     a = ap.parse_args()
-    print("| character | clips, frames | far pairs found (any fit) | default reports | hidden: rest < 1% | 1-5% | >= 5% "
-          "| most hidden at >= 5% (part:joint pairs, triangle-frames) |")
-    print("|---|---|---|---|---|---|---|---|")
-    with tempfile.TemporaryDirectory() as tmp:
-        for character in a.characters:
-            name = pathlib.Path(character).stem
-            found = {}
-            clips, frames = [], 0
-            for k, (variant, args) in enumerate(VARIANTS.items()):
-                spheres = str(pathlib.Path(tmp) / f"set{k}.json")
-                run([a.tool, "fit", character, "-o", spheres] + args)
-                if k == 0:
-                    ch = Character(spheres)
-                    clips = clip_names(a.tool, character, spheres)
-                pairs = set()
-                for c, clip in enumerate(clips):
-                    dump = pathlib.Path(tmp) / "dump.jsonl"
-                    run([a.tool, "play", character, "--spheres", spheres, "--clip", clip, "--dump", str(dump)])
-                    for line in dump.read_text().splitlines():
-                        f = json.loads(line)
-                        frames += k == 0
-                        for contact in f["contacts"]:
-                            for t, u in contact["triangles"]:
-                                if ch.far(t, u):
-                                    pairs.add((c, f["frame"], min(t, u), max(t, u)))
-                found[variant] = pairs
-            union = set().union(*found.values())
-            default = found["default"]
-            hidden = union - default
-            bins = [0] * len(REST_BINS)
-            worst = collections.Counter()
+    rows, parts = [], []
+    for character in a.characters:
+        name = pathlib.Path(character).stem
+        extra = []
+        if name in CROSS:
+            extra = ["--clips", str(pathlib.Path(character).with_name(CROSS[name] + ".glb"))]
+        with tempfile.TemporaryDirectory() as tmp_before, tempfile.TemporaryDirectory() as tmp_after:
+            _, clips, frames, before, pen_before = play_all(a.before, character, tmp_before, extra)
+            spheres, _, _, now, pen_now = play_all(a.after, character, tmp_after, extra)
+            ch = Character(spheres)
             distance = {}
-            for _, _, t, u in hidden:
+
+            def rest(t, u):
                 if (t, u) not in distance:
                     distance[(t, u)] = ch.rest_distance(t, u)
-                x = distance[(t, u)]
+                return distance[(t, u)]
+
+            hidden = now - before
+            bins = [0] * len(REST_BINS)
+            for _, _, t, u in hidden:
+                x = rest(t, u)
                 bins[next(i for i, b in enumerate(REST_BINS) if x < b)] += 1
-                if x >= 0.05:
-                    pair = sorted(f"{ch.part.get(v, '?')}:{ch.joint_names[ch.joint[v]]}" for v in (t, u))
-                    worst[" / ".join(pair)] += 1
-            top = "; ".join(f"{p} ({n})" for p, n in worst.most_common(3)) or "-"
-            print(f"| {name} | {len(clips)}, {frames} | {len(union)} | {len(default & union)} | {bins[0]} | {bins[1]} | "
-                  f"{bins[2]} | {top} |", flush=True)
+            dropped = before - now
+            near_joints = sum(1 for _, _, t, u in dropped if not ch.far(t, u))
+            near_rest = sum(1 for _, _, t, u in dropped if ch.far(t, u) and rest(t, u) < 0.01)
+            rows.append(f"| {name} | {len(clips)}, {frames} | {len(before)} | {len(now)} | {len(before & now)} | "
+                        f"{bins[0]} | {bins[1]} | {bins[2]} | {near_joints} | {near_rest} | "
+                        f"{len(dropped) - near_joints - near_rest} |")
+            for pair in sorted(set(pen_before) | set(pen_now)):
+                parts.append(f"| {name} | {pair} | {pen_before.get(pair, 0)} | {pen_now.get(pair, 0)} |")
+        print(rows[-1], file=sys.stderr, flush=True)
+    print("| character | clips, frames | before reports | now reports | both | now, hidden before: rest < 1% "
+          "(rule 3: none) | 1-5% | >= 5% | before, not a contact now: joints within one bone | nearer than 1% at rest "
+          "| other |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("\n".join(rows))
+    print()
+    print("| character | part pair | penetrating frames before | now |")
+    print("|---|---|---|---|")
+    print("\n".join(parts))
 
 
 if __name__ == "__main__":
