@@ -37,8 +37,8 @@
 //     one machine load.
 // Checks before timing (set-up; a failure skips the row with the reason): fast + lazy gives the
 // same contacts as fast + full skin on every frame, and FCL's intersecting triangle pairs, after
-// our exclusion rules (sphere pairs the filter excludes, shared vertex, intersecting at rest,
-// degenerate triangles), equal ours between different parts (FCL sees no pair inside one part);
+// the contact rules (contact_rules.h: near joints, shared vertex, near at rest; degenerate
+// triangles), equal ours between different parts (FCL sees no pair inside one part);
 // the counters fcl_same / fcl_only / ours_only say how many pairs agreed over all frames.
 #include <benchmark/benchmark.h>
 
@@ -59,6 +59,7 @@
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/narrow_phase/contact_rules.h"
 #include "skinspheres/runtime/narrow_phase/narrow_phase.h"
 #include "skinspheres/runtime/narrow_phase/triangle_contact.h"
 #include "skinspheres/skinning/local_to_model_job.h"
@@ -841,12 +842,20 @@ void CheckFcl(Character* c, Workload* w, FclWorld* world) {
     const uint32_t* v = &c->set.triangle_vertices[3 * size_t{t}];
     return rt::TriangleIsDegenerate(pos[v[0]], pos[v[1]], pos[v[2]]);
   };
+  // Rule 2 as the set states it: on the triangles' joints (rules on triangles), else on the
+  // spheres that own them (the filter's excluded pairs, as sets before the rules on triangles).
+  const bool on_triangles = c->set.contact_rules == rt::ContactRules::kTriangles;
+  const std::vector<uint16_t> joint = on_triangles ? rt::TriangleJoints(c->set) : std::vector<uint16_t>{};
+  const rt::NearJoints near = on_triangles ? rt::NearJoints(c->set, c->set.contact_hops) : rt::NearJoints{};
+  auto rule2 = [&](uint32_t t, uint32_t u) {
+    return on_triangles ? near(joint[t], joint[u]) : filter.excluded(owner[t], owner[u]);
+  };
   auto inst = rt::CharacterInstance::Create(c->asset);
   for (const Frame& f : w->frames) {
     std::set<std::pair<uint32_t, uint32_t>> fcl_pairs, ours;
     world->Frame(f.positions, [&](uint32_t t, uint32_t u) {
-      if (filter.excluded(owner[t], owner[u]) || data.ShareVertex(t, u) || data.RestExcluded(t, u) ||
-          degenerate(f.positions, t) || degenerate(f.positions, u)) {
+      if (rule2(t, u) || data.ShareVertex(t, u) || data.RestExcluded(t, u) || degenerate(f.positions, t) ||
+          degenerate(f.positions, u)) {
         return;
       }
       fcl_pairs.insert(std::minmax(t, u));
