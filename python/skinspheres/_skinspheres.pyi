@@ -80,8 +80,8 @@ class SphereSet:
         On triangles, two triangles that intersect (or come within the margin) are a contact unless
         they share a vertex (by rest position), their joints (each triangle's joint: the one its three
         vertices weigh most in sum) are at most contact_hops bones apart in the skin's joint tree, or
-        they intersect or lie closer than rest_gap (model units) in the rest pose. The same pairs
-        whatever the fit. On sphere pairs (older files), the pairs excluded_pairs names are never
+        they intersect or lie closer than rest_gap (model units) in the rest pose; a triangle with no
+        area in the frame is never one. The same pairs whatever the fit. On sphere pairs (older files), the pairs excluded_pairs names are never
         tested (overlapping at rest among them): what such a set reports depends on its fit.
         runtime/narrow_phase/contact_rules.h states the rules for C++; skinspheres.h for C."""
     @property
