@@ -1,9 +1,9 @@
 // What a character reports does not depend on how it was fitted (runtime narrow_phase/contact_rules.h):
-// the same triangle pairs, frame by frame, from the default fit, from a fit with --max-spheres at the
-// character's part count, and from a fit with triangle pieces, in exact and in fast mode, and each
-// equal to the sphere-free oracle. On the built-in character and every shared character present, with
-// their own clips and, where the rigs match by name (Soldier and Xbot), each other's clips retargeted
-// as `play --clips` retargets them. The same loading, fitting and retargeting as the tool.
+// the same triangle pairs and part-pair depths, frame by frame, from the default fit, from a fit with --max-spheres at
+// the character's part count, and from a fit with triangle pieces, in exact and in fast mode, and each equal to the
+// sphere-free oracle. On the built-in character and every shared character present, with their own clips and, where the
+// rigs match by name (Soldier and Xbot), each other's clips retargeted as `play --clips` retargets them. The same
+// loading, fitting and retargeting as the tool.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -30,15 +30,16 @@ namespace {
 // At most this many frames of each clip, evenly spread over it at 30 fps (the test's time).
 constexpr int kFramesPerClip = 8;
 
-// What decides a report, without what follows from the fit (sphere pairs, the depth's flood):
-// per part pair its parts and counts, and every triangle pair with its kind.
-using Report = std::vector<std::tuple<uint16_t, uint16_t, uint32_t, uint32_t, uint32_t, uint32_t, int>>;
+// What a report says, without what follows from the fit (the sphere pairs that own the contacts):
+// per part pair its parts, counts and depth (its flood walks the mesh's triangles, not the spheres),
+// and every triangle pair with its kind.
+using Report = std::vector<std::tuple<uint16_t, uint16_t, uint32_t, uint32_t, float, uint32_t, uint32_t, int>>;
 Report ReportOf(const runtime::FrameContacts& c) {
   Report r;
   for (const runtime::PartContact& p : c.parts) {
     for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
       const runtime::TriangleContact& t = c.triangle_pairs[k];
-      r.emplace_back(p.part_a, p.part_b, p.triangle_pair_count, p.intersecting_count, t.t, t.u, int(t.kind));
+      r.emplace_back(p.part_a, p.part_b, p.triangle_pair_count, p.intersecting_count, p.depth, t.t, t.u, int(t.kind));
     }
   }
   return r;
