@@ -1,4 +1,4 @@
-// Fuzz target: the binary sphere-set reader (runtime/src/format/sphere_set_binary.cc) on any bytes, from
+// Fuzz target: the binary sphere-set reader (runtime/src/format/sphere_set_binary_reader.cc) on any bytes, from
 // memory (the checked view on an aligned buffer, and the copying reader at an odd address) and
 // from a file, then the engine API on what it accepted.
 //

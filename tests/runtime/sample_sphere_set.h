@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "skinspheres/runtime/format/sphere_set.h"
+#include "skinspheres/runtime/refit/mesh_bounds.h"
 
 namespace skinspheres::runtime {
 

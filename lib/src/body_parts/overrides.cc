@@ -6,6 +6,7 @@
 #include <system_error>
 
 #include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/format/json_shape.h"
 #include "split_stages.h"
 
 namespace skinspheres::lib {

@@ -5,6 +5,7 @@
 
 #include "fit_stages.h"
 #include "skinspheres/runtime/format/sphere_set.h"
+#include "skinspheres/runtime/refit/mesh_bounds.h"
 #include "skinspheres/runtime/refit/refit_job.h"
 
 namespace skinspheres::lib {

@@ -14,6 +14,7 @@
 
 #include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/format/json_shape.h"
 
 namespace skinspheres::lib::detail {
 namespace {

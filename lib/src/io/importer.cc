@@ -15,6 +15,7 @@
 #include "importer_internal.h"
 #include "skinspheres/lib/io/clip_import.h"
 #include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/format/json_shape.h"
 
 namespace skinspheres::lib {
 namespace detail {

@@ -6,6 +6,7 @@
 
 #include "retarget_stages.h"
 #include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/format/json_shape.h"
 
 namespace skinspheres::lib {
 namespace {

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/format/json_shape.h"
 #include "skinspheres/runtime/format/sphere_set_binary.h"
 
 namespace skinspheres::runtime {

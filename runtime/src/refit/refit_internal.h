@@ -1,7 +1,7 @@
 // The fast refit's vector code (refit_fast.inc), compiled once in portable C++ (every platform:
 // refit_fast_portable.cc) and, on x86-64, once for SSE2 (refit_fast_sse2.cc) and once for AVX2
 // (refit_fast_avx2.cc), and the choice between them at run time; and the crowd calls' refit of 16
-// instances at once in AVX-512 lanes (refit_batch_avx512.cc), used when the CPU has AVX-512F.
+// instances at once in AVX-512 lanes (crowd/refit_batch_avx512.cc), used when the CPU has AVX-512F.
 // All of them evaluate the header's formula with the same float operations in the same order, so
 // they give the same bits (tests/runtime/refit_job_tests.cc compares each with the scalar formula);
 // the choice is a matter of speed only, and RefitJob has no field for it. Tests and benchmarks pin a level here.
@@ -86,7 +86,7 @@ bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
 }
 #endif
 
-// The fast refit of up to kRefitBatchLanes instances of one set at once (refit_batch.inc), the
+// The fast refit of up to kRefitBatchLanes instances of one set at once (crowd/refit_batch.inc), the
 // crowd calls' batch: RefitBatchLanes() lanes, by level: 16 at AVX-512 (refit_batch_avx512.cc), 8 at
 // AVX2 (refit_batch_avx2.cc), 4 at SSE2 (refit_batch_sse2.cc) and portable (refit_batch_portable.cc:
 // what aarch64 runs). Lane b reads world[b] (a's world is not read) and writes out[b], with the same

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/format/json_shape.h"
 #include "test_support.h"
 
 namespace skinspheres::runtime {

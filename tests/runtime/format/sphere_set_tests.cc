@@ -8,6 +8,7 @@
 #include "runtime/format/contact_rules_sets.h"
 #include "runtime/sample_sphere_set.h"
 #include "skinspheres/runtime/format/sphere_set.h"
+#include "skinspheres/runtime/refit/mesh_bounds.h"
 
 namespace skinspheres::runtime {
 namespace {

@@ -22,6 +22,7 @@
 #include "runtime/refit/refit_levels.h"
 #include "runtime/refit/scalar_fast_refit.h"
 #include "runtime/sample_sphere_set.h"
+#include "skinspheres/runtime/refit/mesh_bounds.h"
 #include "skinspheres/runtime/refit/refit_job.h"
 
 namespace skinspheres::runtime {

@@ -1,6 +1,5 @@
-// Whole-file reading and checked writing for paths a user hands in (untrusted), and the JSON
-// nesting check every JSON reader runs before parsing. POSIX and Windows (wide paths, binary mode)
-// alike.
+// Whole-file reading and checked writing for paths a user hands in (untrusted). POSIX and Windows
+// (wide paths, binary mode) alike.
 //
 // Reading refuses, before it reads a byte, anything that is not a regular file: a directory, a
 // FIFO or pipe (it would block until a writer came), a device (/dev/zero never ends; NUL, CON on
@@ -82,17 +81,6 @@ class CheckedFileWriter {
 // error, the tool's stderr line), so a name from a file never splits the line.
 std::string OneLine(std::string message);
 
-// The shape of JSON text, from one linear pass that skips strings (escapes included), with no
-// recursion, whatever the text (malformed text gives some shape; the parser then refuses it):
-// the deepest nesting of arrays and objects, and `values`: the arrays, objects and commas, at
-// least half the number of values and at most their number plus one. nlohmann::json parses deep text without recursion
-// but copies, compares and dumps it recursively, and holds ~100 bytes per value: a reader checks
-// both before parsing.
-struct JsonShape {
-  size_t depth = 0;
-  uint64_t values = 0;  // arrays + objects + commas outside strings
-};
-JsonShape ScanJson(std::string_view text);
-inline constexpr size_t kMaxJsonDepth = 128;
+// The JSON shape check every JSON reader runs before parsing: json_shape.h.
 
 }  // namespace skinspheres::runtime

@@ -276,7 +276,7 @@ class SphereSetBinaryView {
   Result<SphereSet> ToSphereSet() const;
 
  private:
-  friend struct SphereSetBinaryReader;  // sphere_set_binary.cc: Open's steps
+  friend struct SphereSetBinaryReader;  // sphere_set_binary_reader.cc: Open's steps
   struct Range {
     size_t offset = 0;  // bytes from the start
     size_t count = 0;   // elements

@@ -1,6 +1,5 @@
-// The binary sphere-set asset (sphere_set_binary.h): writer, checked view, reader, files.
-#include "skinspheres/runtime/format/sphere_set_binary.h"
-
+// The binary sphere-set reader (sphere_set_binary.h): the checked view over a file's bytes, the
+// set it converts to, and files.
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -12,189 +11,19 @@
 #include <nlohmann/json.hpp>
 #include <utility>
 
+#include "format/binary_layout.h"
+#include "format/utf8.h"
 #include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/format/json_shape.h"
+#include "skinspheres/runtime/format/sphere_set_binary.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
+#include "skinspheres/runtime/refit/mesh_bounds.h"
 
 namespace skinspheres::runtime {
 
-static_assert(
-    std::endian::native == std::endian::little,
-    "the binary sphere-set layout is little-endian and read in place: big-endian hosts need a byte-swapping reader");
-static_assert(sizeof(Mat4f) == 16 * sizeof(float) && sizeof(Eigen::Vector3f) == 3 * sizeof(float));
-
 namespace {
 
-// ---- XXH64 -------------------------------------------------------------------------------------
-
-constexpr uint64_t kP1 = 0x9E3779B185EBCA87ull, kP2 = 0xC2B2AE3D27D4EB4Full, kP3 = 0x165667B19E3779F9ull,
-                   kP4 = 0x85EBCA77C2B2AE63ull, kP5 = 0x27D4EB2F165667C5ull;
-
-inline uint64_t Load64(const std::byte* p) {
-  uint64_t v;
-  std::memcpy(&v, p, 8);
-  return v;
-}
-inline uint32_t Load32(const std::byte* p) {
-  uint32_t v;
-  std::memcpy(&v, p, 4);
-  return v;
-}
-inline uint64_t Round(uint64_t acc, uint64_t input) { return std::rotl(acc + input * kP2, 31) * kP1; }
-inline uint64_t Merge(uint64_t acc, uint64_t v) { return (acc ^ Round(0, v)) * kP1 + kP4; }
-
-// ---- Layout ------------------------------------------------------------------------------------
-
-// Header field offsets (sphere_set_binary.h).
-constexpr size_t kChecksumAt = 8, kVersionAt = 16, kFlagsAt = 20, kFileSizeAt = 24, kSectionCountAt = 32,
-                 kSphereCountAt = 36, kJointCountAt = 40, kPartCountAt = 44, kVertexCountAt = 48, kTriangleCountAt = 52,
-                 kBindCountAt = 56;
-constexpr size_t kChecksummedFrom = 16;
-
-constexpr size_t kFirstFastOnlyOmitted = static_cast<size_t>(SphereSetSection::kVertexOffsets);  // 17
-constexpr size_t kFirstMeshSection = static_cast<size_t>(SphereSetSection::kTriangleVertices);   // 21
-
-struct SectionInfo {
-  const char* name;
-  uint32_t element_size;
-};
-constexpr std::array<SectionInfo, kSphereSetSectionCount> kSections = {{
-    {"string_offsets", 4},
-    {"string_bytes", 1},
-    {"joint_parents", 4},
-    {"joint_rest_world", 4},
-    {"part_joint_offsets", 4},
-    {"part_joints", 4},
-    {"centers_rest", 4},
-    {"radii_rest", 4},
-    {"radii_fast", 4},
-    {"sphere_part", 2},
-    {"sphere_joint", 2},
-    {"sphere_level", 2},
-    {"influence_offsets", 4},
-    {"influence_joints", 2},
-    {"influence_weights", 4},
-    {"excluded_pairs", 4},
-    {"vertex_offsets", 4},
-    {"vertices", 4},
-    {"triangle_offsets", 4},
-    {"triangles", 4},
-    {"triangle_vertices", 4},
-    {"positions_bind", 4},
-    {"bind_joints", 4},
-    {"bind_inverse", 4},
-    {"mesh_influence_offsets", 4},
-    {"mesh_influence_binds", 2},
-    {"mesh_influence_weights", 4},
-    {"influence_reach", 4},
-    {"fast_reference_inverse", 4},
-    {"fast_reference_spheres", 4},
-    {"reach_group_offsets", 4},
-    {"reach_group_radii", 4},
-    {"reach_group_weights", 4},
-    {"piece_points", 4},
-    {"piece_offsets", 4},
-    {"pieces", 4},
-    {"reach_group_blend", 4},
-    {"reach_group_deviation", 4},
-    {"contact_rules", 4},
-    {"rest_gap", 4},
-}};
-
-// Which sections a file of this layout version with these flags holds (index id - 1).
-bool SectionPresent(size_t id, uint32_t flags, uint32_t version) {
-  if (id >= static_cast<size_t>(SphereSetSection::kContactRules)) return version >= kSphereSetBinaryVersion;
-  if (id >= static_cast<size_t>(SphereSetSection::kReachGroupBlend))
-    return version >= kSphereSetBinaryVersionWithoutRules;
-  if (id >= static_cast<size_t>(SphereSetSection::kPiecePoints)) {
-    return version >= kSphereSetBinaryVersionWithoutBlends && (flags & kSphereSetBinaryFlagHasMesh) != 0;
-  }
-  if (id >= static_cast<size_t>(SphereSetSection::kFastReferenceInverse))
-    return version >= kSphereSetBinaryVersionWithoutPieces;
-  if (id == static_cast<size_t>(SphereSetSection::kInfluenceReach))
-    return version >= kSphereSetBinaryVersionWithoutReference;
-  if (id >= kFirstMeshSection) return (flags & kSphereSetBinaryFlagHasMesh) != 0;
-  if (id >= kFirstFastOnlyOmitted) return (flags & kSphereSetBinaryFlagFastOnly) == 0;
-  return true;
-}
-
-size_t AlignUp(size_t n) {
-  return (n + kSphereSetBinaryAlignment - 1) / kSphereSetBinaryAlignment * kSphereSetBinaryAlignment;
-}
-
-// ---- Writer ------------------------------------------------------------------------------------
-
-class Writer {
- public:
-  // One section's bytes (copied when the file is assembled).
-  template <typename T>
-  void Add(SphereSetSection id, const T* data, size_t count) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    Section& s = sections_[static_cast<size_t>(id) - 1];
-    s.present = true;
-    s.count = count;
-    s.data = reinterpret_cast<const std::byte*>(data);
-    s.bytes = count * sizeof(T);
-  }
-  template <typename T>
-  void Add(SphereSetSection id, const std::vector<T>& v) {
-    Add(id, v.data(), v.size());
-  }
-  // Owned data for sections that need re-packing.
-  template <typename T>
-  void AddOwned(SphereSetSection id, std::vector<T> v) {
-    auto held = std::make_shared<std::vector<T>>(std::move(v));
-    owned_.push_back(held);
-    Add(id, held->data(), held->size());
-  }
-
-  std::vector<std::byte> Finish(uint32_t flags, const std::array<uint32_t, 6>& counts) {
-    size_t section_count = 0;
-    for (const Section& s : sections_) section_count += s.present;
-    size_t at = AlignUp(kSphereSetBinaryHeaderSize + section_count * kSphereSetBinarySectionEntrySize);
-    std::vector<size_t> offsets(kSphereSetSectionCount, 0);
-    for (size_t k = 0; k < kSphereSetSectionCount; ++k) {
-      if (!sections_[k].present) continue;
-      offsets[k] = at;
-      at = AlignUp(at + sections_[k].bytes);
-    }
-    std::vector<std::byte> out(at, std::byte{0});
-    std::memcpy(out.data(), kSphereSetBinaryMagic, 8);
-    Put32(out, kVersionAt, kSphereSetBinaryVersion);
-    Put32(out, kFlagsAt, flags);
-    Put64(out, kFileSizeAt, out.size());
-    Put32(out, kSectionCountAt, static_cast<uint32_t>(section_count));
-    const size_t count_at[6] = {kSphereCountAt, kJointCountAt,    kPartCountAt,
-                                kVertexCountAt, kTriangleCountAt, kBindCountAt};
-    for (size_t k = 0; k < 6; ++k) Put32(out, count_at[k], counts[k]);
-    size_t entry = kSphereSetBinaryHeaderSize;
-    for (size_t k = 0; k < kSphereSetSectionCount; ++k) {
-      const Section& s = sections_[k];
-      if (!s.present) continue;
-      Put32(out, entry, static_cast<uint32_t>(k + 1));
-      Put32(out, entry + 4, kSections[k].element_size);
-      Put64(out, entry + 8, offsets[k]);
-      Put64(out, entry + 16, s.count);
-      entry += kSphereSetBinarySectionEntrySize;
-      if (s.bytes) std::memcpy(out.data() + offsets[k], s.data, s.bytes);
-    }
-    Put64(out, kChecksumAt, Xxh64(std::span<const std::byte>(out).subspan(kChecksummedFrom)));
-    return out;
-  }
-
- private:
-  struct Section {
-    bool present = false;
-    size_t count = 0, bytes = 0;
-    const std::byte* data = nullptr;
-  };
-  static void Put32(std::vector<std::byte>& out, size_t at, uint32_t v) { std::memcpy(out.data() + at, &v, 4); }
-  static void Put64(std::vector<std::byte>& out, size_t at, uint64_t v) { std::memcpy(out.data() + at, &v, 8); }
-
-  std::array<Section, kSphereSetSectionCount> sections_{};
-  std::vector<std::shared_ptr<void>> owned_;
-};
-
-// ---- Reader ------------------------------------------------------------------------------------
+using namespace internal;  // binary_layout.h, utf8.h
 
 Error Refuse(const std::string& source, const std::string& what, ErrorCode code = ErrorCode::kInvalidData) {
   return MakeError(code, OneLine(source + ": " + what));
@@ -208,53 +37,6 @@ bool CsrOffsetsOk(std::span<const uint32_t> offsets, size_t total) {
     if (offsets[k] < offsets[k - 1]) return false;
   }
   return true;
-}
-
-// The UTF-8 sequence at s[k]: {length, valid}. An invalid one's length is its maximal subpart
-// (the lead byte and the continuation bytes that fit it, at least 1), which gets one U+FFFD.
-// Shortest forms only, no surrogates, nothing above U+10FFFF.
-std::pair<size_t, bool> Utf8Sequence(std::string_view s, size_t k) {
-  const auto byte = [&](size_t i) { return static_cast<unsigned char>(s[i]); };
-  const unsigned char c = byte(k);
-  size_t len = 0;
-  unsigned char lo = 0x80, hi = 0xBF;  // the range of the second byte
-  if (c < 0x80) return {1, true};
-  if (c >= 0xC2 && c <= 0xDF)
-    len = 2;
-  else if (c >= 0xE0 && c <= 0xEF)
-    len = 3, lo = c == 0xE0 ? 0xA0 : 0x80, hi = c == 0xED ? 0x9F : 0xBF;
-  else if (c >= 0xF0 && c <= 0xF4)
-    len = 4, lo = c == 0xF0 ? 0x90 : 0x80, hi = c == 0xF4 ? 0x8F : 0xBF;
-  else
-    return {1, false};
-  for (size_t i = 1; i < len; ++i) {
-    const bool fits = k + i < s.size() && byte(k + i) >= (i == 1 ? lo : 0x80) && byte(k + i) <= (i == 1 ? hi : 0xBF);
-    if (!fits) return {i, false};
-  }
-  return {len, true};
-}
-
-// The length of the valid UTF-8 prefix of s (s.size() when all of it is valid).
-size_t ValidUtf8Prefix(std::string_view s) {
-  size_t k = 0;
-  for (std::pair<size_t, bool> seq; k < s.size() && (seq = Utf8Sequence(s, k)).second;) k += seq.first;
-  return k;
-}
-
-// s with each invalid sequence replaced by U+FFFD (names taken from a file's bytes: a path, a
-// Latin-1 FBX name), as the JSON writer (nlohmann::json's error_handler_t::replace) does.
-std::string ValidUtf8(std::string_view s) {
-  if (ValidUtf8Prefix(s) == s.size()) return std::string(s);
-  std::string out;
-  for (size_t k = 0; k < s.size();) {
-    const auto [length, valid] = Utf8Sequence(s, k);
-    if (valid)
-      out.append(s.substr(k, length));
-    else
-      out += "\xEF\xBF\xBD";
-    k += length;
-  }
-  return out;
 }
 
 template <typename Dst, typename Src>
@@ -271,148 +53,8 @@ void CopyFloats(std::vector<T>& dst, std::span<const float> src, size_t floats_p
 
 }  // namespace
 
-uint64_t Xxh64(std::span<const std::byte> data, uint64_t seed) {
-  const std::byte* p = data.data();
-  const std::byte* const end = p + data.size();
-  uint64_t h;
-  if (data.size() >= 32) {
-    uint64_t v1 = seed + kP1 + kP2, v2 = seed + kP2, v3 = seed, v4 = seed - kP1;
-    const std::byte* const limit = end - 32;
-    do {
-      v1 = Round(v1, Load64(p));
-      v2 = Round(v2, Load64(p + 8));
-      v3 = Round(v3, Load64(p + 16));
-      v4 = Round(v4, Load64(p + 24));
-      p += 32;
-    } while (p <= limit);
-    h = std::rotl(v1, 1) + std::rotl(v2, 7) + std::rotl(v3, 12) + std::rotl(v4, 18);
-    h = Merge(Merge(Merge(Merge(h, v1), v2), v3), v4);
-  } else {
-    h = seed + kP5;
-  }
-  h += data.size();
-  for (; p + 8 <= end; p += 8) h = std::rotl(h ^ Round(0, Load64(p)), 27) * kP1 + kP4;
-  if (p + 4 <= end) {
-    h = std::rotl(h ^ (static_cast<uint64_t>(Load32(p)) * kP1), 23) * kP2 + kP3;
-    p += 4;
-  }
-  for (; p < end; ++p) h = std::rotl(h ^ (static_cast<uint64_t>(*p) * kP5), 11) * kP1;
-  h ^= h >> 33;
-  h *= kP2;
-  h ^= h >> 29;
-  h *= kP3;
-  h ^= h >> 32;
-  return h;
-}
-
 bool IsSphereSetBinary(std::span<const std::byte> data) {
   return data.size() >= 8 && std::memcmp(data.data(), kSphereSetBinaryMagic, 8) == 0;
-}
-
-std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set, SphereSetBinaryContent content) {
-  const bool fast_only = set.fast_only || content == SphereSetBinaryContent::kFastOnly;
-  const bool mesh = !fast_only && set.has_mesh();
-  const size_t n = set.size();
-  Writer w;
-
-  std::vector<uint32_t> string_offsets = {0};
-  std::string strings;
-  auto add_string = [&](const std::string& s) {
-    strings += ValidUtf8(s);  // the reader refuses invalid UTF-8
-    string_offsets.push_back(static_cast<uint32_t>(strings.size()));
-  };
-  add_string(set.source_file);
-  add_string(set.params_json);
-  for (const std::string& name : set.joint_names) add_string(name);
-  for (const SpherePart& part : set.parts) add_string(part.name);
-  std::vector<uint32_t> part_offsets = {0}, part_joints;
-  for (const SpherePart& part : set.parts) {
-    part_joints.insert(part_joints.end(), part.joints.begin(), part.joints.end());
-    part_offsets.push_back(static_cast<uint32_t>(part_joints.size()));
-  }
-  std::vector<uint32_t> pairs;
-  pairs.reserve(3 * set.excluded_pairs.size());
-  for (const ExcludedPair& p : set.excluded_pairs)
-    pairs.insert(pairs.end(), {p.i, p.j, static_cast<uint32_t>(p.reason)});
-
-  w.AddOwned(SphereSetSection::kStringOffsets, std::move(string_offsets));
-  w.AddOwned(SphereSetSection::kStringBytes, std::vector<char>(strings.begin(), strings.end()));
-  w.Add(SphereSetSection::kJointParents, set.joint_parents);
-  w.Add(SphereSetSection::kJointRestWorld, set.joint_rest_world.empty() ? nullptr : set.joint_rest_world.data()->data(),
-        16 * set.joint_rest_world.size());
-  w.AddOwned(SphereSetSection::kPartJointOffsets, std::move(part_offsets));
-  w.AddOwned(SphereSetSection::kPartJoints, std::move(part_joints));
-  w.Add(SphereSetSection::kCentersRest, n ? set.centers_rest.data()->data() : nullptr, 3 * n);
-  w.Add(SphereSetSection::kRadiiRest, set.radii_rest);
-  w.Add(SphereSetSection::kRadiiFast, set.radii_fast);
-  w.Add(SphereSetSection::kSpherePart, set.sphere_part);
-  w.Add(SphereSetSection::kSphereJoint, set.sphere_joint);
-  w.Add(SphereSetSection::kSphereLevel, set.sphere_level);
-  w.Add(SphereSetSection::kInfluenceOffsets, set.influence_offsets);
-  w.Add(SphereSetSection::kInfluenceJoints, set.influence_joints);
-  w.Add(SphereSetSection::kInfluenceWeights, set.influence_weights);
-  w.AddOwned(SphereSetSection::kExcludedPairs, std::move(pairs));
-  if (!fast_only) {
-    w.Add(SphereSetSection::kVertexOffsets, set.vertex_offsets);
-    w.Add(SphereSetSection::kVertices, set.vertices);
-    w.Add(SphereSetSection::kTriangleOffsets, set.triangle_offsets);
-    w.Add(SphereSetSection::kTriangles, set.triangles);
-  }
-  // The fast-only variant keeps the mesh's reach when the set has no reach of its own: its reader
-  // has no mesh to compute it from (sphere_set.h). Only from a sound set (the mesh's indices are
-  // read); an unsound one is written as it is, and its reader refuses it.
-  std::vector<float> reach_from_mesh;
-  if (fast_only && set.influence_reach.empty() && set.has_mesh() && !set.Validate()) {
-    if (auto reach = InfluenceReachFromMesh(set); reach.ok()) reach_from_mesh = std::move(*reach);
-  }
-  w.Add(SphereSetSection::kInfluenceReach, reach_from_mesh.empty() ? set.influence_reach : reach_from_mesh);
-  w.Add(SphereSetSection::kFastReferenceInverse,
-        set.fast_reference_inverse.empty() ? nullptr : set.fast_reference_inverse.data()->data(),
-        16 * set.fast_reference_inverse.size());
-  w.Add(SphereSetSection::kFastReferenceSpheres,
-        set.fast_reference_spheres.empty() ? nullptr : set.fast_reference_spheres.data()->data(),
-        4 * set.fast_reference_spheres.size());
-  w.Add(SphereSetSection::kReachGroupOffsets, set.reach_group_offsets);
-  w.Add(SphereSetSection::kReachGroupRadii, set.reach_group_radii);
-  w.Add(SphereSetSection::kReachGroupWeights, set.reach_group_weights);
-  w.Add(SphereSetSection::kReachGroupBlend, set.reach_group_blend);
-  w.Add(SphereSetSection::kReachGroupDeviation, set.reach_group_deviation);
-  w.AddOwned(SphereSetSection::kContactRules,
-             std::vector<uint32_t>{static_cast<uint32_t>(set.contact_rules), set.contact_hops});
-  w.AddOwned(SphereSetSection::kRestGap, std::vector<float>{set.rest_gap});
-  if (mesh) {
-    const skinning::SkinnedMesh& m = set.mesh;
-    std::vector<int32_t> bind_joints;
-    std::vector<float> bind_inverse;
-    bind_joints.reserve(m.binds.size());
-    bind_inverse.reserve(16 * m.binds.size());
-    for (const skinning::BindEntry& b : m.binds) {
-      bind_joints.push_back(b.joint);
-      bind_inverse.insert(bind_inverse.end(), b.inverse_bind.data(), b.inverse_bind.data() + 16);
-    }
-    w.Add(SphereSetSection::kTriangleVertices, set.triangle_vertices);
-    w.Add(SphereSetSection::kPositionsBind, m.positions_bind.empty() ? nullptr : m.positions_bind.data()->data(),
-          3 * m.positions_bind.size());
-    w.AddOwned(SphereSetSection::kBindJoints, std::move(bind_joints));
-    w.AddOwned(SphereSetSection::kBindInverse, std::move(bind_inverse));
-    w.Add(SphereSetSection::kMeshInfluenceOffsets, m.influence_offsets);
-    w.Add(SphereSetSection::kMeshInfluenceBinds, m.influence_binds);
-    std::vector<uint32_t> points, pieces;
-    points.reserve(2 * set.piece_points.size());
-    for (const PiecePoint& g : set.piece_points)
-      points.insert(points.end(), {g.triangle, uint32_t{g.level} << 16 | uint32_t{g.i} << 8 | g.j});
-    pieces.reserve(2 * set.pieces.size());
-    for (const TrianglePiece& p : set.pieces)
-      pieces.insert(pieces.end(), {p.triangle, uint32_t{p.level} << 16 | p.index});
-    w.AddOwned(SphereSetSection::kPiecePoints, std::move(points));
-    w.Add(SphereSetSection::kPieceOffsets, set.piece_offsets);
-    w.AddOwned(SphereSetSection::kPieces, std::move(pieces));
-    w.Add(SphereSetSection::kMeshInfluenceWeights, m.influence_weights);
-  }
-  const uint32_t flags = (fast_only ? kSphereSetBinaryFlagFastOnly : 0u) | (mesh ? kSphereSetBinaryFlagHasMesh : 0u);
-  return w.Finish(flags, {static_cast<uint32_t>(n), static_cast<uint32_t>(set.joint_count()),
-                          static_cast<uint32_t>(set.parts.size()), set.source_vertex_count, set.source_triangle_count,
-                          mesh ? static_cast<uint32_t>(set.mesh.binds.size()) : 0u});
 }
 
 // Open's steps, in order, each refusing with a message naming the source (Refuse).
@@ -821,13 +463,6 @@ Result<SphereSet> ReadSphereSetBinary(std::span<const std::byte> bytes, const st
 
 Result<std::vector<std::byte>> ReadSphereSetFile(const std::filesystem::path& path) {
   return ReadRegularFileBytes(path, kMaxSphereSetBytes, "sphere set");
-}
-
-std::optional<Error> SaveSphereSetBinary(const SphereSet& set, const std::filesystem::path& path,
-                                         SphereSetBinaryContent content) {
-  const std::vector<std::byte> bytes = WriteSphereSetBinary(set, content);
-  // Checked through the close (file_io.h): a full disk is an error, never a truncated set.
-  return WriteWholeFile(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 Result<SphereSet> LoadSphereSetBinary(const std::filesystem::path& path) {

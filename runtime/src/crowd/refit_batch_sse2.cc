@@ -1,4 +1,4 @@
-// The crowd's fast refit of 4 instances of one set at once, one per SSE lane (refit/refit_batch.inc
+// The crowd's fast refit of 4 instances of one set at once, one per SSE lane (crowd/refit_batch.inc
 // over simd/float4.h's SSE body): x86-64's baseline, used by the crowd calls on a CPU without AVX2.
 #include "refit/refit_internal.h"
 
@@ -14,6 +14,6 @@ namespace skinspheres::runtime::internal::sse2 {
 namespace F = simd::sse;
 #include "simd/lanes_float4.inc"
 constexpr RefitSimd kThisLevel = RefitSimd::kSse2;
-#include "refit/refit_batch.inc"
+#include "crowd/refit_batch.inc"
 }  // namespace skinspheres::runtime::internal::sse2
 #endif  // x86

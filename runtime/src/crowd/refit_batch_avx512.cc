@@ -1,4 +1,4 @@
-// The crowd's fast refit of 16 instances of one set at once, one per AVX-512 lane (refit/refit_batch.inc), compiled for
+// The crowd's fast refit of 16 instances of one set at once, one per AVX-512 lane (crowd/refit_batch.inc), compiled for
 // AVX-512F whatever the build's flags and used by the crowd calls when the CPU has it (refit_internal.h).
 #include "refit/refit_internal.h"
 
@@ -15,7 +15,7 @@
 namespace skinspheres::runtime::internal::avx512 {
 #include "simd/lanes_avx512.inc"
 constexpr RefitSimd kThisLevel = RefitSimd::kAvx512;
-#include "refit/refit_batch.inc"
+#include "crowd/refit_batch.inc"
 }  // namespace skinspheres::runtime::internal::avx512
 
 #include "simd/target_end.inc"

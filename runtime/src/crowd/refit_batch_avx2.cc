@@ -1,4 +1,4 @@
-// The crowd's fast refit of 8 instances of one set at once, one per AVX lane (refit/refit_batch.inc), compiled for AVX2
+// The crowd's fast refit of 8 instances of one set at once, one per AVX lane (crowd/refit_batch.inc), compiled for AVX2
 // whatever the build's flags and used by the crowd calls when the CPU has it (refit_internal.h).
 #include "refit/refit_internal.h"
 
@@ -15,7 +15,7 @@
 namespace skinspheres::runtime::internal::avx2 {
 #include "simd/lanes_avx2.inc"
 constexpr RefitSimd kThisLevel = RefitSimd::kAvx2;
-#include "refit/refit_batch.inc"
+#include "crowd/refit_batch.inc"
 }  // namespace skinspheres::runtime::internal::avx2
 
 #include "simd/target_end.inc"
