@@ -1,0 +1,153 @@
+// The module's play and check (module_internal.h): the tool's own code, so results are the CLI's.
+#include "module_internal.h"
+
+namespace skinspheres::python {
+
+namespace {
+
+// What play() returns: per-frame arrays with a `frame` field, built from the frame sink's calls.
+struct PlayCollect {
+  std::vector<float> times, clip_times;
+  std::vector<FrameSpherePairRecord> sphere_pairs;
+  std::vector<FramePartContactRecord> parts;
+  std::vector<FrameTriangleContactRecord> triangles;
+};
+
+// With a clip file, `clip` counts or names the file's clips (appended after the character's own
+// `own` clips, renamed "<file stem>/<name>" where the name was taken).
+size_t FileClip(const lib::RawCharacter& character, size_t own, const std::string& file, const std::string& clip) {
+  const size_t added = character.clips.size() - own;
+  if (!clip.empty() && clip.find_first_not_of("0123456789") == std::string::npos) {
+    const size_t k = clip.size() < 10 ? std::stoul(clip) : added;
+    if (k < added) return own + k;
+  }
+  std::string names;
+  for (size_t k = own; k < character.clips.size(); ++k) {
+    const std::string& name = character.clips[k].name;
+    if (name == clip || (name.size() > clip.size() && name.ends_with("/" + clip))) return k;
+    names += (names.empty() ? "" : ", ") + std::to_string(k - own) + ":" + name;
+  }
+  Throw(Error{ErrorCode::kNotFound, file + ": no clip \"" + clip + "\"; clips: " + names});
+}
+
+}  // namespace
+
+std::vector<std::string> ClipNames(const PathText& path_arg) {
+  const std::string& path = path_arg.value;
+  std::vector<std::string> names;
+  py::gil_scoped_release release;
+  auto file = lib::ReadAnimationFile(path);
+  if (!file.ok()) Throw(file.error());
+  for (const auto& clip : file->clips) names.push_back(clip.name);
+  return names;
+}
+
+py::dict Play(const std::optional<std::string>& character, const PlayArgs& a) {
+  if (a.mode != "exact" && a.mode != "fast") ThrowArgument("mode must be 'exact' or 'fast' (got '" + a.mode + "')");
+  if (!(a.fps > 0.0f) || a.fps > 10000.0f) ThrowArgument("fps must be in (0, 10000]");
+  if (a.frames < 0) ThrowArgument("frames must be >= 0 (0: the whole clip)");
+  if (auto why = tool::CheckTouchTolerance(a.touch_tolerance)) ThrowArgument(*why);
+  const tool::FitOptions fit_options = Resolved(tool::FitOptions{});  // as `play` fits on the fly
+  PlayCollect got;
+  std::string clip_name;
+  std::vector<std::string> notes, part_names;
+  float body_height = 0.0f, tolerance = 0.0f;
+  int frame_count = 0;
+  {
+    py::gil_scoped_release release;
+    auto loaded = tool::LoadCharacter(character.value_or(""), fit_options.parts_file);
+    if (!loaded.ok()) Throw(loaded.error());
+    tool::ClipFileOptions files;
+    files.files = a.clip_files;
+    files.joint_map = a.joint_map;
+    files.source_rest = a.source_rest;
+    files.retarget = a.retarget;
+    const size_t own_clips = loaded->character.clips.size();
+    if (auto why = tool::AddClipFiles(*loaded, files, a.fps, &notes)) Throw(*why);
+    runtime::SphereSet set;
+    if (a.spheres) {
+      set = Take(runtime::LoadSphereSet(*a.spheres));
+      tool::AttachMesh(loaded->character, &set);
+    } else {
+      set = Take(lib::FitSpheres(loaded->character, loaded->parts, fit_options.settings)).spheres;
+    }
+    const size_t clip = a.clip_files.empty() ? Take(tool::FindClip(loaded->character, a.clip))
+                                             : FileClip(loaded->character, own_clips, a.clip_files.front(), a.clip);
+    clip_name = loaded->character.clips[clip].name;
+    tool::PlayOptions options;
+    options.fps = a.fps;
+    options.frames = a.frames;
+    options.fast = a.mode == "fast";
+    options.margin = a.margin;
+    options.touch_tolerance = a.touch_tolerance;
+    auto result = tool::PlayClip(*loaded, set, clip, options, [&](const tool::FrameView& f) {
+      const auto frame = static_cast<uint32_t>(f.index);
+      got.times.push_back(f.time_s);
+      got.clip_times.push_back(f.clip_time_s);
+      for (const auto& p : f.sphere_pairs) {
+        got.sphere_pairs.push_back(WithFrame<FrameSpherePairRecord>(frame, ToRecord(p)));
+      }
+      const size_t first_part = got.parts.size(), first_triangle = got.triangles.size();
+      for (size_t k = 0; k < f.contacts->parts.size(); ++k) {
+        const runtime::PartContact& pc = f.contacts->parts[k];
+        PartContactRecord r = ToRecord(pc);
+        r.first_triangle = static_cast<uint32_t>(first_triangle + pc.first_triangle_pair);
+        got.parts.push_back(WithFrame<FramePartContactRecord>(frame, r));
+        for (uint32_t q = pc.first_triangle_pair; q < pc.first_triangle_pair + pc.triangle_pair_count; ++q) {
+          got.triangles.push_back(WithFrame<FrameTriangleContactRecord>(
+              frame, ToRecord(f.contacts->triangle_pairs[q], static_cast<uint32_t>(first_part + k))));
+        }
+      }
+      body_height = f.body_height;
+      tolerance = f.touch_tolerance;
+    });
+    if (!result.ok()) Throw(result.error());
+    frame_count = result->frames;
+    part_names = PartNames(set);
+  }
+  py::dict out;
+  out["clip"] = Text(clip_name);
+  out["frames"] = frame_count;
+  out["times"] = CopyArray(got.times);
+  out["clip_times"] = CopyArray(got.clip_times);
+  out["sphere_pairs"] = CopyArray(got.sphere_pairs);
+  out["part_contacts"] = CopyArray(got.parts);
+  out["triangle_contacts"] = CopyArray(got.triangles);
+  out["part_names"] = Texts(part_names);
+  out["body_height"] = body_height;
+  out["touch_tolerance"] = tolerance;
+  out["notes"] = Texts(notes);
+  return out;
+}
+
+py::dict Check(const std::string& character, const std::vector<std::string>& clip_files, const std::string& clip,
+               float max_depth, float touch_tolerance, const std::optional<std::string>& spheres, float fps,
+               const std::string& mode, int jobs, const std::string& joint_map, const std::string& source_rest,
+               const std::string& retarget, bool compare_source) {
+  tool::CheckArgs a;
+  a.input = character;
+  a.clip_files.files = clip_files;
+  a.clip_files.joint_map = joint_map;
+  a.clip_files.source_rest = source_rest;
+  a.clip_files.retarget = retarget;
+  a.clip = clip;
+  a.max_depth = max_depth;
+  a.touch_tolerance = touch_tolerance;
+  a.spheres = spheres.value_or("");
+  a.fps = fps;
+  a.mode = mode;
+  a.jobs = jobs;
+  a.compare_source = compare_source;
+  tool::CheckOutcome outcome;
+  {
+    py::gil_scoped_release release;
+    outcome = tool::RunCheck(a, /*quiet=*/true);
+  }
+  if (outcome.report.is_null()) Throw(Error{outcome.error_code, outcome.error});
+  py::dict report = py::module_::import("json").attr("loads")(
+      outcome.report.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  report["exit_code"] = outcome.exit_code;
+  return report;
+}
+
+}  // namespace skinspheres::python
