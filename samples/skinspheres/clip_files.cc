@@ -11,6 +11,11 @@
 namespace skinspheres::tool {
 namespace {
 
+// A limb whose rest bone directions differ by more than this between the clip's rest pose and the
+// character's is named in a warning: an A-pose against a T-pose differs by about 45 degrees, a
+// wrong rest frame by up to 180 (119 seen on a Mixamo arm).
+constexpr float kSuspectRestDegrees = 60.0f;
+
 std::string Degrees(float d) {
   char text[32];
   std::snprintf(text, sizeof(text), "%.1f\u00b0", static_cast<double>(d));
@@ -69,6 +74,17 @@ std::vector<std::string> DescribeRetarget(const lib::RetargetReport& r, const Lo
     }
   }
   notes->push_back(how);
+  if (const lib::RestDifference* worst = r.rest_differences.empty() ? nullptr : &r.rest_differences.front();
+      worst != nullptr && worst->degrees > kSuspectRestDegrees) {
+    const bool from_frame = r.rest_from.rfind("frame ", 0) == 0;
+    notes->push_back(
+        "  warning: the clip's rest pose and the character's differ by " + Degrees(worst->degrees) + " on " +
+        worst->limb + " (" + worst->joint + "), more than an A-pose and a T-pose do: " +
+        (from_frame ? "that frame is likely not a rest pose; give --source-rest RIG (a skinned file of the clip's "
+                      "rig) or the number of a frame where it stands at rest"
+                    : "its rest pose is likely not the one it was animated from; give --source-rest RIG (a skinned "
+                      "file of the clip's rig), FRAME (a frame where it stands at rest), nodes or identity"));
+  }
   return notes_out;
 }
 
@@ -131,6 +147,7 @@ Result<ClipFileContext> ResolveClipFileOptions(const ClipFileOptions& o, float f
   } else if (AllDigits(rest)) {
     context.rest.kind = lib::SourceRest::Kind::kTime;
     context.rest.time_s = static_cast<float>(std::stoul(rest)) / fps;
+    context.rest.fps = fps;
     context.rest.label = "frame " + rest + " of each clip (--source-rest)";
   } else {
     auto rig = lib::ImportCharacter(rest);

@@ -6,7 +6,8 @@
 #  - the built-in character's clips from rigs with other rest frames (and bones 1.3 times as long)
 #    give the contacts of its own clips: the same part pairs, frames and depths;
 #  - one worker and two give the same report;
-#  - hostile joint maps, --source-rest and --retarget values: exit 2, one line naming the problem.
+#  - hostile joint maps, --source-rest and --retarget values: exit 2, one line naming the problem;
+#    a --source-rest frame past a clip's end refused, one that is not a rest pose warned about.
 #   cmake -DTOOL=... -DDIR=... -P check_library.cmake
 file(REMOVE_RECURSE ${DIR})
 file(MAKE_DIRECTORY ${DIR}/lib)
@@ -157,3 +158,17 @@ expect_exit(0 "wrote" export-builtin ${DIR}/rotated_anim.glb --rotate-frames 3 -
 expect_bad_input("[^\n]*rotated_anim.glb: made for another rig [^\n]*--source-rest RIG" play ${DIR}/builtin.glb --clips ${DIR}/rotated_anim.glb)
 expect_exit(0 "rest pose: the bind pose of [^\n]*rotated.glb.*clip \"rotated_anim/touch\": 121 frames"
             play ${DIR}/builtin.glb --clips ${DIR}/rotated_anim.glb --source-rest ${DIR}/lib/rotated.glb --clip rotated_anim/touch)
+# --source-rest FRAME: a frame past a clip's end is refused (the sampler would hold the last key, a
+# pose nobody chose); the last frame itself is taken. A frame that is not a rest pose (frame 30 of
+# the touch clip: the hands on the chest) gets a warning naming the options; frame 0 (at rest) none.
+expect_bad_input("[^\n]*rotated_anim.glb: frame 31 of each clip \\(--source-rest\\) lies past the end of clip \"walk\" \\(1 s long, its last frame is 30 at 30 fps\\)"
+                 play ${DIR}/builtin.glb --clips ${DIR}/rotated_anim.glb --source-rest 31)
+expect_bad_input("[^\n]*rotated_anim.glb: frame 99999 of each clip \\(--source-rest\\) lies past the end of clip"
+                 check ${DIR}/builtin.glb --clips ${DIR}/rotated_anim.glb --source-rest 99999)
+expect_exit(0 "warning: the clip's rest pose and the character's differ by 1[0-9][0-9]\\.[0-9]° on arm_[lr] [^\n]*that frame is likely not a rest pose; give --source-rest RIG"
+            play ${DIR}/builtin.glb --clips ${DIR}/rotated_anim.glb --source-rest 30 --clip rotated_anim/touch --frames 2)
+run_tool(play ${DIR}/builtin.glb --clips ${DIR}/rotated_anim.glb --source-rest 0 --clip rotated_anim/touch --frames 2)
+if(NOT rc EQUAL 0 OR out MATCHES "warning" OR NOT out MATCHES "rest poses differ by up to 0\\.0°")
+  message(SEND_ERROR "--source-rest 0 (a rest pose): exit ${rc}, a warning or a difference:\n${out}\n${err}")
+endif()
+expect_exit(0 "source rest pose: frame 30 of each clip" play ${DIR}/builtin.glb --clips ${DIR}/rotated_anim.glb --source-rest 30 --clip rotated_anim/walk --frames 2)

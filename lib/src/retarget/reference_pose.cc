@@ -2,6 +2,7 @@
 // SourceRest the caller gives, and world poses of local transforms.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 
 #include "retarget_stages.h"
@@ -136,6 +137,22 @@ Result<WorldPose> SourceReference(const SourceRig& source, const SourceRest& res
       std::string why;
       if (!skinning::ValidateClip(a, source.nodes, &why)) {
         return MakeError(ErrorCode::kInvalidData, source.source_file + ": clip \"" + a.name + "\": " + why);
+      }
+      // Past the clip's end the sampler would hold its last key: a pose nobody chose (refused,
+      // never a silent guess). A frame counts at rest.fps; a thousandth of one is float slack.
+      const bool past_end = rest.fps > 0.0f ? double(rest.time_s) * rest.fps > double(a.duration_s) * rest.fps + 1e-3
+                                            : rest.time_s > a.duration_s * (1.0f + 1e-6f) + 1e-6f;
+      if (past_end) {
+        char seconds[32];
+        std::snprintf(seconds, sizeof seconds, "%.4g s long", static_cast<double>(a.duration_s));
+        std::string end = seconds;
+        if (rest.fps > 0.0f) {
+          end += ", its last frame is " +
+                 std::to_string(static_cast<int64_t>(std::floor(double(a.duration_s) * rest.fps + 1e-3))) + " at " +
+                 std::to_string(static_cast<int>(std::lround(rest.fps))) + " fps";
+        }
+        return MakeError(ErrorCode::kInvalidArgument, source.source_file + ": " + rest.label +
+                                                          " lies past the end of clip \"" + a.name + "\" (" + end + ")");
       }
       if (!skinning::SamplingJob{&a, &source.nodes, rest.time_s, locals}.Run()) {
         return MakeError(ErrorCode::kInvalidData, source.source_file + ": clip \"" + a.name +

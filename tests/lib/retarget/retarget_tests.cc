@@ -210,6 +210,26 @@ TEST(Retarget, ANoRestPoseFileNamesTheOptionAndEachSourceRestWorks) {
   const auto& own_touch = ClipNamed(test::BuiltinCharacter().clips, "touch");
   for (float t = 0.0f; t <= kTouchDuration_s; t += 0.1f)
     EXPECT_LT(JointDistance(own_touch, ClipNamed(*via_frame, "touch"), t), 2e-4f) << "t=" << t;
+
+  // A rest time past a clip's end is refused, naming the clip (the sampler would hold its last key:
+  // a pose nobody chose); given as a frame, the message names the clip's last frame. Each clip's
+  // own end counts: the walk (1 s) ends before the touch clip.
+  const auto& walk = ClipNamed(test::BuiltinCharacter().clips, "walk");
+  for (const float fps : {0.0f, 30.0f}) {
+    RetargetOptions past;
+    past.source_rest = {SourceRest::Kind::kTime, nullptr, walk.duration_s + 1.0f / 30.0f, "frame 31", fps};
+    const auto refused_past = RetargetClips(*file, test::BuiltinCharacter(), past);
+    ASSERT_FALSE(refused_past.ok()) << "fps " << fps;
+    EXPECT_EQ(refused_past.error().code, ErrorCode::kInvalidArgument);
+    EXPECT_NE(refused_past.error().message.find("frame 31 lies past the end of clip \"walk\""), std::string::npos)
+        << refused_past.error().message;
+    EXPECT_EQ(refused_past.error().message.find("its last frame is 30 at 30 fps") != std::string::npos, fps > 0.0f)
+        << refused_past.error().message;
+    RetargetOptions last = past;
+    last.source_rest.time_s = walk.duration_s;  // the walk's last frame, within every clip of the file
+    const auto at_last = RetargetClips(*file, test::BuiltinCharacter(), last);
+    EXPECT_TRUE(at_last.ok()) << at_last.error().message;
+  }
 }
 
 // An A-pose rig: the same skeleton and keys, but the upper arms' rest rotations lowered 45° (an

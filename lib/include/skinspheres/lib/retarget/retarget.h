@@ -116,6 +116,7 @@ struct SourceRest {
   const RawCharacter* rig = nullptr;  // kRig: a skinned character of the source's rig
   float time_s = 0.0f;                // kTime
   std::string label;                  // how the report names it: "the file's skin", "frame 0", ...
+  float fps = 0.0f;                   // kTime given as a frame: its rate (names the clip's last frame)
 };
 
 struct RetargetOptions {
