@@ -151,8 +151,9 @@ Result<WorldPose> SourceReference(const SourceRig& source, const SourceRest& res
                  std::to_string(static_cast<int64_t>(std::floor(double(a.duration_s) * rest.fps + 1e-3))) + " at " +
                  std::to_string(static_cast<int>(std::lround(rest.fps))) + " fps";
         }
-        return MakeError(ErrorCode::kInvalidArgument, source.source_file + ": " + rest.label +
-                                                          " lies past the end of clip \"" + a.name + "\" (" + end + ")");
+        return MakeError(
+            ErrorCode::kInvalidArgument,
+            source.source_file + ": " + rest.label + " lies past the end of clip \"" + a.name + "\" (" + end + ")");
       }
       if (!skinning::SamplingJob{&a, &source.nodes, rest.time_s, locals}.Run()) {
         return MakeError(ErrorCode::kInvalidData, source.source_file + ": clip \"" + a.name +
