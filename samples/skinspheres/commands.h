@@ -59,5 +59,6 @@ void AddConvertCommand(CLI::App& app, int* exit_code);
 void AddExportBuiltinCommand(CLI::App& app, int* exit_code);
 void AddDemoCommand(CLI::App& app, int* exit_code);
 void AddCheckCommand(CLI::App& app, int* exit_code);
+void AddRetargetCommand(CLI::App& app, int* exit_code);
 
 }  // namespace skinspheres::tool

@@ -3,6 +3,7 @@
 //   skinspheres convert IN OUT [--fast-only]     sphere set JSON <-> binary (convert_command.cc)
 //   skinspheres play INPUT [...]                 play a clip: sample, skin, refit, query (play_command.cc)
 //   skinspheres check INPUT --clips FILE... [...] check an animation library for penetration (check_command.cc)
+//   skinspheres retarget INPUT --clips FILE... -o OUT.glb  the clips retargeted, written as glTF (retarget_command.cc)
 //   skinspheres demo                             fit and play the built-in character
 //   skinspheres export-builtin OUT.glb           write the built-in character as glTF
 #include <CLI/CLI.hpp>
@@ -19,6 +20,7 @@ int main(int argc, char** argv) {
   skinspheres::tool::AddFitCommand(app, &exit_code);
   skinspheres::tool::AddPlayCommand(app, &exit_code);
   skinspheres::tool::AddCheckCommand(app, &exit_code);
+  skinspheres::tool::AddRetargetCommand(app, &exit_code);
   skinspheres::tool::AddDemoCommand(app, &exit_code);
   skinspheres::tool::AddExportBuiltinCommand(app, &exit_code);
   skinspheres::tool::AddConvertCommand(app, &exit_code);

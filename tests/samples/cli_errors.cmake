@@ -59,6 +59,10 @@ set(cli_cases
   "check_report_full|check|@GLB@|--clip|walk|--report|/dev/full|/dev/full: write failed"
   "check_csv_fifo|check|@GLB@|--clip|walk|--csv|@FIFO@|fifo: is a FIFO"
   "check_jobs|check|@GLB@|--jobs|-3|--jobs must be"
+  "retarget_output_full|retarget|@GLB@|--clips|@GLB@|-o|@FULL_GLB@|full.glb: write failed"
+  "retarget_clips_fifo|retarget|@GLB@|--clips|@FIFO@|-o|out.glb|FIFO"
+  "retarget_no_clips|retarget|@GLB@|-o|out.glb|retarget needs --clips"
+  "retarget_not_glb|retarget|@GLB@|--clips|@GLB@|-o|out.gltf|-o takes a .glb file"
   # A sphere set nested 100,000 deep (it crashed play with SIGSEGV).
   "spheres_deep|play|@GLB@|--spheres|@DEEP@|nests 100002 deep"
 )
