@@ -47,6 +47,7 @@ from ._skinspheres import (  # noqa: F401  (the public names)
     fit,
     load,
     play,
+    retarget,
 )
 
 

@@ -215,6 +215,23 @@ def play(
     (FRAME_TRIANGLE_CONTACT_DTYPE; part_contact indexes part_contacts), part_names, body_height,
     touch_tolerance (set units), notes (what the retarget did)."""
 
+def retarget(
+    character: Path,
+    clip_files: Sequence[Path],
+    output: Path,
+    *,
+    clip: str = "all",
+    fps: float = 30.0,
+    joint_map: str = "",
+    source_rest: str = "",
+    retarget: str = "auto",
+    rest_directions: str = "keep",
+) -> dict[str, Any]:
+    """`skinspheres retarget`: writes `output` (.glb), the character with the clips of clip_files
+    retargeted onto it, one LINEAR key per frame at fps for every joint. Returns {"output", "clips"
+    (names), "durations" (seconds, float32 array), "frames" (keys per joint, summed), "joints",
+    "notes" (what retargeting did, as the tool prints it)}. Raises as the tool refuses (exit 2)."""
+
 def check(
     character: Path,
     clip_files: Sequence[Path] = ...,

@@ -294,6 +294,20 @@ PYBIND11_MODULE(_skinspheres, m) {
       "touch_tolerance"_a = tool::kDefaultTouchTolerance, "joint_map"_a = "", "source_rest"_a = "",
       "retarget"_a = "auto");
   m.def(
+      "retarget",
+      [](const PathText& character, const std::vector<PathText>& clip_files, const PathText& output,
+         const std::string& clip, float fps, const std::string& joint_map, const std::string& source_rest,
+         const std::string& retarget, const std::string& rest_directions) {
+        std::vector<std::string> files;
+        for (const PathText& f : clip_files) files.push_back(f.value);
+        NoNul(joint_map, "joint_map");
+        NoNul(source_rest, "source_rest");
+        return Retarget(character.value, files, output.value, clip, fps, joint_map, source_rest, retarget,
+                        rest_directions);
+      },
+      "character"_a, "clip_files"_a, "output"_a, py::kw_only(), "clip"_a = "all", "fps"_a = 30.0f,
+      "joint_map"_a = "", "source_rest"_a = "", "retarget"_a = "auto", "rest_directions"_a = "keep");
+  m.def(
       "check",
       [](const PathText& character, const std::vector<PathText>& clip_files, const std::string& clip, float max_depth,
          float touch_tolerance, const std::optional<PathText>& spheres, float fps, const std::string& mode, int jobs,

@@ -327,6 +327,11 @@ std::vector<std::string> ClipNames(const PathText& path_arg);
 // `skinspheres play` on one clip: per-frame arrays with a `frame` field, and the clip's figures.
 py::dict Play(const std::optional<std::string>& character, const PlayArgs& a);
 
+// `skinspheres retarget`: the written file's clips, durations, frames and notes.
+py::dict Retarget(const std::string& character, const std::vector<std::string>& clip_files, const std::string& output,
+                  const std::string& clip, float fps, const std::string& joint_map, const std::string& source_rest,
+                  const std::string& retarget, const std::string& rest_directions);
+
 // `skinspheres check`: its JSON report as a dict, with "exit_code".
 py::dict Check(const std::string& character, const std::vector<std::string>& clip_files, const std::string& clip,
                float max_depth, float touch_tolerance, const std::optional<std::string>& spheres, float fps,

@@ -120,6 +120,30 @@ py::dict Play(const std::optional<std::string>& character, const PlayArgs& a) {
   return out;
 }
 
+py::dict Retarget(const std::string& character, const std::vector<std::string>& clip_files, const std::string& output,
+                  const std::string& clip, float fps, const std::string& joint_map, const std::string& source_rest,
+                  const std::string& retarget, const std::string& rest_directions) {
+  tool::ClipFileOptions files;
+  files.files = clip_files;
+  files.joint_map = joint_map;
+  files.source_rest = source_rest;
+  files.retarget = retarget;
+  files.rest_directions = rest_directions;
+  tool::RetargetWritten written;
+  {
+    py::gil_scoped_release release;
+    written = Take(tool::WriteRetargetedClips(character, files, clip, fps, output));
+  }
+  py::dict out;
+  out["output"] = Text(output);
+  out["clips"] = Texts(written.clips);
+  out["durations"] = CopyArray(written.durations);
+  out["frames"] = written.frames;
+  out["joints"] = written.joints;
+  out["notes"] = Texts(written.notes);
+  return out;
+}
+
 py::dict Check(const std::string& character, const std::vector<std::string>& clip_files, const std::string& clip,
                float max_depth, float touch_tolerance, const std::optional<std::string>& spheres, float fps,
                const std::string& mode, int jobs, const std::string& joint_map, const std::string& source_rest,

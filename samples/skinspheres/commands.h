@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/character/raw_character.h"
@@ -60,5 +61,19 @@ void AddExportBuiltinCommand(CLI::App& app, int* exit_code);
 void AddDemoCommand(CLI::App& app, int* exit_code);
 void AddCheckCommand(CLI::App& app, int* exit_code);
 void AddRetargetCommand(CLI::App& app, int* exit_code);
+
+// `skinspheres retarget` (retarget_command.cc): the character at `input` with the clips of `files`
+// retargeted onto it (those `clip` names: all, a name, or an index among them), each baked to one
+// key per frame at fps (lib::BakeClip), written to `output` (.glb). Errors as the tool prints them.
+struct RetargetWritten {
+  std::vector<std::string> clips;  // the written animations' names
+  std::vector<float> durations;    // seconds, per clip
+  size_t frames = 0;               // keys per joint, summed over the clips
+  size_t joints = 0;               // joints keyed per frame
+  std::vector<std::string> notes;  // what retargeting did, per file (as play prints it)
+};
+struct ClipFileOptions;
+Result<RetargetWritten> WriteRetargetedClips(const std::string& input, const ClipFileOptions& files,
+                                             const std::string& clip, float fps, const std::string& output);
 
 }  // namespace skinspheres::tool

@@ -45,39 +45,51 @@ Result<std::vector<size_t>> SelectClips(const lib::RawCharacter& ch, size_t own,
 }
 
 int RunRetarget(const RetargetArgs& a) {
-  if (a.clip_files.files.empty()) return Fail("retarget needs --clips: the animation files to retarget");
-  if (!(a.fps > 0.0f) || a.fps > 10000.0f) return Fail("--fps must be in (0, 10000]");
-  std::string ext = std::filesystem::path(a.output).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  if (ext != ".glb") return Fail(a.output + ": -o takes a .glb file");
-  auto loaded = LoadCharacter(a.input, "");
-  if (!loaded.ok()) return Fail(loaded.error().message);
-  const size_t own = loaded->character.clips.size();
-  std::vector<std::string> notes;
-  if (auto why = AddClipFiles(*loaded, a.clip_files, a.fps, &notes)) return Fail(why->message);
-  for (const auto& note : notes) std::printf("%s\n", note.c_str());
-  auto chosen = SelectClips(loaded->character, own, a.clip);
-  if (!chosen.ok()) return Fail(chosen.error().message);
-  lib::RawCharacter& ch = loaded->character;
-  std::vector<skinning::AnimationClip> baked;
-  size_t keys = 0;
-  for (size_t k : *chosen) {
-    auto clip = lib::BakeClip(ch.clips[k], ch.skeleton, a.fps);
-    if (!clip.ok()) return Fail(a.input + ": " + clip.error().message);
-    keys += clip->tracks.empty() ? 0 : clip->tracks.front().rotation.times_s.size();
-    baked.push_back(std::move(*clip));
-  }
-  ch.clips = std::move(baked);
-  auto written = lib::ExportGlb(ch, a.output);
+  auto written = WriteRetargetedClips(a.input, a.clip_files, a.clip, a.fps, a.output);
   if (!written.ok()) return Fail(written.error().message);
+  for (const auto& note : written->notes) std::printf("%s\n", note.c_str());
   std::printf("wrote %s: %zu clip%s, %zu frames at %g fps, %zu joints keyed per frame\n", a.output.c_str(),
-              ch.clips.size(), ch.clips.size() == 1 ? "" : "s", keys, static_cast<double>(a.fps), ch.skeleton.size());
-  for (const auto& clip : ch.clips)
-    std::printf("  %s (%.3f s)\n", clip.name.c_str(), static_cast<double>(clip.duration_s));
+              written->clips.size(), written->clips.size() == 1 ? "" : "s", written->frames, static_cast<double>(a.fps),
+              written->joints);
+  for (size_t k = 0; k < written->clips.size(); ++k) {
+    std::printf("  %s (%.3f s)\n", written->clips[k].c_str(), static_cast<double>(written->durations[k]));
+  }
   return 0;
 }
 
 }  // namespace
+
+Result<RetargetWritten> WriteRetargetedClips(const std::string& input, const ClipFileOptions& files,
+                                             const std::string& clip, float fps, const std::string& output) {
+  if (files.files.empty())
+    return MakeError(ErrorCode::kInvalidArgument, "retarget needs --clips: the animation files to retarget");
+  if (!(fps > 0.0f) || fps > 10000.0f) return MakeError(ErrorCode::kInvalidArgument, "--fps must be in (0, 10000]");
+  std::string ext = std::filesystem::path(output).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (ext != ".glb") return MakeError(ErrorCode::kInvalidArgument, output + ": -o takes a .glb file");
+  auto loaded = LoadCharacter(input, "");
+  if (!loaded.ok()) return loaded.error();
+  const size_t own = loaded->character.clips.size();
+  RetargetWritten out;
+  if (auto why = AddClipFiles(*loaded, files, fps, &out.notes)) return *why;
+  auto chosen = SelectClips(loaded->character, own, clip);
+  if (!chosen.ok()) return chosen.error();
+  lib::RawCharacter& ch = loaded->character;
+  std::vector<skinning::AnimationClip> baked;
+  for (size_t k : *chosen) {
+    auto one = lib::BakeClip(ch.clips[k], ch.skeleton, fps);
+    if (!one.ok()) return MakeError(one.error().code, input + ": " + one.error().message);
+    out.frames += one->tracks.empty() ? 0 : one->tracks.front().rotation.times_s.size();
+    out.clips.push_back(one->name);
+    out.durations.push_back(one->duration_s);
+    baked.push_back(std::move(*one));
+  }
+  ch.clips = std::move(baked);
+  auto written = lib::ExportGlb(ch, output);
+  if (!written.ok()) return written.error();
+  out.joints = ch.skeleton.size();
+  return out;
+}
 
 void AddRetargetCommand(CLI::App& app, int* exit_code) {
   auto a = std::make_shared<RetargetArgs>();

@@ -109,3 +109,26 @@ def test_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and message in r.stderr, r.stderr
     assert not (tmp_path / "out.glb").exists()
+
+
+def test_python_retarget_writes_what_the_tool_writes(tmp_path):
+    import skinspheres
+
+    character, rig = tmp_path / "builtin.glb", tmp_path / "rotated.glb"
+    assert run("export-builtin", character).returncode == 0
+    assert run("export-builtin", rig, "--rotate-frames", 3, "--bone-scale", 1.3).returncode == 0
+    (tmp_path / "tool").mkdir()
+    (tmp_path / "python").mkdir()
+    by_tool, by_python = tmp_path / "tool" / "out.glb", tmp_path / "python" / "out.glb"  # the name is written too
+    assert run("retarget", character, "--clips", rig, "-o", by_tool).returncode == 0
+    result = skinspheres.retarget(character, [rig], by_python)
+    assert result["clips"] == ["rotated/walk", "rotated/touch"]
+    assert result["frames"] == 152 and result["joints"] == 26
+    np.testing.assert_allclose(result["durations"], [1.0, 4.0])
+    assert any("retargeted in world space" in n for n in result["notes"])
+    assert by_python.read_bytes() == by_tool.read_bytes()
+    with pytest.raises(skinspheres.InvalidArgument, match="lies past the end of clip"):
+        skinspheres.retarget(character, [rig], tmp_path / "no.glb", source_rest="99999")
+    with pytest.raises(skinspheres.NotFound, match="no such clip"):
+        skinspheres.retarget(character, [rig], tmp_path / "no.glb", clip="nosuch")
+    assert not (tmp_path / "no.glb").exists()
