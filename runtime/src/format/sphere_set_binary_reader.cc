@@ -311,6 +311,39 @@ struct SphereSetBinaryReader {
     }
     return std::nullopt;
   }
+  // The mesh sections (has_mesh()) into set: triangles, bind positions, bind entries, influences,
+  // grid points and pieces.
+  static std::optional<Error> MeshInto(const SphereSetBinaryView& v, SphereSet* set) {
+    CopyInto(set->triangle_vertices, v.triangle_vertices());
+    skinning::SkinnedMesh& m = set->mesh;
+    CopyFloats(m.positions_bind, v.positions_bind(), 3);
+    m.binds.resize(v.bind_count_);
+    const auto joints = v.bind_joints();
+    const auto inverse = v.bind_inverse();
+    for (size_t b = 0; b < v.bind_count_; ++b) {
+      m.binds[b].joint = joints[b];
+      std::memcpy(m.binds[b].inverse_bind.data(), inverse.data() + 16 * b, 16 * sizeof(float));
+    }
+    CopyInto(m.influence_offsets, v.mesh_influence_offsets());
+    CopyInto(m.influence_binds, v.mesh_influence_binds());
+    CopyInto(m.influence_weights, v.mesh_influence_weights());
+    const auto points = v.piece_points();
+    set->piece_points.resize(points.size() / 2);
+    for (size_t k = 0; k < set->piece_points.size(); ++k) {
+      const uint32_t code = points[2 * k + 1];
+      if (code >> 24 != 0) return Refuse(v.source_name_, "grid point " + std::to_string(k) + " has a level beyond 255");
+      set->piece_points[k] = {points[2 * k], static_cast<uint16_t>(code >> 16), static_cast<uint8_t>(code >> 8),
+                              static_cast<uint8_t>(code)};
+    }
+    CopyInto(set->piece_offsets, v.piece_offsets());
+    const auto pieces_read = v.pieces();
+    set->pieces.resize(pieces_read.size() / 2);
+    for (size_t k = 0; k < set->pieces.size(); ++k) {
+      const uint32_t code = pieces_read[2 * k + 1];
+      set->pieces[k] = {pieces_read[2 * k], static_cast<uint16_t>(code >> 16), static_cast<uint16_t>(code)};
+    }
+    return std::nullopt;
+  }
 };
 
 Result<SphereSetBinaryView> SphereSetBinaryView::Open(std::span<const std::byte> bytes, std::string source_name) {
@@ -417,34 +450,7 @@ Result<SphereSet> SphereSetBinaryView::ToSphereSet() const {
     CopyInto(set.triangles, triangles());
   }
   if (has_mesh()) {
-    CopyInto(set.triangle_vertices, triangle_vertices());
-    skinning::SkinnedMesh& m = set.mesh;
-    CopyFloats(m.positions_bind, positions_bind(), 3);
-    m.binds.resize(bind_count_);
-    const auto joints = bind_joints();
-    const auto inverse = bind_inverse();
-    for (size_t b = 0; b < bind_count_; ++b) {
-      m.binds[b].joint = joints[b];
-      std::memcpy(m.binds[b].inverse_bind.data(), inverse.data() + 16 * b, 16 * sizeof(float));
-    }
-    CopyInto(m.influence_offsets, mesh_influence_offsets());
-    CopyInto(m.influence_binds, mesh_influence_binds());
-    CopyInto(m.influence_weights, mesh_influence_weights());
-    const auto points = piece_points();
-    set.piece_points.resize(points.size() / 2);
-    for (size_t k = 0; k < set.piece_points.size(); ++k) {
-      const uint32_t code = points[2 * k + 1];
-      if (code >> 24 != 0) return Refuse(source_name_, "grid point " + std::to_string(k) + " has a level beyond 255");
-      set.piece_points[k] = {points[2 * k], static_cast<uint16_t>(code >> 16), static_cast<uint8_t>(code >> 8),
-                             static_cast<uint8_t>(code)};
-    }
-    CopyInto(set.piece_offsets, piece_offsets());
-    const auto pieces_read = pieces();
-    set.pieces.resize(pieces_read.size() / 2);
-    for (size_t k = 0; k < set.pieces.size(); ++k) {
-      const uint32_t code = pieces_read[2 * k + 1];
-      set.pieces[k] = {pieces_read[2 * k], static_cast<uint16_t>(code >> 16), static_cast<uint16_t>(code)};
-    }
+    if (auto err = SphereSetBinaryReader::MeshInto(*this, &set)) return *err;
   }
   if (auto err = set.Validate()) return Refuse(source_name_, err->message);
   return set;

@@ -31,6 +31,9 @@ uint32_t CornerVertex(const SphereSet& set, uint32_t triangle, uint16_t level, u
 
 using skinning::kWeightSumTolerance;  // skinned_mesh.h
 
+std::optional<Error> CheckMeshSkin(const SphereSet& set);
+std::optional<Error> CheckSpheresHoldTheirCorners(const SphereSet& set);
+
 // The version-2 mesh: sizes, index ranges, finite values, and every vertex of a triangle a sphere
 // owns among that sphere's source vertices (what the refit bounds is what a triangle test reads).
 std::optional<Error> ValidateMesh(const SphereSet& set) {
@@ -59,6 +62,15 @@ std::optional<Error> ValidateMesh(const SphereSet& set) {
   for (size_t v = 0; v < vertices; ++v) {
     if (!mesh.positions_bind[v].allFinite()) return Invalid("mesh vertex " + std::to_string(v) + " is not finite");
   }
+  if (auto err = CheckMeshSkin(set)) return err;
+  return CheckSpheresHoldTheirCorners(set);
+}
+
+// The mesh's skin: bind entries naming joints in range with finite affine inverse bind matrices,
+// well-formed influence lists with finite weights >= 0 summing to 1 per vertex.
+std::optional<Error> CheckMeshSkin(const SphereSet& set) {
+  const skinning::SkinnedMesh& mesh = set.mesh;
+  const size_t vertices = set.source_vertex_count;
   for (size_t b = 0; b < mesh.binds.size(); ++b) {
     if (mesh.binds[b].joint < 0 || static_cast<size_t>(mesh.binds[b].joint) >= set.joint_count()) {
       return Invalid("mesh bind entry " + std::to_string(b) + " names joint " + std::to_string(mesh.binds[b].joint) +
@@ -96,6 +108,13 @@ std::optional<Error> ValidateMesh(const SphereSet& set) {
     return Invalid("mesh vertex " + std::to_string(v) + " has skin weights summing to " + Digits(float(sum)) +
                    ", not 1");
   }
+  return std::nullopt;
+}
+
+// Every vertex of a triangle a sphere owns, and every corner of a piece it owns, among that
+// sphere's points (what the refit bounds is what a triangle test reads).
+std::optional<Error> CheckSpheresHoldTheirCorners(const SphereSet& set) {
+  const size_t vertices = set.source_vertex_count;
   // marked[k] == s: point k (a source vertex, or grid point k - vertices) is in sphere s's list.
   std::vector<uint32_t> marked(vertices + set.piece_points.size(), UINT32_MAX);
   // The grid points by key (unique: CheckPieces), to find a piece corner's point.

@@ -103,35 +103,34 @@ std::optional<Error> CheckFastRadii(const SphereSet& set) {
   return std::nullopt;
 }
 
-// The reach groups (all three arrays empty, or: 1 to kMaxReachGroups groups per sphere, each with a
-// finite positive radius and a reach per influence entry in [0, 1] summing to at least 1); with a
-// mesh, every source vertex dominated by one of its sphere's groups (a group that misses a vertex
-// would give fast spheres that miss it).
-std::optional<Error> CheckReachGroups(const SphereSet& set) {
+namespace {
+
+// The reach groups' counts: 1 to kMaxReachGroups per sphere, one reach per group and influence;
+// *weights: that count of reaches.
+std::optional<Error> CheckReachGroupCounts(const SphereSet& set, size_t* weights) {
   const size_t n = set.size();
-  if (set.reach_group_offsets.empty() && set.reach_group_radii.empty() && set.reach_group_weights.empty()) {
-    if (!set.reach_group_blend.empty() || !set.reach_group_deviation.empty()) {
-      return Invalid("the reach groups' blends are given without the groups");
-    }
-    return std::nullopt;
-  }
   if (!CsrOk(set.reach_group_offsets, n, set.reach_group_radii.size())) {
     return Invalid("the reach groups' offsets are malformed (one per sphere plus one, from 0 to the group count)");
   }
-  size_t weights = 0;
+  *weights = 0;
   for (size_t s = 0; s < n; ++s) {
     const uint32_t groups = set.reach_group_offsets[s + 1] - set.reach_group_offsets[s];
     if (groups < 1 || groups > kMaxReachGroups) {
       return Invalid("sphere " + std::to_string(s) + " has " + std::to_string(groups) + " reach groups (1 to " +
                      std::to_string(kMaxReachGroups) + ")");
     }
-    weights += size_t{groups} * (set.influence_offsets[s + 1] - set.influence_offsets[s]);
+    *weights += size_t{groups} * (set.influence_offsets[s + 1] - set.influence_offsets[s]);
   }
-  if (set.reach_group_weights.size() != weights) {
+  if (set.reach_group_weights.size() != *weights) {
     return Invalid("the reach groups have " + std::to_string(set.reach_group_weights.size()) + " reach entries for " +
-                   std::to_string(weights) + " (one per group and influence)");
+                   std::to_string(*weights) + " (one per group and influence)");
   }
-  for (size_t s = 0, base = 0; s < n; ++s) {
+  return std::nullopt;
+}
+
+// Each group: a finite positive radius, reaches within [0, 1] summing to at least 1.
+std::optional<Error> CheckReachGroupReaches(const SphereSet& set) {
+  for (size_t s = 0, base = 0; s < set.size(); ++s) {
     const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
     for (uint32_t g = set.reach_group_offsets[s]; g < set.reach_group_offsets[s + 1]; ++g, base += k_count) {
       const float r = set.reach_group_radii[g];
@@ -154,52 +153,54 @@ std::optional<Error> CheckReachGroups(const SphereSet& set) {
       }
     }
   }
-  // The groups' blends: both arrays empty, or each as long as the reaches, within [0, 1], and 0 on
-  // an entry that repeats an earlier entry's joint.
-  const bool blends = !set.reach_group_blend.empty() || !set.reach_group_deviation.empty();
-  if (blends && (set.reach_group_blend.size() != weights || set.reach_group_deviation.size() != weights)) {
-    return Invalid("the reach groups have " + std::to_string(set.reach_group_blend.size()) + " blend and " +
-                   std::to_string(set.reach_group_deviation.size()) + " deviation entries for " +
-                   std::to_string(weights) + " (one each per group and influence, or none)");
-  }
+  return std::nullopt;
+}
+
+// The groups' blends (present): each within [0, 1], 0 on an entry that repeats an earlier entry's
+// joint, and some weights summing to 1 within each deviation of each blend.
+std::optional<Error> CheckReachGroupBlends(const SphereSet& set) {
   std::vector<uint8_t> repeated;  // per entry of the sphere: its joint appeared at an earlier entry
-  if (blends) {
-    for (size_t s = 0, base = 0; s < n; ++s) {
-      RepeatedInfluenceEntries(set, s, &repeated);
-      const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
-      for (uint32_t g = set.reach_group_offsets[s]; g < set.reach_group_offsets[s + 1]; ++g, base += k_count) {
-        for (uint32_t k = 0; k < k_count; ++k) {
-          const float m = set.reach_group_blend[base + k], e = set.reach_group_deviation[base + k];
-          if (!(m >= 0.0f && m <= 1.0f) || !(e >= 0.0f && e <= 1.0f)) {
-            return Invalid("sphere " + std::to_string(s) + "'s reach group " + std::to_string(g) + " has blend " +
-                           Digits(m) + " and deviation " + Digits(e) + " (each must be within [0, 1])");
-          }
-          if (repeated[k] && (m != 0.0f || e != 0.0f)) {
-            return Invalid("sphere " + std::to_string(s) + "'s reach group " + std::to_string(g) +
-                           " blends influence entry " + std::to_string(k) +
-                           ", which repeats an earlier entry's joint (its blend and deviation must be 0)");
-          }
+  for (size_t s = 0, base = 0; s < set.size(); ++s) {
+    RepeatedInfluenceEntries(set, s, &repeated);
+    const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
+    for (uint32_t g = set.reach_group_offsets[s]; g < set.reach_group_offsets[s + 1]; ++g, base += k_count) {
+      for (uint32_t k = 0; k < k_count; ++k) {
+        const float m = set.reach_group_blend[base + k], e = set.reach_group_deviation[base + k];
+        if (!(m >= 0.0f && m <= 1.0f) || !(e >= 0.0f && e <= 1.0f)) {
+          return Invalid("sphere " + std::to_string(s) + "'s reach group " + std::to_string(g) + " has blend " +
+                         Digits(m) + " and deviation " + Digits(e) + " (each must be within [0, 1])");
         }
-        // Some weights summing to 1 lie within e of m (checked without a mesh too, as the reach's sum).
-        double highest = 0.0, lowest = 0.0;
-        for (uint32_t k = 0; k < k_count; ++k) {
-          if (repeated[k]) continue;
-          const double m = set.reach_group_blend[base + k], e = set.reach_group_deviation[base + k];
-          highest += std::min(m + e, 1.0);
-          lowest += std::max(m - e, 0.0);
-        }
-        if (!(highest >= 1.0 - kWeightSumTolerance) || !(lowest <= 1.0 + kWeightSumTolerance)) {
+        if (repeated[k] && (m != 0.0f || e != 0.0f)) {
           return Invalid("sphere " + std::to_string(s) + "'s reach group " + std::to_string(g) +
-                         " has blends and deviations that no weights summing to 1 fit (from " + Digits(float(lowest)) +
-                         " to " + Digits(float(highest)) + ")");
+                         " blends influence entry " + std::to_string(k) +
+                         ", which repeats an earlier entry's joint (its blend and deviation must be 0)");
         }
+      }
+      // Some weights summing to 1 lie within e of m (checked without a mesh too, as the reach's sum).
+      double highest = 0.0, lowest = 0.0;
+      for (uint32_t k = 0; k < k_count; ++k) {
+        if (repeated[k]) continue;
+        const double m = set.reach_group_blend[base + k], e = set.reach_group_deviation[base + k];
+        highest += std::min(m + e, 1.0);
+        lowest += std::max(m - e, 0.0);
+      }
+      if (!(highest >= 1.0 - kWeightSumTolerance) || !(lowest <= 1.0 + kWeightSumTolerance)) {
+        return Invalid("sphere " + std::to_string(s) + "'s reach group " + std::to_string(g) +
+                       " has blends and deviations that no weights summing to 1 fit (from " + Digits(float(lowest)) +
+                       " to " + Digits(float(highest)) + ")");
       }
     }
   }
-  if (!set.has_mesh() || set.fast_only) return std::nullopt;
+  return std::nullopt;
+}
+
+// With a mesh: every source vertex dominated by one of its sphere's groups (its reference radius,
+// its weights, and with blends its weights within each deviation of each blend).
+std::optional<Error> CheckReachGroupsCoverMesh(const SphereSet& set, bool blends) {
   auto vertices = FastBoundVerticesFromMesh(set);
   if (!vertices.ok()) return vertices.error();
-  for (size_t s = 0, base = 0; s < n; ++s) {
+  std::vector<uint8_t> repeated;
+  for (size_t s = 0, base = 0; s < set.size(); ++s) {
     const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
     const uint32_t g0 = set.reach_group_offsets[s], g1 = set.reach_group_offsets[s + 1];
     if (blends) RepeatedInfluenceEntries(set, s, &repeated);
@@ -226,6 +227,36 @@ std::optional<Error> CheckReachGroups(const SphereSet& set) {
     base += size_t{g1 - g0} * k_count;
   }
   return std::nullopt;
+}
+
+}  // namespace
+
+// The reach groups (all three arrays empty, or: 1 to kMaxReachGroups groups per sphere, each with a
+// finite positive radius and a reach per influence entry in [0, 1] summing to at least 1); with a
+// mesh, every source vertex dominated by one of its sphere's groups (a group that misses a vertex
+// would give fast spheres that miss it).
+std::optional<Error> CheckReachGroups(const SphereSet& set) {
+  if (set.reach_group_offsets.empty() && set.reach_group_radii.empty() && set.reach_group_weights.empty()) {
+    if (!set.reach_group_blend.empty() || !set.reach_group_deviation.empty()) {
+      return Invalid("the reach groups' blends are given without the groups");
+    }
+    return std::nullopt;
+  }
+  size_t weights = 0;
+  if (auto err = CheckReachGroupCounts(set, &weights)) return err;
+  if (auto err = CheckReachGroupReaches(set)) return err;
+  // The groups' blends: both arrays empty, or each as long as the reaches.
+  const bool blends = !set.reach_group_blend.empty() || !set.reach_group_deviation.empty();
+  if (blends && (set.reach_group_blend.size() != weights || set.reach_group_deviation.size() != weights)) {
+    return Invalid("the reach groups have " + std::to_string(set.reach_group_blend.size()) + " blend and " +
+                   std::to_string(set.reach_group_deviation.size()) + " deviation entries for " +
+                   std::to_string(weights) + " (one each per group and influence, or none)");
+  }
+  if (blends) {
+    if (auto err = CheckReachGroupBlends(set)) return err;
+  }
+  if (!set.has_mesh() || set.fast_only) return std::nullopt;
+  return CheckReachGroupsCoverMesh(set, blends);
 }
 
 }  // namespace skinspheres::runtime::internal
