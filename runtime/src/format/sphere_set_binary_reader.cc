@@ -170,48 +170,86 @@ struct SphereSetBinaryReader {
     return std::nullopt;
   }
 
+  // Section `id` holds `expected` elements, else the error naming it.
+  static std::optional<Error> CountIs(const SphereSetBinaryView& v, const std::string& src, SphereSetSection id,
+                                      uint64_t expected) {
+    const size_t got = v.sections_[static_cast<uint32_t>(id) - 1].count;
+    if (got == expected) return std::nullopt;
+    return Refuse(src, std::string("section ") + kSections[static_cast<uint32_t>(id) - 1].name + " has " +
+                           std::to_string(got) + " elements, expected " + std::to_string(expected));
+  }
+
+  // Section `offsets_id` holds rows + 1 CSR offsets over each of `lists`.
+  static std::optional<Error> Csr(const SphereSetBinaryView& v, const std::string& src, SphereSetSection offsets_id,
+                                  uint64_t rows, std::initializer_list<SphereSetSection> lists) {
+    if (auto err = CountIs(v, src, offsets_id, rows + 1)) return err;
+    const auto offsets = v.Get<uint32_t>(offsets_id);
+    for (SphereSetSection list : lists) {
+      if (!CsrOffsetsOk(offsets, v.sections_[static_cast<uint32_t>(list) - 1].count)) {
+        return Refuse(src, std::string("section ") + kSections[static_cast<uint32_t>(offsets_id) - 1].name +
+                               " does not start at 0, decreases, or does not end at the length of section " +
+                               kSections[static_cast<uint32_t>(list) - 1].name);
+      }
+    }
+    return std::nullopt;
+  }
+
+  static size_t Count(const SphereSetBinaryView& v, SphereSetSection id) {
+    return v.sections_[static_cast<uint32_t>(id) - 1].count;
+  }
+
   // Counts: every section's length follows from the header counts and the CSR offsets.
   static std::optional<Error> CheckCounts(SphereSetBinaryView& v, const std::string& src) {
     const uint64_t n = v.sphere_count_, joints = v.joint_count_, parts = v.part_count_;
-    auto count_is = [&](SphereSetSection id, uint64_t expected) -> std::optional<Error> {
-      const size_t got = v.sections_[static_cast<uint32_t>(id) - 1].count;
-      if (got == expected) return std::nullopt;
-      return Refuse(src, std::string("section ") + kSections[static_cast<uint32_t>(id) - 1].name + " has " +
-                             std::to_string(got) + " elements, expected " + std::to_string(expected));
-    };
-    auto csr = [&](SphereSetSection offsets_id, uint64_t rows,
-                   std::initializer_list<SphereSetSection> lists) -> std::optional<Error> {
-      if (auto err = count_is(offsets_id, rows + 1)) return err;
-      const auto offsets = v.Get<uint32_t>(offsets_id);
-      for (SphereSetSection list : lists) {
-        if (!CsrOffsetsOk(offsets, v.sections_[static_cast<uint32_t>(list) - 1].count)) {
-          return Refuse(src, std::string("section ") + kSections[static_cast<uint32_t>(offsets_id) - 1].name +
-                                 " does not start at 0, decreases, or does not end at the length of section " +
-                                 kSections[static_cast<uint32_t>(list) - 1].name);
-        }
-      }
-      return std::nullopt;
-    };
     using S = SphereSetSection;
     const uint64_t strings = 2 + joints + parts;
     std::optional<Error> err;
-    if ((err = csr(S::kStringOffsets, strings, {S::kStringBytes})) || (err = count_is(S::kJointParents, joints)) ||
-        (err = count_is(S::kJointRestWorld, 16 * joints)) ||
-        (err = csr(S::kPartJointOffsets, parts, {S::kPartJoints})) || (err = count_is(S::kCentersRest, 3 * n)) ||
-        (err = count_is(S::kRadiiRest, n)) || (err = count_is(S::kRadiiFast, n)) ||
-        (err = count_is(S::kSpherePart, n)) || (err = count_is(S::kSphereJoint, n)) ||
-        (err = count_is(S::kSphereLevel, n)) ||
-        (err = csr(S::kInfluenceOffsets, n, {S::kInfluenceJoints, S::kInfluenceWeights}))) {
+    if ((err = Csr(v, src, S::kStringOffsets, strings, {S::kStringBytes})) ||
+        (err = CountIs(v, src, S::kJointParents, joints)) || (err = CountIs(v, src, S::kJointRestWorld, 16 * joints)) ||
+        (err = Csr(v, src, S::kPartJointOffsets, parts, {S::kPartJoints})) ||
+        (err = CountIs(v, src, S::kCentersRest, 3 * n)) || (err = CountIs(v, src, S::kRadiiRest, n)) ||
+        (err = CountIs(v, src, S::kRadiiFast, n)) || (err = CountIs(v, src, S::kSpherePart, n)) ||
+        (err = CountIs(v, src, S::kSphereJoint, n)) || (err = CountIs(v, src, S::kSphereLevel, n)) ||
+        (err = Csr(v, src, S::kInfluenceOffsets, n, {S::kInfluenceJoints, S::kInfluenceWeights}))) {
       return *err;
     }
-    const size_t reach = v.sections_[static_cast<uint32_t>(S::kInfluenceReach) - 1].count;
-    const size_t influences = v.sections_[static_cast<uint32_t>(S::kInfluenceJoints) - 1].count;
+    if ((err = CheckFastSectionCounts(v, src))) return *err;
+    // The contact rules: (rules, hops) and the gap, in a file that has them.
+    if (v.version_ >= kSphereSetBinaryVersion) {
+      if ((err = CountIs(v, src, S::kContactRules, 2)) || (err = CountIs(v, src, S::kRestGap, 1))) return *err;
+    }
+    if ((err = CheckPieceCounts(v, src))) return *err;
+    if (Count(v, S::kExcludedPairs) % 3 != 0) {
+      return Refuse(src, "section excluded_pairs does not hold whole (i, j, reason) triples");
+    }
+    if (!v.fast_only() && ((err = Csr(v, src, S::kVertexOffsets, n, {S::kVertices})) ||
+                           (err = Csr(v, src, S::kTriangleOffsets, n, {S::kTriangles})))) {
+      return *err;
+    }
+    if (v.has_mesh()) {
+      const uint64_t vertices = v.source_vertex_count_;
+      if ((err = CountIs(v, src, S::kTriangleVertices, 3 * uint64_t{v.source_triangle_count_})) ||
+          (err = CountIs(v, src, S::kPositionsBind, 3 * vertices)) ||
+          (err = CountIs(v, src, S::kBindJoints, v.bind_count_)) ||
+          (err = CountIs(v, src, S::kBindInverse, 16 * uint64_t{v.bind_count_})) ||
+          (err = Csr(v, src, S::kMeshInfluenceOffsets, vertices, {S::kMeshInfluenceBinds, S::kMeshInfluenceWeights}))) {
+        return *err;
+      }
+    }
+    return std::nullopt;
+  }
+
+  // What fast refit reads beyond the spheres: the influences' reach, the fast reference, the reach
+  // groups and their blends, each present in full or absent.
+  static std::optional<Error> CheckFastSectionCounts(const SphereSetBinaryView& v, const std::string& src) {
+    using S = SphereSetSection;
+    const uint64_t n = v.sphere_count_, joints = v.joint_count_;
+    const size_t reach = Count(v, S::kInfluenceReach), influences = Count(v, S::kInfluenceJoints);
     if (reach != 0 && reach != influences) {
       return Refuse(src, "section influence_reach has " + std::to_string(reach) + " elements, expected " +
                              std::to_string(influences) + " (one per influence) or 0");
     }
-    const size_t ref_inverse = v.sections_[static_cast<uint32_t>(S::kFastReferenceInverse) - 1].count;
-    const size_t ref_spheres = v.sections_[static_cast<uint32_t>(S::kFastReferenceSpheres) - 1].count;
+    const size_t ref_inverse = Count(v, S::kFastReferenceInverse), ref_spheres = Count(v, S::kFastReferenceSpheres);
     if (!(ref_inverse == 0 && ref_spheres == 0) && !(ref_inverse == 16 * joints && ref_spheres == 4 * n)) {
       return Refuse(src, "sections fast_reference_inverse and fast_reference_spheres have " +
                              std::to_string(ref_inverse) + " and " + std::to_string(ref_spheres) +
@@ -220,33 +258,31 @@ struct SphereSetBinaryReader {
     }
     // Reach groups: none, or offsets per sphere over the radii (their sizes and the weights' count
     // are SphereSet::Validate()'s, from the values).
-    const size_t group_offsets = v.sections_[static_cast<uint32_t>(S::kReachGroupOffsets) - 1].count;
-    if (group_offsets == 0) {
-      if (v.sections_[static_cast<uint32_t>(S::kReachGroupRadii) - 1].count != 0 ||
-          v.sections_[static_cast<uint32_t>(S::kReachGroupWeights) - 1].count != 0) {
+    if (Count(v, S::kReachGroupOffsets) == 0) {
+      if (Count(v, S::kReachGroupRadii) != 0 || Count(v, S::kReachGroupWeights) != 0) {
         return Refuse(src, "sections reach_group_radii and reach_group_weights are given without reach_group_offsets");
       }
-    } else if ((err = csr(S::kReachGroupOffsets, n, {S::kReachGroupRadii}))) {
-      return *err;
+    } else if (auto err = Csr(v, src, S::kReachGroupOffsets, n, {S::kReachGroupRadii})) {
+      return err;
     }
     // The groups' blends: both as long as the reaches (SphereSet::Validate()), or both empty.
-    const size_t blends = v.sections_[static_cast<uint32_t>(S::kReachGroupBlend) - 1].count;
-    const size_t deviations = v.sections_[static_cast<uint32_t>(S::kReachGroupDeviation) - 1].count;
-    const size_t reaches = v.sections_[static_cast<uint32_t>(S::kReachGroupWeights) - 1].count;
+    const size_t blends = Count(v, S::kReachGroupBlend), deviations = Count(v, S::kReachGroupDeviation);
+    const size_t reaches = Count(v, S::kReachGroupWeights);
     if (!(blends == 0 && deviations == 0) && !(blends == reaches && deviations == reaches)) {
       return Refuse(src, "sections reach_group_blend and reach_group_deviation have " + std::to_string(blends) +
                              " and " + std::to_string(deviations) + " elements, expected " + std::to_string(reaches) +
                              " (one per group and influence, as reach_group_weights) or both 0");
     }
-    // The contact rules: (rules, hops) and the gap, in a file that has them.
-    if (v.version_ >= kSphereSetBinaryVersion) {
-      if ((err = count_is(S::kContactRules, 2)) || (err = count_is(S::kRestGap, 1))) return *err;
-    }
-    // Pieces: pairs of u32; offsets per sphere over them, or none with no pieces (their values are
-    // SphereSet::Validate()'s).
-    const size_t piece_offsets = v.sections_[static_cast<uint32_t>(S::kPieceOffsets) - 1].count;
-    const size_t pieces = v.sections_[static_cast<uint32_t>(S::kPieces) - 1].count;
-    if (v.sections_[static_cast<uint32_t>(S::kPiecePoints) - 1].count % 2 != 0 || pieces % 2 != 0) {
+    return std::nullopt;
+  }
+
+  // Pieces: pairs of u32; offsets per sphere over them, or none with no pieces (their values are
+  // SphereSet::Validate()'s).
+  static std::optional<Error> CheckPieceCounts(const SphereSetBinaryView& v, const std::string& src) {
+    using S = SphereSetSection;
+    const uint64_t n = v.sphere_count_;
+    const size_t piece_offsets = Count(v, S::kPieceOffsets), pieces = Count(v, S::kPieces);
+    if (Count(v, S::kPiecePoints) % 2 != 0 || pieces % 2 != 0) {
       return Refuse(src, "section piece_points or pieces does not hold whole pairs");
     }
     if (piece_offsets == 0 ? pieces != 0 : piece_offsets != n + 1) {
@@ -256,22 +292,6 @@ struct SphereSetBinaryReader {
     if (piece_offsets != 0 && !CsrOffsetsOk(v.piece_offsets(), pieces / 2)) {
       return Refuse(src,
                     "section piece_offsets does not start at 0, decreases, or does not end at the number of pieces");
-    }
-    if (v.sections_[static_cast<uint32_t>(S::kExcludedPairs) - 1].count % 3 != 0) {
-      return Refuse(src, "section excluded_pairs does not hold whole (i, j, reason) triples");
-    }
-    if (!v.fast_only() &&
-        ((err = csr(S::kVertexOffsets, n, {S::kVertices})) || (err = csr(S::kTriangleOffsets, n, {S::kTriangles})))) {
-      return *err;
-    }
-    if (v.has_mesh()) {
-      const uint64_t vertices = v.source_vertex_count_;
-      if ((err = count_is(S::kTriangleVertices, 3 * uint64_t{v.source_triangle_count_})) ||
-          (err = count_is(S::kPositionsBind, 3 * vertices)) || (err = count_is(S::kBindJoints, v.bind_count_)) ||
-          (err = count_is(S::kBindInverse, 16 * uint64_t{v.bind_count_})) ||
-          (err = csr(S::kMeshInfluenceOffsets, vertices, {S::kMeshInfluenceBinds, S::kMeshInfluenceWeights}))) {
-        return *err;
-      }
     }
     return std::nullopt;
   }

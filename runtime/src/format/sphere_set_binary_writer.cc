@@ -90,6 +90,37 @@ class Writer {
   std::vector<std::shared_ptr<void>> owned_;
 };
 
+// The mesh sections: triangles, bind positions and entries, influences, grid points and pieces.
+void AddMesh(const SphereSet& set, Writer& w) {
+  const skinning::SkinnedMesh& m = set.mesh;
+  std::vector<int32_t> bind_joints;
+  std::vector<float> bind_inverse;
+  bind_joints.reserve(m.binds.size());
+  bind_inverse.reserve(16 * m.binds.size());
+  for (const skinning::BindEntry& b : m.binds) {
+    bind_joints.push_back(b.joint);
+    bind_inverse.insert(bind_inverse.end(), b.inverse_bind.data(), b.inverse_bind.data() + 16);
+  }
+  w.Add(SphereSetSection::kTriangleVertices, set.triangle_vertices);
+  w.Add(SphereSetSection::kPositionsBind, m.positions_bind.empty() ? nullptr : m.positions_bind.data()->data(),
+        3 * m.positions_bind.size());
+  w.AddOwned(SphereSetSection::kBindJoints, std::move(bind_joints));
+  w.AddOwned(SphereSetSection::kBindInverse, std::move(bind_inverse));
+  w.Add(SphereSetSection::kMeshInfluenceOffsets, m.influence_offsets);
+  w.Add(SphereSetSection::kMeshInfluenceBinds, m.influence_binds);
+  std::vector<uint32_t> points, pieces;
+  points.reserve(2 * set.piece_points.size());
+  for (const PiecePoint& g : set.piece_points)
+    points.insert(points.end(), {g.triangle, uint32_t{g.level} << 16 | uint32_t{g.i} << 8 | g.j});
+  pieces.reserve(2 * set.pieces.size());
+  for (const TrianglePiece& p : set.pieces)
+    pieces.insert(pieces.end(), {p.triangle, uint32_t{p.level} << 16 | p.index});
+  w.AddOwned(SphereSetSection::kPiecePoints, std::move(points));
+  w.Add(SphereSetSection::kPieceOffsets, set.piece_offsets);
+  w.AddOwned(SphereSetSection::kPieces, std::move(pieces));
+  w.Add(SphereSetSection::kMeshInfluenceWeights, m.influence_weights);
+}
+
 }  // namespace
 
 std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set, SphereSetBinaryContent content) {
@@ -163,35 +194,7 @@ std::vector<std::byte> WriteSphereSetBinary(const SphereSet& set, SphereSetBinar
   w.AddOwned(SphereSetSection::kContactRules,
              std::vector<uint32_t>{static_cast<uint32_t>(set.contact_rules), set.contact_hops});
   w.AddOwned(SphereSetSection::kRestGap, std::vector<float>{set.rest_gap});
-  if (mesh) {
-    const skinning::SkinnedMesh& m = set.mesh;
-    std::vector<int32_t> bind_joints;
-    std::vector<float> bind_inverse;
-    bind_joints.reserve(m.binds.size());
-    bind_inverse.reserve(16 * m.binds.size());
-    for (const skinning::BindEntry& b : m.binds) {
-      bind_joints.push_back(b.joint);
-      bind_inverse.insert(bind_inverse.end(), b.inverse_bind.data(), b.inverse_bind.data() + 16);
-    }
-    w.Add(SphereSetSection::kTriangleVertices, set.triangle_vertices);
-    w.Add(SphereSetSection::kPositionsBind, m.positions_bind.empty() ? nullptr : m.positions_bind.data()->data(),
-          3 * m.positions_bind.size());
-    w.AddOwned(SphereSetSection::kBindJoints, std::move(bind_joints));
-    w.AddOwned(SphereSetSection::kBindInverse, std::move(bind_inverse));
-    w.Add(SphereSetSection::kMeshInfluenceOffsets, m.influence_offsets);
-    w.Add(SphereSetSection::kMeshInfluenceBinds, m.influence_binds);
-    std::vector<uint32_t> points, pieces;
-    points.reserve(2 * set.piece_points.size());
-    for (const PiecePoint& g : set.piece_points)
-      points.insert(points.end(), {g.triangle, uint32_t{g.level} << 16 | uint32_t{g.i} << 8 | g.j});
-    pieces.reserve(2 * set.pieces.size());
-    for (const TrianglePiece& p : set.pieces)
-      pieces.insert(pieces.end(), {p.triangle, uint32_t{p.level} << 16 | p.index});
-    w.AddOwned(SphereSetSection::kPiecePoints, std::move(points));
-    w.Add(SphereSetSection::kPieceOffsets, set.piece_offsets);
-    w.AddOwned(SphereSetSection::kPieces, std::move(pieces));
-    w.Add(SphereSetSection::kMeshInfluenceWeights, m.influence_weights);
-  }
+  if (mesh) AddMesh(set, w);
   const uint32_t flags = (fast_only ? kSphereSetBinaryFlagFastOnly : 0u) | (mesh ? kSphereSetBinaryFlagHasMesh : 0u);
   return w.Finish(flags, {static_cast<uint32_t>(n), static_cast<uint32_t>(set.joint_count()),
                           static_cast<uint32_t>(set.parts.size()), set.source_vertex_count, set.source_triangle_count,

@@ -130,6 +130,52 @@ void ExactPoints(const SphereSet& set, std::vector<uint32_t>* offsets, std::vect
   }
 }
 
+// RefitRestData's reach groups (refit_job.h): the set's, else one per sphere (its radius and
+// reach), which gives the one-group bound bit for bit; per sphere the offset of its groups'
+// reaches; and Σ_k m_gk per group, summed in float with k ascending (the sum the kernels formed
+// every frame before it was kept here, so the same bits).
+struct ReachGroups {
+  std::vector<uint32_t> offsets;
+  std::vector<float> radii, reach, blend, deviation;
+  std::vector<uint32_t> reach_offsets;
+  std::vector<float> blend_sum;
+};
+
+ReachGroups ReachGroupsOf(const SphereSet& set, const std::vector<float>& radii_fast, const std::vector<float>& reach) {
+  ReachGroups out;
+  out.reach_offsets.resize(set.size() + 1);
+  if (!set.reach_group_offsets.empty()) {
+    out.offsets = set.reach_group_offsets;
+    out.radii = set.reach_group_radii;
+    out.reach = set.reach_group_weights;
+    out.blend = set.reach_group_blend;
+    out.deviation = set.reach_group_deviation;
+  } else {
+    out.offsets.resize(set.size() + 1);
+    for (size_t s = 0; s <= set.size(); ++s) out.offsets[s] = static_cast<uint32_t>(s);
+    out.radii = radii_fast;
+    out.reach = reach;
+  }
+  for (size_t s = 0, base = 0; s < set.size(); ++s) {
+    out.reach_offsets[s] = static_cast<uint32_t>(base);
+    base += size_t{out.offsets[s + 1] - out.offsets[s]} * (set.influence_offsets[s + 1] - set.influence_offsets[s]);
+    out.reach_offsets[s + 1] = static_cast<uint32_t>(base);
+  }
+  if (!out.blend.empty()) {
+    out.blend_sum.assign(out.radii.size(), 0.0f);
+    for (size_t s = 0; s < set.size(); ++s) {
+      const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
+      for (uint32_t g = out.offsets[s]; g < out.offsets[s + 1]; ++g) {
+        const float* m = out.blend.data() + out.reach_offsets[s] + size_t{g - out.offsets[s]} * k_count;
+        float sum = 0.0f;
+        for (uint32_t k = 0; k < k_count; ++k) sum += m[k];
+        out.blend_sum[g] = sum;
+      }
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
@@ -172,41 +218,14 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
   }
   d.bind_reference_ = !set.fast_reference_inverse.empty();
   d.radii_fast_ = ref->radius;
-  // The reach groups: the set's, else one per sphere (its radius and reach), which gives the
-  // one-group bound bit for bit.
-  d.group_reach_offsets_.resize(set.size() + 1);
-  if (!set.reach_group_offsets.empty()) {
-    d.group_offsets_ = set.reach_group_offsets;
-    d.group_radii_ = set.reach_group_radii;
-    d.group_reach_ = set.reach_group_weights;
-    d.group_blend_ = set.reach_group_blend;
-    d.group_deviation_ = set.reach_group_deviation;
-  } else {
-    d.group_offsets_.resize(set.size() + 1);
-    for (size_t s = 0; s <= set.size(); ++s) d.group_offsets_[s] = static_cast<uint32_t>(s);
-    d.group_radii_ = d.radii_fast_;
-    d.group_reach_ = d.reach_;
-  }
-  for (size_t s = 0, base = 0; s < set.size(); ++s) {
-    d.group_reach_offsets_[s] = static_cast<uint32_t>(base);
-    base += size_t{d.group_offsets_[s + 1] - d.group_offsets_[s]} *
-            (set.influence_offsets[s + 1] - set.influence_offsets[s]);
-    d.group_reach_offsets_[s + 1] = static_cast<uint32_t>(base);
-  }
-  // Σ_k m_gk per group, summed in float with k ascending: the sum the kernels formed every frame
-  // before it was kept here, so the same bits.
-  if (!d.group_blend_.empty()) {
-    d.group_blend_sum_.assign(d.group_radii_.size(), 0.0f);
-    for (size_t s = 0; s < set.size(); ++s) {
-      const uint32_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
-      for (uint32_t g = d.group_offsets_[s]; g < d.group_offsets_[s + 1]; ++g) {
-        const float* m = d.group_blend_.data() + d.group_reach_offsets_[s] + size_t{g - d.group_offsets_[s]} * k_count;
-        float sum = 0.0f;
-        for (uint32_t k = 0; k < k_count; ++k) sum += m[k];
-        d.group_blend_sum_[g] = sum;
-      }
-    }
-  }
+  ReachGroups groups = ReachGroupsOf(set, d.radii_fast_, d.reach_);
+  d.group_offsets_ = std::move(groups.offsets);
+  d.group_radii_ = std::move(groups.radii);
+  d.group_reach_ = std::move(groups.reach);
+  d.group_blend_ = std::move(groups.blend);
+  d.group_deviation_ = std::move(groups.deviation);
+  d.group_reach_offsets_ = std::move(groups.reach_offsets);
+  d.group_blend_sum_ = std::move(groups.blend_sum);
   d.rest_linear_inverse_.resize(joints);
   d.rest_inverse_rows_.assign(12 * joints, 0.0f);
   for (size_t j = 0; j < joints; ++j) {
