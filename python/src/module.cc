@@ -305,8 +305,8 @@ PYBIND11_MODULE(_skinspheres, m) {
         return Retarget(character.value, files, output.value, clip, fps, joint_map, source_rest, retarget,
                         rest_directions);
       },
-      "character"_a, "clip_files"_a, "output"_a, py::kw_only(), "clip"_a = "all", "fps"_a = 30.0f,
-      "joint_map"_a = "", "source_rest"_a = "", "retarget"_a = "auto", "rest_directions"_a = "keep");
+      "character"_a, "clip_files"_a, "output"_a, py::kw_only(), "clip"_a = "all", "fps"_a = 30.0f, "joint_map"_a = "",
+      "source_rest"_a = "", "retarget"_a = "auto", "rest_directions"_a = "keep");
   m.def(
       "check",
       [](const PathText& character, const std::vector<PathText>& clip_files, const std::string& clip, float max_depth,
