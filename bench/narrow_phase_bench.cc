@@ -867,7 +867,7 @@ void CheckFcl(Character* c, Workload* w, FclWorld* world) {
       if (p.part_a == p.part_b) continue;
       for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
         const auto& tp = fc.triangle_pairs[k];
-        if (tp.kind == rt::TriangleContactKind::kIntersecting) ours.insert(std::minmax(tp.t, tp.u));
+        if (tp.kind == rt::TriangleContactKind::kIntersecting) ours.insert(std::minmax(tp.triangle_a, tp.triangle_b));
       }
     }
     for (const auto& key : fcl_pairs) (ours.count(key) ? w->fcl_same : w->fcl_only) += 1;

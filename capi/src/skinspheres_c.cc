@@ -199,14 +199,14 @@ skinspheres_part_contact ToC(const rt::PartContact& p) {
 
 skinspheres_triangle_contact ToC(const rt::TriangleContact& t) {
   skinspheres_triangle_contact c;
-  c.triangle_a = t.t;
-  c.triangle_b = t.u;
+  c.triangle_a = t.triangle_a;
+  c.triangle_b = t.triangle_b;
   c.kind = t.kind == rt::TriangleContactKind::kIntersecting ? SKINSPHERES_TRIANGLES_INTERSECTING
                                                             : SKINSPHERES_TRIANGLES_WITHIN_MARGIN;
   c.distance = t.distance;
   std::copy_n(t.point, 3, c.point);
-  std::copy_n(t.on_t, 3, c.on_a);
-  std::copy_n(t.on_u, 3, c.on_b);
+  std::copy_n(t.on_a, 3, c.on_a);
+  std::copy_n(t.on_b, 3, c.on_b);
   return c;
 }
 

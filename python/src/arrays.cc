@@ -83,13 +83,13 @@ PartContactRecord ToRecord(const runtime::PartContact& p) {
 TriangleContactRecord ToRecord(const runtime::TriangleContact& c, uint32_t part_contact) {
   TriangleContactRecord r{};
   r.part_contact = part_contact;
-  r.triangle_a = c.t;
-  r.triangle_b = c.u;
+  r.triangle_a = c.triangle_a;
+  r.triangle_b = c.triangle_b;
   r.kind = static_cast<uint32_t>(c.kind);
   r.distance = c.distance;
   std::memcpy(r.point, c.point, sizeof r.point);
-  std::memcpy(r.on_a, c.on_t, sizeof r.on_a);
-  std::memcpy(r.on_b, c.on_u, sizeof r.on_b);
+  std::memcpy(r.on_a, c.on_a, sizeof r.on_a);
+  std::memcpy(r.on_b, c.on_b, sizeof r.on_b);
   return r;
 }
 

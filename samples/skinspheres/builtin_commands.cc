@@ -186,7 +186,7 @@ void AddDemoCommand(CLI::App& app, int* exit_code) {
             if (p.part_a != part && p.part_b != part) continue;
             for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
               const runtime::TriangleContact& tp = fr.contacts->triangle_pairs[k];
-              const uint32_t other = p.part_a == part ? tp.u : tp.t;
+              const uint32_t other = p.part_a == part ? tp.triangle_b : tp.triangle_a;
               if (tp.kind == runtime::TriangleContactKind::kIntersecting && is_hand(other)) {
                 touching = true;
                 depth = std::max(depth, p.depth);

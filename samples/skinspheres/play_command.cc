@@ -51,9 +51,9 @@ nlohmann::json DumpLine(const FrameView& fr, const runtime::SphereSet& set, bool
     for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
       const runtime::TriangleContact& c = fr.contacts->triangle_pairs[k];
       if (c.kind == runtime::TriangleContactKind::kIntersecting) {
-        triangles.push_back({c.t, c.u});
+        triangles.push_back({c.triangle_a, c.triangle_b});
       } else {
-        near.push_back({c.t, c.u, c.distance});
+        near.push_back({c.triangle_a, c.triangle_b, c.distance});
       }
     }
     nlohmann::json entry = {{"parts", {set.parts[p.part_a].name, set.parts[p.part_b].name}},

@@ -97,7 +97,8 @@ FrameSink RecordFrames(std::vector<FrameRecord>* out, FrameSink next) {
     r.sphere_pairs.assign(fr.sphere_pairs.begin(), fr.sphere_pairs.end());
     r.contact_sphere_pairs.assign(fr.contacts->sphere_pairs.begin(), fr.contacts->sphere_pairs.end());
     for (const runtime::TriangleContact& c : fr.contacts->triangle_pairs) {
-      if (c.kind == runtime::TriangleContactKind::kIntersecting) r.triangle_pairs.push_back({c.t, c.u});
+      if (c.kind == runtime::TriangleContactKind::kIntersecting)
+        r.triangle_pairs.push_back({c.triangle_a, c.triangle_b});
     }
     for (const runtime::PartContact& p : fr.contacts->parts) {
       r.parts.push_back({p.part_a, p.part_b, p.kind == runtime::PartContactKind::kPenetrating, p.depth});

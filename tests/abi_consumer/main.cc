@@ -269,9 +269,9 @@ int main(int argc, char** argv) {
                 written == narrow_out.triangle_pairs.size();
     for (size_t k = 0; same && k < written; ++k) {
       const runtime::TriangleContact& t = narrow_out.triangle_pairs[k];
-      same = c_pairs[k].triangle_a == t.t && c_pairs[k].triangle_b == t.u && c_pairs[k].distance == t.distance &&
-             std::memcmp(c_pairs[k].on_a, t.on_t, sizeof t.on_t) == 0 &&
-             std::memcmp(c_pairs[k].on_b, t.on_u, sizeof t.on_u) == 0;
+      same = c_pairs[k].triangle_a == t.triangle_a && c_pairs[k].triangle_b == t.triangle_b &&
+             c_pairs[k].distance == t.distance && std::memcmp(c_pairs[k].on_a, t.on_a, sizeof t.on_a) == 0 &&
+             std::memcmp(c_pairs[k].on_b, t.on_b, sizeof t.on_b) == 0;
     }
     Check(same, "C API triangle contacts == C++ triangle contacts");
   }

@@ -14,8 +14,8 @@
 // fast then exact mode a u32 contact count followed by that many 16-byte contacts, then the narrow
 // phase's part pairs (u32 count, then 56 bytes each: u16 part_a, part_b, u32 first triangle pair,
 // triangle pair count, intersecting count, sphere pair count, f32 depth, min_distance, normal[3],
-// center[3], u32 kind) and triangle pairs (u32 count, then 52 bytes each: u32 t, u, kind, f32 distance,
-// point[3], on_t[3], on_u[3]): the C API's structs, field by field. Names are padded
+// center[3], u32 kind) and triangle pairs (u32 count, then 52 bytes each: u32 triangle_a, triangle_b,
+// kind, f32 distance, point[3], on_a[3], on_b[3]): the C API's structs, field by field. Names are padded
 // with zeros to a multiple of 4 bytes so that every float is 4-byte aligned in a malloc'ed copy.
 #include <cstdio>
 #include <cstdlib>
@@ -142,13 +142,13 @@ std::string WriteMode(FILE* f, runtime::CharacterInstance& instance, runtime::Re
   }
   Put32(f, static_cast<uint32_t>(found.triangle_pairs.size()));
   for (const runtime::TriangleContact& t : found.triangle_pairs) {
-    Put32(f, t.t);
-    Put32(f, t.u);
+    Put32(f, t.triangle_a);
+    Put32(f, t.triangle_b);
     Put32(f, static_cast<uint32_t>(t.kind));
     Put(f, &t.distance, 4);
     Put(f, t.point, 12);
-    Put(f, t.on_t, 12);
-    Put(f, t.on_u, 12);
+    Put(f, t.on_a, 12);
+    Put(f, t.on_b, 12);
     *within_margin += t.kind == runtime::TriangleContactKind::kWithinMargin;
   }
   *triangle_total += found.triangle_pairs.size();

@@ -39,7 +39,8 @@ Report ReportOf(const runtime::FrameContacts& c) {
   for (const runtime::PartContact& p : c.parts) {
     for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
       const runtime::TriangleContact& t = c.triangle_pairs[k];
-      r.emplace_back(p.part_a, p.part_b, p.triangle_pair_count, p.intersecting_count, p.depth, t.t, t.u, int(t.kind));
+      r.emplace_back(p.part_a, p.part_b, p.triangle_pair_count, p.intersecting_count, p.depth, t.triangle_a,
+                     t.triangle_b, int(t.kind));
     }
   }
   return r;

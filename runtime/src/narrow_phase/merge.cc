@@ -76,19 +76,19 @@ void Merge(const Frame& f, std::vector<Hit>& hits, std::vector<uint64_t>& keys, 
       if (k > begin && hits[k].t == hits[k - 1].t && hits[k].u == hits[k - 1].u) continue;
       Hit& h = hits[kept++] = hits[k];  // k >= kept: not overwritten before it is read
       TriangleContact c;
-      c.t = h.t;
-      c.u = h.u;
+      c.triangle_a = h.t;
+      c.triangle_b = h.u;
       c.kind = h.kind;
       c.distance = h.distance;
       for (int d = 0; d < 3; ++d) {
-        c.on_t[d] = h.on_t[d];
-        c.on_u[d] = h.on_u[d];
+        c.on_a[d] = h.on_t[d];
+        c.on_b[d] = h.on_u[d];
         c.point[d] = 0.5f * (h.on_t[d] + h.on_u[d]);
       }
       // The spheres owning the contact: at the point both triangles share, or at each closest point.
       const bool meet = h.kind == TriangleContactKind::kIntersecting;
-      h.i = SphereAt(f, h.t, meet ? c.point : c.on_t);
-      h.j = SphereAt(f, h.u, meet ? c.point : c.on_u);
+      h.i = SphereAt(f, h.t, meet ? c.point : c.on_a);
+      h.j = SphereAt(f, h.u, meet ? c.point : c.on_b);
       keys.push_back((uint64_t{std::min(h.i, h.j)} << 32) | std::max(h.i, h.j));
       out->triangle_pairs.push_back(c);
       if (meet) {

@@ -234,11 +234,11 @@ TEST(NarrowPhaseRules, RestContactsAndSharedVerticesAreNeverReported) {
   const FrameContacts deeper = RunShifted(m, *data, Vector3f(-0.2f, 0, 0), 1.0f, 1.0f);
   ASSERT_EQ(deeper.parts.size(), 1u);
   for (const auto& c : deeper.triangle_pairs) {
-    EXPECT_FALSE(data->RestExcluded(c.t, c.u));
-    EXPECT_FALSE(
-        TrianglesIntersect(m.rest[m.set.triangle_vertices[3 * c.t]], m.rest[m.set.triangle_vertices[3 * c.t + 1]],
-                           m.rest[m.set.triangle_vertices[3 * c.t + 2]], m.rest[m.set.triangle_vertices[3 * c.u]],
-                           m.rest[m.set.triangle_vertices[3 * c.u + 1]], m.rest[m.set.triangle_vertices[3 * c.u + 2]]));
+    EXPECT_FALSE(data->RestExcluded(c.triangle_a, c.triangle_b));
+    EXPECT_FALSE(TrianglesIntersect(
+        m.rest[m.set.triangle_vertices[3 * c.triangle_a]], m.rest[m.set.triangle_vertices[3 * c.triangle_a + 1]],
+        m.rest[m.set.triangle_vertices[3 * c.triangle_a + 2]], m.rest[m.set.triangle_vertices[3 * c.triangle_b]],
+        m.rest[m.set.triangle_vertices[3 * c.triangle_b + 1]], m.rest[m.set.triangle_vertices[3 * c.triangle_b + 2]]));
   }
   // The oracle agrees.
   FrameContacts oracle;
@@ -311,7 +311,8 @@ namespace {
 // The triangle pairs of a frame, as (t, u) with t < u.
 std::vector<std::pair<uint32_t, uint32_t>> TrianglePairs(const FrameContacts& out) {
   std::vector<std::pair<uint32_t, uint32_t>> pairs;
-  for (const TriangleContact& c : out.triangle_pairs) pairs.push_back({std::min(c.t, c.u), std::max(c.t, c.u)});
+  for (const TriangleContact& c : out.triangle_pairs)
+    pairs.push_back({std::min(c.triangle_a, c.triangle_b), std::max(c.triangle_a, c.triangle_b)});
   std::sort(pairs.begin(), pairs.end());
   return pairs;
 }

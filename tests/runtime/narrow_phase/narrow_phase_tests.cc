@@ -218,8 +218,8 @@ TEST(NarrowPhase, BuiltinWalkTouchesNothingAndTouchOnlyWithTheHands) {
           EXPECT_GT(p.depth, 0.0f);
           EXPECT_LT(p.depth, 0.06f) << "the hands sink at most a few cm";
           for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
-            ASSERT_TRUE(OnJoint(c, out.triangle_pairs[k].u, "Hand"))
-                << "touch t=" << t << ": arm triangle " << out.triangle_pairs[k].u << " is not the hand's";
+            ASSERT_TRUE(OnJoint(c, out.triangle_pairs[k].triangle_b, "Hand"))
+                << "touch t=" << t << ": arm triangle " << out.triangle_pairs[k].triangle_b << " is not the hand's";
           }
         }
         contact_frames += !out.empty() && mode == RefitMode::kExact;

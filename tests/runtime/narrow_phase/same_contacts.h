@@ -24,10 +24,11 @@ inline bool Same(const runtime::FrameContacts& a, const runtime::FrameContacts& 
   }
   for (size_t k = 0; k < a.triangle_pairs.size(); ++k) {
     const auto &p = a.triangle_pairs[k], &q = b.triangle_pairs[k];
-    if (p.t != q.t || p.u != q.u || p.kind != q.kind || p.distance != q.distance || !SameFloats(p.point, q.point, 3) ||
-        !SameFloats(p.on_t, q.on_t, 3) || !SameFloats(p.on_u, q.on_u, 3)) {
-      return *why = "triangle pair " + std::to_string(k) + " differs: (" + std::to_string(p.t) + "," +
-                    std::to_string(p.u) + ") vs (" + std::to_string(q.t) + "," + std::to_string(q.u) + ")",
+    if (p.triangle_a != q.triangle_a || p.triangle_b != q.triangle_b || p.kind != q.kind || p.distance != q.distance ||
+        !SameFloats(p.point, q.point, 3) || !SameFloats(p.on_a, q.on_a, 3) || !SameFloats(p.on_b, q.on_b, 3)) {
+      return *why = "triangle pair " + std::to_string(k) + " differs: (" + std::to_string(p.triangle_a) + "," +
+                    std::to_string(p.triangle_b) + ") vs (" + std::to_string(q.triangle_a) + "," +
+                    std::to_string(q.triangle_b) + ")",
              false;
     }
   }

@@ -537,8 +537,8 @@ TEST(TrianglePieces, TheNarrowPhaseTestsPiecesAndReportsEachTrianglePairOnce) {
       ASSERT_EQ(out.triangle_pairs.size(), expected ? 1u : 0u) << "pose " << pose;
       if (!expected) continue;
       ++reported;
-      EXPECT_EQ(out.triangle_pairs[0].t, 0u);
-      EXPECT_EQ(out.triangle_pairs[0].u, 1u);
+      EXPECT_EQ(out.triangle_pairs[0].triangle_a, 0u);
+      EXPECT_EQ(out.triangle_pairs[0].triangle_b, 1u);
       ASSERT_EQ(out.parts.size(), 1u);
       EXPECT_EQ(out.parts[0].part_a, 0);
       EXPECT_EQ(out.parts[0].part_b, 1);

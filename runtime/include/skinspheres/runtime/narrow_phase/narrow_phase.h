@@ -149,15 +149,15 @@ enum class TriangleContactKind : uint8_t { kIntersecting = 0, kWithinMargin = 1 
 const char* ToString(TriangleContactKind kind);  // "intersecting", "within_margin"
 
 struct TriangleContact {
-  uint32_t t = 0;  // source triangle of the part pair's part_a
-  uint32_t u = 0;  // source triangle of part_b (same part: t < u)
+  uint32_t triangle_a = 0;  // source triangle of the part pair's part_a
+  uint32_t triangle_b = 0;  // source triangle of part_b (same part: triangle_a < triangle_b)
   TriangleContactKind kind = TriangleContactKind::kIntersecting;
   float distance = 0.0f;       // 0 when intersecting, else the closest distance (< margin)
-  float point[3] = {0, 0, 0};  // representative point: the midpoint of on_t and on_u
+  float point[3] = {0, 0, 0};  // representative point: the midpoint of on_a and on_b
   // Intersecting: the two ends of the intersection segment (a coplanar overlap gives its centre
-  // twice). Within margin: the closest points, on t and on u.
-  float on_t[3] = {0, 0, 0};
-  float on_u[3] = {0, 0, 0};
+  // twice). Within margin: the closest points, on triangle_a and on triangle_b.
+  float on_a[3] = {0, 0, 0};
+  float on_b[3] = {0, 0, 0};
   friend bool operator==(const TriangleContact&, const TriangleContact&) = default;
 };
 
