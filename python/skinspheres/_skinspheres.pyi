@@ -12,7 +12,7 @@ __version__: str
 # (triangle pairs). Part indices are into part_names; triangle indices are the source file's.
 SPHERE_PAIR_DTYPE: np.dtype  # i, j (u4, i < j), depth (f4), part_i, part_j (u2)
 PART_CONTACT_DTYPE: np.dtype  # part_a, part_b (u2), kind (u4), depth, min_distance (f4), normal, center ((3,) f4),
-#                               triangle_pairs, intersecting, sphere_pairs, first_triangle (u4)
+#                               triangle_pairs, intersecting, sphere_pairs, first_triangle_pair (u4)
 TRIANGLE_CONTACT_DTYPE: np.dtype  # part_contact, triangle_a, triangle_b, kind (u4), distance (f4),
 #                                   point, on_a, on_b ((3,) f4)
 FRAME_SPHERE_PAIR_DTYPE: np.dtype  # frame (u4), then SPHERE_PAIR_DTYPE's fields
@@ -211,7 +211,7 @@ def play(
     """Every frame of one clip, as `skinspheres play` (fitting on the fly unless spheres= names a
     set). clip_file: an animation file retargeted onto the character (clip then counts its clips).
     Returns clip, frames, times, clip_times, sphere_pairs (FRAME_SPHERE_PAIR_DTYPE), part_contacts
-    (FRAME_PART_CONTACT_DTYPE; first_triangle indexes triangle_contacts), triangle_contacts
+    (FRAME_PART_CONTACT_DTYPE; first_triangle_pair indexes triangle_contacts), triangle_contacts
     (FRAME_TRIANGLE_CONTACT_DTYPE; part_contact indexes part_contacts), part_names, body_height,
     touch_tolerance (set units), notes (what the retarget did)."""
 

@@ -76,7 +76,7 @@ PartContactRecord ToRecord(const runtime::PartContact& p) {
   r.triangle_pairs = p.triangle_pair_count;
   r.intersecting = p.intersecting_count;
   r.sphere_pairs = p.sphere_pair_count;
-  r.first_triangle = p.first_triangle_pair;
+  r.first_triangle_pair = p.first_triangle_pair;
   return r;
 }
 

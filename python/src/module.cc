@@ -41,11 +41,11 @@ PYBIND11_MODULE(_skinspheres, m) {
 
   PYBIND11_NUMPY_DTYPE(SpherePairRecord, i, j, depth, part_i, part_j);
   PYBIND11_NUMPY_DTYPE(PartContactRecord, part_a, part_b, kind, depth, min_distance, normal, center, triangle_pairs,
-                       intersecting, sphere_pairs, first_triangle);
+                       intersecting, sphere_pairs, first_triangle_pair);
   PYBIND11_NUMPY_DTYPE(TriangleContactRecord, part_contact, triangle_a, triangle_b, kind, distance, point, on_a, on_b);
   PYBIND11_NUMPY_DTYPE(FrameSpherePairRecord, frame, i, j, depth, part_i, part_j);
   PYBIND11_NUMPY_DTYPE(FramePartContactRecord, frame, part_a, part_b, kind, depth, min_distance, normal, center,
-                       triangle_pairs, intersecting, sphere_pairs, first_triangle);
+                       triangle_pairs, intersecting, sphere_pairs, first_triangle_pair);
   PYBIND11_NUMPY_DTYPE(FrameTriangleContactRecord, frame, part_contact, triangle_a, triangle_b, kind, distance, point,
                        on_a, on_b);
   m.attr("SPHERE_PAIR_DTYPE") = py::dtype::of<SpherePairRecord>();

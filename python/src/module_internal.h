@@ -168,7 +168,7 @@ struct PartContactRecord {
   uint32_t kind;  // 0 touching, 1 penetrating
   float depth, min_distance;
   float normal[3], center[3];
-  uint32_t triangle_pairs, intersecting, sphere_pairs, first_triangle;
+  uint32_t triangle_pairs, intersecting, sphere_pairs, first_triangle_pair;
 };
 struct TriangleContactRecord {
   uint32_t part_contact, triangle_a, triangle_b;
@@ -189,7 +189,7 @@ struct FramePartContactRecord {
   uint32_t kind;
   float depth, min_distance;
   float normal[3], center[3];
-  uint32_t triangle_pairs, intersecting, sphere_pairs, first_triangle;
+  uint32_t triangle_pairs, intersecting, sphere_pairs, first_triangle_pair;
 };
 struct FrameTriangleContactRecord {
   uint32_t frame;

@@ -91,7 +91,7 @@ py::dict Play(const std::optional<std::string>& character, const PlayArgs& a) {
       for (size_t k = 0; k < f.contacts->parts.size(); ++k) {
         const runtime::PartContact& pc = f.contacts->parts[k];
         PartContactRecord r = ToRecord(pc);
-        r.first_triangle = static_cast<uint32_t>(first_triangle + pc.first_triangle_pair);
+        r.first_triangle_pair = static_cast<uint32_t>(first_triangle + pc.first_triangle_pair);
         got.parts.push_back(WithFrame<FramePartContactRecord>(frame, r));
         for (uint32_t q = pc.first_triangle_pair; q < pc.first_triangle_pair + pc.triangle_pair_count; ++q) {
           got.triangles.push_back(WithFrame<FrameTriangleContactRecord>(

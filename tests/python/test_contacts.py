@@ -41,7 +41,7 @@ def assert_frame_equal(py_pairs, py_contacts, c_pairs, c_parts, c_tris, where):
         "triangle_pairs": "triangle_pair_count",
         "intersecting": "intersecting_count",
         "sphere_pairs": "sphere_pair_count",
-        "first_triangle": "first_triangle_pair",
+        "first_triangle_pair": "first_triangle_pair",
     }
     for mine, theirs in mapping.items():
         assert same(parts[mine], c_parts[theirs].astype(parts[mine].dtype)), f"{where}: part contacts differ in {mine}"
@@ -123,7 +123,7 @@ def test_play_equals_the_tool_and_the_sampler_agrees(name, mode, builtin_glb, tm
             assert [names[row["part_a"]], names[row["part_b"]]] == entry["parts"]
             assert np.float32(entry["depth"]) == row["depth"]
             assert ("penetrating" if row["kind"] == ss.PENETRATING else "touching") == entry["kind"]
-            first, count = int(row["first_triangle"]), int(row["triangle_pairs"])
+            first, count = int(row["first_triangle_pair"]), int(row["triangle_pairs"])
             tris = tc[first : first + count]
             assert (tris["frame"] == f).all()
             intersecting = tris[tris["kind"] == ss.INTERSECTING]
