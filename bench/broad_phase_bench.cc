@@ -268,7 +268,7 @@ class Method {
 
 class Ours : public Method {
  public:
-  Ours(const Scenario& sc, rt::BroadPhaseSimd simd, bool no_cache = false)
+  Ours(const Scenario& sc, rt::SimdLevel simd, bool no_cache = false)
       : filter_(&sc.filter), simd_(simd), no_cache_(no_cache) {
     context_.Resize(SphereCount(sc));
   }
@@ -289,7 +289,7 @@ class Ours : public Method {
 
  private:
   const rt::PairFilter* filter_;
-  rt::BroadPhaseSimd simd_;
+  rt::SimdLevel simd_;
   bool no_cache_;
   rt::BroadPhaseContext context_;
   double candidates_ = 0.0, build_tests_ = 0.0, lookahead_ = 0.0;
@@ -328,13 +328,13 @@ class Peer : public Method {
 #endif
 
 std::unique_ptr<Method> MakeMethod(const std::string& name, const Scenario& sc) {
-  if (name == "skinspheres") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kAuto);
-  if (name == "skinspheres_nocache") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kAuto, true);
-  if (name == "skinspheres_nocache_avx2") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kAvx2, true);
-  if (name == "skinspheres_nocache_sse2") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kSse2, true);
-  if (name == "skinspheres_sse2") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kSse2);
-  if (name == "skinspheres_avx2") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kAvx2);
-  if (name == "skinspheres_avx512") return std::make_unique<Ours>(sc, rt::BroadPhaseSimd::kAvx512);
+  if (name == "skinspheres") return std::make_unique<Ours>(sc, rt::SimdLevel::kAuto);
+  if (name == "skinspheres_nocache") return std::make_unique<Ours>(sc, rt::SimdLevel::kAuto, true);
+  if (name == "skinspheres_nocache_avx2") return std::make_unique<Ours>(sc, rt::SimdLevel::kAvx2, true);
+  if (name == "skinspheres_nocache_sse2") return std::make_unique<Ours>(sc, rt::SimdLevel::kSse2, true);
+  if (name == "skinspheres_sse2") return std::make_unique<Ours>(sc, rt::SimdLevel::kSse2);
+  if (name == "skinspheres_avx2") return std::make_unique<Ours>(sc, rt::SimdLevel::kAvx2);
+  if (name == "skinspheres_avx512") return std::make_unique<Ours>(sc, rt::SimdLevel::kAvx512);
   if (name == "allpairs") return std::make_unique<AllPairs>(sc);
 #if SKINSPHERES_HAVE_PEERS
   using skinspheres::bench::BulletWorld;
@@ -445,7 +445,7 @@ void RunColdRow(benchmark::State& state, const Scenario& sc, const std::string& 
 std::vector<std::string> OurMethods(bool all_levels) {
   std::vector<std::string> m = {"skinspheres"};
   if (all_levels) {
-    for (auto level : {rt::BroadPhaseSimd::kSse2, rt::BroadPhaseSimd::kAvx2, rt::BroadPhaseSimd::kAvx512}) {
+    for (auto level : {rt::SimdLevel::kSse2, rt::SimdLevel::kAvx2, rt::SimdLevel::kAvx512}) {
       if (rt::BroadPhaseSimdSupported(level)) m.push_back(std::string("skinspheres_") + rt::ToString(level));
     }
   }

@@ -404,9 +404,9 @@ BENCHMARK(BM_XbotRefitExact)->Arg(0)->Arg(1)->ArgName("fit")->Unit(benchmark::kM
 class PinnedRefit {
  public:
   PinnedRefit(benchmark::State& state, int64_t level) {
-    using rt::internal::RefitSimd;
-    constexpr RefitSimd kLevels[] = {RefitSimd::kAuto,   RefitSimd::kSse2,     RefitSimd::kAvx2, RefitSimd::kAvx512,
-                                     RefitSimd::kAvx512, RefitSimd::kPortable, RefitSimd::kAvx2, RefitSimd::kSse2};
+    using rt::SimdLevel;
+    constexpr SimdLevel kLevels[] = {SimdLevel::kAuto,   SimdLevel::kSse2,     SimdLevel::kAvx2, SimdLevel::kAvx512,
+                                     SimdLevel::kAvx512, SimdLevel::kPortable, SimdLevel::kAvx2, SimdLevel::kSse2};
     ok_ = rt::internal::PinRefitSimd(kLevels[level]);
     rt::internal::SetCrowdQueryBatched(level != 3);
     rt::internal::SetCrowdBatched(level < 6);
@@ -416,11 +416,11 @@ class PinnedRefit {
       const std::string batch = level >= 6   ? ", one at a time"
                                 : level == 3 ? ", batch of 16, query one by one"
                                              : ", batch of " + std::to_string(rt::internal::RefitBatchLanes());
-      state.SetLabel(std::string(rt::internal::ToString(rt::internal::RefitSimdInUse())) + batch);
+      state.SetLabel(std::string(rt::internal::RefitLevelName(rt::internal::RefitSimdInUse())) + batch);
     }
   }
   ~PinnedRefit() {
-    rt::internal::PinRefitSimd(rt::internal::RefitSimd::kAuto);
+    rt::internal::PinRefitSimd(rt::SimdLevel::kAuto);
     rt::internal::SetCrowdQueryBatched(true);
     rt::internal::SetCrowdBatched(true);
   }

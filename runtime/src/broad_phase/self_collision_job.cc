@@ -36,25 +36,25 @@ namespace {
 
 using namespace broad_phase;  // the frame's constants and helpers (frame.h)
 
-bool CpuHas(BroadPhaseSimd level) {
+bool CpuHas(SimdLevel level) {
   switch (level) {
-    case BroadPhaseSimd::kAuto:
-    case BroadPhaseSimd::kPortable: return true;
+    case SimdLevel::kAuto:
+    case SimdLevel::kPortable: return true;
 #if defined(SKINSPHERES_X86_64)
-    case BroadPhaseSimd::kSse2: return true;
-    case BroadPhaseSimd::kAvx2: return HostCpu().avx2 && HostCpu().bmi1 && HostCpu().popcnt;
-    case BroadPhaseSimd::kAvx512: return HostCpu().avx512f && HostCpu().bmi1 && HostCpu().popcnt;
+    case SimdLevel::kSse2: return true;
+    case SimdLevel::kAvx2: return HostCpu().avx2 && HostCpu().bmi1 && HostCpu().popcnt;
+    case SimdLevel::kAvx512: return HostCpu().avx512f && HostCpu().bmi1 && HostCpu().popcnt;
 #endif
     default: return false;
   }
 }
 
-const kernels::Kernels& KernelsFor(BroadPhaseSimd level) {
+const kernels::Kernels& KernelsFor(SimdLevel level) {
   switch (ResolveBroadPhaseSimd(level)) {
 #if defined(SKINSPHERES_X86_64)
-    case BroadPhaseSimd::kAvx512: return kernels::Avx512Kernels();
-    case BroadPhaseSimd::kAvx2: return kernels::Avx2Kernels();
-    case BroadPhaseSimd::kSse2: return kernels::Sse2Kernels();
+    case SimdLevel::kAvx512: return kernels::Avx512Kernels();
+    case SimdLevel::kAvx2: return kernels::Avx2Kernels();
+    case SimdLevel::kSse2: return kernels::Sse2Kernels();
 #endif
     default: return kernels::PortableKernels();
   }
@@ -62,28 +62,17 @@ const kernels::Kernels& KernelsFor(BroadPhaseSimd level) {
 
 }  // namespace
 
-bool BroadPhaseSimdSupported(BroadPhaseSimd level) { return CpuHas(level); }
+bool BroadPhaseSimdSupported(SimdLevel level) { return CpuHas(level); }
 
-BroadPhaseSimd ResolveBroadPhaseSimd(BroadPhaseSimd level) {
-  if (level != BroadPhaseSimd::kAuto) return level;
-  if (CpuHas(BroadPhaseSimd::kAvx512)) return BroadPhaseSimd::kAvx512;
-  if (CpuHas(BroadPhaseSimd::kAvx2)) return BroadPhaseSimd::kAvx2;
+SimdLevel ResolveBroadPhaseSimd(SimdLevel level) {
+  if (level != SimdLevel::kAuto) return level;
+  if (CpuHas(SimdLevel::kAvx512)) return SimdLevel::kAvx512;
+  if (CpuHas(SimdLevel::kAvx2)) return SimdLevel::kAvx2;
 #if defined(SKINSPHERES_X86_64)
-  return BroadPhaseSimd::kSse2;
+  return SimdLevel::kSse2;
 #else
-  return BroadPhaseSimd::kPortable;
+  return SimdLevel::kPortable;
 #endif
-}
-
-const char* ToString(BroadPhaseSimd level) {
-  switch (level) {
-    case BroadPhaseSimd::kAuto: return "auto";
-    case BroadPhaseSimd::kSse2: return "sse2";
-    case BroadPhaseSimd::kAvx2: return "avx2";
-    case BroadPhaseSimd::kAvx512: return "avx512";
-    case BroadPhaseSimd::kPortable: return "portable";
-  }
-  return "unknown";
 }
 
 const char* ToString(BroadPhaseMethod method) {

@@ -58,12 +58,12 @@ void CrowdBatch::ListPairs(CharacterAsset* asset) {
 
 namespace internal {
 
-const CrowdQueryKernels& CrowdQueryKernelsFor(RefitSimd level) {
+const CrowdQueryKernels& CrowdQueryKernelsFor(SimdLevel level) {
   switch (level) {
 #if defined(SKINSPHERES_X86_64)
-    case RefitSimd::kAvx512: return avx512::CrowdQueryKernelTable();
-    case RefitSimd::kAvx2: return avx2::CrowdQueryKernelTable();
-    case RefitSimd::kSse2: return sse2::CrowdQueryKernelTable();
+    case SimdLevel::kAvx512: return avx512::CrowdQueryKernelTable();
+    case SimdLevel::kAvx2: return avx2::CrowdQueryKernelTable();
+    case SimdLevel::kSse2: return sse2::CrowdQueryKernelTable();
 #endif
     default: return portable::CrowdQueryKernelTable();
   }
@@ -141,8 +141,8 @@ void CrowdBatch::SortRows(std::vector<SpherePair>& found) {
 // FindSpherePairs of the instances in `lanes` at once: what FindSpherePairs() gives each, from soa. Lanes whose
 // spheres the broad phase would refuse (beyond kMaxMagnitude) are left out of the returned mask,
 // for their own FindSpherePairs() to report.
-uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, internal::RefitSimd level, const float* soa,
-                                uint32_t lanes, CharacterInstance* const inst[kLanes]) {
+uint32_t CrowdBatch::QueryBatch(const CharacterAsset& asset, SimdLevel level, const float* soa, uint32_t lanes,
+                                CharacterInstance* const inst[kLanes]) {
   const internal::CrowdQueryKernels& kernels = internal::CrowdQueryKernelsFor(level);
   const size_t n = asset.size();
   lanes &= kernels.values_ok(soa, n, internal::kMaxMagnitude);
@@ -192,7 +192,7 @@ bool CrowdBatch::Run(std::span<CharacterInstance* const> instances, std::span<co
                      RefitMode mode, bool find_contacts, size_t begin, size_t end) {
   bool all_ok = true;
   // The level and width, read once: the refit and the query of every batch below use the same.
-  const internal::RefitSimd level = internal::RefitSimdInUse();
+  const SimdLevel level = internal::RefitSimdInUse();
   const size_t width = internal::RefitBatchLanes(level);
   for (size_t i = begin; i < end;) {
     const CharacterAsset* asset = instances[i]->asset_.get();

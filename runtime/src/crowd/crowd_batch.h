@@ -42,7 +42,7 @@ struct CrowdBatch {
   // FindSpherePairs of the instances in `lanes` at once, refitted at `level`: what FindSpherePairs() gives each, from
   // soa. Lanes whose spheres the broad phase would refuse (beyond kMaxMagnitude) are left out of the returned mask, for
   // their own FindSpherePairs() to report.
-  static uint32_t QueryBatch(const CharacterAsset& asset, internal::RefitSimd level, const float* soa, uint32_t lanes,
+  static uint32_t QueryBatch(const CharacterAsset& asset, SimdLevel level, const float* soa, uint32_t lanes,
                              CharacterInstance* const inst[kLanes]);
   // The hits of a batch into its instances' sphere pairs (a BatchFlush; context: a HitTarget).
   struct HitTarget {

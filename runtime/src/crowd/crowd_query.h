@@ -87,7 +87,7 @@ struct CrowdQueryKernels {
 };
 
 // The kernels of a refit level (refit/refit_internal.h: the level the batch was refitted at).
-const CrowdQueryKernels& CrowdQueryKernelsFor(RefitSimd level);
+const CrowdQueryKernels& CrowdQueryKernelsFor(SimdLevel level);
 namespace portable {
 const CrowdQueryKernels& CrowdQueryKernelTable();  // 4 lanes
 }

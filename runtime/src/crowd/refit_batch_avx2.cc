@@ -14,7 +14,7 @@
 
 namespace skinspheres::runtime::internal::avx2 {
 #include "simd/lanes_avx2.inc"
-constexpr RefitSimd kThisLevel = RefitSimd::kAvx2;
+constexpr SimdLevel kThisLevel = SimdLevel::kAvx2;
 #include "crowd/refit_batch.inc"
 }  // namespace skinspheres::runtime::internal::avx2
 

@@ -14,7 +14,7 @@
 
 namespace skinspheres::runtime::internal::avx512 {
 #include "simd/lanes_avx512.inc"
-constexpr RefitSimd kThisLevel = RefitSimd::kAvx512;
+constexpr SimdLevel kThisLevel = SimdLevel::kAvx512;
 #include "crowd/refit_batch.inc"
 }  // namespace skinspheres::runtime::internal::avx512
 

@@ -12,6 +12,6 @@
 namespace skinspheres::runtime::internal::portable {
 namespace F = simd::portable;
 #include "simd/lanes_float4.inc"
-constexpr RefitSimd kThisLevel = RefitSimd::kPortable;
+constexpr SimdLevel kThisLevel = SimdLevel::kPortable;
 #include "crowd/refit_batch.inc"
 }  // namespace skinspheres::runtime::internal::portable

@@ -13,7 +13,7 @@
 namespace skinspheres::runtime::internal::sse2 {
 namespace F = simd::sse;
 #include "simd/lanes_float4.inc"
-constexpr RefitSimd kThisLevel = RefitSimd::kSse2;
+constexpr SimdLevel kThisLevel = SimdLevel::kSse2;
 #include "crowd/refit_batch.inc"
 }  // namespace skinspheres::runtime::internal::sse2
 #endif  // x86

@@ -15,7 +15,7 @@
 #include "simd/target_begin_avx2.inc"
 
 namespace skinspheres::runtime::internal::avx2 {
-constexpr RefitSimd kThisLevel = RefitSimd::kAvx2;
+constexpr SimdLevel kThisLevel = SimdLevel::kAvx2;
 namespace F = simd::sse;
 #include "refit/refit_fast.inc"
 }  // namespace skinspheres::runtime::internal::avx2

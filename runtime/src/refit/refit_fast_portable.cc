@@ -11,7 +11,7 @@
 #include "simd/float4.h"
 
 namespace skinspheres::runtime::internal::portable {
-constexpr RefitSimd kThisLevel = RefitSimd::kPortable;
+constexpr SimdLevel kThisLevel = SimdLevel::kPortable;
 namespace F = simd::portable;
 #include "refit/refit_fast.inc"
 }  // namespace skinspheres::runtime::internal::portable

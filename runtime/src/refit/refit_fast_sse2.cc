@@ -12,7 +12,7 @@
 #include "simd/float4.h"
 
 namespace skinspheres::runtime::internal::sse2 {
-constexpr RefitSimd kThisLevel = RefitSimd::kSse2;
+constexpr SimdLevel kThisLevel = SimdLevel::kSse2;
 namespace F = simd::sse;
 #include "refit/refit_fast.inc"
 }  // namespace skinspheres::runtime::internal::sse2

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "skinspheres/runtime/simd_level.h"
 #include "skinspheres/skinning/platform.h"
 
 namespace skinspheres::runtime {
@@ -59,20 +60,20 @@ struct FastRefitArrays {
 // kAvx512: the crowd calls refit 16 instances of one set at once (RefitFastBatch), one instance
 // alone at AVX2; not a level of RefitJob.
 // kPortable: the portable copy (what every platform but x86-64 runs; on x86-64 for tests).
-enum class RefitSimd : uint8_t { kAuto, kSse2, kAvx2, kAvx512, kPortable };
 
 // The level the fast refit runs at: the one pinned by PinRefitSimd, else AVX-512 when the CPU has it
 // (so the crowd batches), else AVX2, else SSE2; off x86-64, kPortable.
-RefitSimd RefitSimdInUse();
-bool RefitSimdSupported(RefitSimd level);
+SimdLevel RefitSimdInUse();
+bool RefitSimdSupported(SimdLevel level);
 // Pins the level for the whole process (kAuto: unpin); false, and nothing changes, when the CPU
 // lacks it. For tests and benchmarks: not to be called while a refit runs.
-bool PinRefitSimd(RefitSimd level);
-const char* ToString(RefitSimd level);
+bool PinRefitSimd(SimdLevel level);
+// ToString(level), with AVX-512 said to batch crowds only.
+const char* RefitLevelName(SimdLevel level);
 // The level of the copy that ran the calling thread's latest fast refit (kAuto: none yet), so that a
 // test can tell which ran (they give the same bits). Each copy calls NoteRefitSimdRun.
-RefitSimd LastRefitSimdRun();
-void NoteRefitSimdRun(RefitSimd level);
+SimdLevel LastRefitSimdRun();
+void NoteRefitSimdRun(SimdLevel level);
 
 namespace portable {  // refit_fast_portable.cc
 bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
@@ -96,7 +97,7 @@ bool RefitFastRange(const FastRefitArrays& a, size_t begin, size_t end);
 // (4 RefitBatchLanes() floats per sphere: x, y, z, r of the lanes; crowd/crowd_query.h).
 constexpr size_t kRefitBatchLanes = 16;
 // The lanes of the crowd's batch at `level` (kAuto: the level in use, RefitSimdInUse()).
-size_t RefitBatchLanes(RefitSimd level = RefitSimd::kAuto);
+size_t RefitBatchLanes(SimdLevel level = SimdLevel::kAuto);
 // Whether the crowd calls refit several instances at a time (always, today: every level batches),
 // and the call that does it (refit_job.cc; world[b]: 16 floats per set joint, out[b]: 4 floats per
 // sphere, for b < RefitBatchLanes()), which the caller makes only when RefitBatchUsable() said yes,
@@ -105,7 +106,7 @@ bool RefitBatchUsable();
 // `level`: as RefitBatchLanes (a caller that sized its lanes by a level passes that level, so that
 // a pin changed meanwhile cannot widen the batch).
 uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
-                        float* const out[kRefitBatchLanes], float* soa = nullptr, RefitSimd level = RefitSimd::kAuto);
+                        float* const out[kRefitBatchLanes], float* soa = nullptr, SimdLevel level = SimdLevel::kAuto);
 namespace portable {  // 4 lanes
 uint32_t RefitFastBatch(const FastRefitArrays& a, size_t sphere_count, const float* const world[], float* const out[],
                         float* soa);

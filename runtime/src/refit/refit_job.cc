@@ -194,9 +194,9 @@ bool RefitFast(const RefitJob& job, size_t begin, size_t end) {
   a.out = reinterpret_cast<float*>(job.out.data());
   switch (internal::RefitSimdInUse()) {
 #if defined(SKINSPHERES_X86_64)
-    case internal::RefitSimd::kAvx512:  // one instance alone: the AVX2 copy (the crowd batches)
-    case internal::RefitSimd::kAvx2: return internal::avx2::RefitFastRange(a, begin, end);
-    case internal::RefitSimd::kSse2: return internal::sse2::RefitFastRange(a, begin, end);
+    case SimdLevel::kAvx512:  // one instance alone: the AVX2 copy (the crowd batches)
+    case SimdLevel::kAvx2: return internal::avx2::RefitFastRange(a, begin, end);
+    case SimdLevel::kSse2: return internal::sse2::RefitFastRange(a, begin, end);
 #endif
     default: return internal::portable::RefitFastRange(a, begin, end);
   }
@@ -227,13 +227,13 @@ bool RefitJob::RunParallel(const ParallelFor& parallel_for, size_t grain) const 
 namespace internal {
 
 uint32_t RefitFastBatch(const SphereSet& set, const RefitRestData& rest, const float* const world[kRefitBatchLanes],
-                        float* const out[kRefitBatchLanes], float* soa, RefitSimd level) {
+                        float* const out[kRefitBatchLanes], float* soa, SimdLevel level) {
   const FastRefitArrays a = SharedArrays(set, rest);
-  switch (level == RefitSimd::kAuto ? RefitSimdInUse() : level) {
+  switch (level == SimdLevel::kAuto ? RefitSimdInUse() : level) {
 #if defined(SKINSPHERES_X86_64)
-    case RefitSimd::kAvx512: return avx512::RefitFastBatch(a, set.size(), world, out, soa);
-    case RefitSimd::kAvx2: return avx2::RefitFastBatch(a, set.size(), world, out, soa);
-    case RefitSimd::kSse2: return sse2::RefitFastBatch(a, set.size(), world, out, soa);
+    case SimdLevel::kAvx512: return avx512::RefitFastBatch(a, set.size(), world, out, soa);
+    case SimdLevel::kAvx2: return avx2::RefitFastBatch(a, set.size(), world, out, soa);
+    case SimdLevel::kSse2: return sse2::RefitFastBatch(a, set.size(), world, out, soa);
 #endif
     default: return portable::RefitFastBatch(a, set.size(), world, out, soa);
   }

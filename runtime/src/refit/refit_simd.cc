@@ -11,52 +11,52 @@ namespace skinspheres::runtime {
 namespace internal {
 
 namespace {
-std::atomic<RefitSimd> g_pinned{RefitSimd::kAuto};
+std::atomic<SimdLevel> g_pinned{SimdLevel::kAuto};
 }  // namespace
 
-bool RefitSimdSupported(RefitSimd level) {
+bool RefitSimdSupported(SimdLevel level) {
   switch (level) {
-    case RefitSimd::kAuto:
-    case RefitSimd::kPortable: return true;
+    case SimdLevel::kAuto:
+    case SimdLevel::kPortable: return true;
 #if defined(SKINSPHERES_X86_64)
-    case RefitSimd::kSse2: return true;
-    case RefitSimd::kAvx2: return HostCpu().avx2;
-    case RefitSimd::kAvx512: return HostCpu().avx512f;
+    case SimdLevel::kSse2: return true;
+    case SimdLevel::kAvx2: return HostCpu().avx2;
+    case SimdLevel::kAvx512: return HostCpu().avx512f;
 #endif
     default: return false;
   }
 }
 
 namespace {
-thread_local RefitSimd t_last_run = RefitSimd::kAuto;
+thread_local SimdLevel t_last_run = SimdLevel::kAuto;
 }  // namespace
 
-RefitSimd LastRefitSimdRun() { return t_last_run; }
-void NoteRefitSimdRun(RefitSimd level) { t_last_run = level; }
+SimdLevel LastRefitSimdRun() { return t_last_run; }
+void NoteRefitSimdRun(SimdLevel level) { t_last_run = level; }
 
-RefitSimd RefitSimdInUse() {
-  const RefitSimd pinned = g_pinned.load(std::memory_order_relaxed);
-  if (pinned != RefitSimd::kAuto) return pinned;
-  static const RefitSimd best = RefitSimdSupported(RefitSimd::kAvx512) ? RefitSimd::kAvx512
-                                : RefitSimdSupported(RefitSimd::kAvx2) ? RefitSimd::kAvx2
-                                : RefitSimdSupported(RefitSimd::kSse2) ? RefitSimd::kSse2
-                                                                       : RefitSimd::kPortable;
+SimdLevel RefitSimdInUse() {
+  const SimdLevel pinned = g_pinned.load(std::memory_order_relaxed);
+  if (pinned != SimdLevel::kAuto) return pinned;
+  static const SimdLevel best = RefitSimdSupported(SimdLevel::kAvx512) ? SimdLevel::kAvx512
+                                : RefitSimdSupported(SimdLevel::kAvx2) ? SimdLevel::kAvx2
+                                : RefitSimdSupported(SimdLevel::kSse2) ? SimdLevel::kSse2
+                                                                       : SimdLevel::kPortable;
   return best;
 }
 
-bool PinRefitSimd(RefitSimd level) {
+bool PinRefitSimd(SimdLevel level) {
   if (!RefitSimdSupported(level)) return false;
   g_pinned.store(level, std::memory_order_relaxed);
   return true;
 }
 
-const char* ToString(RefitSimd level) {
+const char* RefitLevelName(SimdLevel level) {
   switch (level) {
-    case RefitSimd::kAuto: return "auto";
-    case RefitSimd::kSse2: return "sse2";
-    case RefitSimd::kAvx2: return "avx2";
-    case RefitSimd::kAvx512: return "avx512 (crowd batches; avx2 alone)";
-    case RefitSimd::kPortable: return "portable";
+    case SimdLevel::kAuto: return "auto";
+    case SimdLevel::kSse2: return "sse2";
+    case SimdLevel::kAvx2: return "avx2";
+    case SimdLevel::kAvx512: return "avx512 (crowd batches; avx2 alone)";
+    case SimdLevel::kPortable: return "portable";
   }
   return "unknown";
 }
@@ -65,11 +65,11 @@ const char* ToString(RefitSimd level) {
 
 namespace internal {
 
-size_t RefitBatchLanes(RefitSimd level) {
-  switch (level == RefitSimd::kAuto ? RefitSimdInUse() : level) {
+size_t RefitBatchLanes(SimdLevel level) {
+  switch (level == SimdLevel::kAuto ? RefitSimdInUse() : level) {
 #if defined(SKINSPHERES_X86_64)
-    case RefitSimd::kAvx512: return 16;
-    case RefitSimd::kAvx2: return 8;
+    case SimdLevel::kAvx512: return 16;
+    case SimdLevel::kAvx2: return 8;
 #endif
     default: return 4;  // SSE2 and portable
   }

@@ -37,8 +37,8 @@ std::shared_ptr<const CharacterAsset> BuiltinAsset(std::shared_ptr<const test::F
 
 struct PinnedLevel {  // the crowd's refit level (and batch width) pinned for a scope
   bool ok;
-  explicit PinnedLevel(internal::RefitSimd level) : ok(internal::PinRefitSimd(level)) {}
-  ~PinnedLevel() { internal::PinRefitSimd(internal::RefitSimd::kAuto); }
+  explicit PinnedLevel(SimdLevel level) : ok(internal::PinRefitSimd(level)) {}
+  ~PinnedLevel() { internal::PinRefitSimd(SimdLevel::kAuto); }
   PinnedLevel(const PinnedLevel&) = delete;
   PinnedLevel& operator=(const PinnedLevel&) = delete;
 };
@@ -352,11 +352,10 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
   ASSERT_FALSE(alone[short_at].status().ok());
   ASSERT_FALSE(alone[huge_at].status().ok());
   ASSERT_TRUE(alone[huge_at].spheres_valid());
-  for (const internal::RefitSimd level : {internal::RefitSimd::kPortable, internal::RefitSimd::kSse2,
-                                          internal::RefitSimd::kAvx2, internal::RefitSimd::kAvx512}) {
+  for (const SimdLevel level : {SimdLevel::kPortable, SimdLevel::kSse2, SimdLevel::kAvx2, SimdLevel::kAvx512}) {
     const PinnedLevel pin(level);
     if (!pin.ok) {
-      std::printf("%s: not on this CPU, not checked\n", internal::ToString(level));
+      std::printf("%s: not on this CPU, not checked\n", internal::RefitLevelName(level));
       continue;
     }
     for (const bool find_contacts : {false, true}) {
@@ -365,7 +364,7 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
         for (int i = 0; i < kCount; ++i) crowd.push_back(make(i));
         std::vector<CharacterInstance*> ptrs;
         for (auto& c : crowd) ptrs.push_back(&c);
-        internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
+        internal::NoteRefitSimdRun(SimdLevel::kAuto);
         FrameStatus st;
         if (loop_kind == 2) {
           for (size_t begin = 0; begin < ptrs.size(); begin += 16) {
@@ -380,7 +379,7 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
           st = find_contacts ? CrowdUpdateAndFindContacts(ptrs, inputs, RefitMode::kFast, loop)
                              : CrowdUpdateAndFindSpherePairs(ptrs, inputs, RefitMode::kFast, loop);
         }
-        const std::string what = std::string(internal::ToString(level)) +
+        const std::string what = std::string(internal::RefitLevelName(level)) +
                                  (find_contacts ? ", find contacts" : ", query") +
                                  (loop_kind == 0   ? ", serial"
                                   : loop_kind == 1 ? ", TBB"
@@ -410,12 +409,12 @@ TEST(CharacterCrowdTest, BatchedRefitEqualsEachInstanceAlone) {
 
 // The crowd at each refit level the CPU has, pinned for the test: AVX-512 (16 lanes), AVX2 (8), SSE2
 // and portable (4).
-class CharacterCrowdLevelTest : public ::testing::TestWithParam<internal::RefitSimd> {
+class CharacterCrowdLevelTest : public ::testing::TestWithParam<SimdLevel> {
  protected:
   void SetUp() override {
-    if (!internal::PinRefitSimd(GetParam())) GTEST_SKIP() << "the CPU lacks " << internal::ToString(GetParam());
+    if (!internal::PinRefitSimd(GetParam())) GTEST_SKIP() << "the CPU lacks " << internal::RefitLevelName(GetParam());
   }
-  void TearDown() override { internal::PinRefitSimd(internal::RefitSimd::kAuto); }
+  void TearDown() override { internal::PinRefitSimd(SimdLevel::kAuto); }
 };
 
 INSTANTIATE_TEST_SUITE_P(Levels, CharacterCrowdLevelTest, test::AllRefitLevels(), test::RefitLevelName);
@@ -532,8 +531,7 @@ TEST_P(SharedCharacterCrowd, BatchEqualsEachInstanceAlone) {
     pairs += alone[k].FindSpherePairs().size();
   }
   EXPECT_GT(pairs, 0u);
-  for (const internal::RefitSimd level : {internal::RefitSimd::kPortable, internal::RefitSimd::kSse2,
-                                          internal::RefitSimd::kAvx2, internal::RefitSimd::kAvx512}) {
+  for (const SimdLevel level : {SimdLevel::kPortable, SimdLevel::kSse2, SimdLevel::kAvx2, SimdLevel::kAvx512}) {
     const PinnedLevel pin(level);
     if (!pin.ok) continue;
     std::vector<CharacterInstance> crowd;
@@ -542,12 +540,12 @@ TEST_P(SharedCharacterCrowd, BatchEqualsEachInstanceAlone) {
     for (auto& c : crowd) ptrs.push_back(&c);
     const uint64_t batches = internal::CrowdQueryBatches();
     ASSERT_TRUE(CrowdUpdateAndFindSpherePairs(ptrs, inputs, RefitMode::kFast, SerialFor()).ok());
-    EXPECT_GT(internal::CrowdQueryBatches(), batches) << internal::ToString(level) << ": queried in batches";
+    EXPECT_GT(internal::CrowdQueryBatches(), batches) << internal::RefitLevelName(level) << ": queried in batches";
     for (size_t k = 0; k < kCount; ++k) {
       ASSERT_TRUE(std::ranges::equal(crowd[k].spheres(), alone[k].spheres()))
-          << internal::ToString(level) << ", instance " << k;
+          << internal::RefitLevelName(level) << ", instance " << k;
       ASSERT_TRUE(std::ranges::equal(crowd[k].sphere_pairs(), alone[k].sphere_pairs()))
-          << internal::ToString(level) << ", instance " << k;
+          << internal::RefitLevelName(level) << ", instance " << k;
     }
   }
   std::printf("%s: %zu spheres, %zu sphere pairs over %zu instances\n", GetParam().c_str(), (*asset)->size(), pairs,

@@ -61,10 +61,10 @@ inline std::vector<runtime::SpherePair> GridOracle(const std::vector<Vec4f>& s, 
 }
 
 // The instruction sets of the broad phase this build and CPU have (portable always; SSE2 on x86-64).
-inline std::vector<runtime::BroadPhaseSimd> SupportedLevels() {
-  std::vector<runtime::BroadPhaseSimd> levels;
-  for (auto l : {runtime::BroadPhaseSimd::kPortable, runtime::BroadPhaseSimd::kSse2, runtime::BroadPhaseSimd::kAvx2,
-                 runtime::BroadPhaseSimd::kAvx512}) {
+inline std::vector<runtime::SimdLevel> SupportedLevels() {
+  std::vector<runtime::SimdLevel> levels;
+  for (auto l : {runtime::SimdLevel::kPortable, runtime::SimdLevel::kSse2, runtime::SimdLevel::kAvx2,
+                 runtime::SimdLevel::kAvx512}) {
     if (runtime::BroadPhaseSimdSupported(l)) levels.push_back(l);
   }
   return levels;

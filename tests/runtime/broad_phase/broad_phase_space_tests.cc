@@ -105,7 +105,7 @@ TEST(BroadPhaseWorkloadTest, ConstantDensityWorkGrowsNearlyLinearly) {
   // The cloud's density (300 spheres in 1.8 x 1.8 x 0.3) in a slab growing in x and y. At every
   // instruction set: the counts depend on the vector width (a block sweep tests whole blocks), so
   // each level gets its own slope.
-  const auto work_at = [](size_t n, BroadPhaseSimd level, std::vector<SpherePair>* last, Spheres* last_spheres,
+  const auto work_at = [](size_t n, SimdLevel level, std::vector<SpherePair>* last, Spheres* last_spheres,
                           const PairFilter& f) {
     const float side = 1.8f * std::sqrt(float(n) / 300.0f);
     const Spheres base = Cloud(n, side, side, 0.3f);
@@ -121,7 +121,7 @@ TEST(BroadPhaseWorkloadTest, ConstantDensityWorkGrowsNearlyLinearly) {
     }
     return work / frames;
   };
-  for (const BroadPhaseSimd level : test::SupportedLevels()) {
+  for (const SimdLevel level : test::SupportedLevels()) {
     std::vector<std::pair<size_t, double>> points;
     for (size_t n : {1000, 4000, 16000}) {
       const PairFilter none = PairFilter::Create(n, {}, {}).value();

@@ -69,7 +69,7 @@ TEST(BroadPhaseTest, OracleOnAHandMadeSet) {
 TEST(BroadPhaseTest, RandomSetsMatchAllPairsOnEveryInstructionSet) {
   const auto levels = SupportedLevels();
   ASSERT_FALSE(levels.empty());
-  std::map<BroadPhaseSimd, BroadPhaseContext> shared;
+  std::map<SimdLevel, BroadPhaseContext> shared;
   for (auto l : levels) shared[l].Resize(900);
   std::vector<SpherePair> out;
   size_t total_contacts = 0;
@@ -323,7 +323,7 @@ TEST(BroadPhaseTest, ASpaceOfCharactersRunsEachOnItsOwnCacheAndMatchesTheOracleE
   for (bool between : {true, false}) {
     for (bool within : {true, false}) {
       const PairFilter space = Combined(members, {within, between});
-      const std::vector<BroadPhaseSimd> levels = SupportedLevels();
+      const std::vector<SimdLevel> levels = SupportedLevels();
       std::vector<BroadPhaseContext> contexts(levels.size());
       for (auto& c : contexts) c.Resize(total);
       // And a context with the least room for candidates: the pairs between characters go
@@ -380,7 +380,7 @@ TEST(BroadPhaseTest, ASpaceOfCharactersInOneClumpHasMoreContactsBetweenThemThanT
   size_t across = 0;
   for (const auto& c : expected) across += space.group(c.i) != space.group(c.j) ? 1 : 0;
   ASSERT_GT(across, all.size());
-  for (const BroadPhaseSimd level : SupportedLevels()) {
+  for (const SimdLevel level : SupportedLevels()) {
     BroadPhaseContext ctx(all.size());
     std::vector<SpherePair> out;
     // By character on the first frame; then, the pairs between characters being far more than 16
@@ -555,8 +555,7 @@ TEST(BroadPhaseTest, ValidateRefusals) {
   EXPECT_FALSE((SelfCollisionJob{s, &f9, &ctx, &out}.Validate()));   // size mismatch
   EXPECT_FALSE((SelfCollisionJob{s, &f, &small, &out}.Validate()));  // context too small
   EXPECT_FALSE((SelfCollisionJob{s, &f, &small, &out}.Run()));
-  for (auto level : {BroadPhaseSimd::kAuto, BroadPhaseSimd::kSse2, BroadPhaseSimd::kAvx2, BroadPhaseSimd::kAvx512,
-                     BroadPhaseSimd::kPortable}) {
+  for (auto level : {SimdLevel::kAuto, SimdLevel::kSse2, SimdLevel::kAvx2, SimdLevel::kAvx512, SimdLevel::kPortable}) {
     SelfCollisionJob job{s, &f, &ctx, &out};
     job.simd = level;
     EXPECT_EQ(job.Validate(), BroadPhaseSimdSupported(level)) << ToString(level);

@@ -32,7 +32,7 @@ using test::RandomSpheres;
 using test::SupportedLevels;
 
 TEST(BroadPhaseTest, DirectSweepOutputHoldsNoMoreThanTheContacts) {
-  for (const BroadPhaseSimd level : SupportedLevels()) {
+  for (const SimdLevel level : SupportedLevels()) {
     Spheres line(600);
     for (size_t k = 0; k < line.size(); ++k) line[k] = {1e-25f * float(k), 0.0f, 0.0f, 0.0f};
     std::mt19937 rng(53);
@@ -57,7 +57,7 @@ TEST(BroadPhaseTest, DirectSweepOutputHoldsNoMoreThanTheContacts) {
 TEST(BroadPhaseTest, SpheresCloserThanTheirSquaresResolveTouchOnEveryPath) {
   // Centres closer than about 2^-75 touch whatever their radii (the squares underflow to 0), so
   // the boxes and intervals the paths compare must be padded by more than that.
-  for (const BroadPhaseSimd level : SupportedLevels()) {
+  for (const SimdLevel level : SupportedLevels()) {
     // 600 zero-radius spheres 1e-25 apart on a line: ~260 neighbours each touch, far more than
     // any cache holds, so the job sweeps straight into the output.
     Spheres line(600);

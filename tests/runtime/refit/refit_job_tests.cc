@@ -179,8 +179,8 @@ TEST(RefitJobTest, BuiltinCharacterIsCoveredInBothModes) { CheckCharacter("built
 // Pins the fast refit's instruction set for a scope (internal::PinRefitSimd), unpinned after.
 class PinnedRefit {
  public:
-  explicit PinnedRefit(internal::RefitSimd level) : ok_(internal::PinRefitSimd(level)) {}
-  ~PinnedRefit() { internal::PinRefitSimd(internal::RefitSimd::kAuto); }
+  explicit PinnedRefit(SimdLevel level) : ok_(internal::PinRefitSimd(level)) {}
+  ~PinnedRefit() { internal::PinRefitSimd(SimdLevel::kAuto); }
   PinnedRefit(const PinnedRefit&) = delete;
   PinnedRefit& operator=(const PinnedRefit&) = delete;
   bool ok() const { return ok_; }
@@ -193,24 +193,23 @@ class PinnedRefit {
 // every x86-64; AVX2 when present; what is missing is said), and checks that each pin took.
 template <class Check>
 void AtEveryRefitLevel(const std::string& what, Check&& check) {
-  for (const internal::RefitSimd level :
-       {internal::RefitSimd::kPortable, internal::RefitSimd::kSse2, internal::RefitSimd::kAvx2}) {
+  for (const SimdLevel level : {SimdLevel::kPortable, SimdLevel::kSse2, SimdLevel::kAvx2}) {
     const PinnedRefit pin(level);
     if (!pin.ok()) {
-      ASSERT_NE(level, internal::RefitSimd::kPortable);
-      std::printf("%s: %s not checked, the CPU lacks it\n", what.c_str(), internal::ToString(level));
+      ASSERT_NE(level, SimdLevel::kPortable);
+      std::printf("%s: %s not checked, the CPU lacks it\n", what.c_str(), internal::RefitLevelName(level));
       continue;
     }
     ASSERT_EQ(internal::RefitSimdInUse(), level);
-    internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
+    internal::NoteRefitSimdRun(SimdLevel::kAuto);
     check();
     if (::testing::Test::HasFatalFailure()) {
-      ADD_FAILURE() << "at " << internal::ToString(level);
+      ADD_FAILURE() << "at " << internal::RefitLevelName(level);
       return;
     }
     // The copy of that level ran (both give the same bits, so the results alone cannot say).
     ASSERT_EQ(internal::LastRefitSimdRun(), level) << what;
-    std::printf("%s: checked at %s\n", what.c_str(), internal::ToString(level));
+    std::printf("%s: checked at %s\n", what.c_str(), internal::RefitLevelName(level));
   }
 }
 
@@ -408,7 +407,7 @@ TEST(RefitJobTest, FastModeBitIdenticalWithManyInfluencesAndJoints) {
 // RefitBatchLanes() at the level pinned) against the scalar formula, lane by lane, bit for bit, in
 // both of its outputs. worlds: one joint-matrix array per lane (lanes may share one, and then their
 // output); bad: lanes expected to fail (non-finite).
-void CheckBatchLanes(internal::RefitSimd level, const SphereSet& set, const RefitRestData& rest,
+void CheckBatchLanes(SimdLevel level, const SphereSet& set, const RefitRestData& rest,
                      const std::vector<const std::vector<skinspheres::Mat4f>*>& worlds, uint32_t bad,
                      const std::string& what) {
   const size_t width = internal::RefitBatchLanes();
@@ -422,7 +421,7 @@ void CheckBatchLanes(internal::RefitSimd level, const SphereSet& set, const Refi
     while (first > 0 && worlds[first - 1] == worlds[b]) --first;
     out[b] = reinterpret_cast<float*>(outs[first].data());
   }
-  internal::NoteRefitSimdRun(internal::RefitSimd::kAuto);
+  internal::NoteRefitSimdRun(SimdLevel::kAuto);
   std::vector<float> soa(4 * width * set.size(), -1.0f);  // the same spheres lanes side by side (crowd query)
   const uint32_t finite = internal::RefitFastBatch(set, rest, world, out, soa.data());
   ASSERT_EQ(internal::LastRefitSimdRun(), level) << what;
@@ -444,14 +443,14 @@ void CheckBatchLanes(internal::RefitSimd level, const SphereSet& set, const Refi
 }
 
 // Every level's batch: AVX-512 (16 lanes), AVX2 (8), SSE2 and portable (4), where the CPU has it.
-class CrowdBatchLevel : public ::testing::TestWithParam<internal::RefitSimd> {};
+class CrowdBatchLevel : public ::testing::TestWithParam<SimdLevel> {};
 
 // W poses of the built-in character per batch, random (half of them with every coefficient
 // perturbed and far translations, any affine map), then a batch with a NaN in lane W/2 + 1 (it
 // alone fails) and one whose lanes from W/4 + 1 on repeat lane W/4 (a crowd's last, partial batch).
 TEST_P(CrowdBatchLevel, GivesEachInstanceTheScalarBits) {
   const PinnedRefit pin(GetParam());
-  if (!pin.ok()) GTEST_SKIP() << "the CPU lacks " << internal::ToString(GetParam());
+  if (!pin.ok()) GTEST_SKIP() << "the CPU lacks " << internal::RefitLevelName(GetParam());
   auto fc = test::LoadFitted("builtin");
   ASSERT_TRUE(fc);
   auto rest = RefitRestData::Create(fc->set);
@@ -480,7 +479,7 @@ TEST_P(CrowdBatchLevel, GivesEachInstanceTheScalarBits) {
 // reach groups without blends (the batch's copy without blends) and with blends.
 TEST_P(CrowdBatchLevel, ManyInfluencesAndJoints) {
   const PinnedRefit pin(GetParam());
-  if (!pin.ok()) GTEST_SKIP() << "the CPU lacks " << internal::ToString(GetParam());
+  if (!pin.ok()) GTEST_SKIP() << "the CPU lacks " << internal::RefitLevelName(GetParam());
   constexpr int kJoints = 300;
   for (const auto& [influences, stride] : {std::pair{20, 15}, std::pair{6, 16}}) {
     for (const auto groups : {ManyInfluences::kOne, ManyInfluences::kGroups, ManyInfluences::kBlended}) {

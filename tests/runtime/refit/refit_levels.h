@@ -12,16 +12,16 @@
 namespace skinspheres::test {
 
 inline auto AllRefitLevels() {
-  using runtime::internal::RefitSimd;
-  return ::testing::Values(RefitSimd::kAvx512, RefitSimd::kAvx2, RefitSimd::kSse2, RefitSimd::kPortable);
+  using runtime::SimdLevel;
+  return ::testing::Values(SimdLevel::kAvx512, SimdLevel::kAvx2, SimdLevel::kSse2, SimdLevel::kPortable);
 }
 
-inline std::string RefitLevelName(const ::testing::TestParamInfo<runtime::internal::RefitSimd>& level) {
+inline std::string RefitLevelName(const ::testing::TestParamInfo<runtime::SimdLevel>& level) {
   switch (level.param) {
-    case runtime::internal::RefitSimd::kAvx512: return "Avx512";
-    case runtime::internal::RefitSimd::kAvx2: return "Avx2";
-    case runtime::internal::RefitSimd::kSse2: return "Sse2";
-    case runtime::internal::RefitSimd::kPortable: return "Portable";
+    case runtime::SimdLevel::kAvx512: return "Avx512";
+    case runtime::SimdLevel::kAvx2: return "Avx2";
+    case runtime::SimdLevel::kSse2: return "Sse2";
+    case runtime::SimdLevel::kPortable: return "Portable";
     default: return "Auto";
   }
 }

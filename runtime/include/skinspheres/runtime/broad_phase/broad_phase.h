@@ -69,6 +69,7 @@
 #include <vector>
 
 #include "skinspheres/runtime/broad_phase/pair_filter.h"
+#include "skinspheres/runtime/simd_level.h"
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/parallel_for.h"
 
@@ -88,13 +89,10 @@ struct SpherePair {
   friend bool operator==(const SpherePair&, const SpherePair&) = default;
 };
 
-// Instruction set of the broad-phase kernels. kAuto: the widest the CPU has (x86-64: AVX-512, AVX2,
-// SSE2; elsewhere kPortable). kPortable: plain C++ over arrays of 4 floats, on every platform.
-// Every level, on every platform, gives the same sphere pairs, bit for bit.
-enum class BroadPhaseSimd : uint8_t { kAuto, kSse2, kAvx2, kAvx512, kPortable };
-bool BroadPhaseSimdSupported(BroadPhaseSimd level);
-BroadPhaseSimd ResolveBroadPhaseSimd(BroadPhaseSimd level);  // kAuto -> the level it runs
-const char* ToString(BroadPhaseSimd level);
+// Instruction set of the broad-phase kernels (simd_level.h): every level, on every platform, gives
+// the same sphere pairs, bit for bit.
+bool BroadPhaseSimdSupported(SimdLevel level);
+SimdLevel ResolveBroadPhaseSimd(SimdLevel level);  // kAuto -> the level it runs
 
 // How the last Run() answered (BroadPhaseContext::last_method()).
 enum class BroadPhaseMethod : uint8_t {
@@ -166,9 +164,9 @@ class BroadPhaseContext {
 struct SelfCollisionJob {
   std::span<const Vec4f> spheres;  // xyz centre, w radius (>= 0); size == filter->size()
   const PairFilter* filter = nullptr;
-  BroadPhaseContext* context = nullptr;         // max_spheres() >= spheres.size()
-  std::vector<SpherePair>* out = nullptr;       // cleared, then filled, sorted by (i, j)
-  BroadPhaseSimd simd = BroadPhaseSimd::kAuto;  // refused (Validate) when the CPU lacks it
+  BroadPhaseContext* context = nullptr;    // max_spheres() >= spheres.size()
+  std::vector<SpherePair>* out = nullptr;  // cleared, then filled, sorted by (i, j)
+  SimdLevel simd = SimdLevel::kAuto;       // refused (Validate) when the CPU lacks it
 
   // Every reason the job is refused: null pointers, sizes, an instruction set the CPU lacks.
   // Does not read the sphere values.
