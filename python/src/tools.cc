@@ -13,21 +13,12 @@ struct PlayCollect {
   std::vector<FrameTriangleContactRecord> triangles;
 };
 
-// With a clip file, `clip` counts or names the file's clips (appended after the character's own
-// `own` clips, renamed "<file stem>/<name>" where the name was taken).
+// With a clip file, `clip` names or counts the file's clips (appended after the character's own
+// `own` clips, renamed "<file stem>/<name>" where the name was taken): the first it selects.
 size_t FileClip(const lib::RawCharacter& character, size_t own, const std::string& file, const std::string& clip) {
-  const size_t added = character.clips.size() - own;
-  if (!clip.empty() && clip.find_first_not_of("0123456789") == std::string::npos) {
-    const size_t k = clip.size() < 10 ? std::stoul(clip) : added;
-    if (k < added) return own + k;
-  }
-  std::string names;
-  for (size_t k = own; k < character.clips.size(); ++k) {
-    const std::string& name = character.clips[k].name;
-    if (name == clip || (name.size() > clip.size() && name.ends_with("/" + clip))) return k;
-    names += (names.empty() ? "" : ", ") + std::to_string(k - own) + ":" + name;
-  }
-  Throw(Error{ErrorCode::kNotFound, file + ": no clip \"" + clip + "\"; clips: " + names});
+  auto chosen = tool::SelectClips(character, own, clip);
+  if (!chosen.ok()) Throw(Error{chosen.error().code, file + ": " + chosen.error().message});
+  return chosen->front();
 }
 
 }  // namespace

@@ -434,20 +434,6 @@ std::optional<std::string> Validate(const CheckArgs& a) {
   return std::nullopt;
 }
 
-Result<runtime::SphereSet> SpheresFor(const LoadedCharacter& loaded, CheckArgs& a, double* fit_seconds) {
-  if (!a.spheres.empty()) {
-    auto read = runtime::LoadSphereSet(a.spheres);
-    if (!read.ok()) return read.error();
-    runtime::SphereSet set = std::move(read).value();
-    AttachMesh(loaded.character, &set);
-    return set;
-  }
-  auto fit = lib::FitSpheres(loaded.character, loaded.parts, a.fit.settings);
-  if (!fit.ok()) return fit.error();
-  *fit_seconds = fit->report.seconds;
-  return std::move(fit->spheres);
-}
-
 // The command; quiet: nothing printed, the failure in outcome.error.
 CheckOutcome RunCheckCommand(CheckArgs& a, bool quiet) {
   CheckOutcome out;
@@ -478,7 +464,7 @@ CheckOutcome RunCheckCommand(CheckArgs& a, bool quiet) {
                 (a.clip == "all" ? std::string() : " named \"" + a.clip + "\""));
   }
   double fit_seconds = -1.0;
-  auto set = SpheresFor(*loaded, a, &fit_seconds);
+  auto set = SphereSetFor(*loaded, a.spheres, a.fit.settings, &fit_seconds);
   if (!set.ok()) return fail(set.error().message, set.error().code);
   PlayOptions options;
   options.fps = a.fps;

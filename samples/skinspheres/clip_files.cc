@@ -223,4 +223,20 @@ std::optional<Error> AddClipFiles(LoadedCharacter& loaded, const ClipFileOptions
   return std::nullopt;
 }
 
+Result<std::vector<size_t>> SelectClips(const lib::RawCharacter& ch, size_t own, const std::string& clip) {
+  std::vector<size_t> out;
+  for (size_t k = own; k < ch.clips.size(); ++k) {
+    const std::string& name = ch.clips[k].name;
+    if (clip == "all" || name == clip || (name.size() > clip.size() && name.ends_with("/" + clip))) out.push_back(k);
+  }
+  const bool index = !clip.empty() && clip.size() < 10 && clip.find_first_not_of("0123456789") == std::string::npos;
+  if (out.empty() && index && std::stoul(clip) < ch.clips.size() - own) out.push_back(own + std::stoul(clip));
+  if (out.empty()) {
+    std::string names;
+    for (size_t k = own; k < ch.clips.size(); ++k) names += (names.empty() ? "" : ", ") + ch.clips[k].name;
+    return MakeError(ErrorCode::kNotFound, "--clip " + clip + ": no such clip among " + names);
+  }
+  return out;
+}
+
 }  // namespace skinspheres::tool

@@ -54,4 +54,9 @@ std::vector<std::string> AppendClips(LoadedCharacter& loaded, const std::string&
 std::optional<Error> AddClipFiles(LoadedCharacter& loaded, const ClipFileOptions& options, float fps,
                                   std::vector<std::string>* notes);
 
+// The clips from index `first` on that `clip` names: all of them, or those whose name is `clip` or
+// ends in "/clip" (as AppendClips renames a file's clips), or else the one at that index among
+// them. Error kNotFound listing the names when none is.
+Result<std::vector<size_t>> SelectClips(const lib::RawCharacter& ch, size_t first, const std::string& clip);
+
 }  // namespace skinspheres::tool

@@ -30,6 +30,11 @@ struct LoadedCharacter {
 };
 Result<LoadedCharacter> LoadCharacter(const std::string& input, const std::string& parts_file);
 
+// The sphere set a command works with: read from `spheres` (a version-1 file gets the character's
+// mesh, AttachMesh), or, when empty, fitted with `settings` (*fit_seconds: the fit's time).
+Result<runtime::SphereSet> SphereSetFor(const LoadedCharacter& loaded, const std::string& spheres,
+                                        const lib::FitSettings& settings, double* fit_seconds);
+
 // Options shared by `fit`, `play` (fitting on the fly) and `demo`.
 struct FitOptions {
   lib::FitSettings settings;

@@ -4,9 +4,11 @@
 #include <iostream>
 
 #include "commands.h"
+#include "playback.h"
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/runtime/format/sphere_set_io.h"
 #include "skinspheres/runtime/narrow_phase/contact_rules.h"
 
 namespace skinspheres::tool {
@@ -38,6 +40,21 @@ Result<LoadedCharacter> LoadCharacter(const std::string& input, const std::strin
   if (!parts.ok()) return parts.error();
   out.parts = std::move(parts).value();
   return out;
+}
+
+Result<runtime::SphereSet> SphereSetFor(const LoadedCharacter& loaded, const std::string& spheres,
+                                        const lib::FitSettings& settings, double* fit_seconds) {
+  if (!spheres.empty()) {
+    auto read = runtime::LoadSphereSet(spheres);
+    if (!read.ok()) return read.error();
+    runtime::SphereSet set = std::move(read).value();
+    AttachMesh(loaded.character, &set);
+    return set;
+  }
+  auto fit = lib::FitSpheres(loaded.character, loaded.parts, settings);
+  if (!fit.ok()) return fit.error();
+  *fit_seconds = fit->report.seconds;
+  return std::move(fit->spheres);
 }
 
 void FitOptions::AddTo(CLI::App& app) {

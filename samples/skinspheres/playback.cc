@@ -10,6 +10,7 @@
 #include <map>
 
 #include "skinspheres/lib/geometry/mesh_helpers.h"
+#include "skinspheres/lib/retarget/bake_clip.h"
 #include "skinspheres/runtime/api/character.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 #include "skinspheres/skinning/prepared_influences.h"
@@ -285,10 +286,8 @@ Result<ClipPlayer> ClipPlayer::Create(std::shared_ptr<const Playback> playback, 
 
 // Frame count in double, capped: a clip of a million seconds must not overflow or exhaust memory.
 Result<size_t> ClipPlayer::FrameCount(const skinning::AnimationClip& clip) const {
-  constexpr double kMaxFrames = 1e6;
-  const double wanted =
-      options_.frames > 0 ? options_.frames : std::floor(double(clip.duration_s) * options_.fps + 1e-3) + 1.0;
-  if (!(wanted <= kMaxFrames)) {
+  const double wanted = options_.frames > 0 ? options_.frames : lib::FramesAt(clip.duration_s, options_.fps);
+  if (!(wanted <= lib::kMaxFrames)) {
     return MakeError(ErrorCode::kInvalidArgument, playback_->file() + ": clip \"" + clip.name + "\" would play " +
                                                       std::to_string(wanted) + " frames (at most 1000000)");
   }
@@ -299,18 +298,35 @@ Result<size_t> ClipPlayer::FrameCount(const skinning::AnimationClip& clip) const
 // refit; query the sphere pairs; the narrow phase. Each stage timed into `times`.
 std::optional<Error> ClipPlayer::Step(const skinning::AnimationClip& clip, int f, float clip_time, StageTimes* times) {
   const lib::RawCharacter& ch = playback_->loaded().character;
+  const auto t0 = Clock::now();
+  if (!skinning::SamplingJob{&clip, &ch.skeleton, clip_time, locals_}.Run()) {
+    return MakeError(ErrorCode::kInvalidData, playback_->file() + ": clip \"" + clip.name +
+                                                  "\" cannot be sampled at t=" + std::to_string(clip_time));
+  }
+  return Pose(f, t0, times);
+}
+
+std::optional<Error> ClipPlayer::PlayPose(std::span<const skinning::Transform> locals, int frame) {
+  if (locals.size() != locals_.size()) {
+    return MakeError(ErrorCode::kInvalidArgument, playback_->file() + ": a pose of " + std::to_string(locals.size()) +
+                                                      " joints for a skeleton of " + std::to_string(locals_.size()));
+  }
+  std::copy(locals.begin(), locals.end(), locals_.begin());
+  StageTimes times;
+  return Pose(frame, Clock::now(), &times);
+}
+
+std::optional<Error> ClipPlayer::Pose(int f, Clock::time_point t0, StageTimes* times) {
+  const lib::RawCharacter& ch = playback_->loaded().character;
   const std::string file = playback_->file();
   runtime::CharacterInstance& instance = *instance_;
-  const auto t0 = Clock::now();
-  skinning::SamplingJob sampling{&clip, &ch.skeleton, clip_time, locals_};
   skinning::LocalToModelJob l2m;
   l2m.skeleton = &ch.skeleton;
   l2m.input = locals_;
   l2m.output = joint_world_;
   skinning::SkinningMatricesJob mats{ch.skin.binds, joint_world_, bind_matrices_};
-  if (!sampling.Run() || !l2m.Run() || !mats.Run()) {
-    return MakeError(ErrorCode::kInvalidData,
-                     file + ": clip \"" + clip.name + "\" cannot be sampled at t=" + std::to_string(clip_time));
+  if (!l2m.Run() || !mats.Run()) {
+    return MakeError(ErrorCode::kInvalidData, file + ": frame " + std::to_string(f) + ": the pose cannot be posed");
   }
   const auto t1 = Clock::now();
   if (!options_.fast) {

@@ -19,6 +19,7 @@
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -206,11 +207,19 @@ class ClipPlayer {
  public:
   static Result<ClipPlayer> Create(std::shared_ptr<const Playback> playback, const PlayOptions& options);
   Result<PlayResult> Play(size_t clip, const FrameSink& sink = {});
+  // One pose, given as every joint's local transform (skeleton order): skinned (exact mode), refit,
+  // queried and through the narrow phase, as a played frame is; contacts() and joint_world() then
+  // hold its results. `frame` only names it in errors.
+  std::optional<Error> PlayPose(std::span<const skinning::Transform> locals, int frame);
+  const runtime::FrameContacts& contacts() const { return instance_->contacts(); }
+  std::span<const skinspheres::Mat4f> joint_world() const { return joint_world_; }
 
  private:
   ClipPlayer() = default;
   Result<size_t> FrameCount(const skinning::AnimationClip& clip) const;
   std::optional<Error> Step(const skinning::AnimationClip& clip, int frame, float clip_time, StageTimes* times);
+  // From locals_ on: local to model, skinning, refit, query, narrow phase (times from t0).
+  std::optional<Error> Pose(int frame, std::chrono::steady_clock::time_point t0, StageTimes* times);
   void Summarise(int frame, PlayResult* result) const;
   void Verify(int frame, PlayResult* result);
 

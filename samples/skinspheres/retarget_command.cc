@@ -6,6 +6,7 @@
 // exactly what `play` and `check` sampled with the same options. The character's own clips are not
 // written.
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -25,24 +26,6 @@ struct RetargetArgs {
   float fps = 30.0f;
   ClipFileOptions clip_files;
 };
-
-// The added clips `clip` names: all of them, or those whose name is `clip` or ends in "/clip" (as
-// play and check name a file's clips), or the one at that index among them.
-Result<std::vector<size_t>> SelectClips(const lib::RawCharacter& ch, size_t own, const std::string& clip) {
-  std::vector<size_t> out;
-  for (size_t k = own; k < ch.clips.size(); ++k) {
-    const std::string& name = ch.clips[k].name;
-    if (clip == "all" || name == clip || (name.size() > clip.size() && name.ends_with("/" + clip))) out.push_back(k);
-  }
-  const bool index = !clip.empty() && clip.size() < 10 && clip.find_first_not_of("0123456789") == std::string::npos;
-  if (out.empty() && index && std::stoul(clip) < ch.clips.size() - own) out.push_back(own + std::stoul(clip));
-  if (out.empty()) {
-    std::string names;
-    for (size_t k = own; k < ch.clips.size(); ++k) names += (names.empty() ? "" : ", ") + ch.clips[k].name;
-    return MakeError(ErrorCode::kNotFound, "--clip " + clip + ": no such clip among " + names);
-  }
-  return out;
-}
 
 int RunRetarget(const RetargetArgs& a) {
   auto written = WriteRetargetedClips(a.input, a.clip_files, a.clip, a.fps, a.output);

@@ -6,6 +6,7 @@
 #include <map>
 
 #include "retarget_stages.h"
+#include "skinspheres/lib/retarget/bake_clip.h"
 #include "skinspheres/skinning/sampling_job.h"
 
 namespace skinspheres::lib {
@@ -147,9 +148,8 @@ Result<WorldPose> SourceReference(const SourceRig& source, const SourceRest& res
         std::snprintf(seconds, sizeof seconds, "%.4g s long", static_cast<double>(a.duration_s));
         std::string end = seconds;
         if (rest.fps > 0.0f) {
-          end += ", its last frame is " +
-                 std::to_string(static_cast<int64_t>(std::floor(double(a.duration_s) * rest.fps + 1e-3))) + " at " +
-                 std::to_string(static_cast<int>(std::lround(rest.fps))) + " fps";
+          end += ", its last frame is " + std::to_string(static_cast<int64_t>(FramesAt(a.duration_s, rest.fps) - 1.0)) +
+                 " at " + std::to_string(static_cast<int>(std::lround(rest.fps))) + " fps";
         }
         return MakeError(
             ErrorCode::kInvalidArgument,
