@@ -63,6 +63,12 @@ set(cli_cases
   "retarget_clips_fifo|retarget|@GLB@|--clips|@FIFO@|-o|out.glb|FIFO"
   "retarget_no_clips|retarget|@GLB@|-o|out.glb|retarget needs --clips"
   "retarget_not_glb|retarget|@GLB@|--clips|@GLB@|-o|out.gltf|-o takes a .glb file"
+  "fix_not_glb|fix|@GLB@|-o|out.gltf|-o takes a .glb file"
+  "fix_allow_unknown|fix|@GLB@|--allow|torso:tail|-o|out.glb|--allow torso:tail: expected PART_A:PART_B"
+  "fix_max_depth|fix|@GLB@|--max-depth|1.5|-o|out.glb|--max-depth must be"
+  "fix_clip_unknown|fix|@GLB@|--clip|dance|-o|out.glb|--clip dance: no such clip"
+  "fix_output_full|fix|@GLB@|--clip|touch|-o|@FULL_GLB@|full.glb: write failed"
+  "fix_clips_fifo|fix|@GLB@|--clips|@FIFO@|-o|out.glb|FIFO"
   # A sphere set nested 100,000 deep (it crashed play with SIGSEGV).
   "spheres_deep|play|@GLB@|--spheres|@DEEP@|nests 100002 deep"
 )
