@@ -28,6 +28,7 @@ namespace {
 struct Fixed {
   size_t clip = 0;
   float max_jerk_ratio = 0.0f;
+  float ease_s = 0.0f;  // the easing the kept fix used
   std::optional<FixResult> result;
   std::string error;
   double seconds = 0.0;
@@ -77,6 +78,8 @@ Result<std::vector<std::pair<uint16_t, uint16_t>>> AllowedPairs(const std::vecto
   return out;
 }
 
+double JerkRatio(const FixResult& r) { return r.jerk_source > 0.0 ? r.jerk_fixed / r.jerk_source : 1.0; }
+
 // Every chosen clip on `jobs` workers, each with its own ClipFixer; done(k) in order as they finish.
 void FixAll(const std::shared_ptr<const Playback>& playback, const FixSettings& settings, float fps, int jobs,
             std::vector<Fixed>* fixed, const std::function<void(size_t)>& done) {
@@ -92,6 +95,17 @@ void FixAll(const std::shared_ptr<const Playback>& playback, const FixSettings& 
       auto poses =
           fixer.ok() ? fixer->Sample(playback->loaded().character.clips[c.clip], fps) : Result<Poses>(fixer.error());
       auto result = poses.ok() ? fixer->Fix(*poses, fps, settings) : Result<FixResult>(poses.error());
+      // A fix that holds but adds pops is eased over twice, then four times, the time.
+      FixSettings wider = settings;
+      for (int retry = 0; retry < 2 && result.ok() && result->fixed() && JerkRatio(*result) > c.max_jerk_ratio;
+           ++retry) {
+        wider.ease_s *= 2.0f;
+        auto again = fixer->Fix(*poses, fps, wider);
+        if (!again.ok() || (again->fixed() && JerkRatio(*again) < JerkRatio(*result))) {
+          result = std::move(again);
+          c.ease_s = wider.ease_s;
+        }
+      }
       if (result.ok()) {
         c.result = std::move(*result);
       } else {
@@ -108,8 +122,6 @@ void FixAll(const std::shared_ptr<const Playback>& playback, const FixSettings& 
   work();
   for (auto& t : threads) t.join();
 }
-
-double JerkRatio(const FixResult& r) { return r.jerk_source > 0.0 ? r.jerk_fixed / r.jerk_source : 1.0; }
 
 // Why a clip that needed fixing is not written: "" when it holds.
 std::string Unfixed(const Fixed& c) {
@@ -157,7 +169,8 @@ nlohmann::json ClipJson(const Fixed& c, const LoadedCharacter& loaded, const run
                                     {"total", r.bone_total}};
   j["jerk"] = {{"source", r.jerk_source}, {"fixed", r.jerk_fixed}, {"ratio", JerkRatio(r)}};
   if (std::string why = Unfixed(c); !why.empty() && r.before.frames_failing > 0) j["unfixed_because"] = why;
-  j["solver"] = {{"rounds", r.rounds}, {"frame_solves", r.solves}, {"poses_evaluated", r.poses_evaluated}};
+  j["solver"] = {{"ease_s", c.ease_s},
+                 {"rounds", r.rounds}, {"frame_solves", r.solves}, {"poses_evaluated", r.poses_evaluated}};
   return j;
 }
 
@@ -227,7 +240,7 @@ FixOutcome RunFixCommand(FixArgs& a, bool quiet) {
   settings.allow = std::move(*allow);
 
   std::vector<Fixed> fixed(chosen->size());
-  for (size_t k = 0; k < fixed.size(); ++k) fixed[k].clip = (*chosen)[k], fixed[k].max_jerk_ratio = a.max_jerk_ratio;
+  for (size_t k = 0; k < fixed.size(); ++k) fixed[k].clip = (*chosen)[k], fixed[k].max_jerk_ratio = a.max_jerk_ratio, fixed[k].ease_s = a.ease_s;
   const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int jobs = std::max(1, std::min<int>(a.jobs > 0 ? a.jobs : hardware, static_cast<int>(fixed.size())));
   say("fixing " + std::to_string(fixed.size()) + " clips on " + (*playback)->file() + ": penetration deeper than " +
