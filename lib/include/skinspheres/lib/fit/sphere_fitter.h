@@ -91,7 +91,7 @@ struct FitSettings {
   // Splitting runs in rounds (sphere_tightener.h): after a round that split something without
   // reaching target_standoff, the spheres are searched, handed triangles and merged, and splitting is
   // tried again; such a round is kept only when it lowers the estimated standoff by 1%. At most
-  // split_rounds rounds in all (1..64; 1: one greedy loop, as before 2026-12-06).
+  // split_rounds rounds in all (1..64; 1: one greedy loop).
   bool tighten = true;
   float split_gain = 0.9f;
   int split_rounds = 8;
