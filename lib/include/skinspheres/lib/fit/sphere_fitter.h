@@ -101,7 +101,7 @@ struct FitSettings {
   // share of the body height is cut into the pieces of a regular grid (at most 16 x 16), which
   // spheres may own apart; 0: every triangle stays whole.
   float piece_edge = 0.0f;
-  // The reach groups' blends (runtime refit_job.h, "Group blends"): tighter fast spheres where a
+  // The reach groups' blends (runtime docs/REFIT.md#group-blends): tighter fast spheres where a
   // sphere's vertices blend joints (fast sphere pairs per frame: CesiumMan -43%, Soldier -24%), for
   // a fast refit about 50-75% slower (about +1 µs for Xbot's 77 spheres; a 10,000-Xbot crowd
   // 10-20% more CPU, docs/PERFORMANCE.md). true: stored where they pay, i.e. where they make the

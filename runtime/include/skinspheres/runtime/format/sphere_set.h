@@ -163,7 +163,7 @@ struct SphereSet {
   // engine that re-quantises or prunes the weights must fit with the weights it skins with.
   std::vector<float> influence_reach;
 
-  // The fast refit's reference frame (refit/refit_job.h, "Reference frame"), or both empty: the
+  // The fast refit's reference frame (docs/REFIT.md#reference-frame), or both empty: the
   // rest pose, i.e. R_j = joint_rest_world[j], the centre centers_rest[s] and the radius
   // radii_fast[s]. The fitter fills them (ChooseFastReference, refit_job.h) when the file's rest pose
   // is not its bind pose and the bind pose bounds the spheres tighter (Soldier, until the fast radius
@@ -180,7 +180,7 @@ struct SphereSet {
   std::vector<Mat4f> fast_reference_inverse;
   std::vector<Vec4f> fast_reference_spheres;
 
-  // The fast bound's reach groups (refit/refit_job.h, "Reach groups"), or all three empty: one group
+  // The fast bound's reach groups (docs/REFIT.md#reach-groups), or all three empty: one group
   // per sphere, its radius the reference radius (radii_fast, or fast_reference_spheres[s].w()) and
   // its reach influence_reach (or what stands in for it). Otherwise sphere s has groups
   // [reach_group_offsets[s], reach_group_offsets[s+1]), 1 to kMaxReachGroups of them; group g has a
@@ -196,7 +196,7 @@ struct SphereSet {
   std::vector<uint32_t> reach_group_offsets;
   std::vector<float> reach_group_radii;
   std::vector<float> reach_group_weights;
-  // Each reach group's blend (refit/refit_job.h, "Group blends"), or both empty: none (the bound
+  // Each reach group's blend (docs/REFIT.md#group-blends), or both empty: none (the bound
   // without it, bit for bit). Laid out as reach_group_weights, one float per group and influence
   // entry: a blend weight m_gk in [0, 1] and a deviation e_gk in [0, 1]. Every source vertex is
   // dominated by a group that, besides radius and reach, has on the joint of every entry k that is
