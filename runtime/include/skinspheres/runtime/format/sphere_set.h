@@ -11,9 +11,9 @@
 // Fast refit (no vertex skinning) reads, per sphere, the joints that influence its vertices with
 // their blend weights, and radius_fast: the radius around center_rest that holds, for every source
 // vertex, the weighted mean distance of its copies carried rigidly by each of its joints at rest
-// (equal to the plain radius when the file's rest pose is its bind pose; files written before
-// 2026-12-06 hold the farthest copy, which is sound too), and per influence its reach: the largest weight any of the
-// sphere's source vertices gives that joint, which tightens the fast bound (refit_job.h).
+// (equal to the plain radius when the file's rest pose is its bind pose; a file may hold the
+// farthest copy instead, which is sound too), and per influence its reach: the largest weight any
+// of the sphere's source vertices gives that joint, which tightens the fast bound (docs/REFIT.md).
 //
 // Version 2 adds the skinned mesh itself (`mesh`, `triangle_vertices`): what a triangle-level test
 // behind the spheres needs, and what lets fast mode skin only the vertices it tests. A set read
@@ -24,8 +24,8 @@
 //
 // On disk: JSON, {"format":"skinspheres.sphere_set","version":4,...} (sphere_set_io.h); files of
 // versions 1 to 3 still load (and such a set is written back as the version it came in). Binary
-// (sphere_set_binary.h): the same set, memory-mappable, loaded ~100x faster; its fast-only variant
-// leaves out what only exact mode and triangle tests read (fast_only below).
+// (sphere_set_binary.h, docs/FORMAT.md): the same set, memory-mappable, loaded ~100x faster; its
+// fast-only variant leaves out what only exact mode and triangle tests read (fast_only below).
 #pragma once
 
 #include <Eigen/Core>
