@@ -138,7 +138,7 @@ inline SphereSet TwoJointsWithPieces() {
 // radius_fast holding every rest copy (as files written before 2026-12-06 store it; the mean copy
 // distance the fitter now stores is smaller, and TheFastRadiusIsTheLargestMeanCopyDistance sets
 // it). Each vertex's rest copies through its two joints lie apart:
-// the case the fast refit's bind-pose reference is for (refit_job.h, "Reference frame").
+// the case the fast refit's bind-pose reference is for (docs/REFIT.md#reference-frame).
 // edit_mesh, when given, changes the mesh first (the rest data then follows from it).
 inline SphereSet TwoJointsRestAwayFromBind(const std::function<void(SphereSet&)>& edit_mesh = {}) {
   SphereSet set = TwoJointsWithMesh();

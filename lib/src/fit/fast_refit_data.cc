@@ -28,7 +28,7 @@ void WriteFastRefitData(const RawCharacter& ch, std::span<const Mat4f> rest_worl
         std::span(set->vertices).subspan(set->vertex_offsets[s], set->vertex_offsets[s + 1] - set->vertex_offsets[s]);
     // Joints influencing the source vertices (mean weights) and the radius holding the vertices
     // themselves and, for each source vertex, the weighted mean distance of its rest copies
-    // M_b(rest)·p_bind through its entries (refit_job.h, "Fast mode"; at most the farthest copy's).
+    // M_b(rest)·p_bind through its entries (docs/REFIT.md#fast-mode; at most the farthest copy's).
     double fast_sq = 0.0;
     const size_t source_vertices = ch.vertex_count();
     for (uint32_t v : vlist) {
@@ -112,7 +112,7 @@ void HoldMeshCopies(runtime::SphereSet* set) {
 }
 
 void WriteFastReference(runtime::SphereSet* set) {
-  // The runtime's own choice (refit_job.h, "Reference frame"), stored so that the set, its JSON and
+  // The runtime's own choice (docs/REFIT.md#reference-frame), stored so that the set, its JSON and
   // its fast-only binary file refit alike. An unsound set is left without one: the self-check
   // refuses it with its own message.
   if (!runtime::ChooseFastReference(set).ok()) {
@@ -208,7 +208,7 @@ void WriteReachGroups(runtime::SphereSet* set) {
         lowest[g * k_count + k] = std::min(lowest[g * k_count + k], w[i * k_count + k]);
       }
     }
-    // The blend (refit_job.h, "Group blends"): per entry the midpoint of the members' weights and
+    // The blend (docs/REFIT.md#group-blends): per entry the midpoint of the members' weights and
     // the largest distance from it, rounded up (Validate() compares |w - m| <= e in float); 0 and 0
     // on an entry that repeats an earlier entry's joint (runtime::RepeatedInfluenceEntries, the
     // entries Validate() requires it of; the fitter writes none: kept for safety).

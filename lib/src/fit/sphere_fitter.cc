@@ -16,7 +16,7 @@ namespace skinspheres::lib {
 
 namespace {
 
-// Whether the reach groups' blends (runtime refit_job.h, "Group blends") tighten the fast spheres
+// Whether the reach groups' blends (runtime docs/REFIT.md#group-blends) tighten the fast spheres
 // enough to pay for the fast refit's extra work (about 50-75%): the fast radii summed over eight
 // fixed poses (every joint turned by 0.2-0.8 rad about an axis drawn from its index, by integer
 // hashing, so the same poses on every platform and thread count) must be at least 0.75% smaller

@@ -83,10 +83,10 @@ std::optional<Error> CheckFastReference(const SphereSet& set) {
 // copies (FastBoundVerticesFromMesh), to 2 ulps of the radius: a file shrunk by hand would give fast
 // spheres that miss vertices. The fitter stores the runtime's own figures (HoldMeshCopies), so its
 // files pass exactly; the 2 ulps (well inside the refit's margin of 16·FLT_EPSILON·(|c'| + r),
-// refit_job.h) are for a figure computed elsewhere and rounded once more. Until 2026-12-06 this
-// allowed 1e-4 of the radius, and a review found a Soldier file shrunk within it that left a
-// vertex 1.45e-6 outside its fast sphere at the worst pose; every file in the fuzz corpus, back to
-// layout 1, passes the 2 ulps.
+// refit_job.h) are for a figure computed elsewhere and rounded once more. A looser tolerance, such
+// as 1e-4 of the radius, would accept a Soldier file shrunk within it that leaves a vertex 1.45e-6
+// outside its fast sphere at the worst pose; every file in the fuzz corpus, back to layout 1,
+// passes the 2 ulps.
 std::optional<Error> CheckFastRadii(const SphereSet& set) {
   if (!set.has_mesh() || set.fast_only || !set.fast_reference_spheres.empty()) return std::nullopt;
   auto vertices = FastBoundVerticesFromMesh(set);

@@ -1,4 +1,4 @@
-// The fast refit's frame of reference (refit_job.h, "Reference frame"): the rest pose, or the bind
+// The fast refit's frame of reference (docs/REFIT.md#reference-frame): the rest pose, or the bind
 // pose where it bounds tighter (ChooseFastReference).
 #include "refit/fast_reference.h"
 

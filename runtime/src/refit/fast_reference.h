@@ -1,4 +1,4 @@
-// The fast refit's frame of reference (refit_job.h, "Reference frame"): the reference a set stores,
+// The fast refit's frame of reference (docs/REFIT.md#reference-frame): the reference a set stores,
 // and the bind-pose reference stored unconditionally, for tests that weigh it against the rest
 // pose. Kept apart from refit_internal.h, which the AVX2 and AVX-512 copies include: nothing with
 // inline library code belongs there.
@@ -12,7 +12,7 @@
 
 namespace skinspheres::runtime::internal {
 
-// A frame of reference of the fast refit (refit_job.h, "Reference frame"): per joint the inverse of
+// A frame of reference of the fast refit (docs/REFIT.md#reference-frame): per joint the inverse of
 // its reference transform, per sphere its centre in reference space and its radius there (each
 // source vertex's weighted mean reference copy distance, FastReferenceRadiiFromMesh).
 struct Reference {

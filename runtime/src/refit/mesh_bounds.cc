@@ -181,7 +181,7 @@ Result<FastBoundVertices> FastBoundVerticesFromMesh(const SphereSet& set) {
       PointEntries(set, v, &entries);
       float* w = out.weights.data() + out.weight_offsets[s] + size_t{i - set.vertex_offsets[s]} * (k1 - k0);
       // A point (source vertex or grid point) needs the weighted mean of its copies' distances,
-      // Σ_b w_b |p_b - c| (refit_job.h, "Fast mode"), taken over Σ_b w_b (1 up to float rounding of
+      // Σ_b w_b |p_b - c| (docs/REFIT.md#fast-mode), taken over Σ_b w_b (1 up to float rounding of
       // the weights): where a point's copies coincide it is their distance, the farthest copy's, as
       // files written before store it, and it is never below the sum where the weights fall short
       // of 1 (where they pass 1 by ulps the refit's margin covers the difference, as it did when

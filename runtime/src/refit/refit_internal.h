@@ -25,7 +25,7 @@ namespace skinspheres::runtime::internal {
 // The most reach groups a sphere has (SphereSet's kMaxReachGroups; refit_job.cc checks they agree):
 // the kernels keep one sum per group on the stack.
 inline constexpr uint32_t kKernelReachGroups = 4;
-// The group blends' rounding allowance (refit_job.h, "Group blends"): kBlendRounding ·
+// The group blends' rounding allowance (docs/REFIT.md#group-blends): kBlendRounding ·
 // (Σ_k |T_j c - c'| + Σ_k m_gk · max|c'_xyz|) added to |Σ_k m_gk d_k| + Σ_k e_gk |d_k|.
 inline constexpr float kBlendRounding = 32.0f * 1.1920928955078125e-7f;  // 32 FLT_EPSILON
 
@@ -48,7 +48,7 @@ struct FastRefitArrays {
   const float* group_radii = nullptr;
   const float* group_reach = nullptr;
   const uint32_t* group_reach_offsets = nullptr;
-  // The groups' blends and deviations (refit_job.h, "Group blends"), laid out as group_reach; both
+  // The groups' blends and deviations (docs/REFIT.md#group-blends), laid out as group_reach; both
   // null when the set has none: the kernels then skip that term (the same bits as with m = 0, e = W).
   const float* group_blend = nullptr;
   const float* group_deviation = nullptr;

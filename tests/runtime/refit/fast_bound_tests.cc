@@ -199,7 +199,7 @@ void CheckRandomPosesAgainstScalarFormula(const SphereSet& set, const RefitRestD
 // A rest pose away from the bind pose (joint b's rest transform moved by (0.3, 0.1, 0); the bind
 // pose is identity for both joints): each vertex's rest copies through its two joints lie apart,
 // so radius_fast around the rest centre must hold both, and ChooseFastReference stores the bind
-// pose as the reference instead (refit_job.h, "Reference frame").
+// pose as the reference instead (docs/REFIT.md#reference-frame).
 // Checked: the bind reference is chosen and stored; at the bind pose its spheres are the tight ones
 // (radius = farthest bind-space vertex from the centre, no spread) and smaller than the rest
 // reference's (the same set without it); on 2000 random poses every vertex, skinned in double, is
@@ -250,7 +250,7 @@ TEST(RefitJobTest, ARestPoseAwayFromBindTakesTheBindPoseAsReference) {
 }
 
 // The fast radius needs each vertex's weighted mean copy distance Σ_b w_b |p_b - c|, not its
-// farthest copy (refit_job.h, "Fast mode"). TwoJointsRestAwayFromBind with the rest pose as the
+// farthest copy (docs/REFIT.md#fast-mode). TwoJointsRestAwayFromBind with the rest pose as the
 // reference (none stored): vertices 1 and 2 weigh both joints, whose rest copies lie 0.32 apart.
 // Checked against figures computed here in double: FastBoundVerticesFromMesh gives each vertex of
 // sphere 0 its mean, below its farthest copy for those two; a radius_fast 0.1% below the largest
@@ -397,7 +397,7 @@ void OneBlendedGroupPerSphere(SphereSet* set) {
   }
 }
 
-// The groups' blends (refit_job.h, "Group blends"): TwoJointsWithMesh, one group per sphere with
+// The groups' blends (docs/REFIT.md#group-blends): TwoJointsWithMesh, one group per sphere with
 // the reach of its vertices, and by hand per entry the midpoint m of the vertices' weights and
 // e = the largest distance from it. Sphere 0's vertices weigh joint a 1, 0.75 and 0.5: m = 0.75,
 // e = 0.25 there, where the reach is 1. Checked: Validate() accepts it; a deviation 1e-3 short of a
@@ -459,7 +459,7 @@ TEST(RefitJobTest, GroupBlendsHoldEveryVertexAndNeverLoosenTheBound) {
   std::printf("two joints: %d of 4000 fast spheres tighter with blends\n", tighter);
 }
 
-// The blend term's rounding allowance (refit_job.h, "Group blends", ρ): four vertices weighed
+// The blend term's rounding allowance (docs/REFIT.md#group-blends, ρ): four vertices weighed
 // exactly 0.5 / 0.5 on joints a and b, one group per sphere with m = 0.5 / 0.5 and e = 0 (the review's
 // case). Joint a translated by L·u and joint b by -L·u leave the vertices in place while each
 // T_j c lies L away: the vector sum cancels, and without ρ the float rounding of T_j c - c' put up to

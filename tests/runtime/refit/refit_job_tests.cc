@@ -314,7 +314,7 @@ struct ManyInfluences {
     for (int k = 0; k < influences; ++k) set.influence_reach.push_back(base + 0.01f * static_cast<float>(k % 3));
     set.influence_reach.push_back(1.0f);
   }
-  // Reach groups with blends (refit_job.h, "Reach groups", "Group blends"): three on sphere 0 (radii
+  // Reach groups with blends (docs/REFIT.md#reach-groups, #group-blends): three on sphere 0 (radii
   // 0.7, 0.85 and 1 of its fast radius, reaches growing with the group, blend weights rising with the
   // entry and summing to 1, deviations 0.01 to 0.05), one on sphere 1. The kernels' group loops then
   // run over more entries than they keep moved points for.
@@ -531,7 +531,7 @@ uint32_t SourceVertexOutside(const SphereSet& set, const Pose& pose, size_t s, c
   return UINT32_MAX;
 }
 
-// The reach groups (refit_job.h, "Reach groups") and their blends ("Group blends"): the fitted set
+// The reach groups (docs/REFIT.md#reach-groups) and their blends ("Group blends"): the fitted set
 // has both (Xbot no blends); on 30 random poses every fast radius is at most the same set's without the blends, which
 // is at most the set's without groups (one group per sphere); the sums are smaller where spheres
 // blend joints (printed); every vertex stays inside (IsCoveredInBothModes, and here every source
@@ -639,7 +639,7 @@ TEST(RefitJobTest, AReachGroupThatMissesAVertexIsRefused) {
 }
 
 // The fitter stores the bind pose as the fast refit's reference only where it bounds tighter
-// (refit_job.h, "Reference frame"). The same set with each reference (no reach groups: they are
+// (docs/REFIT.md#reference-frame). The same set with each reference (no reach groups: they are
 // measured in the reference frame) is refitted on 30 random poses: where the fitter stored the bind
 // pose, its fast radii sum to less than 99% of the rest pose's; where it did not, the bind pose
 // would not have saved 1% (RobotExpressive and Soldier, whose rest poses are not their bind poses,

@@ -1,4 +1,4 @@
-// Triangle pieces (sphere_set.h, TrianglePiece; refit_job.h, "Triangle pieces"): the grid tiles the
+// Triangle pieces (sphere_set.h, TrianglePiece; docs/REFIT.md#triangle-pieces): the grid tiles the
 // triangle, Validate() refuses every broken ownership, and both refits hold every piece at random
 // poses against skinning in double.
 #include <gtest/gtest.h>

@@ -91,7 +91,7 @@ struct FitSettings {
   // Splitting runs in rounds (sphere_tightener.h): after a round that split something without
   // reaching target_standoff, the spheres are searched, handed triangles and merged, and splitting is
   // tried again; such a round is kept only when it lowers the estimated standoff by 1%. At most
-  // split_rounds rounds in all (1..64; 1: one greedy loop, as before 2026-12-06).
+  // split_rounds rounds in all (1..64; 1: one greedy loop).
   bool tighten = true;
   float split_gain = 0.9f;
   int split_rounds = 8;
@@ -101,7 +101,7 @@ struct FitSettings {
   // share of the body height is cut into the pieces of a regular grid (at most 16 x 16), which
   // spheres may own apart; 0: every triangle stays whole.
   float piece_edge = 0.0f;
-  // The reach groups' blends (runtime refit_job.h, "Group blends"): tighter fast spheres where a
+  // The reach groups' blends (runtime docs/REFIT.md#group-blends): tighter fast spheres where a
   // sphere's vertices blend joints (fast sphere pairs per frame: CesiumMan -43%, Soldier -24%), for
   // a fast refit about 50-75% slower (about +1 µs for Xbot's 77 spheres; a 10,000-Xbot crowd
   // 10-20% more CPU, docs/PERFORMANCE.md). true: stored where they pay, i.e. where they make the

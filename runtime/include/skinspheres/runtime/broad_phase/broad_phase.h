@@ -45,7 +45,7 @@
 // belongs to characters filter.group(i) and filter.group(j). Above kAllPairsMax spheres (and 16
 // or more per character on average) the context runs such a space by character (method kGroups):
 // each character on a context and cache of its own, exactly as if it were alone, so one walking
-// character no longer ends the whole space's cache; the pairs between characters come from a
+// character does not end the whole space's cache; the pairs between characters come from a
 // sweep of the characters' bounding boxes, then the exact test on the spheres of each that lie
 // inside the other's box. Those per-character contexts and filters are made on the first frame
 // with the filter (that frame allocates; a context that alternates between two such filters

@@ -11,9 +11,9 @@
 // Fast refit (no vertex skinning) reads, per sphere, the joints that influence its vertices with
 // their blend weights, and radius_fast: the radius around center_rest that holds, for every source
 // vertex, the weighted mean distance of its copies carried rigidly by each of its joints at rest
-// (equal to the plain radius when the file's rest pose is its bind pose; files written before
-// 2026-12-06 hold the farthest copy, which is sound too), and per influence its reach: the largest weight any of the
-// sphere's source vertices gives that joint, which tightens the fast bound (refit_job.h).
+// (equal to the plain radius when the file's rest pose is its bind pose; a file may hold the
+// farthest copy instead, which is sound too), and per influence its reach: the largest weight any
+// of the sphere's source vertices gives that joint, which tightens the fast bound (docs/REFIT.md).
 //
 // Version 2 adds the skinned mesh itself (`mesh`, `triangle_vertices`): what a triangle-level test
 // behind the spheres needs, and what lets fast mode skin only the vertices it tests. A set read
@@ -24,8 +24,8 @@
 //
 // On disk: JSON, {"format":"skinspheres.sphere_set","version":4,...} (sphere_set_io.h); files of
 // versions 1 to 3 still load (and such a set is written back as the version it came in). Binary
-// (sphere_set_binary.h): the same set, memory-mappable, loaded ~100x faster; its fast-only variant
-// leaves out what only exact mode and triangle tests read (fast_only below).
+// (sphere_set_binary.h, docs/FORMAT.md): the same set, memory-mappable, loaded ~100x faster; its
+// fast-only variant leaves out what only exact mode and triangle tests read (fast_only below).
 #pragma once
 
 #include <Eigen/Core>
@@ -152,61 +152,25 @@ struct SphereSet {
   std::vector<uint32_t> influence_offsets;
   std::vector<uint16_t> influence_joints;
   std::vector<float> influence_weights;  // sum to 1 per sphere
-  // Per influence entry (same CSR, influence_joints.size() entries) or empty: the entry's reach W,
-  // in [0, 1], at least the largest total weight any source vertex of the sphere gives the entry's
-  // joint in the mesh's skin (InfluenceReachFromMesh). Fast refit bounds the spread of the joints
-  // by Σ_k W_k |T_j(k) c - c'| where that is below max_k |T_j(k) c - c'| (refit_job.h). The fitter
-  // writes it; files written before it have none, and an empty array means: computed from the mesh
-  // when the set has one, else 1 for every entry (the bound without it, exactly). A fast-only
-  // binary file keeps it (it has no mesh to compute it from). It holds for the skin weights in the
-  // mesh, as radius_fast (each vertex's copies weighted by them) and the groups' blends do: an
-  // engine that re-quantises or prunes the weights must fit with the weights it skins with.
+  // Per influence entry (same CSR) or empty: the entry's reach W in [0, 1] (docs/REFIT.md#fast-mode);
+  // empty: computed from the mesh, else 1. Like radius_fast and the blends, it holds for the mesh's
+  // skin weights: an engine that re-quantises or prunes them must fit with the weights it skins with.
   std::vector<float> influence_reach;
 
-  // The fast refit's reference frame (refit/refit_job.h, "Reference frame"), or both empty: the
-  // rest pose, i.e. R_j = joint_rest_world[j], the centre centers_rest[s] and the radius
-  // radii_fast[s]. The fitter fills them (ChooseFastReference, refit_job.h) when the file's rest pose
-  // is not its bind pose and the bind pose bounds the spheres tighter (Soldier, until the fast radius
-  // took each vertex's mean copy distance: 1.64x to 1.30x of the radius the skinned vertices need;
-  // no shared character since); its centres and radii above stay the rest pose's, which a
-  // reader that ignores these still refits soundly with. A fast-only binary file keeps them, so
-  // it refits as the whole set does.
-  //   fast_reference_inverse[j]: R_j^-1 (column-major 4x4, affine), per joint;
-  //   fast_reference_spheres[s]: (c, r): the sphere's centre in reference space and the radius around
-  //   it holding, for every source vertex, the weighted mean distance of its reference copies
-  //   R_j(b) · IBM_b · p_bind through each bind entry b the vertex weighs
-  //   (FastReferenceRadiiFromMesh); the fast bound's premise. With a
-  //   mesh, Validate() refuses a radius below it; without one (fast-only) nothing can check it.
+  // The fast refit's reference frame, or both empty: the rest pose. Per joint R_j^-1 (column-major
+  // 4x4, affine); per sphere (c, r) in reference space. With a mesh Validate() checks r; a fast-only
+  // file keeps them. Meaning and checks: docs/REFIT.md#the-fast-refits-data-in-a-sphereset.
   std::vector<Mat4f> fast_reference_inverse;
   std::vector<Vec4f> fast_reference_spheres;
 
-  // The fast bound's reach groups (refit/refit_job.h, "Reach groups"), or all three empty: one group
-  // per sphere, its radius the reference radius (radii_fast, or fast_reference_spheres[s].w()) and
-  // its reach influence_reach (or what stands in for it). Otherwise sphere s has groups
-  // [reach_group_offsets[s], reach_group_offsets[s+1]), 1 to kMaxReachGroups of them; group g has a
-  // radius reach_group_radii[g] and, per influence entry k of its sphere, a reach: K_s floats (K_s
-  // the sphere's influence count) at reach_group_weights[b_s + (g - reach_group_offsets[s]) * K_s],
-  // b_s the sum over the spheres before s of their groups times their influences. Every source
-  // vertex of the sphere is dominated by one of its groups: its reference radius (the radius around
-  // the reference centre holding its reference copies, FastBoundVerticesFromMesh) at most the
-  // group's radius, and its total weight on each entry's joint at most the group's reach there. The
-  // fast bound is the largest of the groups' bounds, each at most the one-group bound: the fitter
-  // writes them (CesiumMan: 1.24x to 1.17x the radius the skinned triangles need). With a mesh,
-  // Validate() checks that every source vertex is dominated; a fast-only binary file keeps them.
+  // The fast bound's reach groups, or all three empty: one group per sphere. Sphere s has groups
+  // [reach_group_offsets[s], [s+1]) (1 to kMaxReachGroups), each a radius and K_s reaches (K_s the
+  // sphere's influence count). Layout and checks: docs/REFIT.md#the-fast-refits-data-in-a-sphereset.
   std::vector<uint32_t> reach_group_offsets;
   std::vector<float> reach_group_radii;
   std::vector<float> reach_group_weights;
-  // Each reach group's blend (refit/refit_job.h, "Group blends"), or both empty: none (the bound
-  // without it, bit for bit). Laid out as reach_group_weights, one float per group and influence
-  // entry: a blend weight m_gk in [0, 1] and a deviation e_gk in [0, 1]. Every source vertex is
-  // dominated by a group that, besides radius and reach, has on the joint of every entry k that is
-  // its joint's first entry in the sphere the vertex's total weight w within e_gk of m_gk
-  // (|w - m_gk| <= e_gk, in float). An entry that repeats
-  // an earlier entry's joint has m = e = 0 (the joint is counted once). The fast bound then also
-  // takes |Σ_k m_gk d_k| + Σ_k e_gk |d_k| (plus a rounding allowance) for the group's spread. The fitter writes them
-  // with the groups: m the midpoint of the members' weights, e the largest distance from it, rounded up. Needs the
-  // groups (reach_group_offsets not empty). With a mesh, Validate() checks every vertex's domination including these; a
-  // fast-only binary file keeps them.
+  // Each reach group's blend m and deviation e, laid out as reach_group_weights, or both empty: none
+  // (the bound without them, bit for bit). Needs the groups. docs/REFIT.md#group-blends.
   std::vector<float> reach_group_blend;
   std::vector<float> reach_group_deviation;
 

@@ -1,101 +1,18 @@
 // Narrow phase: the triangle pairs of a character that really touch in a frame, grouped by
 // body-part pair. Which pairs count is stated once, on the mesh, in contact_rules.h; the spheres
-// (broad_phase.h) only filter the search.
-//
-// What is reported, per frame: the CONTACTS of contact_rules.h, each
-//  - INTERSECTING: the two closed triangles share a point (triangle_contact.h: exact test; touching
-//    counts; degenerate triangles never count), or
-//  - WITHIN MARGIN (only when NarrowPhaseSettings::margin > 0): not intersecting, and their closest
-//    points nearer than the margin (distance computed in double).
-// A set whose rules are on triangles (SphereSet::contact_rules, kTriangles) reports the same pairs
-// whatever its fit: another --max-spheres, triangle pieces or none. A set written before them
-// (kSpherePairs) reports what its excluded sphere pairs leave (contact_rules.h says which).
-// Rule 3 is decided per frame for the triangle pairs that meet, on the rest positions (NearAtRest,
-// at the larger of the set's rest gap and the margin); no list of the pairs near at rest is stored
-// (there are millions). Patches of neighbouring triangles whose joints' motion alone keeps them as
-// they lay at rest are skipped whole (NarrowPhaseData::Create measures their deviation at set-up).
-// Rest pose = the mesh skinned with the skeleton's rest transforms (SphereSet::joint_rest_world):
-// the positions the spheres were fitted on.
-// Triangle pieces (SphereSet::pieces, docs/TRIANGLE_PIECES.md): a cut triangle's pieces lead the
-// search (each under the sphere that owns it, its box grown by their corners' rounding), and the
-// whole triangles are tested and reported.
-//
-// How it is found. Each triangle (or piece) lies in the sphere that owns it, so an intersecting or
-// near pair of a sphere pair (i, j) lies in both spheres (or in one sphere i, tested against itself
-// when it holds triangles of joints rule 2 leaves). Under each sphere its triangles are grouped at
-// set-up into CLUSTERS of neighbouring triangles of one joint (NarrowPhaseSettings::cluster_triangles
-// at most).
-// Per frame every cluster of a sphere in a pair gets the box of its skinned corners (its vertices
-// and its pieces' grid points), and each such
-// sphere the union of its clusters' boxes (much tighter than a fast-refit sphere). Then, per
-// sphere pair:
-//   the two spheres' boxes must meet (grown by the margin);
-//   clusters of i whose box reaches into sphere j, clusters of j whose box reaches into sphere i;
-//   pairs of those clusters whose joints rule 2 leaves and whose boxes meet;
-//   in each such cluster pair, the triangles whose box meets the other cluster's box, paired by box;
-//   rules 1 and 3, then the exact triangle test.
-// Every step only drops what cannot meet, so nothing is lost with exact or fast spheres, provided
-// the pairs hold every sphere pair within the margin: with a margin, spheres that do not overlap
-// can hold triangles nearer than it, so the pairs must come from spheres grown by half the margin
-// (CharacterInstance::FindContacts does this; a pair list of overlapping spheres alone misses them).
-//
-// Positions, two ways (NarrowPhaseJob):
-//  (a) the caller's skinned positions, indexed by source vertex (what UpdateExact refits from; the
-//      positions must be those the spheres hold, i.e. the same buffer, or the LBS of the same joint
-//      matrices in fast mode);
-//  (b) joint matrices only: the job skins just the vertices of the spheres in this frame's pairs
-//      (and of the spheres the depth estimate visits), each vertex once. At set-up the vertices
-//      are grouped by the spheres that use them and laid out in one set of prepared influences
-//      (the SIMD skinning path), influence count first, then group by group, so that each group
-//      is a few runs of slots; a frame marks the runs of the spheres it needs (a few words of a
-//      run bitset per sphere) and skins the marked runs, the adjacent ones merged into long spans
-//      (tens per frame), near the whole-mesh path's cost per vertex (bench/narrow_phase_bench.cc,
-//      BM_LazySkin, BM_LazyVsWhole). The positions are bit-identical to skinning the whole mesh
-//      with SkinningJob.
-// Both need the mesh of a version-2 sphere set (SphereSet::has_mesh()): triangle indices, rest
-// positions and influences. A version-1 set (no mesh) is refused by NarrowPhaseData::Create with
-// kVersionMismatch, in both modes: its rules cannot be applied without the rest mesh.
-// Re-fit the character (`skinspheres fit`) to get a version-2 set.
-//
-// Output (FrameContacts), plain structs of indices and floats in flat arrays:
-//  - parts: one PartContact per body-part pair with contacts, sorted by (part_a, part_b),
-//    part_a <= part_b; each names its ranges in the two arrays below;
-//  - sphere_pairs: per part pair, the sphere pairs (i <= j) that own its triangle pairs' points, sorted:
-//    per triangle pair, the spheres owning each triangle where the contact is (the midpoint of the
-//    intersection segment, or each closest point; for a cut triangle, the owner of the piece there);
-//  - triangle_pairs: per part pair, sorted by (t, u): t is a source triangle of part_a, u of part_b
-//    (same part: t < u), in the SphereSet's source triangle numbering (file order).
-// Penetration depth (PartContact::depth, per part pair with at least one intersecting pair) —
-// the thickness of the overlap along the contact normal:
-//  - normal n (from part_b towards part_a): the sum over intersecting pairs of the area-weighted
-//    normal of u minus that of t (outward normals, as the mesh winds them), normalised; if that
-//    sum vanishes, the direction from the centroid of the u triangles to that of the t triangles;
-//  - centre C: the length-weighted mean of the intersection segments' midpoints; R: the largest
-//    distance of a segment end from C across n (the contour's radius);
-//  - h_a = max over vertices v of part_a with |(v - C) across n| <= R of (C - v) . n (how far part_a
-//    reaches past the contour into part_b), h_b = max of (v - C) . n over part_b likewise, both
-//    >= 0; depth = h_a + h_b. The vertices examined are those of the t triangles, then, triangle by
-//    triangle, those of every triangle of part_a sharing a (welded) vertex with an examined triangle
-//    that has a vertex past the contour: the connected penetrating cap, found on the mesh alone.
-//  For two spheres overlapping by d this is d (the lens between their caps); for a palm pressed
-//  into a flat chest it is how deep the palm sinks. It depends only on positions and the mesh, so
-//  exact and fast mode, and every fit, give the same value. Part pairs with only within-margin pairs
-//  have depth 0.
-// Touching or penetrating (PartContact::kind): a part pair is PENETRATING when it has intersecting
-// pairs and its depth is above NarrowPhaseData::touch_tolerance() (NarrowPhaseSettings::
-// touch_tolerance_share of the rest pose's height), else TOUCHING: surfaces within the margin, or
-// intersecting by less than the tolerance (skin pressed on skin, a hand resting on a thigh).
-//
-// Cost and memory: per frame no allocation once the outputs and scratch have held the largest
-// frame so far (FrameContacts::Reserve and NarrowPhaseContext sizes pin them), no exception. The
-// shared NarrowPhaseData holds about what the mesh holds (welded indices, clusters, prepared
-// influences of the spheres' vertices). Mode (b) keeps a skinned-position buffer of 12 bytes per mesh
-// vertex in the context (allocated by Resize(data, true), or by the first mode-(b) run). With triangle pieces the data
-// also lists each cluster's grid points (8 bytes each, and 12 per piece for its corners) and every context keeps a
-// frame's copy of them (12 bytes each; RobotExpressive cut at 1.5% of its height: 91,898 entries, 1.1 MB per
-// context). Output is identical for any
-// ParallelFor and thread count: work is split into a fixed number of chunks of sphere pairs whose results are merged in
-// order, and everything is sorted by indices.
+// (broad_phase.h) only filter the search. A contact is an INTERSECTING pair (exact test, touching
+// counts) or, with a margin > 0, a pair WITHIN MARGIN. A set whose rules are on triangles reports
+// the same pairs whatever its fit; cut triangles' pieces only lead the search.
+// Input: the broad phase's sphere pairs (with a margin: of spheres grown by half of it) and either
+// (a) the skinned positions the spheres hold or (b) joint matrices only, from which the job skins
+// just the vertices it tests (bit-identical to skinning the whole mesh). Needs a set with a mesh
+// (else kVersionMismatch).
+// Output: FrameContacts, flat sorted arrays of part pairs, sphere pairs and triangle pairs, with a
+// penetration depth, normal and centre per part pair (the same in both modes and for every fit).
+// Allocation: NarrowPhaseData (shared, immutable) and NarrowPhaseContext (per instance) allocate at
+// set-up; a frame allocates nothing once the outputs and scratch have held its size. Never throws.
+// Threads: output identical for any ParallelFor and thread count.
+// How it is found, the depth, the layouts and the memory: docs/NARROW_PHASE.md.
 #pragma once
 
 #include <Eigen/Core>
@@ -135,7 +52,7 @@ struct NarrowPhaseSettings {
   // only. Pairs within this distance at rest are excluded, so it is fixed at set-up. At most
   // kMaxMarginShareOfSize times the character's rest size (else kInvalidArgument).
   float margin = 0.0f;
-  // Triangles per cluster at most, 1..256 (bench/narrow_phase_bench.cc, BM_ClusterSize, chose 16).
+  // Triangles per cluster at most, 1..256 (docs/NARROW_PHASE.md#how-it-is-found).
   uint32_t cluster_triangles = 16;
   // Part pairs intersecting deeper than this share of the rest pose's height (its extent along +Y,
   // glTF's up) are penetrating, the others touching (PartContact::kind). Finite, in [0, 1).
@@ -248,23 +165,16 @@ class NarrowPhaseData {
   // The rest-pose positions (mesh skinned with the rest transforms), per source vertex.
   std::span<const Eigen::Vector3f> rest_positions() const;
   size_t cluster_count() const;
-  // Mode (b): vertex groups (the vertices used by the same spheres), CSR per sphere. The groups'
-  // lists are the layout's description (tests, benchmarks); a frame reads the run bitsets below.
+  // Mode (b)'s vertex groups, runs and run bitsets: docs/NARROW_PHASE.md#mode-bs-layout-in-narrowphasedata.
   size_t group_count() const;
   std::span<const uint32_t> sphere_group_offsets() const;
   std::span<const uint32_t> sphere_groups() const;
-  // Every vertex of a sphere, once, as prepared influences: slots by influence count, then by group.
   const skinning::PreparedInfluences& lazy_influences() const;
-  // Runs: run r is slots [run_begin()[r], run_begin()[r + 1]) of lazy_influences(), all of one
-  // group; the runs tile the slots in order. Group g owns runs group_runs()[group_run_offsets()[g] ..).
   size_t run_count() const;
   std::span<const uint32_t> run_begin() const;
   std::span<const uint32_t> group_run_offsets() const;
   std::span<const uint32_t> group_runs() const;
   std::span<const uint32_t> group_sizes() const;  // vertices per group
-  // The same per sphere, as a bitset over runs (bit r of word r / 64): sphere s's runs are the bits
-  // sphere_run_bits()[k] of words sphere_run_words()[k], k in [sphere_run_offsets()[s],
-  // sphere_run_offsets()[s + 1]), words ascending, no zero mask (what a frame ORs in per sphere).
   std::span<const uint32_t> sphere_run_offsets() const;
   std::span<const uint32_t> sphere_run_words() const;
   std::span<const uint64_t> sphere_run_bits() const;
@@ -353,13 +263,9 @@ struct NarrowPhaseJob {
   bool RunParallel(const ParallelFor& parallel_for = DefaultParallelFor()) const;
 };
 
-// The oracle. Rules on triangles: no sphere; every pair of the mesh's triangles whose boxes, grown by
-// the margin, meet (a uniform grid finds them), the rules of contact_rules.h with rule 3 measured at
-// rest here, the exact test. Rules on sphere pairs: every
-// pair of spheres (i < j) the filter does not exclude, every triangle of i against every triangle of
-// j. Positions of every source vertex. Same output format, sphere pairs and depth included (both
-// derived from the triangle pairs as the job derives them). For tests, `play --verify` and
-// benchmarks; about the pairs of triangles whose boxes meet.
+// The oracle, for tests, `play --verify` and benchmarks: no sphere (rules on triangles: every pair
+// of triangles whose boxes meet; rules on sphere pairs: every allowed sphere pair, all triangles),
+// positions of every source vertex, the same output. docs/NARROW_PHASE.md#the-oracle.
 bool FindContactsBruteForce(const SphereSet& set, const NarrowPhaseData& data, const PairFilter& filter,
                             std::span<const Eigen::Vector3f> positions, FrameContacts* out);
 

@@ -15,7 +15,7 @@ namespace skinspheres::runtime {
 // Which influence entries of sphere s repeat an earlier entry's joint: (*repeated)[k - influence_offsets[s]] is 1
 // where influence_joints[k] is also the joint of an entry of the sphere before k, else 0 (*repeated is resized to the
 // sphere's influence count). Such an entry has group blend and deviation 0, so that its joint counts once
-// (refit/refit_job.h, "Group blends"): what Validate() requires and what the fitter writes. Needs s < set.size() and
+// (docs/REFIT.md#group-blends): what Validate() requires and what the fitter writes. Needs s < set.size() and
 // well-formed influence offsets.
 void RepeatedInfluenceEntries(const SphereSet& set, size_t s, std::vector<uint8_t>* repeated);
 
@@ -34,9 +34,9 @@ Result<std::vector<float>> InfluenceReachFromMesh(const SphereSet& set);
 //   radius[i]: around the sphere's reference centre c (fast_reference_spheres[s] or
 //     centers_rest[s]), the weighted mean Σ_b w_b |copy_b - c| of the distances of the point's
 //     reference copies R_j(b) · IBM_b · p_bind through each bind entry b it weighs (a grid point's
-//     entries and weights W_b: refit_job.h, "Triangle pieces"), or the farthest copy's distance
+//     entries and weights W_b: docs/REFIT.md#triangle-pieces), or the farthest copy's distance
 //     where float rounding of the weights puts that lower; in double in a fixed order, rounded up to
-//     float (refit_job.h, "Fast mode");
+//     float (docs/REFIT.md#fast-mode);
 //   weights[weight_offsets[s] + (i - vertex_offsets[s]) * K_s + (k - influence_offsets[s])]: its total
 //     weight on the joint of influence entry k, summed over its bind entries in order in float, at
 //     most 1 (what InfluenceReachFromMesh takes the largest of).
