@@ -45,6 +45,7 @@ from ._skinspheres import (  # noqa: F401  (the public names)
     check,
     clip_names,
     fit,
+    fix,
     load,
     play,
     retarget,

@@ -232,6 +232,30 @@ def retarget(
     (names), "durations" (seconds, float32 array), "frames" (keys per joint, summed), "joints",
     "notes" (what retargeting did, as the tool prints it)}. Raises as the tool refuses (exit 2)."""
 
+def fix(
+    character: Path,
+    output: Path,
+    clip_files: Sequence[Path] = ...,
+    *,
+    clip: str = "all",
+    max_depth: float = ...,
+    allow: Sequence[str] = ...,
+    spheres: Optional[Path] = None,
+    fps: float = 30.0,
+    ease: float = 0.2,
+    max_rotation: float = 60.0,
+    max_jerk_ratio: float = 1.5,
+    jobs: int = 0,
+    joint_map: str = "",
+    source_rest: str = "",
+    retarget: str = "auto",
+) -> dict[str, Any]:
+    """`skinspheres fix`: the clips changed as little as possible so that no part pair penetrates
+    deeper than max_depth (a share of the body height), the clips that hold written to `output`
+    (.glb). Returns the report its --report writes (format "skinspheres.fix"), plus exit_code (0
+    every clip holds, 1 some clip could not be fixed and was not written). Raises as the tool
+    refuses (exit 2)."""
+
 def check(
     character: Path,
     clip_files: Sequence[Path] = ...,

@@ -325,4 +325,23 @@ PYBIND11_MODULE(_skinspheres, m) {
       "max_depth"_a = tool::kDefaultMaxDepth, "touch_tolerance"_a = tool::kDefaultTouchTolerance,
       "spheres"_a = py::none(), "fps"_a = 30.0f, "mode"_a = "exact", "jobs"_a = 0, "joint_map"_a = "",
       "source_rest"_a = "", "retarget"_a = "auto", "compare_source"_a = false);
+  m.def(
+      "fix",
+      [](const PathText& character, const PathText& output, const std::vector<PathText>& clip_files,
+         const std::string& clip, float max_depth, const std::vector<std::string>& allow,
+         const std::optional<PathText>& spheres, float fps, float ease, float max_rotation, float max_jerk_ratio,
+         int jobs, const std::string& joint_map, const std::string& source_rest, const std::string& retarget) {
+        std::vector<std::string> files;
+        for (const PathText& f : clip_files) files.push_back(f.value);
+        NoNul(joint_map, "joint_map");
+        NoNul(source_rest, "source_rest");
+        FixArgs a{clip, allow,     max_depth,    spheres ? std::optional<std::string>(spheres->value) : std::nullopt,
+                  fps,  ease,      max_rotation, max_jerk_ratio,
+                  jobs, joint_map, source_rest,  retarget};
+        return Fix(character.value, files, output.value, a);
+      },
+      "character"_a, "output"_a, "clip_files"_a = std::vector<PathText>{}, py::kw_only(), "clip"_a = "all",
+      "max_depth"_a = tool::kDefaultTouchTolerance, "allow"_a = std::vector<std::string>{}, "spheres"_a = py::none(),
+      "fps"_a = 30.0f, "ease"_a = 0.2f, "max_rotation"_a = 60.0f, "max_jerk_ratio"_a = 1.5f, "jobs"_a = 0,
+      "joint_map"_a = "", "source_rest"_a = "", "retarget"_a = "auto");
 }

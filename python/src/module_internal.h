@@ -21,6 +21,7 @@
 #include "check.h"
 #include "clip_files.h"
 #include "commands.h"
+#include "fix.h"
 #include "playback.h"
 #include "skinspheres/lib/io/clip_import.h"
 #include "skinspheres/runtime/api/character.h"
@@ -337,5 +338,19 @@ py::dict Check(const std::string& character, const std::vector<std::string>& cli
                float max_depth, float touch_tolerance, const std::optional<std::string>& spheres, float fps,
                const std::string& mode, int jobs, const std::string& joint_map, const std::string& source_rest,
                const std::string& retarget, bool compare_source);
+
+// `skinspheres fix`: its options past the files, as the binding takes them (keywords).
+struct FixArgs {
+  std::string clip = "all";
+  std::vector<std::string> allow;
+  float max_depth = tool::kDefaultTouchTolerance;
+  std::optional<std::string> spheres;
+  float fps = 30.0f, ease = 0.2f, max_rotation = 60.0f, max_jerk_ratio = 1.5f;
+  int jobs = 0;
+  std::string joint_map, source_rest, retarget = "auto";
+};
+// Its JSON report as a dict, with "exit_code"; the clips that hold are written to `output`.
+py::dict Fix(const std::string& character, const std::vector<std::string>& clip_files, const std::string& output,
+             const FixArgs& args);
 
 }  // namespace skinspheres::python

@@ -21,6 +21,27 @@ size_t FileClip(const lib::RawCharacter& character, size_t own, const std::strin
   return chosen->front();
 }
 
+tool::ClipFileOptions ClipFiles(const std::vector<std::string>& files, const std::string& joint_map,
+                                const std::string& source_rest, const std::string& retarget,
+                                const std::string& rest_directions = "keep") {
+  tool::ClipFileOptions out;
+  out.files = files;
+  out.joint_map = joint_map;
+  out.source_rest = source_rest;
+  out.retarget = retarget;
+  out.rest_directions = rest_directions;
+  return out;
+}
+
+// A command's JSON report as a dict with its exit code; raises `error` when there is no report.
+py::dict ReportDict(const nlohmann::json& report, int exit_code, const Error& error) {
+  if (report.is_null()) Throw(error);
+  py::dict out =
+      py::module_::import("json").attr("loads")(report.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  out["exit_code"] = exit_code;
+  return out;
+}
+
 }  // namespace
 
 std::vector<std::string> ClipNames(const PathText& path_arg) {
@@ -48,11 +69,7 @@ py::dict Play(const std::optional<std::string>& character, const PlayArgs& a) {
     py::gil_scoped_release release;
     auto loaded = tool::LoadCharacter(character.value_or(""), fit_options.parts_file);
     if (!loaded.ok()) Throw(loaded.error());
-    tool::ClipFileOptions files;
-    files.files = a.clip_files;
-    files.joint_map = a.joint_map;
-    files.source_rest = a.source_rest;
-    files.retarget = a.retarget;
+    const tool::ClipFileOptions files = ClipFiles(a.clip_files, a.joint_map, a.source_rest, a.retarget);
     const size_t own_clips = loaded->character.clips.size();
     if (auto why = tool::AddClipFiles(*loaded, files, a.fps, &notes)) Throw(*why);
     runtime::SphereSet set;
@@ -114,12 +131,7 @@ py::dict Play(const std::optional<std::string>& character, const PlayArgs& a) {
 py::dict Retarget(const std::string& character, const std::vector<std::string>& clip_files, const std::string& output,
                   const std::string& clip, float fps, const std::string& joint_map, const std::string& source_rest,
                   const std::string& retarget, const std::string& rest_directions) {
-  tool::ClipFileOptions files;
-  files.files = clip_files;
-  files.joint_map = joint_map;
-  files.source_rest = source_rest;
-  files.retarget = retarget;
-  files.rest_directions = rest_directions;
+  const tool::ClipFileOptions files = ClipFiles(clip_files, joint_map, source_rest, retarget, rest_directions);
   tool::RetargetWritten written;
   {
     py::gil_scoped_release release;
@@ -141,10 +153,7 @@ py::dict Check(const std::string& character, const std::vector<std::string>& cli
                const std::string& retarget, bool compare_source) {
   tool::CheckArgs a;
   a.input = character;
-  a.clip_files.files = clip_files;
-  a.clip_files.joint_map = joint_map;
-  a.clip_files.source_rest = source_rest;
-  a.clip_files.retarget = retarget;
+  a.clip_files = ClipFiles(clip_files, joint_map, source_rest, retarget);
   a.clip = clip;
   a.max_depth = max_depth;
   a.touch_tolerance = touch_tolerance;
@@ -158,11 +167,30 @@ py::dict Check(const std::string& character, const std::vector<std::string>& cli
     py::gil_scoped_release release;
     outcome = tool::RunCheck(a, /*quiet=*/true);
   }
-  if (outcome.report.is_null()) Throw(Error{outcome.error_code, outcome.error});
-  py::dict report = py::module_::import("json").attr("loads")(
-      outcome.report.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
-  report["exit_code"] = outcome.exit_code;
-  return report;
+  return ReportDict(outcome.report, outcome.exit_code, Error{outcome.error_code, outcome.error});
+}
+
+py::dict Fix(const std::string& character, const std::vector<std::string>& clip_files, const std::string& output,
+             const FixArgs& args) {
+  tool::FixArgs a;
+  a.input = character;
+  a.output = output;
+  a.clip_files = ClipFiles(clip_files, args.joint_map, args.source_rest, args.retarget);
+  a.clip = args.clip;
+  a.allow = args.allow;
+  a.max_depth = args.max_depth;
+  a.spheres = args.spheres.value_or("");
+  a.fps = args.fps;
+  a.ease_s = args.ease;
+  a.max_rotation_deg = args.max_rotation;
+  a.max_jerk_ratio = args.max_jerk_ratio;
+  a.jobs = args.jobs;
+  tool::FixOutcome outcome;
+  {
+    py::gil_scoped_release release;
+    outcome = tool::RunFix(a, /*quiet=*/true);
+  }
+  return ReportDict(outcome.report, outcome.exit_code, Error{outcome.error_code, outcome.error});
 }
 
 }  // namespace skinspheres::python

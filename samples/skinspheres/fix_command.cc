@@ -169,8 +169,8 @@ nlohmann::json ClipJson(const Fixed& c, const LoadedCharacter& loaded, const run
                                     {"total", r.bone_total}};
   j["jerk"] = {{"source", r.jerk_source}, {"fixed", r.jerk_fixed}, {"ratio", JerkRatio(r)}};
   if (std::string why = Unfixed(c); !why.empty() && r.before.frames_failing > 0) j["unfixed_because"] = why;
-  j["solver"] = {{"ease_s", c.ease_s},
-                 {"rounds", r.rounds}, {"frame_solves", r.solves}, {"poses_evaluated", r.poses_evaluated}};
+  j["solver"] = {
+      {"ease_s", c.ease_s}, {"rounds", r.rounds}, {"frame_solves", r.solves}, {"poses_evaluated", r.poses_evaluated}};
   return j;
 }
 
@@ -240,7 +240,8 @@ FixOutcome RunFixCommand(FixArgs& a, bool quiet) {
   settings.allow = std::move(*allow);
 
   std::vector<Fixed> fixed(chosen->size());
-  for (size_t k = 0; k < fixed.size(); ++k) fixed[k].clip = (*chosen)[k], fixed[k].max_jerk_ratio = a.max_jerk_ratio, fixed[k].ease_s = a.ease_s;
+  for (size_t k = 0; k < fixed.size(); ++k)
+    fixed[k].clip = (*chosen)[k], fixed[k].max_jerk_ratio = a.max_jerk_ratio, fixed[k].ease_s = a.ease_s;
   const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int jobs = std::max(1, std::min<int>(a.jobs > 0 ? a.jobs : hardware, static_cast<int>(fixed.size())));
   say("fixing " + std::to_string(fixed.size()) + " clips on " + (*playback)->file() + ": penetration deeper than " +
