@@ -15,7 +15,7 @@
 namespace skinspheres::tool {
 
 struct FixArgs {
-  std::string input, output, report, spheres, clip = "all";
+  std::string input, output, report, html, spheres, clip = "all";
   std::vector<std::string> allow;  // "PART_A:PART_B": part pairs left alone (intended contacts)
   ClipFileOptions clip_files;
   float fps = 30.0f;

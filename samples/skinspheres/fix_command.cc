@@ -18,6 +18,7 @@
 
 #include "clip_fixer.h"
 #include "fix.h"
+#include "html_page.h"
 #include "skinspheres/lib/io/glb_exporter.h"
 #include "skinspheres/lib/retarget/bake_clip.h"
 #include "skinspheres/runtime/format/file_io.h"
@@ -202,6 +203,59 @@ std::string ClipLine(const Fixed& c, const LoadedCharacter& loaded, float height
   return line;
 }
 
+nlohmann::json ReportJson(const FixArgs& a, const lib::RawCharacter& ch, float height, bool nothing_written,
+                          nlohmann::json clips, nlohmann::json summary) {
+  return {{"format", "skinspheres.fix"},
+          {"version", 1},
+          {"character", ch.source_file.empty() ? "built-in character" : ch.source_file},
+          {"body_height", height},
+          {"max_depth", a.max_depth},
+          {"allow", a.allow},
+          {"fps", a.fps},
+          {"ease_s", a.ease_s},
+          {"max_rotation_deg", a.max_rotation_deg},
+          {"max_jerk_ratio", a.max_jerk_ratio},
+          {"output", nothing_written ? nlohmann::json(nullptr) : nlohmann::json(a.output)},
+          {"clips", std::move(clips)},
+          {"summary", std::move(summary)}};
+}
+
+// --html DIR: per clip that needed fixing, a viewer page holding the clip as it was and as fixed
+// ("NAME (fixed)"), each played with its contacts and timeline, one selected at a time.
+std::optional<Error> WriteBeforeAfterPages(const std::vector<Fixed>& fixed, const LoadedCharacter& loaded,
+                                           const runtime::SphereSet& set, const FixArgs& a,
+                                           const std::function<void(const std::string&)>& say) {
+  std::error_code ec;
+  std::filesystem::create_directories(a.html, ec);
+  if (ec) return MakeError(ErrorCode::kFileUnreadable, a.html + ": cannot create the folder (" + ec.message() + ")");
+  for (const Fixed& c : fixed) {
+    if (!c.result || c.result->before.frames_failing == 0) continue;
+    LoadedCharacter page_character = loaded;
+    const skinning::AnimationClip& original = loaded.character.clips[c.clip];
+    page_character.character.clips = {original,
+                                      lib::ClipFromFrames(original.name + " (fixed)", c.result->poses, a.fps)};
+    std::vector<PlayResult> played(2);
+    std::vector<std::vector<FrameRecord>> frames(2);
+    PlayOptions options;
+    options.fps = a.fps;
+    ViewerPageInput page{&page_character, &set, -1.0, {}, {"before and after skinspheres fix"}};
+    for (size_t k = 0; k < 2; ++k) {
+      auto result = PlayClip(page_character, set, k, options, RecordFrames(&frames[k]));
+      if (!result.ok()) return result.error();
+      played[k] = std::move(*result);
+      page.clips.push_back(ViewClip{&played[k], &frames[k], k, a.fps, false});
+    }
+    std::string stem = original.name;
+    for (char& ch : stem) {
+      if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '-' && ch != '.') ch = '_';
+    }
+    const std::string path = (std::filesystem::path(a.html) / (stem + ".html")).string();
+    if (auto err = WriteViewerPage(page, path)) return err;
+    say("wrote " + path);
+  }
+  return std::nullopt;
+}
+
 FixOutcome RunFixCommand(FixArgs& a, bool quiet) {
   FixOutcome out;
   auto say = [quiet](const std::string& line) {
@@ -263,25 +317,16 @@ FixOutcome RunFixCommand(FixArgs& a, bool quiet) {
       written.push_back(lib::ClipFromFrames(ch.clips[c.clip].name, c.result->poses, a.fps));
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  out.report = {{"format", "skinspheres.fix"},
-                {"version", 1},
-                {"character", ch.source_file.empty() ? "built-in character" : ch.source_file},
-                {"body_height", height},
-                {"max_depth", a.max_depth},
-                {"allow", a.allow},
-                {"fps", a.fps},
-                {"ease_s", a.ease_s},
-                {"max_rotation_deg", a.max_rotation_deg},
-                {"max_jerk_ratio", a.max_jerk_ratio},
-                {"output", written.empty() ? nlohmann::json(nullptr) : nlohmann::json(a.output)},
-                {"clips", std::move(clips)},
-                {"summary",
-                 {{"clips", fixed.size()},
-                  {"clean", clean},
-                  {"fixed", repaired},
-                  {"unfixed", unfixed},
-                  {"failed", failed},
-                  {"seconds", seconds}}}};
+  out.report = ReportJson(a, ch, height, written.empty(), std::move(clips),
+                          {{"clips", fixed.size()},
+                           {"clean", clean},
+                           {"fixed", repaired},
+                           {"unfixed", unfixed},
+                           {"failed", failed},
+                           {"seconds", seconds}});
+  if (!a.html.empty()) {
+    if (auto err = WriteBeforeAfterPages(fixed, *loaded, *set, a, say)) return fail(err->message, err->code);
+  }
   if (!written.empty()) {
     ch.clips = std::move(written);
     auto exported = lib::ExportGlb(ch, a.output);
@@ -320,6 +365,8 @@ void AddFixCommand(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   cmd->add_option("--allow", a->allow, "PART_A:PART_B: an intended contact, left alone (repeatable)");
   cmd->add_option("--report", a->report, "write a JSON report (per clip: before and after, joints, degrees, jerk)");
+  cmd->add_option("--html", a->html,
+                  "write a viewer page per clip that needed fixing into this folder: the clip before and after");
   cmd->add_option("--spheres", a->spheres, "sphere set to use (default: fit on the fly)");
   cmd->add_option("--fps", a->fps, "frames per second: the frames checked, fixed and keyed")->capture_default_str();
   cmd->add_option("--ease", a->ease_s, "seconds over which corrections ease in and out")->capture_default_str();

@@ -423,7 +423,35 @@ if (!chromium) {
   console.log('SKIPPED: chromium not found (scripts/deps installs Debian\'s chromium; or set CHROMIUM)');
   process.exit(0);
 }
-const cases = { play: casePlay, fit: caseFit, clips: caseClips, pieces: casePieces };
+// `fix --html` at its default depth, the touch tolerance: one page holding the touch clip and
+// "touch (fixed)"; the original penetrates (deeper than 2% of the height on some frame, the page's
+// own part contacts), the fixed one is never deeper than the tolerance; the clip selector switches between them and the timeline follows (penetrating marks
+// before, none after).
+async function caseFix(browser) {
+  const file = join(dir, 'fix', 'touch.html');
+  const { data } = pageData(file);
+  const names = data.clips.map((c) => c.name);
+  check(names.length === 2 && names[0] === 'touch' && names[1] === 'touch (fixed)', `clips: ${names.join(', ')}`);
+  const height = data.metrics.body_height;
+  const deepest = (clip) => {
+    let worst = 0;
+    clip.part_contacts.forEach((pc) => {
+      for (let i = 0; i + 3 < pc.length; i += 4) worst = Math.max(worst, pc[i + 3]);
+    });
+    return worst / height;
+  };
+  const [before, after] = data.clips.map(deepest);
+  check(before > 0.02 && after * height <= data.clips[1].touch_tolerance, `deepest: ${(100 * before).toFixed(2)}% before, ${(100 * after).toFixed(2)}% after`);
+  check(data.clips[0].frames === data.clips[1].frames, `as many frames (${data.clips[1].frames})`);
+  await open(browser, file, '#clip=touch&frame=0');
+  const pens = async () => browser.evaluate(`document.querySelectorAll('#ss-timeline .mark.pen').length`);
+  const penBefore = await pens();
+  await setHash(browser, `#clip=${encodeURIComponent('touch (fixed)')}&frame=0`);
+  const penAfter = await pens();
+  check(penBefore > 0 && penAfter === 0, `penetrating marks on the timeline: ${penBefore} before, ${penAfter} after`);
+}
+
+const cases = { play: casePlay, fit: caseFit, clips: caseClips, pieces: casePieces, fix: caseFix };
 if (!cases[caseName] || !dir) {
   console.error(`usage: page_tests.mjs ${Object.keys(cases).join('|')} DIR`);
   process.exit(2);
