@@ -59,6 +59,7 @@
 #include "skinspheres/lib/fit/sphere_fitter.h"
 #include "skinspheres/lib/io/importer.h"
 #include "skinspheres/runtime/api/character.h"
+#include "skinspheres/runtime/fix/pose_fixer.h"
 #include "skinspheres/runtime/narrow_phase/contact_rules.h"
 #include "skinspheres/runtime/narrow_phase/narrow_phase.h"
 #include "skinspheres/runtime/narrow_phase/triangle_contact.h"
@@ -908,6 +909,48 @@ BENCHMARK(BM_Fcl)
     ->ArgNames({"char", "work", "fcl"})
     ->Unit(benchmark::kMicrosecond);
 #endif  // SKINSPHERES_HAVE_FCL
+
+// runtime::PoseFixer on the penetrating poses of the character's own clips (every frame at 30 fps
+// where a part pair penetrates deeper than the touch tolerance, 48 at most): the cost of one Fix
+// call, the way an engine would correct a generated pose. Counters: steps per call, the share of
+// poses that hold after, poses.
+void BM_FixPose(benchmark::State& state) {
+  Character* c = Get(state, int(state.range(0)), 0);
+  if (!c) return;
+  if (c->set.joint_names != c->ch.skeleton.joint_names) return state.SkipWithError("set joints != skeleton");
+  auto fixer = rt::PoseFixer::Create(c->asset);
+  if (!fixer.ok()) return state.SkipWithError(fixer.error().message.c_str());
+  std::vector<std::vector<sk::Transform>> poses;
+  std::vector<sk::Transform> locals(c->ch.skeleton.size());
+  for (const auto& clip : c->ch.clips) {
+    for (int f = 0; poses.size() < 48 && f / 30.0f <= clip.duration_s; ++f) {
+      if (!sk::SamplingJob{&clip, &c->ch.skeleton, f / 30.0f, locals}.Run()) continue;
+      std::vector<sk::Transform> copy = locals;
+      auto probe = fixer->Fix(copy, {});
+      if (probe.ok() && probe->deepest_before > c->asset->narrow_phase()->touch_tolerance()) poses.push_back(locals);
+    }
+  }
+  if (poses.empty()) return state.SkipWithError("no clip frame penetrates");
+  size_t calls = 0, steps = 0, holds = 0;
+  std::vector<sk::Transform> work;
+  while (state.KeepRunningBatch(benchmark::IterationCount(poses.size()))) {
+    for (const auto& pose : poses) {
+      state.PauseTiming();
+      work = pose;
+      state.ResumeTiming();
+      auto r = fixer->Fix(work, {});
+      if (!r.ok()) return state.SkipWithError(r.error().message.c_str());
+      ++calls;
+      steps += size_t(r->steps);
+      holds += r->holds;
+    }
+  }
+  state.counters["steps"] = double(steps) / double(std::max<size_t>(calls, 1));
+  state.counters["holds"] = double(holds) / double(std::max<size_t>(calls, 1));
+  state.counters["poses"] = double(poses.size());
+  state.SetLabel(std::string(kNames[state.range(0)]) + " own clips, penetrating frames");
+}
+BENCHMARK(BM_FixPose)->DenseRange(0, 4)->ArgName("char")->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

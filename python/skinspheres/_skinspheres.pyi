@@ -122,6 +122,14 @@ class Asset:
     def instance(self, joint_names: Optional[Sequence[str]] = None) -> Instance: ...
     def check(self, joint_names: Sequence[str], vertex_count: int) -> None:
         """Raises MismatchedAsset unless the set was fitted on this character."""
+    def fix_pose(
+        self, locals: npt.ArrayLike, *, max_depth: float = 0.0
+    ) -> tuple[npt.NDArray[np.float32], dict[str, Any]]:
+        """The pose corrected so that no part pair penetrates deeper than max_depth (the set's
+        units; 0: the touch tolerance), turning as few joints as little as it can. locals: (J, 10)
+        per joint of the set, translation xyz, rotation quaternion xyzw, scale xyz. Returns the fixed
+        pose (rotations changed) and {"holds", "steps", "deepest_before", "deepest_after"}. Creates
+        a fixer per call (milliseconds); the C and C++ APIs keep one."""
     @property
     def sphere_set(self) -> SphereSet: ...
     @property

@@ -1,6 +1,7 @@
 // The module's sphere sets, assets and instances (module_internal.h): load, fit, and one
 // character's per-frame state.
 #include "module_internal.h"
+#include "skinspheres/runtime/fix/pose_fixer.h"
 
 namespace skinspheres::python {
 
@@ -187,6 +188,40 @@ void PyInstance::ReadPositions(const py::handle& object) {
   for (size_t v = 0; v < need; ++v) {
     for (int c = 0; c < 3; ++c) positions_[v][c] = a.At({static_cast<py::ssize_t>(v), c});
   }
+}
+
+py::tuple FixPose(const PyAsset& asset, const py::handle& locals_array, float max_depth) {
+  const size_t joints = asset.asset->sphere_set().joint_count();
+  const FloatArray in = ReadFloatArray(locals_array, "locals", {static_cast<py::ssize_t>(joints), 10});
+  std::vector<skinning::Transform> locals(joints);
+  for (size_t j = 0; j < joints; ++j) {
+    auto at = [&](py::ssize_t k) { return in.At({static_cast<py::ssize_t>(j), k}); };
+    locals[j].translation = Eigen::Vector3f(at(0), at(1), at(2));
+    locals[j].rotation = Quatf(at(6), at(3), at(4), at(5));
+    locals[j].scale = Eigen::Vector3f(at(7), at(8), at(9));
+  }
+  runtime::PoseFixResult result;
+  {
+    py::gil_scoped_release release;
+    auto fixer = Take(runtime::PoseFixer::Create(asset.asset));
+    runtime::PoseSolveSettings settings;
+    settings.max_depth = max_depth;
+    result = Take(fixer.Fix(locals, settings));
+  }
+  py::array_t<float> out({static_cast<py::ssize_t>(joints), py::ssize_t{10}});
+  auto m = out.mutable_unchecked<2>();
+  for (size_t j = 0; j < joints; ++j) {
+    const auto& t = locals[j];
+    const float values[10] = {t.translation.x(), t.translation.y(), t.translation.z(), t.rotation.x(), t.rotation.y(),
+                              t.rotation.z(),    t.rotation.w(),    t.scale.x(),       t.scale.y(),    t.scale.z()};
+    for (py::ssize_t k = 0; k < 10; ++k) m(static_cast<py::ssize_t>(j), k) = values[k];
+  }
+  py::dict info;
+  info["holds"] = result.holds;
+  info["steps"] = result.steps;
+  info["deepest_before"] = result.deepest_before;
+  info["deepest_after"] = result.deepest_after;
+  return py::make_tuple(out, info);
 }
 
 }  // namespace skinspheres::python

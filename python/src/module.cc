@@ -180,6 +180,7 @@ PYBIND11_MODULE(_skinspheres, m) {
             if (auto e = a.asset->Matches(joint_names, vertex_count)) Throw(*e);
           },
           "joint_names"_a, "vertex_count"_a)
+      .def("fix_pose", &FixPose, "locals"_a, py::kw_only(), "max_depth"_a = 0.0f)
       .def_property_readonly("sphere_set", &SetOf)
       .def_property_readonly("part_names", [](const PyAsset& a) { return Texts(PartNames(a.asset->sphere_set())); })
       .def_property_readonly("joint_names", [](const PyAsset& a) { return Texts(a.asset->sphere_set().joint_names); })

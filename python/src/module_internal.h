@@ -257,6 +257,11 @@ struct PyAsset {
 
 PyAsset MakeAsset(const PySphereSet& set, float margin, float touch_tolerance);
 
+// runtime::PoseFixer on one pose: locals (J, 10) float32/float64, per joint of the set translation
+// xyz, rotation quaternion xyzw, scale xyz. Returns (the fixed pose as a new (J, 10) float32 array,
+// {"holds", "steps", "deepest_before", "deepest_after"}).
+py::tuple FixPose(const PyAsset& asset, const py::handle& locals, float max_depth);
+
 // The asset's own set, shared (aliasing: the asset stays alive while the set object does).
 PySphereSet SetOf(const PyAsset& a);
 

@@ -5,61 +5,15 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <limits>
-#include <map>
 
 #include "skinspheres/lib/retarget/bake_clip.h"
 #include "skinspheres/skinning/local_to_model_job.h"
 
 namespace skinspheres::tool {
 
-struct ClipFixer::Violation {
-  uint16_t part_a = 0, part_b = 0;
-  float depth = 0.0f;
-  Eigen::Vector3f normal = Eigen::Vector3f::Zero();  // from part_b towards part_a
-  Eigen::Vector3f center = Eigen::Vector3f::Zero();
-  int32_t joint_a = -1, joint_b = -1;       // each side's most frequent joint among its intersecting triangles
-  std::vector<int32_t> joints_a, joints_b;  // every joint of each side's intersecting triangles
-};
-
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr float kStepClampRad = 0.15f;  // largest change of one joint per least-squares step
-
-Eigen::Vector3f RotationVector(const Quatf& q) {
-  const Eigen::AngleAxisf aa(q.normalized());
-  return aa.angle() * aa.axis();
-}
-Quatf FromRotationVector(const Eigen::Vector3f& v) {
-  const float angle = v.norm();
-  if (!(angle > 0.0f)) return Quatf(Quatf::Identity());
-  return Quatf(Eigen::AngleAxisf(angle, v / angle));
-}
-Eigen::Vector3f ClampNorm(const Eigen::Vector3f& v, float limit) {
-  const float n = v.norm();
-  return n > limit ? Eigen::Vector3f(v * (limit / n)) : v;
-}
-// The rotation of a world matrix, scale removed column by column.
-Eigen::Matrix3f RotationOf(const skinspheres::Mat4f& m) {
-  Eigen::Matrix3f r = m.topLeftCorner<3, 3>();
-  for (int c = 0; c < 3; ++c) {
-    const float n = r.col(c).norm();
-    if (n > 0.0f) r.col(c) /= n;
-  }
-  return r;
-}
-
-// The most frequent entry (the smallest on ties); -1 when empty.
-int32_t MostFrequent(const std::map<int32_t, int>& counts) {
-  int32_t best = -1;
-  int most = 0;
-  for (const auto& [joint, n] : counts) {
-    if (n > most) best = joint, most = n;
-  }
-  return best;
-}
-
 double Percentile(std::vector<float> v, double q) {
   if (v.empty()) return 0.0;
   const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * double(v.size() - 1) + 0.5));
@@ -171,15 +125,6 @@ void MeasureMotion(const skinning::Skeleton& skeleton, const Poses& source, cons
   out->jerk_fixed = count ? std::sqrt(sum_fixed / double(count)) : 0.0;
 }
 
-void ApplyCorrection(std::span<const skinning::Transform> source, std::span<const Eigen::Vector3f> correction,
-                     std::vector<skinning::Transform>* pose) {
-  pose->assign(source.begin(), source.end());
-  for (size_t j = 0; j < pose->size() && j < correction.size(); ++j) {
-    if (correction[j].isZero()) continue;
-    (*pose)[j].rotation = (FromRotationVector(correction[j]) * source[j].rotation).normalized();
-  }
-}
-
 Result<ClipFixer> ClipFixer::Create(std::shared_ptr<const Playback> playback) {
   PlayOptions options;  // exact mode: the exact contacts decide
   auto player = ClipPlayer::Create(playback, options);
@@ -188,28 +133,12 @@ Result<ClipFixer> ClipFixer::Create(std::shared_ptr<const Playback> playback) {
   ClipFixer fixer;
   fixer.playback_ = std::move(playback);
   fixer.player_.emplace(std::move(*player));
-  // Each vertex's joints by weight, then each triangle's joint: the largest summed weight.
-  const auto& skin = ch.skin;
-  fixer.triangle_joint_.assign(ch.triangle_count(), 0);
-  for (size_t t = 0; t < ch.triangle_count(); ++t) {
-    std::map<int32_t, float> weight;
-    for (int k = 0; k < 3; ++k) {
-      const auto v = static_cast<size_t>(ch.triangles[t][k]);
-      if (v + 1 >= skin.influence_offsets.size()) continue;
-      for (uint32_t i = skin.influence_offsets[v]; i < skin.influence_offsets[v + 1]; ++i) {
-        weight[skin.binds[skin.influence_binds[i]].joint] += skin.influence_weights[i];
-      }
-    }
-    float best = -1.0f;
-    for (const auto& [joint, w] : weight) {
-      if (w > best) best = w, fixer.triangle_joint_[t] = joint;
-    }
+  std::vector<uint32_t> triangle_vertices;
+  triangle_vertices.reserve(3 * ch.triangle_count());
+  for (const Eigen::Vector3i& t : ch.triangles) {
+    for (int k = 0; k < 3; ++k) triangle_vertices.push_back(static_cast<uint32_t>(t[k]));
   }
-  fixer.depth_.assign(ch.skeleton.size(), 0);
-  for (size_t j = 0; j < ch.skeleton.size(); ++j) {
-    const int32_t parent = ch.skeleton.parents[j];
-    fixer.depth_[j] = parent < 0 ? 0 : fixer.depth_[static_cast<size_t>(parent)] + 1;
-  }
+  fixer.solver_.emplace(ch.skeleton.parents, runtime::TriangleJoints(ch.skin, triangle_vertices));
   return fixer;
 }
 
@@ -220,136 +149,27 @@ Result<Poses> ClipFixer::Sample(const skinning::AnimationClip& clip, float fps) 
 }
 
 // The pose's part pairs (not allowed) that penetrate deeper than `limit`.
-Result<std::vector<ClipFixer::Violation>> ClipFixer::Evaluate(std::span<const skinning::Transform> pose, int frame,
-                                                              float limit, const FixSettings& settings) {
+Result<std::vector<runtime::PoseViolation>> ClipFixer::Evaluate(std::span<const skinning::Transform> pose, int frame,
+                                                                float limit, const FixSettings& settings) {
   ++poses_;
   if (auto err = player_->PlayPose(pose, frame)) return *err;
-  const runtime::FrameContacts& contacts = player_->contacts();
-  std::vector<Violation> out;
-  for (const runtime::PartContact& p : contacts.parts) {
-    if (p.kind != runtime::PartContactKind::kPenetrating || !(p.depth > limit)) continue;
-    if (std::find(settings.allow.begin(), settings.allow.end(), std::pair(p.part_a, p.part_b)) != settings.allow.end())
-      continue;
-    Violation v;
-    v.part_a = p.part_a;
-    v.part_b = p.part_b;
-    v.depth = p.depth;
-    v.normal = Eigen::Vector3f(p.normal[0], p.normal[1], p.normal[2]);
-    v.center = Eigen::Vector3f(p.center[0], p.center[1], p.center[2]);
-    std::map<int32_t, int> side_a, side_b;
-    for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
-      const runtime::TriangleContact& t = contacts.triangle_pairs[k];
-      if (t.kind != runtime::TriangleContactKind::kIntersecting) continue;
-      ++side_a[triangle_joint_[t.triangle_a]];
-      ++side_b[triangle_joint_[t.triangle_b]];
-    }
-    v.joint_a = MostFrequent(side_a);
-    v.joint_b = MostFrequent(side_b);
-    for (const auto& [joint, n] : side_a) v.joints_a.push_back(joint);
-    for (const auto& [joint, n] : side_b) v.joints_b.push_back(joint);
-    out.push_back(v);
-  }
-  return out;
+  return solver_->Violations(player_->contacts(), limit, settings.allow);
 }
 
-// Damped least-squares steps on one frame until no pair is deeper than 0.9 of the limit: returns
-// the steps taken, or -1 when the frame still fails after settings.iterations.
+// One frame's solve (runtime::PoseSolver), playing each pose with the exact contacts.
 Result<int> ClipFixer::SolveFrame(const std::vector<skinning::Transform>& source, int frame,
                                   const FixSettings& settings, std::vector<Eigen::Vector3f>* correction) {
-  const skinning::Skeleton& skeleton = playback_->loaded().character.skeleton;
-  const float max_rotation = static_cast<float>(settings.max_rotation_deg * kPi / 180.0);
-  std::vector<skinning::Transform> pose;
-  // A step is kept only when it lowers the summed excess depth over every pair (new ones included):
-  // otherwise it is halved, at most kBackoffs times, so that no step trades one penetration for a
-  // deeper one.
-  constexpr int kBackoffs = 3;
-  std::vector<Eigen::Vector3f> best = *correction;
-  float best_excess = std::numeric_limits<float>::infinity();
-  int backoffs = 0;
-  for (int step = 0;; ++step) {
-    ApplyCorrection(source, *correction, &pose);
-    auto violations = Evaluate(pose, frame, 0.9f * settings.max_depth, settings);
-    if (!violations.ok()) return violations.error();
-    if (violations->empty()) return step;
-    float excess = 0.0f;
-    for (const Violation& v : *violations) excess += v.depth - 0.9f * settings.max_depth;
-    if (!(excess < best_excess)) {
-      if (++backoffs > kBackoffs || step == settings.iterations) {
-        *correction = best;
-        return -1;
-      }
-      for (size_t j = 0; j < correction->size(); ++j) (*correction)[j] = 0.5f * (best[j] + (*correction)[j]);
-      continue;
-    }
-    best = *correction;
-    best_excess = excess;
-    backoffs = 0;
-    if (step == settings.iterations) return -1;
-    const auto world = player_->joint_world();
-    // Unknowns: a world rotation vector per joint on a chain; sign +1 moves part_a's side.
-    std::map<int32_t, int> column;
-    std::vector<int32_t> joints;
-    std::vector<std::vector<std::pair<int, float>>> rows(violations->size());  // (joint slot, sign)
-    for (size_t r = 0; r < violations->size(); ++r) {
-      const Violation& v = (*violations)[r];
-      // Each side's chain: from its contact joint towards the root, up to the first joint that also
-      // moves the other side's intersecting triangles (an ancestor of, or one of, their joints).
-      auto moves = [&](int32_t j, const std::vector<int32_t>& others) {
-        for (int32_t o : others) {
-          for (int32_t k = o; k >= 0; k = skeleton.parents[static_cast<size_t>(k)]) {
-            if (k == j) return true;
-          }
-        }
-        return false;
-      };
-      for (const auto& [end, others, sign] :
-           {std::tuple{v.joint_a, &v.joints_b, 1.0f}, std::tuple{v.joint_b, &v.joints_a, -1.0f}}) {
-        for (int32_t j = end; j >= 0 && !moves(j, *others); j = skeleton.parents[static_cast<size_t>(j)]) {
-          auto [it, added] = column.emplace(j, static_cast<int>(joints.size()));
-          if (added) joints.push_back(j);
-          rows[r].emplace_back(it->second, sign);
-        }
-      }
-    }
-    if (joints.empty()) return -1;
-    const int n = static_cast<int>(joints.size()) * 3, m = static_cast<int>(violations->size());
-    Eigen::MatrixXf jacobian = Eigen::MatrixXf::Zero(m, n);
-    Eigen::VectorXf target(m), inverse_weight(n);
-    for (size_t k = 0; k < joints.size(); ++k) {
-      // 2^hops from the chain's contact end: distal joints are cheaper to turn.
-      const int32_t j = joints[k];
-      int hops = 0;
-      for (const Violation& v : *violations) {
-        for (int32_t end : {v.joint_a, v.joint_b}) {
-          if (end >= 0 && depth_[static_cast<size_t>(end)] >= depth_[static_cast<size_t>(j)])
-            hops = std::max(hops, depth_[static_cast<size_t>(end)] - depth_[static_cast<size_t>(j)]);
-        }
-      }
-      inverse_weight.segment<3>(static_cast<int>(k) * 3).setConstant(std::ldexp(1.0f, -std::min(hops, 20)));
-    }
-    for (int r = 0; r < m; ++r) {
-      const Violation& v = (*violations)[static_cast<size_t>(r)];
-      target[r] = v.depth - 0.5f * settings.max_depth;
-      for (const auto& [slot, sign] : rows[static_cast<size_t>(r)]) {
-        const Eigen::Vector3f origin = world[static_cast<size_t>(joints[static_cast<size_t>(slot)])].block<3, 1>(0, 3);
-        jacobian.block<1, 3>(r, slot * 3) = sign * (v.center - origin).cross(v.normal).transpose();
-      }
-    }
-    const Eigen::MatrixXf jw = jacobian * inverse_weight.asDiagonal();
-    Eigen::MatrixXf normal = jw * jacobian.transpose();
-    normal.diagonal().array() += 1e-3f * std::max(normal.diagonal().maxCoeff(), 1e-12f);
-    const Eigen::VectorXf omega = jw.transpose() * normal.ldlt().solve(target);
-    for (size_t k = 0; k < joints.size(); ++k) {
-      const auto j = static_cast<size_t>(joints[k]);
-      const int32_t parent = skeleton.parents[j];
-      const Eigen::Matrix3f parent_rotation =
-          parent < 0 ? Eigen::Matrix3f::Identity() : RotationOf(world[static_cast<size_t>(parent)]);
-      const Eigen::Vector3f local =
-          parent_rotation.transpose() * ClampNorm(omega.segment<3>(static_cast<int>(k) * 3), kStepClampRad);
-      (*correction)[j] =
-          ClampNorm(RotationVector(FromRotationVector(local) * FromRotationVector((*correction)[j])), max_rotation);
-    }
-  }
+  runtime::PoseSolveSettings solve;
+  solve.max_depth = settings.max_depth;
+  solve.iterations = settings.iterations;
+  solve.max_rotation_rad = static_cast<float>(settings.max_rotation_deg * kPi / 180.0);
+  solve.allow = settings.allow;
+  auto play = [&](std::span<const skinning::Transform> pose) -> Result<runtime::PlayedPose> {
+    ++poses_;
+    if (auto err = player_->PlayPose(pose, frame)) return *err;
+    return runtime::PlayedPose{&player_->contacts(), player_->joint_world()};
+  };
+  return solver_->Solve(source, solve, play, correction);
 }
 
 void ClipFixer::Measure(const Poses& poses, const FixSettings& settings, FixMeasures* out) {
@@ -358,7 +178,7 @@ void ClipFixer::Measure(const Poses& poses, const FixSettings& settings, FixMeas
     auto violations = Evaluate(poses[f], static_cast<int>(f), settings.max_depth, settings);
     if (!violations.ok() || violations->empty()) continue;
     ++out->frames_failing;
-    for (const Violation& v : *violations) {
+    for (const runtime::PoseViolation& v : *violations) {
       if (v.depth > out->worst_depth) out->worst_depth = v.depth, out->worst_frame = static_cast<int>(f);
       const std::pair pair(v.part_a, v.part_b);
       if (std::find(out->failing_pairs.begin(), out->failing_pairs.end(), pair) == out->failing_pairs.end())
@@ -386,7 +206,7 @@ Result<FixResult> ClipFixer::Fix(const Poses& source, float fps, const FixSettin
         any = any || failing[f];
         continue;
       }
-      ApplyCorrection(source[f], corrections[f], &pose);
+      runtime::ApplyCorrection(source[f], corrections[f], &pose);
       auto violations = Evaluate(pose, static_cast<int>(f), settings.max_depth, settings);
       if (!violations.ok()) return violations.error();
       failing[f] = !violations->empty();
@@ -407,11 +227,13 @@ Result<FixResult> ClipFixer::Fix(const Poses& source, float fps, const FixSettin
     std::fill(changed.begin(), changed.end(), 0);
     Spread(delta, failing, std::max(0.5f, settings.ease_s * fps), &corrections, &changed);
     for (auto& frame : corrections) {
-      for (auto& c : frame) c = ClampNorm(c, max_rotation);
+      for (auto& c : frame) {
+        if (c.norm() > max_rotation) c *= max_rotation / c.norm();
+      }
     }
   }
   result.poses.resize(frames);
-  for (size_t f = 0; f < frames; ++f) ApplyCorrection(source[f], corrections[f], &result.poses[f]);
+  for (size_t f = 0; f < frames; ++f) runtime::ApplyCorrection(source[f], corrections[f], &result.poses[f]);
   Measure(source, settings, &result.before);
   Measure(result.poses, settings, &result.after);
   result.poses_evaluated = poses_;

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "playback.h"
+#include "skinspheres/runtime/fix/pose_solver.h"
 #include "skinspheres/skinning/skeleton.h"
 
 namespace skinspheres::tool {
@@ -78,17 +79,15 @@ class ClipFixer {
 
  private:
   ClipFixer() = default;
-  struct Violation;
-  Result<std::vector<Violation>> Evaluate(std::span<const skinning::Transform> pose, int frame, float limit,
-                                          const FixSettings& settings);
+  Result<std::vector<runtime::PoseViolation>> Evaluate(std::span<const skinning::Transform> pose, int frame,
+                                                       float limit, const FixSettings& settings);
   Result<int> SolveFrame(const std::vector<skinning::Transform>& source, int frame, const FixSettings& settings,
                          std::vector<Eigen::Vector3f>* correction);
   void Measure(const Poses& poses, const FixSettings& settings, FixMeasures* out);
 
   std::shared_ptr<const Playback> playback_;
   std::optional<ClipPlayer> player_;
-  std::vector<int32_t> triangle_joint_;  // each source triangle's dominant joint
-  std::vector<int> depth_;               // each joint's hops from its root
+  std::optional<runtime::PoseSolver> solver_;
   size_t poses_ = 0;
 };
 
@@ -97,9 +96,5 @@ class ClipFixer {
 void MeasureMotion(const skinning::Skeleton& skeleton, const Poses& source, const FixResult& fixed,
                    const std::vector<std::vector<Eigen::Vector3f>>& corrections, float fps, float height,
                    FixResult* out);
-
-// `pose` with `correction` (per joint, a rotation vector applied before the local rotation).
-void ApplyCorrection(std::span<const skinning::Transform> source, std::span<const Eigen::Vector3f> correction,
-                     std::vector<skinning::Transform>* pose);
 
 }  // namespace skinspheres::tool

@@ -10,6 +10,8 @@ The built-in touch clip (hands 2.2-2.3% of the height into the chest) is fixed a
 - the joints the fix left alone keep their source rotations exactly.
 """
 
+import subprocess
+
 import numpy as np
 import pytest
 
@@ -17,7 +19,7 @@ import skinspheres
 from conftest import tool
 from gltf_sampler import Gltf
 
-import subprocess
+
 
 FPS = 30
 
@@ -116,3 +118,66 @@ def test_clean_clips_are_written_as_they_are_and_bad_options_raise(fixed, tmp_pa
         skinspheres.fix(source, tmp_path / "x.glb", allow=["torso:tail"])
     with pytest.raises(ValueError, match=r"-o takes a \.glb file"):
         skinspheres.fix(source, tmp_path / "x.gltf")
+
+
+def quaternion(m):
+    """xyzw of a rotation matrix (Shepperd)."""
+    w = np.sqrt(max(0.0, 1.0 + m[0, 0] + m[1, 1] + m[2, 2])) / 2
+    x = np.copysign(np.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2, m[2, 1] - m[1, 2])
+    y = np.copysign(np.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2, m[0, 2] - m[2, 0])
+    z = np.copysign(np.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2, m[1, 0] - m[0, 1])
+    return np.array([x, y, z, w])
+
+
+def rotation(q):
+    x, y, z, w = q / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def deepest(asset, character, set_world):
+    """The deepest penetrating part pair of the pose skinned here (float64 LBS), by the runtime's
+    narrow phase in exact mode on those positions (not the fixer's own skinning path)."""
+    positions = character.skinned(set_world).astype(np.float32)
+    instance = asset.instance()
+    instance.update_exact(positions, set_world.astype(np.float32))
+    parts, _ = instance.contacts(positions)
+    penetrating = parts["depth"][parts["kind"] == 1]
+    return float(penetrating.max()) if len(penetrating) else 0.0
+
+
+def test_fix_pose_takes_the_hands_out_of_the_chest(builtin_glb, tmp_path_factory):
+    from characters import character
+
+    c = character("builtin", builtin_glb, tmp_path_factory)
+    asset = skinspheres.Asset(c.spheres)
+    parents = c.spheres.joint_parents
+    touch = [x.get("name") for x in c.gltf.animations].index("touch")
+    _, set_world = c.pose(touch, 1.2)
+    # The set joints' local transforms, from the sampler's world matrices.
+    locals_ = np.zeros((len(parents), 10))
+    for j, p in enumerate(parents):
+        local = set_world[j] if p < 0 else np.linalg.inv(set_world[p]) @ set_world[j]
+        scale = np.linalg.norm(local[:3, :3], axis=0)
+        locals_[j] = np.concatenate([local[:3, 3], quaternion(local[:3, :3] / scale), scale])
+    tolerance = asset.touch_tolerance
+    assert deepest(asset, c, set_world) > 2 * tolerance
+    fixed, info = asset.fix_pose(locals_.astype(np.float32))
+    assert info["holds"] and info["steps"] > 0
+    assert fixed.shape == locals_.shape and fixed.dtype == np.float32
+    np.testing.assert_allclose(fixed[:, :3], locals_[:, :3], atol=1e-6)  # translations kept
+    np.testing.assert_allclose(fixed[:, 7:], locals_[:, 7:], atol=1e-6)  # scales kept
+    world = np.zeros_like(set_world)
+    for j, p in enumerate(parents):
+        local = np.eye(4)
+        local[:3, :3] = rotation(fixed[j, 3:7].astype(np.float64)) * fixed[j, 7:].astype(np.float64)
+        local[:3, 3] = fixed[j, :3]
+        world[j] = local if p < 0 else world[p] @ local
+    assert deepest(asset, c, world) <= tolerance
+    turned = np.abs(np.einsum("ij,ij->i", fixed[:, 3:7], locals_[:, 3:7].astype(np.float32)))
+    assert 0 < np.sum(turned < 1 - 1e-6) <= len(parents) // 2

@@ -515,6 +515,39 @@ SKINSPHERES_C_API skinspheres_status skinspheres_crowd_update_and_find_contacts_
     skinspheres_instance* const* instances, const skinspheres_frame_input_strided* inputs, size_t count,
     skinspheres_refit_mode mode, skinspheres_parallel_for_fn parallel_for, void* user);
 
+/* ---- Pose fixing ---- */
+
+/* A pose corrected so that no part pair penetrates deeper than a limit, turning as few joints as
+   little as it can (the per-frame step of `skinspheres fix`; docs/TOOL.md#fixing-clips). One pose
+   alone: an engine calling it every frame should ease the corrections it applies. Each call plays
+   the pose a few times (refit, broad and narrow phase): some hundreds of microseconds to a few
+   milliseconds per call (docs/PERFORMANCE.md, BM_FixPose). One fixer per thread. */
+typedef struct skinspheres_pose_fixer skinspheres_pose_fixer;
+
+/* What one call did: holds (no part pair deeper than the limit after), least-squares steps taken,
+   deepest penetration before and after (the set's units). 16 bytes. */
+typedef struct skinspheres_pose_fix_result {
+  int32_t holds;
+  int32_t steps;
+  float deepest_before;
+  float deepest_after;
+} skinspheres_pose_fix_result;
+
+/* A fixer over the asset (it holds a reference until destroyed). INVALID_ARGUMENT for a null
+   argument or a set without mesh. */
+SKINSPHERES_C_API skinspheres_status skinspheres_pose_fixer_create(const skinspheres_asset* asset,
+                                                                   skinspheres_pose_fixer** out_fixer);
+/* Frees the fixer and drops its reference to the asset. NULL is ignored. */
+SKINSPHERES_C_API void skinspheres_pose_fixer_destroy(skinspheres_pose_fixer* fixer);
+/* locals: joint_count joints in the set's order (skinspheres_asset_joint_name), 10 floats each:
+   translation x y z, rotation quaternion x y z w, scale x y z; roots in model space. The rotations
+   are corrected in place (translations and scales are not changed). max_depth: the set's units,
+   <= 0 for the asset's touch tolerance. out_result may be NULL. INVALID_ARGUMENT for a null
+   fixer or locals, or a joint count other than the asset's. */
+SKINSPHERES_C_API skinspheres_status skinspheres_pose_fixer_fix(skinspheres_pose_fixer* fixer, float* locals,
+                                                                size_t joint_count, float max_depth,
+                                                                skinspheres_pose_fix_result* out_result);
+
 #ifdef __cplusplus
 } /* extern "C" */
 #endif
