@@ -439,6 +439,7 @@ CheckOutcome RunCheckCommand(CheckArgs& a, bool quiet) {
   CheckOutcome out;
   const Say say(quiet);
   auto fail = [&](const std::string& message, ErrorCode code = ErrorCode::kInvalidArgument) {
+    out.report = nullptr;  // a failed run has no report: the Python module raises
     out.error = runtime::OneLine(message);
     out.error_code = code;
     out.exit_code = quiet ? kExitBadInput : Fail(message);

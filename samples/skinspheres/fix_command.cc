@@ -41,6 +41,37 @@ std::string Percent(double share) {
   return text;
 }
 
+// Two paths naming one file: the same existing file, or the same path once normalised.
+bool SameFile(const std::string& a, const std::string& b) {
+  if (a.empty() || b.empty()) return false;
+  std::error_code ec;
+  if (std::filesystem::equivalent(a, b, ec)) return true;
+  const auto x = std::filesystem::weakly_canonical(a, ec), y = std::filesystem::weakly_canonical(b, ec);
+  return !ec && x == y;
+}
+
+// The outputs before any work: each in an existing folder, none a folder itself, none the input,
+// a clip file or another output (a report over the character file would destroy it).
+std::optional<std::string> CheckOutputPaths(const FixArgs& a) {
+  const std::pair<const char*, const std::string*> outputs[] = {{"-o", &a.output}, {"--report", &a.report}};
+  for (const auto& [option, path] : outputs) {
+    if (path->empty()) continue;
+    std::error_code ec;
+    const auto parent = std::filesystem::path(*path).parent_path();
+    if (!parent.empty() && !std::filesystem::is_directory(parent, ec))
+      return *path + ": " + option + ": no folder " + parent.string();
+    if (std::filesystem::is_directory(*path, ec)) return *path + ": " + option + ": is a folder";
+    if (SameFile(*path, a.input)) return *path + ": " + option + " would overwrite the character file";
+    for (const std::string& file : a.clip_files.files) {
+      if (SameFile(*path, file)) return *path + ": " + option + " would overwrite a --clips file";
+    }
+  }
+  if (SameFile(a.report, a.output)) return a.report + ": --report and -o name the same file";
+  if (!a.html.empty() && (SameFile(a.html, a.output) || SameFile(a.html, a.report)))
+    return a.html + ": --html names an output file";
+  return std::nullopt;
+}
+
 std::optional<std::string> Validate(const FixArgs& a) {
   if (!(a.fps > 0.0f) || a.fps > 10000.0f) return "--fps must be in (0, 10000]";
   if (!(a.max_depth > 0.0f) || !(a.max_depth < 1.0f)) return "--max-depth must be a share of the body height in (0, 1)";
@@ -51,7 +82,7 @@ std::optional<std::string> Validate(const FixArgs& a) {
   std::string ext = std::filesystem::path(a.output).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   if (ext != ".glb") return a.output + ": -o takes a .glb file";
-  return std::nullopt;
+  return CheckOutputPaths(a);
 }
 
 // --allow A:B by part name, as the set names its parts.
@@ -262,6 +293,7 @@ FixOutcome RunFixCommand(FixArgs& a, bool quiet) {
     if (!quiet) std::printf("%s\n", line.c_str()), std::fflush(stdout);
   };
   auto fail = [&](const std::string& message, ErrorCode code = ErrorCode::kInvalidArgument) {
+    out.report = nullptr;  // a failed run has no report: the Python module raises
     out.error = runtime::OneLine(message);
     out.error_code = code;
     out.exit_code = quiet ? kExitBadInput : Fail(message);
@@ -272,6 +304,8 @@ FixOutcome RunFixCommand(FixArgs& a, bool quiet) {
   const auto start = std::chrono::steady_clock::now();
   auto loaded = LoadCharacter(a.input, a.fit.parts_file);
   if (!loaded.ok()) return fail(loaded.error().message, loaded.error().code);
+  if (loaded->character.triangle_count() == 0)
+    return fail(loaded->character.Name() + ": no mesh: nothing for the clips to penetrate");
   const size_t own = loaded->character.clips.size();
   std::vector<std::string> notes;
   if (auto why = AddClipFiles(*loaded, a.clip_files, a.fps, &notes)) return fail(why->message, why->code);
@@ -313,8 +347,19 @@ FixOutcome RunFixCommand(FixArgs& a, bool quiet) {
     repaired += verdict == "fixed";
     unfixed += verdict == "unfixed";
     failed += verdict == "error";
-    if (verdict == "clean" || verdict == "fixed")
-      written.push_back(lib::ClipFromFrames(ch.clips[c.clip].name, c.result->poses, a.fps));
+    if (verdict == "error" && !quiet) Fail(c.error);  // one line on stderr per clip that failed
+    // A clean clip is written as it is; a fixed one keyed per frame. Names stay unique (glTF
+    // exporters refuse two animations of one name).
+    if (verdict == "clean") written.push_back(ch.clips[c.clip]);
+    if (verdict == "fixed") written.push_back(lib::ClipFromFrames(ch.clips[c.clip].name, c.result->poses, a.fps));
+    if (verdict == "clean" || verdict == "fixed") {
+      const std::string base = written.back().name;
+      for (int k = 2; std::count_if(written.begin(), written.end() - 1,
+                                    [&](const auto& w) { return w.name == written.back().name; }) > 0;
+           ++k) {
+        written.back().name = base + "#" + std::to_string(k);
+      }
+    }
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   out.report = ReportJson(a, ch, height, written.empty(), std::move(clips),

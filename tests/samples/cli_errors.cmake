@@ -69,6 +69,9 @@ set(cli_cases
   "fix_clip_unknown|fix|@GLB@|--clip|dance|-o|out.glb|--clip dance: no such clip"
   "fix_output_full|fix|@GLB@|--clip|touch|-o|@FULL_GLB@|full.glb: write failed"
   "fix_clips_fifo|fix|@GLB@|--clips|@FIFO@|-o|out.glb|FIFO"
+  "fix_output_is_input|fix|@GLB@|-o|@GLB@|-o would overwrite the character file"
+  "fix_report_is_output|fix|@GLB@|-o|out.glb|--report|out.glb|--report and -o name the same file"
+  "fix_report_no_folder|fix|@GLB@|-o|out.glb|--report|nodir/r.json|--report: no folder"
   # A sphere set nested 100,000 deep (it crashed play with SIGSEGV).
   "spheres_deep|play|@GLB@|--spheres|@DEEP@|nests 100002 deep"
 )

@@ -2,6 +2,7 @@
 #include "skinspheres/runtime/fix/pose_fixer.h"
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "skinspheres/skinning/local_to_model_job.h"
@@ -54,6 +55,23 @@ Result<PoseFixResult> PoseFixer::Fix(std::span<skinning::Transform> locals, cons
   if (locals.size() != skeleton_.size()) {
     return MakeError(ErrorCode::kInvalidArgument, "PoseFixer: a pose of " + std::to_string(locals.size()) +
                                                       " joints for a set of " + std::to_string(skeleton_.size()));
+  }
+  if (std::isnan(settings.max_depth) || settings.max_depth < 0.0f || std::isinf(settings.max_depth)) {
+    return MakeError(ErrorCode::kInvalidArgument,
+                     "PoseFixer: max_depth must be finite and >= 0 (0: the touch tolerance)");
+  }
+  for (size_t j = 0; j < locals.size(); ++j) {
+    const skinning::Transform& t = locals[j];
+    const float norm = t.rotation.norm();
+    if (!t.translation.allFinite() || !t.scale.allFinite() || !t.rotation.coeffs().allFinite() || !(norm > 1e-6f) ||
+        !(t.scale.cwiseAbs().minCoeff() > 0.0f)) {
+      return MakeError(ErrorCode::kInvalidArgument,
+                       "PoseFixer: joint " + std::to_string(j) + " (" + skeleton_.joint_names[j] +
+                           "): a rotation of zero length, a zero scale or a value that is not finite");
+    }
+  }
+  for (skinning::Transform& t : locals) {
+    if (std::abs(t.rotation.norm() - 1.0f) > 1e-5f) t.rotation.normalize();  // unit ones stay bit for bit
   }
   PoseSolveSettings s = settings;
   if (!(s.max_depth > 0.0f)) s.max_depth = asset_->narrow_phase()->touch_tolerance();

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <optional>
 
@@ -127,6 +128,23 @@ TEST(PoseFixer, AllowedPairsAndBadInput) {
   std::vector<skinning::Transform> short_pose(locals.begin(), locals.end() - 1);
   EXPECT_EQ(fixer->Fix(short_pose, {}).error().code, ErrorCode::kInvalidArgument);
   EXPECT_EQ(PoseFixer::Create(nullptr).error().code, ErrorCode::kInvalidArgument);
+  // Poses and limits that mean nothing are refused, the pose untouched.
+  for (int k = 0; k < 4; ++k) {
+    std::vector<skinning::Transform> bad = source;
+    if (k == 0) bad[3].rotation.coeffs().setZero();
+    if (k == 1) bad[3].scale.setZero();
+    if (k == 2) bad[3].translation.x() = std::nanf("");
+    if (k == 3) bad[3].rotation.coeffs().setConstant(std::numeric_limits<float>::infinity());
+    const std::vector<skinning::Transform> given = bad;
+    EXPECT_EQ(fixer->Fix(bad, {}).error().code, ErrorCode::kInvalidArgument) << k;
+    EXPECT_EQ(bad[3].rotation.coeffs(), given[3].rotation.coeffs()) << k;
+  }
+  for (float depth : {-1.0f, std::nanf(""), std::numeric_limits<float>::infinity()}) {
+    PoseSolveSettings s;
+    s.max_depth = depth;
+    std::vector<skinning::Transform> pose = source;
+    EXPECT_EQ(fixer->Fix(pose, s).error().code, ErrorCode::kInvalidArgument) << depth;
+  }
 }
 
 }  // namespace

@@ -11,7 +11,9 @@
 // Memory:  Create allocates the instance; Fix allocates per call (a few small vectors).
 // Cost:    each step plays the pose once (refit, broad phase, narrow phase): bench BM_FixPose.
 // Threads: one PoseFixer per thread over one shared asset.
-// Errors:  kInvalidArgument for a null asset, a set without mesh, a pose of another size;
+// Errors:  kInvalidArgument for a null asset, a set without mesh, a pose of another size, a joint
+//          with a zero-length rotation, a zero scale or a value that is not finite (rotations not
+//          of unit length are normalised), a max_depth negative or not finite;
 //          kVersionMismatch for a set without joint parents.
 #pragma once
 
