@@ -25,6 +25,7 @@
 #include "check.h"
 #include "clip_files.h"
 #include "html_page.h"
+#include "ordered_workers.h"
 #include "playback.h"
 #include "skinspheres/runtime/format/file_io.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
@@ -149,17 +150,14 @@ std::string ClipLine(const Checked& c, const LoadedCharacter& loaded, const runt
 // `done(k)` for the entries in order as soon as each and every one before it is finished.
 void PlayAll(const std::shared_ptr<const Playback>& playback, const PlayOptions& options, bool record, int jobs,
              std::vector<Checked>* checked, const std::function<void(size_t)>& done) {
-  std::mutex mutex;
-  std::vector<char> finished(checked->size(), 0);
-  std::atomic<size_t> next{0};
-  size_t printed = 0;
-  auto work = [&]() {
-    auto player = ClipPlayer::Create(playback, options);
-    for (size_t k = next++; k < checked->size(); k = next++) {
-      Checked& c = (*checked)[k];
-      if (!player.ok()) {
-        c.error = player.error().message;
-      } else {
+  RunOrdered(
+      checked->size(), jobs, [&] { return ClipPlayer::Create(playback, options); },
+      [&](size_t k, Result<ClipPlayer>& player) {
+        Checked& c = (*checked)[k];
+        if (!player.ok()) {
+          c.error = player.error().message;
+          return;
+        }
         auto played = player->Play(c.entry.clip, record ? RecordFrames(&c.frames) : FrameSink());
         if (played.ok()) {
           c.played = std::move(*played);
@@ -167,16 +165,8 @@ void PlayAll(const std::shared_ptr<const Playback>& playback, const PlayOptions&
           c.error = played.error().message;
           c.frames.clear();
         }
-      }
-      std::lock_guard<std::mutex> lock(mutex);
-      finished[k] = 1;
-      while (printed < finished.size() && finished[printed]) done(printed++);
-    }
-  };
-  std::vector<std::thread> threads;
-  for (int t = 1; t < jobs; ++t) threads.emplace_back(work);
-  work();
-  for (auto& t : threads) t.join();
+      },
+      done);
 }
 
 nlohmann::json PairJson(const PartPairSummary& e, const runtime::SphereSet& set, float height) {

@@ -19,6 +19,7 @@
 #include "clip_fixer.h"
 #include "fix.h"
 #include "html_page.h"
+#include "ordered_workers.h"
 #include "skinspheres/lib/io/glb_exporter.h"
 #include "skinspheres/lib/retarget/bake_clip.h"
 #include "skinspheres/runtime/format/file_io.h"
@@ -115,44 +116,33 @@ double JerkRatio(const FixResult& r) { return r.jerk_source > 0.0 ? r.jerk_fixed
 // Every chosen clip on `jobs` workers, each with its own ClipFixer; done(k) in order as they finish.
 void FixAll(const std::shared_ptr<const Playback>& playback, const FixSettings& settings, float fps, int jobs,
             std::vector<Fixed>* fixed, const std::function<void(size_t)>& done) {
-  std::mutex mutex;
-  std::vector<char> finished(fixed->size(), 0);
-  std::atomic<size_t> next{0};
-  size_t printed = 0;
-  auto work = [&]() {
-    auto fixer = ClipFixer::Create(playback);
-    for (size_t k = next++; k < fixed->size(); k = next++) {
-      Fixed& c = (*fixed)[k];
-      const auto start = std::chrono::steady_clock::now();
-      auto poses =
-          fixer.ok() ? fixer->Sample(playback->loaded().character.clips[c.clip], fps) : Result<Poses>(fixer.error());
-      auto result = poses.ok() ? fixer->Fix(*poses, fps, settings) : Result<FixResult>(poses.error());
-      // A fix that holds but adds pops is eased over twice, then four times, the time.
-      FixSettings wider = settings;
-      for (int retry = 0; retry < 2 && result.ok() && result->fixed() && JerkRatio(*result) > c.max_jerk_ratio;
-           ++retry) {
-        wider.ease_s *= 2.0f;
-        auto again = fixer->Fix(*poses, fps, wider);
-        if (!again.ok() || (again->fixed() && JerkRatio(*again) < JerkRatio(*result))) {
-          result = std::move(again);
-          c.ease_s = wider.ease_s;
+  RunOrdered(
+      fixed->size(), jobs, [&] { return ClipFixer::Create(playback); },
+      [&](size_t k, Result<ClipFixer>& fixer) {
+        Fixed& c = (*fixed)[k];
+        const auto start = std::chrono::steady_clock::now();
+        auto poses =
+            fixer.ok() ? fixer->Sample(playback->loaded().character.clips[c.clip], fps) : Result<Poses>(fixer.error());
+        auto result = poses.ok() ? fixer->Fix(*poses, fps, settings) : Result<FixResult>(poses.error());
+        // A fix that holds but adds pops is eased over twice, then four times, the time.
+        FixSettings wider = settings;
+        for (int retry = 0; retry < 2 && result.ok() && result->fixed() && JerkRatio(*result) > c.max_jerk_ratio;
+             ++retry) {
+          wider.ease_s *= 2.0f;
+          auto again = fixer->Fix(*poses, fps, wider);
+          if (!again.ok() || (again->fixed() && JerkRatio(*again) < JerkRatio(*result))) {
+            result = std::move(again);
+            c.ease_s = wider.ease_s;
+          }
         }
-      }
-      if (result.ok()) {
-        c.result = std::move(*result);
-      } else {
-        c.error = result.error().message;
-      }
-      c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      std::lock_guard<std::mutex> lock(mutex);
-      finished[k] = 1;
-      while (printed < finished.size() && finished[printed]) done(printed++);
-    }
-  };
-  std::vector<std::thread> threads;
-  for (int t = 1; t < jobs; ++t) threads.emplace_back(work);
-  work();
-  for (auto& t : threads) t.join();
+        if (result.ok()) {
+          c.result = std::move(*result);
+        } else {
+          c.error = result.error().message;
+        }
+        c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      },
+      done);
 }
 
 // Why a clip that needed fixing is not written: "" when it holds.
