@@ -446,7 +446,7 @@ std::vector<std::string> OurMethods(bool all_levels) {
   std::vector<std::string> m = {"skinspheres"};
   if (all_levels) {
     for (auto level : {rt::SimdLevel::kSse2, rt::SimdLevel::kAvx2, rt::SimdLevel::kAvx512}) {
-      if (rt::BroadPhaseSimdSupported(level)) m.push_back(std::string("skinspheres_") + rt::ToString(level));
+      if (rt::SimdLevelSupported(level)) m.push_back(std::string("skinspheres_") + rt::ToString(level));
     }
   }
   return m;

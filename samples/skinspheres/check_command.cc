@@ -29,6 +29,7 @@
 #include "playback.h"
 #include "skinspheres/runtime/format/file_io.h"
 #include "skinspheres/runtime/format/sphere_set_io.h"
+#include "skinspheres/skinning/platform.h"
 
 namespace skinspheres::tool {
 namespace {
@@ -72,11 +73,7 @@ class Say {
  public:
   explicit Say(bool quiet) : quiet_(quiet) {}
   bool quiet() const { return quiet_; }
-  void operator()(const char* format, ...) const
-#if defined(__GNUC__)
-      __attribute__((format(printf, 2, 3)))
-#endif
-  {
+  void operator()(const char* format, ...) const SKINSPHERES_PRINTF_FORMAT(2, 3) {
     if (quiet_) return;
     va_list args;
     va_start(args, format);

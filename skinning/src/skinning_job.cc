@@ -119,7 +119,7 @@ bool SimdLevelSupported(SimdLevel level) {
     case SimdLevel::kScalar: return true;
 #if defined(SKINSPHERES_X86_64)
     case SimdLevel::kSse2: return true;
-    case SimdLevel::kAvx2: return HostCpu().avx2;
+    case SimdLevel::kAvx2: return HostCpu().avx2 && HostCpu().bmi1 && HostCpu().popcnt;  // simd/target_begin_avx2.inc
 #endif
     default: return false;
   }
@@ -128,7 +128,7 @@ bool SimdLevelSupported(SimdLevel level) {
 SimdLevel ResolveSimdLevel(SimdLevel level) {
   if (level != SimdLevel::kAuto) return level;
 #if defined(SKINSPHERES_X86_64)
-  return HostCpu().avx2 ? SimdLevel::kAvx2 : SimdLevel::kSse2;
+  return SimdLevelSupported(SimdLevel::kAvx2) ? SimdLevel::kAvx2 : SimdLevel::kSse2;
 #else
   return SimdLevel::kScalar;
 #endif

@@ -10,12 +10,10 @@
 #include <immintrin.h>
 #define SKS_NS avx2
 #define SKS_LEVEL 2
-// GCC and Clang compile the copy for AVX2 by a function attribute, inside a default build; MSVC
-// emits any intrinsic anywhere and needs none.
-#if defined(_MSC_VER) && !defined(__clang__)
-#define SKS_TARGET
-#else
-#define SKS_TARGET __attribute__((target("avx2")))
-#endif
+// The body compiled for AVX2 (one switch, simd/target_begin_avx2.inc, for every SIMD copy):
+#include "simd/target_begin_avx2.inc"
+// the body,
 #include "skinning_kernel_body.inc"
+// then the build's own target again.
+#include "simd/target_end.inc"
 #endif

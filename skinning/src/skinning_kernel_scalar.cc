@@ -8,5 +8,4 @@
 
 #define SKS_NS scalar
 #define SKS_LEVEL 0
-#define SKS_TARGET
 #include "skinning_kernel_body.inc"

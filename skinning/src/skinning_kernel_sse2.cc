@@ -10,6 +10,5 @@
 #include <immintrin.h>
 #define SKS_NS sse2
 #define SKS_LEVEL 1
-#define SKS_TARGET
 #include "skinning_kernel_body.inc"
 #endif

@@ -5,14 +5,7 @@
 #if defined(SKINSPHERES_X86_64)
 #include <immintrin.h>
 
-// GCC takes the target from the pragma; clang ignores it and needs the attribute on every function;
-// MSVC emits any intrinsic anywhere and needs neither.
-#if defined(__clang__)
-#pragma clang attribute push(__attribute__((target("avx2,bmi,popcnt"))), apply_to = function)
-#elif defined(__GNUC__)
-#pragma GCC push_options
-#pragma GCC target("avx2,bmi,popcnt")
-#endif
+#include "simd/target_begin_avx2.inc"
 
 namespace skinspheres::runtime::kernels {
 namespace avx2 {
@@ -60,9 +53,5 @@ const Kernels& Avx2Kernels() { return avx2::KernelTable(); }
 
 }  // namespace skinspheres::runtime::kernels
 
-#if defined(__clang__)
-#pragma clang attribute pop
-#elif defined(__GNUC__)
-#pragma GCC pop_options
-#endif
+#include "simd/target_end.inc"
 #endif  // SKINSPHERES_X86_64

@@ -36,19 +36,6 @@ namespace {
 
 using namespace broad_phase;  // the frame's constants and helpers (frame.h)
 
-bool CpuHas(SimdLevel level) {
-  switch (level) {
-    case SimdLevel::kAuto:
-    case SimdLevel::kPortable: return true;
-#if defined(SKINSPHERES_X86_64)
-    case SimdLevel::kSse2: return true;
-    case SimdLevel::kAvx2: return HostCpu().avx2 && HostCpu().bmi1 && HostCpu().popcnt;
-    case SimdLevel::kAvx512: return HostCpu().avx512f && HostCpu().bmi1 && HostCpu().popcnt;
-#endif
-    default: return false;
-  }
-}
-
 const kernels::Kernels& KernelsFor(SimdLevel level) {
   switch (ResolveBroadPhaseSimd(level)) {
 #if defined(SKINSPHERES_X86_64)
@@ -62,12 +49,10 @@ const kernels::Kernels& KernelsFor(SimdLevel level) {
 
 }  // namespace
 
-bool BroadPhaseSimdSupported(SimdLevel level) { return CpuHas(level); }
-
 SimdLevel ResolveBroadPhaseSimd(SimdLevel level) {
   if (level != SimdLevel::kAuto) return level;
-  if (CpuHas(SimdLevel::kAvx512)) return SimdLevel::kAvx512;
-  if (CpuHas(SimdLevel::kAvx2)) return SimdLevel::kAvx2;
+  if (SimdLevelSupported(SimdLevel::kAvx512)) return SimdLevel::kAvx512;
+  if (SimdLevelSupported(SimdLevel::kAvx2)) return SimdLevel::kAvx2;
 #if defined(SKINSPHERES_X86_64)
   return SimdLevel::kSse2;
 #else
@@ -246,7 +231,7 @@ bool SelfCollisionJob::Validate() const {
   if (spheres.size() != filter->size()) return false;
   if (spheres.size() > context->max_spheres()) return false;
   if (spheres.data() == nullptr && !spheres.empty()) return false;
-  if (!BroadPhaseSimdSupported(simd)) return false;
+  if (!SimdLevelSupported(simd)) return false;
   return true;
 }
 

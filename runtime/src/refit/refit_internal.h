@@ -64,7 +64,6 @@ struct FastRefitArrays {
 // The level the fast refit runs at: the one pinned by PinRefitSimd, else AVX-512 when the CPU has it
 // (so the crowd batches), else AVX2, else SSE2; off x86-64, kPortable.
 SimdLevel RefitSimdInUse();
-bool RefitSimdSupported(SimdLevel level);
 // Pins the level for the whole process (kAuto: unpin); false, and nothing changes, when the CPU
 // lacks it. For tests and benchmarks: not to be called while a refit runs.
 bool PinRefitSimd(SimdLevel level);

@@ -14,19 +14,6 @@ namespace {
 std::atomic<SimdLevel> g_pinned{SimdLevel::kAuto};
 }  // namespace
 
-bool RefitSimdSupported(SimdLevel level) {
-  switch (level) {
-    case SimdLevel::kAuto:
-    case SimdLevel::kPortable: return true;
-#if defined(SKINSPHERES_X86_64)
-    case SimdLevel::kSse2: return true;
-    case SimdLevel::kAvx2: return HostCpu().avx2;
-    case SimdLevel::kAvx512: return HostCpu().avx512f;
-#endif
-    default: return false;
-  }
-}
-
 namespace {
 thread_local SimdLevel t_last_run = SimdLevel::kAuto;
 }  // namespace
@@ -37,15 +24,15 @@ void NoteRefitSimdRun(SimdLevel level) { t_last_run = level; }
 SimdLevel RefitSimdInUse() {
   const SimdLevel pinned = g_pinned.load(std::memory_order_relaxed);
   if (pinned != SimdLevel::kAuto) return pinned;
-  static const SimdLevel best = RefitSimdSupported(SimdLevel::kAvx512) ? SimdLevel::kAvx512
-                                : RefitSimdSupported(SimdLevel::kAvx2) ? SimdLevel::kAvx2
-                                : RefitSimdSupported(SimdLevel::kSse2) ? SimdLevel::kSse2
+  static const SimdLevel best = SimdLevelSupported(SimdLevel::kAvx512) ? SimdLevel::kAvx512
+                                : SimdLevelSupported(SimdLevel::kAvx2) ? SimdLevel::kAvx2
+                                : SimdLevelSupported(SimdLevel::kSse2) ? SimdLevel::kSse2
                                                                        : SimdLevel::kPortable;
   return best;
 }
 
 bool PinRefitSimd(SimdLevel level) {
-  if (!RefitSimdSupported(level)) return false;
+  if (!SimdLevelSupported(level)) return false;
   g_pinned.store(level, std::memory_order_relaxed);
   return true;
 }

@@ -1,6 +1,8 @@
 // ToString(SimdLevel) (simd_level.h).
 #include "skinspheres/runtime/simd_level.h"
 
+#include "skinspheres/skinning/platform.h"
+
 namespace skinspheres::runtime {
 
 const char* ToString(SimdLevel level) {
@@ -12,6 +14,19 @@ const char* ToString(SimdLevel level) {
     case SimdLevel::kPortable: return "portable";
   }
   return "unknown";
+}
+
+bool SimdLevelSupported(SimdLevel level) {
+  switch (level) {
+    case SimdLevel::kAuto:
+    case SimdLevel::kPortable: return true;
+#if defined(SKINSPHERES_X86_64)
+    case SimdLevel::kSse2: return true;
+    case SimdLevel::kAvx2: return HostCpu().avx2 && HostCpu().bmi1 && HostCpu().popcnt;
+    case SimdLevel::kAvx512: return SimdLevelSupported(SimdLevel::kAvx2) && HostCpu().avx512f;
+#endif
+    default: return false;
+  }
 }
 
 }  // namespace skinspheres::runtime

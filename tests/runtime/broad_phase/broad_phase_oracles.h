@@ -65,7 +65,7 @@ inline std::vector<runtime::SimdLevel> SupportedLevels() {
   std::vector<runtime::SimdLevel> levels;
   for (auto l : {runtime::SimdLevel::kPortable, runtime::SimdLevel::kSse2, runtime::SimdLevel::kAvx2,
                  runtime::SimdLevel::kAvx512}) {
-    if (runtime::BroadPhaseSimdSupported(l)) levels.push_back(l);
+    if (runtime::SimdLevelSupported(l)) levels.push_back(l);
   }
   return levels;
 }

@@ -558,7 +558,7 @@ TEST(BroadPhaseTest, ValidateRefusals) {
   for (auto level : {SimdLevel::kAuto, SimdLevel::kSse2, SimdLevel::kAvx2, SimdLevel::kAvx512, SimdLevel::kPortable}) {
     SelfCollisionJob job{s, &f, &ctx, &out};
     job.simd = level;
-    EXPECT_EQ(job.Validate(), BroadPhaseSimdSupported(level)) << ToString(level);
+    EXPECT_EQ(job.Validate(), SimdLevelSupported(level)) << ToString(level);
   }
   const PairFilter empty;
   EXPECT_TRUE((SelfCollisionJob{{}, &empty, &small, &out}.Run()));

@@ -13,4 +13,9 @@ enum class SimdLevel : uint8_t { kAuto, kSse2, kAvx2, kAvx512, kPortable };
 // "auto", "sse2", "avx2", "avx512", "portable".
 const char* ToString(SimdLevel level);
 
+// Whether this CPU runs the level: kAuto and kPortable always; kSse2 on x86-64; kAvx2 with AVX2,
+// BMI1 and POPCNT (what the AVX2 copies are compiled for); kAvx512 with AVX-512F besides. The one
+// check every stage's dispatch makes.
+bool SimdLevelSupported(SimdLevel level);
+
 }  // namespace skinspheres::runtime

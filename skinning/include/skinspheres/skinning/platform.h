@@ -1,6 +1,8 @@
 // The one place that turns the compiler's own macros into skinspheres' platform switches, and the
 // CPU-feature query behind every run-time choice of instruction set. No other file tests
-// __x86_64__, _M_X64, __aarch64__, __GNUC__ or _MSC_VER to pick a code path.
+// __x86_64__, _M_X64, __aarch64__, __GNUC__ or _MSC_VER to pick a code path, but the switch that
+// compiles a SIMD copy for its instruction set (skinning/src/simd/target_begin_*.inc, target_end.inc)
+// and the CPU query itself (platform.cc).
 //
 //   SKINSPHERES_X86_64   x86-64 (GCC, Clang, MSVC): SSE2 is the floor, so the SSE2 kernels are the
 //                        baseline; the AVX2 and AVX-512 copies are compiled beside them and picked at
@@ -8,8 +10,10 @@
 //   otherwise            every other target (aarch64, 32-bit x86, ...): the portable kernels, plain
 //                        C++ over 4-float arrays that compute in the same order as the SIMD ones
 //                        (same bits; the compiler vectorises them as it can).
-//   SKINSPHERES_FORCE_INLINE, SKINSPHERES_PREFETCH(address): the compiler's own spelling, or
-//                        nothing where it has none.
+//   SKINSPHERES_FORCE_INLINE, SKINSPHERES_PREFETCH(address), SKINSPHERES_PRINTF_FORMAT(f, a)
+//                        (a printf-like member function: format argument f, first value a,
+//                        counting `this` as 1): the compiler's own spelling, or nothing where it
+//                        has none.
 //
 // Same answers on every platform (docs/PLATFORMS.md): every copy of a kernel evaluates the same
 // float operations in the same order, no operation is fused (the build turns contraction off on
@@ -35,6 +39,12 @@
 #define SKINSPHERES_PREFETCH(address) _mm_prefetch(reinterpret_cast<const char*>(address), _MM_HINT_T0)
 #else
 #define SKINSPHERES_PREFETCH(address) ((void)(address))
+#endif
+
+#if defined(__GNUC__) || defined(__clang__)
+#define SKINSPHERES_PRINTF_FORMAT(format_index, first_arg) __attribute__((format(printf, format_index, first_arg)))
+#else
+#define SKINSPHERES_PRINTF_FORMAT(format_index, first_arg)
 #endif
 
 namespace skinspheres {

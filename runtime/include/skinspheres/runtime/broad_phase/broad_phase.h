@@ -89,9 +89,8 @@ struct SpherePair {
   friend bool operator==(const SpherePair&, const SpherePair&) = default;
 };
 
-// Instruction set of the broad-phase kernels (simd_level.h): every level, on every platform, gives
-// the same sphere pairs, bit for bit.
-bool BroadPhaseSimdSupported(SimdLevel level);
+// Instruction set of the broad-phase kernels (simd_level.h; SimdLevelSupported says which this CPU
+// runs): every level, on every platform, gives the same sphere pairs, bit for bit.
 SimdLevel ResolveBroadPhaseSimd(SimdLevel level);  // kAuto -> the level it runs
 
 // How the last Run() answered (BroadPhaseContext::last_method()).
