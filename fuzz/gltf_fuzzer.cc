@@ -1,4 +1,4 @@
-// Fuzz target: the glTF 2.0 / GLB reader (lib/src/io/gltf_document.cc, importer_gltf.cc) on any
+// Fuzz target: the glTF 2.0 / GLB reader (lib/src/io/gltf_document.cc, importer_gltf*.cc) on any
 // bytes, then sampling every clip of what it accepted. Properties: an error is one line naming
 // the file; an accepted character is consistent (skeleton parents first, influences normalised
 // and in range, triangles in range, rest positions finite, key times strictly increasing).
