@@ -260,6 +260,39 @@ void ReadMesh(const json& m, StreamedMesh&& streamed, SphereSet* set) {
   mesh.influence_weights = std::move(streamed.influence_weights);
 }
 
+// One sphere's "reach_groups" (the last sphere's influences are its own): a row per group of
+// 1 + K or 1 + 3 K numbers, *group_row (0 not known yet, 1 or 3) fixed by the first row that fits.
+void ParseReachGroups(const json& groups, const std::string& where, SphereSet* set, int* group_row) {
+  const size_t k_count = set->influence_offsets.back() - set->influence_offsets[set->influence_offsets.size() - 2];
+  const json& list = Array(groups, where + ".reach_groups");
+  if (list.empty() || list.size() > kMaxReachGroups) {
+    throw ReadError{where + ".reach_groups has " + std::to_string(list.size()) + " groups (1 to " +
+                    std::to_string(kMaxReachGroups) + ")"};
+  }
+  for (const json& g : list) {
+    const json& row = Array(g, where + ".reach_groups[]");
+    if (*group_row == 0 && (row.size() == 1 + k_count || row.size() == 1 + 3 * k_count)) {
+      *group_row = row.size() == 1 + k_count ? 1 : 3;
+    }
+    const size_t expected = 1 + size_t(std::max(*group_row, 1)) * k_count;
+    if (row.size() != expected) {
+      throw ReadError{where + ".reach_groups[] has " + std::to_string(row.size()) + " entries, expected " +
+                      std::to_string(expected) +
+                      (*group_row == 0 ? " or " + std::to_string(1 + 3 * k_count) + " (with blends)" : std::string())};
+    }
+    set->reach_group_radii.push_back(Number<float>(row[0], where + ".reach_groups[][0]"));
+    for (size_t k = 0; k < k_count; ++k) {
+      set->reach_group_weights.push_back(Number<float>(row[1 + k], where + ".reach_groups[][]"));
+    }
+    for (size_t k = 0; k < k_count && *group_row == 3; ++k) {
+      set->reach_group_blend.push_back(Number<float>(row[1 + k_count + k], where + ".reach_groups[][] (blend)"));
+      set->reach_group_deviation.push_back(
+          Number<float>(row[1 + 2 * k_count + k], where + ".reach_groups[][] (deviation)"));
+    }
+  }
+  set->reach_group_offsets.push_back(static_cast<uint32_t>(set->reach_group_radii.size()));
+}
+
 // One element of "spheres", appended to the set's per-sphere arrays and CSR lists. "influence_reach"
 // is optional, but all spheres have it or none does (the first sphere decides: *has_reach).
 void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool* has_reference, bool* has_groups,
@@ -335,37 +368,7 @@ void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool
     throw ReadError{where + (*has_groups ? ".reach_groups is missing (the first sphere has them)"
                                          : ".reach_groups is given but the first sphere has none")};
   }
-  if (*has_groups) {
-    const size_t k_count = set->influence_offsets.back() - set->influence_offsets[set->influence_offsets.size() - 2];
-    const json& list = Array(*groups, where + ".reach_groups");
-    if (list.empty() || list.size() > kMaxReachGroups) {
-      throw ReadError{where + ".reach_groups has " + std::to_string(list.size()) + " groups (1 to " +
-                      std::to_string(kMaxReachGroups) + ")"};
-    }
-    for (const json& g : list) {
-      const json& row = Array(g, where + ".reach_groups[]");
-      if (*group_row == 0 && (row.size() == 1 + k_count || row.size() == 1 + 3 * k_count)) {
-        *group_row = row.size() == 1 + k_count ? 1 : 3;
-      }
-      const size_t expected = 1 + size_t(std::max(*group_row, 1)) * k_count;
-      if (row.size() != expected) {
-        throw ReadError{
-            where + ".reach_groups[] has " + std::to_string(row.size()) + " entries, expected " +
-            std::to_string(expected) +
-            (*group_row == 0 ? " or " + std::to_string(1 + 3 * k_count) + " (with blends)" : std::string())};
-      }
-      set->reach_group_radii.push_back(Number<float>(row[0], where + ".reach_groups[][0]"));
-      for (size_t k = 0; k < k_count; ++k) {
-        set->reach_group_weights.push_back(Number<float>(row[1 + k], where + ".reach_groups[][]"));
-      }
-      for (size_t k = 0; k < k_count && *group_row == 3; ++k) {
-        set->reach_group_blend.push_back(Number<float>(row[1 + k_count + k], where + ".reach_groups[][] (blend)"));
-        set->reach_group_deviation.push_back(
-            Number<float>(row[1 + 2 * k_count + k], where + ".reach_groups[][] (deviation)"));
-      }
-    }
-    set->reach_group_offsets.push_back(static_cast<uint32_t>(set->reach_group_radii.size()));
-  }
+  if (*has_groups) ParseReachGroups(*groups, where, set, group_row);
   if (*has_reference) {
     const json& r = Array(*reference, where + ".fast_reference", 4);
     set->fast_reference_spheres.emplace_back(
