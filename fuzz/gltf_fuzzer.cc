@@ -1,4 +1,4 @@
-// Fuzz target: the glTF 2.0 / GLB reader (lib/src/io/gltf_document.cc, importer_gltf.cc) on any
+// Fuzz target: the glTF 2.0 / GLB reader (lib/src/io/gltf_document.cc, importer_gltf*.cc) on any
 // bytes, then sampling every clip of what it accepted. Properties: an error is one line naming
 // the file; an accepted character is consistent (skeleton parents first, influences normalised
 // and in range, triangles in range, rest positions finite, key times strictly increasing).
@@ -26,8 +26,8 @@ void CheckTrack(const skinning::Track<Value>& track) {
   }
 }
 
-void CheckCharacter(const lib::RawCharacter& c) {
-  SKINSPHERES_FUZZ_CHECK(c.skeleton.Validate() && c.skeleton.size() >= 1, "skeleton");
+// The skin: bind entries on joints, every vertex with normalised influences and a finite rest position.
+void CheckSkin(const lib::RawCharacter& c) {
   const auto& skin = c.skin;
   SKINSPHERES_FUZZ_CHECK(skin.influence_offsets.size() == skin.vertex_count() + 1, "influence offsets");
   SKINSPHERES_FUZZ_CHECK(c.positions_rest.size() == skin.vertex_count(), "rest positions");
@@ -45,10 +45,10 @@ void CheckCharacter(const lib::RawCharacter& c) {
     SKINSPHERES_FUZZ_CHECK(std::abs(sum - 1.0) < 1e-4, "weights sum to " + std::to_string(sum));
     SKINSPHERES_FUZZ_CHECK(c.positions_rest[v].allFinite(), "rest position");
   }
-  SKINSPHERES_FUZZ_CHECK(!c.triangles.empty(), "no triangles");
-  for (const auto& t : c.triangles) {
-    SKINSPHERES_FUZZ_CHECK(t.minCoeff() >= 0 && static_cast<size_t>(t.maxCoeff()) < c.vertex_count(), "triangle index");
-  }
+}
+
+// Every clip: a finite duration, tracks on joints with ordered keys, valid for the skeleton.
+void CheckClips(const lib::RawCharacter& c) {
   for (const auto& clip : c.clips) {
     SKINSPHERES_FUZZ_CHECK(std::isfinite(clip.duration_s) && clip.duration_s >= 0.0f, "clip duration");
     for (const auto& track : clip.tracks) {
@@ -60,6 +60,16 @@ void CheckCharacter(const lib::RawCharacter& c) {
     std::string why;
     SKINSPHERES_FUZZ_CHECK(skinning::ValidateClip(clip, c.skeleton, &why), why);
   }
+}
+
+void CheckCharacter(const lib::RawCharacter& c) {
+  SKINSPHERES_FUZZ_CHECK(c.skeleton.Validate() && c.skeleton.size() >= 1, "skeleton");
+  CheckSkin(c);
+  SKINSPHERES_FUZZ_CHECK(!c.triangles.empty(), "no triangles");
+  for (const auto& t : c.triangles) {
+    SKINSPHERES_FUZZ_CHECK(t.minCoeff() >= 0 && static_cast<size_t>(t.maxCoeff()) < c.vertex_count(), "triangle index");
+  }
+  CheckClips(c);
 }
 
 // What `play` does first with each clip: sample it at its start, middle and end and pose the

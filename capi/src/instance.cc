@@ -21,7 +21,10 @@ skinspheres_status skinspheres_instance_create(const skinspheres_asset* asset, c
       created = rt::CharacterInstance::Create(asset->asset, mapping);
     }
     if (!created.ok()) return Fail(created.error());
-    auto instance = std::make_unique<skinspheres_instance>(std::move(created).value());
+    // Every member braced, not make_unique's parentheses: clang 14 (scripts/tidy) lacks C++20's
+    // parenthesised aggregate initialisation, and GCC warns of a member left out.
+    std::unique_ptr<skinspheres_instance> instance(
+        new skinspheres_instance{std::move(created).value(), nullptr, {}, {}, {}, {}});
     instance->extra_joints = std::move(mapping.extra_engine_joints);
     instance->unmapped_joints = std::move(mapping.unmapped_set_joints);
     asset->references.fetch_add(1, std::memory_order_relaxed);  // nothing throws after this

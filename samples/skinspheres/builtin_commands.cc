@@ -94,6 +94,132 @@ int RunExportBuiltin(const ExportBuiltinArgs& a) {
   return 0;
 }
 
+// The demo's hands on the chest and on the head, in one clip: a hand touches when a contact's
+// arm-side triangle belongs to a sphere whose dominant joint is a hand (or a finger under it):
+// real triangle contacts, not overlapping spheres.
+class HandTouches {
+ public:
+  explicit HandTouches(const runtime::SphereSet& set) : set_(set), owner_(set.source_triangle_count, UINT32_MAX) {
+    for (uint32_t s = 0; s < set.size(); ++s) {
+      for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) owner_[set.triangles[k]] = s;
+      // A cut triangle (docs/TRIANGLE_PIECES.md): the lowest sphere owning one of its pieces.
+      for (const runtime::TrianglePiece& p : set.PiecesOf(s)) owner_[p.triangle] = std::min(owner_[p.triangle], s);
+    }
+    targets_[0] = PartNamed("torso");
+    targets_[1] = PartNamed("head");
+  }
+
+  // Starts a clip's counts.
+  void Reset() {
+    for (Touches& t : on_) t = Touches{};
+  }
+
+  void Frame(const FrameView& fr) {
+    for (int target = 0; target < 2; ++target) {
+      const int part = targets_[target];
+      bool touching = false;
+      float depth = 0.0f;
+      for (const runtime::PartContact& p : fr.contacts->parts) {
+        if (p.part_a != part && p.part_b != part) continue;
+        for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
+          const runtime::TriangleContact& tp = fr.contacts->triangle_pairs[k];
+          const uint32_t other = p.part_a == part ? tp.triangle_b : tp.triangle_a;
+          if (tp.kind == runtime::TriangleContactKind::kIntersecting && IsHand(other)) {
+            touching = true;
+            depth = std::max(depth, p.depth);
+          }
+        }
+      }
+      if (!touching) continue;
+      Touches& t = on_[target];
+      if (t.frames++ == 0) t.first = fr.index, t.first_t = fr.clip_time_s;
+      t.last = fr.index;
+      t.last_t = fr.clip_time_s;
+      t.depth = std::max(t.depth, depth);
+    }
+  }
+
+  void Print() const {
+    for (int target = 0; target < 2; ++target) {
+      const char* label = target == 0 ? "chest" : "head";
+      const Touches& t = on_[target];
+      if (t.frames == 0) {
+        std::printf("  hands on the %s: never\n", label);
+      } else {
+        std::printf("  hands on the %s: %zu frames, first %d (t=%.2f s), last %d (t=%.2f s), up to %.3g deep\n", label,
+                    t.frames, t.first, t.first_t, t.last, t.last_t, t.depth);
+      }
+    }
+  }
+
+ private:
+  struct Touches {
+    size_t frames = 0;
+    int first = -1, last = -1;
+    float first_t = 0.0f, last_t = 0.0f;
+    float depth = 0.0f;
+  };
+
+  bool IsHand(uint32_t triangle) const {
+    const uint32_t s = owner_[triangle];
+    return s != UINT32_MAX && set_.joint_names[set_.sphere_joint[s]].find("Hand") != std::string::npos;
+  }
+  int PartNamed(const char* name) const {
+    for (size_t k = 0; k < set_.parts.size(); ++k) {
+      if (set_.parts[k].name == name) return static_cast<int>(k);
+    }
+    return -1;
+  }
+
+  const runtime::SphereSet& set_;
+  std::vector<uint32_t> owner_;  // the sphere owning each source triangle, UINT32_MAX for none
+  int targets_[2];               // the torso's and the head's part
+  Touches on_[2];                // chest, head
+};
+
+// skinspheres demo: fits the built-in character, plays every clip with --verify's checks and the
+// hands' touches, and writes the viewer page to `html`.
+int RunDemo(FitOptions& opts, const std::string& html) {
+  if (auto why = opts.Resolve()) return Fail(*why);
+  auto loaded = LoadCharacter("", opts.parts_file);
+  if (!loaded.ok()) return Fail(loaded.error().message);
+  auto fit = lib::FitSpheres(loaded->character, loaded->parts, opts.settings);
+  if (!fit.ok()) return Fail(fit.error().message);
+  std::printf("built-in character: %zu vertices, %zu triangles, %zu joints, clips:", loaded->character.vertex_count(),
+              loaded->character.triangle_count(), loaded->character.skeleton.size());
+  for (const auto& c : loaded->character.clips) std::printf(" %s (%.2f s)", c.name.c_str(), c.duration_s);
+  std::printf("\n");
+  PrintFitSummary(*fit, loaded->import_seconds);
+  const runtime::SphereSet& set = fit->spheres;
+  HandTouches touches(set);
+  bool all_verified = true;
+  std::vector<PlayResult> kept;                  // for the page
+  std::vector<std::vector<FrameRecord>> frames;  // the page's per-frame data
+  kept.reserve(loaded->character.clips.size());
+  frames.reserve(loaded->character.clips.size());
+  for (size_t c = 0; c < loaded->character.clips.size(); ++c) {
+    touches.Reset();
+    PlayOptions play;
+    play.verify = true;
+    const FrameSink sink = [&](const FrameView& fr) { touches.Frame(fr); };
+    frames.emplace_back();
+    auto played = PlayClip(*loaded, set, c, play, RecordFrames(&frames.back(), sink));
+    if (!played.ok()) return Fail(played.error().message);
+    std::printf("\n");
+    PrintPlaySummary(*played, set, play.fps, /*sphere_pairs=*/false, /*verify=*/true);
+    touches.Print();
+    all_verified &= played->verified();
+    kept.push_back(std::move(*played));
+  }
+  ViewerPageInput page{&*loaded, &set, fit->report.seconds, {}, {}};
+  for (size_t c = 0; c < kept.size(); ++c)
+    page.clips.push_back(ViewClip{&kept[c], &frames[c], c, PlayOptions{}.fps, false});
+  if (auto err = WriteViewerPage(page, html)) return Fail(err->message);
+  std::printf("\npage: %s (open it in a browser; it needs no server or network)\n",
+              std::filesystem::absolute(html).string().c_str());
+  return all_verified ? 0 : 1;
+}
+
 }  // namespace
 
 void AddExportBuiltinCommand(CLI::App& app, int* exit_code) {
@@ -123,116 +249,7 @@ void AddDemoCommand(CLI::App& app, int* exit_code) {
   CLI::App* cmd = app.add_subcommand("demo", "fit the built-in character and play its clips");
   opts->AddTo(*cmd);
   cmd->add_option("--html", *html, "where to write the viewer page")->capture_default_str();
-  cmd->callback([opts, html, exit_code] {
-    if (auto why = opts->Resolve()) {
-      *exit_code = Fail(*why);
-      return;
-    }
-    auto loaded = LoadCharacter("", opts->parts_file);
-    if (!loaded.ok()) {
-      *exit_code = Fail(loaded.error().message);
-      return;
-    }
-    auto fit = lib::FitSpheres(loaded->character, loaded->parts, opts->settings);
-    if (!fit.ok()) {
-      *exit_code = Fail(fit.error().message);
-      return;
-    }
-    std::printf("built-in character: %zu vertices, %zu triangles, %zu joints, clips:", loaded->character.vertex_count(),
-                loaded->character.triangle_count(), loaded->character.skeleton.size());
-    for (const auto& c : loaded->character.clips) std::printf(" %s (%.2f s)", c.name.c_str(), c.duration_s);
-    std::printf("\n");
-    PrintFitSummary(*fit, loaded->import_seconds);
-    const runtime::SphereSet& set = fit->spheres;
-    // A hand touches when a contact's arm-side triangle belongs to a sphere whose dominant joint is
-    // a hand (or a finger under it): real triangle contacts, not overlapping spheres.
-    std::vector<uint32_t> owner(set.source_triangle_count, UINT32_MAX);
-    for (uint32_t s = 0; s < set.size(); ++s) {
-      for (uint32_t k = set.triangle_offsets[s]; k < set.triangle_offsets[s + 1]; ++k) owner[set.triangles[k]] = s;
-      // A cut triangle (docs/TRIANGLE_PIECES.md): the lowest sphere owning one of its pieces.
-      for (const runtime::TrianglePiece& p : set.PiecesOf(s)) owner[p.triangle] = std::min(owner[p.triangle], s);
-    }
-    auto is_hand = [&](uint32_t triangle) {
-      const uint32_t s = owner[triangle];
-      return s != UINT32_MAX && set.joint_names[set.sphere_joint[s]].find("Hand") != std::string::npos;
-    };
-    auto part_named = [&](const char* name) {
-      for (size_t k = 0; k < set.parts.size(); ++k) {
-        if (set.parts[k].name == name) return static_cast<int>(k);
-      }
-      return -1;
-    };
-    const int torso = part_named("torso"), head = part_named("head");
-    bool all_verified = true;
-    std::vector<PlayResult> kept;                  // for the page
-    std::vector<std::vector<FrameRecord>> frames;  // the page's per-frame data
-    kept.reserve(loaded->character.clips.size());
-    frames.reserve(loaded->character.clips.size());
-    for (size_t c = 0; c < loaded->character.clips.size(); ++c) {
-      struct Touches {
-        size_t frames = 0;
-        int first = -1, last = -1;
-        float first_t = 0.0f, last_t = 0.0f;
-        float depth = 0.0f;
-      } on[2];  // chest, head
-      PlayOptions play;
-      play.verify = true;
-      FrameSink sink = [&](const FrameView& fr) {
-        for (int target = 0; target < 2; ++target) {
-          const int part = target == 0 ? torso : head;
-          bool touching = false;
-          float depth = 0.0f;
-          for (const runtime::PartContact& p : fr.contacts->parts) {
-            if (p.part_a != part && p.part_b != part) continue;
-            for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {
-              const runtime::TriangleContact& tp = fr.contacts->triangle_pairs[k];
-              const uint32_t other = p.part_a == part ? tp.triangle_b : tp.triangle_a;
-              if (tp.kind == runtime::TriangleContactKind::kIntersecting && is_hand(other)) {
-                touching = true;
-                depth = std::max(depth, p.depth);
-              }
-            }
-          }
-          if (!touching) continue;
-          Touches& t = on[target];
-          if (t.frames++ == 0) t.first = fr.index, t.first_t = fr.clip_time_s;
-          t.last = fr.index;
-          t.last_t = fr.clip_time_s;
-          t.depth = std::max(t.depth, depth);
-        }
-      };
-      frames.emplace_back();
-      auto played = PlayClip(*loaded, set, c, play, RecordFrames(&frames.back(), sink));
-      if (!played.ok()) {
-        *exit_code = Fail(played.error().message);
-        return;
-      }
-      std::printf("\n");
-      PrintPlaySummary(*played, set, play.fps, /*sphere_pairs=*/false, /*verify=*/true);
-      for (int target = 0; target < 2; ++target) {
-        const char* label = target == 0 ? "chest" : "head";
-        const Touches& t = on[target];
-        if (t.frames == 0) {
-          std::printf("  hands on the %s: never\n", label);
-        } else {
-          std::printf("  hands on the %s: %zu frames, first %d (t=%.2f s), last %d (t=%.2f s), up to %.3g deep\n",
-                      label, t.frames, t.first, t.first_t, t.last, t.last_t, t.depth);
-        }
-      }
-      all_verified &= played->verified();
-      kept.push_back(std::move(*played));
-    }
-    ViewerPageInput page{&*loaded, &set, fit->report.seconds, {}, {}};
-    for (size_t c = 0; c < kept.size(); ++c)
-      page.clips.push_back(ViewClip{&kept[c], &frames[c], c, PlayOptions{}.fps, false});
-    if (auto err = WriteViewerPage(page, *html)) {
-      *exit_code = Fail(err->message);
-      return;
-    }
-    std::printf("\npage: %s (open it in a browser; it needs no server or network)\n",
-                std::filesystem::absolute(*html).string().c_str());
-    *exit_code = all_verified ? 0 : 1;
-  });
+  cmd->callback([opts, html, exit_code] { *exit_code = RunDemo(*opts, *html); });
 }
 
 }  // namespace skinspheres::tool

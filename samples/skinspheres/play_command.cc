@@ -75,48 +75,57 @@ nlohmann::json DumpLine(const FrameView& fr, const runtime::SphereSet& set, bool
   return line;
 }
 
-int RunPlay(PlayArgs& a) {
+// The flags' values, checked: 0, else Fail's exit code for the first problem.
+int CheckPlayArgs(PlayArgs& a) {
   if (a.mode != "exact" && a.mode != "fast") return Fail("--mode must be exact or fast (got " + a.mode + ")");
   if (!(a.fps > 0.0f) || a.fps > 10000.0f) return Fail("--fps must be in (0, 10000]");
   if (!(a.margin >= 0.0f) || !std::isfinite(a.margin)) return Fail("--margin must be a finite distance >= 0");
   if (auto why = CheckTouchTolerance(a.touch_tolerance)) return Fail(*why);
   if (auto why = a.fit.Resolve()) return Fail(*why);
-  auto loaded = LoadCharacter(a.input, a.fit.parts_file);
-  if (!loaded.ok()) return Fail(loaded.error().message);
-  std::vector<std::string> notes;
-  if (auto why = AddClipFiles(*loaded, a.clip_files, a.fps, &notes)) return Fail(why->message);
-  for (const auto& note : notes) std::printf("%s\n", note.c_str());
-  std::vector<size_t> clips;
+  return 0;
+}
+
+// The clips to play: every clip (--clip all, which takes no per-clip output file), or the one named.
+int ChooseClips(const PlayArgs& a, const lib::RawCharacter& character, std::vector<size_t>* clips) {
   if (a.clip == "all") {
-    for (size_t k = 0; k < loaded->character.clips.size(); ++k) clips.push_back(k);
-    if (clips.empty()) return Fail(loaded->character.source_file + ": has no animation clips");
+    for (size_t k = 0; k < character.clips.size(); ++k) clips->push_back(k);
+    if (clips->empty()) return Fail(character.source_file + ": has no animation clips");
     if (!a.dump.empty() || !a.export_glb.empty() || !a.report.empty()) {
       return Fail("--clip all plays every clip for checking; --dump, --report and --export-glb take one clip");
     }
   } else {
-    auto clip = FindClip(loaded->character, a.clip);
+    auto clip = FindClip(character, a.clip);
     if (!clip.ok()) return Fail(clip.error().message);
-    clips.push_back(*clip);
+    clips->push_back(*clip);
   }
-  runtime::SphereSet set;
-  double fit_seconds = -1.0;
-  if (!a.spheres.empty()) {
-    auto read = runtime::LoadSphereSet(a.spheres);
-    if (!read.ok()) return Fail(read.error().message);
-    set = std::move(read).value();
-    if (AttachMesh(loaded->character, &set)) {
-      std::printf("%s: format version 1 (no mesh): the triangle tests use %s's mesh\n", a.spheres.c_str(),
-                  loaded->character.source_file.c_str());
-    }
-    if (set.contact_rules == runtime::ContactRules::kSpherePairs) {
-      std::printf("%s: %s\n", a.spheres.c_str(), ContactRulesSummary(set).c_str());
-    }
-  } else {
-    auto fit = lib::FitSpheres(loaded->character, loaded->parts, a.fit.settings);
+  return 0;
+}
+
+// The sphere set: read from --spheres (a version 1 set takes the character's mesh), else fitted
+// now (*fit_seconds its time; -1 for a set read).
+int LoadOrFitSpheres(const PlayArgs& a, const LoadedCharacter& loaded, runtime::SphereSet* set, double* fit_seconds) {
+  *fit_seconds = -1.0;
+  if (a.spheres.empty()) {
+    auto fit = lib::FitSpheres(loaded.character, loaded.parts, a.fit.settings);
     if (!fit.ok()) return Fail(fit.error().message);
-    fit_seconds = fit->report.seconds;
-    set = std::move(fit->spheres);
+    *fit_seconds = fit->report.seconds;
+    *set = std::move(fit->spheres);
+    return 0;
   }
+  auto read = runtime::LoadSphereSet(a.spheres);
+  if (!read.ok()) return Fail(read.error().message);
+  *set = std::move(read).value();
+  if (AttachMesh(loaded.character, set)) {
+    std::printf("%s: format version 1 (no mesh): the triangle tests use %s's mesh\n", a.spheres.c_str(),
+                loaded.character.source_file.c_str());
+  }
+  if (set->contact_rules == runtime::ContactRules::kSpherePairs) {
+    std::printf("%s: %s\n", a.spheres.c_str(), ContactRulesSummary(*set).c_str());
+  }
+  return 0;
+}
+
+PlayOptions MakePlayOptions(const PlayArgs& a) {
   PlayOptions opts;
   opts.fps = a.fps;
   opts.frames = a.frames;
@@ -125,108 +134,131 @@ int RunPlay(PlayArgs& a) {
   opts.margin = a.margin;
   opts.touch_tolerance = a.touch_tolerance;
   opts.progress = isatty(STDERR_FILENO);
-  // Set up once (the set checked against the mesh, the runtime asset), then every clip played by
-  // one player.
-  auto playback = Playback::Create(*loaded, set, NarrowSettings(opts));
-  if (!playback.ok()) return Fail(playback.error().message);
-  auto player = ClipPlayer::Create(*playback, opts);
-  if (!player.ok()) return Fail(player.error().message);
-  // --html: one page with every clip played; its per-frame data is kept for it (RecordFrames).
+  return opts;
+}
+
+// What every clip plays with: the flags, the character and its set, the player, and --html's page
+// (one page with every clip played; its per-frame data is kept for it, RecordFrames).
+struct PlaySession {
+  const PlayArgs& a;
+  const LoadedCharacter& loaded;
+  const runtime::SphereSet& set;
+  const std::vector<size_t>& clips;
+  ClipPlayer& player;
+  double fit_seconds;
+  const std::vector<std::string>& notes;
   std::vector<PlayResult> kept;
   std::vector<std::vector<FrameRecord>> recorded;
-  recorded.reserve(clips.size());
-  auto write_page = [&]() -> int {
+
+  // The sink that records the next clip's frames for the page (none without --html).
+  FrameSink Record() {
+    if (a.html.empty()) return FrameSink();
+    recorded.emplace_back();
+    return RecordFrames(&recorded.back());
+  }
+  void Keep(PlayResult&& played) {
+    if (!a.html.empty()) kept.push_back(std::move(played));
+  }
+  int WritePage() const {
     if (a.html.empty()) return 0;
-    ViewerPageInput page{&*loaded, &set, fit_seconds, {}, notes};
+    ViewerPageInput page{&loaded, &set, fit_seconds, {}, notes};
     for (size_t k = 0; k < kept.size(); ++k)
-      page.clips.push_back(ViewClip{&kept[k], &recorded[k], clips[k], a.fps, opts.fast});
+      page.clips.push_back(ViewClip{&kept[k], &recorded[k], clips[k], a.fps, a.mode == "fast"});
     if (auto err = WriteViewerPage(page, a.html)) return Fail(err->message);
     std::printf("wrote %s\n", a.html.c_str());
     return 0;
-  };
-  if (a.clip == "all") {
-    bool all_verified = true;
-    size_t outside = 0, mismatches = 0;
-    for (size_t k : clips) {
-      FrameSink record;
-      if (!a.html.empty()) {
-        recorded.emplace_back();
-        record = RecordFrames(&recorded.back());
-      }
-      auto played = player->Play(k, record);
-      if (!played.ok()) return Fail(played.error().message);
-      PrintPlaySummary(*played, set, a.fps, a.sphere_pairs, a.verify);
-      all_verified &= played->verified();
-      outside += played->triangles_outside;
-      mismatches += played->narrow_mismatches;
-      if (!a.html.empty()) kept.push_back(std::move(*played));
+  }
+};
+
+// --clip all: every clip played and summarised, then the totals of --verify.
+int PlayAllClips(PlaySession& s) {
+  const PlayArgs& a = s.a;
+  bool all_verified = true;
+  size_t outside = 0, mismatches = 0;
+  for (size_t k : s.clips) {
+    auto played = s.player.Play(k, s.Record());
+    if (!played.ok()) return Fail(played.error().message);
+    PrintPlaySummary(*played, s.set, a.fps, a.sphere_pairs, a.verify);
+    all_verified &= played->verified();
+    outside += played->triangles_outside;
+    mismatches += played->narrow_mismatches;
+    s.Keep(std::move(*played));
+  }
+  if (a.verify) {
+    std::printf(
+        "verify: %zu triangle-frames outside their sphere over %zu clips; narrow phase differs from the oracle in "
+        "%zu frames\n",
+        outside, s.clips.size(), mismatches);
+  }
+  if (const int code = s.WritePage()) return code;
+  std::printf("memory: peak %ld KiB\n", PeakRssKiB());
+  return a.verify && !all_verified ? 1 : 0;
+}
+
+// The outputs of one clip, written frame by frame as it plays (nothing per frame is kept in memory,
+// except what --export-glb and --html have to write at the end). Every write is checked through
+// the close (runtime/file_io.h): a failed one is one line, exit 2, and no "wrote".
+class ClipOutputs {
+ public:
+  ClipOutputs(const PlayArgs& a, const LoadedCharacter& loaded, const runtime::SphereSet& set, size_t clip)
+      : a_(a), loaded_(loaded), set_(set), skin_joints_(SkinJoints(loaded.character)) {
+    if (!a.dump.empty()) dump_.emplace(a.dump);
+    if (!a.report.empty()) {
+      report_.emplace(a.report);
+      report_->Write("{\"pairs_per_frame\":[");
     }
-    if (a.verify) {
-      std::printf(
-          "verify: %zu triangle-frames outside their sphere over %zu clips; narrow phase differs from the oracle in "
-          "%zu frames\n",
-          outside, clips.size(), mismatches);
+    // --export-glb: the spheres' keys go into the played clip's own animation, at the clip times
+    // sampled (one pass of the clip: frames past its end, which loop, are left out).
+    if (!a.export_glb.empty()) {
+      extras_.spheres.resize(set.size());
+      extras_.clip_name = loaded.character.clips[clip].name;
     }
-    if (const int code = write_page()) return code;
-    std::printf("memory: peak %ld KiB\n", PeakRssKiB());
-    return a.verify && !all_verified ? 1 : 0;
   }
 
-  // Outputs are written frame by frame as the clip plays (nothing per frame is kept in memory,
-  // except what --export-glb and --html have to write at the end). Every write is checked through
-  // the close (runtime/file_io.h): a failed one is one line, exit 2, and no "wrote".
-  std::optional<runtime::CheckedFileWriter> dump, report;
-  const std::vector<int32_t> skin_joints = SkinJoints(loaded->character);
-  if (!a.dump.empty()) dump.emplace(a.dump);
-  if (!a.report.empty()) {
-    report.emplace(a.report);
-    report->Write("{\"pairs_per_frame\":[");
-  }
-  // --export-glb: the spheres' keys go into the played clip's own animation, at the clip times
-  // sampled (one pass of the clip: frames past its end, which loop, are left out).
-  lib::GlbExtras extras;
-  bool extras_looped = false;
-  if (!a.export_glb.empty()) {
-    extras.spheres.resize(set.size());
-    extras.clip_name = loaded->character.clips[clips[0]].name;
-  }
-  if (!a.html.empty()) recorded.emplace_back();
-  FrameSink record = a.html.empty() ? FrameSink() : RecordFrames(&recorded.back());
-  FrameSink sink = [&](const FrameView& fr) {
-    if (record) record(fr);
-    if (dump && dump->ok()) {
-      dump->Write(DumpLine(fr, set, a.margin > 0.0f, loaded->character, skin_joints)
-                      .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) +
-                  '\n');
+  void Frame(const FrameView& fr) {
+    if (dump_ && dump_->ok()) {
+      dump_->Write(DumpLine(fr, set_, a_.margin > 0.0f, loaded_.character, skin_joints_)
+                       .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) +
+                   '\n');
     }
-    if (report) report->Write((fr.index ? "," : "") + std::to_string(fr.sphere_pairs.size()));
-    if (!a.export_glb.empty() && !extras_looped) {
-      if (!extras.frame_times_s.empty() && !(fr.clip_time_s > extras.frame_times_s.back())) {
-        extras_looped = true;
+    if (report_) report_->Write((fr.index ? "," : "") + std::to_string(fr.sphere_pairs.size()));
+    if (!a_.export_glb.empty() && !extras_looped_) {
+      if (!extras_.frame_times_s.empty() && !(fr.clip_time_s > extras_.frame_times_s.back())) {
+        extras_looped_ = true;
         return;
       }
-      extras.frame_times_s.push_back(fr.clip_time_s);
-      for (size_t s = 0; s < set.size(); ++s) extras.spheres[s].per_frame_xyzr.push_back(fr.spheres[s]);
+      extras_.frame_times_s.push_back(fr.clip_time_s);
+      for (size_t s = 0; s < set_.size(); ++s) extras_.spheres[s].per_frame_xyzr.push_back(fr.spheres[s]);
     }
-  };
-  auto played = player->Play(clips[0], sink);
-  if (!played.ok()) return Fail(played.error().message);
-  PrintPlaySummary(*played, set, a.fps, a.sphere_pairs, a.verify);
+  }
 
-  if (dump) {
-    if (auto err = dump->Close()) return Fail(err->message);
-    std::printf("wrote %s\n", a.dump.c_str());
+  // After the clip: --dump closed, --export-glb and --report written. 0, else Fail's exit code.
+  int Finish(const PlayResult& played) {
+    if (dump_) {
+      if (auto err = dump_->Close()) return Fail(err->message);
+      std::printf("wrote %s\n", a_.dump.c_str());
+    }
+    if (!a_.export_glb.empty()) {
+      auto written = lib::ExportGlb(loaded_.character, a_.export_glb, extras_);
+      if (!written.ok()) return Fail(written.error().message);
+      std::printf("wrote %s (character and %zu animated spheres, in clip \"%s\")\n", a_.export_glb.c_str(), set_.size(),
+                  extras_.clip_name.c_str());
+    }
+    if (report_) {
+      const std::string tail = ReportSummary(played).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+      report_->Write("]," + tail.substr(1) + '\n');  // the summary's members after the streamed array
+      if (auto err = report_->Close()) return Fail(err->message);
+      std::printf("wrote %s\n", a_.report.c_str());
+    }
+    return 0;
   }
-  if (!a.export_glb.empty()) {
-    auto written = lib::ExportGlb(loaded->character, a.export_glb, extras);
-    if (!written.ok()) return Fail(written.error().message);
-    std::printf("wrote %s (character and %zu animated spheres, in clip \"%s\")\n", a.export_glb.c_str(), set.size(),
-                extras.clip_name.c_str());
-  }
-  if (report) {
+
+ private:
+  // --report's members after the per-frame pair counts: the clip, the settings, the contacts by part pair.
+  nlohmann::json ReportSummary(const PlayResult& played) const {
     nlohmann::json contacts = nlohmann::json::array();
-    for (const PartPairSummary& e : played->contacts) {
-      contacts.push_back({{"parts", {set.parts[e.part_a].name, set.parts[e.part_b].name}},
+    for (const PartPairSummary& e : played.contacts) {
+      contacts.push_back({{"parts", {set_.parts[e.part_a].name, set_.parts[e.part_b].name}},
                           {"kind", e.penetrating.frames() > 0 ? "penetrating" : "touching"},
                           {"intersecting", e.intersecting},
                           {"frames", e.frames.frames()},
@@ -237,26 +269,70 @@ int RunPlay(PlayArgs& a) {
                           {"max_depth", e.max_depth},
                           {"worst_frame", e.worst_frame}});
     }
-    const nlohmann::json rest = {{"clip", played->clip},
-                                 {"frames", played->frames},
-                                 {"mode", a.mode},
-                                 {"margin", a.margin},
-                                 {"touch_tolerance", played->touch_tolerance},
-                                 {"contact_rules", ContactRulesJson(set)},
-                                 {"body_height", played->body_height},
-                                 {"spheres", set.size()},
-                                 {"triangles_outside", played->triangles_outside},
-                                 {"contacts", std::move(contacts)}};
-    const std::string tail = rest.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-    report->Write("]," + tail.substr(1) + '\n');  // the summary's members after the streamed array
-    if (auto err = report->Close()) return Fail(err->message);
-    std::printf("wrote %s\n", a.report.c_str());
+    return {{"clip", played.clip},
+            {"frames", played.frames},
+            {"mode", a_.mode},
+            {"margin", a_.margin},
+            {"touch_tolerance", played.touch_tolerance},
+            {"contact_rules", ContactRulesJson(set_)},
+            {"body_height", played.body_height},
+            {"spheres", set_.size()},
+            {"triangles_outside", played.triangles_outside},
+            {"contacts", std::move(contacts)}};
   }
-  if (!a.html.empty()) kept.push_back(std::move(*played));
-  if (const int code = write_page()) return code;
+
+  const PlayArgs& a_;
+  const LoadedCharacter& loaded_;
+  const runtime::SphereSet& set_;
+  const std::vector<int32_t> skin_joints_;
+  std::optional<runtime::CheckedFileWriter> dump_, report_;
+  lib::GlbExtras extras_;
+  bool extras_looped_ = false;
+};
+
+// One clip, with its outputs (--dump, --report, --export-glb, --html).
+int PlayOneClip(PlaySession& s) {
+  const PlayArgs& a = s.a;
+  ClipOutputs outputs(a, s.loaded, s.set, s.clips[0]);
+  const FrameSink record = s.Record();
+  const FrameSink sink = [&](const FrameView& fr) {
+    if (record) record(fr);
+    outputs.Frame(fr);
+  };
+  auto played = s.player.Play(s.clips[0], sink);
+  if (!played.ok()) return Fail(played.error().message);
+  PrintPlaySummary(*played, s.set, a.fps, a.sphere_pairs, a.verify);
+  if (const int code = outputs.Finish(*played)) return code;
+  const bool verified = played->verified();
+  s.Keep(std::move(*played));
+  if (const int code = s.WritePage()) return code;
   std::printf("memory: peak %ld KiB\n", PeakRssKiB());
-  if (a.verify && !played->verified()) return 1;
+  if (a.verify && !verified) return 1;
   return 0;
+}
+
+int RunPlay(PlayArgs& a) {
+  if (const int code = CheckPlayArgs(a)) return code;
+  auto loaded = LoadCharacter(a.input, a.fit.parts_file);
+  if (!loaded.ok()) return Fail(loaded.error().message);
+  std::vector<std::string> notes;
+  if (auto why = AddClipFiles(*loaded, a.clip_files, a.fps, &notes)) return Fail(why->message);
+  for (const auto& note : notes) std::printf("%s\n", note.c_str());
+  std::vector<size_t> clips;
+  if (const int code = ChooseClips(a, loaded->character, &clips)) return code;
+  runtime::SphereSet set;
+  double fit_seconds = -1.0;
+  if (const int code = LoadOrFitSpheres(a, *loaded, &set, &fit_seconds)) return code;
+  const PlayOptions opts = MakePlayOptions(a);
+  // Set up once (the set checked against the mesh, the runtime asset), then every clip played by
+  // one player.
+  auto playback = Playback::Create(*loaded, set, NarrowSettings(opts));
+  if (!playback.ok()) return Fail(playback.error().message);
+  auto player = ClipPlayer::Create(*playback, opts);
+  if (!player.ok()) return Fail(player.error().message);
+  PlaySession session{a, *loaded, set, clips, *player, fit_seconds, notes, {}, {}};
+  session.recorded.reserve(clips.size());  // RecordFrames keeps a pointer to its element
+  return a.clip == "all" ? PlayAllClips(session) : PlayOneClip(session);
 }
 
 }  // namespace

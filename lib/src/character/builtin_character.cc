@@ -231,9 +231,9 @@ constexpr float kHandCenterOffset = 0.085f;  // from the hand joint along the ha
 constexpr float kHandHalfThickness = 0.019f;
 constexpr float kTouchApproach = 0.4f;  // the hands' halfway spot: this far in front, at shoulder width
 
-std::vector<PieceDef> PieceDefs() {
+// The torso, the neck and the head.
+void AddTrunkPieces(std::vector<PieceDef>& d) {
   const Vector3f X = Vector3f::UnitX(), Y = Vector3f::UnitY(), Z = Vector3f::UnitZ();
-  std::vector<PieceDef> d;
   d.push_back({"TorsoMesh",
                Vector3f::Zero(),
                Y,
@@ -273,68 +273,81 @@ std::vector<PieceDef> PieceDefs() {
                24,
                {{"Head", 0}},
                0.02f});
-  for (const float side : {1.0f, -1.0f}) {
-    const bool left = side > 0;
-    // Arm tube along ±X: u = Z carries the hand's width, v = Y its thickness.
-    d.push_back({left ? "LeftArmMesh" : "RightArmMesh",
-                 Vector3f(0, 1.44f, 0),
-                 side * X,
-                 Z,
-                 Y,
-                 {{kArm + 0.03f, 0.055f, 0.055f},
-                  {kArm + 0.14f, 0.05f, 0.05f},
-                  {kArm + 0.27f, 0.04f, 0.04f},
-                  {kArm + 0.40f, 0.037f, 0.037f},
-                  {kArm + 0.51f, 0.03f, 0.028f},
-                  {kArm + 0.55f, 0.045f, kHandHalfThickness},
-                  {kArm + 0.66f, 0.045f, kHandHalfThickness}},
-                 28,
-                 0.03f,
-                 0.04f,
-                 3,
-                 16,
-                 {{left ? "LeftShoulder" : "RightShoulder", 0},
-                  {left ? "LeftArm" : "RightArm", kArm + 0.04f},
-                  {left ? "LeftForeArm" : "RightForeArm", kArm + 0.27f},
-                  {left ? "LeftHand" : "RightHand", kArm + 0.52f}},
-                 0.03f});
-  }
-  for (const float side : {1.0f, -1.0f}) {
-    const bool left = side > 0;
-    d.push_back({left ? "LeftLegMesh" : "RightLegMesh",
-                 Vector3f(side * 0.10f, 0, 0),
-                 -Y,
-                 X,
-                 Z,
-                 {{-0.97f, 0.075f, 0.075f},
-                  {-0.75f, 0.065f, 0.065f},
-                  {-0.52f, 0.047f, 0.047f},
-                  {-0.35f, 0.045f, 0.045f},
-                  {-0.10f, 0.035f, 0.035f}},
-                 28,
-                 0.04f,
-                 0.035f,
-                 3,
-                 16,
-                 {{"Hips", 0},
-                  {left ? "LeftUpLeg" : "RightUpLeg", -0.93f},
-                  {left ? "LeftLeg" : "RightLeg", -0.52f},
-                  {left ? "LeftFoot" : "RightFoot", -0.10f}},
-                 0.04f});
-    d.push_back({left ? "LeftFootMesh" : "RightFootMesh",
-                 Vector3f(side * 0.10f, 0.045f, 0),
-                 Z,
-                 X,
-                 Y,
-                 {{-0.02f, 0.045f, 0.04f}, {0.08f, 0.045f, 0.035f}, {0.16f, 0.04f, 0.025f}},
-                 10,
-                 0.04f,
-                 0.05f,
-                 3,
-                 12,
-                 {{left ? "LeftFoot" : "RightFoot", 0}, {left ? "LeftToeBase" : "RightToeBase", 0.12f}},
-                 0.03f});
-  }
+}
+
+// One arm, to +X (side 1) or -X (side -1), with its hand.
+void AddArmPiece(float side, std::vector<PieceDef>& d) {
+  const Vector3f X = Vector3f::UnitX(), Y = Vector3f::UnitY(), Z = Vector3f::UnitZ();
+  const bool left = side > 0;
+  // Arm tube along ±X: u = Z carries the hand's width, v = Y its thickness.
+  d.push_back({left ? "LeftArmMesh" : "RightArmMesh",
+               Vector3f(0, 1.44f, 0),
+               side * X,
+               Z,
+               Y,
+               {{kArm + 0.03f, 0.055f, 0.055f},
+                {kArm + 0.14f, 0.05f, 0.05f},
+                {kArm + 0.27f, 0.04f, 0.04f},
+                {kArm + 0.40f, 0.037f, 0.037f},
+                {kArm + 0.51f, 0.03f, 0.028f},
+                {kArm + 0.55f, 0.045f, kHandHalfThickness},
+                {kArm + 0.66f, 0.045f, kHandHalfThickness}},
+               28,
+               0.03f,
+               0.04f,
+               3,
+               16,
+               {{left ? "LeftShoulder" : "RightShoulder", 0},
+                {left ? "LeftArm" : "RightArm", kArm + 0.04f},
+                {left ? "LeftForeArm" : "RightForeArm", kArm + 0.27f},
+                {left ? "LeftHand" : "RightHand", kArm + 0.52f}},
+               0.03f});
+}
+
+// One leg and its foot, at +X (side 1) or -X (side -1).
+void AddLegPieces(float side, std::vector<PieceDef>& d) {
+  const Vector3f X = Vector3f::UnitX(), Y = Vector3f::UnitY(), Z = Vector3f::UnitZ();
+  const bool left = side > 0;
+  d.push_back({left ? "LeftLegMesh" : "RightLegMesh",
+               Vector3f(side * 0.10f, 0, 0),
+               -Y,
+               X,
+               Z,
+               {{-0.97f, 0.075f, 0.075f},
+                {-0.75f, 0.065f, 0.065f},
+                {-0.52f, 0.047f, 0.047f},
+                {-0.35f, 0.045f, 0.045f},
+                {-0.10f, 0.035f, 0.035f}},
+               28,
+               0.04f,
+               0.035f,
+               3,
+               16,
+               {{"Hips", 0},
+                {left ? "LeftUpLeg" : "RightUpLeg", -0.93f},
+                {left ? "LeftLeg" : "RightLeg", -0.52f},
+                {left ? "LeftFoot" : "RightFoot", -0.10f}},
+               0.04f});
+  d.push_back({left ? "LeftFootMesh" : "RightFootMesh",
+               Vector3f(side * 0.10f, 0.045f, 0),
+               Z,
+               X,
+               Y,
+               {{-0.02f, 0.045f, 0.04f}, {0.08f, 0.045f, 0.035f}, {0.16f, 0.04f, 0.025f}},
+               10,
+               0.04f,
+               0.05f,
+               3,
+               12,
+               {{left ? "LeftFoot" : "RightFoot", 0}, {left ? "LeftToeBase" : "RightToeBase", 0.12f}},
+               0.03f});
+}
+
+std::vector<PieceDef> PieceDefs() {
+  std::vector<PieceDef> d;
+  AddTrunkPieces(d);
+  for (const float side : {1.0f, -1.0f}) AddArmPiece(side, d);
+  for (const float side : {1.0f, -1.0f}) AddLegPieces(side, d);
   return d;
 }
 

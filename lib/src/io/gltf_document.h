@@ -1,5 +1,6 @@
 // Private to the importer: a glTF 2.0 document (.gltf with external or data: buffers, or .glb)
-// and typed reads of its accessors, bounds-checked against the buffers (untrusted input).
+// and typed reads of its accessors, bounds-checked against the buffers (untrusted input): the
+// document in gltf_document.cc, the accessors in gltf_accessors.cc.
 // Dense and sparse accessors (glTF 2.0 §3.6.2.3) are both read: a sparse accessor is
 // materialised (base bufferView elements, or zeros without one, then element indices[i] replaced
 // by values[i]); a malformed sparse block is an error naming the accessor and "sparse".
@@ -35,6 +36,9 @@ struct NotAnInteger : std::runtime_error {
 int64_t Integer(const nlohmann::json& obj, const char* key, int64_t fallback);
 // `v`, an element of the array `array_name`, as an integer (NotAnInteger when it is not one).
 int64_t Integer(const nlohmann::json& v, const char* array_name);
+// obj[key] as an integer into *out without throwing: false when present but not an integer
+// (absent gives `fallback`).
+bool IntField(const nlohmann::json& obj, const char* key, int64_t fallback, int64_t* out);
 
 // Parses `bytes` (the whole file): GLB = 12-byte header + JSON chunk + optional BIN chunk;
 // otherwise JSON text. Buffers come from the BIN chunk, base64 data: URIs or files next to

@@ -14,6 +14,111 @@ namespace skinspheres::runtime {
 
 using nlohmann::json;
 
+namespace {
+
+json SkeletonJson(const SphereSet& set) {
+  json joints = json::array();
+  for (size_t k = 0; k < set.joint_count(); ++k) {
+    const Mat4f& m = set.joint_rest_world[k];
+    joints.push_back({{"name", set.joint_names[k]},
+                      {"parent", set.joint_parents[k]},
+                      {"rest_world", std::vector<float>(m.data(), m.data() + 16)}});
+    if (set.fast_reference_inverse.size() == set.joint_count()) {
+      const Mat4f& r = set.fast_reference_inverse[k];
+      joints.back()["fast_reference_inverse"] = std::vector<float>(r.data(), r.data() + 16);
+    }
+  }
+  return {{"joints", joints}};
+}
+
+// Sphere s's reach groups: [radius, reach, blend, deviation per influence] each; `group_base` is
+// where its groups' reaches start, and moves past them.
+json ReachGroupsJson(const SphereSet& set, size_t s, size_t* group_base) {
+  const size_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
+  json groups = json::array();
+  for (uint32_t g = set.reach_group_offsets[s]; g < set.reach_group_offsets[s + 1]; ++g, *group_base += k_count) {
+    std::vector<float> row = {set.reach_group_radii[g]};
+    for (size_t k = 0; k < k_count && *group_base + k < set.reach_group_weights.size(); ++k) {
+      row.push_back(set.reach_group_weights[*group_base + k]);
+    }
+    // With blends (sphere_set.h): the blend weights, then the deviations, after the reaches.
+    for (const std::vector<float>* extra : {&set.reach_group_blend, &set.reach_group_deviation}) {
+      for (size_t k = 0; k < k_count && *group_base + k < extra->size(); ++k) row.push_back((*extra)[*group_base + k]);
+    }
+    groups.push_back(row);
+  }
+  return groups;
+}
+
+// Sphere s: its rest sphere, members, influences, and what the set holds beyond them (fast
+// reference, pieces, reach groups, influence reach). `group_base` as ReachGroupsJson's.
+json SphereJson(const SphereSet& set, size_t s, size_t* group_base) {
+  const auto& c = set.centers_rest[s];
+  json influences = json::array();
+  for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
+    influences.push_back(json::array({set.influence_joints[k], set.influence_weights[k]}));
+  }
+  json sphere = {
+      {"id", s},
+      {"part", set.sphere_part[s]},
+      {"joint", set.sphere_joint[s]},
+      {"level", set.sphere_level[s]},
+      {"center", {c.x(), c.y(), c.z()}},
+      {"radius", set.radii_rest[s]},
+      {"radius_fast", set.radii_fast[s]},
+      {"vertices", std::vector<uint32_t>(set.vertices.begin() + set.vertex_offsets[s],
+                                         set.vertices.begin() + set.vertex_offsets[s + 1])},
+      {"triangles", std::vector<uint32_t>(set.triangles.begin() + set.triangle_offsets[s],
+                                          set.triangles.begin() + set.triangle_offsets[s + 1])},
+      {"influences", influences},
+  };
+  if (set.fast_reference_spheres.size() == set.size()) {
+    const Vec4f& r = set.fast_reference_spheres[s];
+    sphere["fast_reference"] = {r.x(), r.y(), r.z(), r.w()};
+  }
+  if (set.piece_offsets.size() == set.size() + 1 && set.piece_offsets[s] < set.piece_offsets[s + 1]) {
+    std::vector<uint32_t> pieces;  // (triangle, level, index) per piece, flat
+    for (uint32_t k = set.piece_offsets[s]; k < set.piece_offsets[s + 1] && k < set.pieces.size(); ++k) {
+      pieces.insert(pieces.end(), {set.pieces[k].triangle, set.pieces[k].level, set.pieces[k].index});
+    }
+    sphere["pieces"] = pieces;
+  }
+  if (set.reach_group_offsets.size() == set.size() + 1) sphere["reach_groups"] = ReachGroupsJson(set, s, group_base);
+  if (!set.influence_reach.empty() && set.influence_reach.size() == set.influence_joints.size()) {
+    sphere["influence_reach"] = std::vector<float>(set.influence_reach.begin() + set.influence_offsets[s],
+                                                   set.influence_reach.begin() + set.influence_offsets[s + 1]);
+  }
+  return sphere;
+}
+
+// The mesh (format version >= 2): triangles, bind-space positions, bind entries, influences, and
+// the pieces' grid points.
+json MeshJson(const SphereSet& set) {
+  const skinning::SkinnedMesh& mesh = set.mesh;
+  json binds = json::array();
+  for (const skinning::BindEntry& b : mesh.binds) {
+    binds.push_back(
+        {{"joint", b.joint}, {"inverse_bind", std::vector<float>(b.inverse_bind.data(), b.inverse_bind.data() + 16)}});
+  }
+  std::vector<float> positions;
+  positions.reserve(3 * mesh.vertex_count());
+  for (const Eigen::Vector3f& p : mesh.positions_bind) positions.insert(positions.end(), {p.x(), p.y(), p.z()});
+  json out = {{"triangles", set.triangle_vertices},
+              {"positions_bind", positions},
+              {"binds", binds},
+              {"influence_offsets", mesh.influence_offsets},
+              {"influence_binds", mesh.influence_binds},
+              {"influence_weights", mesh.influence_weights}};
+  if (set.has_pieces()) {
+    std::vector<uint32_t> points;  // (triangle, level, i, j) per grid point, flat
+    for (const PiecePoint& g : set.piece_points) points.insert(points.end(), {g.triangle, g.level, g.i, g.j});
+    out["piece_points"] = points;
+  }
+  return out;
+}
+
+}  // namespace
+
 std::string WriteSphereSetJson(const SphereSet& set) {
   json j;
   j["format"] = kSphereSetFormat;
@@ -26,19 +131,7 @@ std::string WriteSphereSetJson(const SphereSet& set) {
       {"file", set.source_file}, {"vertices", set.source_vertex_count}, {"triangles", set.source_triangle_count}};
   json params = json::parse(set.params_json, nullptr, /*allow_exceptions=*/false);
   j["params"] = params.is_object() ? params : json::object();
-
-  json joints = json::array();
-  for (size_t k = 0; k < set.joint_count(); ++k) {
-    const Mat4f& m = set.joint_rest_world[k];
-    joints.push_back({{"name", set.joint_names[k]},
-                      {"parent", set.joint_parents[k]},
-                      {"rest_world", std::vector<float>(m.data(), m.data() + 16)}});
-    if (set.fast_reference_inverse.size() == set.joint_count()) {
-      const Mat4f& r = set.fast_reference_inverse[k];
-      joints.back()["fast_reference_inverse"] = std::vector<float>(r.data(), r.data() + 16);
-    }
-  }
-  j["skeleton"] = {{"joints", joints}};
+  j["skeleton"] = SkeletonJson(set);
 
   json parts = json::array();
   for (const auto& p : set.parts) parts.push_back({{"name", p.name}, {"joints", p.joints}});
@@ -46,60 +139,7 @@ std::string WriteSphereSetJson(const SphereSet& set) {
 
   json spheres = json::array();
   size_t group_base = 0;  // where the current sphere's reach groups' reaches start
-  for (size_t s = 0; s < set.size(); ++s) {
-    const auto& c = set.centers_rest[s];
-    json influences = json::array();
-    for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
-      influences.push_back(json::array({set.influence_joints[k], set.influence_weights[k]}));
-    }
-    spheres.push_back({
-        {"id", s},
-        {"part", set.sphere_part[s]},
-        {"joint", set.sphere_joint[s]},
-        {"level", set.sphere_level[s]},
-        {"center", {c.x(), c.y(), c.z()}},
-        {"radius", set.radii_rest[s]},
-        {"radius_fast", set.radii_fast[s]},
-        {"vertices", std::vector<uint32_t>(set.vertices.begin() + set.vertex_offsets[s],
-                                           set.vertices.begin() + set.vertex_offsets[s + 1])},
-        {"triangles", std::vector<uint32_t>(set.triangles.begin() + set.triangle_offsets[s],
-                                            set.triangles.begin() + set.triangle_offsets[s + 1])},
-        {"influences", influences},
-    });
-    if (set.fast_reference_spheres.size() == set.size()) {
-      const Vec4f& r = set.fast_reference_spheres[s];
-      spheres.back()["fast_reference"] = {r.x(), r.y(), r.z(), r.w()};
-    }
-    if (set.piece_offsets.size() == set.size() + 1 && set.piece_offsets[s] < set.piece_offsets[s + 1]) {
-      std::vector<uint32_t> pieces;  // (triangle, level, index) per piece, flat
-      for (uint32_t k = set.piece_offsets[s]; k < set.piece_offsets[s + 1] && k < set.pieces.size(); ++k) {
-        pieces.insert(pieces.end(), {set.pieces[k].triangle, set.pieces[k].level, set.pieces[k].index});
-      }
-      spheres.back()["pieces"] = pieces;
-    }
-    if (set.reach_group_offsets.size() == set.size() + 1) {  // [radius, reach, blend, deviation per influence]
-      const size_t k_count = set.influence_offsets[s + 1] - set.influence_offsets[s];
-      json groups = json::array();
-      for (uint32_t g = set.reach_group_offsets[s]; g < set.reach_group_offsets[s + 1]; ++g, group_base += k_count) {
-        std::vector<float> row = {set.reach_group_radii[g]};
-        for (size_t k = 0; k < k_count && group_base + k < set.reach_group_weights.size(); ++k) {
-          row.push_back(set.reach_group_weights[group_base + k]);
-        }
-        // With blends (sphere_set.h): the blend weights, then the deviations, after the reaches.
-        for (const std::vector<float>* extra : {&set.reach_group_blend, &set.reach_group_deviation}) {
-          for (size_t k = 0; k < k_count && group_base + k < extra->size(); ++k)
-            row.push_back((*extra)[group_base + k]);
-        }
-        groups.push_back(row);
-      }
-      spheres.back()["reach_groups"] = groups;
-    }
-    if (!set.influence_reach.empty() && set.influence_reach.size() == set.influence_joints.size()) {
-      spheres.back()["influence_reach"] =
-          std::vector<float>(set.influence_reach.begin() + set.influence_offsets[s],
-                             set.influence_reach.begin() + set.influence_offsets[s + 1]);
-    }
-  }
+  for (size_t s = 0; s < set.size(); ++s) spheres.push_back(SphereJson(set, s, &group_base));
   j["spheres"] = spheres;
 
   json pairs = json::array();
@@ -108,29 +148,7 @@ std::string WriteSphereSetJson(const SphereSet& set) {
   if (triangle_rules) {
     j["contact_rules"] = {{"on", ToString(set.contact_rules)}, {"hops", set.contact_hops}, {"rest_gap", set.rest_gap}};
   }
-
-  if (set.has_mesh()) {
-    const skinning::SkinnedMesh& mesh = set.mesh;
-    json binds = json::array();
-    for (const skinning::BindEntry& b : mesh.binds) {
-      binds.push_back({{"joint", b.joint},
-                       {"inverse_bind", std::vector<float>(b.inverse_bind.data(), b.inverse_bind.data() + 16)}});
-    }
-    std::vector<float> positions;
-    positions.reserve(3 * mesh.vertex_count());
-    for (const Eigen::Vector3f& p : mesh.positions_bind) positions.insert(positions.end(), {p.x(), p.y(), p.z()});
-    j["mesh"] = {{"triangles", set.triangle_vertices},
-                 {"positions_bind", positions},
-                 {"binds", binds},
-                 {"influence_offsets", mesh.influence_offsets},
-                 {"influence_binds", mesh.influence_binds},
-                 {"influence_weights", mesh.influence_weights}};
-    if (set.has_pieces()) {
-      std::vector<uint32_t> points;  // (triangle, level, i, j) per grid point, flat
-      for (const PiecePoint& g : set.piece_points) points.insert(points.end(), {g.triangle, g.level, g.i, g.j});
-      j["mesh"]["piece_points"] = points;
-    }
-  }
+  if (set.has_mesh()) j["mesh"] = MeshJson(set);
   // Names that are not valid UTF-8 (paths are bytes; FBX names may be Latin-1) are written with
   // U+FFFD instead of aborting; such a set then refuses to match its character by name.
   return j.dump(-1, ' ', false, json::error_handler_t::replace);
@@ -242,6 +260,39 @@ void ReadMesh(const json& m, StreamedMesh&& streamed, SphereSet* set) {
   mesh.influence_weights = std::move(streamed.influence_weights);
 }
 
+// One sphere's "reach_groups" (the last sphere's influences are its own): a row per group of
+// 1 + K or 1 + 3 K numbers, *group_row (0 not known yet, 1 or 3) fixed by the first row that fits.
+void ParseReachGroups(const json& groups, const std::string& where, SphereSet* set, int* group_row) {
+  const size_t k_count = set->influence_offsets.back() - set->influence_offsets[set->influence_offsets.size() - 2];
+  const json& list = Array(groups, where + ".reach_groups");
+  if (list.empty() || list.size() > kMaxReachGroups) {
+    throw ReadError{where + ".reach_groups has " + std::to_string(list.size()) + " groups (1 to " +
+                    std::to_string(kMaxReachGroups) + ")"};
+  }
+  for (const json& g : list) {
+    const json& row = Array(g, where + ".reach_groups[]");
+    if (*group_row == 0 && (row.size() == 1 + k_count || row.size() == 1 + 3 * k_count)) {
+      *group_row = row.size() == 1 + k_count ? 1 : 3;
+    }
+    const size_t expected = 1 + size_t(std::max(*group_row, 1)) * k_count;
+    if (row.size() != expected) {
+      throw ReadError{where + ".reach_groups[] has " + std::to_string(row.size()) + " entries, expected " +
+                      std::to_string(expected) +
+                      (*group_row == 0 ? " or " + std::to_string(1 + 3 * k_count) + " (with blends)" : std::string())};
+    }
+    set->reach_group_radii.push_back(Number<float>(row[0], where + ".reach_groups[][0]"));
+    for (size_t k = 0; k < k_count; ++k) {
+      set->reach_group_weights.push_back(Number<float>(row[1 + k], where + ".reach_groups[][]"));
+    }
+    for (size_t k = 0; k < k_count && *group_row == 3; ++k) {
+      set->reach_group_blend.push_back(Number<float>(row[1 + k_count + k], where + ".reach_groups[][] (blend)"));
+      set->reach_group_deviation.push_back(
+          Number<float>(row[1 + 2 * k_count + k], where + ".reach_groups[][] (deviation)"));
+    }
+  }
+  set->reach_group_offsets.push_back(static_cast<uint32_t>(set->reach_group_radii.size()));
+}
+
 // One element of "spheres", appended to the set's per-sphere arrays and CSR lists. "influence_reach"
 // is optional, but all spheres have it or none does (the first sphere decides: *has_reach).
 void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool* has_reference, bool* has_groups,
@@ -317,37 +368,7 @@ void ParseSphere(const json& sp, size_t s, SphereSet* set, bool* has_reach, bool
     throw ReadError{where + (*has_groups ? ".reach_groups is missing (the first sphere has them)"
                                          : ".reach_groups is given but the first sphere has none")};
   }
-  if (*has_groups) {
-    const size_t k_count = set->influence_offsets.back() - set->influence_offsets[set->influence_offsets.size() - 2];
-    const json& list = Array(*groups, where + ".reach_groups");
-    if (list.empty() || list.size() > kMaxReachGroups) {
-      throw ReadError{where + ".reach_groups has " + std::to_string(list.size()) + " groups (1 to " +
-                      std::to_string(kMaxReachGroups) + ")"};
-    }
-    for (const json& g : list) {
-      const json& row = Array(g, where + ".reach_groups[]");
-      if (*group_row == 0 && (row.size() == 1 + k_count || row.size() == 1 + 3 * k_count)) {
-        *group_row = row.size() == 1 + k_count ? 1 : 3;
-      }
-      const size_t expected = 1 + size_t(std::max(*group_row, 1)) * k_count;
-      if (row.size() != expected) {
-        throw ReadError{
-            where + ".reach_groups[] has " + std::to_string(row.size()) + " entries, expected " +
-            std::to_string(expected) +
-            (*group_row == 0 ? " or " + std::to_string(1 + 3 * k_count) + " (with blends)" : std::string())};
-      }
-      set->reach_group_radii.push_back(Number<float>(row[0], where + ".reach_groups[][0]"));
-      for (size_t k = 0; k < k_count; ++k) {
-        set->reach_group_weights.push_back(Number<float>(row[1 + k], where + ".reach_groups[][]"));
-      }
-      for (size_t k = 0; k < k_count && *group_row == 3; ++k) {
-        set->reach_group_blend.push_back(Number<float>(row[1 + k_count + k], where + ".reach_groups[][] (blend)"));
-        set->reach_group_deviation.push_back(
-            Number<float>(row[1 + 2 * k_count + k], where + ".reach_groups[][] (deviation)"));
-      }
-    }
-    set->reach_group_offsets.push_back(static_cast<uint32_t>(set->reach_group_radii.size()));
-  }
+  if (*has_groups) ParseReachGroups(*groups, where, set, group_row);
   if (*has_reference) {
     const json& r = Array(*reference, where + ".fast_reference", 4);
     set->fast_reference_spheres.emplace_back(

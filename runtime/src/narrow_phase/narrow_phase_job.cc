@@ -193,6 +193,80 @@ bool NarrowPhaseJob::Validate() const {
   return !joint_world.empty();
 }
 
+namespace {
+
+// Mode (b): the skinning matrices of joint_world, then the involved spheres' vertices skinned into
+// the context (frame->pos points at them). False when the matrices or the skinning fail.
+bool SkinInvolved(const SphereSet& set, const NarrowPhaseData& data, std::span<const Mat4f> joint_world,
+                  NarrowPhaseContext& ctx, const ParallelFor& parallel_for, std::optional<LazySkinner>* skinner,
+                  Frame* frame) {
+  Of(ctx).bind_matrices.resize(set.mesh.binds.size());
+  if (!skinning::SkinningMatricesJob{set.mesh.binds, joint_world.first(set.joint_count()), Of(ctx).bind_matrices}
+           .Run()) {
+    return false;
+  }
+  std::fill(Of(ctx).run_done.begin(), Of(ctx).run_done.end(), uint64_t{0});
+  skinner->emplace(LazySkinner{set, data, ctx, Of(ctx).bind_matrices});
+  for (uint32_t s : Of(ctx).involved) (*skinner)->Collect(s);
+  // Non-finite positions are caught by PrepareClusters, which boxes every vertex skinned here
+  // (directly, or through the grid points computed from it).
+  if (!(*skinner)->Skin(parallel_for)) return false;
+  frame->pos = Of(ctx).skinned.data();
+  return true;
+}
+
+void AddStats(const NarrowPhaseContext::Stats& from, NarrowPhaseContext::Stats* to) {
+  to->sphere_pairs += from.sphere_pairs;
+  to->patch_pairs += from.patch_pairs;
+  to->still_patch_pairs += from.still_patch_pairs;
+  to->cluster_pairs += from.cluster_pairs;
+  to->culled_triangles += from.culled_triangles;
+  to->box_tests += from.box_tests;
+  to->triangle_tests += from.triangle_tests;
+}
+
+// The work: the sphere pairs, then the spheres tested against themselves, cut into chunks run
+// through parallel_for; the chunks' hits merged in chunk order into Of(ctx).merged, their counts
+// into Of(ctx).stats. False when a test failed.
+bool TestWork(const Frame& frame, std::span<const SpherePair> pairs, std::span<const Vec4f> spheres,
+              NarrowPhaseContext& ctx, const ParallelFor& parallel_for) {
+  const std::span<const uint32_t> active = Of(ctx).active_pairs, self = Of(ctx).active_self;
+  const bool all = Of(ctx).all_pairs;
+  const size_t tested = all ? pairs.size() : active.size(), work = tested + self.size();
+  const size_t chunks = std::min(work, NarrowPhaseContext::kChunks);
+  for (size_t c = 0; c < chunks; ++c) {
+    Of(ctx).chunks[c].hits.clear();
+    Of(ctx).chunks[c].last_tested = UINT64_MAX;
+    Of(ctx).chunks[c].stats = {};
+    Of(ctx).chunks[c].ok = true;
+  }
+  parallel_for(chunks, 1, [&](size_t begin, size_t end) {
+    for (size_t c = begin; c < end; ++c) {
+      Chunk& chunk = Of(ctx).chunks[c];
+      const size_t first = c * work / chunks, last = (c + 1) * work / chunks;
+      for (size_t k = first; k < last; ++k) {
+        if (k < tested) {
+          const SpherePair& p = pairs[all ? k : active[k]];
+          chunk.ok &= TestPair(frame, p.i, p.j, spheres[p.i], spheres[p.j], chunk);
+        } else {
+          chunk.ok &= TestSelf(frame, self[k - tested], chunk);
+        }
+      }
+    }
+  });
+  bool ok = true;
+  Of(ctx).merged.clear();
+  for (size_t c = 0; c < chunks; ++c) {
+    const Chunk& chunk = Of(ctx).chunks[c];
+    ok &= chunk.ok;
+    Of(ctx).merged.insert(Of(ctx).merged.end(), chunk.hits.begin(), chunk.hits.end());
+    AddStats(chunk.stats, &Of(ctx).stats);
+  }
+  return ok;
+}
+
+}  // namespace
+
 bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
   if (out != nullptr) out->clear();
   if (!Validate()) return false;
@@ -224,62 +298,10 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
   Involved(pairs, ctx);
   // Positions: the caller's (mode a), or skinned here, the involved spheres' vertices only (mode b).
   std::optional<LazySkinner> skinner;
-  if (lazy) {
-    Of(ctx).bind_matrices.resize(set->mesh.binds.size());
-    if (!skinning::SkinningMatricesJob{set->mesh.binds, joint_world.first(set->joint_count()), Of(ctx).bind_matrices}
-             .Run()) {
-      return false;
-    }
-    std::fill(Of(ctx).run_done.begin(), Of(ctx).run_done.end(), uint64_t{0});
-    skinner.emplace(LazySkinner{*set, *data, ctx, Of(ctx).bind_matrices});
-    for (uint32_t s : Of(ctx).involved) skinner->Collect(s);
-    // Non-finite positions are caught by PrepareClusters, which boxes every vertex skinned here
-    // (directly, or through the grid points computed from it).
-    if (!skinner->Skin(parallel_for)) return false;
-    frame.pos = Of(ctx).skinned.data();
-  }
+  if (lazy && !SkinInvolved(*set, *data, joint_world, ctx, parallel_for, &skinner, &frame)) return false;
   if (!PrepareClusters(frame, ctx, parallel_for)) return false;
   if (!lazy && frame.joint_motion != nullptr) MeasureDeviations(frame, pairs, ctx, parallel_for);
-  // The work: the sphere pairs, then the spheres tested against themselves.
-  const std::span<const uint32_t> active = Of(ctx).active_pairs, self = Of(ctx).active_self;
-  const bool all = Of(ctx).all_pairs;
-  const size_t tested = all ? pairs.size() : active.size(), work = tested + self.size();
-  const size_t chunks = std::min(work, NarrowPhaseContext::kChunks);
-  for (size_t c = 0; c < chunks; ++c) {
-    Of(ctx).chunks[c].hits.clear();
-    Of(ctx).chunks[c].last_tested = UINT64_MAX;
-    Of(ctx).chunks[c].stats = {};
-    Of(ctx).chunks[c].ok = true;
-  }
-  parallel_for(chunks, 1, [&](size_t begin, size_t end) {
-    for (size_t c = begin; c < end; ++c) {
-      Chunk& chunk = Of(ctx).chunks[c];
-      const size_t first = c * work / chunks, last = (c + 1) * work / chunks;
-      for (size_t k = first; k < last; ++k) {
-        if (k < tested) {
-          const SpherePair& p = pairs[all ? k : active[k]];
-          chunk.ok &= TestPair(frame, p.i, p.j, spheres[p.i], spheres[p.j], chunk);
-        } else {
-          chunk.ok &= TestSelf(frame, self[k - tested], chunk);
-        }
-      }
-    }
-  });
-  bool ok = true;
-  Of(ctx).merged.clear();
-  for (size_t c = 0; c < chunks; ++c) {
-    const Chunk& chunk = Of(ctx).chunks[c];
-    ok &= chunk.ok;
-    Of(ctx).merged.insert(Of(ctx).merged.end(), chunk.hits.begin(), chunk.hits.end());
-    Of(ctx).stats.sphere_pairs += chunk.stats.sphere_pairs;
-    Of(ctx).stats.patch_pairs += chunk.stats.patch_pairs;
-    Of(ctx).stats.still_patch_pairs += chunk.stats.still_patch_pairs;
-    Of(ctx).stats.cluster_pairs += chunk.stats.cluster_pairs;
-    Of(ctx).stats.culled_triangles += chunk.stats.culled_triangles;
-    Of(ctx).stats.box_tests += chunk.stats.box_tests;
-    Of(ctx).stats.triangle_tests += chunk.stats.triangle_tests;
-  }
-  if (!ok) {
+  if (!TestWork(frame, pairs, spheres, ctx, parallel_for)) {
     out->clear();
     return false;
   }

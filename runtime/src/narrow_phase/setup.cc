@@ -8,6 +8,7 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <span>
 #include <string>
 #include <tuple>
 #include <unordered_map>
@@ -38,116 +39,146 @@ void SphereItems(const SphereSet& set, NarrowPhaseData::Layout& d) {
   }
 }
 
-void BuildClusters(const SphereSet& set, NarrowPhaseData* d) {
-  const auto& rest = Of(*d).rest_positions;
+namespace {
+
+// A run [begin, end) of one sphere's items.
+struct ItemRange {
+  size_t begin, end;
+};
+
+auto PointKey(const PiecePoint& g) { return std::tuple(g.triangle, g.level, g.i, g.j); }
+
+// The joint whose run an item's cluster belongs to: its triangle's rule-2 joint (kTriangles), else 0.
+uint16_t ClusterJoint(const NarrowPhaseData::Layout& d, uint32_t id) {
+  return d.rules == ContactRules::kTriangles ? d.triangle_joint[ItemTriangle(d, id)] : uint16_t{0};
+}
+
+// One sphere's items (`items`, reordered in place) cut into clusters: one run per joint (rule 2 is
+// then a cluster pair's), in joint order, stable; each run split at the median of its rest
+// centroids along the longest axis until it has at most settings.cluster_triangles. In order.
+std::vector<ItemRange> ClusterRanges(const SphereSet& set, const NarrowPhaseData::Layout& d,
+                                     std::vector<uint32_t>& items) {
   auto centroid = [&](uint32_t id) {
     Eigen::Vector3f c[3];
-    ItemCorners(set, Of(*d), rest.data(), nullptr, id, c);
+    ItemCorners(set, d, d.rest_positions.data(), nullptr, id, c);
     return Eigen::Vector3f((c[0] + c[1] + c[2]) / 3.0f);
   };
-  Of(*d).cluster_offsets.assign(1, 0);
-  Of(*d).cluster_triangle_offsets.assign(1, 0);
-  Of(*d).cluster_vertex_offsets.assign(1, 0);
-  Of(*d).cluster_grid_offsets.assign(1, 0);
-  Of(*d).piece_corner_refs.assign(Of(*d).piece_items.size(), {});
-  std::vector<uint32_t> tris, verts;
-  std::vector<PiecePoint> grid;
-  auto key = [](const PiecePoint& g) { return std::tuple(g.triangle, g.level, g.i, g.j); };
-  struct Range {
-    size_t begin, end;
-  };
-  std::vector<Range> stack;
-  const bool by_joint = Of(*d).rules == ContactRules::kTriangles;
-  auto joint = [&](uint32_t id) { return by_joint ? Of(*d).triangle_joint[ItemTriangle(Of(*d), id)] : uint16_t{0}; };
-  Of(*d).cluster_joint.clear();
-  for (size_t s = 0; s < set.size(); ++s) {
-    tris.assign(Of(*d).sphere_items.begin() + Of(*d).sphere_item_offsets[s],
-                Of(*d).sphere_items.begin() + Of(*d).sphere_item_offsets[s + 1]);
-    // One run of items per joint (rule 2 is then a cluster pair's), in joint order, stable.
-    std::stable_sort(tris.begin(), tris.end(), [&](uint32_t a, uint32_t b) { return joint(a) < joint(b); });
-    stack.clear();
-    for (size_t begin = 0; begin < tris.size();) {
-      size_t end = begin + 1;
-      while (end < tris.size() && joint(tris[end]) == joint(tris[begin])) ++end;
-      stack.push_back({begin, end});
-      begin = end;
+  auto joint = [&](uint32_t id) { return ClusterJoint(d, id); };
+  std::stable_sort(items.begin(), items.end(), [&](uint32_t a, uint32_t b) { return joint(a) < joint(b); });
+  std::vector<ItemRange> stack;
+  for (size_t begin = 0; begin < items.size();) {
+    size_t end = begin + 1;
+    while (end < items.size() && joint(items[end]) == joint(items[begin])) ++end;
+    stack.push_back({begin, end});
+    begin = end;
+  }
+  std::reverse(stack.begin(), stack.end());
+  std::vector<ItemRange> leaves;
+  while (!stack.empty()) {
+    const ItemRange r = stack.back();
+    stack.pop_back();
+    if (r.end - r.begin <= d.settings.cluster_triangles) {
+      leaves.push_back(r);
+      continue;
     }
-    std::reverse(stack.begin(), stack.end());
-    std::vector<Range> leaves;
-    while (!stack.empty()) {
-      const Range r = stack.back();
-      stack.pop_back();
-      if (r.end - r.begin <= Of(*d).settings.cluster_triangles) {
-        leaves.push_back(r);
+    Eigen::AlignedBox3f box;
+    for (size_t k = r.begin; k < r.end; ++k) box.extend(centroid(items[k]));
+    int axis;
+    box.sizes().maxCoeff(&axis);
+    const size_t mid = (r.begin + r.end) / 2;
+    std::nth_element(items.begin() + r.begin, items.begin() + mid, items.begin() + r.end, [&](uint32_t a, uint32_t b) {
+      const float ca = centroid(a)[axis], cb = centroid(b)[axis];
+      return ca != cb ? ca < cb : a < b;
+    });
+    stack.push_back({mid, r.end});
+    stack.push_back({r.begin, mid});
+  }
+  std::sort(leaves.begin(), leaves.end(), [](const ItemRange& a, const ItemRange& b) { return a.begin < b.begin; });
+  return leaves;
+}
+
+// A cluster's points: its items' vertices and the grid points of its pieces' corners that are not
+// vertices, each sorted and once.
+void ClusterPoints(const SphereSet& set, const NarrowPhaseData::Layout& d, std::span<const uint32_t> items,
+                   std::vector<uint32_t>* verts, std::vector<PiecePoint>* grid) {
+  verts->clear();
+  grid->clear();
+  for (const uint32_t id : items) {
+    const uint32_t t = ItemTriangle(d, id);
+    const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{t};
+    if (id < d.triangle_count) {
+      verts->insert(verts->end(), v, v + 3);
+      continue;
+    }
+    const NarrowPhaseData::Layout::PieceItem& p = d.piece_items[id - d.triangle_count];
+    for (const auto& ij : p.corners) {
+      const int corner = GridCorner(p.level, ij[0], ij[1]);
+      if (corner >= 0) {
+        verts->push_back(v[corner]);
+      } else {
+        grid->push_back(PiecePoint{t, p.level, ij[0], ij[1]});
+      }
+    }
+  }
+  std::sort(verts->begin(), verts->end());
+  verts->erase(std::unique(verts->begin(), verts->end()), verts->end());
+  std::sort(grid->begin(), grid->end(),
+            [&](const PiecePoint& a, const PiecePoint& b) { return PointKey(a) < PointKey(b); });
+  grid->erase(std::unique(grid->begin(), grid->end()), grid->end());
+}
+
+// Each piece's corners: a vertex, or where its grid point sits in this cluster's range (`grid`,
+// from grid_base on in cluster_grid).
+void PieceCornerRefs(const SphereSet& set, NarrowPhaseData::Layout& d, std::span<const uint32_t> items,
+                     const std::vector<PiecePoint>& grid, uint32_t grid_base) {
+  for (const uint32_t id : items) {
+    if (id < d.triangle_count) continue;
+    const NarrowPhaseData::Layout::PieceItem& p = d.piece_items[id - d.triangle_count];
+    const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{p.triangle};
+    auto& refs = d.piece_corner_refs[id - d.triangle_count];
+    for (int c = 0; c < 3; ++c) {
+      const PiecePoint g{p.triangle, p.level, p.corners[c][0], p.corners[c][1]};
+      const int corner = GridCorner(g.level, g.i, g.j);
+      if (corner >= 0) {
+        refs[c] = v[corner];
         continue;
       }
-      Eigen::AlignedBox3f box;
-      for (size_t k = r.begin; k < r.end; ++k) box.extend(centroid(tris[k]));
-      int axis;
-      box.sizes().maxCoeff(&axis);
-      const size_t mid = (r.begin + r.end) / 2;
-      std::nth_element(tris.begin() + r.begin, tris.begin() + mid, tris.begin() + r.end, [&](uint32_t a, uint32_t b) {
-        const float ca = centroid(a)[axis], cb = centroid(b)[axis];
-        return ca != cb ? ca < cb : a < b;
+      const auto at = std::lower_bound(grid.begin(), grid.end(), g, [&](const PiecePoint& a, const PiecePoint& b) {
+        return PointKey(a) < PointKey(b);
       });
-      stack.push_back({mid, r.end});
-      stack.push_back({r.begin, mid});
+      refs[c] = NarrowPhaseData::Layout::kGridRef | (grid_base + uint32_t(at - grid.begin()));
     }
-    std::sort(leaves.begin(), leaves.end(), [](const Range& a, const Range& b) { return a.begin < b.begin; });
-    for (const Range& r : leaves) {
-      verts.clear();
-      grid.clear();
-      for (size_t k = r.begin; k < r.end; ++k) {
-        const uint32_t id = tris[k];
-        Of(*d).cluster_triangles.push_back(id);
-        const uint32_t t = ItemTriangle(Of(*d), id);
-        const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{t};
-        if (id < Of(*d).triangle_count) {
-          verts.insert(verts.end(), v, v + 3);
-          continue;
-        }
-        const NarrowPhaseData::Layout::PieceItem& p = Of(*d).piece_items[id - Of(*d).triangle_count];
-        for (const auto& ij : p.corners) {
-          const int corner = GridCorner(p.level, ij[0], ij[1]);
-          if (corner >= 0) {
-            verts.push_back(v[corner]);
-          } else {
-            grid.push_back(PiecePoint{t, p.level, ij[0], ij[1]});
-          }
-        }
-      }
-      std::sort(verts.begin(), verts.end());
-      verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-      std::sort(grid.begin(), grid.end(), [&](const PiecePoint& a, const PiecePoint& b) { return key(a) < key(b); });
-      grid.erase(std::unique(grid.begin(), grid.end()), grid.end());
-      // Each piece's corners: a vertex, or where its grid point sits in this cluster's range.
-      const uint32_t grid_base = uint32_t(Of(*d).cluster_grid.size());
-      for (size_t k = r.begin; k < r.end; ++k) {
-        const uint32_t id = tris[k];
-        if (id < Of(*d).triangle_count) continue;
-        const NarrowPhaseData::Layout::PieceItem& p = Of(*d).piece_items[id - Of(*d).triangle_count];
-        const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{p.triangle};
-        auto& refs = Of(*d).piece_corner_refs[id - Of(*d).triangle_count];
-        for (int c = 0; c < 3; ++c) {
-          const PiecePoint g{p.triangle, p.level, p.corners[c][0], p.corners[c][1]};
-          const int corner = GridCorner(g.level, g.i, g.j);
-          if (corner >= 0) {
-            refs[c] = v[corner];
-            continue;
-          }
-          const auto at = std::lower_bound(grid.begin(), grid.end(), g,
-                                           [&](const PiecePoint& a, const PiecePoint& b) { return key(a) < key(b); });
-          refs[c] = NarrowPhaseData::Layout::kGridRef | (grid_base + uint32_t(at - grid.begin()));
-        }
-      }
-      Of(*d).cluster_joint.push_back(joint(tris[r.begin]));
-      Of(*d).cluster_vertices.insert(Of(*d).cluster_vertices.end(), verts.begin(), verts.end());
-      Of(*d).cluster_grid.insert(Of(*d).cluster_grid.end(), grid.begin(), grid.end());
-      Of(*d).cluster_triangle_offsets.push_back(uint32_t(Of(*d).cluster_triangles.size()));
-      Of(*d).cluster_vertex_offsets.push_back(uint32_t(Of(*d).cluster_vertices.size()));
-      Of(*d).cluster_grid_offsets.push_back(uint32_t(Of(*d).cluster_grid.size()));
+  }
+}
+
+}  // namespace
+
+void BuildClusters(const SphereSet& set, NarrowPhaseData* data) {
+  NarrowPhaseData::Layout& d = Of(*data);
+  d.cluster_offsets.assign(1, 0);
+  d.cluster_triangle_offsets.assign(1, 0);
+  d.cluster_vertex_offsets.assign(1, 0);
+  d.cluster_grid_offsets.assign(1, 0);
+  d.piece_corner_refs.assign(d.piece_items.size(), {});
+  d.cluster_joint.clear();
+  std::vector<uint32_t> items, verts;
+  std::vector<PiecePoint> grid;
+  for (size_t s = 0; s < set.size(); ++s) {
+    items.assign(d.sphere_items.begin() + d.sphere_item_offsets[s],
+                 d.sphere_items.begin() + d.sphere_item_offsets[s + 1]);
+    for (const ItemRange& r : ClusterRanges(set, d, items)) {
+      const std::span<const uint32_t> cluster(items.data() + r.begin, r.end - r.begin);
+      d.cluster_triangles.insert(d.cluster_triangles.end(), cluster.begin(), cluster.end());
+      ClusterPoints(set, d, cluster, &verts, &grid);
+      PieceCornerRefs(set, d, cluster, grid, uint32_t(d.cluster_grid.size()));
+      d.cluster_joint.push_back(ClusterJoint(d, cluster[0]));
+      d.cluster_vertices.insert(d.cluster_vertices.end(), verts.begin(), verts.end());
+      d.cluster_grid.insert(d.cluster_grid.end(), grid.begin(), grid.end());
+      d.cluster_triangle_offsets.push_back(uint32_t(d.cluster_triangles.size()));
+      d.cluster_vertex_offsets.push_back(uint32_t(d.cluster_vertices.size()));
+      d.cluster_grid_offsets.push_back(uint32_t(d.cluster_grid.size()));
     }
-    Of(*d).cluster_offsets.push_back(uint32_t(Of(*d).cluster_vertex_offsets.size() - 1));
+    d.cluster_offsets.push_back(uint32_t(d.cluster_vertex_offsets.size() - 1));
   }
 }
 
@@ -399,14 +430,8 @@ std::array<double, 4> BallOf(const std::vector<Eigen::Vector3d>& points) {
   return {c.x(), c.y(), c.z(), std::sqrt(r2) * (1.0 + 1e-12)};
 }
 
-// Stage 10: the patches (a sphere's clusters of one joint, contiguous since BuildClusters sorts them
-// by joint), each with the ball of its points' rest positions and, per joint its points are skinned
-// by, the ball of their rest copies through it and the largest weight; the clusters' far vertices;
-// the joints whose motion bounds them; rule 3's distance.
-bool Patches(const SphereSet& set, NarrowPhaseData::Layout& d) {
-  const bool triangles = d.rules == ContactRules::kTriangles;
-  d.rest_distance = triangles ? std::max(set.rest_gap, d.settings.margin) : d.settings.margin;
-  // Far vertices: the vertices of a cluster's pieces' triangles not among its corners.
+// Far vertices: the vertices of a cluster's pieces' triangles not among its corners.
+void FarVertices(const SphereSet& set, NarrowPhaseData::Layout& d) {
   d.cluster_far_offsets.assign(1, 0);
   d.cluster_far_vertices.clear();
   std::vector<uint32_t> far;
@@ -427,87 +452,92 @@ bool Patches(const SphereSet& set, NarrowPhaseData::Layout& d) {
     d.cluster_far_vertices.insert(d.cluster_far_vertices.end(), far.begin(), far.end());
     d.cluster_far_offsets.push_back(uint32_t(d.cluster_far_vertices.size()));
   }
-  // A triangle degenerate at rest lay at no distance rule 3 knows: its patch is never skipped.
-  std::vector<uint8_t> degenerate(set.source_triangle_count, 0);
-  for (uint32_t t = 0; t < set.source_triangle_count; ++t) {
-    const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{t};
-    degenerate[t] = TriangleIsDegenerate(d.rest_positions[v[0]], d.rest_positions[v[1]], d.rest_positions[v[2]]);
-  }
-  // The skinning matrices at rest, M_b = G_joint(b)(rest) · IBM_b, for the vertices' rest copies.
-  const skinning::SkinnedMesh& mesh = set.mesh;
-  std::vector<Mat4f> rest_matrices(mesh.binds.size());
-  if (!skinning::SkinningMatricesJob{mesh.binds, set.joint_rest_world, rest_matrices}.Run()) return false;
-  d.cluster_ids.resize(d.cluster_joint.size());
-  for (uint32_t c = 0; c < d.cluster_ids.size(); ++c) d.cluster_ids[c] = c;
-  d.patch_offsets.assign(1, 0);
-  d.patch_cluster_offsets.assign(1, 0);
-  d.patch_copy_offsets.assign(1, 0);
-  d.patch_joint.clear();
-  d.patch_still_ok.clear();
-  d.patch_rest_ball.clear();
-  d.patch_copy_joint.clear();
-  d.patch_copy_ball.clear();
-  d.patch_copy_reach.clear();
-  std::vector<uint8_t> used(set.joint_count(), 0);
-  std::vector<Eigen::Vector3d> rest;
-  std::vector<std::pair<uint16_t, std::vector<Eigen::Vector3d>>> copies;  // per joint
-  std::vector<double> reach;
-  for (size_t s = 0; s < set.size(); ++s) {
-    for (uint32_t c = d.cluster_offsets[s]; c < d.cluster_offsets[s + 1];) {
-      uint32_t end = c + 1;
-      while (triangles && end < d.cluster_offsets[s + 1] && d.cluster_joint[end] == d.cluster_joint[c]) ++end;
-      if (!triangles) end = d.cluster_offsets[s + 1];
-      const uint16_t joint = triangles ? d.cluster_joint[c] : kNoTriangleJoint;
-      bool still_ok = triangles && joint != kNoTriangleJoint;
-      rest.clear();
-      copies.clear();
-      reach.clear();
-      auto add = [&](uint32_t v) {
-        rest.push_back(d.rest_positions[v].cast<double>());
-        double total[64] = {};  // per entry of `copies` this vertex adds to (a vertex has few joints)
-        for (uint32_t k = mesh.influence_offsets[v]; k < mesh.influence_offsets[v + 1]; ++k) {
-          const auto j = uint16_t(mesh.binds[mesh.influence_binds[k]].joint);
-          const Mat4f& m = rest_matrices[mesh.influence_binds[k]];
-          const Eigen::Vector3d copy = m.cast<double>().topLeftCorner<3, 3>() * mesh.positions_bind[v].cast<double>() +
-                                       m.cast<double>().topRightCorner<3, 1>();
-          size_t e = 0;
-          while (e < copies.size() && copies[e].first != j) ++e;
-          if (e == copies.size()) {
-            copies.emplace_back(j, std::vector<Eigen::Vector3d>{});
-            reach.push_back(0.0);
-          }
-          copies[e].second.push_back(copy);
-          if (e < 64) total[e] += double(mesh.influence_weights[k]);
-          still_ok &= e < 64;
-        }
-        for (size_t e = 0; e < copies.size() && e < 64; ++e) reach[e] = std::max(reach[e], total[e]);
-      };
-      for (uint32_t k = c; k < end; ++k) {
-        for (uint32_t e = d.cluster_vertex_offsets[k]; e < d.cluster_vertex_offsets[k + 1]; ++e)
-          add(d.cluster_vertices[e]);
-        for (uint32_t e = d.cluster_far_offsets[k]; e < d.cluster_far_offsets[k + 1]; ++e)
-          add(d.cluster_far_vertices[e]);
-        for (uint32_t e = d.cluster_triangle_offsets[k]; e < d.cluster_triangle_offsets[k + 1]; ++e)
-          still_ok &= !degenerate[ItemTriangle(d, d.cluster_triangles[e])];
-      }
-      d.patch_rest_ball.push_back(BallOf(rest));
-      for (size_t e = 0; e < copies.size(); ++e) {
-        d.patch_copy_joint.push_back(copies[e].first);
-        d.patch_copy_ball.push_back(BallOf(copies[e].second));
-        d.patch_copy_reach.push_back(std::min(reach[e] * (1.0 + 1e-9), 1.0));
-        if (copies[e].first < set.joint_count()) used[copies[e].first] = 1;
-      }
-      d.patch_copy_offsets.push_back(uint32_t(d.patch_copy_joint.size()));
-      d.patch_joint.push_back(joint);
-      d.patch_still_ok.push_back(still_ok ? 1 : 0);
-      d.patch_cluster_offsets.push_back(end);
-      if (joint != kNoTriangleJoint && joint < set.joint_count()) used[joint] = 1;
-      c = end;
+}
+
+// Builds the patches one by one into the layout's patch arrays: the balls of their points' rest
+// positions and rest copies, the largest weights, whether rule 3 may skip them; `used` marks the
+// joints they name.
+class PatchBuilder {
+ public:
+  PatchBuilder(const SphereSet& set, NarrowPhaseData::Layout& d, const std::vector<Mat4f>& rest_matrices)
+      : set_(set), d_(d), rest_matrices_(rest_matrices), used_(set.joint_count(), 0) {
+    // A triangle degenerate at rest lay at no distance rule 3 knows: its patch is never skipped.
+    degenerate_.assign(set.source_triangle_count, 0);
+    for (uint32_t t = 0; t < set.source_triangle_count; ++t) {
+      const uint32_t* v = set.triangle_vertices.data() + 3 * size_t{t};
+      degenerate_[t] = TriangleIsDegenerate(d.rest_positions[v[0]], d.rest_positions[v[1]], d.rest_positions[v[2]]);
     }
-    d.patch_offsets.push_back(uint32_t(d.patch_joint.size()));
   }
-  // The joints whose motion the bound reads, each with G_j(rest)^-1; a patch naming one that has none
-  // (a singular rest transform) is never skipped.
+
+  // The patch of clusters [c, end), of `joint`.
+  void Add(uint32_t c, uint32_t end, uint16_t joint) {
+    NarrowPhaseData::Layout& d = d_;
+    still_ok_ = d.rules == ContactRules::kTriangles && joint != kNoTriangleJoint;
+    rest_.clear();
+    copies_.clear();
+    reach_.clear();
+    for (uint32_t k = c; k < end; ++k) {
+      for (uint32_t e = d.cluster_vertex_offsets[k]; e < d.cluster_vertex_offsets[k + 1]; ++e)
+        AddVertex(d.cluster_vertices[e]);
+      for (uint32_t e = d.cluster_far_offsets[k]; e < d.cluster_far_offsets[k + 1]; ++e)
+        AddVertex(d.cluster_far_vertices[e]);
+      for (uint32_t e = d.cluster_triangle_offsets[k]; e < d.cluster_triangle_offsets[k + 1]; ++e)
+        still_ok_ &= !degenerate_[ItemTriangle(d, d.cluster_triangles[e])];
+    }
+    d.patch_rest_ball.push_back(BallOf(rest_));
+    for (size_t e = 0; e < copies_.size(); ++e) {
+      d.patch_copy_joint.push_back(copies_[e].first);
+      d.patch_copy_ball.push_back(BallOf(copies_[e].second));
+      d.patch_copy_reach.push_back(std::min(reach_[e] * (1.0 + 1e-9), 1.0));
+      if (copies_[e].first < set_.joint_count()) used_[copies_[e].first] = 1;
+    }
+    d.patch_copy_offsets.push_back(uint32_t(d.patch_copy_joint.size()));
+    d.patch_joint.push_back(joint);
+    d.patch_still_ok.push_back(still_ok_ ? 1 : 0);
+    d.patch_cluster_offsets.push_back(end);
+    if (joint != kNoTriangleJoint && joint < set_.joint_count()) used_[joint] = 1;
+  }
+
+  const std::vector<uint8_t>& used() const { return used_; }
+
+ private:
+  // Vertex v's rest position, and its rest copy through each joint it is skinned by.
+  void AddVertex(uint32_t v) {
+    const skinning::SkinnedMesh& mesh = set_.mesh;
+    rest_.push_back(d_.rest_positions[v].cast<double>());
+    double total[64] = {};  // per entry of `copies_` this vertex adds to (a vertex has few joints)
+    for (uint32_t k = mesh.influence_offsets[v]; k < mesh.influence_offsets[v + 1]; ++k) {
+      const auto j = uint16_t(mesh.binds[mesh.influence_binds[k]].joint);
+      const Mat4f& m = rest_matrices_[mesh.influence_binds[k]];
+      const Eigen::Vector3d copy = m.cast<double>().topLeftCorner<3, 3>() * mesh.positions_bind[v].cast<double>() +
+                                   m.cast<double>().topRightCorner<3, 1>();
+      size_t e = 0;
+      while (e < copies_.size() && copies_[e].first != j) ++e;
+      if (e == copies_.size()) {
+        copies_.emplace_back(j, std::vector<Eigen::Vector3d>{});
+        reach_.push_back(0.0);
+      }
+      copies_[e].second.push_back(copy);
+      if (e < 64) total[e] += double(mesh.influence_weights[k]);
+      still_ok_ &= e < 64;
+    }
+    for (size_t e = 0; e < copies_.size() && e < 64; ++e) reach_[e] = std::max(reach_[e], total[e]);
+  }
+
+  const SphereSet& set_;
+  NarrowPhaseData::Layout& d_;
+  const std::vector<Mat4f>& rest_matrices_;
+  std::vector<uint8_t> degenerate_;
+  std::vector<uint8_t> used_;
+  bool still_ok_ = false;
+  std::vector<Eigen::Vector3d> rest_;
+  std::vector<std::pair<uint16_t, std::vector<Eigen::Vector3d>>> copies_;  // per joint
+  std::vector<double> reach_;
+};
+
+// The joints whose motion the bound reads (`used`), each with G_j(rest)^-1; a patch naming one that
+// has none (a singular rest transform) is never skipped.
+void MotionJoints(const SphereSet& set, const std::vector<uint8_t>& used, NarrowPhaseData::Layout& d) {
   d.motion_joints.clear();
   d.rest_inverse.assign(set.joint_count(), internal::Mat4d::Identity());
   std::vector<uint8_t> invertible(set.joint_count(), 0);
@@ -525,6 +555,43 @@ bool Patches(const SphereSet& set, NarrowPhaseData::Layout& d) {
       if (d.patch_copy_joint[e] >= set.joint_count() || !invertible[d.patch_copy_joint[e]]) d.patch_still_ok[p] = 0;
     }
   }
+}
+
+// Stage 10: the patches (a sphere's clusters of one joint, contiguous since BuildClusters sorts them
+// by joint), each with the ball of its points' rest positions and, per joint its points are skinned
+// by, the ball of their rest copies through it and the largest weight; the clusters' far vertices;
+// the joints whose motion bounds them; rule 3's distance.
+bool Patches(const SphereSet& set, NarrowPhaseData::Layout& d) {
+  const bool triangles = d.rules == ContactRules::kTriangles;
+  d.rest_distance = triangles ? std::max(set.rest_gap, d.settings.margin) : d.settings.margin;
+  FarVertices(set, d);
+  // The skinning matrices at rest, M_b = G_joint(b)(rest) · IBM_b, for the vertices' rest copies.
+  const skinning::SkinnedMesh& mesh = set.mesh;
+  std::vector<Mat4f> rest_matrices(mesh.binds.size());
+  if (!skinning::SkinningMatricesJob{mesh.binds, set.joint_rest_world, rest_matrices}.Run()) return false;
+  d.cluster_ids.resize(d.cluster_joint.size());
+  for (uint32_t c = 0; c < d.cluster_ids.size(); ++c) d.cluster_ids[c] = c;
+  d.patch_offsets.assign(1, 0);
+  d.patch_cluster_offsets.assign(1, 0);
+  d.patch_copy_offsets.assign(1, 0);
+  d.patch_joint.clear();
+  d.patch_still_ok.clear();
+  d.patch_rest_ball.clear();
+  d.patch_copy_joint.clear();
+  d.patch_copy_ball.clear();
+  d.patch_copy_reach.clear();
+  PatchBuilder patches(set, d, rest_matrices);
+  for (size_t s = 0; s < set.size(); ++s) {
+    for (uint32_t c = d.cluster_offsets[s]; c < d.cluster_offsets[s + 1];) {
+      uint32_t end = c + 1;
+      while (triangles && end < d.cluster_offsets[s + 1] && d.cluster_joint[end] == d.cluster_joint[c]) ++end;
+      if (!triangles) end = d.cluster_offsets[s + 1];
+      patches.Add(c, end, triangles ? d.cluster_joint[c] : kNoTriangleJoint);
+      c = end;
+    }
+    d.patch_offsets.push_back(uint32_t(d.patch_joint.size()));
+  }
+  MotionJoints(set, patches.used(), d);
   return true;
 }
 

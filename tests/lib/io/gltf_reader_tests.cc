@@ -1,4 +1,4 @@
-// Tests for ImportCharacter's glTF 2.0 reader (lib/src/io/importer_gltf.cc, gltf_document.cc; sparse
+// Tests for ImportCharacter's glTF 2.0 reader (lib/src/io/importer_gltf*.cc, gltf_document.cc; sparse
 // accessors: gltf_sparse_tests.cc; Assimp's path: assimp_import_tests.cc, clip files:
 // clip_import_tests.cc, hostile files: hostile_input_tests.cc).
 // Oracles are independent of the importer: the shared characters' GLB JSON and binary chunk are
