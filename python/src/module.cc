@@ -303,8 +303,8 @@ PYBIND11_MODULE(_skinspheres, m) {
         for (const PathText& f : clip_files) files.push_back(f.value);
         NoNul(joint_map, "joint_map");
         NoNul(source_rest, "source_rest");
-        return Retarget(character.value, files, output.value, clip, fps, joint_map, source_rest, retarget,
-                        rest_directions);
+        return Retarget(character.value, ClipFiles(files, joint_map, source_rest, retarget, rest_directions),
+                        output.value, clip, fps);
       },
       "character"_a, "clip_files"_a, "output"_a, py::kw_only(), "clip"_a = "all", "fps"_a = 30.0f, "joint_map"_a = "",
       "source_rest"_a = "", "retarget"_a = "auto", "rest_directions"_a = "keep");
@@ -318,9 +318,18 @@ PYBIND11_MODULE(_skinspheres, m) {
         for (const PathText& f : clip_files) files.push_back(f.value);
         NoNul(joint_map, "joint_map");
         NoNul(source_rest, "source_rest");
-        return Check(character.value, files, clip, max_depth, touch_tolerance,
-                     spheres ? std::optional<std::string>(spheres->value) : std::nullopt, fps, mode, jobs, joint_map,
-                     source_rest, retarget, compare_source);
+        tool::CheckArgs a;
+        a.input = character.value;
+        a.clip_files = ClipFiles(files, joint_map, source_rest, retarget, "keep");
+        a.clip = clip;
+        a.max_depth = max_depth;
+        a.touch_tolerance = touch_tolerance;
+        a.spheres = spheres ? spheres->value : "";
+        a.fps = fps;
+        a.mode = mode;
+        a.jobs = jobs;
+        a.compare_source = compare_source;
+        return Check(std::move(a));
       },
       "character"_a, "clip_files"_a = std::vector<PathText>{}, py::kw_only(), "clip"_a = "all",
       "max_depth"_a = tool::kDefaultMaxDepth, "touch_tolerance"_a = tool::kDefaultTouchTolerance,

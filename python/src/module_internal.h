@@ -333,16 +333,17 @@ std::vector<std::string> ClipNames(const PathText& path_arg);
 // `skinspheres play` on one clip: per-frame arrays with a `frame` field, and the clip's figures.
 py::dict Play(const std::optional<std::string>& character, const PlayArgs& a);
 
+// The retarget options of play, check, retarget and fix as the tool takes them.
+tool::ClipFileOptions ClipFiles(const std::vector<std::string>& files, const std::string& joint_map,
+                                const std::string& source_rest, const std::string& retarget,
+                                const std::string& rest_directions);
+
 // `skinspheres retarget`: the written file's clips, durations, frames and notes.
-py::dict Retarget(const std::string& character, const std::vector<std::string>& clip_files, const std::string& output,
-                  const std::string& clip, float fps, const std::string& joint_map, const std::string& source_rest,
-                  const std::string& retarget, const std::string& rest_directions);
+py::dict Retarget(const std::string& character, const tool::ClipFileOptions& files, const std::string& output,
+                  const std::string& clip, float fps);
 
 // `skinspheres check`: its JSON report as a dict, with "exit_code".
-py::dict Check(const std::string& character, const std::vector<std::string>& clip_files, const std::string& clip,
-               float max_depth, float touch_tolerance, const std::optional<std::string>& spheres, float fps,
-               const std::string& mode, int jobs, const std::string& joint_map, const std::string& source_rest,
-               const std::string& retarget, bool compare_source);
+py::dict Check(tool::CheckArgs a);
 
 // `skinspheres fix`: its options past the files, as the binding takes them (keywords).
 struct FixArgs {

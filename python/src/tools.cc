@@ -21,18 +21,6 @@ size_t FileClip(const lib::RawCharacter& character, size_t own, const std::strin
   return chosen->front();
 }
 
-tool::ClipFileOptions ClipFiles(const std::vector<std::string>& files, const std::string& joint_map,
-                                const std::string& source_rest, const std::string& retarget,
-                                const std::string& rest_directions = "keep") {
-  tool::ClipFileOptions out;
-  out.files = files;
-  out.joint_map = joint_map;
-  out.source_rest = source_rest;
-  out.retarget = retarget;
-  out.rest_directions = rest_directions;
-  return out;
-}
-
 // A command's JSON report as a dict with its exit code; raises `error` when there is no report.
 py::dict ReportDict(const nlohmann::json& report, int exit_code, const Error& error) {
   if (report.is_null()) Throw(error);
@@ -43,6 +31,18 @@ py::dict ReportDict(const nlohmann::json& report, int exit_code, const Error& er
 }
 
 }  // namespace
+
+tool::ClipFileOptions ClipFiles(const std::vector<std::string>& files, const std::string& joint_map,
+                                const std::string& source_rest, const std::string& retarget,
+                                const std::string& rest_directions) {
+  tool::ClipFileOptions out;
+  out.files = files;
+  out.joint_map = joint_map;
+  out.source_rest = source_rest;
+  out.retarget = retarget;
+  out.rest_directions = rest_directions;
+  return out;
+}
 
 std::vector<std::string> ClipNames(const PathText& path_arg) {
   const std::string& path = path_arg.value;
@@ -69,7 +69,7 @@ py::dict Play(const std::optional<std::string>& character, const PlayArgs& a) {
     py::gil_scoped_release release;
     auto loaded = tool::LoadCharacter(character.value_or(""), fit_options.parts_file);
     if (!loaded.ok()) Throw(loaded.error());
-    const tool::ClipFileOptions files = ClipFiles(a.clip_files, a.joint_map, a.source_rest, a.retarget);
+    const tool::ClipFileOptions files = ClipFiles(a.clip_files, a.joint_map, a.source_rest, a.retarget, "keep");
     const size_t own_clips = loaded->character.clips.size();
     if (auto why = tool::AddClipFiles(*loaded, files, a.fps, &notes)) Throw(*why);
     runtime::SphereSet set;
@@ -128,10 +128,8 @@ py::dict Play(const std::optional<std::string>& character, const PlayArgs& a) {
   return out;
 }
 
-py::dict Retarget(const std::string& character, const std::vector<std::string>& clip_files, const std::string& output,
-                  const std::string& clip, float fps, const std::string& joint_map, const std::string& source_rest,
-                  const std::string& retarget, const std::string& rest_directions) {
-  const tool::ClipFileOptions files = ClipFiles(clip_files, joint_map, source_rest, retarget, rest_directions);
+py::dict Retarget(const std::string& character, const tool::ClipFileOptions& files, const std::string& output,
+                  const std::string& clip, float fps) {
   tool::RetargetWritten written;
   {
     py::gil_scoped_release release;
@@ -147,21 +145,7 @@ py::dict Retarget(const std::string& character, const std::vector<std::string>& 
   return out;
 }
 
-py::dict Check(const std::string& character, const std::vector<std::string>& clip_files, const std::string& clip,
-               float max_depth, float touch_tolerance, const std::optional<std::string>& spheres, float fps,
-               const std::string& mode, int jobs, const std::string& joint_map, const std::string& source_rest,
-               const std::string& retarget, bool compare_source) {
-  tool::CheckArgs a;
-  a.input = character;
-  a.clip_files = ClipFiles(clip_files, joint_map, source_rest, retarget);
-  a.clip = clip;
-  a.max_depth = max_depth;
-  a.touch_tolerance = touch_tolerance;
-  a.spheres = spheres.value_or("");
-  a.fps = fps;
-  a.mode = mode;
-  a.jobs = jobs;
-  a.compare_source = compare_source;
+py::dict Check(tool::CheckArgs a) {
   tool::CheckOutcome outcome;
   {
     py::gil_scoped_release release;
@@ -175,7 +159,7 @@ py::dict Fix(const std::string& character, const std::vector<std::string>& clip_
   tool::FixArgs a;
   a.input = character;
   a.output = output;
-  a.clip_files = ClipFiles(clip_files, args.joint_map, args.source_rest, args.retarget);
+  a.clip_files = ClipFiles(clip_files, args.joint_map, args.source_rest, args.retarget, "keep");
   a.clip = args.clip;
   a.allow = args.allow;
   a.max_depth = args.max_depth;

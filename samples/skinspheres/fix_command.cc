@@ -241,6 +241,39 @@ nlohmann::json ReportJson(const FixArgs& a, const lib::RawCharacter& ch, float h
           {"summary", std::move(summary)}};
 }
 
+// The clips as written (a clean clip as it is, a fixed one keyed per frame, names made unique:
+// glTF exporters refuse two animations of one name), the report's entries and the counts.
+struct Collected {
+  std::vector<skinning::AnimationClip> written;
+  nlohmann::json clips = nlohmann::json::array();
+  size_t clean = 0, repaired = 0, unfixed = 0, failed = 0;
+};
+Collected Collect(const std::vector<Fixed>& fixed, const LoadedCharacter& loaded, const runtime::SphereSet& set,
+                  float height, float fps, bool quiet) {
+  Collected out;
+  const lib::RawCharacter& ch = loaded.character;
+  for (const Fixed& c : fixed) {
+    out.clips.push_back(ClipJson(c, loaded, set, height));
+    const std::string verdict = Verdict(c);
+    out.clean += verdict == "clean";
+    out.repaired += verdict == "fixed";
+    out.unfixed += verdict == "unfixed";
+    out.failed += verdict == "error";
+    if (verdict == "error" && !quiet) Fail(c.error);  // one line on stderr per clip that failed
+    if (verdict != "clean" && verdict != "fixed") continue;
+    out.written.push_back(verdict == "clean" ? ch.clips[c.clip]
+                                             : lib::ClipFromFrames(ch.clips[c.clip].name, c.result->poses, fps));
+    auto& written = out.written;
+    const std::string base = written.back().name;
+    for (int k = 2; std::count_if(written.begin(), written.end() - 1,
+                                  [&](const auto& w) { return w.name == written.back().name; }) > 0;
+         ++k) {
+      written.back().name = base + "#" + std::to_string(k);
+    }
+  }
+  return out;
+}
+
 // --html DIR: per clip that needed fixing, a viewer page holding the clip as it was and as fixed
 // ("NAME (fixed)"), each played with its contacts and timeline, one selected at a time.
 std::optional<Error> WriteBeforeAfterPages(const std::vector<Fixed>& fixed, const LoadedCharacter& loaded,
@@ -327,43 +360,20 @@ FixOutcome RunFixCommand(FixArgs& a, bool quiet) {
   FixAll(*playback, settings, a.fps, jobs, &fixed, [&](size_t k) { say("  " + ClipLine(fixed[k], *loaded, height)); });
 
   lib::RawCharacter& ch = loaded->character;
-  std::vector<skinning::AnimationClip> written;
-  nlohmann::json clips = nlohmann::json::array();
-  size_t clean = 0, repaired = 0, unfixed = 0, failed = 0;
-  for (const Fixed& c : fixed) {
-    clips.push_back(ClipJson(c, *loaded, *set, height));
-    const std::string verdict = Verdict(c);
-    clean += verdict == "clean";
-    repaired += verdict == "fixed";
-    unfixed += verdict == "unfixed";
-    failed += verdict == "error";
-    if (verdict == "error" && !quiet) Fail(c.error);  // one line on stderr per clip that failed
-    // A clean clip is written as it is; a fixed one keyed per frame. Names stay unique (glTF
-    // exporters refuse two animations of one name).
-    if (verdict == "clean") written.push_back(ch.clips[c.clip]);
-    if (verdict == "fixed") written.push_back(lib::ClipFromFrames(ch.clips[c.clip].name, c.result->poses, a.fps));
-    if (verdict == "clean" || verdict == "fixed") {
-      const std::string base = written.back().name;
-      for (int k = 2; std::count_if(written.begin(), written.end() - 1,
-                                    [&](const auto& w) { return w.name == written.back().name; }) > 0;
-           ++k) {
-        written.back().name = base + "#" + std::to_string(k);
-      }
-    }
-  }
+  Collected got = Collect(fixed, *loaded, *set, height, a.fps, quiet);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  out.report = ReportJson(a, ch, height, written.empty(), std::move(clips),
+  out.report = ReportJson(a, ch, height, got.written.empty(), std::move(got.clips),
                           {{"clips", fixed.size()},
-                           {"clean", clean},
-                           {"fixed", repaired},
-                           {"unfixed", unfixed},
-                           {"failed", failed},
+                           {"clean", got.clean},
+                           {"fixed", got.repaired},
+                           {"unfixed", got.unfixed},
+                           {"failed", got.failed},
                            {"seconds", seconds}});
   if (!a.html.empty()) {
     if (auto err = WriteBeforeAfterPages(fixed, *loaded, *set, a, say)) return fail(err->message, err->code);
   }
-  if (!written.empty()) {
-    ch.clips = std::move(written);
+  if (!got.written.empty()) {
+    ch.clips = std::move(got.written);
     auto exported = lib::ExportGlb(ch, a.output);
     if (!exported.ok()) return fail(exported.error().message, exported.error().code);
     say("wrote " + a.output + ": " + std::to_string(ch.clips.size()) + " clips");
@@ -375,10 +385,10 @@ FixOutcome RunFixCommand(FixArgs& a, bool quiet) {
   }
   char summary[256];
   std::snprintf(summary, sizeof(summary), "fixed %zu clips in %.1f s: %zu fixed, %zu clean, %zu could not be fixed%s",
-                fixed.size(), seconds, repaired, clean, unfixed,
-                failed ? (", " + std::to_string(failed) + " failed").c_str() : "");
+                fixed.size(), seconds, got.repaired, got.clean, got.unfixed,
+                got.failed ? (", " + std::to_string(got.failed) + " failed").c_str() : "");
   say(summary);
-  out.exit_code = failed ? kExitBadInput : unfixed ? 1 : 0;
+  out.exit_code = got.failed ? kExitBadInput : got.unfixed ? 1 : 0;
   return out;
 }
 

@@ -118,8 +118,8 @@ TEST(PoseFixer, AllowedPairsAndBadInput) {
   const std::vector<skinning::Transform> source = locals;
   // Every part pair allowed: nothing to fix, nothing changed.
   PoseSolveSettings all;
-  for (uint16_t p = 0; p < fc->set.parts.size(); ++p) {
-    for (uint16_t q = p; q < fc->set.parts.size(); ++q) all.allow.emplace_back(p, q);
+  for (size_t p = 0; p < fc->set.parts.size(); ++p) {
+    for (size_t q = p; q < fc->set.parts.size(); ++q) all.allow.emplace_back(uint16_t(p), uint16_t(q));
   }
   auto result = fixer->Fix(locals, all);
   ASSERT_TRUE(result.ok());
