@@ -11,6 +11,7 @@
 #include <new>
 #include <string>
 
+#include "colliders.h"
 #include "fix.h"
 #include "playback.h"
 
@@ -23,6 +24,7 @@ int main(int argc, char** argv) {
   skinspheres::tool::AddCheckCommand(app, &exit_code);
   skinspheres::tool::AddRetargetCommand(app, &exit_code);
   skinspheres::tool::AddFixCommand(app, &exit_code);
+  skinspheres::tool::AddCollidersCommand(app, &exit_code);
   skinspheres::tool::AddDemoCommand(app, &exit_code);
   skinspheres::tool::AddExportBuiltinCommand(app, &exit_code);
   skinspheres::tool::AddConvertCommand(app, &exit_code);
