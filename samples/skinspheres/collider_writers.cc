@@ -149,23 +149,42 @@ std::string GlbBytes(const Gltf& g) {
   return out;
 }
 
-// The glTF node of each skeleton joint, by name as the importer names joints ("node_N" for an
-// unnamed node N). An error when a name is missing or not unique.
+// The glTF node of each skeleton joint: the node named as the importer names the joint ("node_N"
+// for an unnamed node N) whose ancestors are named as the joint's ancestors (a mesh node may share a
+// bone's name). An error when that leaves two.
 std::optional<std::string> NodesOfJoints(const Gltf& g, const lib::RawCharacter& ch, std::vector<int>* out) {
-  std::map<std::string, std::vector<int>> by_name;
   const json& nodes = g.doc["nodes"];
+  std::vector<std::string> names(nodes.size());
+  std::vector<int> parent(nodes.size(), -1);
+  std::map<std::string, std::vector<int>> by_name;
   for (size_t n = 0; n < nodes.size(); ++n) {
-    const std::string name = nodes[n].is_object() && nodes[n].contains("name") && nodes[n]["name"].is_string()
-                                 ? nodes[n]["name"].get<std::string>()
-                                 : "node_" + std::to_string(n);
-    by_name[name].push_back(static_cast<int>(n));
+    const json& node = nodes[n];
+    names[n] = node.is_object() && node.contains("name") && node["name"].is_string() ? node["name"].get<std::string>()
+                                                                                     : "node_" + std::to_string(n);
+    by_name[names[n]].push_back(static_cast<int>(n));
+    if (!node.is_object() || !node.contains("children") || !node["children"].is_array()) continue;
+    for (const json& c : node["children"]) {
+      if (c.is_number_integer() && c.get<int64_t>() >= 0 && c.get<size_t>() < nodes.size()) parent[c.get<size_t>()] = static_cast<int>(n);
+    }
   }
-  out->assign(ch.skeleton.size(), -1);
-  for (size_t j = 0; j < ch.skeleton.size(); ++j) {
-    const auto it = by_name.find(ch.skeleton.joint_names[j]);
+  const auto& sk = ch.skeleton;
+  auto same_path = [&](int node, int32_t joint) {
+    for (int guard = 0; node >= 0 && joint >= 0 && guard < 100000; ++guard) {
+      if (names[static_cast<size_t>(node)] != sk.joint_names[static_cast<size_t>(joint)]) return false;
+      node = parent[static_cast<size_t>(node)];
+      joint = sk.parents[static_cast<size_t>(joint)];
+    }
+    return node < 0 && joint < 0;
+  };
+  out->assign(sk.size(), -1);
+  for (size_t j = 0; j < sk.size(); ++j) {
+    const auto it = by_name.find(sk.joint_names[j]);
     if (it == by_name.end()) continue;
-    if (it->second.size() > 1) return "node name '" + it->first + "' is not unique: colliders cannot name their node";
-    (*out)[j] = it->second[0];
+    for (int n : it->second) {
+      if (!same_path(n, static_cast<int32_t>(j))) continue;
+      if ((*out)[j] >= 0) return "two nodes named '" + it->first + "' under the same path: colliders cannot name their node";
+      (*out)[j] = n;
+    }
   }
   return std::nullopt;
 }
