@@ -44,6 +44,7 @@ from ._skinspheres import (  # noqa: F401  (the public names)
     __version__,
     check,
     clip_names,
+    colliders,
     fit,
     fix,
     load,

@@ -264,6 +264,31 @@ def fix(
     every clip holds, 1 some clip could not be fixed and was not written). Raises as the tool
     refuses (exit 2)."""
 
+def colliders(
+    character: Path,
+    clip_files: Sequence[Path] = ...,
+    *,
+    budget: int = 32,
+    shapes: str = "auto",
+    format: str = "json",
+    output: Optional[Path] = None,
+    report: Optional[Path] = None,
+    clip: str = "all",
+    fps: float = 30.0,
+    tolerance: float = 0.01,
+    fit_poses: int = 64,
+    compare: bool = False,
+    joint_map: str = "",
+    source_rest: str = "",
+    retarget: str = "auto",
+) -> dict[str, Any]:
+    """`skinspheres colliders`: at most `budget` spheres and capsules on joints covering the body
+    over the clips' poses. Returns the report its --report writes (format "skinspheres.colliders"),
+    exit_code, and the shapes as arrays: "joint" (N,) uint32, "head" and "tail" (N, 3) float32 in
+    each joint's rigid frame (its world rotation and translation, model units), "head_radius" and
+    "tail_radius" (N,), "part", "joint_names", "joint_rest_world" (J, 4, 4). With `output`, also
+    written in `format` (vrm1, vrm0, godot, unity, usd, json). Raises as the tool refuses (exit 2)."""
+
 def check(
     character: Path,
     clip_files: Sequence[Path] = ...,

@@ -354,4 +354,33 @@ PYBIND11_MODULE(_skinspheres, m) {
       "max_depth"_a = tool::kDefaultTouchTolerance, "allow"_a = std::vector<std::string>{}, "spheres"_a = py::none(),
       "fps"_a = 30.0f, "ease"_a = 0.2f, "max_rotation"_a = 60.0f, "max_jerk_ratio"_a = 1.5f, "jobs"_a = 0,
       "joint_map"_a = "", "source_rest"_a = "", "retarget"_a = "auto");
+  m.def(
+      "colliders",
+      [](const PathText& character, const std::vector<PathText>& clip_files, int budget, const std::string& shapes,
+         const std::string& format, const std::optional<PathText>& output, const std::optional<PathText>& report,
+         const std::string& clip, float fps, float tolerance, int fit_poses, bool compare, const std::string& joint_map,
+         const std::string& source_rest, const std::string& retarget) {
+        tool::CollidersArgs a;
+        a.input = character.value;
+        std::vector<std::string> files;
+        for (const PathText& f : clip_files) files.push_back(f.value);
+        NoNul(joint_map, "joint_map");
+        NoNul(source_rest, "source_rest");
+        a.clip_files = ClipFiles(files, joint_map, source_rest, retarget, "keep");
+        a.budget = budget;
+        a.shapes = shapes;
+        a.format = format;
+        a.output = output ? output->value : "";
+        a.report = report ? report->value : "";
+        a.clip = clip;
+        a.fps = fps;
+        a.tolerance = tolerance;
+        a.fit_poses = fit_poses;
+        a.compare = compare;
+        return Colliders(std::move(a));
+      },
+      "character"_a, "clip_files"_a = std::vector<PathText>{}, py::kw_only(), "budget"_a = 32, "shapes"_a = "auto",
+      "format"_a = "json", "output"_a = py::none(), "report"_a = py::none(), "clip"_a = "all", "fps"_a = 30.0f,
+      "tolerance"_a = 0.01f, "fit_poses"_a = 64, "compare"_a = false, "joint_map"_a = "", "source_rest"_a = "",
+      "retarget"_a = "auto");
 }

@@ -20,6 +20,7 @@
 
 #include "check.h"
 #include "clip_files.h"
+#include "colliders.h"
 #include "commands.h"
 #include "fix.h"
 #include "playback.h"
@@ -358,5 +359,11 @@ struct FixArgs {
 // Its JSON report as a dict, with "exit_code"; the clips that hold are written to `output`.
 py::dict Fix(const std::string& character, const std::vector<std::string>& clip_files, const std::string& output,
              const FixArgs& args);
+
+// `skinspheres colliders`: its report as a dict with "exit_code", and the shapes as arrays: "joint"
+// (N,) uint32, "head", "tail" (N, 3) float32 in each joint's rigid frame, "head_radius",
+// "tail_radius" (N,), "part" (N names), "joint_names", "joint_rest_world" (J, 4, 4). Written to
+// a.output in a.format when given.
+py::dict Colliders(tool::CollidersArgs a);
 
 }  // namespace skinspheres::python

@@ -178,3 +178,44 @@ py::dict Fix(const std::string& character, const std::vector<std::string>& clip_
 }
 
 }  // namespace skinspheres::python
+
+namespace skinspheres::python {
+
+py::dict Colliders(tool::CollidersArgs a) {
+  tool::CollidersOutcome outcome;
+  {
+    py::gil_scoped_release release;
+    outcome = tool::RunColliders(a, /*quiet=*/true);
+  }
+  py::dict out = ReportDict(outcome.report, outcome.exit_code, Error{outcome.error_code, outcome.error});
+  const auto n = static_cast<py::ssize_t>(outcome.colliders.size());
+  py::array_t<uint32_t> joint(n);
+  py::array_t<float> head({n, py::ssize_t{3}}), tail({n, py::ssize_t{3}}), head_radius(n), tail_radius(n);
+  py::list part;
+  for (py::ssize_t s = 0; s < n; ++s) {
+    const lib::Collider& c = outcome.colliders[static_cast<size_t>(s)];
+    joint.mutable_at(s) = c.joint;
+    for (py::ssize_t k = 0; k < 3; ++k) head.mutable_at(s, k) = c.head[k], tail.mutable_at(s, k) = c.tail[k];
+    head_radius.mutable_at(s) = c.head_radius;
+    tail_radius.mutable_at(s) = c.tail_radius;
+    part.append(c.part);
+  }
+  py::array_t<float> rest({static_cast<py::ssize_t>(outcome.joint_rest_world.size()), py::ssize_t{4}, py::ssize_t{4}});
+  for (size_t j = 0; j < outcome.joint_rest_world.size(); ++j) {
+    for (int r = 0; r < 4; ++r) {
+      for (int c = 0; c < 4; ++c)
+        rest.mutable_at(static_cast<py::ssize_t>(j), r, c) = outcome.joint_rest_world[j](r, c);
+    }
+  }
+  out["joint"] = joint;
+  out["head"] = head;
+  out["tail"] = tail;
+  out["head_radius"] = head_radius;
+  out["tail_radius"] = tail_radius;
+  out["part"] = part;
+  out["joint_names"] = outcome.joint_names;
+  out["joint_rest_world"] = rest;
+  return out;
+}
+
+}  // namespace skinspheres::python

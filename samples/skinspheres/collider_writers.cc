@@ -164,7 +164,8 @@ std::optional<std::string> NodesOfJoints(const Gltf& g, const lib::RawCharacter&
     by_name[names[n]].push_back(static_cast<int>(n));
     if (!node.is_object() || !node.contains("children") || !node["children"].is_array()) continue;
     for (const json& c : node["children"]) {
-      if (c.is_number_integer() && c.get<int64_t>() >= 0 && c.get<size_t>() < nodes.size()) parent[c.get<size_t>()] = static_cast<int>(n);
+      if (c.is_number_integer() && c.get<int64_t>() >= 0 && c.get<size_t>() < nodes.size())
+        parent[c.get<size_t>()] = static_cast<int>(n);
     }
   }
   const auto& sk = ch.skeleton;
@@ -182,7 +183,8 @@ std::optional<std::string> NodesOfJoints(const Gltf& g, const lib::RawCharacter&
     if (it == by_name.end()) continue;
     for (int n : it->second) {
       if (!same_path(n, static_cast<int32_t>(j))) continue;
-      if ((*out)[j] >= 0) return "two nodes named '" + it->first + "' under the same path: colliders cannot name their node";
+      if ((*out)[j] >= 0)
+        return "two nodes named '" + it->first + "' under the same path: colliders cannot name their node";
       (*out)[j] = n;
     }
   }
