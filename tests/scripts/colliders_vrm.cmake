@@ -5,12 +5,16 @@
 # (shares of the height), the loader's figures within 0.002 of the report's, and (vrm1) ahead of
 # the per-bone capsules at the same count (the report's "baseline": at least their coverage, at
 # most their standoff).
-#   cmake -DTOOL= -DNODE= -DSCRIPT= -DCHARACTER= -DFORMAT= -DFPS= -DMIN_COVERED= -DMAX_STANDOFF= -DDIR=
+# CLIPS (optional): an animation file whose clips are first retargeted onto the character and written
+# with it (`skinspheres retarget`), so that the VRM file, and the loader, hold them.
+#   cmake -DTOOL= -DNODE= -DSCRIPT= -DCHARACTER= [-DCLIPS=] -DFORMAT= -DFPS= -DMIN_COVERED= -DMAX_STANDOFF= -DDIR=
 #         -P colliders_vrm.cmake
-if(CHARACTER AND NOT EXISTS "${CHARACTER}")
-  message(STATUS "asset absent: ${CHARACTER}")
-  return()
-endif()
+foreach(f ${CHARACTER} ${CLIPS})
+  if(NOT EXISTS "${f}")
+    message(STATUS "asset absent: ${f}")
+    return()
+  endif()
+endforeach()
 if(NOT NODE)
   message(FATAL_ERROR "node not found: the VRM check needs Node.js (scripts/deps installs nodejs)")
 endif()
@@ -27,6 +31,14 @@ if(NOT input)
   if(NOT rc EQUAL 0)
     message(FATAL_ERROR "export-builtin failed (${rc})")
   endif()
+endif()
+if(CLIPS)
+  execute_process(COMMAND "${TOOL}" retarget "${input}" --clips "${CLIPS}" -o "${DIR}/retargeted.glb" RESULT_VARIABLE rc
+                  OUTPUT_QUIET)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "skinspheres retarget exited ${rc}")
+  endif()
+  set(input "${DIR}/retargeted.glb")
 endif()
 set(compare)
 if(FORMAT STREQUAL "vrm1")
