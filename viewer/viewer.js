@@ -196,6 +196,44 @@
   selectedMesh.visible = false;
   scene.add(selectedMesh);
 
+  // Colliders (`colliders --html`, data.colliders): one mesh per shape, built about +Y from its head
+  // (y = 0) to its tail (y = length): a lathe of the two balls' arcs joined by the cone between them.
+  // Placed every frame from data.colliders (head and tail, world space, per clip and frame; `rest`
+  // without a clip), coloured by the share of its vertices covered over the poses.
+  var col = data.colliders || null;
+  var colliderGroup = new THREE.Group();
+  scene.add(colliderGroup);
+  var colliderMeshes = (col ? col.shapes : []).map(function (c) {
+    var ra = c.head_radius, rb = c.tail_radius, len = c.length, pts = [];
+    var sinT = len > Math.abs(ra - rb) ? (ra - rb) / len : (ra >= rb ? 1 : -1), theta = Math.asin(sinT), i;
+    for (i = 0; i <= 12; ++i) {
+      var a1 = -Math.PI / 2 + (theta + Math.PI / 2) * i / 12;
+      pts.push(new THREE.Vector2(ra * Math.cos(a1), ra * Math.sin(a1)));
+    }
+    for (i = 0; i <= 12; ++i) {
+      var a2 = theta + (Math.PI / 2 - theta) * i / 12;
+      pts.push(new THREE.Vector2(Math.max(rb * Math.cos(a2), 0), len + rb * Math.sin(a2)));
+    }
+    var colour = c.covered >= 0.999 ? 0x2e9e44 : (c.covered >= 0.97 ? 0xd9a400 : 0xd23c3c);
+    var mesh = new THREE.Mesh(new THREE.LatheBufferGeometry(pts, 24),
+      new THREE.MeshLambertMaterial({ color: colour, transparent: true, opacity: 0.35, depthWrite: false }));
+    mesh.renderOrder = 2;
+    mesh.userData.collider = c;
+    colliderGroup.add(mesh);
+    return mesh;
+  });
+  var yAxis = new THREE.Vector3(0, 1, 0), colliderDir = new THREE.Vector3();
+  function updateColliders() {
+    setState('colliders', ui.colliders ? colliderMeshes.length : 0);
+    if (!col) return;
+    var at = ui.clip >= 0 ? col.clips[ui.clip][ui.frame] : col.rest;
+    colliderMeshes.forEach(function (m, k) {
+      m.position.set(at[6 * k], at[6 * k + 1], at[6 * k + 2]);
+      colliderDir.set(at[6 * k + 3] - at[6 * k], at[6 * k + 4] - at[6 * k + 1], at[6 * k + 5] - at[6 * k + 2]);
+      if (colliderDir.lengthSq() > 0) m.quaternion.setFromUnitVectors(yAxis, colliderDir.normalize());
+    });
+  }
+
   // Contact markers: one dot per sphere pair owning a contact, at the middle of the overlap.
   var maxPairs = 1;
   clips.forEach(function (c) {
@@ -236,11 +274,12 @@
     frame: 0,
     playing: false,
     speed: 1,
-    mesh: 'solid',
-    spheres: true,
+    mesh: data.colliders ? 'xray' : 'solid',  // colliders lie under the skin: seen through it
+    spheres: !data.colliders,
     color: 'part',
     contacts: true,
-    loosest: data.kind === 'fit',  // marked by default on the fit page; a toggle on playback
+    loosest: data.kind === 'fit' && !data.colliders,  // marked by default on the fit page; a toggle on playback
+    colliders: !!data.colliders,
     excluded: false,
     overlaps: false,  // sphere-only overlaps on the timeline
     selected: -1,
@@ -535,6 +574,7 @@
       selectedMesh.position.copy(sphereMeshes[ui.selected].position);
       selectedMesh.scale.copy(sphereMeshes[ui.selected].scale).multiplyScalar(1.01);
     }
+    updateColliders();
     poseCharacter();
     updateTriangleHighlights();
     updateFrameUi(ui.contacts ? currentPairs() : []);
@@ -547,6 +587,7 @@
   function applyVisibility() {
     sphereGroup.visible = ui.spheres;
     looseGroup.visible = ui.loosest;
+    colliderGroup.visible = ui.colliders;
     markers.visible = ui.contacts;
     excludedLines.visible = ui.excluded;
     if (character) {
@@ -862,6 +903,8 @@
   $('ss-contacts').addEventListener('change', function () { ui.contacts = this.checked; applyVisibility(); saveHash(); });
   $('ss-loosest').addEventListener('change', function () { ui.loosest = this.checked; applyVisibility(); saveHash(); });
   $('ss-excluded').addEventListener('change', function () { ui.excluded = this.checked; applyVisibility(); saveHash(); });
+  $('ss-colliders').addEventListener('change', function () { ui.colliders = this.checked; applyVisibility(); saveHash(); });
+  if (!data.colliders) $('ss-colliders-label').style.display = 'none';
   $('ss-overlaps').addEventListener('change', function () { ui.overlaps = this.checked; buildTimeline(); saveHash(); });
   $('ss-viewdir').addEventListener('change', function () { ui.view = this.value; setView(ui.view); });
   document.addEventListener('click', function (ev) {
@@ -915,6 +958,7 @@
     if (p.contacts !== undefined) ui.contacts = p.contacts !== '0';
     if (p.loosest !== undefined) ui.loosest = p.loosest !== '0';
     if (p.excluded !== undefined) ui.excluded = p.excluded !== '0';
+    if (p.colliders !== undefined) ui.colliders = !!data.colliders && p.colliders !== '0';
     if (p.overlaps !== undefined) ui.overlaps = p.overlaps !== '0';
     if (p.color !== undefined) ui.color = p.color === 'loose' ? 'loose' : 'part';
     if (p.sphere !== undefined) ui.selected = Number(p.sphere);
@@ -925,6 +969,7 @@
     $('ss-contacts').checked = ui.contacts;
     $('ss-loosest').checked = ui.loosest;
     $('ss-excluded').checked = ui.excluded;
+    $('ss-colliders').checked = ui.colliders;
     $('ss-overlaps').checked = ui.overlaps;
     $('ss-color').value = ui.color;
     $('ss-viewdir').value = ui.view;
@@ -946,6 +991,7 @@
     if (!ui.contacts) parts.push('contacts=0');
     if (!ui.loosest) parts.push('loosest=0');
     if (ui.excluded) parts.push('excluded=1');
+    if (data.colliders && !ui.colliders) parts.push('colliders=0');
     if (ui.overlaps) parts.push('overlaps=1');
     if (ui.color !== 'part') parts.push('color=' + ui.color);
     if (ui.selected >= 0) parts.push('sphere=' + ui.selected);

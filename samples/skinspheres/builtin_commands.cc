@@ -211,7 +211,7 @@ int RunDemo(FitOptions& opts, const std::string& html) {
     all_verified &= played->verified();
     kept.push_back(std::move(*played));
   }
-  ViewerPageInput page{&*loaded, &set, fit->report.seconds, {}, {}};
+  ViewerPageInput page{&*loaded, &set, fit->report.seconds, {}, {}, nullptr};
   for (size_t c = 0; c < kept.size(); ++c)
     page.clips.push_back(ViewClip{&kept[c], &frames[c], c, PlayOptions{}.fps, false});
   if (auto err = WriteViewerPage(page, html)) return Fail(err->message);

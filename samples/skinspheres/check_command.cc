@@ -324,7 +324,7 @@ std::optional<std::string> WritePages(const std::vector<Checked>& checked, const
     stems.push_back(stem);
     LoadedCharacter page_character = loaded;
     page_character.character.clips.clear();
-    ViewerPageInput page{&page_character, &set, fit_seconds, {}, {"clips checked by skinspheres check"}};
+    ViewerPageInput page{&page_character, &set, fit_seconds, {}, {"clips checked by skinspheres check"}, nullptr};
     for (const Checked& c : checked) {
       if (c.entry.file != file || !c.played) continue;
       page.clips.push_back(

@@ -14,7 +14,7 @@
 namespace skinspheres::tool {
 
 struct CollidersArgs {
-  std::string input, output, report, format = "json", shapes = "auto", clip = "all";
+  std::string input, output, report, html, format = "json", shapes = "auto", clip = "all";
   ClipFileOptions clip_files;
   int budget = 32;
   float fps = 30.0f;        // frames of the clips measured (and fitted, up to --fit-poses of them)

@@ -2,9 +2,13 @@
 #include <cstdio>
 
 #include "colliders.h"
+#include "html_page.h"
+#include "playback.h"
 #include "skinspheres/lib/retarget/bake_clip.h"
 #include "skinspheres/runtime/error.h"
 #include "skinspheres/runtime/format/file_io.h"
+#include "skinspheres/skinning/local_to_model_job.h"
+#include "skinspheres/skinning/sampling_job.h"
 
 namespace skinspheres::tool {
 
@@ -31,6 +35,8 @@ std::optional<std::string> Validate(const CollidersArgs& a, const ColliderFormat
   if (!a.output.empty() && a.output == a.input) return "-o: would overwrite the character file " + a.input;
   if (!a.report.empty() && (a.report == a.input || a.report == a.output))
     return "--report: would overwrite " + a.report;
+  if (!a.html.empty() && (a.html == a.input || a.html == a.output || a.html == a.report))
+    return "--html: would overwrite " + a.html;
   return std::nullopt;
 }
 
@@ -92,6 +98,69 @@ nlohmann::json ShapesJson(const CollidersOutcome& o, const lib::ColliderCoverage
                       {"surface_gap_share", cov.shapes[s].surface_gap / h}});
   }
   return shapes;
+}
+
+// The shapes' heads and tails in world space (6 floats each) at one local pose.
+std::vector<float> PlacedShapes(const lib::RawCharacter& ch, std::span<const skinning::Transform> local,
+                                const std::vector<lib::Collider>& colliders) {
+  std::vector<Mat4f> world(ch.skeleton.size());
+  skinning::LocalToModelJob l2m;
+  l2m.skeleton = &ch.skeleton;
+  l2m.input = local;
+  l2m.output = world;
+  l2m.Run();
+  std::vector<float> out;
+  for (const auto& c : colliders) {
+    const lib::PlacedCollider p = lib::PlaceCollider(c, world[c.joint]);
+    out.insert(out.end(), {p.head.x(), p.head.y(), p.head.z(), p.tail.x(), p.tail.y(), p.tail.z()});
+  }
+  return out;
+}
+
+// --html: the viewer page playing the chosen clips (a sphere set fitted for it) with the colliders
+// drawn on the moving character, placed at each frame's clip time.
+std::optional<Error> WriteColliderPage(const LoadedCharacter& loaded, const std::vector<size_t>& clips,
+                                       const CollidersOutcome& o, const lib::ColliderCoverage& coverage,
+                                       const CollidersArgs& a) {
+  double fit_seconds = -1.0;
+  auto set = SphereSetFor(loaded, "", lib::FitSettings{}, &fit_seconds);
+  if (!set.ok()) return set.error();
+  const lib::RawCharacter& ch = loaded.character;
+  nlohmann::json shapes = nlohmann::json::array();
+  for (size_t s = 0; s < o.colliders.size(); ++s) {
+    const auto& c = o.colliders[s];
+    shapes.push_back({{"joint", o.joint_names[c.joint]},
+                      {"part", c.part},
+                      {"head_radius", c.head_radius},
+                      {"tail_radius", c.tail_radius},
+                      {"length", (c.tail - c.head).norm()},
+                      {"covered", coverage.shapes[s].covered},
+                      {"standoff", coverage.shapes[s].standoff}});
+  }
+  std::vector<PlayResult> played(clips.size());
+  std::vector<std::vector<FrameRecord>> frames(clips.size());
+  PlayOptions options;
+  options.fps = a.fps;
+  ViewerPageInput page{&loaded, &*set, fit_seconds, {}, {"colliders by skinspheres colliders"}, nullptr};
+  nlohmann::json per_clip = nlohmann::json::array();
+  std::vector<skinning::Transform> local(ch.skeleton.size());
+  for (size_t k = 0; k < clips.size(); ++k) {
+    auto result = PlayClip(loaded, *set, clips[k], options, RecordFrames(&frames[k]));
+    if (!result.ok()) return result.error();
+    played[k] = std::move(*result);
+    page.clips.push_back(ViewClip{&played[k], &frames[k], clips[k], a.fps, false});
+    nlohmann::json at = nlohmann::json::array();
+    for (const FrameRecord& f : frames[k]) {
+      skinning::SamplingJob sample{&ch.clips[clips[k]], &ch.skeleton, f.clip_time_s, local};
+      sample.Run();
+      at.push_back(PlacedShapes(ch, local, o.colliders));
+    }
+    per_clip.push_back(std::move(at));
+  }
+  page.colliders = {{"shapes", std::move(shapes)},
+                    {"rest", PlacedShapes(ch, ch.skeleton.rest_local, o.colliders)},
+                    {"clips", std::move(per_clip)}};
+  return WriteViewerPage(page, a.html);
 }
 
 }  // namespace
@@ -197,6 +266,10 @@ CollidersOutcome RunColliders(CollidersArgs& a, bool quiet) {
     if (auto err = runtime::WriteWholeFile(a.report, text)) return fail(err->message);
     say("wrote " + a.report);
   }
+  if (!a.html.empty()) {
+    if (auto err = WriteColliderPage(*loaded, chosen, out, *coverage, a)) return fail(err->message, err->code);
+    say("wrote " + a.html);
+  }
   return out;
 }
 
@@ -224,6 +297,7 @@ void AddCollidersCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--fit-poses", a->fit_poses, "at most this many poses (evenly chosen) shape the fit")
       ->capture_default_str();
   cmd->add_option("--report", a->report, "write a JSON report: per shape its joint and coverage, and the totals");
+  cmd->add_option("--html", a->html, "write the viewer page: the clips played with the colliders on the character");
   cmd->add_flag("--compare", a->compare, "also measure per-bone capsules at the same count (the usual generator)");
   cmd->add_option("--parts", a->parts_file, "joint -> body part overrides (JSON)");
   cmd->callback([a, exit_code] { *exit_code = RunColliders(*a, false).exit_code; });

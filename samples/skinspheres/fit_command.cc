@@ -142,7 +142,8 @@ int RunFit(FitArgs& args) {
     std::printf("wrote %s\n", args.output.c_str());
   }
   if (!args.html.empty()) {
-    if (auto err = WriteViewerPage(ViewerPageInput{&*loaded, &fit->spheres, fit->report.seconds, {}, {}}, args.html)) {
+    if (auto err = WriteViewerPage(ViewerPageInput{&*loaded, &fit->spheres, fit->report.seconds, {}, {}, nullptr},
+                                   args.html)) {
       return Fail(err->message);
     }
     std::printf("wrote %s\n", args.html.c_str());

@@ -292,7 +292,7 @@ std::optional<Error> WriteBeforeAfterPages(const std::vector<Fixed>& fixed, cons
     std::vector<std::vector<FrameRecord>> frames(2);
     PlayOptions options;
     options.fps = a.fps;
-    ViewerPageInput page{&page_character, &set, -1.0, {}, {"before and after skinspheres fix"}};
+    ViewerPageInput page{&page_character, &set, -1.0, {}, {"before and after skinspheres fix"}, nullptr};
     for (size_t k = 0; k < 2; ++k) {
       auto result = PlayClip(page_character, set, k, options, RecordFrames(&frames[k]));
       if (!result.ok()) return result.error();

@@ -314,6 +314,7 @@ std::optional<Error> WriteViewerPage(const ViewerPageInput& in, const std::strin
     clips.push_back(std::move(*c));
   }
   data["clips"] = std::move(clips);
+  if (!in.colliders.is_null()) data["colliders"] = in.colliders;
 
   namespace va = viewer_assets;
   for (std::string_view script : {va::kThreeJs, va::kGltfLoaderJs, va::kOrbitControlsJs, va::kViewerJs}) {

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <array>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,6 +36,9 @@ struct ViewerPageInput {
   double fit_seconds = -1.0;       // < 0: the set was read from a file, not fitted in this run
   std::vector<ViewClip> clips;     // empty: the fit page (bind pose)
   std::vector<std::string> notes;  // extra header lines (e.g. where clips came from)
+  // `colliders --html`: {"shapes": [...], "rest": [...], "clips": [[...] per frame] per clip} (the
+  // viewer draws them; docs/VIEWER.md); null: none.
+  nlohmann::json colliders;
 };
 
 // Measures the fit (lib::MeasureFit: union/body volume, boundary distance, each sphere's share of

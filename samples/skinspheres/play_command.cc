@@ -161,7 +161,7 @@ struct PlaySession {
   }
   int WritePage() const {
     if (a.html.empty()) return 0;
-    ViewerPageInput page{&loaded, &set, fit_seconds, {}, notes};
+    ViewerPageInput page{&loaded, &set, fit_seconds, {}, notes, nullptr};
     for (size_t k = 0; k < kept.size(); ++k)
       page.clips.push_back(ViewClip{&kept[k], &recorded[k], clips[k], a.fps, a.mode == "fast"});
     if (auto err = WriteViewerPage(page, a.html)) return Fail(err->message);

@@ -8,7 +8,7 @@ add_test(NAME viewer.pages
 set_tests_properties(viewer.pages PROPERTIES FIXTURES_SETUP viewer_pages)
 
 find_program(NODE_EXECUTABLE NAMES node nodejs)
-foreach(case play fit clips pieces fix)
+foreach(case play fit clips pieces fix colliders)
   if(NODE_EXECUTABLE)
     add_test(NAME viewer.${case}
       COMMAND ${NODE_EXECUTABLE} ${CMAKE_CURRENT_SOURCE_DIR}/viewer/page_tests.mjs ${case} ${viewer_dir})
