@@ -1,5 +1,8 @@
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 
 #include "colliders.h"
 #include "html_page.h"
@@ -32,12 +35,20 @@ std::optional<std::string> Validate(const CollidersArgs& a, const ColliderFormat
   if (!(a.fps > 0.0f && a.fps <= 1000.0f)) return "--fps: must be in (0, 1000]";
   if (!(a.tolerance >= 0.0f && a.tolerance <= 0.5f)) return "--tolerance: must be a share of the height in [0, 0.5]";
   if (a.fit_poses < 1) return "--fit-poses: must be at least 1";
-  if (!a.output.empty() && a.output == a.input) return "-o: would overwrite the character file " + a.input;
-  if (!a.report.empty() && (a.report == a.input || a.report == a.output))
-    return "--report: would overwrite " + a.report;
-  if (!a.html.empty() && (a.html == a.input || a.html == a.output || a.html == a.report))
-    return "--html: would overwrite " + a.html;
-  return std::nullopt;
+  if (!a.output.empty()) {
+    std::string ext = std::filesystem::path(a.output).extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    const std::string allowed = (*format)->extension;
+    bool ok = false;
+    for (size_t at = 0; at < allowed.size();) {
+      const size_t end = std::min(allowed.find('/', at), allowed.size());
+      ok = ok || ext == allowed.substr(at, end - at);
+      at = end + 1;
+    }
+    if (!ok) return a.output + ": -o: --format " + a.format + " writes a " + allowed + " file";
+  }
+  const std::pair<const char*, std::string> outputs[] = {{"-o", a.output}, {"--report", a.report}, {"--html", a.html}};
+  return CheckOutputPaths(outputs, a.input, a.clip_files.files);
 }
 
 nlohmann::json Summary(const lib::ColliderCoverage& c) {

@@ -6,7 +6,9 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "skinspheres/lib/body_parts/body_parts.h"
@@ -59,6 +61,14 @@ void PrintFitSummary(const lib::FitResult& fit, double import_seconds);
 // Writes a sphere set in the format of the path's extension (.json JSON, .ssb binary; fast_only:
 // the binary fast-only variant, .ssb only). An error message (naming the path) when refused.
 std::optional<std::string> SaveSetFile(const runtime::SphereSet& set, const std::string& path, bool fast_only);
+
+// Two paths naming one file: the same existing file, or the same path once normalised.
+bool SameFile(const std::string& a, const std::string& b);
+// The outputs a command will write, checked before any work: each (option, path) with a path in an
+// existing folder, not a folder itself, not the input or a clip file, and no two the same file.
+// A message "<path>: <option> ..." when refused.
+std::optional<std::string> CheckOutputPaths(std::span<const std::pair<const char*, std::string>> outputs,
+                                            const std::string& input, std::span<const std::string> clip_files);
 
 void AddFitCommand(CLI::App& app, int* exit_code);
 void AddConvertCommand(CLI::App& app, int* exit_code);

@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 
 #include "commands.h"
@@ -188,6 +189,36 @@ void PrintFitSummary(const lib::FitResult& fit, double import_seconds) {
   }
   std::printf("F (paper): mean %.6f, max %.6f (body height %.4f)\n", r.f_mean, r.f_max, r.body_height);
   std::printf("time: import %.1f ms, fit %.1f ms\n", import_seconds * 1e3, r.seconds * 1e3);
+}
+
+bool SameFile(const std::string& a, const std::string& b) {
+  if (a.empty() || b.empty()) return false;
+  std::error_code ec;
+  if (std::filesystem::equivalent(a, b, ec)) return true;
+  const auto x = std::filesystem::weakly_canonical(a, ec), y = std::filesystem::weakly_canonical(b, ec);
+  return !ec && x == y;
+}
+
+std::optional<std::string> CheckOutputPaths(std::span<const std::pair<const char*, std::string>> outputs,
+                                            const std::string& input, std::span<const std::string> clip_files) {
+  for (size_t k = 0; k < outputs.size(); ++k) {
+    const auto& [option, path] = outputs[k];
+    if (path.empty()) continue;
+    std::error_code ec;
+    const auto parent = std::filesystem::path(path).parent_path();
+    if (!parent.empty() && !std::filesystem::is_directory(parent, ec))
+      return path + ": " + option + ": no folder " + parent.string();
+    if (std::filesystem::is_directory(path, ec)) return path + ": " + option + ": is a folder";
+    if (SameFile(path, input)) return path + ": " + option + " would overwrite the character file";
+    for (const std::string& file : clip_files) {
+      if (SameFile(path, file)) return path + ": " + option + " would overwrite a --clips file";
+    }
+    for (size_t i = 0; i < k; ++i) {
+      if (SameFile(path, outputs[i].second))
+        return path + ": " + option + " and " + outputs[i].first + " name the same file";
+    }
+  }
+  return std::nullopt;
 }
 
 }  // namespace skinspheres::tool

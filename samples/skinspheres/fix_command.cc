@@ -42,32 +42,10 @@ std::string Percent(double share) {
   return text;
 }
 
-// Two paths naming one file: the same existing file, or the same path once normalised.
-bool SameFile(const std::string& a, const std::string& b) {
-  if (a.empty() || b.empty()) return false;
-  std::error_code ec;
-  if (std::filesystem::equivalent(a, b, ec)) return true;
-  const auto x = std::filesystem::weakly_canonical(a, ec), y = std::filesystem::weakly_canonical(b, ec);
-  return !ec && x == y;
-}
-
-// The outputs before any work: each in an existing folder, none a folder itself, none the input,
-// a clip file or another output (a report over the character file would destroy it).
-std::optional<std::string> CheckOutputPaths(const FixArgs& a) {
-  const std::pair<const char*, const std::string*> outputs[] = {{"-o", &a.output}, {"--report", &a.report}};
-  for (const auto& [option, path] : outputs) {
-    if (path->empty()) continue;
-    std::error_code ec;
-    const auto parent = std::filesystem::path(*path).parent_path();
-    if (!parent.empty() && !std::filesystem::is_directory(parent, ec))
-      return *path + ": " + option + ": no folder " + parent.string();
-    if (std::filesystem::is_directory(*path, ec)) return *path + ": " + option + ": is a folder";
-    if (SameFile(*path, a.input)) return *path + ": " + option + " would overwrite the character file";
-    for (const std::string& file : a.clip_files.files) {
-      if (SameFile(*path, file)) return *path + ": " + option + " would overwrite a --clips file";
-    }
-  }
-  if (SameFile(a.report, a.output)) return a.report + ": --report and -o name the same file";
+// The outputs before any work (CheckOutputPaths, commands.h); --html is a folder of pages.
+std::optional<std::string> CheckFixOutputs(const FixArgs& a) {
+  const std::pair<const char*, std::string> outputs[] = {{"-o", a.output}, {"--report", a.report}};
+  if (auto why = tool::CheckOutputPaths(outputs, a.input, a.clip_files.files)) return why;
   if (!a.html.empty() && (SameFile(a.html, a.output) || SameFile(a.html, a.report)))
     return a.html + ": --html names an output file";
   return std::nullopt;
@@ -83,7 +61,7 @@ std::optional<std::string> Validate(const FixArgs& a) {
   std::string ext = std::filesystem::path(a.output).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   if (ext != ".glb") return a.output + ": -o takes a .glb file";
-  return CheckOutputPaths(a);
+  return CheckFixOutputs(a);
 }
 
 // --allow A:B by part name, as the set names its parts.

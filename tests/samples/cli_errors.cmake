@@ -72,6 +72,15 @@ set(cli_cases
   "fix_output_is_input|fix|@GLB@|-o|@GLB@|-o would overwrite the character file"
   "fix_report_is_output|fix|@GLB@|-o|out.glb|--report|out.glb|--report and -o name the same file"
   "fix_report_no_folder|fix|@GLB@|-o|out.glb|--report|nodir/r.json|--report: no folder"
+  "colliders_format|colliders|@GLB@|--format|fbx|-o|out.json|--format: 'fbx' is not one of"
+  "colliders_budget|colliders|@GLB@|--budget|0|-o|out.json|--budget: must be between 1 and 1024 (got 0)"
+  "colliders_vrm0_capsules|colliders|@GLB@|--format|vrm0|--shapes|capsules|-o|out.glb|--format vrm0 holds spheres only"
+  "colliders_extension|colliders|@GLB@|--format|usd|-o|out.json|-o: --format usd writes a .usda file"
+  "colliders_output_is_input|colliders|@GLB@|--format|vrm1|-o|@GLB@|-o would overwrite the character file"
+  "colliders_no_folder|colliders|@GLB@|-o|nodir/c.json|-o: no folder"
+  "colliders_report_is_output|colliders|@GLB@|-o|c.json|--report|c.json|--report and -o name the same file"
+  "colliders_clip_unknown|colliders|@GLB@|--clip|dance|-o|c.json|--clip dance: no such clip"
+  "colliders_output_full|colliders|@GLB@|--fps|5|--budget|4|-o|@FULL_JSON@|full.json: write failed"
   # A sphere set nested 100,000 deep (it crashed play with SIGSEGV).
   "spheres_deep|play|@GLB@|--spheres|@DEEP@|nests 100002 deep"
 )
