@@ -116,39 +116,47 @@ class _ExportState:
         if data.use_tweak_mode:
             raise Failure(f"{self.armature.name} is in NLA tweak mode: leave it first")
         view_layer = self.context.view_layer
+        # Everything changed below, saved before anything changes: __exit__ restores it all.
         self.selected = [o for o in view_layer.objects if o.select_get()]
         self.active = view_layer.objects.active
+        self.action = data.action
+        self.muted = [(s, s.mute) for t in data.nla_tracks for s in t.strips]
+        self.frame = self.context.scene.frame_current
+        self.basis = [(b, b.matrix_basis.copy()) for b in self.armature.pose.bones]
+        self.ranges = [(a, a.use_frame_range, a.frame_start, a.frame_end) for a in self.actions]
+        self.tracks = []
+        try:
+            self._prepare(view_layer, data)
+        except BaseException:
+            self.__exit__()
+            raise
+        return self
+
+    def _prepare(self, view_layer, data):
         for obj in self.selected:
             obj.select_set(False)
         for obj in [self.armature, *self.meshes]:
             obj.select_set(True)
         view_layer.objects.active = self.armature
-        self.action = data.action
-        self.muted = [(s, s.mute) for t in data.nla_tracks for s in t.strips]
         for strip, _ in self.muted:
             strip.mute = True
         data.action = None
         # The exporter writes the bones' current pose into the nodes: make it the rest pose, so that
         # the file does not depend on the frame the scene is at.
-        self.frame = self.context.scene.frame_current
-        self.basis = [(b, b.matrix_basis.copy()) for b in self.armature.pose.bones]
         for bone, _ in self.basis:
             bone.matrix_basis = Matrix()
         # Blender 3.4's exporter samples frame int(f) but writes it at time f / fps, f running from the
         # first key: with keys a hair below whole frames (0.9999988, as glTF imports give) every
         # sample lands one frame late. A whole-frame manual range makes f whole.
-        self.ranges = [(a, a.use_frame_range, a.frame_start, a.frame_end) for a in self.actions]
         for action in self.actions:
             first, last = (round(f) for f in action.frame_range)
             action.use_frame_range = True
             action.frame_start, action.frame_end = first, max(first, last)
-        self.tracks = []
         for action in self.actions:
             track = data.nla_tracks.new()
+            self.tracks.append(track)
             track.name = action.name  # the clip's name in the file
             track.strips.new(action.name, int(action.frame_range[0]), action)
-            self.tracks.append(track)
-        return self
 
     def __exit__(self, *_):
         data = self.armature.animation_data

@@ -10,7 +10,7 @@ import bpy
 import numpy as np
 
 from . import fixed_action, results, spheres_object
-from .character import active_armature, actions_of, export_glb, fps
+from .character import Failure, active_armature, actions_of, export_glb, fps
 from .jobs import LongOperator, in_thread, module_or_fail
 
 
@@ -35,6 +35,15 @@ def _fit_into(ss, glb, scratch):
     path = os.path.join(scratch, "spheres.ssb")
     spheres.save(path)
     return path
+
+
+def _clip_indices(ss, glb, actions):
+    """{action name: its clip's index in the exported file}; every action must be there."""
+    clips = ss.clip_names(glb)
+    missing = [a.name for a in actions if a.name not in clips]
+    if missing:
+        raise Failure(f"the glTF exporter wrote no clip for {', '.join(missing)} (does it key the bones?)")
+    return {name: i for i, name in enumerate(clips)}
 
 
 def _write_json(path, report):
@@ -108,14 +117,14 @@ class SKINSPHERES_OT_check(LongOperator, bpy.types.Operator):
             export_glb(context, armature, glb, actions)
             yield 0.02, f"{self.bl_label}: fitting the spheres"
             ssb = yield from _fit_into(ss, glb, scratch)
-            clips = ss.clip_names(glb)
+            clips = _clip_indices(ss, glb, actions)
             state.pairs.clear()
             state.pair_index = -1
             state.armature = armature.name
             for i, action in enumerate(actions):
                 yield 0.05 + 0.85 * i / len(actions), f"Check: {action.name} ({i + 1}/{len(actions)})"
                 result = yield from in_thread(
-                    ss.play, glb, clip=clips.index(action.name), fps=rate, mode=state.mode, spheres=ssb
+                    ss.play, glb, clip=clips[action.name], fps=rate, mode=state.mode, spheres=ssb
                 )
                 markers, pairs = penetrations(ss, result)
                 results.mark_action(action, markers)
@@ -186,12 +195,12 @@ class SKINSPHERES_OT_fix(LongOperator, bpy.types.Operator):
             export_glb(context, armature, glb, actions)
             yield 0.02, f"{self.bl_label}: fitting the spheres"
             ssb = yield from _fit_into(ss, glb, scratch)
-            clips = ss.clip_names(glb)
+            clips = _clip_indices(ss, glb, actions)
             for i, action in enumerate(actions):
                 yield 0.05 + 0.9 * i / len(actions), f"Fix: {action.name} ({i + 1}/{len(actions)})"
                 out = os.path.join(scratch, f"fixed{i}.glb")
                 report = yield from in_thread(
-                    ss.fix, glb, out, clip=str(clips.index(action.name)), max_depth=state.fix_depth / 100,
+                    ss.fix, glb, out, clip=str(clips[action.name]), max_depth=state.fix_depth / 100,
                     spheres=ssb, fps=rate,
                 )
                 reports.append(report)
