@@ -10,8 +10,6 @@ EXEC_DEFAULT (scripts, background Blender, the tests) the same job runs to its e
 import threading
 import time
 
-import bpy
-
 from .character import Failure, active_armature
 from .module import load
 

@@ -24,7 +24,7 @@ def _unit_sphere():
     return verts, faces
 
 
-def part_colour(index, count):
+def part_colour(index):
     """A distinct colour per body part (golden-ratio hues), RGBA."""
     hue = (index * 0.618034) % 1.0
     return (*colorsys.hsv_to_rgb(hue, 0.65, 0.95), 0.35)
@@ -80,7 +80,7 @@ def _colour(obj, mesh, sphere_set, faces_per_sphere):
     parts = sphere_set.part_names
     for i, part in enumerate(parts):
         material = bpy.data.materials.get(f"ss part {part}") or bpy.data.materials.new(f"ss part {part}")
-        material.diffuse_color = part_colour(i, len(parts))
+        material.diffuse_color = part_colour(i)
         material.blend_method = "BLEND"
         mesh.materials.append(material)
     indices = np.repeat(np.asarray(sphere_set.sphere_part, np.int32), faces_per_sphere)
