@@ -1,10 +1,21 @@
 """The sidebar panel (View3D > N > skinspheres) and its list of part pairs."""
 
+import textwrap
+
 import bpy
 
 from . import module
 from .character import active_armature, meshes_of
 from .jobs import busy
+
+
+def wrapped(layout, context, text, icon="NONE"):
+    """Labels for text wrapped to the region's width (Blender 3.4's labels do not wrap)."""
+    scale = context.preferences.view.ui_scale
+    chars = max(16, int((context.region.width - 40 * scale) / (7 * scale)))  # less the icon and margins
+    column = layout.column(align=True)
+    for i, line in enumerate(textwrap.wrap(text, chars) or [""]):
+        column.label(text=line, icon=icon if i == 0 else ("BLANK1" if icon != "NONE" else "NONE"))
 
 
 class SKINSPHERES_UL_pairs(bpy.types.UIList):
@@ -28,8 +39,8 @@ class SKINSPHERES_PT_panel(bpy.types.Panel):
         if ss is None:
             box = layout.box()
             for i, line in enumerate(module.error_lines(error)):
-                box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
-            box.operator("preferences.addon_show", text="Open the add-on's preferences").module = __package__
+                wrapped(box, context, line, icon="ERROR" if i == 0 else "NONE")
+            box.operator("preferences.addon_show", text="Open preferences").module = __package__
             return
         armature = active_armature(context)
         if armature is None:
@@ -41,7 +52,7 @@ class SKINSPHERES_PT_panel(bpy.types.Panel):
         layout.label(text=f"Action: {action.name if action else '(none)'}", icon="ACTION")
         layout.prop(state, "output_dir")
         if busy() or state.status:
-            layout.label(text=state.status + (" (Esc cancels)" if busy() else ""), icon="TIME" if busy() else "INFO")
+            wrapped(layout, context, state.status + (" (Esc cancels)" if busy() else ""), "TIME" if busy() else "INFO")
         self._fit(layout, armature)
         self._check(layout, state)
         self._fix(layout, state)
