@@ -8,7 +8,8 @@ Installs the add-on from the built zip, imports the character with Blender's glT
 each operator as a script would (EXEC_DEFAULT), then compares with the tool, clip by clip:
 
 1. Fit: the set it saved has the parts `skinspheres fit` gives the original file; the spheres
-   object has one sphere per sphere of the set, bound to bones, hidden from renders.
+   object has one sphere per sphere of the set, bound to bones, hidden from renders, and at rest it
+   holds every vertex of Blender's meshes (the fit covers every triangle).
 2. Check (every action): Blender's pose at scene frame k is the tool's frame k (every bone's head
    against the joints `play --dump` samples); each action's markers are, frame by frame, the frames where
    `skinspheres play --dump` finds a part pair penetrating (and the deepest pair), on the very file
@@ -161,7 +162,44 @@ def test_fit(args, ss, armature, state):
     bones = {b.name for b in armature.data.bones}
     assert {g.name for g in obj.vertex_groups} <= bones
     assert len(obj.data.materials) == len(spheres.part_names)
-    print(f"fit: {len(spheres)} spheres, parts {spheres.part_names} (the tool's: {len(parts)})")
+    outside = spheres_hold_the_mesh(armature, obj, len(spheres))
+    print(f"fit: {len(spheres)} spheres, parts {spheres.part_names} (the tool's: {len(parts)}); at rest in "
+          f"Blender the spheres object holds every vertex of the meshes (deepest outside: {outside:.2g})")
+
+
+def world_vertices(obj):
+    """An object's evaluated vertices in world space, (V, 3)."""
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = evaluated.to_mesh()
+    co = numpy.empty(3 * len(mesh.vertices), numpy.float64)
+    mesh.vertices.foreach_get("co", co)
+    evaluated.to_mesh_clear()
+    m = numpy.array(obj.matrix_world)
+    return co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+
+
+def spheres_hold_the_mesh(armature, obj, count):
+    """At rest, every vertex of the character's meshes lies inside some sphere of the spheres object,
+    as Blender places it (the fit covers every triangle): the add-on's conversion from the file's
+    space to the armature's, checked against Blender's own meshes."""
+    armature.data.pose_position = "REST"
+    bpy.context.view_layer.update()
+    try:
+        points = world_vertices(obj).reshape(count, -1, 3)
+        centres = points.mean(axis=1)
+        radii = numpy.linalg.norm(points - centres[:, None], axis=2).max(axis=1)
+        meshes = [o for o in bpy.data.objects if o.type == "MESH" and o != obj
+                  and any(m.type == "ARMATURE" and m.object == armature for m in o.modifiers)]
+        vertices = numpy.concatenate([world_vertices(o) for o in meshes])
+    finally:
+        armature.data.pose_position = "POSE"
+    height = float(numpy.ptp(vertices, axis=0).max())
+    worst = 0.0
+    for chunk in numpy.array_split(vertices, max(1, len(vertices) // 2000)):
+        gap = numpy.linalg.norm(chunk[:, None] - centres[None], axis=2) - radii[None]
+        worst = max(worst, float(gap.min(axis=1).max()))
+    assert worst <= 1e-4 * height, f"a vertex lies {worst} outside every sphere"
+    return worst
 
 
 def test_check_all(args, armature, clips, state, fps):
