@@ -85,23 +85,27 @@ def export_glb(context, armature, path, actions):
     meshes = meshes_of(armature)
     if not meshes:
         raise Failure(f"no mesh is deformed by {armature.name} (an Armature modifier pointing at it)")
+    options = {
+        "filepath": path,
+        "export_format": "GLB",
+        "use_selection": True,
+        "export_animations": bool(actions),
+        "export_skins": True,
+        "export_nla_strips": True,  # 3.x: one clip per NLA track
+        "export_anim_single_armature": False,  # 3.x: not every action of the file besides
+        "export_animation_mode": "NLA_TRACKS",  # 4.x: one clip per NLA track
+        "export_force_sampling": True,
+        "export_materials": "NONE",
+        "export_texcoords": False,
+        "export_colors": False,
+        "export_extras": False,
+        "export_cameras": False,
+        "export_lights": False,
+    }
+    # Options come and go between Blender versions: pass the ones this exporter has.
+    known = bpy.ops.export_scene.gltf.get_rna_type().properties.keys()
     with _ExportState(context, armature, meshes, actions):
-        bpy.ops.export_scene.gltf(
-            filepath=path,
-            export_format="GLB",
-            use_selection=True,
-            export_animations=bool(actions),
-            export_skins=True,
-            export_nla_strips=True,
-            export_anim_single_armature=False,
-            export_force_sampling=True,
-            export_materials="NONE",
-            export_texcoords=False,
-            export_colors=False,
-            export_extras=False,
-            export_cameras=False,
-            export_lights=False,
-        )
+        bpy.ops.export_scene.gltf(**{k: v for k, v in options.items() if k in known})
 
 
 class _ExportState:
@@ -120,7 +124,7 @@ class _ExportState:
         self.selected = [o for o in view_layer.objects if o.select_get()]
         self.active = view_layer.objects.active
         self.action = data.action
-        self.muted = [(s, s.mute) for t in data.nla_tracks for s in t.strips]
+        self.muted = [(s, s.mute) for t in data.nla_tracks for s in t.strips] + [(t, t.mute) for t in data.nla_tracks]
         self.frame = self.context.scene.frame_current
         self.basis = [(b, b.matrix_basis.copy()) for b in self.armature.pose.bones]
         self.ranges = [(a, a.use_frame_range, a.frame_start, a.frame_end) for a in self.actions]
@@ -138,8 +142,8 @@ class _ExportState:
         for obj in [self.armature, *self.meshes]:
             obj.select_set(True)
         view_layer.objects.active = self.armature
-        for strip, _ in self.muted:
-            strip.mute = True
+        for strip_or_track, _ in self.muted:
+            strip_or_track.mute = True
         data.action = None
         # The exporter writes the bones' current pose into the nodes: make it the rest pose, so that
         # the file does not depend on the frame the scene is at.
@@ -162,8 +166,8 @@ class _ExportState:
         data = self.armature.animation_data
         for track in self.tracks:
             data.nla_tracks.remove(track)
-        for strip, mute in self.muted:
-            strip.mute = mute
+        for strip_or_track, mute in self.muted:
+            strip_or_track.mute = mute
         for action, use, start, end in self.ranges:
             action.frame_start, action.frame_end = start, end
             action.use_frame_range = use

@@ -142,7 +142,7 @@ def action_state(armature):
             curve.keyframe_points.foreach_get("co", co)
             keys[(action.name, curve.data_path, curve.array_index)] = co.tobytes()
     data = armature.animation_data
-    nla = [(t.name, [(s.action.name, s.mute) for s in t.strips]) for t in data.nla_tracks]
+    nla = [(t.name, t.mute, [(s.action.name, s.mute) for s in t.strips]) for t in data.nla_tracks]
     return keys, nla, data.action.name if data.action else None
 
 

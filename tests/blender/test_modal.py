@@ -66,7 +66,7 @@ def animation_state(armature):
     data = armature.animation_data
     return (
         sorted(a.name for a in bpy.data.actions),
-        [(t.name, [(s.action.name, s.mute) for s in t.strips]) for t in data.nla_tracks],
+        [(t.name, t.mute, [(s.action.name, s.mute) for s in t.strips]) for t in data.nla_tracks],
         data.action.name if data.action else None,
     )
 
