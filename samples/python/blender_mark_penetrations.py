@@ -8,8 +8,9 @@ added before (names starting "ss ") are removed first.
 
 The module must be importable by Blender's own Python: build skinspheres against the same Python
 version (Blender 4.x bundles Python 3.11, as Debian 12 does) and add the build's python/ folder or
-the install's dist-packages to sys.path below. Blender is not part of CI: the logic
-(penetrating_markers, mark) is tested without it (tests/python/test_samples.py).
+the install's dist-packages to sys.path below. The logic (penetrating_markers, mark) is tested
+without Blender (tests/python/test_samples.py). The add-on (blender/, docs/BLENDER.md) does the
+same from a panel, for every action, and is tested in Blender.
 """
 
 import os
