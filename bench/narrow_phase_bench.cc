@@ -555,11 +555,11 @@ void BM_Stage(benchmark::State& state) {
         case 0: benchmark::DoNotOptimize(whole.Skin(f)); break;
         case 1: benchmark::DoNotOptimize(inst->UpdateExact(f.positions, f.joint_world).ok()); break;
         case 2:
-          benchmark::DoNotOptimize(rt::SelfCollisionJob{f.spheres_exact, &c->asset->filter(), &ctx, &out}.Run());
+          benchmark::DoNotOptimize(rt::BroadPhaseJob{f.spheres_exact, &c->asset->filter(), &ctx, &out}.Run());
           break;
         case 3: benchmark::DoNotOptimize(inst->UpdateFast(f.joint_world).ok()); break;
         default:
-          benchmark::DoNotOptimize(rt::SelfCollisionJob{f.spheres_fast, &c->asset->filter(), &ctx, &out}.Run());
+          benchmark::DoNotOptimize(rt::BroadPhaseJob{f.spheres_fast, &c->asset->filter(), &ctx, &out}.Run());
           break;
       }
       benchmark::ClobberMemory();

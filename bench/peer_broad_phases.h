@@ -1,5 +1,5 @@
 // Peer broad phases for the benchmarks: Bullet's btDbvtBroadphase and FCL's dynamic AABB tree, set
-// up as their own documentation recommends and made to answer exactly what SelfCollisionJob
+// up as their own documentation recommends and made to answer exactly what BroadPhaseJob
 // answers.
 //
 // - Bullet (btDbvtBroadphase, default settings and margins): one proxy per sphere; every frame

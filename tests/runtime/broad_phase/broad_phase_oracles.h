@@ -70,10 +70,10 @@ inline std::vector<runtime::SimdLevel> SupportedLevels() {
   return levels;
 }
 
-// The all-pairs oracle's sphere pairs (SelfCollisionAllPairs), with a test failure if it refuses.
+// The all-pairs oracle's sphere pairs (FindSpherePairsBruteForce), with a test failure if it refuses.
 inline std::vector<runtime::SpherePair> Oracle(const std::vector<Vec4f>& s, const runtime::PairFilter& f) {
   std::vector<runtime::SpherePair> out;
-  EXPECT_TRUE(runtime::SelfCollisionAllPairs(s, f, &out));
+  EXPECT_TRUE(runtime::FindSpherePairsBruteForce(s, f, &out));
   return out;
 }
 
