@@ -366,7 +366,7 @@ void BM_XbotSkinSources(benchmark::State& state) {
     ++frame;
   }
   state.SetLabel(std::string(state.range(0) ? "prepared " : "csr ") +
-                 sk::SimdLevelName(sk::ResolveSimdLevel(sk::SimdLevel::kAuto)));
+                 sk::ToString(sk::ResolveSimdLevel(sk::SimdLevel::kAuto)));
   SphereCounters(state, *x);
   state.counters["mesh_vertices"] = double(skin.vertex_count());
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(job.WorkSize()));
