@@ -669,7 +669,7 @@ void BM_LazySkin(benchmark::State& state) {
   for (size_t k = 0; k < w.frames.size(); ++k) {
     std::vector<char> group_on(data.group_count(), 0), run_on(data.run_count(), 0);
     for (const rt::SpherePair& p : w.frames[k].pairs_fast) {
-      for (uint32_t s : {p.i, p.j}) {
+      for (uint32_t s : {p.sphere_i, p.sphere_j}) {
         for (uint32_t q = data.sphere_group_offsets()[s]; q < data.sphere_group_offsets()[s + 1]; ++q)
           group_on[data.sphere_groups()[q]] = 1;
       }

@@ -45,7 +45,7 @@ std::span<float> Floats(std::vector<Eigen::Vector3f>& v) { return {v.data()->dat
 
 void PrintContacts(const char* what, std::span<const runtime::SpherePair> contacts) {
   std::printf("%s: %zu contacts", what, contacts.size());
-  for (const runtime::SpherePair& c : contacts) std::printf(" %u-%u:%.5f", c.i, c.j, c.depth);
+  for (const runtime::SpherePair& c : contacts) std::printf(" %u-%u:%.5f", c.sphere_i, c.sphere_j, c.depth);
   std::printf("\n");
 }
 

@@ -225,8 +225,8 @@ void Frame::RunGroups() {
       builds += gc.build_count() - builds_before;
       lookahead += gc.last_lookahead();
       for (SpherePair w : st.groups.out) {
-        w.i += b;
-        w.j += b;
+        w.sphere_i += b;
+        w.sphere_j += b;
         while (c < cross.size() && ByPair(cross[c], w)) out.push_back(cross[c++]);
         out.push_back(w);
       }

@@ -82,7 +82,9 @@ inline uint32_t OrderBits(float f) {
   return (u & 0x80000000u) != 0 ? ~u : (u | 0x80000000u);
 }
 
-inline bool ByPair(const SpherePair& p, const SpherePair& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; }
+inline bool ByPair(const SpherePair& p, const SpherePair& q) {
+  return p.sphere_i != q.sphere_i ? p.sphere_i < q.sphere_i : p.sphere_j < q.sphere_j;
+}
 
 // A sphere's interval on the sweep axis is padded by this (relative and absolute), so that two
 // spheres the exact test finds touching have overlapping intervals.

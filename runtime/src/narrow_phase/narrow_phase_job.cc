@@ -247,7 +247,7 @@ bool TestWork(const Frame& frame, std::span<const SpherePair> pairs, std::span<c
       for (size_t k = first; k < last; ++k) {
         if (k < tested) {
           const SpherePair& p = pairs[all ? k : active[k]];
-          chunk.ok &= TestPair(frame, p.i, p.j, spheres[p.i], spheres[p.j], chunk);
+          chunk.ok &= TestPair(frame, p.sphere_i, p.sphere_j, spheres[p.sphere_i], spheres[p.sphere_j], chunk);
         } else {
           chunk.ok &= TestSelf(frame, self[k - tested], chunk);
         }
@@ -274,7 +274,7 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
   Of(ctx).stats = {};
   const size_t n = set->size();
   for (const SpherePair& p : pairs) {
-    if (p.i >= p.j || p.j >= n) return false;
+    if (p.sphere_i >= p.sphere_j || p.sphere_j >= n) return false;
   }
   const bool lazy = positions.empty();
   if (lazy && !ctx.has_lazy_skinning()) ctx.Resize(*data, true);  // first mode-(b) run: warm-up allocation

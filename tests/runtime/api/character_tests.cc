@@ -166,8 +166,8 @@ TEST(CharacterInstanceTest, TouchClipHandsOnChestAndHeadAreReportedAndNotAtRest)
     EXPECT_TRUE(inst.Update(mode, pose.world, pose.positions).ok());
     std::set<int> sides;
     for (const SpherePair& c : inst.FindSpherePairs()) {
-      if (c.part_j == target && hand_side(c.i) >= 0) sides.insert(hand_side(c.i));
-      if (c.part_i == target && hand_side(c.j) >= 0) sides.insert(hand_side(c.j));
+      if (c.part_j == target && hand_side(c.sphere_i) >= 0) sides.insert(hand_side(c.sphere_i));
+      if (c.part_i == target && hand_side(c.sphere_j) >= 0) sides.insert(hand_side(c.sphere_j));
     }
     return sides.size();
   };

@@ -18,7 +18,7 @@
 namespace skinspheres::test {
 
 inline bool ByPair(const runtime::SpherePair& p, const runtime::SpherePair& q) {
-  return p.i != q.i ? p.i < q.i : p.j < q.j;
+  return p.sphere_i != q.sphere_i ? p.sphere_i < q.sphere_i : p.sphere_j < q.sphere_j;
 }
 
 // Appends contact (i, j) when spheres i < j touch: dx = c_j - c_i, ((dx dx + dy dy) + dz dz) <=

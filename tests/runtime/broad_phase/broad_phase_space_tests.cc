@@ -198,8 +198,8 @@ std::vector<SpherePair> EachAlone(const Spheres& all, const PairFilter& member, 
     const Spheres s(all.begin() + long(k * m), all.begin() + long((k + 1) * m));
     EXPECT_TRUE(FindSpherePairsBruteForce(s, member, &one));
     for (SpherePair c : one) {
-      c.i += uint32_t(k * m);
-      c.j += uint32_t(k * m);
+      c.sphere_i += uint32_t(k * m);
+      c.sphere_j += uint32_t(k * m);
       expected.push_back(c);
     }
   }
@@ -229,8 +229,8 @@ TEST(BroadPhaseSpaceTest, CrowdInOneSpaceIsEachAlonePlusThePairsBetween) {
       ASSERT_TRUE((BroadPhaseJob{all, &space, &ctx, &out}.Run()));
       ASSERT_EQ(out, expected) << "between " << between << " frame " << frame << " " << ToString(ctx.last_method());
       for (const SpherePair& c : out) {
-        ASSERT_EQ(space.group(c.i), c.i / m);
-        between_seen += space.group(c.i) != space.group(c.j) ? 1 : 0;
+        ASSERT_EQ(space.group(c.sphere_i), c.sphere_i / m);
+        between_seen += space.group(c.sphere_i) != space.group(c.sphere_j) ? 1 : 0;
       }
     }
   }

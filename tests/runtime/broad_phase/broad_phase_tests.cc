@@ -113,13 +113,13 @@ TEST(BroadPhaseTest, EveryContactIsRealAndEveryMissedPairIsApartOrExcluded) {
   ASSERT_TRUE((BroadPhaseJob{s, &f, &ctx, &out}.Run()));
   std::vector<std::vector<int>> found(250, std::vector<int>(250, 0));
   for (const SpherePair& c : out) {
-    ASSERT_LT(c.i, c.j);
-    found[c.i][c.j] = 1;
-    EXPECT_FALSE(f.excluded(c.i, c.j));
-    EXPECT_EQ(c.part_i, f.part(c.i));
-    EXPECT_EQ(c.part_j, f.part(c.j));
-    const double d = (s[c.i].head<3>().cast<double>() - s[c.j].head<3>().cast<double>()).norm();
-    EXPECT_NEAR(c.depth, double(s[c.i].w()) + s[c.j].w() - d, 1e-5);
+    ASSERT_LT(c.sphere_i, c.sphere_j);
+    found[c.sphere_i][c.sphere_j] = 1;
+    EXPECT_FALSE(f.excluded(c.sphere_i, c.sphere_j));
+    EXPECT_EQ(c.part_i, f.part(c.sphere_i));
+    EXPECT_EQ(c.part_j, f.part(c.sphere_j));
+    const double d = (s[c.sphere_i].head<3>().cast<double>() - s[c.sphere_j].head<3>().cast<double>()).norm();
+    EXPECT_NEAR(c.depth, double(s[c.sphere_i].w()) + s[c.sphere_j].w() - d, 1e-5);
   }
   for (uint32_t i = 0; i < 250; ++i) {
     for (uint32_t j = i + 1; j < 250; ++j) {
@@ -279,7 +279,7 @@ TEST(BroadPhaseTest, SeveralCharactersInOneSpaceMatchTheOracle) {
       }
       if (between && within) {
         size_t across = 0;
-        for (const auto& c : out) across += space.group(c.i) != space.group(c.j) ? 1 : 0;
+        for (const auto& c : out) across += space.group(c.sphere_i) != space.group(c.sphere_j) ? 1 : 0;
         EXPECT_GT(across, 0u);
       }
     }
@@ -343,7 +343,7 @@ TEST(BroadPhaseTest, ASpaceOfCharactersRunsEachOnItsOwnCacheAndMatchesTheOracleE
         }
         ASSERT_TRUE((BroadPhaseJob{all, &space, &small, &out}.Run()));
         ASSERT_EQ(out, expected) << "least room, frame " << frame;
-        for (const auto& c : out) (space.group(c.i) != space.group(c.j) ? across : within_count) += 1;
+        for (const auto& c : out) (space.group(c.sphere_i) != space.group(c.sphere_j) ? across : within_count) += 1;
       }
       EXPECT_EQ(across > 0, between) << within;
       EXPECT_EQ(within_count > 0, within) << between;
@@ -378,7 +378,7 @@ TEST(BroadPhaseTest, ASpaceOfCharactersInOneClumpHasMoreContactsBetweenThemThanT
   const PairFilter space = Combined(members, {true, true});
   const std::vector<SpherePair> expected = Oracle(all, space);
   size_t across = 0;
-  for (const auto& c : expected) across += space.group(c.i) != space.group(c.j) ? 1 : 0;
+  for (const auto& c : expected) across += space.group(c.sphere_i) != space.group(c.sphere_j) ? 1 : 0;
   ASSERT_GT(across, all.size());
   for (const SimdLevel level : SupportedLevels()) {
     BroadPhaseContext ctx(all.size());

@@ -114,7 +114,7 @@ TEST(BroadPhaseTest, ASpaceOfCharactersAtLargeCoordinatesAndInARowAlongEachAxis)
         ASSERT_TRUE((BroadPhaseJob{all, &space, &ctx, &out}.Run()));
         ASSERT_EQ(out, Oracle(all, space)) << offset << " " << axis << " " << frame;
         ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kGroups) << offset << " " << axis << " " << frame;
-        for (const SpherePair& c : out) across += space.group(c.i) != space.group(c.j) ? 1 : 0;
+        for (const SpherePair& c : out) across += space.group(c.sphere_i) != space.group(c.sphere_j) ? 1 : 0;
       }
       EXPECT_GT(across, 0u) << offset << " " << axis;
     }
@@ -190,7 +190,7 @@ TEST(BroadPhaseTest, ListedExclusionsAtEveryIndexDistanceAreLeftOutByTheSweep) {
     ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kSweepBuild) << ToString(ctx.last_method());
     ASSERT_EQ(out.size(), expected.size()) << ToString(level);
     for (size_t k = 0; k < out.size(); ++k) {
-      ASSERT_EQ(std::make_pair(out[k].i, out[k].j), expected[k]) << k << " " << ToString(level);
+      ASSERT_EQ(std::make_pair(out[k].sphere_i, out[k].sphere_j), expected[k]) << k << " " << ToString(level);
     }
     EXPECT_EQ(out, Oracle(s, f));
   }

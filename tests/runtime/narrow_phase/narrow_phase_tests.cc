@@ -553,7 +553,7 @@ TEST(NarrowPhase, ModeBNeedsJointMatricesAndFiniteInput) {
   // One non-finite coordinate, y or z, of one vertex of a sphere in a reported pair is enough.
   ASSERT_FALSE(inst->sphere_pairs().empty());
   const SphereSet& set = fc->set;
-  const uint32_t s = inst->sphere_pairs().front().i;
+  const uint32_t s = inst->sphere_pairs().front().sphere_i;
   ASSERT_LT(set.triangle_offsets[s], set.triangle_offsets[s + 1]);
   const uint32_t v = set.triangle_vertices[3 * size_t{set.triangles[set.triangle_offsets[s]]} + 1];
   for (int axis : {1, 2}) {

@@ -80,11 +80,11 @@ class Frame;  // runtime/src/broad_phase/frame.h
 }  // namespace broad_phase
 
 struct SpherePair {
-  uint32_t i = 0;  // sphere index, i < j
-  uint32_t j = 0;
+  uint32_t sphere_i = 0;  // sphere index, sphere_i < sphere_j
+  uint32_t sphere_j = 0;
   float depth = 0.0f;   // r_i + r_j - |c_i - c_j|, same units as the spheres
-  uint16_t part_i = 0;  // filter.part(i)
-  uint16_t part_j = 0;  // filter.part(j)
+  uint16_t part_i = 0;  // filter.part(sphere_i)
+  uint16_t part_j = 0;  // filter.part(sphere_j)
 
   friend bool operator==(const SpherePair&, const SpherePair&) = default;
 };
