@@ -1,4 +1,4 @@
-// Broad phase: skinspheres' SelfCollisionJob against Bullet's btDbvtBroadphase, FCL's dynamic AABB
+// Broad phase: skinspheres' BroadPhaseJob against Bullet's btDbvtBroadphase, FCL's dynamic AABB
 // tree (peer_broad_phases.h: configured as their documentation recommends, float sphere test,
 // same exclusions) and the all-pairs loop, on four workloads. One process times every method;
 // bench/broad_phase_tables.py makes tables from --benchmark_out (bench/results/ holds the dated
@@ -27,8 +27,8 @@
 //             16 frames.
 //
 // Methods (the last path element of every name):
-//   skinspheres[_sse2|_avx2|_avx512]   SelfCollisionJob (sorted list), instruction set auto or forced
-//   allpairs                           SelfCollisionAllPairs, the plain O(n^2) loop (up to 5,000 spheres)
+//   skinspheres[_sse2|_avx2|_avx512]   BroadPhaseJob (sorted list), instruction set auto or forced
+//   allpairs                           FindSpherePairsBruteForce, the plain O(n^2) loop (up to 5,000 spheres)
 //   bullet_count, bullet_sorted        btDbvtBroadphase: contact count only / sorted contact list
 //   fcl_count, fcl_sorted              FCL dynamic AABB tree in float: the same two variants
 //   <method>_cold                      (b_clip: skinspheres, bullet_count, fcl_count) the first pass:
@@ -274,9 +274,9 @@ class Ours : public Method {
   }
   size_t Frame(const Spheres& s, std::vector<rt::SpherePair>* list) override {
     if (no_cache_) context_.Invalidate();
-    rt::SelfCollisionJob job{s, filter_, &context_, list};
+    rt::BroadPhaseJob job{s, filter_, &context_, list};
     job.simd = simd_;
-    if (!job.Run()) Abort("SelfCollisionJob refused a frame");
+    if (!job.Run()) Abort("BroadPhaseJob refused a frame");
     candidates_ += double(context_.last_candidate_count());
     build_tests_ += double(context_.last_build_tests());
     lookahead_ += context_.last_method() == rt::BroadPhaseMethod::kCached ? 0.0 : double(context_.last_lookahead());
@@ -299,7 +299,7 @@ class AllPairs : public Method {
  public:
   explicit AllPairs(const Scenario& sc) : filter_(&sc.filter) {}
   size_t Frame(const Spheres& s, std::vector<rt::SpherePair>* list) override {
-    if (!rt::SelfCollisionAllPairs(s, *filter_, list)) Abort("all-pairs refused a frame");
+    if (!rt::FindSpherePairsBruteForce(s, *filter_, list)) Abort("all-pairs refused a frame");
     return list->size();
   }
 
@@ -612,10 +612,10 @@ void CrowdAloneOurs(benchmark::State& state, size_t characters, int threads) {
   if (!cc.error.empty()) return state.SkipWithError(cc.error.c_str());
   const size_t per = cc.frames[0].size(), f_count = cc.frames.size();
   std::vector<std::vector<rt::SpherePair>> reference(f_count);
-  for (size_t f = 0; f < f_count; ++f) rt::SelfCollisionAllPairs(cc.frames[f], *cc.filter, &reference[f]);
+  for (size_t f = 0; f < f_count; ++f) rt::FindSpherePairsBruteForce(cc.frames[f], *cc.filter, &reference[f]);
   std::vector<rt::BroadPhaseContext> contexts(characters);
   std::vector<std::vector<rt::SpherePair>> outs(characters);
-  std::vector<rt::SelfCollisionJob> jobs(characters);
+  std::vector<rt::BroadPhaseJob> jobs(characters);
   for (size_t k = 0; k < characters; ++k) {
     contexts[k].Resize(per);
     outs[k].reserve(4 * per);
@@ -658,7 +658,7 @@ void CrowdAlonePeer(benchmark::State& state, size_t characters) {
       const Spheres& s = cc.frames[(f + kPhase * k) % f_count];
       const size_t count = worlds[k]->Frame(s, nullptr);
       if (check) {
-        rt::SelfCollisionAllPairs(s, *cc.filter, &reference);
+        rt::FindSpherePairsBruteForce(s, *cc.filter, &reference);
         if (count != reference.size()) Abort("d_crowd alone: a peer differs from the oracle");
       }
       total += count;

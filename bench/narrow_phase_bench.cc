@@ -54,6 +54,7 @@
 #include <string>
 #include <vector>
 
+#include "narrow_phase/internal.h"
 #include "skinspheres/lib/body_parts/body_parts.h"
 #include "skinspheres/lib/character/builtin_character.h"
 #include "skinspheres/lib/fit/sphere_fitter.h"
@@ -555,11 +556,11 @@ void BM_Stage(benchmark::State& state) {
         case 0: benchmark::DoNotOptimize(whole.Skin(f)); break;
         case 1: benchmark::DoNotOptimize(inst->UpdateExact(f.positions, f.joint_world).ok()); break;
         case 2:
-          benchmark::DoNotOptimize(rt::SelfCollisionJob{f.spheres_exact, &c->asset->filter(), &ctx, &out}.Run());
+          benchmark::DoNotOptimize(rt::BroadPhaseJob{f.spheres_exact, &c->asset->filter(), &ctx, &out}.Run());
           break;
         case 3: benchmark::DoNotOptimize(inst->UpdateFast(f.joint_world).ok()); break;
         default:
-          benchmark::DoNotOptimize(rt::SelfCollisionJob{f.spheres_fast, &c->asset->filter(), &ctx, &out}.Run());
+          benchmark::DoNotOptimize(rt::BroadPhaseJob{f.spheres_fast, &c->asset->filter(), &ctx, &out}.Run());
           break;
       }
       benchmark::ClobberMemory();
@@ -636,7 +637,7 @@ BENCHMARK(BM_ClusterSize)
     ->Unit(benchmark::kMicrosecond);
 
 // The skinning of mode (b) alone, on each frame's fast pairs (the groups of the spheres in pairs):
-//   way 0  the marked runs of NarrowPhaseData::lazy_influences(), adjacent runs merged (mode b's path);
+//   way 0  the marked runs of the narrow phase's lazy_influences, adjacent runs merged (mode b's path);
 //   way 1  one PreparedInfluences per vertex group, each run as its own job (the former layout);
 //   way 2  every vertex of the mesh (prepared, SIMD): what fast + whole-mesh skin pays.
 // Joint matrices are computed outside the timed part here (every way needs them).
@@ -645,19 +646,20 @@ void BM_LazySkin(benchmark::State& state) {
   Character* c = Get(state, int(state.range(0)), work);
   if (!c) return;
   const Workload& w = c->work[work];
-  const rt::NarrowPhaseData& data = *c->asset->narrow_phase();
-  const sk::PreparedInfluences& lazy = data.lazy_influences();
+  // The layout, through the narrow phase's friend (runtime/src/narrow_phase/internal.h).
+  const rt::NarrowPhaseData::Layout& layout = rt::narrow_phase::Access::Of(*c->asset->narrow_phase());
+  const sk::PreparedInfluences& lazy = layout.lazy_influences;
   const auto& skin = c->ch.skin;
   // Per frame: the slot spans to skin (way 0) and the groups (way 1).
   std::vector<std::vector<std::pair<uint32_t, uint32_t>>> spans(w.frames.size());
   std::vector<std::vector<uint32_t>> groups(w.frames.size());
-  std::vector<sk::PreparedInfluences> per_group(data.group_count());
+  std::vector<sk::PreparedInfluences> per_group(layout.group_count());
   if (way == 1) {
-    for (uint32_t g = 0; g < data.group_count(); ++g) {
+    for (uint32_t g = 0; g < layout.group_count(); ++g) {
       std::vector<uint32_t> members;
-      for (uint32_t r = data.group_run_offsets()[g]; r < data.group_run_offsets()[g + 1]; ++r) {
-        const uint32_t run = data.group_runs()[r];
-        for (uint32_t slot = data.run_begin()[run]; slot < data.run_begin()[run + 1]; ++slot)
+      for (uint32_t r = layout.group_run_offsets[g]; r < layout.group_run_offsets[g + 1]; ++r) {
+        const uint32_t run = layout.group_runs[r];
+        for (uint32_t slot = layout.run_begin[run]; slot < layout.run_begin[run + 1]; ++slot)
           members.push_back(lazy.vertices()[slot]);
       }
       std::sort(members.begin(), members.end());
@@ -667,26 +669,26 @@ void BM_LazySkin(benchmark::State& state) {
   }
   size_t marked_vertices = 0;
   for (size_t k = 0; k < w.frames.size(); ++k) {
-    std::vector<char> group_on(data.group_count(), 0), run_on(data.run_count(), 0);
+    std::vector<char> group_on(layout.group_count(), 0), run_on(layout.run_count(), 0);
     for (const rt::SpherePair& p : w.frames[k].pairs_fast) {
-      for (uint32_t s : {p.i, p.j}) {
-        for (uint32_t q = data.sphere_group_offsets()[s]; q < data.sphere_group_offsets()[s + 1]; ++q)
-          group_on[data.sphere_groups()[q]] = 1;
+      for (uint32_t s : {p.sphere_i, p.sphere_j}) {
+        for (uint32_t q = layout.sphere_group_offsets[s]; q < layout.sphere_group_offsets[s + 1]; ++q)
+          group_on[layout.sphere_groups[q]] = 1;
       }
     }
-    for (uint32_t g = 0; g < data.group_count(); ++g) {
+    for (uint32_t g = 0; g < layout.group_count(); ++g) {
       if (!group_on[g]) continue;
       groups[k].push_back(g);
-      marked_vertices += data.group_sizes()[g];
-      for (uint32_t r = data.group_run_offsets()[g]; r < data.group_run_offsets()[g + 1]; ++r)
-        run_on[data.group_runs()[r]] = 1;
+      marked_vertices += layout.group_sizes[g];
+      for (uint32_t r = layout.group_run_offsets[g]; r < layout.group_run_offsets[g + 1]; ++r)
+        run_on[layout.group_runs[r]] = 1;
     }
-    for (uint32_t r = 0; r < data.run_count(); ++r) {
+    for (uint32_t r = 0; r < layout.run_count(); ++r) {
       if (!run_on[r]) continue;
-      if (!spans[k].empty() && spans[k].back().second == data.run_begin()[r]) {
-        spans[k].back().second = data.run_begin()[r + 1];
+      if (!spans[k].empty() && spans[k].back().second == layout.run_begin[r]) {
+        spans[k].back().second = layout.run_begin[r + 1];
       } else {
-        spans[k].emplace_back(data.run_begin()[r], data.run_begin()[r + 1]);
+        spans[k].emplace_back(layout.run_begin[r], layout.run_begin[r + 1]);
       }
     }
   }

@@ -1,5 +1,5 @@
 // Peer broad phases for the benchmarks: Bullet's btDbvtBroadphase and FCL's dynamic AABB tree, set
-// up as their own documentation recommends and made to answer exactly what SelfCollisionJob
+// up as their own documentation recommends and made to answer exactly what BroadPhaseJob
 // answers.
 //
 // - Bullet (btDbvtBroadphase, default settings and margins): one proxy per sphere; every frame
@@ -55,8 +55,9 @@ struct PeerOutput {
   }
   void Finish() {
     if (list != nullptr) {
-      std::sort(list->begin(), list->end(),
-                [](const rt::SpherePair& p, const rt::SpherePair& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; });
+      std::sort(list->begin(), list->end(), [](const rt::SpherePair& p, const rt::SpherePair& q) {
+        return p.sphere_i != q.sphere_i ? p.sphere_i < q.sphere_i : p.sphere_j < q.sphere_j;
+      });
     }
   }
 };

@@ -28,8 +28,8 @@
 //                            refit's loop at the CPU's best level, pinned to SSE2, pinned to AVX2
 //                            (runtime/src/refit/refit_internal.h; same bits at every level; in a
 //                            -DSKINSPHERES_AVX2=ON build both copies are VEX code)
-//   BM_XbotQuery/fast:0|1    SelfCollisionJob (sort and sweep) on the exact- or fast-refitted spheres
-//   BM_XbotAllPairs/fast:0|1 SelfCollisionAllPairs on the same spheres (the naive reference)
+//   BM_XbotQuery/fast:0|1    BroadPhaseJob (sort and sweep) on the exact- or fast-refitted spheres
+//   BM_XbotAllPairs/fast:0|1 FindSpherePairsBruteForce on the same spheres (the naive reference)
 //   BM_XbotFrameExact        pose + skin sources (prepared) + UpdateExact + FindSpherePairs
 //   BM_XbotFrameFast         pose + UpdateFast + FindSpherePairs
 //   BM_XbotSetup             no timing: fit time, sphere / vertex counts, mean contacts per frame
@@ -264,12 +264,12 @@ void Load(Xbot* x, int variant) {
     if (!l2m.Run() || !mats.Run() || !job.Run()) return Fail(x, "posing or skinning frame failed");
     if (!instance->UpdateExact(x->skinned[f], x->joint_world[f]).ok()) return Fail(x, instance->status().message);
     x->spheres_exact[f].assign(instance->spheres().begin(), instance->spheres().end());
-    if (!rt::SelfCollisionAllPairs(x->spheres_exact[f], x->asset->filter(), &contacts))
+    if (!rt::FindSpherePairsBruteForce(x->spheres_exact[f], x->asset->filter(), &contacts))
       return Fail(x, "all-pairs failed");
     total_exact += contacts.size();
     if (!instance->UpdateFast(x->joint_world[f]).ok()) return Fail(x, instance->status().message);
     x->spheres_fast[f].assign(instance->spheres().begin(), instance->spheres().end());
-    if (!rt::SelfCollisionAllPairs(x->spheres_fast[f], x->asset->filter(), &contacts))
+    if (!rt::FindSpherePairsBruteForce(x->spheres_fast[f], x->asset->filter(), &contacts))
       return Fail(x, "all-pairs failed");
     total_fast += contacts.size();
   }
@@ -366,7 +366,7 @@ void BM_XbotSkinSources(benchmark::State& state) {
     ++frame;
   }
   state.SetLabel(std::string(state.range(0) ? "prepared " : "csr ") +
-                 sk::SimdLevelName(sk::ResolveSimdLevel(sk::SimdLevel::kAuto)));
+                 sk::ToString(sk::ResolveSimdLevel(sk::SimdLevel::kAuto)));
   SphereCounters(state, *x);
   state.counters["mesh_vertices"] = double(skin.vertex_count());
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(job.WorkSize()));
@@ -460,15 +460,15 @@ void BM_XbotQuery(benchmark::State& state) {
   std::vector<rt::SpherePair> out, oracle;
   out.reserve(8 * x->set.size());
   for (int f = 0; f < kFrames; ++f) {
-    rt::SelfCollisionAllPairs(frames[f], filter, &oracle);
-    if (!rt::SelfCollisionJob{frames[f], &filter, &ctx, &out}.Run() || out != oracle) {
+    rt::FindSpherePairsBruteForce(frames[f], filter, &oracle);
+    if (!rt::BroadPhaseJob{frames[f], &filter, &ctx, &out}.Run() || out != oracle) {
       return state.SkipWithError("sort and sweep differs from all-pairs on Xbot");
     }
   }
   size_t frame = 0, contacts = 0, candidates = 0;
   const uint64_t builds0 = ctx.build_count();
   for (auto _ : state) {
-    rt::SelfCollisionJob{frames[frame % kFrames], &filter, &ctx, &out}.Run();
+    rt::BroadPhaseJob{frames[frame % kFrames], &filter, &ctx, &out}.Run();
     contacts += out.size();
     candidates += ctx.last_candidate_count();
     benchmark::DoNotOptimize(out.data());
@@ -491,7 +491,7 @@ void BM_XbotAllPairs(benchmark::State& state) {
   out.reserve(8 * x->set.size());
   size_t frame = 0, contacts = 0;
   for (auto _ : state) {
-    rt::SelfCollisionAllPairs(frames[frame % kFrames], x->asset->filter(), &out);
+    rt::FindSpherePairsBruteForce(frames[frame % kFrames], x->asset->filter(), &out);
     contacts += out.size();
     benchmark::DoNotOptimize(out.data());
     ++frame;
@@ -675,7 +675,7 @@ BENCHMARK(BM_XbotSetup)->Arg(0)->Arg(1)->ArgName("fit")->Iterations(1);
 #if SKINSPHERES_HAVE_PEERS
 // ------------------------------------------------------------ peers on the same Xbot spheres
 // Bullet and FCL (peer_broad_phases.h) on the same per-frame spheres; before timing, every
-// frame's result must equal SelfCollisionAllPairs, else the row is skipped with an error.
+// frame's result must equal FindSpherePairsBruteForce, else the row is skipped with an error.
 using skinspheres::bench::BulletWorld;
 using skinspheres::bench::FclWorld;
 
@@ -691,7 +691,7 @@ void PeerBenchmark(benchmark::State& state, const char* name) {
   out.reserve(8 * x->set.size());
   for (int f = 0; f < kFrames; ++f) {
     world.Frame(frames[f], &out);
-    rt::SelfCollisionAllPairs(frames[f], filter, &oracle);
+    rt::FindSpherePairsBruteForce(frames[f], filter, &oracle);
     if (out != oracle) return state.SkipWithError((std::string(name) + " differs from all-pairs on Xbot").c_str());
   }
   size_t frame = 0, contacts = 0;

@@ -129,7 +129,7 @@ void BM_Job(benchmark::State& state) {
     benchmark::DoNotOptimize(job.Run());
     benchmark::ClobberMemory();
   }
-  state.SetLabel(skinspheres::skinning::SimdLevelName(level));
+  state.SetLabel(skinspheres::skinning::ToString(level));
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * job.WorkSize()));
 }
 
@@ -138,7 +138,7 @@ void JobArgs(benchmark::internal::Benchmark* b) {
   for (int mixed : {0, 1})
     for (int sub : {0, 1})
       for (int prep : {0, 1})
-        for (SimdLevel l : {SimdLevel::kScalar, SimdLevel::kSse2, SimdLevel::kAvx2})
+        for (SimdLevel l : {SimdLevel::kPortable, SimdLevel::kSse2, SimdLevel::kAvx2})
           b->Args({mixed, sub, prep, static_cast<int>(l)});
 }
 

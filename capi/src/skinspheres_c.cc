@@ -3,8 +3,8 @@
 
 // The C structs are the C++ ones, byte for byte: contacts are handed out in place.
 static_assert(sizeof(skinspheres_sphere_pair) == sizeof(rt::SpherePair));
-static_assert(offsetof(skinspheres_sphere_pair, sphere_i) == offsetof(rt::SpherePair, i));
-static_assert(offsetof(skinspheres_sphere_pair, sphere_j) == offsetof(rt::SpherePair, j));
+static_assert(offsetof(skinspheres_sphere_pair, sphere_i) == offsetof(rt::SpherePair, sphere_i));
+static_assert(offsetof(skinspheres_sphere_pair, sphere_j) == offsetof(rt::SpherePair, sphere_j));
 static_assert(offsetof(skinspheres_sphere_pair, depth) == offsetof(rt::SpherePair, depth));
 static_assert(offsetof(skinspheres_sphere_pair, part_i) == offsetof(rt::SpherePair, part_i));
 static_assert(offsetof(skinspheres_sphere_pair, part_j) == offsetof(rt::SpherePair, part_j));

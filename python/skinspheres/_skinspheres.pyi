@@ -10,7 +10,7 @@ __version__: str
 
 # Structured dtypes. kind: TOUCHING / PENETRATING (part pairs), INTERSECTING / WITHIN_MARGIN
 # (triangle pairs). Part indices are into part_names; triangle indices are the source file's.
-SPHERE_PAIR_DTYPE: np.dtype  # i, j (u4, i < j), depth (f4), part_i, part_j (u2)
+SPHERE_PAIR_DTYPE: np.dtype  # sphere_i, sphere_j (u4, sphere_i < sphere_j), depth (f4), part_i, part_j (u2)
 PART_CONTACT_DTYPE: np.dtype  # part_a, part_b (u2), kind (u4), depth, min_distance (f4), normal, center ((3,) f4),
 #                               triangle_pairs, intersecting, sphere_pairs, first_triangle_pair (u4)
 TRIANGLE_CONTACT_DTYPE: np.dtype  # part_contact, triangle_a, triangle_b, kind (u4), distance (f4),
@@ -158,7 +158,7 @@ class Instance:
     def update_exact(self, positions: FloatArray, world: Optional[FloatArray] = None) -> None:
         """positions: (V, 3) skinned vertices, V >= the set's vertex_count; world as update_fast, or None."""
     def sphere_pairs(self) -> np.ndarray:
-        """The overlapping sphere pairs (SPHERE_PAIR_DTYPE), sorted by (i, j)."""
+        """The overlapping sphere pairs (SPHERE_PAIR_DTYPE), sorted by (sphere_i, sphere_j)."""
     def contacts(self, positions: Optional[FloatArray] = None) -> Contacts:
         """The triangles that touch, behind the sphere pairs. positions: the skinned vertices the
         spheres came from (exact mode), or None: the instance skins what it tests."""

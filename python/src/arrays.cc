@@ -62,7 +62,9 @@ FloatArray ReadFloatArray(const py::handle& object, const char* what, std::initi
   return out;
 }
 
-SpherePairRecord ToRecord(const runtime::SpherePair& p) { return {p.i, p.j, p.depth, p.part_i, p.part_j}; }
+SpherePairRecord ToRecord(const runtime::SpherePair& p) {
+  return {p.sphere_i, p.sphere_j, p.depth, p.part_i, p.part_j};
+}
 
 PartContactRecord ToRecord(const runtime::PartContact& p) {
   PartContactRecord r{};

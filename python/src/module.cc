@@ -39,11 +39,11 @@ PYBIND11_MODULE(_skinspheres, m) {
   m.attr("__version__") = SKINSPHERES_VERSION_STRING;
   RegisterErrors(m);
 
-  PYBIND11_NUMPY_DTYPE(SpherePairRecord, i, j, depth, part_i, part_j);
+  PYBIND11_NUMPY_DTYPE(SpherePairRecord, sphere_i, sphere_j, depth, part_i, part_j);
   PYBIND11_NUMPY_DTYPE(PartContactRecord, part_a, part_b, kind, depth, min_distance, normal, center, triangle_pairs,
                        intersecting, sphere_pairs, first_triangle_pair);
   PYBIND11_NUMPY_DTYPE(TriangleContactRecord, part_contact, triangle_a, triangle_b, kind, distance, point, on_a, on_b);
-  PYBIND11_NUMPY_DTYPE(FrameSpherePairRecord, frame, i, j, depth, part_i, part_j);
+  PYBIND11_NUMPY_DTYPE(FrameSpherePairRecord, frame, sphere_i, sphere_j, depth, part_i, part_j);
   PYBIND11_NUMPY_DTYPE(FramePartContactRecord, frame, part_a, part_b, kind, depth, min_distance, normal, center,
                        triangle_pairs, intersecting, sphere_pairs, first_triangle_pair);
   PYBIND11_NUMPY_DTYPE(FrameTriangleContactRecord, frame, part_contact, triangle_a, triangle_b, kind, distance, point,

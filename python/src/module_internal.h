@@ -161,7 +161,7 @@ FloatArray ReadFloatArray(const py::handle& object, const char* what, std::initi
 // The records of the structured arrays (dtypes registered in the module: no padding, so the
 // numpy dtypes print as plain field lists). kind: PartContactKind, TriangleContactKind.
 struct SpherePairRecord {
-  uint32_t i, j;
+  uint32_t sphere_i, sphere_j;
   float depth;
   uint16_t part_i, part_j;
 };
@@ -181,7 +181,7 @@ struct TriangleContactRecord {
 // The same with the frame first, for play().
 struct FrameSpherePairRecord {
   uint32_t frame;
-  uint32_t i, j;
+  uint32_t sphere_i, sphere_j;
   float depth;
   uint16_t part_i, part_j;
 };

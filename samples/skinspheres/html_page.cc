@@ -206,8 +206,8 @@ Result<json> ClipJson(const ViewClip& vc, const lib::RawCharacter& ch, size_t sp
     clip_time.push_back(f.clip_time_s);
     json p = json::array(), d = json::array();
     for (const auto& c : f.sphere_pairs) {
-      p.push_back(c.i);
-      p.push_back(c.j);
+      p.push_back(c.sphere_i);
+      p.push_back(c.sphere_j);
       d.push_back(c.depth);
     }
     pairs.push_back(std::move(p));

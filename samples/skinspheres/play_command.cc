@@ -45,7 +45,7 @@ nlohmann::json DumpLine(const FrameView& fr, const runtime::SphereSet& set, bool
   }
   nlohmann::json spheres = nlohmann::json::array(), pairs = nlohmann::json::array(), contacts = nlohmann::json::array();
   for (const auto& s : fr.spheres) spheres.push_back({s.x(), s.y(), s.z(), s.w()});
-  for (const auto& c : fr.sphere_pairs) pairs.push_back({c.i, c.j});
+  for (const auto& c : fr.sphere_pairs) pairs.push_back({c.sphere_i, c.sphere_j});
   for (const runtime::PartContact& p : fr.contacts->parts) {
     nlohmann::json triangles = nlohmann::json::array(), near = nlohmann::json::array();
     for (uint32_t k = p.first_triangle_pair; k < p.first_triangle_pair + p.triangle_pair_count; ++k) {

@@ -113,35 +113,16 @@ void RunUnchecked(const SkinningJob& job, size_t begin, size_t end) {
 
 }  // namespace
 
-bool SimdLevelSupported(SimdLevel level) {
-  switch (level) {
-    case SimdLevel::kAuto:
-    case SimdLevel::kScalar: return true;
-#if defined(SKINSPHERES_X86_64)
-    case SimdLevel::kSse2: return true;
-    case SimdLevel::kAvx2: return HostCpu().avx2 && HostCpu().bmi1 && HostCpu().popcnt;  // simd/target_begin_avx2.inc
-#endif
-    default: return false;
-  }
-}
-
 SimdLevel ResolveSimdLevel(SimdLevel level) {
-  if (level != SimdLevel::kAuto) return level;
 #if defined(SKINSPHERES_X86_64)
-  return SimdLevelSupported(SimdLevel::kAvx2) ? SimdLevel::kAvx2 : SimdLevel::kSse2;
-#else
-  return SimdLevel::kScalar;
-#endif
-}
-
-const char* SimdLevelName(SimdLevel level) {
   switch (level) {
-    case SimdLevel::kAuto: return "auto";
-    case SimdLevel::kScalar: return "scalar";
-    case SimdLevel::kSse2: return "sse2";
-    case SimdLevel::kAvx2: return "avx2";
+    case SimdLevel::kAuto: return SimdLevelSupported(SimdLevel::kAvx2) ? SimdLevel::kAvx2 : SimdLevel::kSse2;
+    case SimdLevel::kAvx512: return SimdLevel::kAvx2;  // no AVX-512 copy: the AVX2 one (same bits)
+    default: return level;
   }
-  return "?";
+#else
+  return level == SimdLevel::kAuto ? SimdLevel::kPortable : level;
+#endif
 }
 
 size_t SkinningJob::WorkSize() const {

@@ -1,4 +1,4 @@
-// Linear blend skinning kernels, scalar level (see skinning_kernels.h).
+// Linear blend skinning kernels, portable level (see skinning_kernels.h).
 
 #include <algorithm>
 #include <cstddef>

@@ -45,7 +45,7 @@ std::span<float> Floats(std::vector<Eigen::Vector3f>& v) { return {v.data()->dat
 
 void PrintContacts(const char* what, std::span<const runtime::SpherePair> contacts) {
   std::printf("%s: %zu contacts", what, contacts.size());
-  for (const runtime::SpherePair& c : contacts) std::printf(" %u-%u:%.5f", c.i, c.j, c.depth);
+  for (const runtime::SpherePair& c : contacts) std::printf(" %u-%u:%.5f", c.sphere_i, c.sphere_j, c.depth);
   std::printf("\n");
 }
 
@@ -63,13 +63,13 @@ int main(int argc, char** argv) {
   // Layouts as this program sees them (compared across builds by the test script).
   std::printf(
       "sizeof Transform %zu BindEntry %zu LocalToModelJob %zu SkinningMatricesJob %zu SamplingJob %zu "
-      "SkinningJob %zu RefitJob %zu SelfCollisionJob %zu SpherePair %zu SphereSet %zu CharacterFrameInput %zu "
+      "SkinningJob %zu RefitJob %zu BroadPhaseJob %zu SpherePair %zu SphereSet %zu CharacterFrameInput %zu "
       "FrameStatus %zu JointTrack %zu JointMapping %zu SphereSetBinaryView %zu skinspheres_sphere_pair %zu "
       "skinspheres_frame_input %zu NarrowPhaseJob %zu NarrowPhaseSettings %zu PartContact %zu "
       "TriangleContact %zu skinspheres_part_contact %zu skinspheres_triangle_contact %zu\n",
       sizeof(skinning::Transform), sizeof(skinning::BindEntry), sizeof(skinning::LocalToModelJob),
       sizeof(skinning::SkinningMatricesJob), sizeof(skinning::SamplingJob), sizeof(skinning::SkinningJob),
-      sizeof(runtime::RefitJob), sizeof(runtime::SelfCollisionJob), sizeof(runtime::SpherePair),
+      sizeof(runtime::RefitJob), sizeof(runtime::BroadPhaseJob), sizeof(runtime::SpherePair),
       sizeof(runtime::SphereSet), sizeof(runtime::CharacterFrameInput), sizeof(runtime::FrameStatus),
       sizeof(skinning::JointTrack), sizeof(runtime::JointMapping), sizeof(runtime::SphereSetBinaryView),
       sizeof(skinspheres_sphere_pair), sizeof(skinspheres_frame_input), sizeof(runtime::NarrowPhaseJob),
@@ -159,13 +159,13 @@ int main(int argc, char** argv) {
   // Broad phase: the job, the crowd runners and the oracle.
   runtime::BroadPhaseContext context_a(set.size()), context_b(set.size());
   std::vector<runtime::SpherePair> out_a, out_b, oracle;
-  runtime::SelfCollisionJob jobs[2];
+  runtime::BroadPhaseJob jobs[2];
   jobs[0] = {exact, &(*asset)->filter(), &context_a, &out_a};
   jobs[1] = {fast_spheres, &(*asset)->filter(), &context_b, &out_b};
-  Check(jobs[0].Run(), "SelfCollisionJob");
+  Check(jobs[0].Run(), "BroadPhaseJob");
   Check(runtime::RunParallel(jobs), "RunParallel");
   Check(runtime::RunRange(jobs, 0, 2), "RunRange");
-  Check(runtime::SelfCollisionAllPairs(exact, (*asset)->filter(), &oracle), "SelfCollisionAllPairs");
+  Check(runtime::FindSpherePairsBruteForce(exact, (*asset)->filter(), &oracle), "FindSpherePairsBruteForce");
   Check(oracle == out_a, "sweep == all pairs");
   PrintContacts("exact spheres", out_a);
   PrintContacts("fast spheres", out_b);
@@ -176,11 +176,11 @@ int main(int argc, char** argv) {
   if (!one.ok() || !two.ok()) return std::printf("instance: failed\n"), 1;
   Check(one->UpdateExact(reference, world).ok(), "CharacterInstance::UpdateExact");
   Check(std::vector<runtime::SpherePair>(one->FindSpherePairs().begin(), one->FindSpherePairs().end()) == out_a,
-        "FindSpherePairs == SelfCollisionJob (exact)");
+        "FindSpherePairs == BroadPhaseJob (exact)");
   Check(one->UpdateFast(world).ok(), "CharacterInstance::UpdateFast");
   const auto queried = one->FindSpherePairs();
   Check(std::vector<runtime::SpherePair>(queried.begin(), queried.end()) == out_b,
-        "FindSpherePairs == SelfCollisionJob (fast)");
+        "FindSpherePairs == BroadPhaseJob (fast)");
   runtime::CharacterInstance* crowd[2] = {&*one, &*two};
   const runtime::CharacterFrameInput inputs[2] = {{world, {}}, {world, {}}};
   Check(runtime::CrowdUpdateAndFindSpherePairs(crowd, inputs, runtime::RefitMode::kFast).ok(),

@@ -5,7 +5,7 @@ import ctypes as C
 
 import numpy as np
 
-SPHERE_PAIR = np.dtype([("i", "<u4"), ("j", "<u4"), ("depth", "<f4"), ("part_i", "<u2"), ("part_j", "<u2")])
+SPHERE_PAIR = np.dtype([("sphere_i", "<u4"), ("sphere_j", "<u4"), ("depth", "<f4"), ("part_i", "<u2"), ("part_j", "<u2")])
 PART_CONTACT = np.dtype(
     [
         ("part_a", "<u2"),

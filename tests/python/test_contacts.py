@@ -27,7 +27,7 @@ def same(a, b):
 
 
 def assert_frame_equal(py_pairs, py_contacts, c_pairs, c_parts, c_tris, where):
-    for field in ("i", "j", "depth", "part_i", "part_j"):
+    for field in ("sphere_i", "sphere_j", "depth", "part_i", "part_j"):
         assert same(py_pairs[field], c_pairs[field]), f"{where}: sphere pairs differ in {field}"
     parts, tris = py_contacts
     mapping = {
@@ -116,7 +116,7 @@ def test_play_equals_the_tool_and_the_sampler_agrees(name, mode, builtin_glb, tm
     for line in lines:
         f = line["frame"]
         mine = sp[sp["frame"] == f]
-        assert [[int(i), int(j)] for i, j in zip(mine["i"], mine["j"])] == line["pairs"], f"frame {f}: sphere pairs"
+        assert [[int(i), int(j)] for i, j in zip(mine["sphere_i"], mine["sphere_j"])] == line["pairs"], f"frame {f}: sphere pairs"
         parts = pc[pc["frame"] == f]
         assert len(parts) == len(line["contacts"]), f"frame {f}: part pairs"
         for row, entry in zip(parts, line["contacts"]):

@@ -24,7 +24,7 @@ constexpr float kSentinel = -12345.0f;
 
 std::vector<SimdLevel> SupportedLevels() {
   std::vector<SimdLevel> levels;
-  for (SimdLevel l : {SimdLevel::kScalar, SimdLevel::kSse2, SimdLevel::kAvx2})
+  for (SimdLevel l : {SimdLevel::kPortable, SimdLevel::kSse2, SimdLevel::kAvx2, SimdLevel::kAvx512})
     if (SimdLevelSupported(l)) levels.push_back(l);
   return levels;
 }
@@ -83,11 +83,11 @@ TEST(SkinningJob, RigidTransformIsExactForAnyWeights) {
     std::vector<float> out(m.positions.size(), 0.0f);
     SkinningJob job = CsrJob(m, m.positions, out);
     job.simd = level;
-    ASSERT_TRUE(job.Run()) << SimdLevelName(level);
+    ASSERT_TRUE(job.Run()) << ToString(level);
     for (size_t v = 0; v < m.vertex_count; ++v) {
       const skinspheres::Vec4f p =
           t * skinspheres::Vec4f(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2], 1);
-      for (int c = 0; c < 3; ++c) ASSERT_NEAR(out[3 * v + c], p[c], 1e-5f) << SimdLevelName(level) << " vertex " << v;
+      for (int c = 0; c < 3; ++c) ASSERT_NEAR(out[3 * v + c], p[c], 1e-5f) << ToString(level) << " vertex " << v;
     }
   }
 }
@@ -104,7 +104,7 @@ TEST(SkinningJob, MatchesReferenceOneToEightInfluences) {
       ASSERT_TRUE(job.Validate());
       ASSERT_TRUE(job.Run());
       EXPECT_LT(MaxDiff(out, expected, 3, AllVertices(m.vertex_count)), 2e-5f)
-          << SimdLevelName(level) << " max influences " << max_inf;
+          << ToString(level) << " max influences " << max_inf;
     }
   }
 }
@@ -134,7 +134,7 @@ TEST(SkinningJob, PreparedIsBitIdenticalToCsr) {
       ASSERT_TRUE(prep.Validate());
       ASSERT_TRUE(prep.Run());
       EXPECT_EQ(0, std::memcmp(csr_out.data(), prep_out.data(), csr_out.size() * sizeof(float)))
-          << SimdLevelName(level) << (use_subset ? " subset" : " full");
+          << ToString(level) << (use_subset ? " subset" : " full");
     }
   }
 }
@@ -142,7 +142,7 @@ TEST(SkinningJob, PreparedIsBitIdenticalToCsr) {
 // The documented order of operations (skinning_kernels.h), written out in plain floats: the blended
 // columns in two chains (even and odd influences) added at the end, then ((C0 x + C1 y) + C2 z) +
 // C3. Every level must give exactly these bits: that is what makes skinning, and the exact refit
-// and narrow phase behind it, the same on every platform (aarch64 runs the scalar level).
+// and narrow phase behind it, the same on every platform (aarch64 runs the portable level).
 std::vector<float> SkinInDocumentedOrder(const SyntheticMesh& m) {
   std::vector<float> out(m.positions.size(), 0.0f);
   for (size_t v = 0; v < m.vertex_count; ++v) {
@@ -186,7 +186,7 @@ TEST(SkinningJob, EveryLevelGivesTheDocumentedBits) {
         ASSERT_TRUE(job.Run());
         size_t differ = 0;
         for (size_t i = 0; i < out.size(); ++i) differ += std::memcmp(&out[i], &expected[i], sizeof(float)) != 0;
-        EXPECT_EQ(differ, 0u) << SimdLevelName(level) << (use_prepared ? " prepared" : " csr") << ", up to " << max_inf
+        EXPECT_EQ(differ, 0u) << ToString(level) << (use_prepared ? " prepared" : " csr") << ", up to " << max_inf
                               << " influences: coordinates that differ from the documented order";
       }
     }
@@ -224,7 +224,7 @@ TEST(SkinningJob, StridedBuffersAndSubsetTouchOnlyTheirVertices) {
       } else {
         job.subset = subset;
       }
-      ASSERT_TRUE(job.Run()) << SimdLevelName(level);
+      ASSERT_TRUE(job.Run()) << ToString(level);
       std::vector<bool> in_subset(m.vertex_count, false);
       for (uint32_t v : subset) in_subset[v] = true;
       for (size_t i = 0; i < out.size(); ++i) {

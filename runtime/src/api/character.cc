@@ -1,5 +1,5 @@
 // CharacterAsset / CharacterInstance (api/character.h): set-up allocates and reports Errors; per
-// frame only jobs run (RefitJob, SelfCollisionJob, NarrowPhaseJob) and FrameStatus comes back.
+// frame only jobs run (RefitJob, BroadPhaseJob, NarrowPhaseJob) and FrameStatus comes back.
 #include "skinspheres/runtime/api/character.h"
 
 #include <algorithm>
@@ -188,7 +188,7 @@ std::span<const SpherePair> CharacterInstance::FindSpherePairs() {
     return {};
   }
   SizeQueryContext();  // first call: warm-up allocation (Create says why)
-  SelfCollisionJob job;
+  BroadPhaseJob job;
   job.spheres = spheres_;
   job.filter = &asset_->filter();
   job.context = &context_;
@@ -270,7 +270,7 @@ bool CharacterInstance::FindMarginPairs(float margin) {
     grown_[s].w() = std::nextafter((spheres_[s].w() + 0.5f * margin) * (1.0f + 1e-6f), INFINITY);
   }
   margin_pairs_.clear();
-  SelfCollisionJob job;
+  BroadPhaseJob job;
   job.spheres = std::span<const Vec4f>(grown_.data(), spheres_.size());
   job.filter = &asset_->filter();
   job.context = &margin_context_;

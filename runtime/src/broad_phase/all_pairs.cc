@@ -6,7 +6,7 @@
 
 namespace skinspheres::runtime {
 
-bool SelfCollisionAllPairs(std::span<const Vec4f> spheres, const PairFilter& filter, std::vector<SpherePair>* out) {
+bool FindSpherePairsBruteForce(std::span<const Vec4f> spheres, const PairFilter& filter, std::vector<SpherePair>* out) {
   if (out == nullptr) return false;
   out->clear();
   if (spheres.size() != filter.size()) return false;

@@ -217,7 +217,7 @@ void Frame::RunGroups() {
       const uint32_t b = filter.group_begin(g), e = filter.group_begin(g + 1);
       BroadPhaseContext& gc = st.groups.contexts[g];
       const uint64_t builds_before = gc.build_count();
-      const SelfCollisionJob sub{job.spheres.subspan(b, e - b), &st.groups.filters[g], &gc, &st.groups.out, job.simd};
+      const BroadPhaseJob sub{job.spheres.subspan(b, e - b), &st.groups.filters[g], &gc, &st.groups.out, job.simd};
       st.groups.out.clear();
       Frame(sub, k).Run();  // cannot fail: the values were checked, the sizes match
       candidates += gc.last_candidate_count();
@@ -225,8 +225,8 @@ void Frame::RunGroups() {
       builds += gc.build_count() - builds_before;
       lookahead += gc.last_lookahead();
       for (SpherePair w : st.groups.out) {
-        w.i += b;
-        w.j += b;
+        w.sphere_i += b;
+        w.sphere_j += b;
         while (c < cross.size() && ByPair(cross[c], w)) out.push_back(cross[c++]);
         out.push_back(w);
       }

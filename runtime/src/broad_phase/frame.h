@@ -1,6 +1,6 @@
 // Private: one frame of the self-collision broad phase (broad_phase.h has the contract): the
 // job's inputs, the context's state (broad_phase/context_state.h), and the steps of a frame, each
-// part in the file named beside it. self_collision_job.cc runs them:
+// part in the file named beside it. broad_phase_job.cc runs them:
 //   1. values: every centre and radius finite, within ±kMaxMagnitude, radii >= 0; centres summed;
 //   2. a space of several characters runs by character (character_groups.cc);
 //   3. the candidate cache's check (candidate_cache.cc: CacheHolds);
@@ -82,7 +82,9 @@ inline uint32_t OrderBits(float f) {
   return (u & 0x80000000u) != 0 ? ~u : (u | 0x80000000u);
 }
 
-inline bool ByPair(const SpherePair& p, const SpherePair& q) { return p.i != q.i ? p.i < q.i : p.j < q.j; }
+inline bool ByPair(const SpherePair& p, const SpherePair& q) {
+  return p.sphere_i != q.sphere_i ? p.sphere_i < q.sphere_i : p.sphere_j < q.sphere_j;
+}
 
 // A sphere's interval on the sweep axis is padded by this (relative and absolute), so that two
 // spheres the exact test finds touching have overlapping intervals.
@@ -101,12 +103,12 @@ struct SweepLayout {
 
 class Frame {
  public:
-  Frame(const SelfCollisionJob& j, const kernels::Kernels& kernels);
+  Frame(const BroadPhaseJob& j, const kernels::Kernels& kernels);
   // The frame (steps above). False when a value is refused (out stays empty).
   bool Run();
 
  private:
-  const SelfCollisionJob& job;
+  const BroadPhaseJob& job;
   BroadPhaseContext::State& st;
   const kernels::Kernels& k;
   const PairFilter& filter;

@@ -1,5 +1,5 @@
 // Private: the broad phase's inner loops, compiled once per instruction set from one body,
-// broad_phase/kernels.inc, and picked at run time (broad_phase/self_collision_job.cc): portable
+// broad_phase/kernels.inc, and picked at run time (broad_phase/broad_phase_job.cc): portable
 // (plain C++ over arrays of 4 floats, every platform: what aarch64 runs), and on x86-64 SSE2 (the
 // baseline), AVX2 and AVX-512. Every level evaluates every test with the same float operations in
 // the same order, so all levels, on all platforms, give bit-identical results.
@@ -85,7 +85,7 @@ struct Kernels {
   // in a fixed order), for the mean displacement.
   bool (*check_values)(const float* spheres, size_t n, float limit, float sum[3]);
 
-  // The candidate cache's validity (broad_phase/self_collision_job.cc, CacheHolds, has the bound). ref: the spheres
+  // The candidate cache's validity (broad_phase/broad_phase_job.cc, CacheHolds, has the bound). ref: the spheres
   // at the build as four arrays x, y, z, r, `stride` floats apart; allow: per sphere, the skin
   // times (1 - 2^-16); slack: 2^-20 |shift|_inf. Writes motion[k] = |c - c_ref - shift| +
   // max(0, r - r_ref) (approximately: for the next skins), and returns false when any sphere

@@ -127,11 +127,11 @@ void CrowdBatch::AppendHits(void* context, const internal::BatchHits& hits) {
 void CrowdBatch::SortRows(std::vector<SpherePair>& found) {
   for (size_t begin = 0; begin < found.size();) {
     size_t end = begin + 1;
-    while (end < found.size() && found[end].i == found[begin].i) ++end;
+    while (end < found.size() && found[end].sphere_i == found[begin].sphere_i) ++end;
     for (size_t k = begin + 1; k < end; ++k) {
       const SpherePair p = found[k];
       size_t at = k;
-      for (; at > begin && found[at - 1].j > p.j; --at) found[at] = found[at - 1];
+      for (; at > begin && found[at - 1].sphere_j > p.sphere_j; --at) found[at] = found[at - 1];
       found[at] = p;
     }
     begin = end;

@@ -3,7 +3,7 @@
 // refit before it, refit/refit_internal.h). Lanes across instances share every sphere pair and its
 // exclusion, so the asset's allowed pairs are tested for all lanes at once, with the oracle's
 // arithmetic (broad_phase/sphere_test.h) lane by lane: each instance gets exactly the sphere pairs,
-// in the same (i, j) order and with the same depth bits, as its own SelfCollisionJob, whose cache
+// in the same (i, j) order and with the same depth bits, as its own BroadPhaseJob, whose cache
 // only ever reproduces the oracle. Plain arrays only: no Eigen or standard-library template is
 // instantiated in the code compiled for AVX2 or AVX-512 (the linker could keep that copy for the
 // whole program).
@@ -37,7 +37,7 @@ struct BatchHits {
 void SetCrowdBatched(bool batched);
 bool CrowdBatched();
 // Whether the crowd calls query a batch at once (the default) or, after the batched refit, each
-// instance through its own SelfCollisionJob (the same sphere pairs). For tests and benchmarks: not to
+// instance through its own BroadPhaseJob (the same sphere pairs). For tests and benchmarks: not to
 // be called while a crowd call runs.
 void SetCrowdQueryBatched(bool batched);
 bool CrowdQueryBatched();

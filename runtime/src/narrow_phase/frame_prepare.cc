@@ -60,7 +60,7 @@ void SelectWork(const Frame& f, std::span<const SpherePair> pairs, bool lazy, Na
   };
   auto moving = [&](uint32_t a, uint32_t b) { return !d.near(d.patch_joint[a], d.patch_joint[b]) && !Still(f, a, b); };
   for (uint32_t k = 0; k < pairs.size(); ++k) {
-    const uint32_t i = pairs[k].i, j = pairs[k].j;
+    const uint32_t i = pairs[k].sphere_i, j = pairs[k].sphere_j;
     prepare(i);
     prepare(j);
     bool any = false;
@@ -88,8 +88,8 @@ void Involved(std::span<const SpherePair> pairs, NarrowPhaseContext& ctx) {
     }
   };
   ForEachActivePair(pairs, ctx, [&](uint32_t k) {
-    add(pairs[k].i);
-    add(pairs[k].j);
+    add(pairs[k].sphere_i);
+    add(pairs[k].sphere_j);
   });
   for (uint32_t s : Of(ctx).active_self) add(s);
 }
@@ -138,7 +138,7 @@ void MeasureDeviations(const Frame& f, std::span<const SpherePair> pairs, Narrow
     mark(b);
   };
   ForEachActivePair(pairs, ctx, [&](uint32_t k) {
-    const uint32_t i = pairs[k].i, j = pairs[k].j;
+    const uint32_t i = pairs[k].sphere_i, j = pairs[k].sphere_j;
     for (uint32_t a = d.patch_offsets[i]; a < d.patch_offsets[i + 1]; ++a) {
       for (uint32_t b = d.patch_offsets[j]; b < d.patch_offsets[j + 1]; ++b) consider(a, b);
     }

@@ -155,7 +155,7 @@ struct NarrowPhaseData::Layout {
   // cluster_grid (within its cluster's range), where a frame's PositionBox left the point.
   static constexpr uint32_t kGridRef = uint32_t{1} << 31;
   std::vector<std::array<uint32_t, 3>> piece_corner_refs;
-  // Mode (b): see the accessors.
+  // Mode (b)'s vertex groups, runs and run bitsets: docs/NARROW_PHASE.md#mode-bs-layout-in-narrowphasedata.
   skinning::PreparedInfluences lazy_influences;
   std::vector<uint32_t> run_begin, group_run_offsets, group_runs, group_sizes;
   std::vector<uint32_t> sphere_group_offsets, sphere_groups;
@@ -168,6 +168,11 @@ struct NarrowPhaseData::Layout {
   std::vector<uint32_t> vertex_triangle_offsets, vertex_triangles;
   std::vector<Eigen::Vector3f> rest_positions;
   float rest_height = 0.0f;  // rest_positions' extent along +Y
+
+  // The counts the CSR arrays above imply.
+  size_t cluster_count() const { return cluster_vertex_offsets.empty() ? 0 : cluster_vertex_offsets.size() - 1; }
+  size_t group_count() const { return group_run_offsets.empty() ? 0 : group_run_offsets.size() - 1; }
+  size_t run_count() const { return run_begin.empty() ? 0 : run_begin.size() - 1; }
 };
 
 // A NarrowPhaseContext's scratch, sized by Resize.

@@ -26,9 +26,9 @@ struct LazySkinner {
 
   // Marks the runs of sphere's groups not skinned yet this frame; false when there are none.
   bool Collect(uint32_t sphere) {
-    const auto offsets = data.sphere_run_offsets();
-    const auto words = data.sphere_run_words();
-    const auto bits = data.sphere_run_bits();
+    const std::span<const uint32_t> offsets = Of(data).sphere_run_offsets;
+    const std::span<const uint32_t> words = Of(data).sphere_run_words;
+    const std::span<const uint64_t> bits = Of(data).sphere_run_bits;
     const uint32_t k0 = offsets[sphere], k1 = offsets[sphere + 1];
     if (k0 == k1) return false;
     uint64_t added = 0;
@@ -53,7 +53,7 @@ struct LazySkinner {
 
   // Skins what Collect marked. False on a job the skinning library refuses.
   bool Skin(const ParallelFor& parallel_for) {
-    const auto run_begin = data.run_begin();
+    const std::span<const uint32_t> run_begin = Of(data).run_begin;
     Of(ctx).spans.clear();
     // Maximal sequences of marked runs: runs tile the slots, so consecutive runs are adjacent.
     uint32_t open_begin = 0, open_end = 0;  // the span being extended (empty: none)
@@ -83,7 +83,7 @@ struct LazySkinner {
     job.vertex_count = set.mesh.vertex_count();
     job.in_positions = {reinterpret_cast<const float*>(set.mesh.positions_bind.data()), 3 * set.mesh.vertex_count()};
     job.out_positions = {reinterpret_cast<float*>(Of(ctx).skinned.data()), 3 * Of(ctx).skinned.size()};
-    job.prepared = &data.lazy_influences();
+    job.prepared = &Of(data).lazy_influences;
     std::atomic<bool> good{true};
     parallel_for(Of(ctx).spans.size(), 1, [&](size_t begin, size_t end) {
       if (!job.RunRanges(std::span(Of(ctx).spans).subspan(begin, end - begin)))
@@ -99,9 +99,9 @@ struct LazySkinner {
     if (Of(ctx).sphere_seen[sphere] == Of(ctx).frame_stamp) return;
     Of(ctx).sphere_seen[sphere] = Of(ctx).frame_stamp;
     if (Collect(sphere)) Skin(SerialFor());
-    const auto offsets = data.sphere_vertex_offsets();
+    const std::span<const uint32_t> offsets = Of(data).sphere_vertex_offsets;
     for (uint32_t k = offsets[sphere]; k < offsets[sphere + 1]; ++k) {
-      ok &= Of(ctx).skinned[data.sphere_vertices()[k]].allFinite();
+      ok &= Of(ctx).skinned[Of(data).sphere_vertices[k]].allFinite();
     }
   }
 };

@@ -76,32 +76,9 @@ size_t NarrowPhaseData::sphere_count() const {
 }
 size_t NarrowPhaseData::triangle_count() const { return layout_->welded.size() / 3; }
 size_t NarrowPhaseData::vertex_count() const { return layout_->rest_positions.size(); }
-size_t NarrowPhaseData::max_sphere_triangles() const { return layout_->max_sphere_triangles; }
-size_t NarrowPhaseData::max_sphere_clusters() const { return layout_->max_sphere_clusters; }
-std::span<const uint32_t> NarrowPhaseData::welded_triangle_vertices() const { return layout_->welded; }
 ContactRules NarrowPhaseData::rules() const { return layout_->rules; }
 float NarrowPhaseData::rest_distance() const { return layout_->rest_distance; }
-std::span<const uint32_t> NarrowPhaseData::self_spheres() const { return layout_->self_spheres; }
-std::span<const uint32_t> NarrowPhaseData::sphere_vertex_offsets() const { return layout_->sphere_vertex_offsets; }
-std::span<const uint32_t> NarrowPhaseData::sphere_vertices() const { return layout_->sphere_vertices; }
 std::span<const Eigen::Vector3f> NarrowPhaseData::rest_positions() const { return layout_->rest_positions; }
-size_t NarrowPhaseData::cluster_count() const {
-  return layout_->cluster_vertex_offsets.empty() ? 0 : layout_->cluster_vertex_offsets.size() - 1;
-}
-size_t NarrowPhaseData::group_count() const {
-  return layout_->group_run_offsets.empty() ? 0 : layout_->group_run_offsets.size() - 1;
-}
-std::span<const uint32_t> NarrowPhaseData::sphere_group_offsets() const { return layout_->sphere_group_offsets; }
-std::span<const uint32_t> NarrowPhaseData::sphere_groups() const { return layout_->sphere_groups; }
-const skinning::PreparedInfluences& NarrowPhaseData::lazy_influences() const { return layout_->lazy_influences; }
-size_t NarrowPhaseData::run_count() const { return layout_->run_begin.empty() ? 0 : layout_->run_begin.size() - 1; }
-std::span<const uint32_t> NarrowPhaseData::run_begin() const { return layout_->run_begin; }
-std::span<const uint32_t> NarrowPhaseData::group_run_offsets() const { return layout_->group_run_offsets; }
-std::span<const uint32_t> NarrowPhaseData::group_runs() const { return layout_->group_runs; }
-std::span<const uint32_t> NarrowPhaseData::group_sizes() const { return layout_->group_sizes; }
-std::span<const uint32_t> NarrowPhaseData::sphere_run_offsets() const { return layout_->sphere_run_offsets; }
-std::span<const uint32_t> NarrowPhaseData::sphere_run_words() const { return layout_->sphere_run_words; }
-std::span<const uint64_t> NarrowPhaseData::sphere_run_bits() const { return layout_->sphere_run_bits; }
 
 NarrowPhaseContext::NarrowPhaseContext() : state_(std::make_unique<State>()) {}
 NarrowPhaseContext::~NarrowPhaseContext() = default;
@@ -125,18 +102,19 @@ void NarrowPhaseContext::Reserve(size_t sphere_pairs) { state_->active_pairs.res
 
 void NarrowPhaseContext::Resize(const NarrowPhaseData& data, bool lazy_skinning) {
   State& st = *state_;
+  const NarrowPhaseData::Layout& layout = narrow_phase::Access::Of(data);
   st.sized_for = &data;
   for (narrow_phase::Chunk& c : st.chunks) {
     c.a.assign(data.settings().cluster_triangles, narrow_phase::Box{});
     c.b.assign(data.settings().cluster_triangles, narrow_phase::Box{});
     c.plane_a.assign(data.settings().cluster_triangles, narrow_phase::Plane{});
     c.plane_b.assign(data.settings().cluster_triangles, narrow_phase::Plane{});
-    c.ka.assign(data.max_sphere_clusters(), 0);
-    c.kb.assign(data.max_sphere_clusters(), 0);
-    c.xa.assign(data.max_sphere_clusters(), 0);
-    c.xb.assign(data.max_sphere_clusters(), 0);
-    c.pa.assign(narrow_phase::Access::Of(data).max_sphere_patches + 1, 0);
-    c.pb.assign(narrow_phase::Access::Of(data).max_sphere_patches + 1, 0);
+    c.ka.assign(layout.max_sphere_clusters, 0);
+    c.kb.assign(layout.max_sphere_clusters, 0);
+    c.xa.assign(layout.max_sphere_clusters, 0);
+    c.xb.assign(layout.max_sphere_clusters, 0);
+    c.pa.assign(layout.max_sphere_patches + 1, 0);
+    c.pb.assign(layout.max_sphere_patches + 1, 0);
     c.hits.reserve(256);
   }
   st.merged.reserve(256 * kChunks);
@@ -147,26 +125,26 @@ void NarrowPhaseContext::Resize(const NarrowPhaseData& data, bool lazy_skinning)
   st.sphere_stamp = 0;
   st.sphere_seen.assign(data.sphere_count(), 0);
   st.involved.reserve(data.sphere_count());
-  st.cluster_box.assign(data.cluster_count(), narrow_phase::Box{});
+  st.cluster_box.assign(layout.cluster_count(), narrow_phase::Box{});
   st.sphere_box.assign(data.sphere_count(), narrow_phase::Box{});
   const narrow_phase::Box no_box{{0, 0, 0}, {0, 0, 0}, 0};
-  st.patch_box.assign(narrow_phase::Access::Of(data).patch_joint.size(), no_box);
-  st.joint_motion.assign(narrow_phase::Access::Of(data).rest_inverse.size(), narrow_phase::JointMotion{});
-  st.patch_deviation.assign(narrow_phase::Access::Of(data).patch_joint.size(), INFINITY);
-  st.patch_mark.assign(narrow_phase::Access::Of(data).patch_joint.size(), 0);
-  st.marked_patches.reserve(narrow_phase::Access::Of(data).patch_joint.size());
+  st.patch_box.assign(layout.patch_joint.size(), no_box);
+  st.joint_motion.assign(layout.rest_inverse.size(), narrow_phase::JointMotion{});
+  st.patch_deviation.assign(layout.patch_joint.size(), INFINITY);
+  st.patch_mark.assign(layout.patch_joint.size(), 0);
+  st.marked_patches.reserve(layout.patch_joint.size());
   st.patch_stamp = 0;
   st.active_pairs.reserve(4 * data.sphere_count());
   st.active_self.reserve(data.sphere_count());
-  st.grid_pos.assign(narrow_phase::Access::Of(data).cluster_grid.size(), Eigen::Vector3f::Zero());
+  st.grid_pos.assign(layout.cluster_grid.size(), Eigen::Vector3f::Zero());
   st.frame_stamp = 0;
   if (lazy_skinning) {
     st.skinned.assign(data.vertex_count(), Eigen::Vector3f::Zero());
-    st.run_bits.assign((data.run_count() + 63) / 64, 0);
+    st.run_bits.assign((layout.run_count() + 63) / 64, 0);
     st.run_done.assign(st.run_bits.size(), 0);
     st.marked_begin = st.run_bits.size();
     st.marked_end = 0;
-    st.spans.reserve(data.run_count() + data.lazy_influences().size() / narrow_phase::LazySkinner::kBlock + 1);
+    st.spans.reserve(layout.run_count() + layout.lazy_influences.size() / narrow_phase::LazySkinner::kBlock + 1);
   } else {
     st.skinned.clear();
     st.skinned.shrink_to_fit();
@@ -247,7 +225,7 @@ bool TestWork(const Frame& frame, std::span<const SpherePair> pairs, std::span<c
       for (size_t k = first; k < last; ++k) {
         if (k < tested) {
           const SpherePair& p = pairs[all ? k : active[k]];
-          chunk.ok &= TestPair(frame, p.i, p.j, spheres[p.i], spheres[p.j], chunk);
+          chunk.ok &= TestPair(frame, p.sphere_i, p.sphere_j, spheres[p.sphere_i], spheres[p.sphere_j], chunk);
         } else {
           chunk.ok &= TestSelf(frame, self[k - tested], chunk);
         }
@@ -274,7 +252,7 @@ bool NarrowPhaseJob::RunParallel(const ParallelFor& parallel_for) const {
   Of(ctx).stats = {};
   const size_t n = set->size();
   for (const SpherePair& p : pairs) {
-    if (p.i >= p.j || p.j >= n) return false;
+    if (p.sphere_i >= p.sphere_j || p.sphere_j >= n) return false;
   }
   const bool lazy = positions.empty();
   if (lazy && !ctx.has_lazy_skinning()) ctx.Resize(*data, true);  // first mode-(b) run: warm-up allocation

@@ -22,6 +22,7 @@
 #include "format/grid_point.h"
 #include "refit/fast_reference.h"
 #include "refit/refit_internal.h"
+#include "refit/rest_data.h"
 #include "skinspheres/runtime/refit/mesh_bounds.h"
 #include "skinspheres/skinning/platform.h"
 
@@ -49,10 +50,11 @@ bool RefitJob::Validate() const {
   const bool need_joints = mode == RefitMode::kFast || !joint_world.empty();
   if (need_joints) {
     if (rest == nullptr) return false;
-    if (rest->sphere_count() != n || rest->joint_count() != set->joint_count() ||
-        rest->influence_count() != set->influence_joints.size() || rest->reach().size() != rest->influence_count() ||
+    const RefitRestData::Data& r = internal::RestOf(*rest);
+    if (r.sphere_count != n || r.rest_linear_inverse.size() != set->joint_count() ||
+        r.center_in_joint.size() != set->influence_joints.size() || r.reach.size() != r.center_in_joint.size() ||
         set->influence_weights.size() != set->influence_joints.size() || set->radii_fast.size() != n ||
-        rest->group_offsets().size() != n + 1 || rest->group_reach_offsets().size() != n + 1) {
+        r.group_offsets.size() != n + 1 || r.group_reach_offsets.size() != n + 1) {
       return false;
     }
     if (joint_world.size() < set->joint_count()) return false;
@@ -63,9 +65,10 @@ bool RefitJob::Validate() const {
     // The set's point indices (source vertices and grid points) were checked when the rest data
     // was built; without rest data check the CSR end at least (O(1)).
     if (set->vertex_offsets[n] > set->vertices.size()) return false;
-    if (rest != nullptr && (rest->source_vertex_count() != set->source_vertex_count ||
-                            rest->point_count() != set->source_vertex_count + set->piece_points.size() ||
-                            (!rest->exact_point_offsets().empty() && rest->exact_point_offsets().size() != n + 1))) {
+    const RefitRestData::Data* r = rest != nullptr ? &internal::RestOf(*rest) : nullptr;
+    if (r != nullptr && (r->source_vertex_count != set->source_vertex_count ||
+                         r->point_count != set->source_vertex_count + set->piece_points.size() ||
+                         (!r->exact_point_offsets.empty() && r->exact_point_offsets.size() != n + 1))) {
       return false;
     }
   } else if (mode != RefitMode::kFast) {
@@ -104,8 +107,8 @@ inline float SquaredDistance(const Eigen::Vector3f& p, const float c[3]) {
 // c' = Σ_k w_k G_j(k)(t) · (G_j(k)(rest)^-1 c).
 inline void BlendedCentre(const RefitJob& job, size_t s, float c[3]) {
   const auto& set = *job.set;
-  const auto q = job.rest->center_in_joint();
-  const auto w = job.rest->weights();
+  const std::span<const Eigen::Vector3f> q = internal::RestOf(*job.rest).center_in_joint;
+  const std::span<const float> w = internal::RestOf(*job.rest).weights;
   c[0] = c[1] = c[2] = 0.0f;
   for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
     AddApplied(job.joint_world[set.influence_joints[k]], q[k], w[k], c);
@@ -133,9 +136,10 @@ bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
   const bool joints = !job.joint_world.empty();
   // The points to bound: the set's lists, or the rest data's, without the grid points no centre
   // can have farthest (RefitRestData::exact_points).
-  const bool reduced = job.rest != nullptr && !job.rest->exact_point_offsets().empty();
-  const uint32_t* offsets = reduced ? job.rest->exact_point_offsets().data() : set.vertex_offsets.data();
-  const uint32_t* list = reduced ? job.rest->exact_points().data() : set.vertices.data();
+  const bool reduced = job.rest != nullptr && !internal::RestOf(*job.rest).exact_point_offsets.empty();
+  const uint32_t* offsets =
+      reduced ? internal::RestOf(*job.rest).exact_point_offsets.data() : set.vertex_offsets.data();
+  const uint32_t* list = reduced ? internal::RestOf(*job.rest).exact_points.data() : set.vertices.data();
   bool ok = true;
   for (size_t s = begin; s < end; ++s) {
     const uint32_t v0 = offsets[s], v1 = offsets[s + 1];
@@ -163,26 +167,27 @@ bool RefitExact(const RefitJob& job, size_t begin, size_t end) {
 }
 
 // The arrays of the fast refit of one set (world and out left to the caller).
-internal::FastRefitArrays SharedArrays(const SphereSet& set, const RefitRestData& rest) {
+internal::FastRefitArrays SharedArrays(const SphereSet& set, const RefitRestData& rest_data) {
+  const RefitRestData::Data& rest = internal::RestOf(rest_data);
   static_assert(sizeof(Mat4f) == 16 * sizeof(float) && sizeof(Eigen::Vector3f) == 3 * sizeof(float) &&
                 sizeof(Vec4f) == 4 * sizeof(float));
   internal::FastRefitArrays a;  // (casts, not ->data(): a span of an empty set may hold a null pointer)
   a.joint_count = set.joint_count();
-  a.center_in_joint = reinterpret_cast<const float*>(rest.center_in_joint().data());
-  a.weights = rest.weights().data();
-  a.reach = rest.reach().data();
-  a.rest_inverse_rows = rest.rest_inverse_rows().data();
+  a.center_in_joint = reinterpret_cast<const float*>(rest.center_in_joint.data());
+  a.weights = rest.weights.data();
+  a.reach = rest.reach.data();
+  a.rest_inverse_rows = rest.rest_inverse_rows.data();
   a.influence_offsets = set.influence_offsets.data();
   a.influence_joints = set.influence_joints.data();
-  a.radii_fast = rest.radii_fast().data();
-  a.group_offsets = rest.group_offsets().data();
-  a.group_radii = rest.group_radii().data();
-  a.group_reach = rest.group_reach().data();
-  a.group_reach_offsets = rest.group_reach_offsets().data();
-  if (!rest.group_blend().empty()) {
-    a.group_blend = rest.group_blend().data();
-    a.group_deviation = rest.group_deviation().data();
-    a.group_blend_sum = rest.group_blend_sum().data();
+  a.radii_fast = rest.radii_fast.data();
+  a.group_offsets = rest.group_offsets.data();
+  a.group_radii = rest.group_radii.data();
+  a.group_reach = rest.group_reach.data();
+  a.group_reach_offsets = rest.group_reach_offsets.data();
+  if (!rest.group_blend.empty()) {
+    a.group_blend = rest.group_blend.data();
+    a.group_deviation = rest.group_deviation.data();
+    a.group_blend_sum = rest.group_blend_sum.data();
   }
   return a;
 }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <tuple>
@@ -18,6 +19,7 @@
 #include "format/grid_point.h"
 #include "refit/fast_reference.h"
 #include "refit/refit_internal.h"
+#include "refit/rest_data.h"
 #include "skinspheres/runtime/refit/mesh_bounds.h"
 #include "skinspheres/runtime/refit/refit_job.h"
 #include "skinspheres/skinning/platform.h"
@@ -178,17 +180,51 @@ ReachGroups ReachGroupsOf(const SphereSet& set, const std::vector<float>& radii_
 
 }  // namespace
 
+RefitRestData::RefitRestData() : data_(std::make_unique<Data>()) {}
+RefitRestData::~RefitRestData() = default;
+RefitRestData::RefitRestData(const RefitRestData& other)
+    : data_(std::make_unique<Data>(other.data_ ? *other.data_ : Data{})) {}
+RefitRestData& RefitRestData::operator=(const RefitRestData& other) {
+  if (this != &other) data_ = std::make_unique<Data>(other.data_ ? *other.data_ : Data{});
+  return *this;
+}
+RefitRestData::RefitRestData(RefitRestData&&) noexcept = default;
+RefitRestData& RefitRestData::operator=(RefitRestData&&) noexcept = default;
+
+size_t RefitRestData::sphere_count() const { return data_->sphere_count; }
+size_t RefitRestData::joint_count() const { return data_->rest_linear_inverse.size(); }
+size_t RefitRestData::influence_count() const { return data_->center_in_joint.size(); }
+size_t RefitRestData::source_vertex_count() const { return data_->source_vertex_count; }
+std::span<const Eigen::Vector3f> RefitRestData::center_in_joint() const { return data_->center_in_joint; }
+std::span<const float> RefitRestData::weights() const { return data_->weights; }
+std::span<const float> RefitRestData::reach() const { return data_->reach; }
+std::span<const float> RefitRestData::radii_fast() const { return data_->radii_fast; }
+bool RefitRestData::bind_reference() const { return data_->bind_reference; }
+std::span<const uint32_t> RefitRestData::group_offsets() const { return data_->group_offsets; }
+std::span<const float> RefitRestData::group_radii() const { return data_->group_radii; }
+std::span<const float> RefitRestData::group_reach() const { return data_->group_reach; }
+std::span<const uint32_t> RefitRestData::group_reach_offsets() const { return data_->group_reach_offsets; }
+std::span<const float> RefitRestData::group_blend() const { return data_->group_blend; }
+std::span<const float> RefitRestData::group_deviation() const { return data_->group_deviation; }
+std::span<const float> RefitRestData::group_blend_sum() const { return data_->group_blend_sum; }
+std::span<const Eigen::Matrix3f> RefitRestData::rest_linear_inverse() const { return data_->rest_linear_inverse; }
+std::span<const float> RefitRestData::rest_inverse_rows() const { return data_->rest_inverse_rows; }
+std::span<const uint32_t> RefitRestData::exact_point_offsets() const { return data_->exact_point_offsets; }
+std::span<const uint32_t> RefitRestData::exact_points() const { return data_->exact_points; }
+size_t RefitRestData::point_count() const { return data_->point_count; }
+
 Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
   if (auto err = set.Validate()) {
     return MakeError(err->code, "RefitRestData: sphere set '" + set.source_file + "': " + err->message);
   }
-  RefitRestData d;
-  d.sphere_count_ = set.size();
-  d.source_vertex_count_ = set.source_vertex_count;
+  RefitRestData rest;
+  Data& d = internal::RestDataAccess::Of(rest);
+  d.sphere_count = set.size();
+  d.source_vertex_count = set.source_vertex_count;
   const size_t joints = set.joint_count();
   auto ref = StoredReference(set);
   if (!ref.ok()) return ref.error();
-  d.weights_.resize(set.influence_joints.size());
+  d.weights.resize(set.influence_joints.size());
   for (size_t s = 0; s < set.size(); ++s) {
     const uint32_t k0 = set.influence_offsets[s], k1 = set.influence_offsets[s + 1];
     if (k0 == k1) {
@@ -201,40 +237,40 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
       return MakeError(ErrorCode::kInvalidData, "RefitRestData: sphere set '" + set.source_file + "': sphere " +
                                                     std::to_string(s) + " has influence weights summing to 0");
     }
-    for (uint32_t k = k0; k < k1; ++k) d.weights_[k] = static_cast<float>(set.influence_weights[k] / wsum);
+    for (uint32_t k = k0; k < k1; ++k) d.weights[k] = static_cast<float>(set.influence_weights[k] / wsum);
   }
   // The reach (sphere_set.h): stored, else the mesh's, else 1 (the bound without it).
   if (!set.influence_reach.empty()) {
-    d.reach_ = set.influence_reach;
+    d.reach = set.influence_reach;
   } else if (set.has_mesh()) {
     auto from_mesh = InfluenceReachFromMesh(set);  // cannot fail on a set Validate() passed
     if (!from_mesh.ok()) {
       return MakeError(from_mesh.error().code,
                        "RefitRestData: sphere set '" + set.source_file + "': " + from_mesh.error().message);
     }
-    d.reach_ = std::move(*from_mesh);
+    d.reach = std::move(*from_mesh);
   } else {
-    d.reach_.assign(set.influence_joints.size(), 1.0f);
+    d.reach.assign(set.influence_joints.size(), 1.0f);
   }
-  d.bind_reference_ = !set.fast_reference_inverse.empty();
-  d.radii_fast_ = ref->radius;
-  ReachGroups groups = ReachGroupsOf(set, d.radii_fast_, d.reach_);
-  d.group_offsets_ = std::move(groups.offsets);
-  d.group_radii_ = std::move(groups.radii);
-  d.group_reach_ = std::move(groups.reach);
-  d.group_blend_ = std::move(groups.blend);
-  d.group_deviation_ = std::move(groups.deviation);
-  d.group_reach_offsets_ = std::move(groups.reach_offsets);
-  d.group_blend_sum_ = std::move(groups.blend_sum);
-  d.rest_linear_inverse_.resize(joints);
-  d.rest_inverse_rows_.assign(12 * joints, 0.0f);
+  d.bind_reference = !set.fast_reference_inverse.empty();
+  d.radii_fast = ref->radius;
+  ReachGroups groups = ReachGroupsOf(set, d.radii_fast, d.reach);
+  d.group_offsets = std::move(groups.offsets);
+  d.group_radii = std::move(groups.radii);
+  d.group_reach = std::move(groups.reach);
+  d.group_blend = std::move(groups.blend);
+  d.group_deviation = std::move(groups.deviation);
+  d.group_reach_offsets = std::move(groups.reach_offsets);
+  d.group_blend_sum = std::move(groups.blend_sum);
+  d.rest_linear_inverse.resize(joints);
+  d.rest_inverse_rows.assign(12 * joints, 0.0f);
   for (size_t j = 0; j < joints; ++j) {
-    d.rest_linear_inverse_[j] = ref->inverse[j].topLeftCorner<3, 3>().cast<float>();
+    d.rest_linear_inverse[j] = ref->inverse[j].topLeftCorner<3, 3>().cast<float>();
     for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) d.rest_inverse_rows_[12 * j + 4 * r + c] = d.rest_linear_inverse_[j](r, c);
+      for (int c = 0; c < 3; ++c) d.rest_inverse_rows[12 * j + 4 * r + c] = d.rest_linear_inverse[j](r, c);
     }
   }
-  d.center_in_joint_.resize(set.influence_joints.size());
+  d.center_in_joint.resize(set.influence_joints.size());
   for (size_t s = 0; s < set.size(); ++s) {
     for (uint32_t k = set.influence_offsets[s]; k < set.influence_offsets[s + 1]; ++k) {
       const size_t j = set.influence_joints[k];
@@ -250,12 +286,12 @@ Result<RefitRestData> RefitRestData::Create(const SphereSet& set) {
                              "'s centre in the reference frame of joint " + std::to_string(j) +
                              " is out of the refit's float range (beyond 1e24 with that joint's rest transform)");
       }
-      d.center_in_joint_[k] = q.cast<float>();
+      d.center_in_joint[k] = q.cast<float>();
     }
   }
-  d.point_count_ = set.source_vertex_count + set.piece_points.size();
-  if (set.has_pieces()) ExactPoints(set, &d.exact_point_offsets_, &d.exact_points_);
-  return d;
+  d.point_count = set.source_vertex_count + set.piece_points.size();
+  if (set.has_pieces()) ExactPoints(set, &d.exact_point_offsets, &d.exact_points);
+  return rest;
 }
 
 }  // namespace skinspheres::runtime

@@ -122,7 +122,7 @@ TEST(CharacterInstanceTest, UpdatesMatchTheJobAndQueryMatchesAllPairs) {
       for (size_t s = 0; s < expected.size(); ++s) ASSERT_EQ(inst.spheres()[s], expected[s]);
       const auto contacts = inst.FindSpherePairs();
       ASSERT_TRUE(inst.status().ok()) << inst.status().message;
-      ASSERT_TRUE(SelfCollisionAllPairs(inst.spheres(), asset->filter(), &oracle));
+      ASSERT_TRUE(FindSpherePairsBruteForce(inst.spheres(), asset->filter(), &oracle));
       ASSERT_EQ(std::vector<SpherePair>(contacts.begin(), contacts.end()), oracle) << pose.label;
       total_contacts += contacts.size();
     }
@@ -166,8 +166,8 @@ TEST(CharacterInstanceTest, TouchClipHandsOnChestAndHeadAreReportedAndNotAtRest)
     EXPECT_TRUE(inst.Update(mode, pose.world, pose.positions).ok());
     std::set<int> sides;
     for (const SpherePair& c : inst.FindSpherePairs()) {
-      if (c.part_j == target && hand_side(c.i) >= 0) sides.insert(hand_side(c.i));
-      if (c.part_i == target && hand_side(c.j) >= 0) sides.insert(hand_side(c.j));
+      if (c.part_j == target && hand_side(c.sphere_i) >= 0) sides.insert(hand_side(c.sphere_i));
+      if (c.part_i == target && hand_side(c.sphere_j) >= 0) sides.insert(hand_side(c.sphere_j));
     }
     return sides.size();
   };
@@ -458,7 +458,7 @@ TEST_P(CharacterCrowdLevelTest, BatchedQueryMatchesAllPairsOverAClip) {
     }
     for (size_t k = 0; k < kCount; ++k) {
       ASSERT_TRUE(crowd[k].status().ok()) << crowd[k].status().message;
-      ASSERT_TRUE(SelfCollisionAllPairs(crowd[k].spheres(), asset->filter(), &oracle));
+      ASSERT_TRUE(FindSpherePairsBruteForce(crowd[k].spheres(), asset->filter(), &oracle));
       ASSERT_EQ(std::vector<SpherePair>(crowd[k].sphere_pairs().begin(), crowd[k].sphere_pairs().end()), oracle)
           << "frame " << f << ", instance " << k << (alone ? ", alone" : ", crowd");
       for (size_t c = 0; c < oracle.size(); ++c) {  // == compares depths as floats: their bits too
@@ -604,7 +604,7 @@ TEST_P(CharacterCrowdLevelTest, BatchedInstancesHoldNoQueryCache) {
     crowd[3].FindSpherePairs();
     EXPECT_GE(counter.bytes(), reserved_bytes - created_bytes) << "the first query alone sizes the cache";
   }
-  ASSERT_TRUE(SelfCollisionAllPairs(crowd[3].spheres(), asset->filter(), &oracle));
+  ASSERT_TRUE(FindSpherePairsBruteForce(crowd[3].spheres(), asset->filter(), &oracle));
   EXPECT_EQ(std::vector<SpherePair>(crowd[3].sphere_pairs().begin(), crowd[3].sphere_pairs().end()), oracle);
   ASSERT_TRUE(crowd[3].UpdateFast(poses[6].world).ok());
   {
@@ -721,7 +721,7 @@ TEST_P(CharacterCrowdLevelTest, BatchedQueryBoundsBySphereCount) {
       size_t touching = 0;
       for (size_t k = 0; k < kCount; ++k) {
         ASSERT_TRUE(crowd[k].status().ok()) << what;
-        ASSERT_TRUE(SelfCollisionAllPairs(crowd[k].spheres(), (*asset)->filter(), &oracle));
+        ASSERT_TRUE(FindSpherePairsBruteForce(crowd[k].spheres(), (*asset)->filter(), &oracle));
         ASSERT_EQ(std::vector<SpherePair>(crowd[k].sphere_pairs().begin(), crowd[k].sphere_pairs().end()), oracle)
             << what << ", frame " << frame << ", instance " << k;
         touching += oracle.size();

@@ -18,7 +18,7 @@
 namespace skinspheres::test {
 
 inline bool ByPair(const runtime::SpherePair& p, const runtime::SpherePair& q) {
-  return p.i != q.i ? p.i < q.i : p.j < q.j;
+  return p.sphere_i != q.sphere_i ? p.sphere_i < q.sphere_i : p.sphere_j < q.sphere_j;
 }
 
 // Appends contact (i, j) when spheres i < j touch: dx = c_j - c_i, ((dx dx + dy dy) + dz dz) <=
@@ -70,10 +70,10 @@ inline std::vector<runtime::SimdLevel> SupportedLevels() {
   return levels;
 }
 
-// The all-pairs oracle's sphere pairs (SelfCollisionAllPairs), with a test failure if it refuses.
+// The all-pairs oracle's sphere pairs (FindSpherePairsBruteForce), with a test failure if it refuses.
 inline std::vector<runtime::SpherePair> Oracle(const std::vector<Vec4f>& s, const runtime::PairFilter& f) {
   std::vector<runtime::SpherePair> out;
-  EXPECT_TRUE(runtime::SelfCollisionAllPairs(s, f, &out));
+  EXPECT_TRUE(runtime::FindSpherePairsBruteForce(s, f, &out));
   return out;
 }
 

@@ -78,10 +78,10 @@ TEST(BroadPhaseWorkloadTest, CoherentCloudMatchesAllPairsEveryFrame) {
       const int frames = 120;
       for (int f = 0; f < frames; ++f) {
         const Spheres s = CloudFrame(base, amplitude, f);
-        ASSERT_TRUE(SelfCollisionAllPairs(s, none, &expected));
+        ASSERT_TRUE(FindSpherePairsBruteForce(s, none, &expected));
         contacts += expected.size();
         for (size_t l = 0; l < levels.size(); ++l) {
-          SelfCollisionJob job{s, &none, &contexts[l], &out};
+          BroadPhaseJob job{s, &none, &contexts[l], &out};
           job.simd = levels[l];
           ASSERT_TRUE(job.Run());
           ASSERT_EQ(out, expected) << "n " << n << " amplitude " << amplitude << " frame " << f << " "
@@ -114,7 +114,7 @@ TEST(BroadPhaseWorkloadTest, ConstantDensityWorkGrowsNearlyLinearly) {
     const int frames = 24;
     for (int k = 0; k < frames; ++k) {
       *last_spheres = CloudFrame(base, 0.02f, k);
-      SelfCollisionJob job{*last_spheres, &f, &ctx, last};
+      BroadPhaseJob job{*last_spheres, &f, &ctx, last};
       job.simd = level;
       EXPECT_TRUE(job.Run());
       work += double(ctx.last_build_tests()) + double(ctx.last_candidate_count());
@@ -196,10 +196,10 @@ std::vector<SpherePair> EachAlone(const Spheres& all, const PairFilter& member, 
   std::vector<SpherePair> expected, one;
   for (size_t k = 0; k < count; ++k) {
     const Spheres s(all.begin() + long(k * m), all.begin() + long((k + 1) * m));
-    EXPECT_TRUE(SelfCollisionAllPairs(s, member, &one));
+    EXPECT_TRUE(FindSpherePairsBruteForce(s, member, &one));
     for (SpherePair c : one) {
-      c.i += uint32_t(k * m);
-      c.j += uint32_t(k * m);
+      c.sphere_i += uint32_t(k * m);
+      c.sphere_j += uint32_t(k * m);
       expected.push_back(c);
     }
   }
@@ -226,11 +226,11 @@ TEST(BroadPhaseSpaceTest, CrowdInOneSpaceIsEachAlonePlusThePairsBetween) {
         }
       }
       std::sort(expected.begin(), expected.end(), ByPair);
-      ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out}.Run()));
+      ASSERT_TRUE((BroadPhaseJob{all, &space, &ctx, &out}.Run()));
       ASSERT_EQ(out, expected) << "between " << between << " frame " << frame << " " << ToString(ctx.last_method());
       for (const SpherePair& c : out) {
-        ASSERT_EQ(space.group(c.i), c.i / m);
-        between_seen += space.group(c.i) != space.group(c.j) ? 1 : 0;
+        ASSERT_EQ(space.group(c.sphere_i), c.sphere_i / m);
+        between_seen += space.group(c.sphere_i) != space.group(c.sphere_j) ? 1 : 0;
       }
     }
   }
@@ -265,7 +265,7 @@ TEST(BroadPhaseSpaceTest, FiftyThousandSpheresOfCharactersInOneSpace) {
     across = between.size();
     expected.insert(expected.end(), between.begin(), between.end());
     std::sort(expected.begin(), expected.end(), ByPair);
-    ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out}.Run()));
+    ASSERT_TRUE((BroadPhaseJob{all, &space, &ctx, &out}.Run()));
     ASSERT_EQ(out, expected) << "frame " << frame << " " << ToString(ctx.last_method());
   }
   EXPECT_GT(across, count);  // neighbours touch
@@ -311,7 +311,7 @@ TEST(BroadPhaseSpaceTest, SpacesAreIdenticalForAnyThreadCount) {
   for (int frame = 0; frame < 12; ++frame) {
     SpacesFrame(*crowd, frame, &sp);
     for (int way = 0; way < kWays; ++way) {
-      std::vector<SelfCollisionJob> jobs(jobs_count);
+      std::vector<BroadPhaseJob> jobs(jobs_count);
       for (size_t k = 0; k < jobs_count; ++k)
         jobs[k] = {sp.spheres[k], &sp.filters[k], &contexts[way][k], &outs[way][k]};
       bool ok = false;
@@ -326,7 +326,7 @@ TEST(BroadPhaseSpaceTest, SpacesAreIdenticalForAnyThreadCount) {
     if (frame % 4 == 0) {
       for (size_t k = 0; k < jobs_count; ++k) {
         std::vector<SpherePair> expected;
-        ASSERT_TRUE(SelfCollisionAllPairs(sp.spheres[k], sp.filters[k], &expected));
+        ASSERT_TRUE(FindSpherePairsBruteForce(sp.spheres[k], sp.filters[k], &expected));
         ASSERT_EQ(outs[0][k], expected) << "space " << k << " frame " << frame;
       }
     }
@@ -340,7 +340,7 @@ TEST(BroadPhaseSpaceTest, NoAllocationPerFrameInOneSpaceOrACrowdOfSpaces) {
   const size_t jobs_count = sp.counts.size();
   std::vector<BroadPhaseContext> contexts(jobs_count);
   std::vector<std::vector<SpherePair>> outs(jobs_count);
-  std::vector<SelfCollisionJob> jobs(jobs_count);
+  std::vector<BroadPhaseJob> jobs(jobs_count);
   for (size_t k = 0; k < jobs_count; ++k) {
     contexts[k].Resize(sp.filters[k].size());
     outs[k].reserve(64 * sp.filters[k].size());

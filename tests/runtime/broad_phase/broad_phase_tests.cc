@@ -59,7 +59,7 @@ TEST(BroadPhaseTest, OracleOnAHandMadeSet) {
 
   BroadPhaseContext ctx(4);
   std::vector<SpherePair> out;
-  SelfCollisionJob job{s, &*f, &ctx, &out};
+  BroadPhaseJob job{s, &*f, &ctx, &out};
   ASSERT_TRUE(job.Run());
   EXPECT_EQ(out, c);
 }
@@ -86,7 +86,7 @@ TEST(BroadPhaseTest, RandomSetsMatchAllPairsOnEveryInstructionSet) {
       // A fresh context, one that has just held another set, and one with room for 8 candidates.
       BroadPhaseContext fresh(n), tiny(n, 8);
       for (BroadPhaseContext* c : {&fresh, &shared[level], &tiny}) {
-        SelfCollisionJob job{s, &f, c, &out};
+        BroadPhaseJob job{s, &f, c, &out};
         job.simd = level;
         ASSERT_TRUE(job.Run()) << "seed " << seed;
         ASSERT_EQ(out, expected) << "seed " << seed << " kind " << kind << " n " << n << " " << ToString(level) << " "
@@ -110,16 +110,16 @@ TEST(BroadPhaseTest, EveryContactIsRealAndEveryMissedPairIsApartOrExcluded) {
   const PairFilter f = MakeFilter(250, 0.3, rng);
   BroadPhaseContext ctx(250);
   std::vector<SpherePair> out;
-  ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
+  ASSERT_TRUE((BroadPhaseJob{s, &f, &ctx, &out}.Run()));
   std::vector<std::vector<int>> found(250, std::vector<int>(250, 0));
   for (const SpherePair& c : out) {
-    ASSERT_LT(c.i, c.j);
-    found[c.i][c.j] = 1;
-    EXPECT_FALSE(f.excluded(c.i, c.j));
-    EXPECT_EQ(c.part_i, f.part(c.i));
-    EXPECT_EQ(c.part_j, f.part(c.j));
-    const double d = (s[c.i].head<3>().cast<double>() - s[c.j].head<3>().cast<double>()).norm();
-    EXPECT_NEAR(c.depth, double(s[c.i].w()) + s[c.j].w() - d, 1e-5);
+    ASSERT_LT(c.sphere_i, c.sphere_j);
+    found[c.sphere_i][c.sphere_j] = 1;
+    EXPECT_FALSE(f.excluded(c.sphere_i, c.sphere_j));
+    EXPECT_EQ(c.part_i, f.part(c.sphere_i));
+    EXPECT_EQ(c.part_j, f.part(c.sphere_j));
+    const double d = (s[c.sphere_i].head<3>().cast<double>() - s[c.sphere_j].head<3>().cast<double>()).norm();
+    EXPECT_NEAR(c.depth, double(s[c.sphere_i].w()) + s[c.sphere_j].w() - d, 1e-5);
   }
   for (uint32_t i = 0; i < 250; ++i) {
     for (uint32_t j = i + 1; j < 250; ++j) {
@@ -155,7 +155,7 @@ void CheckSequence(size_t n, int kind, Motion motion, unsigned seed, size_t* cac
       if (motion == Motion::kGrow) s[k].w() *= (frame % 20 < 10 ? 1.01f : 0.99f);
     }
     if (motion == Motion::kTeleport && frame % 30 == 29) std::shuffle(s.begin(), s.end(), rng);
-    ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
+    ASSERT_TRUE((BroadPhaseJob{s, &f, &ctx, &out}.Run()));
     ASSERT_EQ(out, n > 400 ? GridOracle(s, f) : Oracle(s, f))
         << "n " << n << " kind " << kind << " motion " << int(motion) << " frame " << frame << " "
         << ToString(ctx.last_method());
@@ -193,7 +193,7 @@ TEST(BroadPhaseTest, CoherentAndWalkingSetsKeepTheirCache) {
         s[k].x() += 0.002f * std::sin(0.1f * float(frame) + float(k));
         if (walk) s[k].z() += 0.3f;  // a character walking 0.3 units a frame
       }
-      ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
+      ASSERT_TRUE((BroadPhaseJob{s, &f, &ctx, &out}.Run()));
       ASSERT_EQ(out, GridOracle(s, f)) << frame;
     }
     EXPECT_LE(ctx.build_count(), 34u) << (walk ? "walking" : "standing");
@@ -207,11 +207,11 @@ TEST(BroadPhaseTest, AnotherFilterOfTheSameSizeIsNeverServedFromTheCache) {
   const PairFilter b = MakeFilter(200, 0.5, rng);
   BroadPhaseContext ctx(200);
   std::vector<SpherePair> out;
-  for (int k = 0; k < 3; ++k) ASSERT_TRUE((SelfCollisionJob{s, &a, &ctx, &out}.Run()));
-  ASSERT_TRUE((SelfCollisionJob{s, &b, &ctx, &out}.Run()));
+  for (int k = 0; k < 3; ++k) ASSERT_TRUE((BroadPhaseJob{s, &a, &ctx, &out}.Run()));
+  ASSERT_TRUE((BroadPhaseJob{s, &b, &ctx, &out}.Run()));
   EXPECT_EQ(out, Oracle(s, b));
   a = b;  // same object, new content
-  ASSERT_TRUE((SelfCollisionJob{s, &a, &ctx, &out}.Run()));
+  ASSERT_TRUE((BroadPhaseJob{s, &a, &ctx, &out}.Run()));
   EXPECT_EQ(out, Oracle(s, b));
 }
 
@@ -227,7 +227,7 @@ TEST(BroadPhaseTest, LargeCoordinatesAndTinyRadii) {
     std::vector<SpherePair> out;
     for (int frame = 0; frame < 10; ++frame) {
       for (auto& v : s) v.x() += offset * 1e-7f;
-      ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
+      ASSERT_TRUE((BroadPhaseJob{s, &f, &ctx, &out}.Run()));
       ASSERT_EQ(out, Oracle(s, f)) << offset << " " << frame;
     }
   }
@@ -237,7 +237,7 @@ TEST(BroadPhaseTest, LargeCoordinatesAndTinyRadii) {
   const PairFilter f = MakeFilter(300, 0.0, rng);
   BroadPhaseContext ctx(300);
   std::vector<SpherePair> out;
-  ASSERT_TRUE((SelfCollisionJob{tiny, &f, &ctx, &out}.Run()));
+  ASSERT_TRUE((BroadPhaseJob{tiny, &f, &ctx, &out}.Run()));
   EXPECT_EQ(out, Oracle(tiny, f));
 }
 
@@ -274,12 +274,12 @@ TEST(BroadPhaseTest, SeveralCharactersInOneSpaceMatchTheOracle) {
       BroadPhaseContext ctx(all.size());
       std::vector<SpherePair> out;
       for (int frame = 0; frame < 5; ++frame) {
-        ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out}.Run()));
+        ASSERT_TRUE((BroadPhaseJob{all, &space, &ctx, &out}.Run()));
         ASSERT_EQ(out, expected) << "between " << between << " within " << within;
       }
       if (between && within) {
         size_t across = 0;
-        for (const auto& c : out) across += space.group(c.i) != space.group(c.j) ? 1 : 0;
+        for (const auto& c : out) across += space.group(c.sphere_i) != space.group(c.sphere_j) ? 1 : 0;
         EXPECT_GT(across, 0u);
       }
     }
@@ -335,15 +335,15 @@ TEST(BroadPhaseTest, ASpaceOfCharactersRunsEachOnItsOwnCacheAndMatchesTheOracleE
         const Spheres all = frame_of(frame);
         const std::vector<SpherePair> expected = Oracle(all, space);
         for (size_t l = 0; l < levels.size(); ++l) {
-          ASSERT_TRUE((SelfCollisionJob{all, &space, &contexts[l], &out, levels[l]}.Run()));
+          ASSERT_TRUE((BroadPhaseJob{all, &space, &contexts[l], &out, levels[l]}.Run()));
           ASSERT_EQ(out, expected) << "between " << between << " within " << within << " frame " << frame << " "
                                    << ToString(levels[l]);
           // (With no pair allowed at all the job answers before choosing a method.)
           ASSERT_EQ(contexts[l].last_method(), within || between ? BroadPhaseMethod::kGroups : BroadPhaseMethod::kNone);
         }
-        ASSERT_TRUE((SelfCollisionJob{all, &space, &small, &out}.Run()));
+        ASSERT_TRUE((BroadPhaseJob{all, &space, &small, &out}.Run()));
         ASSERT_EQ(out, expected) << "least room, frame " << frame;
-        for (const auto& c : out) (space.group(c.i) != space.group(c.j) ? across : within_count) += 1;
+        for (const auto& c : out) (space.group(c.sphere_i) != space.group(c.sphere_j) ? across : within_count) += 1;
       }
       EXPECT_EQ(across > 0, between) << within;
       EXPECT_EQ(within_count > 0, within) << between;
@@ -355,10 +355,10 @@ TEST(BroadPhaseTest, ASpaceOfCharactersRunsEachOnItsOwnCacheAndMatchesTheOracleE
       // The same context then serves another filter of the same size (one group), and the space again.
       const PairFilter one = MakeFilter(total, 0.1, rng);
       const Spheres all = frame_of(frames);
-      ASSERT_TRUE((SelfCollisionJob{all, &one, &contexts[0], &out}.Run()));
+      ASSERT_TRUE((BroadPhaseJob{all, &one, &contexts[0], &out}.Run()));
       EXPECT_EQ(out, Oracle(all, one));
       EXPECT_NE(contexts[0].last_method(), BroadPhaseMethod::kGroups);
-      ASSERT_TRUE((SelfCollisionJob{all, &space, &contexts[0], &out}.Run()));
+      ASSERT_TRUE((BroadPhaseJob{all, &space, &contexts[0], &out}.Run()));
       EXPECT_EQ(out, Oracle(all, space));
     }
   }
@@ -378,7 +378,7 @@ TEST(BroadPhaseTest, ASpaceOfCharactersInOneClumpHasMoreContactsBetweenThemThanT
   const PairFilter space = Combined(members, {true, true});
   const std::vector<SpherePair> expected = Oracle(all, space);
   size_t across = 0;
-  for (const auto& c : expected) across += space.group(c.i) != space.group(c.j) ? 1 : 0;
+  for (const auto& c : expected) across += space.group(c.sphere_i) != space.group(c.sphere_j) ? 1 : 0;
   ASSERT_GT(across, all.size());
   for (const SimdLevel level : SupportedLevels()) {
     BroadPhaseContext ctx(all.size());
@@ -387,7 +387,7 @@ TEST(BroadPhaseTest, ASpaceOfCharactersInOneClumpHasMoreContactsBetweenThemThanT
     // per sphere, as one set for 64 frames; then by character again, and so on.
     std::vector<int> by_character;
     for (int frame = 0; frame < 67; ++frame) {
-      ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out, level}.Run()));
+      ASSERT_TRUE((BroadPhaseJob{all, &space, &ctx, &out, level}.Run()));
       ASSERT_EQ(out, expected) << ToString(level) << " " << frame;
       if (ctx.last_method() == BroadPhaseMethod::kGroups) by_character.push_back(frame);
     }
@@ -433,9 +433,9 @@ TEST(BroadPhaseTest, SharedCharactersClipsMatchAllPairsWithAndWithoutExclusions)
       if (f >= 20) {  // then walking forward fast
         for (auto& v : s) v.z() += 0.05f * float(f - 20) * v.w() * 10.0f;
       }
-      ASSERT_TRUE((SelfCollisionJob{s, &fitted, &with, &out}.Run()));
+      ASSERT_TRUE((BroadPhaseJob{s, &fitted, &with, &out}.Run()));
       ASSERT_EQ(out, Oracle(s, fitted)) << name << " frame " << f;
-      ASSERT_TRUE((SelfCollisionJob{s, &none, &without, &out}.Run()));
+      ASSERT_TRUE((BroadPhaseJob{s, &none, &without, &out}.Run()));
       ASSERT_EQ(out, Oracle(s, none)) << name << " frame " << f << " without exclusions";
     }
     ++tested;
@@ -455,14 +455,14 @@ TEST(BroadPhaseTest, NoAllocationAfterTheFirstFrames) {
     std::vector<SpherePair> out;
     out.reserve(n * n / 2);
     const auto* data_before = out.data();
-    ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
+    ASSERT_TRUE((BroadPhaseJob{s, &f, &ctx, &out}.Run()));
     bool ok = true;
     long allocations = 0;
     {
       test::AllocationCounter counter;
       for (int frame = 0; frame < 30; ++frame) {
         for (auto& v : s) v.x() += (frame % 10 == 9 ? 0.5f : 0.001f) * float(frame % 5);
-        ok &= SelfCollisionJob{s, &f, &ctx, &out}.Run();
+        ok &= BroadPhaseJob{s, &f, &ctx, &out}.Run();
       }
       allocations = counter.count();
     }
@@ -487,7 +487,7 @@ TEST(BroadPhaseTest, CrowdIsIdenticalForAnyThreadsAndEqualsPerCharacterRuns) {
   const auto run = [&](const ParallelFor& pf, int frames) {
     std::vector<BroadPhaseContext> contexts(characters);
     std::vector<std::vector<SpherePair>> outs(characters);
-    std::vector<SelfCollisionJob> jobs(characters);
+    std::vector<BroadPhaseJob> jobs(characters);
     for (size_t c = 0; c < characters; ++c) {
       contexts[c].Resize(spheres[c].size());
       jobs[c] = {spheres[c], &filters[c], &contexts[c], &outs[c]};
@@ -511,7 +511,7 @@ TEST(BroadPhaseTest, CrowdIsIdenticalForAnyThreadsAndEqualsPerCharacterRuns) {
   // The serial range runner gives the same.
   std::vector<BroadPhaseContext> contexts(characters);
   std::vector<std::vector<SpherePair>> outs(characters);
-  std::vector<SelfCollisionJob> jobs(characters);
+  std::vector<BroadPhaseJob> jobs(characters);
   for (size_t c = 0; c < characters; ++c) {
     contexts[c].Resize(spheres[c].size());
     jobs[c] = {spheres[c], &filters[c], &contexts[c], &outs[c]};
@@ -530,7 +530,7 @@ TEST(BroadPhaseTest, CrowdReportsAFailingCharacterAndRunsTheOthers) {
   const PairFilter f = MakeFilter(50, 0.1, rng);
   BroadPhaseContext c0(50), c1(50);
   std::vector<SpherePair> o0, o1 = {SpherePair{}};
-  const std::vector<SelfCollisionJob> jobs = {{good, &f, &c0, &o0}, {bad, &f, &c1, &o1}};
+  const std::vector<BroadPhaseJob> jobs = {{good, &f, &c0, &o0}, {bad, &f, &c1, &o1}};
   EXPECT_FALSE(RunParallel(jobs));
   EXPECT_EQ(o0, Oracle(good, f));
   EXPECT_TRUE(o1.empty());
@@ -539,8 +539,8 @@ TEST(BroadPhaseTest, CrowdReportsAFailingCharacterAndRunsTheOthers) {
 // -------------------------------------------------------------------------------------- refusals
 
 TEST(BroadPhaseTest, ValidateRefusals) {
-  EXPECT_FALSE(SelfCollisionJob{}.Validate());
-  EXPECT_FALSE(SelfCollisionJob{}.Run());
+  EXPECT_FALSE(BroadPhaseJob{}.Validate());
+  EXPECT_FALSE(BroadPhaseJob{}.Run());
 
   std::mt19937 rng(1);
   const Spheres s = RandomSpheres(10, 0, rng);
@@ -548,20 +548,20 @@ TEST(BroadPhaseTest, ValidateRefusals) {
   const PairFilter f9 = MakeFilter(9, 0.1, rng);
   BroadPhaseContext ctx(10), small(9);
   std::vector<SpherePair> out;
-  EXPECT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Validate()));
-  EXPECT_FALSE((SelfCollisionJob{s, nullptr, &ctx, &out}.Validate()));
-  EXPECT_FALSE((SelfCollisionJob{s, &f, nullptr, &out}.Validate()));
-  EXPECT_FALSE((SelfCollisionJob{s, &f, &ctx, nullptr}.Validate()));
-  EXPECT_FALSE((SelfCollisionJob{s, &f9, &ctx, &out}.Validate()));   // size mismatch
-  EXPECT_FALSE((SelfCollisionJob{s, &f, &small, &out}.Validate()));  // context too small
-  EXPECT_FALSE((SelfCollisionJob{s, &f, &small, &out}.Run()));
+  EXPECT_TRUE((BroadPhaseJob{s, &f, &ctx, &out}.Validate()));
+  EXPECT_FALSE((BroadPhaseJob{s, nullptr, &ctx, &out}.Validate()));
+  EXPECT_FALSE((BroadPhaseJob{s, &f, nullptr, &out}.Validate()));
+  EXPECT_FALSE((BroadPhaseJob{s, &f, &ctx, nullptr}.Validate()));
+  EXPECT_FALSE((BroadPhaseJob{s, &f9, &ctx, &out}.Validate()));   // size mismatch
+  EXPECT_FALSE((BroadPhaseJob{s, &f, &small, &out}.Validate()));  // context too small
+  EXPECT_FALSE((BroadPhaseJob{s, &f, &small, &out}.Run()));
   for (auto level : {SimdLevel::kAuto, SimdLevel::kSse2, SimdLevel::kAvx2, SimdLevel::kAvx512, SimdLevel::kPortable}) {
-    SelfCollisionJob job{s, &f, &ctx, &out};
+    BroadPhaseJob job{s, &f, &ctx, &out};
     job.simd = level;
     EXPECT_EQ(job.Validate(), SimdLevelSupported(level)) << ToString(level);
   }
   const PairFilter empty;
-  EXPECT_TRUE((SelfCollisionJob{{}, &empty, &small, &out}.Run()));
+  EXPECT_TRUE((BroadPhaseJob{{}, &empty, &small, &out}.Run()));
   EXPECT_TRUE(out.empty());
 }
 
@@ -573,7 +573,7 @@ TEST(BroadPhaseTest, BadValuesAreRefusedAndClearTheOutput) {
   std::vector<SpherePair> out;
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const float inf = std::numeric_limits<float>::infinity();
-  ASSERT_TRUE((SelfCollisionJob{good, &f, &ctx, &out}.Run()));  // a cache to keep or drop
+  ASSERT_TRUE((BroadPhaseJob{good, &f, &ctx, &out}.Run()));  // a cache to keep or drop
   for (int field = 0; field < 4; ++field) {
     // 3e38: finite, but c + r overflows to infinity (an interval end past every padding lane).
     for (float bad_value : {nan, inf, -inf, -0.5f, 3e38f, -3e38f}) {
@@ -582,14 +582,14 @@ TEST(BroadPhaseTest, BadValuesAreRefusedAndClearTheOutput) {
       Spheres s = good;
       s[17][field] = bad_value;
       out.assign(3, SpherePair{});
-      EXPECT_FALSE((SelfCollisionJob{s, &f, &ctx, &out}.Run())) << field << " " << bad_value;
+      EXPECT_FALSE((BroadPhaseJob{s, &f, &ctx, &out}.Run())) << field << " " << bad_value;
       EXPECT_TRUE(out.empty());
       std::vector<SpherePair> oracle_out;
-      EXPECT_FALSE(SelfCollisionAllPairs(s, f, &oracle_out));
+      EXPECT_FALSE(FindSpherePairsBruteForce(s, f, &oracle_out));
     }
   }
   // And the context still works afterwards.
-  ASSERT_TRUE((SelfCollisionJob{good, &f, &ctx, &out}.Run()));
+  ASSERT_TRUE((BroadPhaseJob{good, &f, &ctx, &out}.Run()));
   EXPECT_EQ(out, Oracle(good, f));
 }
 

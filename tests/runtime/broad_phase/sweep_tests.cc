@@ -45,7 +45,7 @@ TEST(BroadPhaseTest, DirectSweepOutputHoldsNoMoreThanTheContacts) {
     long allocations = 0;
     {
       test::AllocationCounter counter;
-      ASSERT_TRUE((SelfCollisionJob{line, &f, &ctx, &out, level}.Run()));
+      ASSERT_TRUE((BroadPhaseJob{line, &f, &ctx, &out, level}.Run()));
       allocations = counter.count();
     }
     EXPECT_EQ(ctx.last_method(), BroadPhaseMethod::kSweepDirect) << ToString(level);
@@ -66,7 +66,7 @@ TEST(BroadPhaseTest, SpheresCloserThanTheirSquaresResolveTouchOnEveryPath) {
     const PairFilter f = MakeFilter(line.size(), 0.0, rng);
     BroadPhaseContext ctx(line.size());
     std::vector<SpherePair> out;
-    ASSERT_TRUE((SelfCollisionJob{line, &f, &ctx, &out, level}.Run()));
+    ASSERT_TRUE((BroadPhaseJob{line, &f, &ctx, &out, level}.Run()));
     EXPECT_EQ(ctx.last_method(), BroadPhaseMethod::kSweepDirect);
     const std::vector<SpherePair> expected = Oracle(line, f);
     EXPECT_GT(expected.size(), 100 * line.size());
@@ -80,7 +80,7 @@ TEST(BroadPhaseTest, SpheresCloserThanTheirSquaresResolveTouchOnEveryPath) {
     const std::vector<PairFilter> members = {MakeFilter(300, 0.0, rng), MakeFilter(300, 0.0, rng)};
     const PairFilter space = Combined(members, {.pairs_within_members = false});
     BroadPhaseContext space_ctx(two.size());
-    ASSERT_TRUE((SelfCollisionJob{two, &space, &space_ctx, &out, level}.Run()));
+    ASSERT_TRUE((BroadPhaseJob{two, &space, &space_ctx, &out, level}.Run()));
     EXPECT_EQ(space_ctx.last_method(), BroadPhaseMethod::kGroups);
     ASSERT_EQ(Oracle(two, space).size(), 1u);
     EXPECT_EQ(out, Oracle(two, space)) << ToString(level);
@@ -111,10 +111,10 @@ TEST(BroadPhaseTest, ASpaceOfCharactersAtLargeCoordinatesAndInARowAlongEachAxis)
       size_t across = 0;
       for (int frame = 0; frame < 6; ++frame) {
         for (size_t k = 0; k < all.size(); ++k) all[k][(axis + 1) % 3] += (offset * 1e-7f + 0.01f) * float(k % 3);
-        ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out}.Run()));
+        ASSERT_TRUE((BroadPhaseJob{all, &space, &ctx, &out}.Run()));
         ASSERT_EQ(out, Oracle(all, space)) << offset << " " << axis << " " << frame;
         ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kGroups) << offset << " " << axis << " " << frame;
-        for (const SpherePair& c : out) across += space.group(c.i) != space.group(c.j) ? 1 : 0;
+        for (const SpherePair& c : out) across += space.group(c.sphere_i) != space.group(c.sphere_j) ? 1 : 0;
       }
       EXPECT_GT(across, 0u) << offset << " " << axis;
     }
@@ -135,7 +135,7 @@ TEST(BroadPhaseTest, ASpaceOfCharactersAllocatesNothingAfterItsFirstFrame) {
   BroadPhaseContext ctx(all.size());
   std::vector<SpherePair> out;
   out.reserve(all.size() * 50);
-  ASSERT_TRUE((SelfCollisionJob{all, &space, &ctx, &out}.Run()));
+  ASSERT_TRUE((BroadPhaseJob{all, &space, &ctx, &out}.Run()));
   ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kGroups);
   bool ok = true;
   long allocations = 0;
@@ -144,7 +144,7 @@ TEST(BroadPhaseTest, ASpaceOfCharactersAllocatesNothingAfterItsFirstFrame) {
     test::AllocationCounter counter;
     for (int frame = 0; frame < 30; ++frame) {
       for (auto& v : all) v.y() += (frame % 10 == 9 ? 0.3f : 0.001f) * float(frame % 5);
-      ok &= SelfCollisionJob{all, &space, &ctx, &out}.Run();
+      ok &= BroadPhaseJob{all, &space, &ctx, &out}.Run();
       by_character += ctx.last_method() == BroadPhaseMethod::kGroups ? 1 : 0;
     }
     allocations = counter.count();
@@ -184,13 +184,13 @@ TEST(BroadPhaseTest, ListedExclusionsAtEveryIndexDistanceAreLeftOutByTheSweep) {
   for (auto level : SupportedLevels()) {
     BroadPhaseContext ctx(n, size_t{n} * n / 2);
     std::vector<SpherePair> out;
-    SelfCollisionJob job{s, &f, &ctx, &out};
+    BroadPhaseJob job{s, &f, &ctx, &out};
     job.simd = level;
     ASSERT_TRUE(job.Run());
     ASSERT_EQ(ctx.last_method(), BroadPhaseMethod::kSweepBuild) << ToString(ctx.last_method());
     ASSERT_EQ(out.size(), expected.size()) << ToString(level);
     for (size_t k = 0; k < out.size(); ++k) {
-      ASSERT_EQ(std::make_pair(out[k].i, out[k].j), expected[k]) << k << " " << ToString(level);
+      ASSERT_EQ(std::make_pair(out[k].sphere_i, out[k].sphere_j), expected[k]) << k << " " << ToString(level);
     }
     EXPECT_EQ(out, Oracle(s, f));
   }
@@ -216,7 +216,7 @@ TEST(BroadPhaseTest, SpheresChangingStripsKeepTheSweepOrderWithoutAFullSort) {
         s[k].x() += 0.02f * std::sin(0.7f * float(frame) + float(k));
         s[k].z() += 0.4f * std::cos(0.7f * float(frame) + float(k));
       }
-      SelfCollisionJob job{s, &f, &ctx, &out};
+      BroadPhaseJob job{s, &f, &ctx, &out};
       job.simd = level;
       ASSERT_TRUE(job.Run());
       ASSERT_EQ(out, GridOracle(s, f)) << frame << " " << ToString(ctx.last_method());
@@ -250,7 +250,7 @@ TEST(BroadPhaseTest, OneContextAcrossFiltersAndSizesNeverUsesAnotherFiltersExclu
   const std::vector<std::pair<const Spheres*, const PairFilter*>> runs = {
       {&s, &a}, {&s, &b}, {&s, &a}, {&small, &c}, {&s, &b}};
   for (const auto& [set, filter] : runs) {
-    ASSERT_TRUE((SelfCollisionJob{*set, filter, &ctx, &out}.Run()));
+    ASSERT_TRUE((BroadPhaseJob{*set, filter, &ctx, &out}.Run()));
     ASSERT_EQ(out, Oracle(*set, *filter)) << ToString(ctx.last_method());
     sweeps += ctx.last_method() == BroadPhaseMethod::kSweepBuild ? 1 : 0;
   }
@@ -275,7 +275,7 @@ TEST(BroadPhaseTest, FiftyThousandSpheresWithExclusionsMatchAGridOracle) {
   BroadPhaseContext ctx(n);
   std::vector<SpherePair> out;
   for (int frame = 0; frame < 3; ++frame) {  // the same frame again: now from the cache
-    ASSERT_TRUE((SelfCollisionJob{s, &f, &ctx, &out}.Run()));
+    ASSERT_TRUE((BroadPhaseJob{s, &f, &ctx, &out}.Run()));
     ASSERT_EQ(out, expected) << frame << " " << ToString(ctx.last_method());
   }
   // The grid oracle itself agrees with the O(n^2) loop on a part of the set.

@@ -10,6 +10,7 @@
 #include <numbers>
 #include <vector>
 
+#include "narrow_phase/internal.h"
 #include "runtime/narrow_phase/same_contacts.h"
 #include "skinspheres/runtime/broad_phase/pair_filter.h"
 #include "skinspheres/runtime/narrow_phase/narrow_phase.h"
@@ -411,7 +412,7 @@ TEST(NarrowPhaseRules, OneSphereReportsWhatTwoDo) {
     auto filter = PairFilter::FromSphereSet(s);
     auto data = NarrowPhaseData::Create(s, *filter);
     ASSERT_TRUE(data.ok()) << data.error().message;
-    EXPECT_EQ(data->self_spheres().size(), 1u);
+    EXPECT_EQ(narrow_phase::Access::Of(*data).self_spheres.size(), 1u);
     NarrowPhaseContext ctx;
     ctx.Resize(*data, false);
     const std::vector<Vec4f> spheres = {Vec4f(1.25f - 0.5f * push, 0, 0, 2.3f)};

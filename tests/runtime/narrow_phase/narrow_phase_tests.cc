@@ -15,6 +15,7 @@
 #include <random>
 
 #include "allocation_counter.h"
+#include "narrow_phase/internal.h"
 #include "runtime/narrow_phase/same_contacts.h"
 #include "runtime/posed_characters.h"
 #include "skinspheres/runtime/api/character.h"
@@ -328,31 +329,32 @@ TEST(NarrowPhase, LazySkinningRunsHoldEachSpheresVerticesOnce) {
     auto asset = CharacterAsset::Create(fc->set);
     ASSERT_TRUE(asset.ok());
     const NarrowPhaseData& d = *(*asset)->narrow_phase();
-    const auto& lazy = d.lazy_influences();
-    ASSERT_EQ(d.run_begin().front(), 0u);
-    ASSERT_EQ(d.run_begin().back(), lazy.size()) << name;
-    for (size_t r = 0; r < d.run_count(); ++r) EXPECT_LT(d.run_begin()[r], d.run_begin()[r + 1]) << name;
+    const NarrowPhaseData::Layout& l = narrow_phase::Access::Of(d);  // the friend: the layout itself
+    const auto& lazy = l.lazy_influences;
+    ASSERT_EQ(l.run_begin.front(), 0u);
+    ASSERT_EQ(l.run_begin.back(), lazy.size()) << name;
+    for (size_t r = 0; r < l.run_count(); ++r) EXPECT_LT(l.run_begin[r], l.run_begin[r + 1]) << name;
     std::vector<uint32_t> slots_of(fc->set.source_vertex_count, 0);
     for (uint32_t v : lazy.vertices()) ++slots_of[v];
-    std::vector<uint32_t> owner_of_run(d.run_count(), UINT32_MAX);
-    for (uint32_t g = 0; g < d.group_count(); ++g) {
+    std::vector<uint32_t> owner_of_run(l.run_count(), UINT32_MAX);
+    for (uint32_t g = 0; g < l.group_count(); ++g) {
       uint32_t size = 0;
-      for (uint32_t k = d.group_run_offsets()[g]; k < d.group_run_offsets()[g + 1]; ++k) {
-        const uint32_t r = d.group_runs()[k];
+      for (uint32_t k = l.group_run_offsets[g]; k < l.group_run_offsets[g + 1]; ++k) {
+        const uint32_t r = l.group_runs[k];
         EXPECT_EQ(owner_of_run[r], UINT32_MAX) << name << ": run " << r << " in two groups";
         owner_of_run[r] = g;
-        size += d.run_begin()[r + 1] - d.run_begin()[r];
+        size += l.run_begin[r + 1] - l.run_begin[r];
       }
-      EXPECT_EQ(size, d.group_sizes()[g]) << name << ": group " << g;
+      EXPECT_EQ(size, l.group_sizes[g]) << name << ": group " << g;
     }
     for (uint32_t owner : owner_of_run) EXPECT_NE(owner, UINT32_MAX) << name << ": a run of no group";
     for (uint32_t s = 0; s < d.sphere_count(); ++s) {
       std::vector<uint32_t> skinned;
-      for (uint32_t k = d.sphere_group_offsets()[s]; k < d.sphere_group_offsets()[s + 1]; ++k) {
-        const uint32_t g = d.sphere_groups()[k];
-        for (uint32_t q = d.group_run_offsets()[g]; q < d.group_run_offsets()[g + 1]; ++q) {
-          const uint32_t r = d.group_runs()[q];
-          for (uint32_t slot = d.run_begin()[r]; slot < d.run_begin()[r + 1]; ++slot)
+      for (uint32_t k = l.sphere_group_offsets[s]; k < l.sphere_group_offsets[s + 1]; ++k) {
+        const uint32_t g = l.sphere_groups[k];
+        for (uint32_t q = l.group_run_offsets[g]; q < l.group_run_offsets[g + 1]; ++q) {
+          const uint32_t r = l.group_runs[q];
+          for (uint32_t slot = l.run_begin[r]; slot < l.run_begin[r + 1]; ++slot)
             skinned.push_back(lazy.vertices()[slot]);
         }
       }
@@ -368,17 +370,17 @@ TEST(NarrowPhase, LazySkinningRunsHoldEachSpheresVerticesOnce) {
       for (uint32_t v : needed) EXPECT_EQ(slots_of[v], 1u) << name << ": vertex " << v;
       // The same runs as the bitset a frame ORs in: words ascending, no empty mask.
       std::vector<uint32_t> from_bits;
-      for (uint32_t k = d.sphere_run_offsets()[s]; k < d.sphere_run_offsets()[s + 1]; ++k) {
-        const uint32_t word = d.sphere_run_words()[k];
-        if (k > d.sphere_run_offsets()[s]) {
-          EXPECT_LT(d.sphere_run_words()[k - 1], word) << name << ": sphere " << s;
+      for (uint32_t k = l.sphere_run_offsets[s]; k < l.sphere_run_offsets[s + 1]; ++k) {
+        const uint32_t word = l.sphere_run_words[k];
+        if (k > l.sphere_run_offsets[s]) {
+          EXPECT_LT(l.sphere_run_words[k - 1], word) << name << ": sphere " << s;
         }
-        EXPECT_NE(d.sphere_run_bits()[k], 0u) << name << ": sphere " << s;
+        EXPECT_NE(l.sphere_run_bits[k], 0u) << name << ": sphere " << s;
         for (int b = 0; b < 64; ++b) {
-          if (!(d.sphere_run_bits()[k] >> b & 1)) continue;
+          if (!(l.sphere_run_bits[k] >> b & 1)) continue;
           const size_t r = size_t{word} * 64 + size_t(b);
-          ASSERT_LT(r, d.run_count()) << name << ": sphere " << s;
-          for (uint32_t slot = d.run_begin()[r]; slot < d.run_begin()[r + 1]; ++slot)
+          ASSERT_LT(r, l.run_count()) << name << ": sphere " << s;
+          for (uint32_t slot = l.run_begin[r]; slot < l.run_begin[r + 1]; ++slot)
             from_bits.push_back(lazy.vertices()[slot]);
         }
       }
@@ -553,7 +555,7 @@ TEST(NarrowPhase, ModeBNeedsJointMatricesAndFiniteInput) {
   // One non-finite coordinate, y or z, of one vertex of a sphere in a reported pair is enough.
   ASSERT_FALSE(inst->sphere_pairs().empty());
   const SphereSet& set = fc->set;
-  const uint32_t s = inst->sphere_pairs().front().i;
+  const uint32_t s = inst->sphere_pairs().front().sphere_i;
   ASSERT_LT(set.triangle_offsets[s], set.triangle_offsets[s + 1]);
   const uint32_t v = set.triangle_vertices[3 * size_t{set.triangles[set.triangle_offsets[s]]} + 1];
   for (int axis : {1, 2}) {

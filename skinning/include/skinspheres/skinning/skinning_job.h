@@ -26,8 +26,8 @@
 // prepared job and O(influences) for a CSR job. A default job is invalid. Run()/RunRange()/
 // RunRanges() validate (RunRange(s) only what their ranges read), never allocate, never throw.
 // SIMD: SSE2 on every x86-64; AVX2 chosen at run time when the CPU has it (or always, when built
-// with SKINSPHERES_AVX2); the scalar level elsewhere (aarch64, ...). `simd` can force a level
-// (tests, benchmarks). Every level, on every platform, gives the same bits: the same float
+// with SKINSPHERES_AVX2); the portable level elsewhere (aarch64, ...). `simd` can force a level
+// (tests, benchmarks; simd_level.h). Every level, on every platform, gives the same bits: the same float
 // operations in the same order, no fused multiply-add (platform.h).
 #pragma once
 
@@ -40,16 +40,14 @@
 #include "skinspheres/skinning/math_types.h"
 #include "skinspheres/skinning/parallel_for.h"
 #include "skinspheres/skinning/prepared_influences.h"
+#include "skinspheres/skinning/simd_level.h"
 
 namespace skinspheres::skinning {
 
-enum class SimdLevel : uint8_t { kAuto, kScalar, kSse2, kAvx2 };
-
-// True when this build and this CPU can run the level (kAuto and kScalar always can).
-bool SimdLevelSupported(SimdLevel level);
-// kAuto -> the best supported level; any other level is returned unchanged.
+// The level the skinning kernels run at for `level` (simd_level.h; SimdLevelSupported says which
+// this CPU runs): kAuto -> the best supported one; kAvx512 -> kAvx2 (no AVX-512 copy); any other
+// level unchanged.
 SimdLevel ResolveSimdLevel(SimdLevel level);
-const char* SimdLevelName(SimdLevel level);
 
 struct SkinningJob {
   std::span<const Mat4f> joint_matrices;  // M_b per bind entry, > every bind index used

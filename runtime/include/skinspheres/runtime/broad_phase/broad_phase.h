@@ -8,7 +8,7 @@
 // Evaluated in float, in exactly this order ((dx*dx + dy*dy) + dz*dz, dx = c_j.x - c_i.x), by the
 // fast path and by the all-pairs oracle alike, so both report the same pairs and the same depths.
 //
-// Fast path (SelfCollisionJob): a cache of candidate pairs with a skin (a Verlet list). When the
+// Fast path (BroadPhaseJob): a cache of candidate pairs with a skin (a Verlet list). When the
 // cache is built, every sphere gets a skin s_k and the candidates are the allowed pairs whose
 // spheres, grown by their skins, touch; they are kept sorted by (i, j). Each frame the job checks,
 // for every sphere, that it moved less than its skin relative to the set's mean motion (a
@@ -25,7 +25,7 @@
 // frame (lifetime of the cache against its size); motion that breaks every cache gets no skin,
 // and a small set then skips the cache and writes all pairs straight into the output. Every
 // test is SIMD: SSE2, AVX2 or AVX-512, picked at run time (or forced with
-// SelfCollisionJob::simd) with bit-identical results.
+// BroadPhaseJob::simd) with bit-identical results.
 //
 // Output: sphere pairs sorted by (i, j), identical for any thread count, instruction set and
 // previous frame history. No allocation and no exception per frame once the context is sized
@@ -35,7 +35,7 @@
 // rebuilt without skins and, if even that does not fit, answered by a sweep straight into the
 // output, then sorted.
 //
-// Crowds, each character alone: one SelfCollisionJob per character (each with its own context
+// Crowds, each character alone: one BroadPhaseJob per character (each with its own context
 // and output), run by RunParallel through a ParallelFor (TBB by default, or the
 // engine's job system), or by RunRange.
 //
@@ -58,7 +58,7 @@
 //   PairFilter space = PairFilter::Combine(members, {.pairs_between_members = true}).value();
 //   BroadPhaseContext context(space.size());
 //   each frame: copy each instance's spheres() to all[space.group_begin(g) ...], then
-//   SelfCollisionJob{all, &space, &context, &sphere pairs}.Run();
+//   BroadPhaseJob{all, &space, &context, &sphere pairs}.Run();
 #pragma once
 
 #include <Eigen/Core>
@@ -80,11 +80,11 @@ class Frame;  // runtime/src/broad_phase/frame.h
 }  // namespace broad_phase
 
 struct SpherePair {
-  uint32_t i = 0;  // sphere index, i < j
-  uint32_t j = 0;
+  uint32_t sphere_i = 0;  // sphere index, sphere_i < sphere_j
+  uint32_t sphere_j = 0;
   float depth = 0.0f;   // r_i + r_j - |c_i - c_j|, same units as the spheres
-  uint16_t part_i = 0;  // filter.part(i)
-  uint16_t part_j = 0;  // filter.part(j)
+  uint16_t part_i = 0;  // filter.part(sphere_i)
+  uint16_t part_j = 0;  // filter.part(sphere_j)
 
   friend bool operator==(const SpherePair&, const SpherePair&) = default;
 };
@@ -154,13 +154,13 @@ class BroadPhaseContext {
   float last_lookahead() const;
 
  private:
-  friend struct SelfCollisionJob;
+  friend struct BroadPhaseJob;
   friend class broad_phase::Frame;
   struct State;  // broad_phase/context_state.h (runtime/src)
   std::unique_ptr<State> state_;
 };
 
-struct SelfCollisionJob {
+struct BroadPhaseJob {
   std::span<const Vec4f> spheres;  // xyz centre, w radius (>= 0); size == filter->size()
   const PairFilter* filter = nullptr;
   BroadPhaseContext* context = nullptr;    // max_spheres() >= spheres.size()
@@ -177,15 +177,15 @@ struct SelfCollisionJob {
 
 // Runs jobs[begin, end) one after the other on the calling thread; false if any failed (the
 // others still run). For engines that schedule work themselves.
-bool RunRange(std::span<const SelfCollisionJob> jobs, size_t begin, size_t end);
+bool RunRange(std::span<const BroadPhaseJob> jobs, size_t begin, size_t end);
 
 // Runs every job through parallel_for (parallel_for.h; TBB in the current task arena by default).
 // Every job must have its own context and output. Output is identical to running them one by one.
-bool RunParallel(std::span<const SelfCollisionJob> jobs, const ParallelFor& parallel_for = DefaultParallelFor());
+bool RunParallel(std::span<const BroadPhaseJob> jobs, const ParallelFor& parallel_for = DefaultParallelFor());
 
 // The obvious O(n^2) loop over i < j: the test oracle and the benchmark baseline. Same rules and
 // arithmetic as the fast path; out cleared then filled in (i, j) order. False (out cleared) when
 // spheres.size() != filter.size() or a value is not finite or a radius negative.
-bool SelfCollisionAllPairs(std::span<const Vec4f> spheres, const PairFilter& filter, std::vector<SpherePair>* out);
+bool FindSpherePairsBruteForce(std::span<const Vec4f> spheres, const PairFilter& filter, std::vector<SpherePair>* out);
 
 }  // namespace skinspheres::runtime

@@ -1,6 +1,6 @@
 // PairFilter: which sphere pairs the self-collision broad phase must never report, and which body
 // part (and, in a shared space, which character) each sphere belongs to. Built once at set-up
-// (allocates), read by SelfCollisionJob (broad_phase.h) while it builds its candidate pairs: an
+// (allocates), read by BroadPhaseJob (broad_phase.h) while it builds its candidate pairs: an
 // excluded pair is dropped where it is found, never reported and filtered afterwards.
 //
 // Storage grows with the number of exclusions, not with n^2: per sphere, the sorted list of the

@@ -144,42 +144,20 @@ class NarrowPhaseData {
   size_t sphere_count() const;
   size_t triangle_count() const;
   size_t vertex_count() const;
-  size_t max_sphere_triangles() const;
-  size_t max_sphere_clusters() const;
 
   // The set's rules (contact_rules.h).
   ContactRules rules() const;
-  // Rule 1: canonical vertex ids (the first vertex with the same rest position), 3 per triangle.
-  std::span<const uint32_t> welded_triangle_vertices() const;
+  // Rule 1: whether triangles t and u share a vertex by rest position.
   bool ShareVertex(uint32_t t, uint32_t u) const;
   // Rule 3 (contact_rules.h, NearAtRest): the distance at rest within which a pair is excluded (the
   // larger of the set's rest gap and the margin; the margin for rules on sphere pairs), and the test.
   float rest_distance() const;
   bool RestExcluded(uint32_t t, uint32_t u) const;
-  // The spheres tested against themselves every frame (rules on triangles: they hold triangles of
-  // joints further apart than the hops), ascending.
-  std::span<const uint32_t> self_spheres() const;
-  // Per sphere, the distinct vertices of the triangles it owns (CSR: offsets has sphere_count + 1).
-  std::span<const uint32_t> sphere_vertex_offsets() const;
-  std::span<const uint32_t> sphere_vertices() const;
   // The rest-pose positions (mesh skinned with the rest transforms), per source vertex.
   std::span<const Eigen::Vector3f> rest_positions() const;
-  size_t cluster_count() const;
-  // Mode (b)'s vertex groups, runs and run bitsets: docs/NARROW_PHASE.md#mode-bs-layout-in-narrowphasedata.
-  size_t group_count() const;
-  std::span<const uint32_t> sphere_group_offsets() const;
-  std::span<const uint32_t> sphere_groups() const;
-  const skinning::PreparedInfluences& lazy_influences() const;
-  size_t run_count() const;
-  std::span<const uint32_t> run_begin() const;
-  std::span<const uint32_t> group_run_offsets() const;
-  std::span<const uint32_t> group_runs() const;
-  std::span<const uint32_t> group_sizes() const;  // vertices per group
-  std::span<const uint32_t> sphere_run_offsets() const;
-  std::span<const uint32_t> sphere_run_words() const;
-  std::span<const uint64_t> sphere_run_bits() const;
 
-  // Opaque: defined in runtime/src/narrow_phase/internal.h.
+  // Opaque: defined in runtime/src/narrow_phase/internal.h, where the friend narrow_phase::Access
+  // gives tests and benchmarks its layout (clusters, vertex groups, runs).
   struct Layout;
 
  private:

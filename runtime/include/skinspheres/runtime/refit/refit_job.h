@@ -19,6 +19,7 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -28,6 +29,10 @@
 #include "skinspheres/skinning/parallel_for.h"
 
 namespace skinspheres::runtime {
+
+namespace internal {
+struct RestDataAccess;  // runtime/src/refit/rest_data.h
+}  // namespace internal
 
 enum class RefitMode : uint8_t {
   kExact,  // skinned source vertices -> tight radius (see above)
@@ -47,56 +52,53 @@ Result<bool> ChooseFastReference(SphereSet* set);
 // immutable and shareable between threads and instances).
 class RefitRestData {
  public:
-  RefitRestData() = default;  // empty: fits only an empty set
+  RefitRestData();  // empty: fits only an empty set
+  ~RefitRestData();
+  RefitRestData(const RefitRestData& other);
+  RefitRestData& operator=(const RefitRestData& other);
+  RefitRestData(RefitRestData&&) noexcept;
+  RefitRestData& operator=(RefitRestData&&) noexcept;
 
   // Validates the set (SphereSet::Validate()) and refuses rest transforms that cannot be inverted
   // (kInvalidData, naming the set's source file and the joint).
   static Result<RefitRestData> Create(const SphereSet& set);
 
-  size_t sphere_count() const { return sphere_count_; }
-  size_t joint_count() const { return rest_linear_inverse_.size(); }
-  size_t influence_count() const { return center_in_joint_.size(); }
-  size_t source_vertex_count() const { return source_vertex_count_; }
+  size_t sphere_count() const;
+  size_t joint_count() const;
+  size_t influence_count() const;
+  size_t source_vertex_count() const;
 
   // Per influence entry k (SphereSet CSR order): R_j^-1 · c_s, and w_k renormalised to sum 1.
-  std::span<const Eigen::Vector3f> center_in_joint() const { return center_in_joint_; }
-  std::span<const float> weights() const { return weights_; }
+  std::span<const Eigen::Vector3f> center_in_joint() const;
+  std::span<const float> weights() const;
   // Per influence entry: the reach W_k (the set's, else from its mesh, else 1).
-  std::span<const float> reach() const { return reach_; }
+  std::span<const float> reach() const;
   // Per sphere: radius_fast in the reference frame.
-  std::span<const float> radii_fast() const { return radii_fast_; }
+  std::span<const float> radii_fast() const;
   // true: the set stores a reference frame (the bind pose; docs/REFIT.md#reference-frame).
-  bool bind_reference() const { return bind_reference_; }
+  bool bind_reference() const;
   // Reach groups, their blends, the inverse reference matrices: docs/REFIT.md#refitrestdata-layout.
-  std::span<const uint32_t> group_offsets() const { return group_offsets_; }
-  std::span<const float> group_radii() const { return group_radii_; }
-  std::span<const float> group_reach() const { return group_reach_; }
-  std::span<const uint32_t> group_reach_offsets() const { return group_reach_offsets_; }
-  std::span<const float> group_blend() const { return group_blend_; }
-  std::span<const float> group_deviation() const { return group_deviation_; }
-  std::span<const float> group_blend_sum() const { return group_blend_sum_; }
-  std::span<const Eigen::Matrix3f> rest_linear_inverse() const { return rest_linear_inverse_; }
-  std::span<const float> rest_inverse_rows() const { return rest_inverse_rows_; }
+  std::span<const uint32_t> group_offsets() const;
+  std::span<const float> group_radii() const;
+  std::span<const float> group_reach() const;
+  std::span<const uint32_t> group_reach_offsets() const;
+  std::span<const float> group_blend() const;
+  std::span<const float> group_deviation() const;
+  std::span<const float> group_blend_sum() const;
+  std::span<const Eigen::Matrix3f> rest_linear_inverse() const;
+  std::span<const float> rest_inverse_rows() const;
   // Exact mode's points per sphere (CSR; docs/REFIT.md#refitrestdata-layout); empty without pieces.
-  std::span<const uint32_t> exact_point_offsets() const { return exact_point_offsets_; }
-  std::span<const uint32_t> exact_points() const { return exact_points_; }
+  std::span<const uint32_t> exact_point_offsets() const;
+  std::span<const uint32_t> exact_points() const;
   // Points the set names (source vertices and grid points); a set of another size is refused.
-  size_t point_count() const { return point_count_; }
+  size_t point_count() const;
+
+  // Opaque: defined in runtime/src/refit/rest_data.h, read there by the friend.
+  struct Data;
 
  private:
-  size_t sphere_count_ = 0;
-  size_t source_vertex_count_ = 0;
-  std::vector<Eigen::Vector3f> center_in_joint_;
-  std::vector<float> weights_;
-  std::vector<float> reach_;
-  std::vector<float> radii_fast_;
-  bool bind_reference_ = false;
-  std::vector<uint32_t> group_offsets_, group_reach_offsets_;
-  std::vector<float> group_radii_, group_reach_, group_blend_, group_deviation_, group_blend_sum_;
-  std::vector<Eigen::Matrix3f> rest_linear_inverse_;
-  std::vector<float> rest_inverse_rows_;
-  std::vector<uint32_t> exact_point_offsets_, exact_points_;
-  size_t point_count_ = 0;
+  friend struct internal::RestDataAccess;
+  std::unique_ptr<Data> data_;
 };
 
 struct RefitJob {

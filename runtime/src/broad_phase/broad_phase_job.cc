@@ -172,7 +172,7 @@ void BroadPhaseContext::Invalidate() {
 
 namespace broad_phase {
 
-Frame::Frame(const SelfCollisionJob& j, const kernels::Kernels& kernels)
+Frame::Frame(const BroadPhaseJob& j, const kernels::Kernels& kernels)
     : job(j),
       st(*j.context->state_),
       k(kernels),
@@ -226,7 +226,7 @@ bool Frame::Run() {
 
 }  // namespace broad_phase
 
-bool SelfCollisionJob::Validate() const {
+bool BroadPhaseJob::Validate() const {
   if (filter == nullptr || context == nullptr || out == nullptr) return false;
   if (spheres.size() != filter->size()) return false;
   if (spheres.size() > context->max_spheres()) return false;
@@ -235,7 +235,7 @@ bool SelfCollisionJob::Validate() const {
   return true;
 }
 
-bool SelfCollisionJob::Run() const {
+bool BroadPhaseJob::Run() const {
   if (out != nullptr) out->clear();
   if (!Validate()) {
     if (context != nullptr && context->state_) context->state_->last.method = BroadPhaseMethod::kNone;

@@ -1,9 +1,9 @@
-// ToString(SimdLevel) (simd_level.h).
-#include "skinspheres/runtime/simd_level.h"
+// ToString(SimdLevel) and SimdLevelSupported (simd_level.h).
+#include "skinspheres/skinning/simd_level.h"
 
 #include "skinspheres/skinning/platform.h"
 
-namespace skinspheres::runtime {
+namespace skinspheres::skinning {
 
 const char* ToString(SimdLevel level) {
   switch (level) {
@@ -22,11 +22,11 @@ bool SimdLevelSupported(SimdLevel level) {
     case SimdLevel::kPortable: return true;
 #if defined(SKINSPHERES_X86_64)
     case SimdLevel::kSse2: return true;
-    case SimdLevel::kAvx2: return HostCpu().avx2 && HostCpu().bmi1 && HostCpu().popcnt;
+    case SimdLevel::kAvx2: return HostCpu().avx2 && HostCpu().bmi1 && HostCpu().popcnt;  // simd/target_begin_avx2.inc
     case SimdLevel::kAvx512: return SimdLevelSupported(SimdLevel::kAvx2) && HostCpu().avx512f;
 #endif
     default: return false;
   }
 }
 
-}  // namespace skinspheres::runtime
+}  // namespace skinspheres::skinning
