@@ -99,7 +99,6 @@ std::optional<std::string> WriteJson(const ColliderOutput& o, const std::string&
 struct Gltf {
   json doc;
   std::string bin;
-  bool glb = true;
 };
 
 uint32_t Le32(const std::string& s, size_t at) {
@@ -113,20 +112,15 @@ std::optional<std::string> ReadGltf(const std::string& path, Gltf* out) {
   if (!bytes.ok()) return bytes.error().message;
   const std::string s(reinterpret_cast<const char*>(bytes->data()), bytes->size());
   try {
-    if (s.size() >= 20 && s.compare(0, 4, "glTF") == 0) {
-      const uint32_t json_len = Le32(s, 12);
-      if (Le32(s, 16) != 0x4E4F534A || 20 + static_cast<size_t>(json_len) > s.size())
-        return path + ": a GLB without a JSON chunk first";
-      out->doc = json::parse(s.substr(20, json_len));
-      const size_t at = 20 + json_len;
-      if (at + 8 <= s.size()) {
-        const uint32_t bin_len = Le32(s, at);
-        if (Le32(s, at + 4) == 0x004E4942 && at + 8 + bin_len <= s.size()) out->bin = s.substr(at + 8, bin_len);
-      }
-      out->glb = true;
-    } else {
-      out->doc = json::parse(s);
-      out->glb = false;
+    if (s.size() < 20 || s.compare(0, 4, "glTF") != 0) return path + ": not a binary glTF (GLB) file";
+    const uint32_t json_len = Le32(s, 12);
+    if (Le32(s, 16) != 0x4E4F534A || 20 + static_cast<size_t>(json_len) > s.size())
+      return path + ": a GLB without a JSON chunk first";
+    out->doc = json::parse(s.substr(20, json_len));
+    const size_t at = 20 + json_len;
+    if (at + 8 <= s.size()) {
+      const uint32_t bin_len = Le32(s, at);
+      if (Le32(s, at + 4) == 0x004E4942 && at + 8 + bin_len <= s.size()) out->bin = s.substr(at + 8, bin_len);
     }
   } catch (const json::exception& e) {
     return path + ": not a glTF document (" + e.what() + ")";
@@ -200,28 +194,22 @@ void UseExtension(json* doc, const std::string& name) {
   used.push_back(name);
 }
 
-// The character as glTF: the input's own bytes when it is glTF, else our GLB export of it.
+// The character as glTF: a GLB's (or .vrm's) own bytes, so that what it holds besides stays as it
+// is; any other file (a .gltf, FBX, ...) as our GLB export of the character.
 std::optional<std::string> CharacterGltf(const lib::RawCharacter& ch, Gltf* g) {
-  const std::string ext = std::filesystem::path(ch.source_file).extension().string();
-  std::string lower;
-  for (char c : ext) lower += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (!ch.source_file.empty() && (lower == ".glb" || lower == ".vrm" || lower == ".gltf")) {
-    if (auto err = ReadGltf(ch.source_file, g)) return err;
-    if (!g->glb)
-      return ch.source_file + ": a .gltf with separate files: write its GLB first (skinspheres convert or a glTF tool)";
-    return std::nullopt;
-  }
+  std::string ext = std::filesystem::path(ch.source_file).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (!ch.source_file.empty() && (ext == ".glb" || ext == ".vrm")) return ReadGltf(ch.source_file, g);
   auto blob = lib::ExportGlbToMemory(ch, ch.Name());
   if (!blob.ok()) return blob.error().message;
   const std::string bytes(reinterpret_cast<const char*>(blob->bytes.data()), blob->bytes.size());
-  const std::string tmp = "(export of " + ch.Name() + ")";
   try {
     const uint32_t json_len = Le32(bytes, 12);
     g->doc = json::parse(bytes.substr(20, json_len));
     const size_t at = 20 + json_len;
     if (at + 8 <= bytes.size()) g->bin = bytes.substr(at + 8, Le32(bytes, at));
   } catch (const json::exception& e) {
-    return tmp + ": " + e.what();
+    return ch.Name() + ": our GLB export could not be read back (" + e.what() + ")";
   }
   return std::nullopt;
 }

@@ -202,6 +202,8 @@ CollidersOutcome RunColliders(CollidersArgs& a, bool quiet) {
   if (!loaded.ok()) return fail(loaded.error().message, loaded.error().code);
   lib::RawCharacter& ch = loaded->character;
   if (ch.triangle_count() == 0) return fail(ch.Name() + ": no mesh: nothing to cover");
+  if (ch.skin.vertex_count() != ch.vertex_count())
+    return fail(ch.Name() + ": no skin: colliders attach to the joints that move the mesh, and nothing moves it");
   const size_t own = ch.clips.size();
   std::vector<std::string> notes;
   if (auto why = AddClipFiles(*loaded, a.clip_files, a.fps, &notes)) return fail(why->message, why->code);
@@ -269,12 +271,12 @@ CollidersOutcome RunColliders(CollidersArgs& a, bool quiet) {
   out.report = report;
   if (!a.output.empty()) {
     ColliderOutput o{&ch, out.colliders, out.joint_rest_world, out.report};
-    if (auto err = WriteColliders(a.format, o, a.output)) return fail(*err);
+    if (auto err = WriteColliders(a.format, o, a.output)) return fail(*err, ErrorCode::kFileUnreadable);
     say("wrote " + a.output + " (" + a.format + ")");
   }
   if (!a.report.empty()) {
     const std::string text = out.report.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
-    if (auto err = runtime::WriteWholeFile(a.report, text)) return fail(err->message);
+    if (auto err = runtime::WriteWholeFile(a.report, text)) return fail(err->message, err->code);
     say("wrote " + a.report);
   }
   if (!a.html.empty()) {
