@@ -90,7 +90,8 @@ class SceneState(bpy.types.PropertyGroup):
     )
     source_rest: bpy.props.StringProperty(
         name="Source rest",
-        description="Clip files without a skin: their rest pose, RIG (a file), FRAME, nodes or identity (--source-rest)",
+        description="Clip files without a skin: their rest pose, RIG (a file), FRAME, nodes or identity "
+        "(--source-rest)",
     )
     retarget: bpy.props.EnumProperty(
         name="Retarget", default="auto",
