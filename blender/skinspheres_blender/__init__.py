@@ -1,6 +1,7 @@
 """skinspheres for Blender: fit the sphere set of the active armature's character, check its actions
-for self-penetration (timeline markers, a list of part pairs, the JSON report) and fix them into new
-actions. A sidebar panel in the 3D view (N, tab "skinspheres"); docs/BLENDER.md is the guide.
+for self-penetration (timeline markers, a list of part pairs, the JSON report), fix them into new
+actions and fit colliders (objects on the bones, or files for engines). A sidebar panel in the 3D
+view (N, tab "skinspheres"); docs/BLENDER.md is the guide.
 
 The work is done by the `skinspheres` Python module (the project's pybind11 module), found through
 this add-on's preference (the build's or the install's python/ folder).
@@ -9,10 +10,10 @@ this add-on's preference (the build's or the install's python/ folder).
 bl_info = {
     "name": "skinspheres",
     "author": "skinspheres",
-    "version": (0, 4, 0),
+    "version": (0, 5, 0),
     "blender": (3, 4, 0),
     "location": "View3D > Sidebar > skinspheres",
-    "description": "Sphere sets, self-penetration checks and fixes for skinned characters",
+    "description": "Sphere sets, self-penetration checks, fixes and colliders for skinned characters",
     "doc_url": "https://github.com/skinspheres/skinspheres/blob/main/docs/BLENDER.md",
     "category": "Animation",
 }
@@ -20,8 +21,8 @@ bl_info = {
 if "bpy" in locals():  # reloading the add-on (F3 > Reload Scripts): reload the submodules too
     import importlib
 
-    _submodules = ("module", "gltf_pose", "character", "jobs", "spheres_object", "results", "fixed_action", "operators",
-                   "panel")
+    _submodules = ("module", "gltf_pose", "character", "jobs", "spheres_object", "colliders", "results", "fixed_action",
+                   "operators", "panel")
     for _name in _submodules:
         if _name in locals():
             importlib.reload(locals()[_name])

@@ -54,7 +54,9 @@ def fps(scene):
 
 def actions_of(armature, scope, fixed=True):
     """scope "ACTIVE": the active action; "ALL": every action that animates this armature's bones
-    (with fixed=False, not the "NAME (fixed)" ones Fix made)."""
+    (with fixed=False, not the "NAME (fixed)" ones Fix made); "NONE": none (only clip files)."""
+    if scope == "NONE":
+        return []
     data = armature.animation_data
     if scope == "ACTIVE":
         if data is None or data.action is None:

@@ -1,5 +1,6 @@
 """The sidebar panel (View3D > N > skinspheres) and its list of part pairs."""
 
+import os
 import textwrap
 
 import bpy
@@ -7,6 +8,7 @@ import bpy
 from . import module
 from .character import active_armature, meshes_of
 from .jobs import busy
+from .operators import EXPORTS
 
 
 def wrapped(layout, context, text, icon="NONE"):
@@ -25,6 +27,11 @@ class SKINSPHERES_UL_pairs(bpy.types.UIList):
         row = layout.split(factor=0.62, align=True)
         row.label(text=f"{item.part_a}-{item.part_b}", icon="ERROR" if item.depth_share >= 0.01 else "DOT")
         row.label(text=f"{100 * item.depth_share:.2f}%")
+
+
+class SKINSPHERES_UL_clip_files(bpy.types.UIList):
+    def draw_item(self, _context, layout, _data, item, _icon, _active_data, _active_propname, _index=0):
+        layout.prop(item, "path", text="", emboss=False, icon="FILE_MOVIE")
 
 
 class SKINSPHERES_PT_panel(bpy.types.Panel):
@@ -56,10 +63,7 @@ class SKINSPHERES_PT_panel(bpy.types.Panel):
         self._fit(layout, armature)
         self._check(layout, state)
         self._fix(layout, state)
-        colliders = layout.box()
-        colliders.enabled = False
-        colliders.label(text="Colliders", icon="MESH_UVSPHERE")
-        colliders.label(text="needs skinspheres colliders (not in this version)")
+        self._colliders(layout, state)
 
     @staticmethod
     def _fit(layout, armature):
@@ -81,6 +85,17 @@ class SKINSPHERES_PT_panel(bpy.types.Panel):
         row.prop(state, "max_depth", text="")
         row.prop(state, "mode", text="")
         box.prop(state, "keep_glb")
+        box.label(text="Clip files (retargeted, checked too)")
+        row = box.row()
+        row.template_list("SKINSPHERES_UL_clip_files", "", state, "clip_files", state, "clip_file_index", rows=2)
+        column = row.column(align=True)
+        column.operator("skinspheres.clip_file_add", text="", icon="ADD")
+        column.operator("skinspheres.clip_file_remove", text="", icon="REMOVE")
+        if state.clip_files:
+            column = box.column(align=True)
+            column.prop(state, "retarget")
+            column.prop(state, "joint_map")
+            column.prop(state, "source_rest")
         box.operator("skinspheres.check", text="Check")
         if state.pairs:
             box.label(text="Part pairs (click: deepest frame)")
@@ -88,8 +103,10 @@ class SKINSPHERES_PT_panel(bpy.types.Panel):
             if 0 <= state.pair_index < len(state.pairs):
                 pair = state.pairs[state.pair_index]
                 column = box.column(align=True)
-                column.label(text=f"{pair.action}: {pair.part_a} - {pair.part_b}")
-                column.label(text=f"frames {pair.first_frame}-{pair.last_frame}, {pair.frames} penetrating")
+                source = f"{os.path.basename(pair.clip_file)}: " if pair.clip_file else ""
+                column.label(text=f"{source}{pair.action}: {pair.part_a} - {pair.part_b}")
+                span = "in contact" if pair.clip_file else ""  # a file's pairs: the report's contact span
+                column.label(text=f"frames {pair.first_frame}-{pair.last_frame} {span}, {pair.frames} penetrating")
                 column.label(text=f"deepest {100 * pair.depth_share:.2f}% at frame {pair.worst_frame}")
         if state.check_report:
             box.label(text=f"Report: {state.check_report}")
@@ -113,4 +130,25 @@ class SKINSPHERES_PT_panel(bpy.types.Panel):
             box.label(text=f"Report: {state.fix_report}")
 
 
-classes = (SKINSPHERES_UL_pairs, SKINSPHERES_PT_panel)
+    @staticmethod
+    def _colliders(layout, state):
+        box = layout.box()
+        box.label(text="Colliders", icon="MESH_CAPSULE")
+        row = box.row()
+        row.prop(state, "collider_budget")
+        row.prop(state, "collider_shapes", text="")
+        box.prop(state, "collider_fps")
+        if state.scope == "NONE":
+            box.label(text="Poses: the rest pose and the clip files")
+        box.operator("skinspheres.colliders", text="Fit Colliders")
+        if state.colliders_report:
+            box.label(text=f"Report: {state.colliders_report}")
+        box.label(text="Export (fits again):")
+        grid = box.grid_flow(columns=3, align=True)
+        for key, (name, _) in EXPORTS.items():
+            grid.operator("skinspheres.colliders_export", text=name).format = key
+        if state.colliders_export:
+            box.label(text=f"Wrote {state.colliders_export}")
+
+
+classes = (SKINSPHERES_UL_pairs, SKINSPHERES_UL_clip_files, SKINSPHERES_PT_panel)

@@ -18,6 +18,9 @@ def _jump(self, context):
     if not 0 <= self.pair_index < len(self.pairs):
         return
     pair = self.pairs[self.pair_index]
+    if pair.clip_file:  # a clip from a file: no action to show, only its frame
+        context.scene.frame_set(pair.worst_frame)
+        return
     armature = bpy.data.objects.get(self.armature)
     action = bpy.data.actions.get(pair.action)
     if armature is not None and action is not None and armature.animation_data is not None:
@@ -28,7 +31,8 @@ def _jump(self, context):
 
 
 class PartPair(bpy.types.PropertyGroup):
-    action: bpy.props.StringProperty()
+    action: bpy.props.StringProperty(description="The action, or the clip's name for a clip from a file")
+    clip_file: bpy.props.StringProperty(description="The file of a clip Check read from a file (no action)")
     part_a: bpy.props.StringProperty()
     part_b: bpy.props.StringProperty()
     first_frame: bpy.props.IntProperty()
@@ -36,6 +40,10 @@ class PartPair(bpy.types.PropertyGroup):
     worst_frame: bpy.props.IntProperty()
     frames: bpy.props.IntProperty(description="Frames where the pair penetrates")
     depth_share: bpy.props.FloatProperty(description="Deepest penetration, a share of the body height")
+
+
+class ClipFile(bpy.types.PropertyGroup):
+    path: bpy.props.StringProperty(name="File", subtype="FILE_PATH", description="A glTF/FBX/BVH file of clips")
 
 
 class FixedClip(bpy.types.PropertyGroup):
@@ -48,7 +56,8 @@ class SceneState(bpy.types.PropertyGroup):
     scope: bpy.props.EnumProperty(
         name="Actions",
         items=[("ACTIVE", "Active action", "The armature's active action"),
-               ("ALL", "Every action", "Every action that animates the armature's bones")],
+               ("ALL", "Every action", "Every action that animates the armature's bones"),
+               ("NONE", "No action", "Only the clip files")],
         default="ACTIVE",
     )
     max_depth: bpy.props.FloatProperty(
@@ -73,6 +82,38 @@ class SceneState(bpy.types.PropertyGroup):
         description="Check also writes the character as it handed it to skinspheres (<armature>_checked.glb), "
         "so that the command-line tool can check the same file",
     )
+    clip_files: bpy.props.CollectionProperty(type=ClipFile)
+    clip_file_index: bpy.props.IntProperty(default=-1)
+    joint_map: bpy.props.StringProperty(
+        name="Joint map", subtype="FILE_PATH",
+        description="Clip files: a JSON map from the files' joint names to the character's (--joint-map)",
+    )
+    source_rest: bpy.props.StringProperty(
+        name="Source rest",
+        description="Clip files without a skin: their rest pose, RIG (a file), FRAME, nodes or identity "
+        "(--source-rest)",
+    )
+    retarget: bpy.props.EnumProperty(
+        name="Retarget", default="auto",
+        items=[("auto", "Auto", "Copy the rotations when the rigs match, else transfer them in world space"),
+               ("copy", "Copy", "Copy the local rotations"),
+               ("world", "World", "Transfer the rotations in world space relative to each rig's rest pose")],
+    )
+    collider_budget: bpy.props.IntProperty(
+        name="Budget", default=32, min=1, max=256, description="Colliders: the number of shapes (--budget)"
+    )
+    collider_shapes: bpy.props.EnumProperty(
+        name="Shapes", default="auto",
+        items=[("auto", "Auto", "What the format holds (capsules and spheres for the add-on's objects)"),
+               ("spheres", "Spheres", "Spheres only"), ("capsules", "Capsules", "Capsules only"),
+               ("both", "Both", "Spheres and capsules")],
+    )
+    collider_fps: bpy.props.FloatProperty(
+        name="Poses per second", default=10.0, min=0.1, max=240.0,
+        description="Colliders: the clips' frames fitted and measured, sampled at this rate (--fps)",
+    )
+    colliders_report: bpy.props.StringProperty()
+    colliders_export: bpy.props.StringProperty()
     armature: bpy.props.StringProperty(description="The armature the results are for")
     pairs: bpy.props.CollectionProperty(type=PartPair)
     pair_index: bpy.props.IntProperty(default=-1, update=_jump)
@@ -102,4 +143,4 @@ def show_action_markers(scene, action):
             scene.timeline_markers.new(marker.name, frame=marker.frame)
 
 
-classes = (PartPair, FixedClip, SceneState)
+classes = (PartPair, ClipFile, FixedClip, SceneState)

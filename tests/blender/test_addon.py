@@ -327,6 +327,161 @@ def check_fixed_action(args, addon, armature, action_name, clip_report, fps):
     print(f"  {fixed.name}: passes check; unchanged joints within {worst:.2g} of the original")
 
 
+def test_check_clip_files(args, armature, state, fps):
+    """Check with the original file as a clip file (retargeted onto the exported character): the
+    report's clips are `skinspheres check CHECKED --clips FILE --report`'s; the list has their pairs."""
+    state.scope, state.keep_glb, state.retarget = "NONE", True, "auto"
+    state.clip_files.clear()
+    state.clip_files.add().path = args.character
+    assert bpy.ops.skinspheres.check() == {"FINISHED"}, state.status
+    state.clip_files.clear()
+    checked = os.path.join(state.output_dir, f"{bpy.path.clean_name(armature.name)}_checked.glb")
+    with open(state.check_report) as f:
+        report = json.load(f)
+    reference_path = os.path.join(args.work, "tool_check_files.json")
+    tool(args, "check", checked, "--clips", args.character, "--fps", repr(fps), "--retarget", "auto", "--report",
+         reference_path)
+    with open(reference_path) as f:
+        reference = json.load(f)
+    assert len(report["clips"]) == len(reference["clips"]) > 0
+    for ours, theirs in zip(report["clips"], reference["clips"]):
+        for key in ("name", "frames", "verdict", "worst_frame", "worst_depth", "worst_parts", "part_pairs"):
+            assert ours[key] == theirs[key], (ours["name"], key, ours[key], theirs[key])
+    for clip in reference["clips"]:
+        check_list(state, clip["name"], clip)
+        assert all(p.clip_file == args.character for p in state.pairs if p.action == clip["name"])
+    print(f"check clip files: {len(report['clips'])} clips of {os.path.basename(args.character)}: frames, depths "
+          f"and part pairs equal to `check --clips`")
+
+
+Y_UP = numpy.array(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)), numpy.float64)
+
+
+def round_cone_distance(points, a, b, r0, r1):
+    """Signed distance from points (N, 3) to the hull of the balls (a, r0) and (b, r1)."""
+    axis = b - a
+    length = numpy.linalg.norm(axis)
+    if length < 1e-12 or abs(r0 - r1) >= length:
+        centre, radius = (a, r0) if r0 >= r1 else (b, r1)
+        return numpy.linalg.norm(points - centre, axis=1) - radius
+    u = axis / length
+    d = points - a
+    x = d @ u
+    y = numpy.linalg.norm(d - x[:, None] * u, axis=1)
+    s = (r0 - r1) / length  # the side's normal is (s, c) in (axial, radial) coordinates
+    c = numpy.sqrt(1 - s * s)
+    along = x * c - y * s  # along the side, from the head's tangent circle (0) to the tail's (length * c)
+    side = x * s + y * c - r0
+    head = numpy.hypot(x, y) - r0
+    tail = numpy.hypot(x - length, y) - r1
+    return numpy.where(along < 0, head, numpy.where(along > length * c, tail, side))
+
+
+def world_points(obj):
+    """An object's evaluated vertices in the file's (glTF) world, (V, 3)."""
+    v = world_vertices(obj)
+    return v @ Y_UP[:3, :3].T
+
+
+def test_colliders(args, ss, armature, state, fps):
+    """Fit Colliders: one object per shape of the report, parented to its bone; at rest each lies on
+    the surface of its shape computed from colliders()' arrays on the same file; posed, each keeps
+    its offset in its bone's frame."""
+    state.scope, state.keep_glb, state.collider_fps, state.collider_budget = "ALL", True, 5.0, 32
+    assert bpy.ops.skinspheres.colliders() == {"FINISHED"}, state.status
+    with open(state.colliders_report) as f:
+        report = json.load(f)
+    collection = bpy.data.collections["skinspheres colliders"]
+    objects = sorted((o for o in collection.objects if o.get("skinspheres_collider_of") == armature.name),
+                     key=lambda o: o["skinspheres_collider"])
+    assert len(objects) == len(report["colliders"]) > 0, (len(objects), len(report["colliders"]))
+    kept = os.path.join(state.output_dir, f"{bpy.path.clean_name(armature.name)}_colliders_input.glb")
+    result = ss.colliders(kept, [], budget=32, fps=5.0)
+    assert result["colliders"] == report["colliders"], "the add-on's fit is the module's on the file it exported"
+    rigid = numpy.array(result["joint_rest_world"], numpy.float64)
+    rigid[:, :3, :3] /= numpy.linalg.norm(rigid[:, :3, :3], axis=1, keepdims=True)
+    height = report["height"]
+    armature.data.pose_position = "REST"
+    bpy.context.view_layer.update()
+    worst = 0.0
+    rest = {}
+    try:
+        for k, obj in enumerate(objects):
+            joint = result["joint_names"][int(result["joint"][k])]
+            assert obj.parent == armature and obj.hide_render and obj["joint"] == joint
+            assert obj.parent_type == "BONE" and obj.parent_bone == joint, (obj.name, obj.parent_type, joint)
+            head = rigid[result["joint"][k]] @ numpy.append(result["head"][k], 1.0)
+            tail = rigid[result["joint"][k]] @ numpy.append(result["tail"][k], 1.0)
+            r0, r1 = float(result["head_radius"][k]), float(result["tail_radius"][k])
+            points = world_points(obj)
+            distance = numpy.abs(round_cone_distance(points, head[:3], tail[:3], r0, r1)).max()
+            if numpy.linalg.norm(tail - head) > 1e-9:  # the poles: the ends of the axis
+                u = (tail - head)[:3] / numpy.linalg.norm(tail - head)
+                reach = points @ u
+                distance = max(distance, abs(reach.max() - (tail[:3] @ u + r1)), abs(reach.min() - (head[:3] @ u - r0)))
+            else:
+                distance = max(distance, numpy.abs(points.mean(axis=0) - head[:3]).max())
+            worst = max(worst, float(distance))
+            covered = report["colliders"][k]["covered"]
+            assert ("covered" in obj.data.materials[0].name) == (covered >= 1.0), (obj.name, covered)
+            bone = armature.pose.bones[joint]
+            rest[obj.name] = numpy.linalg.inv(numpy.array(armature.matrix_world @ bone.matrix)) @ numpy.array(
+                obj.matrix_world)
+    finally:
+        armature.data.pose_position = "POSE"
+    assert worst < 1e-5 * height, f"a collider object lies {worst} off its shape"
+    moved = following(armature, objects, rest)
+    print(f"colliders: {len(objects)} objects, as the report; at rest on their shapes within {worst:.2g}; "
+          f"posed, each keeps its bone offset (within {moved[0]:.2g}, bones moved up to {moved[1]:.2g})")
+
+
+def following(armature, objects, rest):
+    """At two frames of an action, every collider's world matrix is its bone's times the rest offset."""
+    data = armature.animation_data
+    kept = data.action
+    action = max((a for a in bpy.data.actions if not a.name.endswith(" (fixed)")), key=lambda a: a.frame_range[1])
+    data.action = action
+    worst, moved = 0.0, 0.0
+    first, last = (int(f) for f in action.frame_range)
+    for frame in (first + (last - first) // 3, first + 2 * (last - first) // 3):
+        bpy.context.scene.frame_set(frame)
+        for obj in objects:
+            bone = armature.pose.bones[obj.parent_bone]
+            bone_world = numpy.array(armature.matrix_world @ bone.matrix)
+            expected = bone_world @ rest[obj.name]
+            worst = max(worst, float(numpy.abs(numpy.array(obj.matrix_world) - expected).max()))
+            moved = max(moved, float(numpy.abs(bone_world[:3, 3] - numpy.array(
+                armature.matrix_world @ bone.bone.matrix_local)[:3, 3]).max()))
+    data.action = kept
+    assert worst < 1e-5 * max(armature.dimensions), f"a collider left its bone by {worst}"
+    assert moved > 1e-3 * max(armature.dimensions), "the action moves the bones"
+    return worst, moved
+
+
+def test_collider_exports(args, armature, state):
+    """Each export button writes what `skinspheres colliders` writes from the same file."""
+    name = bpy.path.clean_name(armature.name)
+    kept = os.path.join(state.output_dir, f"{name}_colliders_input.glb")
+    formats = []
+    for fmt in ("vrm1", "vrm0", "godot", "unity", "usd", "json"):
+        started = time.monotonic()
+        assert bpy.ops.skinspheres.colliders_export(format=fmt) == {"FINISHED"}, state.status
+        path = state.colliders_export
+        assert os.path.basename(path).startswith(name + "_colliders"), path
+        reference = os.path.join(args.work, "tool_colliders" + os.path.basename(path)[len(name) + 10 :])
+        tool(args, "colliders", kept, "--format", fmt, "-o", reference, "--fps", "5", "--budget", "32")
+        with open(path, "rb") as f, open(reference, "rb") as g:
+            ours, theirs = f.read(), g.read()
+        if fmt == "json":  # the report inside names the input and the time taken
+            ours, theirs = json.loads(ours), json.loads(theirs)
+            for data in (ours, theirs):
+                for key in ("seconds", "character"):
+                    data["report"].pop(key)
+        assert ours == theirs, f"{fmt}: the add-on's {path} differs from the tool's {reference}"
+        formats.append(f"{fmt} {time.monotonic() - started:.1f} s")
+    print(f"collider exports equal to the tool's: {', '.join(formats)}")
+
+
 def test_cancel_and_message(args, addon, armature, state):
     before = action_state(armature)
     state.scope = "ALL"
@@ -369,6 +524,9 @@ def main():
     test_check_all(args, armature, clips, state, fps)
     test_check_active_and_jump(armature, state)
     test_fix(args, addon, armature, clips, state, fps)
+    test_check_clip_files(args, armature, state, fps)
+    test_colliders(args, ss, armature, state, fps)
+    test_collider_exports(args, armature, state)
     test_cancel_and_message(args, addon, armature, state)
     print(f"blender add-on: every check passed on {os.path.basename(args.character)}")
 
