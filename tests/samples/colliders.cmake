@@ -13,7 +13,7 @@ set(collider_cases
   "Soldier.vrm1|${assets}/Soldier.glb||vrm1|0.97|0.02"
   # Xbot's own clip is one pose: Soldier's four clips give it motion.
   "Xbot_Soldier.vrm1|${assets}/Xbot.glb|${assets}/Soldier.glb|vrm1|0.97|0.02"
-  # Its head is a rigid box a third of its height tall: round shapes leave 3.1% (docs/COLLIDERS.md).
+  # Its head is a rigid box a third of its height tall: round shapes leave 2.96% (docs/COLLIDERS.md).
   "RobotExpressive.vrm1|${assets}/RobotExpressive.glb||vrm1|0.97|0.035"
 )
 foreach(case ${collider_cases})
