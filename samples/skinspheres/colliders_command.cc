@@ -111,6 +111,28 @@ nlohmann::json ShapesJson(const CollidersOutcome& o, const lib::ColliderCoverage
   return shapes;
 }
 
+lib::ColliderSettings SettingsFor(const CollidersArgs& a, const ColliderFormat& format, const std::string& shapes) {
+  lib::ColliderSettings settings;
+  settings.budget = a.budget;
+  settings.tolerance_share = a.tolerance;
+  settings.max_fit_poses = a.fit_poses;
+  settings.tapered = format.tapered;
+  settings.shapes = shapes == "spheres"    ? lib::ColliderShapes::kSpheres
+                    : shapes == "capsules" ? lib::ColliderShapes::kCapsules
+                                           : lib::ColliderShapes::kBoth;
+  return settings;
+}
+
+// Per joint, its body part's name ("other" for a joint in none).
+std::vector<std::string> JointParts(const LoadedCharacter& loaded) {
+  std::vector<std::string> out(loaded.character.skeleton.size());
+  for (size_t j = 0; j < out.size(); ++j) {
+    const int32_t p = loaded.parts.joint_part.size() > j ? loaded.parts.joint_part[j] : -1;
+    out[j] = p >= 0 ? loaded.parts.parts[static_cast<size_t>(p)].name : "other";
+  }
+  return out;
+}
+
 // The shapes' heads and tails in world space (6 floats each) at one local pose.
 std::vector<float> PlacedShapes(const lib::RawCharacter& ch, std::span<const skinning::Transform> local,
                                 const std::vector<lib::Collider>& colliders) {
@@ -218,20 +240,9 @@ CollidersOutcome RunColliders(CollidersArgs& a, bool quiet) {
   auto poses = Poses(ch, chosen, a.fps, &clip_names);
   if (!poses.ok()) return fail(poses.error().message, poses.error().code);
 
-  lib::ColliderSettings settings;
-  settings.budget = a.budget;
-  settings.tolerance_share = a.tolerance;
-  settings.max_fit_poses = a.fit_poses;
-  settings.tapered = format->tapered;
   const std::string shapes = a.shapes == "auto" ? (format->capsules ? "both" : "spheres") : a.shapes;
-  settings.shapes = shapes == "spheres"    ? lib::ColliderShapes::kSpheres
-                    : shapes == "capsules" ? lib::ColliderShapes::kCapsules
-                                           : lib::ColliderShapes::kBoth;
-  std::vector<std::string> joint_part(ch.skeleton.size());
-  for (size_t j = 0; j < joint_part.size(); ++j) {
-    const int32_t p = loaded->parts.joint_part.size() > j ? loaded->parts.joint_part[j] : -1;
-    joint_part[j] = p >= 0 ? loaded->parts.parts[static_cast<size_t>(p)].name : "other";
-  }
+  const lib::ColliderSettings settings = SettingsFor(a, *format, shapes);
+  const std::vector<std::string> joint_part = JointParts(*loaded);
   // Fitted on the rest pose and frames of the clips; measured on every frame.
   auto fit = lib::FitColliders(ch, std::span(*poses).subspan(1), joint_part, settings);
   if (!fit.ok()) return fail(ch.Name() + ": " + fit.error().message, fit.error().code);
