@@ -7,7 +7,7 @@ set(cli_cases
   "fps_not_number|play|@GLB@|--fps|abc|--fps"
   "rays_nan|fit|@GLB@|--rays|nan|--rays"
   "unknown_flag|play|@GLB@|--no-such-flag|--no-such-flag"
-  "no_subcommand||subcommand"
+  "no_subcommand||no command given; try `skinspheres --help`"
   "missing_input|fit|input"
   # Fit settings out of range, named with the range.
   "split_rounds_zero|fit|@GLB@|--split-rounds|0|split rounds must be in 1..64 (got 0)"
