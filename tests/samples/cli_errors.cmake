@@ -10,8 +10,10 @@ set(cli_cases
   "no_subcommand||no command given; try `skinspheres --help`"
   "missing_input|fit|input"
   # Fit settings out of range, named with the range.
-  "split_rounds_zero|fit|@GLB@|--split-rounds|0|split rounds must be in 1..64 (got 0)"
-  "split_rounds_too_many|fit|@GLB@|--split-rounds|65|split rounds must be in 1..64 (got 65)"
+  "split_rounds_zero|fit|@GLB@|--split-rounds|0|--split-rounds must be in 1..64 (got 0)"
+  "split_rounds_too_many|fit|@GLB@|--split-rounds|65|--split-rounds must be in 1..64 (got 65)"
+  "rays_too_few|fit|@GLB@|--rays|2|--rays must be in 3..65535 (got 2)"
+  "hops_too_many|fit|@GLB@|--hops|3|--hops (contact hops) must be 0, 1 or 2 (got 3)"
   # A margin that is a search radius, not a contact distance (it asked for gigabytes at set-up).
   "margin_too_large|play|@GLB@|--frames|3|--margin|1e30|is more than 0.05 of the character's rest size"
   # Failed writes, including at the close (/dev/full fails the flush).
