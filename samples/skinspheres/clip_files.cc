@@ -209,9 +209,10 @@ std::vector<std::string> AppendClips(LoadedCharacter& loaded, const std::string&
 
 std::optional<Error> AddClipFiles(LoadedCharacter& loaded, const ClipFileOptions& options, float fps,
                                   std::vector<std::string>* notes) {
-  if (options.files.empty()) return std::nullopt;
+  // The options are checked with or without --clips: a mistyped --retarget is refused, never ignored.
   auto context = ResolveClipFileOptions(options, fps);
   if (!context.ok()) return context.error();
+  if (options.files.empty()) return std::nullopt;
   for (const std::string& file : options.files) {
     lib::RetargetReport report;
     auto clips = ReadClipFile(loaded, file, *context, &report);

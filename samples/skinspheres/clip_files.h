@@ -50,7 +50,8 @@ std::vector<std::string> AppendClips(LoadedCharacter& loaded, const std::string&
                                      std::vector<skinning::AnimationClip> clips);
 
 // Every file's clips, in order (ReadClipFile, then AppendClips); the first error, its message one
-// line naming the file and the problem (its code: a missing file, a bad option, bad data).
+// line naming the file and the problem (its code: a missing file, a bad option, bad data). The
+// options are resolved (ResolveClipFileOptions) even when there are no files.
 std::optional<Error> AddClipFiles(LoadedCharacter& loaded, const ClipFileOptions& options, float fps,
                                   std::vector<std::string>* notes);
 

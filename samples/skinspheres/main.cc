@@ -6,6 +6,7 @@
 //   skinspheres retarget INPUT --clips FILE... -o OUT.glb  the clips retargeted, written as glTF (retarget_command.cc)
 //   skinspheres demo                             fit and play the built-in character
 //   skinspheres export-builtin OUT.glb           write the built-in character as glTF
+//   skinspheres --version                        "skinspheres <version>" (the project's VERSION)
 #include <CLI/CLI.hpp>
 #include <exception>
 #include <new>
@@ -14,10 +15,13 @@
 #include "colliders.h"
 #include "fix.h"
 #include "playback.h"
+#include "skinspheres/version.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"skinspheres: sphere approximation and self-collision for skinned characters"};
-  app.require_subcommand(1);
+  app.require_subcommand(0, 1);  // none: one line pointing at --help (below), not CLI11's message
+  app.set_version_flag("--version", std::string("skinspheres ") + SKINSPHERES_VERSION_STRING,
+                       "print the version and exit");
   int exit_code = 0;
   skinspheres::tool::AddFitCommand(app, &exit_code);
   skinspheres::tool::AddPlayCommand(app, &exit_code);
@@ -42,5 +46,6 @@ int main(int argc, char** argv) {
     // Last line of defence (a library throwing): one line, never an abort.
     return skinspheres::tool::Fail(std::string("internal error: ") + e.what());
   }
+  if (app.get_subcommands().empty()) return skinspheres::tool::Fail("no command given; try `skinspheres --help`");
   return exit_code;
 }

@@ -62,7 +62,7 @@ def test_fit_takes_split_rounds_and_refuses_them_out_of_range():
     try:
         ss.fit(split_rounds=0)
     except ss.InvalidArgument as e:
-        assert "split rounds must be in 1..64 (got 0)" in str(e)
+        assert "--split-rounds must be in 1..64 (got 0)" in str(e)
     else:
         raise AssertionError("0 split rounds were accepted")
 

@@ -7,11 +7,13 @@ set(cli_cases
   "fps_not_number|play|@GLB@|--fps|abc|--fps"
   "rays_nan|fit|@GLB@|--rays|nan|--rays"
   "unknown_flag|play|@GLB@|--no-such-flag|--no-such-flag"
-  "no_subcommand||subcommand"
+  "no_subcommand||no command given; try `skinspheres --help`"
   "missing_input|fit|input"
   # Fit settings out of range, named with the range.
-  "split_rounds_zero|fit|@GLB@|--split-rounds|0|split rounds must be in 1..64 (got 0)"
-  "split_rounds_too_many|fit|@GLB@|--split-rounds|65|split rounds must be in 1..64 (got 65)"
+  "split_rounds_zero|fit|@GLB@|--split-rounds|0|--split-rounds must be in 1..64 (got 0)"
+  "split_rounds_too_many|fit|@GLB@|--split-rounds|65|--split-rounds must be in 1..64 (got 65)"
+  "rays_too_few|fit|@GLB@|--rays|2|--rays must be in 3..65535 (got 2)"
+  "hops_too_many|fit|@GLB@|--hops|3|--hops (contact hops) must be 0, 1 or 2 (got 3)"
   # A margin that is a search radius, not a contact distance (it asked for gigabytes at set-up).
   "margin_too_large|play|@GLB@|--frames|3|--margin|1e30|is more than 0.05 of the character's rest size"
   # Failed writes, including at the close (/dev/full fails the flush).
@@ -55,6 +57,14 @@ set(cli_cases
   "joint_map_fifo|play|@GLB@|--clips|@GLB@|--joint-map|@FIFO@|FIFO"
   "joint_map_dev_zero|check|@GLB@|--clips|@GLB@|--joint-map|/dev/zero|device"
   "source_rest_fifo|play|@GLB@|--clips|@GLB@|--source-rest|@FIFO@|FIFO"
+  # The retarget options are checked with or without --clips (a mistyped one was silently ignored).
+  "play_retarget_no_clips|play|@GLB@|--retarget|bogus|--retarget must be auto, copy or world (got bogus)"
+  "play_rest_directions_no_clips|play|@GLB@|--rest-directions|sideways|--rest-directions must be keep or match"
+  "play_joint_map_no_clips|play|@GLB@|--joint-map|@FIFO@|FIFO"
+  "play_source_rest_no_clips|play|@GLB@|--source-rest|@FIFO@|--source-rest: "
+  "check_retarget_no_clips|check|@GLB@|--retarget|bogus|--retarget must be auto, copy or world"
+  "fix_retarget_no_clips|fix|@GLB@|--retarget|bogus|-o|out.glb|--retarget must be auto, copy or world"
+  "colliders_retarget_no_clips|colliders|@GLB@|--retarget|bogus|-o|c.json|--retarget must be auto, copy or world"
   "check_clips_fifo|check|@GLB@|--clips|@FIFO@|FIFO"
   "check_report_full|check|@GLB@|--clip|walk|--report|/dev/full|/dev/full: write failed"
   "check_csv_fifo|check|@GLB@|--clip|walk|--csv|@FIFO@|fifo: is a FIFO"

@@ -12,6 +12,10 @@ add_test(NAME tool.export_builtin_refit
   COMMAND ${CMAKE_COMMAND} -DTOOL=${tool} -DDIR=${PROJECT_BINARY_DIR}/test_tmp/export_builtin
           -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/export_builtin_same_fit.cmake)
 
+# --version: "skinspheres <project version>", exit 0 (a bare `skinspheres`: tests/samples/cli_errors.cmake).
+add_test(NAME tool.version
+  COMMAND ${CMAKE_COMMAND} -DTOOL=${tool} -DVERSION=${PROJECT_VERSION} -P ${CMAKE_CURRENT_SOURCE_DIR}/scripts/tool_version.cmake)
+
 # Bad input: exit code 2 and one line naming the file.
 add_test(NAME tool.missing_file COMMAND ${tool} fit ${PROJECT_BINARY_DIR}/no_such_file.glb)
 set_tests_properties(tool.missing_file PROPERTIES WILL_FAIL TRUE)

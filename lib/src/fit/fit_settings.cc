@@ -20,40 +20,41 @@ const char* ToString(SphereMethod method) {
 
 std::optional<Error> FitSettings::Validate() const {
   auto refuse = [](std::string why) { return MakeError(ErrorCode::kInvalidArgument, std::move(why)); };
-  if (rays < 3 || rays > 65535) return refuse("rays must be in 3..65535 (got " + std::to_string(rays) + ")");
+  if (rays < 3 || rays > 65535) return refuse("--rays must be in 3..65535 (got " + std::to_string(rays) + ")");
   if (per_level != 1 && per_level != 2 && per_level != 4) {
-    return refuse("per-level must be 1, 2 or 4 (got " + std::to_string(per_level) + ")");
+    return refuse("--per-level must be 1, 2 or 4 (got " + std::to_string(per_level) + ")");
   }
   if (!(overlap >= 0.0f && overlap < 1.0f)) {
-    return refuse("overlap (PD) must be in [0, 1) (got " + std::to_string(overlap) + ")");
+    return refuse("--overlap (PD) must be in [0, 1) (got " + std::to_string(overlap) + ")");
   }
   if (!(step >= 1e-4f && step <= 1.0f)) {
-    return refuse("step must be in [0.0001, 1], a fraction of each part's length (got " + std::to_string(step) + ")");
+    return refuse("--step must be in [0.0001, 1], a fraction of each part's length (got " + std::to_string(step) + ")");
   }
   if (contact_hops < 0 || contact_hops > int(runtime::kMaxContactHops)) {
-    return refuse("contact hops must be 0, 1 or 2 (got " + std::to_string(contact_hops) + ")");
+    return refuse("--hops (contact hops) must be 0, 1 or 2 (got " + std::to_string(contact_hops) + ")");
   }
   if (!(rest_gap >= 0.0f && rest_gap <= runtime::kMaxRestGapShare)) {
-    return refuse("the rest gap must be in [0, " + std::to_string(runtime::kMaxRestGapShare) +
+    return refuse("--rest-gap must be in [0, " + std::to_string(runtime::kMaxRestGapShare) +
                   "], a share of the rest height (got " + std::to_string(rest_gap) + ")");
   }
   if (refine_iterations < 0 || refine_iterations > 16) {
-    return refuse("refine iterations must be in 0..16 (got " + std::to_string(refine_iterations) + ")");
+    return refuse("--refine (iterations) must be in 0..16 (got " + std::to_string(refine_iterations) + ")");
   }
   if (!(split_gain >= 0.0f && split_gain <= 1.0f)) {
-    return refuse("split gain must be in [0, 1] (got " + std::to_string(split_gain) + ")");
+    return refuse("--split-gain must be in [0, 1] (got " + std::to_string(split_gain) + ")");
   }
   if (split_rounds < 1 || split_rounds > 64) {
-    return refuse("split rounds must be in 1..64 (got " + std::to_string(split_rounds) + ")");
+    return refuse("--split-rounds must be in 1..64 (got " + std::to_string(split_rounds) + ")");
   }
   if (!(target_standoff >= 0.0f && target_standoff <= 1.0f)) {
-    return refuse("target standoff must be in [0, 1] (got " + std::to_string(target_standoff) + ")");
+    return refuse("--target-standoff must be in [0, 1] (got " + std::to_string(target_standoff) + ")");
   }
   if (!(piece_edge >= 0.0f && piece_edge <= 1.0f)) {
-    return refuse("piece edge must be in [0, 1], a share of the body height (got " + std::to_string(piece_edge) + ")");
+    return refuse("--piece-edge must be in [0, 1], a share of the body height (got " + std::to_string(piece_edge) +
+                  ")");
   }
   if (max_spheres < 1 || max_spheres > 8192) {
-    return refuse("max spheres must be in 1..8192 (got " + std::to_string(max_spheres) + ")");
+    return refuse("--max-spheres must be in 1..8192 (got " + std::to_string(max_spheres) + ")");
   }
   return std::nullopt;
 }

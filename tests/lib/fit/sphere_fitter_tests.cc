@@ -217,7 +217,7 @@ TEST(SphereFitterTest, BadSettingsAreRefused) {
     s.split_rounds = rounds;
     auto fit = FitSpheres(ch, parts, s);
     ASSERT_FALSE(fit.ok());
-    EXPECT_NE(fit.error().message.find("split rounds must be in 1..64"), std::string::npos) << fit.error().message;
+    EXPECT_NE(fit.error().message.find("--split-rounds must be in 1..64"), std::string::npos) << fit.error().message;
   }
 }
 

@@ -109,8 +109,8 @@ struct FitSettings {
   // RobotExpressive, the built-in character; not Xbot); false: never.
   bool group_blends = true;
 
-  // The first reason the settings are refused (kInvalidArgument; the message names the setting, its
-  // range and the value given), or nullopt when they are fine.
+  // The first reason the settings are refused (kInvalidArgument; the message names the setting by the
+  // tool's flag, `--split-rounds`, its range and the value given), or nullopt when they are fine.
   std::optional<Error> Validate() const;
   std::string ToJson() const;  // the "params" object of the sphere-set file
 };
