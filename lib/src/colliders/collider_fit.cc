@@ -312,7 +312,7 @@ void Regroup(const FitContext& ctx, std::vector<Group>* groups) {
     for (size_t i = 0; i < vertices.size(); ++i) parts[label[i]].push_back(vertices[i]);
     if (std::any_of(parts.begin(), parts.end(), [](const auto& p) { return p.empty(); })) continue;
     std::vector<ShapeFitResult> fits(parts.size());
-    tbb::parallel_for(size_t{0}, parts.size(), [&](size_t k) { fits[k] = Fit(ctx, joint, parts[k]); });
+    tbb::parallel_for(size_t{0}, parts.size(), [&, j = joint](size_t k) { fits[k] = Fit(ctx, j, parts[k]); });
     double before = 0.0, after = 0.0;
     for (size_t g : members) before += (*groups)[g].fit.cost;
     for (const auto& fit : fits) after += fit.cost;
