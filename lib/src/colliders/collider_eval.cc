@@ -23,6 +23,39 @@ float Percentile(std::vector<float> xs, float q) {
   return xs[k];
 }
 
+// How far vertices lie outside every shape, as counts: exact zeros apart, positive distances in
+// bins of 2e-5 of the height (the last bin holds everything from the height on).
+class PokeHistogram {
+ public:
+  explicit PokeHistogram(float height) : width_(std::max(height, 1e-30f) * 2e-5f), bins_(50001, 0) {}
+  void Add(float poke) {
+    ++count_;
+    if (!(poke > 0.0f)) {
+      ++zeros_;
+      return;
+    }
+    ++bins_[std::min(bins_.size() - 1, static_cast<size_t>(poke / width_))];
+  }
+  // The value below which a share q lies (as the k-th smallest, k = floor(q (n - 1))), to the bin.
+  float Percentile(double q) const {
+    if (count_ == 0) return 0.0f;
+    const uint64_t k =
+        std::min<uint64_t>(count_ - 1, static_cast<uint64_t>(std::floor(q * static_cast<double>(count_ - 1))));
+    if (k < zeros_) return 0.0f;
+    uint64_t seen = zeros_;
+    for (size_t b = 0; b < bins_.size(); ++b) {
+      seen += bins_[b];
+      if (seen > k) return (static_cast<float>(b) + 0.5f) * width_;
+    }
+    return static_cast<float>(bins_.size()) * width_;
+  }
+
+ private:
+  float width_;
+  std::vector<uint64_t> bins_;
+  uint64_t count_ = 0, zeros_ = 0;
+};
+
 // One pose's figures; per shape: covered / total vertices nearest it, their poke distances, and the
 // exposed area with its summed distance.
 struct PoseResult {
@@ -153,54 +186,59 @@ Result<ColliderCoverage> EvaluateColliders(const RawCharacter& character,
     if (c.joint >= character.skeleton.size())
       return Error{ErrorCode::kInvalidArgument, "colliders: a collider's joint is out of range"};
   }
-  std::vector<PoseResult> results(poses.size());
-  std::vector<std::optional<Error>> errors(poses.size());
-  tbb::parallel_for(size_t{0}, poses.size(), [&](size_t p) {
-    auto posed = PoseCharacter(character, poses[p]);
-    if (!posed) {
-      errors[p] = posed.error();
-      return;
-    }
-    results[p] = EvaluatePose(character, *posed, colliders, out.tolerance);
-  });
-  for (auto& e : errors) {
-    if (e) return *e;
-  }
+  // Poses in chunks (in parallel within one), folded into totals as they come: memory stays that of
+  // one chunk whatever the number of poses. Percentiles come from histograms of 2e-5 of the height.
   const size_t n_shapes = colliders.size();
+  PokeHistogram all_poke(out.height);
+  std::vector<PokeHistogram> shape_poke(n_shapes, PokeHistogram(out.height));
   std::vector<size_t> shape_total(n_shapes, 0), shape_covered(n_shapes, 0);
   std::vector<double> area(n_shapes, 0.0), area_distance(n_shapes, 0.0), depth(n_shapes, 0.0);
-  std::vector<std::vector<float>> shape_poke(n_shapes);
-  std::vector<float> all_poke;
   out.min_covered = poses.empty() ? 0.0f : 1.0f;
   double covered_sum = 0.0, standoff_sum = 0.0, gap_sum = 0.0;
-  for (auto& r : results) {
-    out.poses.push_back(r.stats);
-    out.min_covered = std::min(out.min_covered, r.stats.covered);
-    covered_sum += r.stats.covered;
-    standoff_sum += r.stats.standoff;
-    out.max_standoff = std::max(out.max_standoff, r.stats.standoff);
-    gap_sum += r.stats.surface_gap;
-    out.max_surface_gap = std::max(out.max_surface_gap, r.stats.surface_gap);
-    for (size_t v = 0; v < r.nearest.size(); ++v) {
-      const uint32_t s = r.nearest[v];
-      ++shape_total[s];
-      shape_covered[s] += r.poke[v] <= out.tolerance ? 1 : 0;
-      shape_poke[s].push_back(r.poke[v]);
-      depth[s] += r.depth[v];
+  constexpr size_t kChunk = 32;
+  for (size_t first = 0; first < poses.size(); first += kChunk) {
+    const size_t count = std::min(kChunk, poses.size() - first);
+    std::vector<PoseResult> results(count);
+    std::vector<std::optional<Error>> errors(count);
+    tbb::parallel_for(size_t{0}, count, [&](size_t k) {
+      auto posed = PoseCharacter(character, poses[first + k]);
+      if (!posed) {
+        errors[k] = posed.error();
+        return;
+      }
+      results[k] = EvaluatePose(character, *posed, colliders, out.tolerance);
+    });
+    for (auto& e : errors) {
+      if (e) return *e;
     }
-    all_poke.insert(all_poke.end(), r.poke.begin(), r.poke.end());
-    for (size_t s = 0; s < n_shapes; ++s) area[s] += r.area[s], area_distance[s] += r.area_distance[s];
-    r = PoseResult{};
+    for (const auto& r : results) {
+      out.poses.push_back(r.stats);
+      out.min_covered = std::min(out.min_covered, r.stats.covered);
+      covered_sum += r.stats.covered;
+      standoff_sum += r.stats.standoff;
+      out.max_standoff = std::max(out.max_standoff, r.stats.standoff);
+      gap_sum += r.stats.surface_gap;
+      out.max_surface_gap = std::max(out.max_surface_gap, r.stats.surface_gap);
+      for (size_t v = 0; v < r.nearest.size(); ++v) {
+        const uint32_t sh = r.nearest[v];
+        ++shape_total[sh];
+        shape_covered[sh] += r.poke[v] <= out.tolerance ? 1 : 0;
+        shape_poke[sh].Add(r.poke[v]);
+        all_poke.Add(r.poke[v]);
+        depth[sh] += r.depth[v];
+      }
+      for (size_t sh = 0; sh < n_shapes; ++sh) area[sh] += r.area[sh], area_distance[sh] += r.area_distance[sh];
+    }
   }
   const double np = std::max<size_t>(poses.size(), 1);
   out.mean_covered = static_cast<float>(covered_sum / np);
   out.mean_standoff = static_cast<float>(standoff_sum / np);
   out.mean_surface_gap = static_cast<float>(gap_sum / np);
-  out.poke_p95 = Percentile(std::move(all_poke), 0.95f);
+  out.poke_p95 = all_poke.Percentile(0.95);
   for (size_t s = 0; s < n_shapes; ++s) {
     ColliderShapeStats st;
     st.covered = shape_total[s] ? static_cast<float>(shape_covered[s]) / static_cast<float>(shape_total[s]) : 1.0f;
-    st.poke_p95 = Percentile(std::move(shape_poke[s]), 0.95f);
+    st.poke_p95 = shape_poke[s].Percentile(0.95);
     st.standoff = shape_total[s] ? static_cast<float>(depth[s] / static_cast<double>(shape_total[s])) : 0.0f;
     st.surface_gap = area[s] > 0.0 ? static_cast<float>(area_distance[s] / area[s]) : 0.0f;
     out.shapes.push_back(st);
