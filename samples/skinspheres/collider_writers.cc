@@ -107,15 +107,13 @@ uint32_t Le32(const std::string& s, size_t at) {
   return v;
 }
 
-std::optional<std::string> ReadGltf(const std::string& path, Gltf* out) {
-  auto bytes = runtime::ReadRegularFileBytes(path, uint64_t{1} << 31, "glTF file");
-  if (!bytes.ok()) return bytes.error().message;
-  const std::string s(reinterpret_cast<const char*>(bytes->data()), bytes->size());
+// A GLB's JSON and binary chunks; errors name `label`.
+std::optional<std::string> ParseGlb(const std::string& s, const std::string& label, Gltf* out) {
   try {
-    if (s.size() < 20 || s.compare(0, 4, "glTF") != 0) return path + ": not a binary glTF (GLB) file";
+    if (s.size() < 20 || s.compare(0, 4, "glTF") != 0) return label + ": not a binary glTF (GLB) file";
     const uint32_t json_len = Le32(s, 12);
     if (Le32(s, 16) != 0x4E4F534A || 20 + static_cast<size_t>(json_len) > s.size())
-      return path + ": a GLB without a JSON chunk first";
+      return label + ": a GLB without a JSON chunk first";
     out->doc = json::parse(s.substr(20, json_len));
     const size_t at = 20 + json_len;
     if (at + 8 <= s.size()) {
@@ -123,11 +121,17 @@ std::optional<std::string> ReadGltf(const std::string& path, Gltf* out) {
       if (Le32(s, at + 4) == 0x004E4942 && at + 8 + bin_len <= s.size()) out->bin = s.substr(at + 8, bin_len);
     }
   } catch (const json::exception& e) {
-    return path + ": not a glTF document (" + e.what() + ")";
+    return label + ": not a glTF document (" + e.what() + ")";
   }
   if (!out->doc.is_object() || !out->doc.contains("nodes") || !out->doc["nodes"].is_array())
-    return path + ": a glTF without nodes";
+    return label + ": a glTF without nodes";
   return std::nullopt;
+}
+
+std::optional<std::string> ReadGltf(const std::string& path, Gltf* out) {
+  auto bytes = runtime::ReadRegularFileBytes(path, uint64_t{1} << 31, "glTF file");
+  if (!bytes.ok()) return bytes.error().message;
+  return ParseGlb(std::string(reinterpret_cast<const char*>(bytes->data()), bytes->size()), path, out);
 }
 
 std::string GlbBytes(const Gltf& g) {
@@ -202,16 +206,8 @@ std::optional<std::string> CharacterGltf(const lib::RawCharacter& ch, Gltf* g) {
   if (!ch.source_file.empty() && (ext == ".glb" || ext == ".vrm")) return ReadGltf(ch.source_file, g);
   auto blob = lib::ExportGlbToMemory(ch, ch.Name());
   if (!blob.ok()) return blob.error().message;
-  const std::string bytes(reinterpret_cast<const char*>(blob->bytes.data()), blob->bytes.size());
-  try {
-    const uint32_t json_len = Le32(bytes, 12);
-    g->doc = json::parse(bytes.substr(20, json_len));
-    const size_t at = 20 + json_len;
-    if (at + 8 <= bytes.size()) g->bin = bytes.substr(at + 8, Le32(bytes, at));
-  } catch (const json::exception& e) {
-    return ch.Name() + ": our GLB export could not be read back (" + e.what() + ")";
-  }
-  return std::nullopt;
+  return ParseGlb(std::string(reinterpret_cast<const char*>(blob->bytes.data()), blob->bytes.size()),
+                  ch.Name() + " (our GLB export)", g);
 }
 
 std::optional<std::string> WriteVrm(const ColliderOutput& o, const std::string& path, bool v0) {

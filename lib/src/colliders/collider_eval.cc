@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "colliders/joint_vertices.h"
 #include "colliders/shape_fit.h"
 #include "skinspheres/lib/colliders/colliders.h"
 #include "skinspheres/lib/geometry/mesh_distance.h"
@@ -252,31 +253,11 @@ std::vector<Collider> PerBoneCapsules(const RawCharacter& character, int count, 
   std::vector<Mat4f> rest(n);
   skeleton.RestWorld(rest);
   std::vector<std::vector<uint32_t>> owned(n);
-  const auto& skin = character.skin;
-  for (size_t v = 0; v < character.vertex_count(); ++v) {
-    uint32_t joint = 0;
-    float best = -1.0f;
-    if (skin.vertex_count() == character.vertex_count()) {
-      for (uint32_t k = skin.influence_offsets[v]; k < skin.influence_offsets[v + 1]; ++k) {
-        if (skin.influence_weights[k] > best)
-          best = skin.influence_weights[k], joint = static_cast<uint32_t>(skin.binds[skin.influence_binds[k]].joint);
-      }
-    }
-    owned[joint].push_back(static_cast<uint32_t>(v));
-  }
-  std::vector<size_t> below(n, 0);
-  for (size_t j = 0; j < n; ++j) below[j] = owned[j].size();
-  for (size_t j = n; j-- > 1;) {
-    if (skeleton.parents[j] >= 0) below[static_cast<size_t>(skeleton.parents[j])] += below[j];
-  }
-  std::vector<int32_t> child(n, -1);
-  for (size_t j = 0; j < n; ++j) {
-    const int32_t p = skeleton.parents[j];
-    if (p >= 0 &&
-        (child[static_cast<size_t>(p)] < 0 || below[j] > below[static_cast<size_t>(child[static_cast<size_t>(p)])])) {
-      child[static_cast<size_t>(p)] = static_cast<int32_t>(j);
-    }
-  }
+  const std::vector<uint32_t> dominant = colliders::DominantJoints(character);
+  for (uint32_t v = 0; v < dominant.size(); ++v) owned[dominant[v]].push_back(v);
+  std::vector<size_t> counts(n);
+  for (size_t j = 0; j < n; ++j) counts[j] = owned[j].size();
+  const std::vector<int32_t> child = colliders::HeaviestChildren(skeleton.parents, counts);
   std::vector<uint32_t> order;
   for (uint32_t j = 0; j < n; ++j) {
     if (!owned[j].empty()) order.push_back(j);

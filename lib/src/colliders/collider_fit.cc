@@ -11,6 +11,7 @@
 #include <numeric>
 #include <optional>
 
+#include "colliders/joint_vertices.h"
 #include "colliders/shape_fit.h"
 #include "skinspheres/lib/colliders/colliders.h"
 #include "skinspheres/lib/geometry/mesh_helpers.h"
@@ -56,42 +57,14 @@ ShapeFitResult Fit(const FitContext& ctx, uint32_t joint, std::span<const uint32
   return FitShape(cloud, ctx.hints[joint], ctx.shape);
 }
 
-// Per vertex, the joint of its largest skin weight (the first on ties); 0 without a skin.
-std::vector<uint32_t> DominantJoints(const RawCharacter& c) {
-  std::vector<uint32_t> out(c.vertex_count(), 0);
-  const auto& skin = c.skin;
-  if (skin.vertex_count() != c.vertex_count()) return out;
-  for (size_t v = 0; v < out.size(); ++v) {
-    float best = -1.0f;
-    for (uint32_t k = skin.influence_offsets[v]; k < skin.influence_offsets[v + 1]; ++k) {
-      if (skin.influence_weights[k] > best) {
-        best = skin.influence_weights[k];
-        out[v] = static_cast<uint32_t>(skin.binds[skin.influence_binds[k]].joint);
-      }
-    }
-  }
-  return out;
-}
-
 // Per joint, the direction to the child joint with the most vertices below it, in the joint's
 // rigid frame at rest (zero for a leaf).
 std::vector<Eigen::Vector3f> BoneHints(const RawCharacter& c, const std::vector<uint32_t>& dominant,
                                        const std::vector<Mat4f>& rest_world) {
-  const auto& parents = c.skeleton.parents;
-  const size_t n = parents.size();
-  std::vector<size_t> below(n, 0);
-  for (uint32_t j : dominant) ++below[j];
-  for (size_t j = n; j-- > 1;) {
-    if (parents[j] >= 0) below[static_cast<size_t>(parents[j])] += below[j];
-  }
-  std::vector<int32_t> child(n, -1);
-  for (size_t j = 0; j < n; ++j) {
-    const int32_t p = parents[j];
-    if (p >= 0 &&
-        (child[static_cast<size_t>(p)] < 0 || below[j] > below[static_cast<size_t>(child[static_cast<size_t>(p)])])) {
-      child[static_cast<size_t>(p)] = static_cast<int32_t>(j);
-    }
-  }
+  const size_t n = c.skeleton.size();
+  std::vector<size_t> owned(n, 0);
+  for (uint32_t j : dominant) ++owned[j];
+  const std::vector<int32_t> child = colliders::HeaviestChildren(c.skeleton.parents, owned);
   std::vector<Eigen::Vector3f> out(n, Eigen::Vector3f::Zero());
   for (size_t j = 0; j < n; ++j) {
     if (child[j] < 0) continue;
@@ -326,6 +299,43 @@ void Regroup(const FitContext& ctx, std::vector<Group>* groups) {
 
 }  // namespace
 
+namespace colliders {
+
+std::vector<uint32_t> DominantJoints(const RawCharacter& c) {
+  std::vector<uint32_t> out(c.vertex_count(), 0);
+  const auto& skin = c.skin;
+  if (skin.vertex_count() != c.vertex_count()) return out;
+  for (size_t v = 0; v < out.size(); ++v) {
+    float best = -1.0f;
+    for (uint32_t k = skin.influence_offsets[v]; k < skin.influence_offsets[v + 1]; ++k) {
+      if (skin.influence_weights[k] > best) {
+        best = skin.influence_weights[k];
+        out[v] = static_cast<uint32_t>(skin.binds[skin.influence_binds[k]].joint);
+      }
+    }
+  }
+  return out;
+}
+
+std::vector<int32_t> HeaviestChildren(std::span<const int32_t> parents, std::span<const size_t> owned) {
+  const size_t n = parents.size();
+  std::vector<size_t> below(owned.begin(), owned.end());
+  for (size_t j = n; j-- > 1;) {
+    if (parents[j] >= 0) below[static_cast<size_t>(parents[j])] += below[j];
+  }
+  std::vector<int32_t> child(n, -1);
+  for (size_t j = 0; j < n; ++j) {
+    const int32_t p = parents[j];
+    if (p >= 0 &&
+        (child[static_cast<size_t>(p)] < 0 || below[j] > below[static_cast<size_t>(child[static_cast<size_t>(p)])])) {
+      child[static_cast<size_t>(p)] = static_cast<int32_t>(j);
+    }
+  }
+  return child;
+}
+
+}  // namespace colliders
+
 Mat4f RigidFrame(const Mat4f& joint_world) {
   Mat4f out = joint_world;
   for (int c = 0; c < 3; ++c) {
@@ -369,7 +379,7 @@ Result<ColliderFit> FitColliders(const RawCharacter& character, std::span<const 
   for (auto& e : errors) {
     if (e) return *e;
   }
-  const std::vector<uint32_t> dominant = DominantJoints(character);
+  const std::vector<uint32_t> dominant = colliders::DominantJoints(character);
   ctx.hints = BoneHints(character, dominant, ctx.poses[0].joint_world);
 
   std::vector<Group> groups;
